@@ -1,0 +1,277 @@
+/*
+ * aacmm link protocol, version 1: the message set shared by the device and
+ * the host (docs/protocol.md is the specification; this header is its C form).
+ *
+ * A message body is a 3-byte header followed by a type-specific payload, all
+ * little-endian, no padding:
+ *
+ *     byte 0  protocol version (AACMM_PROTO_VERSION)
+ *     byte 1  message type (aacmm_msg_type_t)
+ *     byte 2  sequence number: chosen by the host in a request and echoed in
+ *             the response (or error); device events carry their own counter
+ *
+ * The body travels in a serial frame (aacmm/frame.h) or as one ISO-TP message
+ * on CAN (aacmm/isotp.h). Requests are 0x01..0x3F, unsolicited device events
+ * 0x40..0x7F, the response to request t is t | 0x80, and any request may be
+ * answered by AACMM_MSG_ERROR_RSP instead.
+ *
+ * Codec rules (the decoder enforces all; the encoder refuses to produce a
+ * message the decoder would reject, so encode -> decode always round trips):
+ *   - the payload length is exactly the one the type defines (AACMM_ERR_LENGTH)
+ *   - every floating-point field is finite (AACMM_ERR_NOT_FINITE)
+ *   - content/flag bytes have no unknown bits, reserved bytes are zero,
+ *     enumerations are in range (AACMM_ERR_RANGE)
+ *   - an unknown type gives AACMM_ERR_UNKNOWN_TYPE, another version
+ *     AACMM_ERR_VERSION (in both cases msg->type and msg->seq are still set
+ *     from the header, so the device can answer with an error response).
+ *
+ * No heap, no global state, reentrant. The caller owns every buffer.
+ */
+#ifndef AACMM_PROTO_H
+#define AACMM_PROTO_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacmm/kinematics.h"
+#include "aacmm/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define AACMM_PROTO_VERSION 1u
+#define AACMM_PROTO_HEADER_BYTES 3u
+#define AACMM_PROTO_MAX_BODY 512u /* equals AACMM_FRAME_MAX_BODY */
+
+/* Message types. Values are wire values and never change. */
+typedef enum {
+    AACMM_MSG_PING_REQ = 0x01,             /* u32 token */
+    AACMM_MSG_INFO_REQ = 0x02,             /* empty */
+    AACMM_MSG_GET_PARAMS_REQ = 0x03,       /* empty */
+    AACMM_MSG_SET_PARAMS_REQ = 0x04,       /* parameter set (278 bytes) */
+    AACMM_MSG_SAVE_PARAMS_REQ = 0x05,      /* empty: store the active set */
+    AACMM_MSG_RESTORE_DEFAULTS_REQ = 0x06, /* empty: activate the built-in defaults */
+    AACMM_MSG_MEASURE_REQ = 0x07,          /* u8 content */
+    AACMM_MSG_COMPUTE_REQ = 0x08,          /* u8 content, u32 counts[6] */
+    AACMM_MSG_STREAM_START_REQ = 0x09,     /* u16 rate_hz, u8 content */
+    AACMM_MSG_STREAM_STOP_REQ = 0x0A,      /* empty */
+
+    AACMM_MSG_SAMPLE_EVT = 0x40,  /* streamed sample (same layout as MEASURE_RSP) */
+    AACMM_MSG_TRIGGER_EVT = 0x41, /* probe button edge with the sample taken at it */
+
+    AACMM_MSG_PING_RSP = 0x81,             /* u32 token (echo) */
+    AACMM_MSG_INFO_RSP = 0x82,             /* device info (23 bytes) */
+    AACMM_MSG_GET_PARAMS_RSP = 0x83,       /* parameter set (278 bytes) */
+    AACMM_MSG_SET_PARAMS_RSP = 0x84,       /* u32 param_crc32 of the now active set */
+    AACMM_MSG_SAVE_PARAMS_RSP = 0x85,      /* u32 param_crc32 of the stored set */
+    AACMM_MSG_RESTORE_DEFAULTS_RSP = 0x86, /* u32 param_crc32 of the now active set */
+    AACMM_MSG_MEASURE_RSP = 0x87,          /* sample (53 or 353 bytes) */
+    AACMM_MSG_COMPUTE_RSP = 0x88,          /* compute result (29 or 329 bytes) */
+    AACMM_MSG_STREAM_START_RSP = 0x89,     /* u16 rate_hz accepted, u8 content */
+    AACMM_MSG_STREAM_STOP_RSP = 0x8A,      /* empty */
+
+    AACMM_MSG_ERROR_RSP = 0xFF /* i16 status (aacmm_status_t), u8 request type */
+} aacmm_msg_type_t;
+
+#define AACMM_MSG_RESPONSE_BIT 0x80u
+
+/* Content flags (MEASURE_REQ, COMPUTE_REQ, STREAM_START_REQ, samples). */
+#define AACMM_CONTENT_JACOBIAN 0x01u /* append the 3x25 Jacobian (float32) */
+#define AACMM_CONTENT_KNOWN 0x01u
+
+/* Sample status flags (u32; unknown bits are passed through, not rejected). */
+#define AACMM_SAMPLE_POINT_VALID 0x0001u    /* point (and Jacobian) computed */
+#define AACMM_SAMPLE_ENCODER_FAULT 0x0002u  /* an encoder read failed */
+#define AACMM_SAMPLE_TRIGGER_DOWN 0x0004u   /* probe button held at sample time */
+#define AACMM_SAMPLE_PARAMS_DEFAULT 0x0008u /* running on built-in default parameters */
+#define AACMM_SAMPLE_POINT_CLIPPED 0x0010u  /* point outside the int32 range; clamped */
+#define AACMM_SAMPLE_OVERRUN 0x0020u        /* samples were dropped before this one */
+
+/* Device info build_flags. */
+#define AACMM_BUILD_KIN_FIXED 0x0001u  /* fixed-point kinematics (else floating point) */
+#define AACMM_BUILD_KIN_F64 0x0002u    /* floating point is double precision (else float) */
+#define AACMM_BUILD_JACOBIAN 0x0004u   /* Jacobian content supported */
+#define AACMM_BUILD_SERIAL 0x0008u     /* serial transport built in */
+#define AACMM_BUILD_CAN 0x0010u        /* CAN transport built in */
+
+/* Device info param_source. */
+#define AACMM_PARAM_SOURCE_DEFAULTS 0u
+#define AACMM_PARAM_SOURCE_STORAGE 1u
+/* Device info storage_state. */
+#define AACMM_STORAGE_OK 0u
+#define AACMM_STORAGE_EMPTY 1u   /* no record found */
+#define AACMM_STORAGE_CORRUPT 2u /* record CRC failed */
+#define AACMM_STORAGE_VERSION 3u /* record of another format version */
+#define AACMM_STORAGE_STATE_MAX 3u
+
+#define AACMM_STREAM_RATE_MIN_HZ 1u
+#define AACMM_STREAM_RATE_MAX_HZ 1000u
+
+/* Point on the wire: int32 in units of 100 nm (1e-4 mm), range +-214.7 m. */
+#define AACMM_POINT_UNIT_MM 1e-4
+
+/* Payload sizes in bytes. */
+#define AACMM_PARAM_SET_BYTES 278u       /* 25 f64 + 6 u64 + 6 u32 + 6 i8 */
+#define AACMM_INFO_BYTES 23u
+#define AACMM_SAMPLE_BASE_BYTES 53u      /* without Jacobian */
+#define AACMM_JACOBIAN_BYTES 300u        /* 75 float32 */
+#define AACMM_COMPUTE_RSP_BASE_BYTES 29u /* without Jacobian */
+#define AACMM_TRIGGER_EXTRA_BYTES 2u     /* before the embedded sample */
+
+typedef struct {
+    uint32_t token; /* any value; echoed unchanged */
+} aacmm_msg_ping_t;
+
+typedef struct {
+    uint16_t protocol_version; /* AACMM_PROTO_VERSION of the device */
+    uint8_t fw_major;
+    uint8_t fw_minor;
+    uint16_t fw_patch;
+    uint32_t build_flags;    /* AACMM_BUILD_* */
+    uint32_t param_crc32;    /* aacmm_param_set_crc32 of the active set */
+    uint8_t param_source;    /* AACMM_PARAM_SOURCE_* (0..1) */
+    uint8_t storage_state;   /* AACMM_STORAGE_* (0..3) */
+    uint16_t max_body_bytes; /* largest body the device accepts (<= 512) */
+    uint32_t serial_number;
+    uint8_t can_node_id; /* 0..15 */
+} aacmm_msg_info_t;
+
+/* The parameter set carried by GET/SET_PARAMS. */
+typedef struct {
+    aacmm_params_f64_t kin;     /* kinematic parameters, mm and rad, all finite */
+    aacmm_encoder_config_t enc; /* cpr 2..2^32, zero offset < cpr, direction +-1 */
+} aacmm_param_set_t;
+
+typedef struct {
+    uint32_t param_crc32;
+} aacmm_msg_param_crc_t;
+
+/* MEASURE_RSP and SAMPLE_EVT. */
+typedef struct {
+    uint32_t seq;                     /* sample counter, wraps */
+    uint64_t timestamp_us;            /* device monotonic clock, us */
+    uint32_t counts[AACMM_JOINTS];    /* raw encoder readings */
+    int32_t point_100nm[3];           /* probe x, y, z in units of 1e-4 mm */
+    uint32_t status;                  /* AACMM_SAMPLE_* */
+    uint8_t content;                  /* AACMM_CONTENT_* present in this sample */
+    float jacobian[AACMM_JAC_SIZE];   /* row-major 3x25 if content has JACOBIAN */
+} aacmm_sample_t;
+
+typedef struct {
+    uint8_t content; /* AACMM_CONTENT_* wanted */
+} aacmm_msg_measure_req_t;
+
+typedef struct {
+    uint8_t content;
+    uint32_t counts[AACMM_JOINTS];
+} aacmm_msg_compute_req_t;
+
+typedef struct {
+    uint32_t status;                /* AACMM_SAMPLE_* (POINT_VALID etc.) */
+    double point_mm[3];             /* the device's own result, mm, float64 */
+    uint8_t content;                /* AACMM_CONTENT_* present */
+    float jacobian[AACMM_JAC_SIZE]; /* if content has JACOBIAN */
+} aacmm_msg_compute_rsp_t;
+
+typedef struct {
+    uint16_t rate_hz; /* AACMM_STREAM_RATE_MIN_HZ .. AACMM_STREAM_RATE_MAX_HZ */
+    uint8_t content;  /* AACMM_CONTENT_* */
+} aacmm_msg_stream_t;
+
+typedef struct {
+    uint8_t button;        /* 0 = probe button; others device-defined */
+    uint8_t pressed;       /* 1 press, 0 release */
+    aacmm_sample_t sample; /* the sample latched at the edge */
+} aacmm_msg_trigger_t;
+
+typedef struct {
+    int16_t status;       /* aacmm_status_t, negative */
+    uint8_t request_type; /* type of the request that failed (0 if unknown) */
+} aacmm_msg_error_t;
+
+/* One decoded message. type selects the member of u. */
+typedef struct {
+    uint8_t type; /* aacmm_msg_type_t */
+    uint8_t seq;
+    union {
+        aacmm_msg_ping_t ping;               /* PING_REQ, PING_RSP */
+        aacmm_msg_info_t info;               /* INFO_RSP */
+        aacmm_param_set_t params;            /* SET_PARAMS_REQ, GET_PARAMS_RSP */
+        aacmm_msg_param_crc_t param_crc;     /* SET/SAVE_PARAMS_RSP, RESTORE_DEFAULTS_RSP */
+        aacmm_msg_measure_req_t measure;     /* MEASURE_REQ */
+        aacmm_sample_t sample;               /* MEASURE_RSP, SAMPLE_EVT */
+        aacmm_msg_compute_req_t compute_req; /* COMPUTE_REQ */
+        aacmm_msg_compute_rsp_t compute_rsp; /* COMPUTE_RSP */
+        aacmm_msg_stream_t stream;           /* STREAM_START_REQ, STREAM_START_RSP */
+        aacmm_msg_trigger_t trigger;         /* TRIGGER_EVT */
+        aacmm_msg_error_t error;             /* ERROR_RSP */
+    } u;                                     /* empty for the other types */
+} aacmm_msg_t;
+
+/*
+ * Encode *msg into out[0 .. out_cap-1] as a message body (header + payload).
+ * Returns AACMM_OK and the length in *out_len (<= AACMM_PROTO_MAX_BODY), or
+ * AACMM_ERR_NULL, AACMM_ERR_UNKNOWN_TYPE, AACMM_ERR_NOT_FINITE /
+ * AACMM_ERR_RANGE (a field the decoder would reject), AACMM_ERR_BUFFER
+ * (out_cap too small; AACMM_PROTO_MAX_BODY always suffices). On error
+ * *out_len is 0 and out may hold partial output. Cost: O(body length).
+ */
+aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out_cap,
+                                size_t *out_len);
+
+/*
+ * Decode body[0 .. len-1] into *msg. Reads only inside the body, writes only
+ * *msg. Returns AACMM_OK or the first rule broken (see the header comment):
+ * AACMM_ERR_LENGTH (shorter than the header or wrong payload size),
+ * AACMM_ERR_VERSION, AACMM_ERR_UNKNOWN_TYPE, AACMM_ERR_NOT_FINITE,
+ * AACMM_ERR_RANGE, AACMM_ERR_NULL. On error *msg holds type and seq if the
+ * header was readable, other fields are unspecified. Cost: O(len).
+ */
+aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *msg);
+
+/*
+ * Encode *msg and wrap it in a serial frame (aacmm/frame.h) in out. scratch
+ * (>= AACMM_PROTO_MAX_BODY bytes) holds the body meanwhile. Errors as for
+ * aacmm_msg_encode and aacmm_frame_encode. Cost: O(body length).
+ */
+aacmm_status_t aacmm_msg_encode_frame(const aacmm_msg_t *msg, uint8_t *scratch,
+                                      size_t scratch_cap, uint8_t *out, size_t out_cap,
+                                      size_t *out_len);
+
+/* Payload length of a type for the given content flags; 0 for unknown types
+ * (a valid empty payload also gives 0: check aacmm_msg_type_known). O(1). */
+size_t aacmm_msg_payload_len(uint8_t type, uint8_t content);
+
+/* 1 if type is a message type of this protocol version, else 0. O(1). */
+int aacmm_msg_type_known(uint8_t type);
+
+/*
+ * Encode a parameter set payload alone (278 bytes) into out.
+ * AACMM_ERR_NULL, AACMM_ERR_BUFFER, AACMM_ERR_NOT_FINITE, AACMM_ERR_RANGE or
+ * AACMM_OK. O(1).
+ */
+aacmm_status_t aacmm_param_set_encode(const aacmm_param_set_t *set, uint8_t *out, size_t out_cap);
+
+/* Decode and check a 278-byte parameter set payload (same rules). O(1). */
+aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param_set_t *set);
+
+/*
+ * The parameter-set CRC reported in device info and the *_PARAMS_RSP
+ * messages: CRC-32/ISO-HDLC over the 278-byte wire encoding of *set.
+ * Errors as aacmm_param_set_encode (then *crc32 is 0). O(278).
+ */
+aacmm_status_t aacmm_param_set_crc32(const aacmm_param_set_t *set, uint32_t *crc32);
+
+/*
+ * Convert a point in mm to the wire unit (1e-4 mm), rounding to nearest and
+ * clamping to the int32 range. *clipped (may be NULL) is set to 1 if the
+ * value was clamped or not finite (NaN gives 0), else 0. O(1).
+ */
+int32_t aacmm_point_mm_to_wire(double mm, int *clipped);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACMM_PROTO_H */
