@@ -1,0 +1,334 @@
+/*
+ * The kinematics core, written once for both floating-point precisions.
+ *
+ * Included by kinematics_f32.c and kinematics_f64.c after they define:
+ *   REAL       float or double
+ *   SFX(name)  name##_f32 or name##_f64
+ *   LIT(x)     a literal of type REAL (x##f or x)
+ *   LDEXP      ldexpf or ldexp
+ *   TO_REAL_U64(u)  conversion of a uint64_t to REAL (round to nearest)
+ * and the Taylor coefficients and pi/2 split constants for REAL.
+ *
+ * No other floating type appears here, so the float build uses only
+ * single-precision operations.
+ */
+
+/* ------------------------------------------------------------------------ */
+/* Parameters                                                                */
+/* ------------------------------------------------------------------------ */
+
+aacmm_status_t SFX(aacmm_params_default)(TYPE(aacmm_params) *params)
+{
+    static const REAL d_mm[AACMM_JOINTS] = {LIT(300.0), LIT(65.5), LIT(792.7),
+                                            LIT(65.5),  LIT(883.2), LIT(0.0)};
+    int i;
+    if (params == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        params->theta_offset_rad[i] = LIT(0.0);
+        params->alpha_rad[i] = LIT(1.5707963267948966); /* 90 degrees */
+        params->d_mm[i] = d_mm[i];
+        params->a_mm[i] = LIT(0.0);
+    }
+    params->l_mm = LIT(183.5);
+    return AACMM_OK;
+}
+
+/* AACMM_OK if |x| <= limit, else the reason it is not. */
+static aacmm_status_t SFX(check_value)(REAL x, REAL limit)
+{
+    if (x <= limit && x >= -limit) {
+        return AACMM_OK;
+    }
+    return isnan(x) ? AACMM_ERR_NOT_FINITE : (isinf(x) ? AACMM_ERR_NOT_FINITE : AACMM_ERR_RANGE);
+}
+
+aacmm_status_t SFX(aacmm_params_validate)(const TYPE(aacmm_params) *params)
+{
+    const REAL len_max = (REAL)AACMM_LENGTH_MAX_MM;
+    const REAL ang_max = (REAL)AACMM_PARAM_ANGLE_MAX_RAD;
+    aacmm_status_t st;
+    int i;
+    if (params == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        if ((st = SFX(check_value)(params->theta_offset_rad[i], ang_max)) != AACMM_OK ||
+            (st = SFX(check_value)(params->alpha_rad[i], ang_max)) != AACMM_OK ||
+            (st = SFX(check_value)(params->d_mm[i], len_max)) != AACMM_OK ||
+            (st = SFX(check_value)(params->a_mm[i], len_max)) != AACMM_OK) {
+            return st;
+        }
+    }
+    return SFX(check_value)(params->l_mm, len_max);
+}
+
+aacmm_status_t SFX(aacmm_model_init)(TYPE(aacmm_model) *model, const TYPE(aacmm_params) *params)
+{
+    aacmm_status_t st;
+    int i;
+    if (model == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = SFX(aacmm_params_validate)(params);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    model->params = *params;
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        SFX(aacmm_sincos)(params->alpha_rad[i], &model->sin_alpha[i], &model->cos_alpha[i]);
+    }
+    return AACMM_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Sine and cosine                                                           */
+/* ------------------------------------------------------------------------ */
+
+void SFX(aacmm_sincos)(REAL x, REAL *s, REAL *c)
+{
+    /* Quadrant signs, indexed by bit 1 of the quadrant (sine) and of the
+     * quadrant + 1 (cosine): a table instead of a switch, because random
+     * joint angles make a quadrant branch mispredict half the time. */
+    static const REAL sign[2] = {LIT(1.0), LIT(-1.0)};
+    /* k = x / (pi/2) rounded to nearest: adding and subtracting 1.5 * 2^(p-1)
+     * rounds in the FPU's default round-to-nearest mode without a branch.
+     * |x| <= 2048 keeps |k| <= 1304, so k * PIO2_1 and k * PIO2_2 are exact
+     * (each constant has few significant bits). */
+    REAL kf = (x * TWO_OVER_PI + ROUND_MAGIC) - ROUND_MAGIC;
+    uint32_t q = (uint32_t)(int32_t)kf;
+    REAL r = ((x - kf * PIO2_1) - kf * PIO2_2) - kf * PIO2_3; /* |r| <= pi/4 (+tiny) */
+    REAL z = r * r;
+    REAL v[2];
+    v[0] = r + r * z * SIN_POLY(z);                            /* sin r */
+    v[1] = LIT(1.0) - (LIT(0.5) * z - z * z * COS_POLY(z));    /* cos r */
+    *s = v[q & 1u] * sign[(q >> 1) & 1u];
+    *c = v[(q & 1u) ^ 1u] * sign[((q + 1u) >> 1) & 1u];
+}
+
+/* ------------------------------------------------------------------------ */
+/* Forward kinematics and Jacobian                                           */
+/* ------------------------------------------------------------------------ */
+
+static aacmm_status_t SFX(check_angles)(const REAL theta_rad[AACMM_JOINTS])
+{
+    const REAL lim = (REAL)AACMM_JOINT_ANGLE_MAX_RAD;
+    int i;
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        aacmm_status_t st = SFX(check_value)(theta_rad[i], lim);
+        if (st != AACMM_OK) {
+            return st;
+        }
+    }
+    return AACMM_OK;
+}
+
+/*
+ * One pass down the chain. Frame i has axes x_i, y_i, z_i and origin o_i in
+ * the base frame; with c, s the cosine and sine of theta_i and ca, sa those
+ * of alpha_i, Eq. 2 gives
+ *     x_i = c x_{i-1} + s y_{i-1}
+ *     u   = -s x_{i-1} + c y_{i-1}        (y axis after Rot(z, theta_i))
+ *     y_i = ca u + sa z_{i-1}
+ *     z_i = -sa u + ca z_{i-1}
+ *     o_i = o_{i-1} + d_i z_{i-1} + a_i x_i
+ * and the probe is p = o_6 + l z_6. The Jacobian columns use z_{i-1}, o_{i-1},
+ * x_i and o_i, kept from the pass. Inlined with jac constant NULL or not, so
+ * the point-only path does no Jacobian work.
+ */
+static inline void SFX(chain)(const TYPE(aacmm_model) *model, const REAL theta_rad[AACMM_JOINTS],
+                              REAL p_mm[3], REAL *jac)
+{
+    REAL X[3] = {LIT(1.0), LIT(0.0), LIT(0.0)};
+    REAL Y[3] = {LIT(0.0), LIT(1.0), LIT(0.0)};
+    REAL Z[3] = {LIT(0.0), LIT(0.0), LIT(1.0)};
+    REAL O[3] = {LIT(0.0), LIT(0.0), LIT(0.0)};
+    REAL zprev[AACMM_JOINTS][3], oprev[AACMM_JOINTS][3], xs[AACMM_JOINTS][3], os[AACMM_JOINTS][3];
+    REAL p[3];
+    int i, r;
+
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        REAL s, c, u[3];
+        const REAL sa = model->sin_alpha[i];
+        const REAL ca = model->cos_alpha[i];
+        const REAL d = model->params.d_mm[i];
+        const REAL a = model->params.a_mm[i];
+        SFX(aacmm_sincos)(theta_rad[i] + model->params.theta_offset_rad[i], &s, &c);
+        for (r = 0; r < 3; r++) {
+            zprev[i][r] = Z[r];
+            oprev[i][r] = O[r];
+            u[r] = -s * X[r] + c * Y[r];
+            X[r] = c * X[r] + s * Y[r];
+            Y[r] = ca * u[r] + sa * Z[r];
+            Z[r] = -sa * u[r] + ca * Z[r];
+            O[r] = O[r] + d * zprev[i][r] + a * X[r];
+            xs[i][r] = X[r];
+            os[i][r] = O[r];
+        }
+    }
+    for (r = 0; r < 3; r++) {
+        p[r] = O[r] + model->params.l_mm * Z[r];
+        p_mm[r] = p[r];
+    }
+    if (jac == NULL) {
+        return;
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        const REAL *zp = zprev[i];
+        const REAL *xi = xs[i];
+        REAL v[3], w[3];
+        for (r = 0; r < 3; r++) {
+            v[r] = p[r] - oprev[i][r];
+            w[r] = p[r] - os[i][r];
+        }
+        /* d p / d theta_i = z_{i-1} x (p - o_{i-1}) */
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp[1] * v[2] - zp[2] * v[1];
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp[2] * v[0] - zp[0] * v[2];
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp[0] * v[1] - zp[1] * v[0];
+        /* d p / d alpha_i = x_i x (p - o_i) */
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi[1] * w[2] - xi[2] * w[1];
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi[2] * w[0] - xi[0] * w[2];
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi[0] * w[1] - xi[1] * w[0];
+        for (r = 0; r < 3; r++) {
+            jac[r * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp[r]; /* d p / d d_i = z_{i-1} */
+            jac[r * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi[r]; /* d p / d a_i = x_i */
+        }
+    }
+    for (r = 0; r < 3; r++) {
+        jac[r * AACMM_JAC_COLS + AACMM_COL_L] = Z[r]; /* d p / d l = z_6 */
+    }
+}
+
+aacmm_status_t SFX(aacmm_point)(const TYPE(aacmm_model) *model, const REAL theta_rad[AACMM_JOINTS],
+                                REAL p_mm[3])
+{
+    aacmm_status_t st;
+    if (model == NULL || theta_rad == NULL || p_mm == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = SFX(check_angles)(theta_rad);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    SFX(chain)(model, theta_rad, p_mm, NULL);
+    return AACMM_OK;
+}
+
+aacmm_status_t SFX(aacmm_point_jacobian)(const TYPE(aacmm_model) *model,
+                                         const REAL theta_rad[AACMM_JOINTS], REAL p_mm[3],
+                                         REAL jac[AACMM_JAC_SIZE])
+{
+    aacmm_status_t st;
+    if (model == NULL || theta_rad == NULL || p_mm == NULL || jac == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = SFX(check_angles)(theta_rad);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    SFX(chain)(model, theta_rad, p_mm, jac);
+    return AACMM_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Encoders                                                                  */
+/* ------------------------------------------------------------------------ */
+
+aacmm_status_t SFX(aacmm_encoder_to_angles)(const aacmm_encoder_config_t *config,
+                                            const uint32_t reading_counts[AACMM_JOINTS],
+                                            REAL theta_rad[AACMM_JOINTS])
+{
+    int64_t s[AACMM_JOINTS];
+    REAL out[AACMM_JOINTS];
+    aacmm_status_t st;
+    int i;
+    if (theta_rad == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = aacmm_encoder_signed_counts(config, reading_counts, s);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        if (s[i] == 0) {
+            out[i] = LIT(0.0);
+        } else {
+            uint64_t mant;
+            int e;
+            REAL mag;
+            aacmm_internal_angle_exact((uint32_t)(s[i] < 0 ? -s[i] : s[i]),
+                                       config->counts_per_rev[i], &mant, &e);
+            mag = LDEXP(TO_REAL_U64(mant), e); /* one rounding, then an exact scaling */
+            out[i] = (s[i] < 0) ? -mag : mag;
+        }
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        theta_rad[i] = out[i];
+    }
+    return AACMM_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Batches                                                                   */
+/* ------------------------------------------------------------------------ */
+
+aacmm_status_t SFX(aacmm_batch_angles)(const TYPE(aacmm_model) *model, size_t n,
+                                       const REAL *theta_rad, REAL *p_mm, REAL *jac, size_t *done)
+{
+    size_t k;
+    if (done != NULL) {
+        *done = 0u;
+    }
+    if (model == NULL || (n > 0u && (theta_rad == NULL || p_mm == NULL))) {
+        return AACMM_ERR_NULL;
+    }
+    for (k = 0; k < n; k++) {
+        const REAL *th = theta_rad + k * AACMM_JOINTS;
+        aacmm_status_t st = SFX(check_angles)(th);
+        if (st != AACMM_OK) {
+            return st;
+        }
+        if (jac != NULL) {
+            SFX(chain)(model, th, p_mm + k * 3u, jac + k * AACMM_JAC_SIZE);
+        } else {
+            SFX(chain)(model, th, p_mm + k * 3u, NULL);
+        }
+        if (done != NULL) {
+            *done = k + 1u;
+        }
+    }
+    return AACMM_OK;
+}
+
+aacmm_status_t SFX(aacmm_batch_counts)(const TYPE(aacmm_model) *model,
+                                       const aacmm_encoder_config_t *encoders, size_t n,
+                                       const uint32_t *reading_counts, REAL *p_mm, REAL *jac,
+                                       size_t *done)
+{
+    size_t k;
+    if (done != NULL) {
+        *done = 0u;
+    }
+    if (model == NULL || encoders == NULL ||
+        (n > 0u && (reading_counts == NULL || p_mm == NULL))) {
+        return AACMM_ERR_NULL;
+    }
+    for (k = 0; k < n; k++) {
+        REAL th[AACMM_JOINTS];
+        aacmm_status_t st =
+            SFX(aacmm_encoder_to_angles)(encoders, reading_counts + k * AACMM_JOINTS, th);
+        if (st != AACMM_OK) {
+            return st;
+        }
+        if (jac != NULL) {
+            SFX(chain)(model, th, p_mm + k * 3u, jac + k * AACMM_JAC_SIZE);
+        } else {
+            SFX(chain)(model, th, p_mm + k * 3u, NULL);
+        }
+        if (done != NULL) {
+            *done = k + 1u;
+        }
+    }
+    return AACMM_OK;
+}

@@ -1,0 +1,62 @@
+# Kinematics core: host library, tests (gcc, clang, ASan+UBSan), M4F cross
+# build with a symbol check, and the benchmark.
+
+CORE_SRCS := firmware/src/status.c firmware/src/encoder.c \
+             firmware/src/kinematics_f32.c firmware/src/kinematics_f64.c
+CORE_HDRS := $(wildcard firmware/include/aacmm/*.h) firmware/src/aacmm_internal.h \
+             firmware/src/kinematics_impl.h
+CORE_TEST_SRCS := tests/core/test_kinematics.c
+CORE_TEST_DEPS := $(CORE_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests/core/reference.h
+
+# One test binary per compiler configuration.
+$(BUILD)/core/test_kinematics_gcc: $(CORE_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(HOST_OPT) -I$(FW_INC) -Itests/core $(CORE_SRCS) $(CORE_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/core/test_kinematics_clang: $(CORE_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(HOST_OPT) -I$(FW_INC) -Itests/core $(CORE_SRCS) $(CORE_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/core/test_kinematics_san: $(CORE_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(SAN_FLAGS) -I$(FW_INC) -Itests/core $(CORE_SRCS) $(CORE_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+
+.PHONY: test-core-gcc test-core-clang test-core-san test-core-m4f bench-core firmware-core-m4f
+test-core-gcc: $(BUILD)/core/test_kinematics_gcc
+	$<
+test-core-clang: $(BUILD)/core/test_kinematics_clang
+	$<
+test-core-san: $(BUILD)/core/test_kinematics_san
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $<
+TEST_SUITES += test-core-gcc test-core-clang test-core-san test-core-m4f
+
+# ---- Cortex-M4F cross build of the core (float path on the FPU) ----
+M4F_DIR := $(BUILD)/arm-m4f/core
+M4F_CORE_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c
+M4F_CORE_OBJS := $(patsubst firmware/src/%.c,$(M4F_DIR)/%.o,$(M4F_CORE_SRCS))
+
+$(M4F_DIR)/%.o: firmware/src/%.c $(CORE_HDRS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M4F_FLAGS) -fcallgraph-info=su -c $< -o $@
+
+$(M4F_DIR)/libaacmm_core.a: $(M4F_CORE_OBJS)
+	rm -f $@ && arm-none-eabi-ar rcs $@ $^
+
+firmware-core-m4f: $(M4F_DIR)/libaacmm_core.a
+	@echo "core for Cortex-M4F ($(M4F_FLAGS)):"
+	@$(ARM_SIZE) -t $(M4F_CORE_OBJS)
+	@/usr/bin/python3 scripts/stack_usage.py $(M4F_DIR) aacmm_point_jacobian_f32 aacmm_batch_counts_f32 aacmm_encoder_to_angles_f32 aacmm_model_init_f32
+FIRMWARE_TARGETS += firmware-core-m4f
+
+# The single-precision path must run on the FPU alone: no double-precision
+# helper, no soft-float helper, no double libm function.
+test-core-m4f: $(M4F_DIR)/libaacmm_core.a
+	sh scripts/check-symbols.sh m4f-float $(M4F_DIR)/kinematics_f32.o
+	sh scripts/check-symbols.sh m4f-float $(M4F_DIR)/encoder.o
+	@echo "m4f: kinematics_f32.o and encoder.o use no double-precision or soft-float helpers"
+
+# ---- benchmark ----
+$(BUILD)/core/bench_core: bench/bench_core.c $(CORE_SRCS) $(CORE_HDRS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) -D_POSIX_C_SOURCE=199309L $(HOST_OPT) -I$(FW_INC) $(CORE_SRCS) bench/bench_core.c -lm -o $@
+bench-core: $(BUILD)/core/bench_core
+	@$<
+BENCH_TARGETS += bench-core

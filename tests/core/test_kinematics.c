@@ -1,0 +1,850 @@
+/*
+ * Kinematics core tests: forward kinematics and Jacobian against an
+ * independent long-double reference, the paper's identities, a pose worked
+ * out by hand, single against double precision, and the encoder edge cases.
+ *
+ * Measured maxima are printed as "measured: ..." lines so the docs can quote
+ * them; every bound asserted here is stated in docs/kinematics.md.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "aacmm/kinematics.h"
+#include "reference.h"
+
+#define PI 3.14159265358979323846
+#define TWO_PI_LD 6.283185307179586476925286766559005768L
+
+/* Bounds asserted below (and quoted in docs/kinematics.md). */
+#define BOUND_F64_POINT_MM 1e-10        /* core f64 vs long-double reference */
+#define BOUND_F64_JAC_REF 1e-10         /* core f64 Jacobian vs reference finite differences */
+#define BOUND_FD_ANGLE_MM_PER_RAD 2e-6  /* core f64 Jacobian vs double central differences */
+#define BOUND_FD_LENGTH 1e-8            /* same, length columns (the point is affine in them) */
+#define BOUND_F32_POINT_MM 1e-3         /* f32 vs f64 point, per coordinate */
+#define BOUND_F32_JAC 2e-3              /* f32 vs f64 Jacobian, per entry */
+
+static void random_pose(test_rng_t *g, double th[6])
+{
+    int i;
+    for (i = 0; i < 6; i++) {
+        th[i] = rng_uniform(g, -PI, PI);
+    }
+}
+
+static void default_model(aacmm_model_f64_t *m)
+{
+    aacmm_params_f64_t p;
+    assert_int_equal(aacmm_params_default_f64(&p), AACMM_OK);
+    assert_int_equal(aacmm_model_init_f64(m, &p), AACMM_OK);
+}
+
+/* A model with every parameter perturbed away from the symmetric Table 1
+ * values, so no term of the Jacobian vanishes by accident. */
+static void perturbed_params(aacmm_params_f64_t *p)
+{
+    int i;
+    aacmm_params_default_f64(p);
+    for (i = 0; i < 6; i++) {
+        p->theta_offset_rad[i] = 0.01 * (i + 1);
+        p->alpha_rad[i] += 0.002 * (i - 2.5);
+        p->d_mm[i] += 0.3 * i;
+        p->a_mm[i] = 1.5 - 0.4 * i;
+    }
+    p->l_mm += 0.7;
+}
+
+/* ------------------------------------------------------------------------ */
+
+static void test_point_matches_reference(void **state)
+{
+    aacmm_params_f64_t pr;
+    aacmm_model_f64_t m;
+    test_rng_t g = {UINT64_C(0x9E3779B97F4A7C15)};
+    double worst = 0.0;
+    int k, set;
+    (void)state;
+    for (set = 0; set < 2; set++) {
+        if (set == 0) {
+            aacmm_params_default_f64(&pr);
+        } else {
+            perturbed_params(&pr);
+        }
+        assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
+        for (k = 0; k < 100000; k++) {
+            double th[6], p[3];
+            long double q[25], pref[3];
+            int r;
+            random_pose(&g, th);
+            assert_int_equal(aacmm_point_f64(&m, th, p), AACMM_OK);
+            ref_params(&pr, th, q);
+            ref_point(q, pref);
+            for (r = 0; r < 3; r++) {
+                double e = (double)fabsl((long double)p[r] - pref[r]);
+                if (e > worst) {
+                    worst = e;
+                }
+            }
+        }
+    }
+    printf("measured: f64 point vs long-double reference, 2x10^5 poses: max %.3g mm\n", worst);
+    assert_true(worst <= BOUND_F64_POINT_MM);
+}
+
+/* The point computed by aacmm_point_jacobian_f64 equals aacmm_point_f64. */
+static void test_point_jacobian_same_point(void **state)
+{
+    aacmm_model_f64_t m;
+    test_rng_t g = {12345u};
+    int k;
+    (void)state;
+    default_model(&m);
+    for (k = 0; k < 1000; k++) {
+        double th[6], p1[3], p2[3], J[AACMM_JAC_SIZE];
+        random_pose(&g, th);
+        assert_int_equal(aacmm_point_f64(&m, th, p1), AACMM_OK);
+        assert_int_equal(aacmm_point_jacobian_f64(&m, th, p2, J), AACMM_OK);
+        assert_memory_equal(p1, p2, sizeof p1);
+    }
+}
+
+/* The core's Jacobian against central finite differences of the core's own
+ * forward kinematics, in double, over 10^4 random poses and all 25
+ * parameters. Step 1e-6 rad for angles (truncation ~ h^2 |p'''| / 6 ~ 4e-10
+ * mm, rounding ~ eps |p| / h ~ 4e-7 mm) and 1e-3 mm for lengths (the point is
+ * affine in d, a, l, so only rounding remains, ~ 4e-10). */
+static void test_jacobian_vs_central_differences(void **state)
+{
+    aacmm_params_f64_t pr;
+    aacmm_model_f64_t m;
+    test_rng_t g = {UINT64_C(0xC0FFEE)};
+    double worst_angle = 0.0, worst_length = 0.0;
+    int k, c, r;
+    (void)state;
+    perturbed_params(&pr);
+    assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
+    for (k = 0; k < 10000; k++) {
+        double th[6], p[3], J[AACMM_JAC_SIZE];
+        random_pose(&g, th);
+        assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+        for (c = 0; c < AACMM_JAC_COLS; c++) {
+            aacmm_params_f64_t pp = pr, pm = pr;
+            double thp[6], thm[6], fp[3], fm[3];
+            aacmm_model_f64_t mp, mm;
+            int is_angle = c < 12;
+            double h = is_angle ? 1e-6 : 1e-3;
+            memcpy(thp, th, sizeof thp);
+            memcpy(thm, th, sizeof thm);
+            if (c < 6) {
+                thp[c] += h;
+                thm[c] -= h;
+            } else if (c < 12) {
+                pp.alpha_rad[c - 6] += h;
+                pm.alpha_rad[c - 6] -= h;
+            } else if (c < 18) {
+                pp.d_mm[c - 12] += h;
+                pm.d_mm[c - 12] -= h;
+            } else if (c < 24) {
+                pp.a_mm[c - 18] += h;
+                pm.a_mm[c - 18] -= h;
+            } else {
+                pp.l_mm += h;
+                pm.l_mm -= h;
+            }
+            assert_int_equal(aacmm_model_init_f64(&mp, &pp), AACMM_OK);
+            assert_int_equal(aacmm_model_init_f64(&mm, &pm), AACMM_OK);
+            assert_int_equal(aacmm_point_f64(&mp, thp, fp), AACMM_OK);
+            assert_int_equal(aacmm_point_f64(&mm, thm, fm), AACMM_OK);
+            for (r = 0; r < 3; r++) {
+                double fd = (fp[r] - fm[r]) / (2.0 * h);
+                double e = fabs(fd - J[r * AACMM_JAC_COLS + c]);
+                if (is_angle && e > worst_angle) {
+                    worst_angle = e;
+                }
+                if (!is_angle && e > worst_length) {
+                    worst_length = e;
+                }
+            }
+        }
+    }
+    printf("measured: f64 Jacobian vs central differences, 10^4 poses: angle columns max %.3g "
+           "mm/rad, length columns max %.3g mm/mm\n",
+           worst_angle, worst_length);
+    assert_true(worst_angle <= BOUND_FD_ANGLE_MM_PER_RAD);
+    assert_true(worst_length <= BOUND_FD_LENGTH);
+}
+
+/* A tighter check: the Jacobian against central differences of the
+ * long-double reference (rounding ~1e-19 |p| / h is negligible there). */
+static void test_jacobian_vs_reference_differences(void **state)
+{
+    aacmm_params_f64_t pr;
+    aacmm_model_f64_t m;
+    test_rng_t g = {777u};
+    double worst = 0.0;
+    int k, c, r;
+    (void)state;
+    perturbed_params(&pr);
+    assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
+    for (k = 0; k < 2000; k++) {
+        double th[6], p[3], J[AACMM_JAC_SIZE];
+        long double q[25];
+        random_pose(&g, th);
+        assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+        ref_params(&pr, th, q);
+        for (c = 0; c < AACMM_JAC_COLS; c++) {
+            /* five-point stencil: truncation ~ h^4 |p^(5)| / 30, negligible
+             * at h = 1e-4; rounding ~ 1e-19 |p| / h ~ 2e-12 */
+            static const long double step[4] = {2, 1, -1, -2};
+            static const long double weight[4] = {-1, 8, -8, 1};
+            long double h = 1e-4L, fd[3] = {0, 0, 0};
+            int s;
+            for (s = 0; s < 4; s++) {
+                long double qs[25], f[3];
+                memcpy(qs, q, sizeof qs);
+                qs[c] += step[s] * h;
+                ref_point(qs, f);
+                for (r = 0; r < 3; r++) {
+                    fd[r] += weight[s] * f[r];
+                }
+            }
+            for (r = 0; r < 3; r++) {
+                double e = (double)fabsl(fd[r] / (12 * h) - (long double)J[r * AACMM_JAC_COLS + c]);
+                if (e > worst) {
+                    worst = e;
+                }
+            }
+        }
+    }
+    printf("measured: f64 Jacobian vs long-double reference differences, 2000 poses: max %.3g\n",
+           worst);
+    assert_true(worst <= BOUND_F64_JAC_REF);
+}
+
+/* Eq. 11-13: the d, a and l columns are unit vectors; and d f_z / d theta_1
+ * is exactly zero (theta_1 turns about the vertical base axis). */
+static void test_paper_identities(void **state)
+{
+    aacmm_params_f64_t pr;
+    aacmm_model_f64_t m;
+    test_rng_t g = {99u};
+    double worst = 0.0;
+    int k, c, set;
+    (void)state;
+    for (set = 0; set < 2; set++) {
+        if (set == 0) {
+            aacmm_params_default_f64(&pr);
+        } else {
+            perturbed_params(&pr);
+        }
+        assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
+        for (k = 0; k < 10000; k++) {
+            double th[6], p[3], J[AACMM_JAC_SIZE];
+            random_pose(&g, th);
+            assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+            for (c = AACMM_COL_D(0); c <= AACMM_COL_L; c++) {
+                double nx = J[c], ny = J[AACMM_JAC_COLS + c], nz = J[2 * AACMM_JAC_COLS + c];
+                double e = fabs(sqrt(nx * nx + ny * ny + nz * nz) - 1.0);
+                if (e > worst) {
+                    worst = e;
+                }
+            }
+            /* Exactly zero: compared bitwise apart from the sign of zero. */
+            assert_true(fabs(J[2 * AACMM_JAC_COLS + AACMM_COL_THETA(0)]) <= 0.0);
+        }
+    }
+    printf("measured: | |column| - 1 | for d, a, l columns: max %.3g\n", worst);
+    assert_true(worst <= 1e-12);
+}
+
+/*
+ * The zero pose with the paper's Table 1, worked by hand.
+ * With theta = 0, a = 0 and alpha = 90 deg, each step of the chain is
+ * Trans(0, 0, d_i) then Rot(x, 90 deg), which keeps x_i = (1, 0, 0) and turns
+ * the z axis by +90 deg about x each time:
+ *   z0 = (0,0,1), z1 = (0,-1,0), z2 = (0,0,-1), z3 = (0,1,0), z4 = (0,0,1),
+ *   z5 = (0,-1,0), z6 = (0,0,-1).
+ * Origins o_i = o_{i-1} + d_i z_{i-1}:
+ *   o1 = (0, 0, 300), o2 = (0, -65.5, 300), o3 = (0, -65.5, -492.7),
+ *   o4 = (0, 0, -492.7), o5 = (0, 0, 390.5), o6 = o5 (d6 = 0).
+ * Probe p = o6 + l z6 = (0, 0, 390.5 - 183.5) = (0, 0, 207).
+ * Columns (u x v with u = (1,0,0) is (0, -v_z, v_y)):
+ *   theta: z0 x (0,0,207) = 0;  z1 x (0,0,-93) = (93,0,0);
+ *          z2 x (0,65.5,-93) = (65.5,0,0);  z3 x (0,65.5,699.7) = (699.7,0,0);
+ *          z4 x (0,0,699.7) = 0;  z5 x (0,0,-183.5) = (183.5,0,0)
+ *   alpha: x_i x (p - o_i): (0,93,0), (0,93,65.5), (0,-699.7,65.5),
+ *          (0,-699.7,0), (0,183.5,0), (0,183.5,0)
+ *   d_i = z_{i-1};  a_i = (1,0,0);  l = z6 = (0,0,-1).
+ * cos(pi/2) is 6e-17 in double, not 0, so the comparison allows 1e-9.
+ */
+static void test_zero_pose_by_hand(void **state)
+{
+    static const double p_expect[3] = {0.0, 0.0, 207.0};
+    static const double theta_col[6][3] = {{0, 0, 0},    {93, 0, 0}, {65.5, 0, 0},
+                                           {699.7, 0, 0}, {0, 0, 0},  {183.5, 0, 0}};
+    static const double alpha_col[6][3] = {{0, 93, 0},      {0, 93, 65.5}, {0, -699.7, 65.5},
+                                           {0, -699.7, 0},  {0, 183.5, 0}, {0, 183.5, 0}};
+    static const double z_axes[7][3] = {{0, 0, 1}, {0, -1, 0}, {0, 0, -1}, {0, 1, 0},
+                                        {0, 0, 1}, {0, -1, 0}, {0, 0, -1}};
+    aacmm_model_f64_t m;
+    const double th[6] = {0, 0, 0, 0, 0, 0};
+    double p[3], J[AACMM_JAC_SIZE];
+    int i, r;
+    (void)state;
+    default_model(&m);
+    assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+    for (r = 0; r < 3; r++) {
+        assert_true(fabs(p[r] - p_expect[r]) < 1e-9);
+        for (i = 0; i < 6; i++) {
+            assert_true(fabs(J[r * AACMM_JAC_COLS + AACMM_COL_THETA(i)] - theta_col[i][r]) < 1e-9);
+            assert_true(fabs(J[r * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] - alpha_col[i][r]) < 1e-9);
+            assert_true(fabs(J[r * AACMM_JAC_COLS + AACMM_COL_D(i)] - z_axes[i][r]) < 1e-9);
+            assert_true(fabs(J[r * AACMM_JAC_COLS + AACMM_COL_A(i)] - (r == 0 ? 1.0 : 0.0)) < 1e-9);
+        }
+        assert_true(fabs(J[r * AACMM_JAC_COLS + AACMM_COL_L] - z_axes[6][r]) < 1e-9);
+    }
+}
+
+/* Single precision against double over 10^6 random poses. */
+static void test_f32_vs_f64(void **state)
+{
+    aacmm_params_f64_t pd;
+    aacmm_params_f32_t pf;
+    aacmm_model_f64_t md;
+    aacmm_model_f32_t mf;
+    test_rng_t g = {2024u};
+    double worst_p = 0.0, worst_j = 0.0;
+    long k;
+    int i, r;
+    (void)state;
+    aacmm_params_default_f64(&pd);
+    aacmm_params_default_f32(&pf);
+    assert_int_equal(aacmm_model_init_f64(&md, &pd), AACMM_OK);
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
+    /* Compare against the double model of the same (float-rounded) numbers so
+     * the difference is arithmetic error only. */
+    for (i = 0; i < 6; i++) {
+        pd.alpha_rad[i] = (double)pf.alpha_rad[i];
+        pd.d_mm[i] = (double)pf.d_mm[i];
+    }
+    assert_int_equal(aacmm_model_init_f64(&md, &pd), AACMM_OK);
+    for (k = 0; k < 1000000L; k++) {
+        double thd[6], p64[3], J64[AACMM_JAC_SIZE];
+        float thf[6], p32[3], J32[AACMM_JAC_SIZE];
+        for (i = 0; i < 6; i++) {
+            thf[i] = (float)rng_uniform(&g, -PI, PI);
+            thd[i] = (double)thf[i];
+        }
+        assert_int_equal(aacmm_point_jacobian_f64(&md, thd, p64, J64), AACMM_OK);
+        assert_int_equal(aacmm_point_jacobian_f32(&mf, thf, p32, J32), AACMM_OK);
+        for (r = 0; r < 3; r++) {
+            double e = fabs((double)p32[r] - p64[r]);
+            if (e > worst_p) {
+                worst_p = e;
+            }
+        }
+        for (i = 0; i < AACMM_JAC_SIZE; i++) {
+            double e = fabs((double)J32[i] - J64[i]);
+            if (e > worst_j) {
+                worst_j = e;
+            }
+        }
+    }
+    printf("measured: f32 vs f64, 10^6 poses: point max %.3g mm, Jacobian max %.3g\n", worst_p,
+           worst_j);
+    assert_true(worst_p <= BOUND_F32_POINT_MM);
+    assert_true(worst_j <= BOUND_F32_JAC);
+}
+
+static void test_sincos_accuracy(void **state)
+{
+    test_rng_t g = {5u};
+    double worst64 = 0.0, worst32 = 0.0;
+    int k;
+    (void)state;
+    for (k = 0; k < 2000000; k++) {
+        double x = (k < 1000000) ? rng_uniform(&g, -4.0, 4.0) : rng_uniform(&g, -2048.0, 2048.0);
+        float xf = (float)x;
+        double s, c;
+        float sf, cf;
+        long double es, ec;
+        aacmm_sincos_f64(x, &s, &c);
+        aacmm_sincos_f32(xf, &sf, &cf);
+        /* Error in units of the larger of the value's ulp and the ulp of 2^-3
+         * (values near zero are judged on an absolute scale). */
+        es = fabsl((long double)s - sinl((long double)x)) /
+             (long double)fmax(fabs(s) > 0.125 ? nextafter(fabs(s), 2.0) - fabs(s) : 0x1p-56, 0x1p-56);
+        ec = fabsl((long double)c - cosl((long double)x)) /
+             (long double)fmax(fabs(c) > 0.125 ? nextafter(fabs(c), 2.0) - fabs(c) : 0x1p-56, 0x1p-56);
+        if ((double)es > worst64) {
+            worst64 = (double)es;
+        }
+        if ((double)ec > worst64) {
+            worst64 = (double)ec;
+        }
+        es = fabsl((long double)sf - sinl((long double)xf)) /
+             (long double)fmaxf(fabsf(sf) > 0.125f ? nextafterf(fabsf(sf), 2.0f) - fabsf(sf) : 0x1p-27f, 0x1p-27f);
+        ec = fabsl((long double)cf - cosl((long double)xf)) /
+             (long double)fmaxf(fabsf(cf) > 0.125f ? nextafterf(fabsf(cf), 2.0f) - fabsf(cf) : 0x1p-27f, 0x1p-27f);
+        if ((double)es > worst32) {
+            worst32 = (double)es;
+        }
+        if ((double)ec > worst32) {
+            worst32 = (double)ec;
+        }
+    }
+    printf("measured: sincos error, |x| <= 2048: f64 max %.3f ulp, f32 max %.3f ulp\n", worst64,
+           worst32);
+    assert_true(worst64 <= 2.0);
+    assert_true(worst32 <= 2.0);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Encoders                                                                  */
+/* ------------------------------------------------------------------------ */
+
+/* The signed count, computed the slow obvious way (independent of the core). */
+static int64_t expect_signed(uint64_t cpr, uint32_t zero, int dir, uint32_t reading)
+{
+    int64_t delta = ((int64_t)reading - (int64_t)zero) % (int64_t)cpr;
+    if (delta < 0) {
+        delta += (int64_t)cpr;
+    }
+    if (2 * delta >= (int64_t)cpr) {
+        delta -= (int64_t)cpr;
+    }
+    return dir < 0 ? -delta : delta;
+}
+
+/* 1 if got is the correct rounding of ref (or ref is too close to a midpoint
+ * between two doubles for a long double to tell, and got is one of them). */
+static int correctly_rounded_f64(double got, long double ref, int *ambiguous)
+{
+    double nearest = (double)ref;
+    double other = (ref > (long double)nearest) ? nextafter(nearest, INFINITY) : nextafter(nearest, -INFINITY);
+    long double mid = ((long double)nearest + (long double)other) / 2;
+    long double ulp_ld = fabsl(ref) * 0x1p-62L; /* 2 long-double ulps: the reference's own error */
+    if (fabsl(ref - mid) <= ulp_ld) {
+        (*ambiguous)++;
+        return memcmp(&got, &nearest, sizeof got) == 0 || memcmp(&got, &other, sizeof got) == 0;
+    }
+    return memcmp(&got, &nearest, sizeof got) == 0;
+}
+
+static int correctly_rounded_f32(float got, long double ref, int *ambiguous)
+{
+    float nearest = (float)ref;
+    float other = (ref > (long double)nearest) ? nextafterf(nearest, INFINITY) : nextafterf(nearest, -INFINITY);
+    long double mid = ((long double)nearest + (long double)other) / 2;
+    long double ulp_ld = fabsl(ref) * 0x1p-62L;
+    if (fabsl(ref - mid) <= ulp_ld) {
+        (*ambiguous)++;
+        return memcmp(&got, &nearest, sizeof got) == 0 || memcmp(&got, &other, sizeof got) == 0;
+    }
+    return memcmp(&got, &nearest, sizeof got) == 0;
+}
+
+typedef struct {
+    uint64_t cpr;
+    uint32_t zero;
+    int8_t dir;
+    uint32_t reading;
+    int64_t expect_s;
+} encoder_case_t;
+
+/* The edge-case table. */
+static const encoder_case_t encoder_cases[] = {
+    {UINT64_C(1) << 32, 0u, 1, 0xFFFFFFFFu, -1},                  /* wrap at 2^32 */
+    {UINT64_C(1) << 32, 0u, 1, 0x7FFFFFFFu, 0x7FFFFFFF},          /* just below a half turn */
+    {UINT64_C(1) << 32, 0u, 1, 0x80000000u, -(INT64_C(1) << 31)}, /* half turn maps to -pi */
+    {UINT64_C(1) << 32, 0u, -1, 0x80000000u, INT64_C(1) << 31},   /* ... and to +pi reversed */
+    {UINT64_C(1) << 32, 10u, 1, 5u, -5},                          /* zero offset above reading */
+    {UINT64_C(1) << 32, 0xFFFFFFF0u, 1, 0x10u, 0x20},             /* offset near top, reading wrapped */
+    {UINT64_C(1) << 32, 0u, -1, 1u, -1},                          /* direction -1 */
+    {UINT64_C(1) << 26, 0u, 1, (1u << 26) - 1u, -1},              /* 26-bit wrap */
+    {UINT64_C(1) << 26, 1000u, -1, 999u, 1},                      /* 26-bit, reversed, below zero */
+    {3600u, 3500u, 1, 100u, 200},                                 /* non power of two, wrap */
+    {3600u, 100u, 1, 3500u, -200},
+    {3600u, 0u, 1, 1800u, -1800},
+    {3600u, 0u, 1, 1799u, 1799},
+    {2u, 0u, 1, 1u, -1},                                          /* smallest resolution */
+    {2u, 1u, 1, 1u, 0},
+    {0xFFFFFFFFu, 0u, 1, 0xFFFFFFFEu, -1},                        /* largest non power of two */
+    {0xFFFFFFFFu, 0u, 1, 0x7FFFFFFFu, 0x7FFFFFFF},
+    {0xFFFFFFFFu, 0u, 1, 0x80000000u, -0x7FFFFFFF},
+    {0xFFFFFFFFu, 0xFFFFFFFEu, -1, 0u, -1},
+    {1000u, 0u, -1, 999u, 1},
+};
+
+static void set_all(aacmm_encoder_config_t *c, uint64_t cpr, uint32_t zero, int8_t dir)
+{
+    int i;
+    for (i = 0; i < 6; i++) {
+        c->counts_per_rev[i] = cpr;
+        c->zero_offset_counts[i] = zero;
+        c->direction[i] = dir;
+    }
+}
+
+static void test_encoder_edge_table(void **state)
+{
+    size_t k;
+    int ambiguous = 0;
+    (void)state;
+    for (k = 0; k < sizeof encoder_cases / sizeof encoder_cases[0]; k++) {
+        const encoder_case_t *t = &encoder_cases[k];
+        aacmm_encoder_config_t c;
+        uint32_t rd[6];
+        int64_t s[6];
+        double a64[6];
+        float a32[6];
+        int i;
+        set_all(&c, t->cpr, t->zero, t->dir);
+        for (i = 0; i < 6; i++) {
+            rd[i] = t->reading;
+        }
+        assert_int_equal(aacmm_encoder_signed_counts(&c, rd, s), AACMM_OK);
+        assert_int_equal(aacmm_encoder_to_angles_f64(&c, rd, a64), AACMM_OK);
+        assert_int_equal(aacmm_encoder_to_angles_f32(&c, rd, a32), AACMM_OK);
+        for (i = 0; i < 6; i++) {
+            long double ref = (long double)t->expect_s * TWO_PI_LD / (long double)t->cpr;
+            if (s[i] != t->expect_s) {
+                fail_msg("case %zu: signed counts %lld, expected %lld", k, (long long)s[i],
+                         (long long)t->expect_s);
+            }
+            assert_true(s[i] == expect_signed(t->cpr, t->zero, t->dir, t->reading));
+            assert_true(correctly_rounded_f64(a64[i], ref, &ambiguous));
+            assert_true(correctly_rounded_f32(a32[i], ref, &ambiguous));
+        }
+    }
+}
+
+/* Every power-of-two resolution 2^1 .. 2^32 and a spread of others: the
+ * angle is the correctly rounded exact value, in both precisions. */
+static void test_encoder_angles_exact(void **state)
+{
+    test_rng_t g = {31337u};
+    int ambiguous = 0;
+    long checked = 0;
+    int n, k;
+    (void)state;
+    for (n = 1; n <= 64; n++) {
+        uint64_t cpr;
+        if (n <= 32) {
+            cpr = UINT64_C(1) << n;
+        } else {
+            /* non powers of two: small, mid-size, and near 2^32 */
+            cpr = (n < 40) ? (uint64_t)(3 + (rng_next(&g) % 5000u))
+                           : (uint64_t)(2 + (rng_next(&g) % UINT64_C(0xFFFFFFFE)));
+            if ((cpr & (cpr - 1u)) == 0u) {
+                cpr++;
+            }
+        }
+        for (k = 0; k < 4000; k++) {
+            aacmm_encoder_config_t c;
+            uint32_t rd[6];
+            double a64[6];
+            float a32[6];
+            int i;
+            for (i = 0; i < 6; i++) {
+                c.counts_per_rev[i] = cpr;
+                c.zero_offset_counts[i] = (uint32_t)(rng_next(&g) % cpr);
+                c.direction[i] = (rng_next(&g) & 1u) ? 1 : -1;
+                rd[i] = (uint32_t)(rng_next(&g) % cpr);
+            }
+            if (k < 6) { /* the extremes of the reading range */
+                rd[0] = 0u;
+                rd[1] = (uint32_t)(cpr - 1u);
+                rd[2] = (uint32_t)(cpr / 2u);
+            }
+            assert_int_equal(aacmm_encoder_to_angles_f64(&c, rd, a64), AACMM_OK);
+            assert_int_equal(aacmm_encoder_to_angles_f32(&c, rd, a32), AACMM_OK);
+            for (i = 0; i < 6; i++) {
+                int64_t s = expect_signed(cpr, c.zero_offset_counts[i], c.direction[i], rd[i]);
+                long double ref = (long double)s * TWO_PI_LD / (long double)cpr;
+                if (!correctly_rounded_f64(a64[i], ref, &ambiguous)) {
+                    fail_msg("cpr %llu s %lld: f64 %a, reference %La", (unsigned long long)cpr,
+                             (long long)s, a64[i], ref);
+                }
+                if (!correctly_rounded_f32(a32[i], ref, &ambiguous)) {
+                    fail_msg("cpr %llu s %lld: f32 %a, reference %La", (unsigned long long)cpr,
+                             (long long)s, (double)a32[i], ref);
+                }
+                assert_true(fabs(a64[i]) <= PI);
+                checked++;
+            }
+        }
+    }
+    printf("measured: %ld encoder angles correctly rounded in f64 and f32 (%d too close to a "
+           "rounding midpoint for the long-double reference to decide)\n",
+           checked, ambiguous);
+}
+
+static void test_encoder_bam(void **state)
+{
+    test_rng_t g = {4242u};
+    int n, k;
+    (void)state;
+    for (n = 1; n <= 48; n++) {
+        uint64_t cpr = (n <= 32) ? (UINT64_C(1) << n) : (uint64_t)(3 + (rng_next(&g) % UINT64_C(0xFFFFFFF0)));
+        if (n > 32 && (cpr & (cpr - 1u)) == 0u) {
+            cpr++;
+        }
+        for (k = 0; k < 2000; k++) {
+            aacmm_encoder_config_t c;
+            uint32_t rd[6], bam[6];
+            int i;
+            for (i = 0; i < 6; i++) {
+                c.counts_per_rev[i] = cpr;
+                c.zero_offset_counts[i] = (uint32_t)(rng_next(&g) % cpr);
+                c.direction[i] = (rng_next(&g) & 1u) ? 1 : -1;
+                rd[i] = (uint32_t)(rng_next(&g) % cpr);
+            }
+            assert_int_equal(aacmm_encoder_to_bam(&c, rd, bam), AACMM_OK);
+            for (i = 0; i < 6; i++) {
+                int64_t s = expect_signed(cpr, c.zero_offset_counts[i], c.direction[i], rd[i]);
+                /* The exact binary angle s * 2^32 / cpr as a long double, and
+                 * the result read as a signed turn fraction. */
+                long double exact = (long double)s * 0x1p32L / (long double)cpr;
+                long double got = (long double)(int32_t)bam[i];
+                if (fabsl(exact) >= 0x1p31L) {
+                    /* half turn: +pi and -pi are the same binary angle */
+                    assert_true(bam[i] == 0x80000000u);
+                    continue;
+                }
+                if (n <= 32) {
+                    assert_true(fabsl(got - exact) <= 0.0L); /* exact for powers of two */
+                } else {
+                    assert_true(fabsl(got - exact) <= 0.5L);
+                }
+            }
+        }
+    }
+}
+
+static void test_encoder_invalid(void **state)
+{
+    aacmm_encoder_config_t c;
+    uint32_t rd[6] = {0, 0, 0, 0, 0, 0};
+    int64_t s[6];
+    double a[6];
+    float af[6];
+    uint32_t bam[6];
+    (void)state;
+    assert_int_equal(aacmm_encoder_default(&c), AACMM_OK);
+    assert_int_equal(aacmm_encoder_validate(&c), AACMM_OK);
+    assert_int_equal(aacmm_encoder_default(NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_encoder_validate(NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_encoder_to_angles_f64(NULL, rd, a), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_encoder_to_angles_f64(&c, NULL, a), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_encoder_to_angles_f64(&c, rd, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_encoder_to_angles_f32(&c, rd, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_encoder_to_bam(&c, rd, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_encoder_signed_counts(&c, rd, NULL), AACMM_ERR_NULL);
+
+    c.counts_per_rev[2] = 1u;
+    assert_int_equal(aacmm_encoder_validate(&c), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_encoder_to_angles_f64(&c, rd, a), AACMM_ERR_RANGE);
+    c.counts_per_rev[2] = (UINT64_C(1) << 32) + 1u;
+    assert_int_equal(aacmm_encoder_validate(&c), AACMM_ERR_RANGE);
+    c.counts_per_rev[2] = 0u;
+    assert_int_equal(aacmm_encoder_validate(&c), AACMM_ERR_RANGE);
+    aacmm_encoder_default(&c);
+    c.direction[5] = 0;
+    assert_int_equal(aacmm_encoder_validate(&c), AACMM_ERR_RANGE);
+    aacmm_encoder_default(&c);
+    c.counts_per_rev[1] = 1000u;
+    c.zero_offset_counts[1] = 1000u; /* must be < cpr */
+    assert_int_equal(aacmm_encoder_validate(&c), AACMM_ERR_RANGE);
+    c.zero_offset_counts[1] = 999u;
+    assert_int_equal(aacmm_encoder_validate(&c), AACMM_OK);
+    /* a reading >= cpr is rejected and nothing is written */
+    rd[1] = 1000u;
+    a[0] = 42.0;
+    af[0] = 42.0f;
+    bam[0] = 42u;
+    assert_int_equal(aacmm_encoder_to_angles_f64(&c, rd, a), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_encoder_to_angles_f32(&c, rd, af), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_encoder_to_bam(&c, rd, bam), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_encoder_signed_counts(&c, rd, s), AACMM_ERR_RANGE);
+    assert_true(a[0] > 41.0 && af[0] > 41.0f && bam[0] == 42u);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Invalid parameters, null pointers, bad angles, batches                    */
+/* ------------------------------------------------------------------------ */
+
+static void test_params_invalid(void **state)
+{
+    aacmm_params_f64_t p;
+    aacmm_params_f32_t pf;
+    aacmm_model_f64_t m, m_before;
+    aacmm_model_f32_t mf;
+    (void)state;
+    assert_int_equal(aacmm_params_default_f64(NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_params_default_f32(NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_params_validate_f64(NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_params_validate_f32(NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_model_init_f64(NULL, &p), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_params_default_f64(&p), AACMM_OK);
+    assert_int_equal(aacmm_model_init_f64(&m, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_OK);
+    assert_int_equal(aacmm_model_init_f64(&m, &p), AACMM_OK);
+    m_before = m;
+
+    p.d_mm[3] = NAN;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_NOT_FINITE);
+    assert_int_equal(aacmm_model_init_f64(&m, &p), AACMM_ERR_NOT_FINITE);
+    assert_memory_equal(&m, &m_before, sizeof m); /* unchanged on error */
+    p.d_mm[3] = INFINITY;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_NOT_FINITE);
+    p.d_mm[3] = -10000.5;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_RANGE);
+    p.d_mm[3] = -10000.0;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_OK);
+    p.alpha_rad[0] = 6.3;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_RANGE);
+    p.alpha_rad[0] = 0.0;
+    p.theta_offset_rad[5] = -7.0;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_RANGE);
+    p.theta_offset_rad[5] = 0.0;
+    p.l_mm = 1e300;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_RANGE);
+    p.l_mm = 0.0;
+    p.a_mm[2] = -INFINITY;
+    assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_NOT_FINITE);
+
+    assert_int_equal(aacmm_params_default_f32(&pf), AACMM_OK);
+    pf.l_mm = NAN;
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_ERR_NOT_FINITE);
+    pf.l_mm = 2e4f;
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_ERR_RANGE);
+}
+
+static void test_bad_angles_and_nulls(void **state)
+{
+    aacmm_model_f64_t m;
+    aacmm_model_f32_t mf;
+    aacmm_params_f32_t pf;
+    double th[6] = {0, 0, 0, 0, 0, 0}, p[3] = {1, 2, 3}, J[AACMM_JAC_SIZE];
+    float thf[6] = {0, 0, 0, 0, 0, 0}, pff[3], Jf[AACMM_JAC_SIZE];
+    (void)state;
+    default_model(&m);
+    aacmm_params_default_f32(&pf);
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
+    assert_int_equal(aacmm_point_f64(NULL, th, p), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_point_f64(&m, NULL, p), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_point_f64(&m, th, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_point_jacobian_f32(&mf, thf, pff, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_point_f32(&mf, NULL, pff), AACMM_ERR_NULL);
+    th[4] = NAN;
+    assert_int_equal(aacmm_point_f64(&m, th, p), AACMM_ERR_NOT_FINITE);
+    assert_true(p[0] > 0.5 && p[0] < 1.5); /* not written */
+    th[4] = -INFINITY;
+    assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_ERR_NOT_FINITE);
+    th[4] = 1025.0;
+    assert_int_equal(aacmm_point_f64(&m, th, p), AACMM_ERR_RANGE);
+    th[4] = -1024.0; /* the limit itself is accepted */
+    assert_int_equal(aacmm_point_f64(&m, th, p), AACMM_OK);
+    thf[0] = INFINITY;
+    assert_int_equal(aacmm_point_jacobian_f32(&mf, thf, pff, Jf), AACMM_ERR_NOT_FINITE);
+}
+
+static void test_batches(void **state)
+{
+    enum { N = 50 };
+    aacmm_model_f64_t m;
+    aacmm_model_f32_t mf;
+    aacmm_params_f32_t pf;
+    aacmm_encoder_config_t enc;
+    static double th[N * 6], P[N * 3], J[N * AACMM_JAC_SIZE];
+    static float thf[N * 6], Pf[N * 3], Jf[N * AACMM_JAC_SIZE];
+    static uint32_t counts[N * 6];
+    test_rng_t g = {8u};
+    size_t done = 99u;
+    int k, i;
+    (void)state;
+    default_model(&m);
+    aacmm_params_default_f32(&pf);
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
+    aacmm_encoder_default(&enc);
+    enc.counts_per_rev[3] = 3600u;
+    for (k = 0; k < N * 6; k++) {
+        counts[k] = (uint32_t)rng_next(&g);
+        if (k % 6 == 3) {
+            counts[k] %= 3600u;
+        }
+    }
+    /* counts batch == per-pose conversion + point_jacobian */
+    assert_int_equal(aacmm_batch_counts_f64(&m, &enc, N, counts, P, J, &done), AACMM_OK);
+    assert_int_equal((int)done, N);
+    for (k = 0; k < N; k++) {
+        double a[6], p[3], Jk[AACMM_JAC_SIZE];
+        assert_int_equal(aacmm_encoder_to_angles_f64(&enc, counts + 6 * k, a), AACMM_OK);
+        assert_int_equal(aacmm_point_jacobian_f64(&m, a, p, Jk), AACMM_OK);
+        assert_memory_equal(p, P + 3 * k, sizeof p);
+        assert_memory_equal(Jk, J + AACMM_JAC_SIZE * k, sizeof Jk);
+        for (i = 0; i < 6; i++) {
+            th[6 * k + i] = a[i];
+            thf[6 * k + i] = (float)a[i];
+        }
+    }
+    /* angle batch with and without Jacobians */
+    assert_int_equal(aacmm_batch_angles_f64(&m, N, th, P, NULL, &done), AACMM_OK);
+    assert_int_equal(aacmm_batch_angles_f32(&mf, N, thf, Pf, Jf, &done), AACMM_OK);
+    assert_int_equal(aacmm_batch_counts_f32(&mf, &enc, N, counts, Pf, NULL, &done), AACMM_OK);
+    assert_int_equal((int)done, N);
+    /* the first bad pose stops the batch; done counts the good ones */
+    th[6 * 17 + 2] = NAN;
+    assert_int_equal(aacmm_batch_angles_f64(&m, N, th, P, J, &done), AACMM_ERR_NOT_FINITE);
+    assert_int_equal((int)done, 17);
+    counts[6 * 9 + 3] = 3600u; /* out of range for this joint */
+    assert_int_equal(aacmm_batch_counts_f64(&m, &enc, N, counts, P, J, &done), AACMM_ERR_RANGE);
+    assert_int_equal((int)done, 9);
+    assert_int_equal(aacmm_batch_counts_f32(&mf, &enc, N, counts, Pf, Jf, &done), AACMM_ERR_RANGE);
+    assert_int_equal((int)done, 9);
+    /* n = 0 is a no-op, NULL buffers allowed then */
+    assert_int_equal(aacmm_batch_angles_f64(&m, 0, NULL, NULL, NULL, &done), AACMM_OK);
+    assert_int_equal((int)done, 0);
+    assert_int_equal(aacmm_batch_angles_f64(&m, 1, NULL, P, NULL, NULL), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_batch_counts_f64(&m, NULL, 1, counts, P, NULL, NULL), AACMM_ERR_NULL);
+}
+
+static void test_status_strings(void **state)
+{
+    int code;
+    (void)state;
+    for (code = 0; code > (int)AACMM_STATUS_MIN_; code--) {
+        assert_string_not_equal(aacmm_status_str((aacmm_status_t)code), "unknown status");
+    }
+    assert_string_equal(aacmm_status_str(AACMM_STATUS_MIN_), "unknown status");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_point_matches_reference),
+        cmocka_unit_test(test_point_jacobian_same_point),
+        cmocka_unit_test(test_jacobian_vs_central_differences),
+        cmocka_unit_test(test_jacobian_vs_reference_differences),
+        cmocka_unit_test(test_paper_identities),
+        cmocka_unit_test(test_zero_pose_by_hand),
+        cmocka_unit_test(test_f32_vs_f64),
+        cmocka_unit_test(test_sincos_accuracy),
+        cmocka_unit_test(test_encoder_edge_table),
+        cmocka_unit_test(test_encoder_angles_exact),
+        cmocka_unit_test(test_encoder_bam),
+        cmocka_unit_test(test_encoder_invalid),
+        cmocka_unit_test(test_params_invalid),
+        cmocka_unit_test(test_bad_angles_and_nulls),
+        cmocka_unit_test(test_batches),
+        cmocka_unit_test(test_status_strings),
+    };
+    return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
+}
