@@ -1,0 +1,49 @@
+"""The exception tree of the aacmm host package.
+
+Every error the package raises on purpose derives from :class:`AacmmError`, so
+callers can catch that one class. Bad arguments raise the built-in
+:class:`ValueError` (or :class:`TypeError`) instead.
+"""
+
+from __future__ import annotations
+
+
+class AacmmError(Exception):
+    """Base class of every aacmm error."""
+
+
+class InitError(AacmmError):
+    """A device, port or bus could not be opened or configured."""
+
+
+class OperationError(AacmmError):
+    """An operation failed on the host side (I/O error, closed port, ...)."""
+
+
+class DeviceTimeoutError(AacmmError):
+    """The device did not answer in time."""
+
+
+class FrameError(AacmmError):
+    """Received bytes are not a valid frame or message.
+
+    ``status`` is the matching firmware status code (``aacmm_status_t``, e.g.
+    -5 for a CRC mismatch), so host and device report the same reason.
+    """
+
+    def __init__(self, message: str, status: int) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+class DeviceError(AacmmError):
+    """The device answered a request with an error response.
+
+    ``status`` is the device's ``aacmm_status_t`` code (negative) and
+    ``request_type`` the message type of the failed request.
+    """
+
+    def __init__(self, message: str, status: int, request_type: int = 0) -> None:
+        super().__init__(message)
+        self.status = status
+        self.request_type = request_type

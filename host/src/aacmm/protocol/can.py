@@ -1,0 +1,259 @@
+"""aacmm on classic CAN: sample frames (via the DBC and ``cantools``) and ISO-TP set-up.
+
+Identifiers are a base plus the node id (0..15). Plain samples go out as six
+8-byte frames described by ``aacmm/data/aacmm.dbc``; every other message is a
+protocol message body carried by ISO-TP (``can-isotp``) on 0x600+n (host to
+device) and 0x680+n (device to host).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib import resources
+from typing import Any, Final
+
+import cantools
+import cantools.database
+import isotp
+
+from aacmm.protocol.messages import Sample
+
+NODE_ID_MAX: Final = 15
+
+ID_SAMPLE_HEADER: Final = 0x100
+ID_COUNTS_12: Final = 0x110
+ID_COUNTS_34: Final = 0x120
+ID_COUNTS_56: Final = 0x130
+ID_POINT_XY: Final = 0x140
+ID_POINT_Z: Final = 0x150
+ID_TRIGGER: Final = 0x160
+ID_ISOTP_REQUEST: Final = 0x600
+ID_ISOTP_RESPONSE: Final = 0x680
+
+SAMPLE_FRAME_IDS: Final = (
+    ID_SAMPLE_HEADER,
+    ID_COUNTS_12,
+    ID_COUNTS_34,
+    ID_COUNTS_56,
+    ID_POINT_XY,
+    ID_POINT_Z,
+)
+"""Base ids of one sample's frames, in transmit order."""
+
+ISOTP_PADDING: Final = 0xCC
+
+
+def _check_node(node_id: int) -> None:
+    if isinstance(node_id, bool) or not isinstance(node_id, int) or not 0 <= node_id <= 15:
+        raise ValueError(f"node id {node_id!r} outside 0..{NODE_ID_MAX}")
+
+
+def dbc_path() -> str:
+    """File system path of the packaged DBC file."""
+    return str(resources.files("aacmm").joinpath("data/aacmm.dbc"))
+
+
+_DB: cantools.database.can.Database | None = None
+
+
+def load_dbc() -> cantools.database.can.Database:
+    """The packaged DBC (node 0 ids) loaded with ``cantools`` (cached)."""
+    global _DB
+    if _DB is None:
+        db = cantools.database.load_file(dbc_path())
+        assert isinstance(db, cantools.database.can.Database)
+        _DB = db
+    return _DB
+
+
+def _decode_raw(frame_id: int, data: bytes) -> dict[str, int]:
+    """Raw (unscaled) integer signal values of one frame of the DBC."""
+    sig = load_dbc().decode_message(frame_id, data, scaling=False, decode_choices=False)
+    if not isinstance(sig, dict):
+        raise ValueError("unexpected container message")
+    out: dict[str, int] = {}
+    for k, v in sig.items():
+        if not isinstance(v, int):
+            raise ValueError(f"signal {k} is not an integer")
+        out[k] = v
+    return out
+
+
+@dataclass(frozen=True)
+class CanFrame:
+    """One classic CAN frame: 11-bit id and 0..8 data bytes."""
+
+    arbitration_id: int
+    data: bytes
+
+
+def encode_sample_frames(sample: Sample, node_id: int = 0) -> list[CanFrame]:
+    """The six frames of a sample, in transmit order (encoded with the DBC).
+
+    Only the low 32 timestamp bits and low 16 status bits travel; the Jacobian
+    does not.
+
+    Raises:
+        ValueError: bad node id or sample field out of range.
+    """
+    _check_node(node_id)
+    db = load_dbc()
+    s = sample
+    values: list[dict[str, int]] = [
+        {"Seq": s.seq, "TimestampUs": s.timestamp_us & 0xFFFFFFFF},
+        {"Count1": s.counts[0], "Count2": s.counts[1]},
+        {"Count3": s.counts[2], "Count4": s.counts[3]},
+        {"Count5": s.counts[4], "Count6": s.counts[5]},
+        {"X": s.point_100nm[0], "Y": s.point_100nm[1]},
+        {"Z": s.point_100nm[2], "Status": s.status & 0xFFFF, "SeqTag": s.seq & 0xFF, "Reserved": 0},
+    ]
+    frames = []
+    for base, sig in zip(SAMPLE_FRAME_IDS, values, strict=True):
+        try:
+            data = db.encode_message(base, sig, scaling=False, strict=True)
+        except (cantools.database.EncodeError, KeyError) as exc:
+            raise ValueError(f"cannot encode sample frame 0x{base:03x}: {exc}") from None
+        frames.append(CanFrame(base + node_id, bytes(data)))
+    return frames
+
+
+@dataclass(frozen=True)
+class TriggerFrame:
+    """A decoded trigger frame."""
+
+    seq: int
+    button: int
+    pressed: bool
+
+
+@dataclass
+class AssemblerStats:
+    """Counters of :class:`SampleAssembler`."""
+
+    samples: int = 0
+    incomplete: int = 0  # a sample missing frames or with a mismatched SeqTag
+    bad_frames: int = 0  # wrong DLC or undecodable
+    foreign: int = 0  # frames of other nodes or unrelated ids
+
+
+class SampleAssembler:
+    """Collects the sample frames of one node and returns complete samples.
+
+    The frames of a sample must arrive in transmit order; a header restarts
+    collection, and a sample with a missing frame or a SeqTag that does not
+    match the header's Seq is dropped and counted. Returned samples have
+    ``timestamp_us`` = low 32 bits of the device clock, ``status`` = low 16 bits,
+    and no Jacobian.
+    """
+
+    def __init__(self, node_id: int = 0) -> None:
+        _check_node(node_id)
+        self.node_id = node_id
+        self.stats = AssemblerStats()
+        self._parts: dict[int, dict[str, int]] = {}
+
+    def _decode(self, base: int, data: bytes) -> dict[str, int] | None:
+        if len(data) != 8:
+            self.stats.bad_frames += 1
+            return None
+        try:
+            return _decode_raw(base, data)
+        except Exception:  # cantools raises several types for bad data
+            self.stats.bad_frames += 1
+            return None
+
+    def feed(self, arbitration_id: int, data: bytes) -> Sample | None:
+        """Process one received frame; return a sample when one completes."""
+        base = arbitration_id - self.node_id
+        if base not in SAMPLE_FRAME_IDS:
+            self.stats.foreign += 1
+            return None
+        sig = self._decode(base, bytes(data))
+        if sig is None:
+            return None
+        index = SAMPLE_FRAME_IDS.index(base)
+        if index == 0:
+            if self._parts:
+                self.stats.incomplete += 1
+            self._parts = {0: sig}
+            return None
+        if not self._parts or index != len(self._parts):
+            if self._parts or index:
+                self.stats.incomplete += 1
+            self._parts = {}
+            return None
+        self._parts[index] = sig
+        if index < len(SAMPLE_FRAME_IDS) - 1:
+            return None
+        p = self._parts
+        self._parts = {}
+        if p[5]["SeqTag"] != p[0]["Seq"] & 0xFF:
+            self.stats.incomplete += 1
+            return None
+        self.stats.samples += 1
+        return Sample(
+            seq=p[0]["Seq"],
+            timestamp_us=p[0]["TimestampUs"],
+            counts=(
+                p[1]["Count1"],
+                p[1]["Count2"],
+                p[2]["Count3"],
+                p[2]["Count4"],
+                p[3]["Count5"],
+                p[3]["Count6"],
+            ),
+            point_100nm=(p[4]["X"], p[4]["Y"], p[5]["Z"]),
+            status=p[5]["Status"],
+        )
+
+
+def decode_trigger_frame(data: bytes) -> TriggerFrame:
+    """Decode the 8 data bytes of a trigger frame.
+
+    Raises:
+        ValueError: not 8 bytes or pressed not 0/1.
+    """
+    if len(data) != 8:
+        raise ValueError("trigger frame needs 8 bytes")
+    sig = _decode_raw(ID_TRIGGER, bytes(data))
+    if sig["Pressed"] > 1:
+        raise ValueError("trigger Pressed must be 0 or 1")
+    return TriggerFrame(sig["Seq"], sig["Button"], bool(sig["Pressed"]))
+
+
+def isotp_address(node_id: int = 0) -> isotp.Address:
+    """ISO-TP normal 11-bit addressing of the host side for ``node_id``."""
+    _check_node(node_id)
+    return isotp.Address(
+        isotp.AddressingMode.Normal_11bits,
+        txid=ID_ISOTP_REQUEST + node_id,
+        rxid=ID_ISOTP_RESPONSE + node_id,
+    )
+
+
+def isotp_params(timeout_ms: int = 1000) -> dict[str, Any]:
+    """``can-isotp`` parameters matching the firmware endpoint.
+
+    Classic CAN, 8-byte frames padded with 0xCC, no block-size limit or STmin
+    asked of the device, ``timeout_ms`` for flow control and consecutive frames,
+    messages up to 4095 bytes.
+    """
+    return {
+        "stmin": 0,
+        "blocksize": 0,
+        "tx_padding": ISOTP_PADDING,
+        "tx_data_length": 8,
+        "can_fd": False,
+        "rx_flowcontrol_timeout": timeout_ms,
+        "rx_consecutive_frame_timeout": timeout_ms,
+        "wftmax": 10,
+        "max_frame_size": 4095,
+    }
+
+
+def make_isotp_stack(bus: Any, node_id: int = 0, timeout_ms: int = 1000) -> isotp.CanStack:
+    """A threaded ``can-isotp`` stack on a ``python-can`` bus, talking to ``node_id``.
+
+    Call ``start()`` before use and ``stop()`` after, as ``can-isotp`` documents.
+    """
+    return isotp.CanStack(bus, address=isotp_address(node_id), params=isotp_params(timeout_ms))
