@@ -86,7 +86,7 @@ aacmm_status_t SFX(aacmm_model_init)(TYPE(aacmm_model) *model, const TYPE(aacmm_
 /* Sine and cosine                                                           */
 /* ------------------------------------------------------------------------ */
 
-void SFX(aacmm_sincos)(REAL x, REAL *s, REAL *c)
+static inline void SFX(sincos_inline)(REAL x, REAL *s, REAL *c)
 {
     /* Quadrant signs, indexed by bit 1 of the quadrant (sine) and of the
      * quadrant + 1 (cosine): a table instead of a switch, because random
@@ -107,6 +107,11 @@ void SFX(aacmm_sincos)(REAL x, REAL *s, REAL *c)
     *c = v[(q & 1u) ^ 1u] * sign[((q + 1u) >> 1) & 1u];
 }
 
+void SFX(aacmm_sincos)(REAL x, REAL *s, REAL *c)
+{
+    SFX(sincos_inline)(x, s, c);
+}
+
 /* ------------------------------------------------------------------------ */
 /* Forward kinematics and Jacobian                                           */
 /* ------------------------------------------------------------------------ */
@@ -122,6 +127,22 @@ static aacmm_status_t SFX(check_angles)(const REAL theta_rad[AACMM_JOINTS])
         }
     }
     return AACMM_OK;
+}
+
+/* A 3-vector. Small structs passed by value stay in registers, where the
+ * indexed arrays of a loop over coordinates would not. */
+typedef struct {
+    REAL x, y, z;
+} SFX(vec3);
+
+/* a u + b v */
+static inline SFX(vec3) SFX(lin2)(REAL a, SFX(vec3) u, REAL b, SFX(vec3) v)
+{
+    SFX(vec3) r;
+    r.x = a * u.x + b * v.x;
+    r.y = a * u.y + b * v.y;
+    r.z = a * u.z + b * v.z;
+    return r;
 }
 
 /*
@@ -140,64 +161,70 @@ static aacmm_status_t SFX(check_angles)(const REAL theta_rad[AACMM_JOINTS])
 static inline void SFX(chain)(const TYPE(aacmm_model) *model, const REAL theta_rad[AACMM_JOINTS],
                               REAL p_mm[3], REAL *jac)
 {
-    REAL X[3] = {LIT(1.0), LIT(0.0), LIT(0.0)};
-    REAL Y[3] = {LIT(0.0), LIT(1.0), LIT(0.0)};
-    REAL Z[3] = {LIT(0.0), LIT(0.0), LIT(1.0)};
-    REAL O[3] = {LIT(0.0), LIT(0.0), LIT(0.0)};
-    REAL zprev[AACMM_JOINTS][3], oprev[AACMM_JOINTS][3], xs[AACMM_JOINTS][3], os[AACMM_JOINTS][3];
-    REAL p[3];
-    int i, r;
+    SFX(vec3) X = {LIT(1.0), LIT(0.0), LIT(0.0)};
+    SFX(vec3) Y = {LIT(0.0), LIT(1.0), LIT(0.0)};
+    SFX(vec3) Z = {LIT(0.0), LIT(0.0), LIT(1.0)};
+    SFX(vec3) O = {LIT(0.0), LIT(0.0), LIT(0.0)};
+    SFX(vec3) zprev[AACMM_JOINTS], oprev[AACMM_JOINTS], xs[AACMM_JOINTS], os[AACMM_JOINTS];
+    SFX(vec3) p;
+    int i;
 
     for (i = 0; i < AACMM_JOINTS; i++) {
-        REAL s, c, u[3];
         const REAL sa = model->sin_alpha[i];
         const REAL ca = model->cos_alpha[i];
-        const REAL d = model->params.d_mm[i];
-        const REAL a = model->params.a_mm[i];
-        SFX(aacmm_sincos)(theta_rad[i] + model->params.theta_offset_rad[i], &s, &c);
-        for (r = 0; r < 3; r++) {
-            zprev[i][r] = Z[r];
-            oprev[i][r] = O[r];
-            u[r] = -s * X[r] + c * Y[r];
-            X[r] = c * X[r] + s * Y[r];
-            Y[r] = ca * u[r] + sa * Z[r];
-            Z[r] = -sa * u[r] + ca * Z[r];
-            O[r] = O[r] + d * zprev[i][r] + a * X[r];
-            xs[i][r] = X[r];
-            os[i][r] = O[r];
-        }
+        REAL s, c;
+        SFX(vec3) u, step;
+        SFX(sincos_inline)(theta_rad[i] + model->params.theta_offset_rad[i], &s, &c);
+        zprev[i] = Z;
+        oprev[i] = O;
+        u = SFX(lin2)(-s, X, c, Y);
+        X = SFX(lin2)(c, X, s, Y);
+        Y = SFX(lin2)(ca, u, sa, Z);
+        Z = SFX(lin2)(-sa, u, ca, Z);
+        step = SFX(lin2)(model->params.d_mm[i], zprev[i], model->params.a_mm[i], X);
+        O.x += step.x;
+        O.y += step.y;
+        O.z += step.z;
+        xs[i] = X;
+        os[i] = O;
     }
-    for (r = 0; r < 3; r++) {
-        p[r] = O[r] + model->params.l_mm * Z[r];
-        p_mm[r] = p[r];
-    }
+    p = SFX(lin2)(LIT(1.0), O, model->params.l_mm, Z);
+    p_mm[0] = p.x;
+    p_mm[1] = p.y;
+    p_mm[2] = p.z;
     if (jac == NULL) {
         return;
     }
     for (i = 0; i < AACMM_JOINTS; i++) {
-        const REAL *zp = zprev[i];
-        const REAL *xi = xs[i];
-        REAL v[3], w[3];
-        for (r = 0; r < 3; r++) {
-            v[r] = p[r] - oprev[i][r];
-            w[r] = p[r] - os[i][r];
-        }
+        const SFX(vec3) zp = zprev[i];
+        const SFX(vec3) xi = xs[i];
+        SFX(vec3) v, w;
+        v.x = p.x - oprev[i].x;
+        v.y = p.y - oprev[i].y;
+        v.z = p.z - oprev[i].z;
+        w.x = p.x - os[i].x;
+        w.y = p.y - os[i].y;
+        w.z = p.z - os[i].z;
         /* d p / d theta_i = z_{i-1} x (p - o_{i-1}) */
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp[1] * v[2] - zp[2] * v[1];
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp[2] * v[0] - zp[0] * v[2];
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp[0] * v[1] - zp[1] * v[0];
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.y * v.z - zp.z * v.y;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.z * v.x - zp.x * v.z;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.x * v.y - zp.y * v.x;
         /* d p / d alpha_i = x_i x (p - o_i) */
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi[1] * w[2] - xi[2] * w[1];
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi[2] * w[0] - xi[0] * w[2];
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi[0] * w[1] - xi[1] * w[0];
-        for (r = 0; r < 3; r++) {
-            jac[r * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp[r]; /* d p / d d_i = z_{i-1} */
-            jac[r * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi[r]; /* d p / d a_i = x_i */
-        }
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.y * w.z - xi.z * w.y;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.z * w.x - xi.x * w.z;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.x * w.y - xi.y * w.x;
+        /* d p / d d_i = z_{i-1};  d p / d a_i = x_i */
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.x;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.y;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.z;
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.x;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.y;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.z;
     }
-    for (r = 0; r < 3; r++) {
-        jac[r * AACMM_JAC_COLS + AACMM_COL_L] = Z[r]; /* d p / d l = z_6 */
-    }
+    /* d p / d l = z_6 */
+    jac[0 * AACMM_JAC_COLS + AACMM_COL_L] = Z.x;
+    jac[1 * AACMM_JAC_COLS + AACMM_COL_L] = Z.y;
+    jac[2 * AACMM_JAC_COLS + AACMM_COL_L] = Z.z;
 }
 
 aacmm_status_t SFX(aacmm_point)(const TYPE(aacmm_model) *model, const REAL theta_rad[AACMM_JOINTS],
