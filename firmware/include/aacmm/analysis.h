@@ -1,0 +1,80 @@
+/*
+ * aacmm host analysis helpers: tight C loops over the kinematics core for the
+ * Monte Carlo error-transfer study (paper Table 2) and for uncertainty
+ * propagation. Host only (double precision); not part of the firmware image.
+ *
+ * Every function calls the core (aacmm_point_jacobian_f64, aacmm_point_f64,
+ * aacmm_model_init_f64) pose by pose and keeps only small fixed-size state on
+ * the stack, so the working set stays in L1 whatever n is. Ownership: the
+ * caller owns every buffer; nothing is allocated, nothing is kept between
+ * calls, no global state is touched; all functions are reentrant, so disjoint
+ * slices of one batch may run on several threads at once.
+ */
+#ifndef AACMM_ANALYSIS_H
+#define AACMM_ANALYSIS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacmm/kinematics.h"
+#include "aacmm/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Number of structural parameters, in the Jacobian column order. */
+#define AACMM_N_PARAMS AACMM_JAC_COLS
+
+/*
+ * Accumulate, over n poses theta_rad[n*6] (rad, readings as for
+ * aacmm_point_jacobian_f64), the sum of |J| and the sum of J^2 for each of the
+ * 75 Jacobian entries (row-major, as jac in kinematics.h):
+ *     abs_sum[k] += |J_k|,   sq_sum[k] += J_k^2.
+ * The sums are added to what the arrays hold, so the caller zeroes them first
+ * and may call again to extend a run. Stops at the first invalid pose (errors
+ * as aacmm_point_f64: AACMM_ERR_RANGE, AACMM_ERR_NOT_FINITE); the poses before
+ * it are accumulated and *done (if not NULL) receives their number (n on
+ * success). AACMM_ERR_NULL for a NULL model or sum array, or a NULL theta_rad
+ * with n > 0. Cost: n times (point + Jacobian + 150 flops).
+ */
+aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_t n,
+                                           const double *theta_rad, double abs_sum[AACMM_JAC_SIZE],
+                                           double sq_sum[AACMM_JAC_SIZE], size_t *done);
+
+/*
+ * Probe points of an arm whose parameters are nominal + delta, for n_trials
+ * parameter draws and n_poses poses: for trial t the model is built from
+ *     theta_offset_i += delta[t*25 + i],  alpha_i += delta[t*25 + 6 + i],
+ *     d_i += delta[t*25 + 12 + i],        a_i += delta[t*25 + 18 + i],
+ *     l += delta[t*25 + 24]
+ * (the Jacobian column order) and p_mm[(t*n_poses + k)*3 + r] receives the
+ * point of pose k (theta_rad[k*6 .. k*6+5]). Stops at the first trial whose
+ * perturbed parameters are invalid (AACMM_ERR_RANGE / AACMM_ERR_NOT_FINITE, as
+ * aacmm_model_init_f64) or the first invalid pose; *done (if not NULL)
+ * receives the number of trials fully written (n_trials on success).
+ * AACMM_ERR_NULL for NULL pointers (theta_rad, delta, p_mm may be NULL only
+ * when there is nothing to compute). Cost: n_trials * (6 sine/cosine pairs +
+ * n_poses point evaluations).
+ */
+aacmm_status_t aacmm_perturbed_points_f64(const aacmm_params_f64_t *nominal, size_t n_trials,
+                                          const double *delta, size_t n_poses,
+                                          const double *theta_rad, double *p_mm, size_t *done);
+
+/*
+ * Joint angles in rad for n poses of raw readings reading_counts[n*6]
+ * (aacmm_encoder_to_angles_f64 pose by pose, written to theta_rad[n*6]).
+ * Stops at the first invalid pose with its error (AACMM_ERR_RANGE for a
+ * reading >= counts_per_rev or an invalid config); *done (if not NULL)
+ * receives the number of poses written. AACMM_ERR_NULL for NULL pointers
+ * (arrays may be NULL when n = 0). Cost: n times the single-pose cost.
+ */
+aacmm_status_t aacmm_counts_to_angles_f64(const aacmm_encoder_config_t *encoders, size_t n,
+                                          const uint32_t *reading_counts, double *theta_rad,
+                                          size_t *done);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACMM_ANALYSIS_H */

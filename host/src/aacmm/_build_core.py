@@ -1,0 +1,97 @@
+"""cffi build script: binds the firmware's kinematics core into ``aacmm._core``.
+
+Run by setuptools (``cffi_modules`` in host/setup.py) when the package is
+built or installed; it compiles the firmware's own C sources (not a copy), so
+the host analysis runs exactly the code the arm runs (double-precision build).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from cffi import FFI
+
+_HERE = Path(__file__).resolve().parent
+# host/src/aacmm -> repository root
+ROOT = _HERE.parents[2]
+FW_INC = ROOT / "firmware" / "include"
+FW_SRC = ROOT / "firmware" / "src"
+SOURCES = [
+    FW_SRC / "status.c",
+    FW_SRC / "encoder.c",
+    FW_SRC / "kinematics_f64.c",
+    FW_SRC / "analysis.c",
+]
+
+CDEF = """
+typedef enum {
+    AACMM_OK, AACMM_ERR_NULL, AACMM_ERR_RANGE, AACMM_ERR_NOT_FINITE, ...
+} aacmm_status_t;
+const char *aacmm_status_str(aacmm_status_t status);
+
+typedef struct {
+    double theta_offset_rad[6];
+    double alpha_rad[6];
+    double d_mm[6];
+    double a_mm[6];
+    double l_mm;
+} aacmm_params_f64_t;
+
+typedef struct {
+    aacmm_params_f64_t params;
+    double sin_alpha[6];
+    double cos_alpha[6];
+} aacmm_model_f64_t;
+
+typedef struct {
+    uint64_t counts_per_rev[6];
+    uint32_t zero_offset_counts[6];
+    int8_t direction[6];
+} aacmm_encoder_config_t;
+
+aacmm_status_t aacmm_params_default_f64(aacmm_params_f64_t *params);
+aacmm_status_t aacmm_params_validate_f64(const aacmm_params_f64_t *params);
+aacmm_status_t aacmm_model_init_f64(aacmm_model_f64_t *model, const aacmm_params_f64_t *params);
+aacmm_status_t aacmm_encoder_validate(const aacmm_encoder_config_t *config);
+aacmm_status_t aacmm_encoder_to_angles_f64(const aacmm_encoder_config_t *config,
+                                           const uint32_t reading_counts[6], double theta_rad[6]);
+aacmm_status_t aacmm_point_f64(const aacmm_model_f64_t *model, const double theta_rad[6],
+                               double p_mm[3]);
+aacmm_status_t aacmm_point_jacobian_f64(const aacmm_model_f64_t *model,
+                                        const double theta_rad[6], double p_mm[3],
+                                        double jac[75]);
+aacmm_status_t aacmm_batch_angles_f64(const aacmm_model_f64_t *model, size_t n,
+                                      const double *theta_rad, double *p_mm, double *jac,
+                                      size_t *done);
+aacmm_status_t aacmm_batch_counts_f64(const aacmm_model_f64_t *model,
+                                      const aacmm_encoder_config_t *encoders, size_t n,
+                                      const uint32_t *reading_counts, double *p_mm, double *jac,
+                                      size_t *done);
+aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_t n,
+                                           const double *theta_rad, double abs_sum[75],
+                                           double sq_sum[75], size_t *done);
+aacmm_status_t aacmm_perturbed_points_f64(const aacmm_params_f64_t *nominal, size_t n_trials,
+                                          const double *delta, size_t n_poses,
+                                          const double *theta_rad, double *p_mm, size_t *done);
+aacmm_status_t aacmm_counts_to_angles_f64(const aacmm_encoder_config_t *encoders, size_t n,
+                                          const uint32_t *reading_counts, double *theta_rad,
+                                          size_t *done);
+"""
+
+ffibuilder = FFI()
+ffibuilder.cdef(CDEF)
+# One translation unit (a "unity build") that includes the firmware sources:
+# no object files land outside the build directory, and the compiler may
+# inline the core's per-pose function into the analysis loops.
+UNITY = "".join(f'#include "{p.name}"\n' for p in SOURCES)
+ffibuilder.set_source(
+    "aacmm._core",
+    UNITY,
+    include_dirs=[str(FW_INC), str(FW_SRC)],
+    depends=[str(p) for p in SOURCES],
+    extra_compile_args=["-std=c99", "-O3", "-fno-math-errno"],
+    libraries=["m"],
+)
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)

@@ -1,0 +1,329 @@
+"""Typed Python wrapper of the firmware's kinematics core (double precision).
+
+The C core (``firmware/src/kinematics_f64.c``, bound by cffi as
+``aacmm._core``) is the single implementation of the arm's model; this module
+gives it numpy-friendly, validated entry points so the host tools use exactly
+the code the arm runs. See ``firmware/include/aacmm/kinematics.h`` for the
+model (standard DH, paper Eq. 1-3) and the Jacobian column order.
+
+Main names:
+
+* :class:`Params` -- structural parameters (mm, rad); ``Params()`` is the
+  paper's Table 1.
+* :class:`EncoderConfig` -- per-joint encoder description.
+* :class:`Model` -- a prepared model: :meth:`Model.point`,
+  :meth:`Model.point_jacobian`, :meth:`Model.points`,
+  :meth:`Model.points_jacobians`, :meth:`Model.abs_jacobian_sums`.
+* :func:`counts_to_angles`, :func:`perturbed_points`.
+* :data:`PARAM_NAMES` -- the 25 parameter names in Jacobian column order.
+
+Errors: invalid arguments raise :class:`ValueError`; an error reported by the
+C core raises :class:`KinematicsError` (a ``ValueError``) carrying the C
+status code and, for batches, the index of the first bad pose.
+
+All functions are thread-safe; batch calls release the GIL while in C.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aacmm._core import ffi, lib
+
+JOINTS = 6
+JAC_ROWS = 3
+JAC_COLS = 25
+AXES: tuple[str, ...] = ("x", "y", "z")
+PARAM_GROUPS: tuple[str, ...] = ("theta", "alpha", "d", "a", "l")
+#: The 25 structural parameters in Jacobian column order (paper Eq. 10).
+PARAM_NAMES: tuple[str, ...] = (
+    *(f"theta{i}" for i in range(1, 7)),
+    *(f"alpha{i}" for i in range(1, 7)),
+    *(f"d{i}" for i in range(1, 7)),
+    *(f"a{i}" for i in range(1, 7)),
+    "l",
+)
+#: Unit of each parameter (and of its Jacobian column: mm per unit).
+PARAM_UNITS: tuple[str, ...] = ("rad",) * 12 + ("mm",) * 13
+
+LENGTH_MAX_MM = 10000.0
+PARAM_ANGLE_MAX_RAD = 2.0 * math.pi
+JOINT_ANGLE_MAX_RAD = 1024.0
+
+FloatArray = npt.NDArray[np.float64]
+_PAPER_D_MM = (300.0, 65.5, 792.7, 65.5, 883.2, 0.0)
+
+
+class KinematicsError(ValueError):
+    """The C core rejected an input.
+
+    ``status`` is the ``aacmm_status_t`` code (e.g. -2 out of range, -3 not
+    finite); ``index`` is the first offending pose or trial of a batch (or
+    ``None`` for a single call).
+    """
+
+    def __init__(self, message: str, status: int, index: int | None = None) -> None:
+        super().__init__(message)
+        self.status = status
+        self.index = index
+
+
+def status_str(status: int) -> str:
+    """The core's text for a status code (``"value out of range"``, ...)."""
+    text: bytes = ffi.string(lib.aacmm_status_str(status))
+    return text.decode("ascii")
+
+
+def _check(status: int, what: str, index: int | None = None) -> None:
+    if status != 0:
+        where = "" if index is None else f" at index {index}"
+        raise KinematicsError(f"{what}: {status_str(status)}{where}", status, index)
+
+
+def _six(name: str, values: Sequence[float]) -> tuple[float, ...]:
+    out = tuple(float(v) for v in values)
+    if len(out) != JOINTS:
+        raise ValueError(f"{name} needs {JOINTS} values, got {len(out)}")
+    return out
+
+
+@dataclass(frozen=True)
+class Params:
+    """Structural parameters of one arm (mm, rad); the default is the paper's Table 1.
+
+    ``theta_offset_rad`` is added to each joint reading; ``alpha_rad`` is the
+    DH twist; ``d_mm`` and ``a_mm`` the DH offsets; ``l_mm`` the probe length.
+    Construction checks lengths only; :meth:`validate` checks the ranges.
+    """
+
+    theta_offset_rad: tuple[float, ...] = (0.0,) * JOINTS
+    alpha_rad: tuple[float, ...] = (math.pi / 2.0,) * JOINTS
+    d_mm: tuple[float, ...] = _PAPER_D_MM
+    a_mm: tuple[float, ...] = (0.0,) * JOINTS
+    l_mm: float = 183.5
+
+    def __post_init__(self) -> None:
+        for name in ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm"):
+            object.__setattr__(self, name, _six(name, getattr(self, name)))
+        object.__setattr__(self, "l_mm", float(self.l_mm))
+
+    @classmethod
+    def paper(cls) -> Params:
+        """The paper's Table 1 (same as ``Params()`` and the C default)."""
+        return cls()
+
+    def to_vector(self) -> FloatArray:
+        """The 25 parameters in Jacobian column order (see :data:`PARAM_NAMES`)."""
+        return np.array(
+            [*self.theta_offset_rad, *self.alpha_rad, *self.d_mm, *self.a_mm, self.l_mm],
+            dtype=np.float64,
+        )
+
+    @classmethod
+    def from_vector(cls, v: npt.ArrayLike) -> Params:
+        """Inverse of :meth:`to_vector`. Raises ValueError unless 25 values."""
+        a = np.asarray(v, dtype=np.float64).reshape(-1)
+        if a.size != JAC_COLS:
+            raise ValueError(f"a parameter vector has {JAC_COLS} values, got {a.size}")
+        f = [float(x) for x in a]
+        return cls(tuple(f[0:6]), tuple(f[6:12]), tuple(f[12:18]), tuple(f[18:24]), f[24])
+
+    def to_c(self) -> Any:
+        """A freshly allocated ``aacmm_params_f64_t *`` holding these values."""
+        c = ffi.new("aacmm_params_f64_t *")
+        c.theta_offset_rad = list(self.theta_offset_rad)
+        c.alpha_rad = list(self.alpha_rad)
+        c.d_mm = list(self.d_mm)
+        c.a_mm = list(self.a_mm)
+        c.l_mm = self.l_mm
+        return c
+
+    def validate(self) -> None:
+        """Check the ranges with the core's own validator.
+
+        Raises KinematicsError (a ValueError) for a NaN/inf value or one beyond
+        the limits (|angle| <= 2 pi, |length| <= 10000 mm).
+        """
+        _check(lib.aacmm_params_validate_f64(self.to_c()), "invalid parameters")
+
+
+@dataclass(frozen=True)
+class EncoderConfig:
+    """Per-joint encoder description (see ``aacmm_encoder_config_t``).
+
+    Default: 2^32 counts per revolution, zero offset 0, direction +1.
+    """
+
+    counts_per_rev: tuple[int, ...] = (1 << 32,) * JOINTS
+    zero_offset_counts: tuple[int, ...] = (0,) * JOINTS
+    direction: tuple[int, ...] = (1,) * JOINTS
+
+    def __post_init__(self) -> None:
+        for name in ("counts_per_rev", "zero_offset_counts", "direction"):
+            vals = tuple(int(v) for v in getattr(self, name))
+            if len(vals) != JOINTS:
+                raise ValueError(f"{name} needs {JOINTS} values, got {len(vals)}")
+            object.__setattr__(self, name, vals)
+
+    def to_c(self) -> Any:
+        """A validated ``aacmm_encoder_config_t *``.
+
+        Raises ValueError for values outside the C ranges (resolution
+        2 .. 2^32, zero offset below the resolution, direction +1 or -1).
+        """
+        for cpr, z, d in zip(self.counts_per_rev, self.zero_offset_counts, self.direction,
+                             strict=True):
+            if not 2 <= cpr <= (1 << 32):
+                raise ValueError(f"counts_per_rev must be in 2 .. 2^32, got {cpr}")
+            if not 0 <= z < cpr:
+                raise ValueError(f"zero_offset_counts must be in 0 .. counts_per_rev-1, got {z}")
+            if d not in (1, -1):
+                raise ValueError(f"direction must be +1 or -1, got {d}")
+        c = ffi.new("aacmm_encoder_config_t *")
+        c.counts_per_rev = list(self.counts_per_rev)
+        c.zero_offset_counts = list(self.zero_offset_counts)
+        c.direction = list(self.direction)
+        _check(lib.aacmm_encoder_validate(c), "invalid encoder config")
+        return c
+
+
+def _poses(theta_rad: npt.ArrayLike) -> FloatArray:
+    a = np.ascontiguousarray(theta_rad, dtype=np.float64)
+    if a.ndim == 1 and a.size == JOINTS:
+        a = a.reshape(1, JOINTS)
+    if a.ndim != 2 or a.shape[1] != JOINTS:
+        raise ValueError(f"joint angles must have shape (n, {JOINTS}), got {a.shape}")
+    return a
+
+
+def _dptr(a: FloatArray) -> Any:
+    return ffi.cast("double *", ffi.from_buffer(a))
+
+
+@dataclass(frozen=True)
+class Model:
+    """A prepared kinematic model (``aacmm_model_f64_t``) for one parameter set.
+
+    Raises KinematicsError (a ValueError) if the parameters are invalid.
+    Joint angles are readings in rad (the model adds the theta offsets); every
+    batch method takes an ``(n, 6)`` array (a single ``(6,)`` pose is
+    accepted as ``n = 1``).
+    """
+
+    params: Params = field(default_factory=Params)
+    _c: Any = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        c = ffi.new("aacmm_model_f64_t *")
+        _check(lib.aacmm_model_init_f64(c, self.params.to_c()), "invalid parameters")
+        object.__setattr__(self, "_c", c)
+
+    @property
+    def c_model(self) -> Any:
+        """The underlying ``aacmm_model_f64_t *`` (for other cffi callers)."""
+        return self._c
+
+    def point(self, theta_rad: Sequence[float] | FloatArray) -> FloatArray:
+        """Probe point (3,) in mm for one pose."""
+        p: FloatArray = self.points(theta_rad)[0]
+        return p
+
+    def point_jacobian(
+        self, theta_rad: Sequence[float] | FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Probe point (3,) and Jacobian (3, 25) for one pose."""
+        p, j = self.points_jacobians(theta_rad)
+        return p[0], j[0]
+
+    def points(self, theta_rad: npt.ArrayLike) -> FloatArray:
+        """Probe points (n, 3) in mm. Raises KinematicsError for a bad pose."""
+        th = _poses(theta_rad)
+        n = th.shape[0]
+        p = np.empty((n, 3), dtype=np.float64)
+        done = ffi.new("size_t *")
+        st = lib.aacmm_batch_angles_f64(self._c, n, _dptr(th), _dptr(p), ffi.NULL, done)
+        _check(st, "invalid joint angles", int(done[0]) if st else None)
+        return p
+
+    def points_jacobians(self, theta_rad: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Probe points (n, 3) and Jacobians (n, 3, 25), columns as :data:`PARAM_NAMES`.
+
+        Raises KinematicsError for a bad pose.
+        """
+        th = _poses(theta_rad)
+        n = th.shape[0]
+        p = np.empty((n, 3), dtype=np.float64)
+        j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=np.float64)
+        done = ffi.new("size_t *")
+        st = lib.aacmm_batch_angles_f64(self._c, n, _dptr(th), _dptr(p), _dptr(j), done)
+        _check(st, "invalid joint angles", int(done[0]) if st else None)
+        return p, j
+
+    def abs_jacobian_sums(self, theta_rad: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Sums over the poses of |J| and of J^2, each (3, 25).
+
+        The fused C loop (``aacmm_abs_jacobian_sums_f64``): no Jacobian is
+        stored. Raises KinematicsError for a bad pose.
+        """
+        th = _poses(theta_rad)
+        s = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
+        q = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
+        done = ffi.new("size_t *")
+        st = lib.aacmm_abs_jacobian_sums_f64(
+            self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
+        )
+        _check(st, "invalid joint angles", int(done[0]) if st else None)
+        return s, q
+
+
+def counts_to_angles(counts: npt.ArrayLike, encoders: EncoderConfig | None = None) -> FloatArray:
+    """Joint angles (n, 6) in rad from raw readings (n, 6) with the core's converter.
+
+    Raises ValueError for negative or non-integer-range readings and
+    KinematicsError for a reading >= counts_per_rev.
+    """
+    raw = np.asarray(counts)
+    if raw.ndim == 1 and raw.size == JOINTS:
+        raw = raw.reshape(1, JOINTS)
+    if raw.ndim != 2 or raw.shape[1] != JOINTS:
+        raise ValueError(f"encoder readings must have shape (n, {JOINTS}), got {raw.shape}")
+    if raw.size and (raw.min() < 0 or raw.max() > 0xFFFFFFFF):
+        raise ValueError("encoder readings must be in 0 .. 2^32-1")
+    c = np.ascontiguousarray(raw, dtype=np.uint32)
+    enc = (encoders or EncoderConfig()).to_c()
+    out = np.empty(c.shape, dtype=np.float64)
+    done = ffi.new("size_t *")
+    st = lib.aacmm_counts_to_angles_f64(
+        enc, c.shape[0], ffi.cast("uint32_t *", ffi.from_buffer(c)), _dptr(out), done
+    )
+    _check(st, "invalid encoder reading", int(done[0]) if st else None)
+    return out
+
+
+def perturbed_points(
+    nominal: Params, delta: npt.ArrayLike, theta_rad: npt.ArrayLike
+) -> FloatArray:
+    """Probe points (T, n, 3) of arms with parameters ``nominal + delta[t]``.
+
+    ``delta`` is (T, 25) in Jacobian column order (rad and mm); one model is
+    built per trial and evaluated at every pose of ``theta_rad`` (n, 6).
+    Raises ValueError for bad shapes and KinematicsError (``index`` = trial)
+    if a perturbed parameter set or a pose is invalid.
+    """
+    d = np.ascontiguousarray(delta, dtype=np.float64)
+    if d.ndim != 2 or d.shape[1] != JAC_COLS:
+        raise ValueError(f"parameter deltas must have shape (T, {JAC_COLS}), got {d.shape}")
+    th = _poses(theta_rad)
+    out = np.empty((d.shape[0], th.shape[0], 3), dtype=np.float64)
+    done = ffi.new("size_t *")
+    st = lib.aacmm_perturbed_points_f64(
+        nominal.to_c(), d.shape[0], _dptr(d), th.shape[0], _dptr(th), _dptr(out), done
+    )
+    _check(st, "perturbed model invalid", int(done[0]) if st else None)
+    return out
