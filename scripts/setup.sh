@@ -36,7 +36,15 @@ fi
 # else is on PATH.
 PY=/usr/bin/python3
 stamp=.venv/.aacmm-setup-stamp
-if [ ! -x .venv/bin/python ] || [ ! -f "$stamp" ] || [ host/pyproject.toml -nt "$stamp" ]; then
+# Rebuild also when the C extension aacmm._core (host/setup.py, built from the
+# firmware sources by host/src/aacmm/_build_core.py) is missing or older than
+# any of its inputs.
+core_stale() {
+    ls host/src/aacmm/_core*.so >/dev/null 2>&1 || return 0
+    [ -n "$(find host/setup.py host/src/aacmm/_build_core.py firmware/src firmware/include \
+        -newer "$stamp" \( -name '*.c' -o -name '*.h' -o -name '*.py' \) 2>/dev/null | head -n 1)" ]
+}
+if [ ! -x .venv/bin/python ] || [ ! -f "$stamp" ] || [ host/pyproject.toml -nt "$stamp" ] || core_stale; then
     echo "setup: creating Python environment in .venv"
     [ -x .venv/bin/python ] || "$PY" -m venv .venv
     .venv/bin/python -m pip install -q --upgrade pip setuptools wheel
