@@ -55,11 +55,11 @@ static inline void ref_params(const aacmm_params_f64_t *pr, const double theta[6
     int i;
     for (i = 0; i < 6; i++) {
         q[i] = (long double)theta[i] + (long double)pr->theta_offset_rad[i];
-        q[6 + i] = pr->alpha_rad[i];
-        q[12 + i] = pr->d_mm[i];
-        q[18 + i] = pr->a_mm[i];
+        q[6 + i] = (long double)pr->alpha_rad[i];
+        q[12 + i] = (long double)pr->d_mm[i];
+        q[18 + i] = (long double)pr->a_mm[i];
     }
-    q[24] = pr->l_mm;
+    q[24] = (long double)pr->l_mm;
 }
 
 /* Deterministic xorshift64* generator: tests must be reproducible. */

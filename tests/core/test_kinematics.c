@@ -426,7 +426,7 @@ static int64_t expect_signed(uint64_t cpr, uint32_t zero, int dir, uint32_t read
 static int correctly_rounded_f64(double got, long double ref, int *ambiguous)
 {
     double nearest = (double)ref;
-    double other = (ref > (long double)nearest) ? nextafter(nearest, INFINITY) : nextafter(nearest, -INFINITY);
+    double other = (ref > (long double)nearest) ? nextafter(nearest, (double)INFINITY) : nextafter(nearest, -(double)INFINITY);
     long double mid = ((long double)nearest + (long double)other) / 2;
     long double ulp_ld = fabsl(ref) * 0x1p-62L; /* 2 long-double ulps: the reference's own error */
     if (fabsl(ref - mid) <= ulp_ld) {
@@ -697,11 +697,11 @@ static void test_params_invalid(void **state)
     assert_int_equal(aacmm_model_init_f64(&m, &p), AACMM_OK);
     m_before = m;
 
-    p.d_mm[3] = NAN;
+    p.d_mm[3] = (double)NAN;
     assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_NOT_FINITE);
     assert_int_equal(aacmm_model_init_f64(&m, &p), AACMM_ERR_NOT_FINITE);
     assert_memory_equal(&m, &m_before, sizeof m); /* unchanged on error */
-    p.d_mm[3] = INFINITY;
+    p.d_mm[3] = (double)INFINITY;
     assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_NOT_FINITE);
     p.d_mm[3] = -10000.5;
     assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_RANGE);
@@ -716,7 +716,7 @@ static void test_params_invalid(void **state)
     p.l_mm = 1e300;
     assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_RANGE);
     p.l_mm = 0.0;
-    p.a_mm[2] = -INFINITY;
+    p.a_mm[2] = -(double)INFINITY;
     assert_int_equal(aacmm_params_validate_f64(&p), AACMM_ERR_NOT_FINITE);
 
     assert_int_equal(aacmm_params_default_f32(&pf), AACMM_OK);
@@ -743,10 +743,10 @@ static void test_bad_angles_and_nulls(void **state)
     assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, NULL), AACMM_ERR_NULL);
     assert_int_equal(aacmm_point_jacobian_f32(&mf, thf, pff, NULL), AACMM_ERR_NULL);
     assert_int_equal(aacmm_point_f32(&mf, NULL, pff), AACMM_ERR_NULL);
-    th[4] = NAN;
+    th[4] = (double)NAN;
     assert_int_equal(aacmm_point_f64(&m, th, p), AACMM_ERR_NOT_FINITE);
     assert_true(p[0] > 0.5 && p[0] < 1.5); /* not written */
-    th[4] = -INFINITY;
+    th[4] = -(double)INFINITY;
     assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_ERR_NOT_FINITE);
     th[4] = 1025.0;
     assert_int_equal(aacmm_point_f64(&m, th, p), AACMM_ERR_RANGE);
@@ -801,7 +801,7 @@ static void test_batches(void **state)
     assert_int_equal(aacmm_batch_counts_f32(&mf, &enc, N, counts, Pf, NULL, &done), AACMM_OK);
     assert_int_equal((int)done, N);
     /* the first bad pose stops the batch; done counts the good ones */
-    th[6 * 17 + 2] = NAN;
+    th[6 * 17 + 2] = (double)NAN;
     assert_int_equal(aacmm_batch_angles_f64(&m, N, th, P, J, &done), AACMM_ERR_NOT_FINITE);
     assert_int_equal((int)done, 17);
     counts[6 * 9 + 3] = 3600u; /* out of range for this joint */
