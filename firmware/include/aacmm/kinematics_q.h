@@ -1,0 +1,271 @@
+/*
+ * aacmm fixed-point kinematics: the float core's operations (encoder counts to
+ * angles, probe point, full 3x25 Jacobian in the paper's column order, batch
+ * entry point) in integer arithmetic only, for controllers without an FPU
+ * (Cortex-M0/M0+, small M3 parts). See docs/fixed-point.md for the design,
+ * the error analysis and the measured accuracy, size, stack and speed.
+ *
+ * Files:
+ *   firmware/src/fixed_sincos.c        aacmm_sincos_q and its table
+ *   firmware/src/kinematics_q.c        model set-up, point, Jacobian, batches
+ *   firmware/src/encoder.c             (shared core) counts -> binary angles
+ *   firmware/src/kinematics_q_convert.c  double -> fixed parameter conversion:
+ *                                      the ONLY file of this path that uses
+ *                                      floating point. It is meant for the host
+ *                                      (or a loader with an FPU) and is NOT part
+ *                                      of the Cortex-M0+ integer-only build,
+ *                                      whose objects are checked to reference no
+ *                                      floating-point helper at all.
+ * No float or double type appears in the integer-only files.
+ *
+ * Number formats (Qn: a signed two's complement integer x standing for
+ * x * 2^-n; BAM: binary angle, a uint32 where 2^32 is one turn):
+ *
+ *   what                         type      format   unit    range
+ *   joint / offset / alpha angle uint32_t  BAM      turn    any value; wraps mod 2^32
+ *   sine, cosine, unit axes      int32_t   Q30      1       [-2, 2); |value| <= 1 + 2^-27
+ *   structural lengths d, a, l   int32_t   Q18      mm      |x| <= 8000 mm (see below)
+ *   positions (internal)         int64_t   Q48      mm      |x| <= 8000 mm (+ tiny)
+ *   probe point (output)         int64_t   Q32      mm      |x| <= 8000 mm (+ tiny)
+ *   Jacobian entries (output)    int64_t   Q32      mm/rad, mm/mm  |x| <= 8000
+ *
+ * Resolution: BAM 1.46e-9 rad; Q30 9.3e-10; Q18 3.8e-6 mm; Q32 2.3e-10 mm.
+ *
+ * Rounding: every narrowing step is round-half-up, (x + 2^(k-1)) >> k with an
+ * arithmetic shift (the source checks at compile time that >> of a negative
+ * value is arithmetic). Widening steps (Q30 -> Q32 for the unit columns, the
+ * Q30 x Q18 -> Q48 products) are exact.
+ *
+ * Saturate or wrap: binary angles wrap (that is their meaning: adding a theta
+ * offset is a uint32 addition mod 2^32). Nothing else saturates or wraps:
+ * aacmm_model_q_init only accepts parameter blocks whose total reach
+ * sum(|d_i|) + sum(|a_i|) + |l| is at most AACMM_Q_REACH_MAX_MM, and that bound
+ * keeps every intermediate of every function below inside its type for every
+ * possible input (the bounds are worked out at each function). No function
+ * can overflow for a model built by aacmm_model_q_init.
+ *
+ * Why 8000 mm: the paper's arm has a total reach (sum of |lengths|) of
+ * 2290.4 mm; the largest commercial portable arms (4.5 m measuring volume)
+ * stay near 2.5 m. 8000 mm leaves a 3x margin while keeping a probe-to-origin
+ * vector in an int32 Q18 for the Jacobian's cross products.
+ *
+ * Accuracy (docs/fixed-point.md has the measured numbers): against a
+ * double-precision reference, at most 1e-4 mm per point coordinate and 1e-4
+ * (mm/rad or mm/mm) per Jacobian entry anywhere in the representable range
+ * (the test suite checks both over 10^6 random poses and an edge-case table).
+ *
+ * Ownership and state as in kinematics.h: the caller owns every buffer,
+ * nothing is allocated, no global state, every function is reentrant.
+ */
+#ifndef AACMM_KINEMATICS_Q_H
+#define AACMM_KINEMATICS_Q_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacmm/kinematics.h"
+#include "aacmm/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define AACMM_Q_TRIG_FRAC 30 /* sine, cosine, axes: Q30 */
+#define AACMM_Q_LEN_FRAC 18  /* structural lengths: Q18 */
+#define AACMM_Q_POS_FRAC 48  /* internal positions: Q48 */
+#define AACMM_Q_OUT_FRAC 32  /* point and Jacobian outputs: Q32 */
+
+#define AACMM_Q_ONE_Q30 ((int32_t)1 << AACMM_Q_TRIG_FRAC) /* 1.0 in Q30 */
+
+/* Total reach limit: sum(|d_i|) + sum(|a_i|) + |l| <= 8000 mm. A single
+ * length is then also at most 8000 mm. In Q18: 8000 * 2^18 = 2 097 152 000,
+ * which an int32 holds (2^31 - 1 = 2 147 483 647). */
+#define AACMM_Q_REACH_MAX_MM 8000
+#define AACMM_Q_REACH_MAX_Q18 ((int64_t)AACMM_Q_REACH_MAX_MM << AACMM_Q_LEN_FRAC)
+
+/* Binary angle of a quarter and a half turn. */
+#define AACMM_BAM_QUARTER UINT32_C(0x40000000)
+#define AACMM_BAM_HALF UINT32_C(0x80000000)
+
+/* ------------------------------------------------------------------------ */
+/* Parameters                                                                */
+/* ------------------------------------------------------------------------ */
+
+/*
+ * One arm's structural parameters in fixed point.
+ *   theta_offset_bam, alpha_bam: BAM (uint32, 2^32 = one turn). Every value is
+ *                    valid; 0x80000000 is half a turn, 0xC0000000 is -1/4 turn.
+ *   d_q18, a_q18, l_q18: int32 Q18 mm (resolution 2^-18 mm = 3.8 nm).
+ * Valid when the total reach is within AACMM_Q_REACH_MAX_MM (see
+ * aacmm_params_q_validate). Build it with aacmm_params_q_from_f64 (host side
+ * or at load time) or fill it directly.
+ */
+typedef struct {
+    uint32_t theta_offset_bam[AACMM_JOINTS];
+    uint32_t alpha_bam[AACMM_JOINTS];
+    int32_t d_q18[AACMM_JOINTS];
+    int32_t a_q18[AACMM_JOINTS];
+    int32_t l_q18;
+} aacmm_params_q_t;
+
+/*
+ * A prepared model: the parameters plus the Q30 sine and cosine of each
+ * alpha. Treat as opaque; build it with aacmm_model_q_init. 100 bytes.
+ */
+typedef struct {
+    aacmm_params_q_t params;
+    int32_t sin_alpha_q30[AACMM_JOINTS];
+    int32_t cos_alpha_q30[AACMM_JOINTS];
+} aacmm_model_q_t;
+
+/*
+ * AACMM_ERR_NULL for NULL; AACMM_ERR_RANGE if the total reach
+ * sum(|d_i|) + sum(|a_i|) + |l| (summed exactly in int64, |INT32_MIN| = 2^31
+ * included) exceeds AACMM_Q_REACH_MAX_Q18; else AACMM_OK. Angles are never
+ * out of range. Integer only. Cost: 13 additions.
+ */
+aacmm_status_t aacmm_params_q_validate(const aacmm_params_q_t *params);
+
+/*
+ * Validate *params (as aacmm_params_q_validate) and, if valid, copy them into
+ * *model with sin/cos(alpha_i) from aacmm_sincos_q (Q30). On error *model is
+ * left unchanged. Integer only (runs on the M0+). Cost: 6 aacmm_sincos_q.
+ */
+aacmm_status_t aacmm_model_q_init(aacmm_model_q_t *model, const aacmm_params_q_t *params);
+
+/*
+ * The paper's Table 1 (as aacmm_params_default_f64) in fixed point, exactly:
+ * d = (300, 65.5, 792.7, 65.5, 883.2, 0) mm rounded to Q18 (792.7 and 883.2
+ * are not dyadic: error <= 2^-19 mm), a = 0, alpha = a quarter turn
+ * (0x40000000), offsets 0, l = 183.5 mm. Integer only. AACMM_ERR_NULL or
+ * AACMM_OK.
+ */
+aacmm_status_t aacmm_params_default_q(aacmm_params_q_t *params);
+
+/* ---- host / load-time conversion (kinematics_q_convert.c, uses double) --- */
+
+/*
+ * Convert a double parameter set into the fixed-point block, once.
+ *   - First the float core's own validation (aacmm_params_validate_f64):
+ *     AACMM_ERR_NOT_FINITE for NaN/inf, AACMM_ERR_RANGE beyond its limits.
+ *   - Lengths: round-to-nearest (half away from zero) of x * 2^18; a length
+ *     with |x| > AACMM_Q_REACH_MAX_MM, or a total reach of the rounded values
+ *     above AACMM_Q_REACH_MAX_Q18, gives AACMM_ERR_RANGE.
+ *   - Angles (|x| <= 2 pi after the core check): BAM = round(x * 2^32 / 2 pi)
+ *     mod 2^32 (x = -pi and x = pi both give 0x80000000). Error <= 2^-33 turn
+ *     (0.73 nrad) plus double rounding (< 1e-15 rad).
+ * On error *out is left unchanged. AACMM_ERR_NULL for NULL arguments.
+ * Not for the integer-only build. Cost: 25 conversions.
+ */
+aacmm_status_t aacmm_params_q_from_f64(aacmm_params_q_t *out, const aacmm_params_f64_t *in);
+
+/* The same from single precision (each value widened to double exactly). */
+aacmm_status_t aacmm_params_q_from_f32(aacmm_params_q_t *out, const aacmm_params_f32_t *in);
+
+/*
+ * The exact values a fixed-point block stands for, in double: lengths
+ * x_q18 * 2^-18 (exact), angles as signed BAM * 2 pi / 2^32 in (-pi, pi]
+ * (0x80000000 gives +pi; error < 1e-15 rad). Lets host code (and the tests)
+ * evaluate the float core on exactly the fixed path's parameters.
+ * AACMM_ERR_NULL or AACMM_OK; no validation. Not for the integer-only build.
+ */
+aacmm_status_t aacmm_params_q_to_f64(aacmm_params_f64_t *out, const aacmm_params_q_t *in);
+
+/* ------------------------------------------------------------------------ */
+/* Sine and cosine of a binary angle                                          */
+/* ------------------------------------------------------------------------ */
+
+/*
+ * *s = sin(angle), *c = cos(angle) in Q30 for angle in BAM (2^32 = one turn).
+ * Method: a table of sin(k pi / 512), k = 0..256, in Q30 (one quarter turn,
+ * 1028 bytes); the nearest of the 1024 nodes per turn, x_k, is looked up (the
+ * quadrant by swapping and negating the table's sine and cosine), and the
+ * remainder delta = angle - x_k (|delta| <= 2^21 BAM = 3.07e-3 rad) is applied
+ * by the angle-addition formulas
+ *     sin = s_k + (c_k A - s_k B),  cos = c_k - (s_k A + c_k B),
+ *     A = delta - delta^3 / 6 (sin delta), B = delta^2 / 2 (1 - cos delta),
+ * with delta, A, B in Q39 (int32, |delta| <= 1.69e9) and both products summed
+ * in one int64 (|sum| <= 2^61) before one round-half-up shift by 39.
+ * Truncation of the series: delta^4 / 24 <= 3.7e-12. Each table entry is
+ * rounded to nearest (0.5 LSB), so the error is at most about 1 LSB of Q30
+ * (9.3e-10); measured maximum in docs/fixed-point.md. Exact at the quarter
+ * turns: sin/cos of 0, 0x40000000, 0x80000000, 0xC0000000 are exactly 0 or
+ * +-2^30. |*s|, |*c| <= 2^30. Nothing saturates; the angle wraps by nature.
+ * Integer only; 8 multiplies 32x32->64. s or c must not be NULL.
+ */
+void aacmm_sincos_q(uint32_t angle_bam, int32_t *s, int32_t *c);
+
+/* ------------------------------------------------------------------------ */
+/* Forward kinematics and Jacobian                                           */
+/* ------------------------------------------------------------------------ */
+
+/*
+ * Probe point p_q32 = (x, y, z) in the base frame, Q32 mm (int64), for joint
+ * angles theta_bam (BAM, e.g. from aacmm_encoder_to_bam); the model's theta
+ * offsets are added mod 2^32. Every uint32 is a valid angle, so the only
+ * error is AACMM_ERR_NULL (then nothing is written). The model must come from
+ * aacmm_model_q_init.
+ *
+ * Chain (docs/fixed-point.md), with c, s = aacmm_sincos_q(theta_i + offset_i)
+ * and ca, sa the model's Q30 sin/cos alpha:
+ *     u   = c y - s x         Q30 x Q30 -> Q60 int64 sum, round >> 30 -> Q30 int32
+ *     x_i = c x + s y         (same)
+ *     y_i = ca u + sa z       (same; not formed for joint 6)
+ *     z_i = ca z - sa u       (same)
+ *     o_i = o_{i-1} + d z_{i-1} + a x_i   Q18 x Q30 -> Q48, summed exactly in
+ *                                         int64 (no rounding at all)
+ *     p   = o_6 + l z_6                   exact in Q48, then round >> 16 -> Q32
+ * Bounds: Q30 axis components stay within 1 + 2^-27 (rotations of unit vectors,
+ * a few LSB of rounding), so each Q60 sum is below 2^61; |o_i|, |p| are at most
+ * the total reach 8000 mm = 2^60.97 in Q48 < 2^63.
+ * Cost: 6 aacmm_sincos_q + 135 multiplies 32x32->64.
+ */
+aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
+                             int64_t p_q32[3]);
+
+/*
+ * Probe point (as aacmm_point_q, identical result) and the full 3x25
+ * Jacobian, Q32 int64, row-major jac_q32[row * AACMM_JAC_COLS + col] in the
+ * paper's column order (AACMM_COL_THETA(i), AACMM_COL_ALPHA(i), AACMM_COL_D(i),
+ * AACMM_COL_A(i), AACMM_COL_L):
+ *     theta_i (mm/rad): z_{i-1} x (p - o_{i-1})
+ *     alpha_i (mm/rad): x_i x (p - o_i)
+ *         the vector v = p - o (Q48) is rounded to Q18 int32 (|v| <= 8000 mm,
+ *         so |v| * 2^18 < 2^31), the cross product's two Q30 x Q18 = Q48
+ *         products are summed in int64 (< 2^62) and rounded >> 16 to Q32.
+ *         Rounding error <= 2 x 2^-19 mm/rad from v plus 2^-33 from the output.
+ *     d_i: z_{i-1}, a_i: x_i, l: z_6 (mm/mm): the Q30 axes times 4 (exact).
+ * AACMM_ERR_NULL if any pointer is NULL (nothing written), else AACMM_OK.
+ * jac_q32 holds AACMM_JAC_SIZE (75) values. Cost: aacmm_point_q + 72 more
+ * multiplies.
+ */
+aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
+                                      const uint32_t theta_bam[AACMM_JOINTS], int64_t p_q32[3],
+                                      int64_t jac_q32[AACMM_JAC_SIZE]);
+
+/*
+ * Batch entry points: n poses in, n points (n*3 Q32 values) and, if jac_q32
+ * is not NULL, n Jacobians (n*75 Q32 values, pose after pose) out.
+ *   _bam:    theta_bam holds n*6 binary angles.
+ *   _counts: reading_counts holds n*6 raw encoder readings, converted with
+ *            aacmm_encoder_to_bam (shared core, integer only: exact for
+ *            power-of-two resolutions, nearest BAM otherwise). Readings at or
+ *            above their resolution, or an invalid encoder config, give
+ *            AACMM_ERR_RANGE.
+ * Stops at the first invalid pose and returns its error; *done (if not NULL)
+ * receives the number of poses fully written before it (n on success). n = 0
+ * is valid and writes nothing. AACMM_ERR_NULL for a NULL model/encoders, or
+ * NULL arrays with n > 0. Cost: n times the single-pose cost.
+ */
+aacmm_status_t aacmm_batch_bam_q(const aacmm_model_q_t *model, size_t n, const uint32_t *theta_bam,
+                                 int64_t *p_q32, int64_t *jac_q32, size_t *done);
+aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
+                                    const aacmm_encoder_config_t *encoders, size_t n,
+                                    const uint32_t *reading_counts, int64_t *p_q32,
+                                    int64_t *jac_q32, size_t *done);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACMM_KINEMATICS_Q_H */

@@ -1,0 +1,57 @@
+/*
+ * Fixed-point sine and cosine of a binary angle, inlined into the chain.
+ * Integer arithmetic only. Internal to the fixed-point path; the public entry
+ * point is aacmm_sincos_q (kinematics_q.h), which documents the method.
+ */
+#ifndef AACMM_FIXED_SINCOS_H
+#define AACMM_FIXED_SINCOS_H
+
+#include <stdint.h>
+
+/* sin(k pi / 512) in Q30, k = 0..256, rounded to nearest (fixed_sincos.c). */
+extern const int32_t aacmm_fixed_sin_table[257];
+
+/* Right shifts of negative values must be arithmetic (C99 leaves it to the
+ * implementation; gcc, clang and armcc all shift arithmetically). */
+typedef char aacmm_fixed_asr_check[((-5) >> 1) == -3 ? 1 : -1];
+
+/* Round-half-up narrowing: x * 2^-k rounded, (x + 2^(k-1)) >> k. */
+#define AACMM_FIXED_RND(x, k) (((x) + ((int64_t)1 << ((k) - 1))) >> (k))
+
+/* 2 pi * 2^29 rounded to nearest (3373259426.13): delta [BAM] * this >> 22
+ * is delta in rad, Q39. Relative error 4e-11. */
+#define AACMM_FIXED_TWO_PI_Q29 INT64_C(3373259426)
+
+/* 2^32 / 6 rounded (715827882.67): x * this >> 32 is x / 6. */
+#define AACMM_FIXED_SIXTH_Q32 INT64_C(715827883)
+
+static inline void aacmm_fixed_sincos(uint32_t angle, int32_t *s_out, int32_t *c_out)
+{
+    /* Nearest node k of 1024 per turn; the remainder in [-2^21, 2^21). */
+    const uint32_t shifted = angle + (UINT32_C(1) << 21); /* wraps mod 2^32 */
+    const uint32_t k = shifted >> 22;                     /* 0 .. 1023 */
+    const int32_t delta = (int32_t)(shifted & UINT32_C(0x3FFFFF)) - ((int32_t)1 << 21);
+    const uint32_t j = k & 255u; /* node within its quadrant */
+    const uint32_t q = k >> 8;   /* quadrant 0..3 */
+    const int32_t ts = aacmm_fixed_sin_table[j];
+    const int32_t tc = aacmm_fixed_sin_table[256u - j];
+    /* Rotate the node by q quarter turns: (s, c) -> (c, -s) -> (-s, -c) -> (-c, s). */
+    const int32_t odd = -(int32_t)(q & 1u);           /* all ones for q = 1, 3 */
+    const int32_t neg_s = -(int32_t)((q >> 1) & 1u); /* q = 2, 3 */
+    const int32_t neg_c = -(int32_t)(((q + 1u) >> 1) & 1u); /* q = 1, 2 */
+    const int32_t sw = (ts ^ tc) & odd;
+    const int32_t s0 = ((ts ^ sw) ^ neg_s) - neg_s;
+    const int32_t c0 = ((tc ^ sw) ^ neg_c) - neg_c;
+    /* delta in rad, Q39: |d| <= 2^21 * 804.25 = 1.687e9 < 2^31. */
+    const int32_t d = (int32_t)AACMM_FIXED_RND((int64_t)delta * AACMM_FIXED_TWO_PI_Q29, 22);
+    /* d^2 in Q39 (<= 5.2e6), d / 6 in Q39, A = sin d = d - d^3/6, B = d^2/2. */
+    const int32_t t = (int32_t)AACMM_FIXED_RND((int64_t)d * d, 39);
+    const int32_t d6 = (int32_t)AACMM_FIXED_RND((int64_t)d * AACMM_FIXED_SIXTH_Q32, 32);
+    const int32_t A = d - (int32_t)AACMM_FIXED_RND((int64_t)t * d6, 39);
+    const int32_t B = (t + 1) >> 1;
+    /* |c0 A| <= 2^30 * 1.687e9 < 2^61: both sums fit an int64. */
+    *s_out = s0 + (int32_t)AACMM_FIXED_RND((int64_t)c0 * A - (int64_t)s0 * B, 39);
+    *c_out = c0 - (int32_t)AACMM_FIXED_RND((int64_t)s0 * A + (int64_t)c0 * B, 39);
+}
+
+#endif /* AACMM_FIXED_SINCOS_H */

@@ -1,0 +1,81 @@
+# Fixed-point kinematics (integer only, for FPU-less controllers): host tests
+# (gcc, clang, ASan+UBSan), a Cortex-M0+ cross build with a symbol check, and
+# the benchmark (host ns/pose + callgrind instruction counts vs the f32 path).
+
+# The integer-only path: what runs on the M0+.
+FIXED_SRCS := firmware/src/kinematics_q.c firmware/src/fixed_sincos.c
+# Host / load-time conversion from double parameters (uses double: never in
+# the M0+ build).
+FIXED_CONVERT_SRCS := firmware/src/kinematics_q_convert.c
+FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h
+FIXED_TEST_SRCS := tests/fixed/test_fixed.c
+FIXED_TEST_DEPS := $(CORE_SRCS) $(CORE_HDRS) $(FIXED_SRCS) $(FIXED_CONVERT_SRCS) $(FIXED_HDRS) \
+                   $(FIXED_TEST_SRCS) tests/core/reference.h
+FIXED_ALL_SRCS := $(CORE_SRCS) $(FIXED_SRCS) $(FIXED_CONVERT_SRCS)
+FIXED_TEST_INC := -I$(FW_INC) -Ifirmware/src -Itests/core -Itests/fixed
+
+# The sanitizer build runs 10^5 random poses instead of 10^6 (about 10x slower).
+$(BUILD)/fixed/test_fixed_gcc: $(FIXED_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(HOST_OPT) $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/fixed/test_fixed_clang: $(FIXED_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(HOST_OPT) $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/fixed/test_fixed_san: $(FIXED_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DFIXED_TEST_POSES=100000L $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+
+.PHONY: test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p firmware-fixed-m0p bench-fixed
+test-fixed-gcc: $(BUILD)/fixed/test_fixed_gcc
+	$<
+test-fixed-clang: $(BUILD)/fixed/test_fixed_clang
+	$<
+test-fixed-san: $(BUILD)/fixed/test_fixed_san
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $<
+TEST_SUITES += test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p
+
+# ---- Cortex-M0+ cross build (soft-float ABI, integer only) ----
+M0P_DIR := $(BUILD)/arm-m0p/fixed
+# encoder.c (shared core, integer only) supplies aacmm_encoder_to_bam.
+M0P_FIXED_SRCS := $(FIXED_SRCS) firmware/src/encoder.c
+M0P_FIXED_OBJS := $(patsubst firmware/src/%.c,$(M0P_DIR)/%.o,$(M0P_FIXED_SRCS))
+
+$(M0P_DIR)/%.o: firmware/src/%.c $(CORE_HDRS) $(FIXED_HDRS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -fcallgraph-info=su -c $< -o $@
+
+$(M0P_DIR)/libaacmm_fixed.a: $(M0P_FIXED_OBJS)
+	rm -f $@ && arm-none-eabi-ar rcs $@ $^
+
+firmware-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a
+	@echo "fixed-point kinematics for Cortex-M0+ ($(M0P_FLAGS)):"
+	@$(ARM_SIZE) -t $(M0P_FIXED_OBJS)
+	@/usr/bin/python3 scripts/stack_usage.py $(M0P_DIR) aacmm_point_q aacmm_point_jacobian_q aacmm_batch_bam_q aacmm_batch_counts_q aacmm_model_q_init aacmm_sincos_q
+FIRMWARE_TARGETS += firmware-fixed-m0p
+
+# No floating point of any kind in the M0+ objects:
+#  1. scripts/check-symbols.sh m0-fixed (__aeabi_f*, __aeabi_d*, __aeabi_*2f,
+#     __*sf*/__*df* libgcc helpers, sinf and every other libm name);
+#  2. the libgcc conversion helpers that profile's patterns let through
+#     (__fixdfsi, __fixunssfdi, ... end in si/di, not in a digit);
+#  3. no `float` or `double` token in the integer-only sources once comments
+#     are stripped (the preprocessor is not run, so headers do not count).
+FIXED_FLOAT_EXTRA := ^__(fix|fixuns|float|floatun)[a-z]*[sdtx]f[a-z]*$$
+test-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a
+	sh scripts/check-symbols.sh m0-fixed $(M0P_FIXED_OBJS)
+	@bad=$$(for o in $(M0P_FIXED_OBJS); do $(ARM_NM) -u $$o; done | awk '{print $$2}' | grep -E '$(FIXED_FLOAT_EXTRA)' || true); \
+	 if [ -n "$$bad" ]; then echo "test-fixed-m0p: float conversion helpers referenced: $$bad" >&2; exit 1; fi
+	@for f in $(FIXED_SRCS) firmware/src/fixed_sincos.h; do \
+	   if gcc -fpreprocessed -dD -E -P -x c $$f 2>/dev/null | grep -nwE 'float|double|long double'; then \
+	     echo "test-fixed-m0p: $$f uses a floating type" >&2; exit 1; fi; \
+	 done
+	@echo "m0p: $(notdir $(M0P_FIXED_OBJS)) reference no floating-point helper; sources use no float/double"
+
+# ---- benchmark ----
+$(BUILD)/fixed/bench_fixed: bench/bench_fixed.c $(FIXED_ALL_SRCS) $(CORE_HDRS) $(FIXED_HDRS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) -D_POSIX_C_SOURCE=199309L $(HOST_OPT) -g -I$(FW_INC) $(FIXED_ALL_SRCS) bench/bench_fixed.c -lm -o $@
+bench-fixed: $(BUILD)/fixed/bench_fixed
+	@$<
+	@sh bench/callgrind_count.sh $<
+BENCH_TARGETS += bench-fixed
