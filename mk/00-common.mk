@@ -8,7 +8,12 @@ FW_INC     := firmware/include
 WARN       := -Wall -Wextra -Wpedantic -Wconversion -Wdouble-promotion \
               -Wfloat-equal -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Werror
 CSTD       := -std=c99
-HOST_OPT   := -O2
+# Host builds (tests, benchmarks, the Python extension) run where they are
+# built, so they may use the host's FMA and AVX2 when it has them: FMA
+# contraction is worth ~25 % on the kinematics. x86-64-v3 stops short of
+# AVX-512, which valgrind (used for instruction counts) cannot run.
+HOST_ARCH  := $(shell grep -qw fma /proc/cpuinfo 2>/dev/null && grep -qw avx2 /proc/cpuinfo 2>/dev/null && echo -march=x86-64-v3)
+HOST_OPT   := -O2 $(HOST_ARCH) -ffp-contract=fast
 SAN_FLAGS  := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 CMOCKA_LIBS := -lcmocka
 
