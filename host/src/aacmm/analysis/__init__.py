@@ -1,0 +1,11 @@
+"""Error analysis on the kinematics core.
+
+* :mod:`aacmm.analysis.mc` -- Monte Carlo error-transfer coefficients (the
+  paper's Table 2), fixed-N and adaptive (JCGM 101 7.9), over random or
+  logged poses.
+* :mod:`aacmm.analysis.poselog` -- reads poses from ``aacmm log`` CSV files.
+* :mod:`aacmm.analysis.uncertainty` -- probe-point uncertainty from parameter
+  uncertainties, by Monte Carlo (JCGM 101) and linear propagation (GUM).
+* :mod:`aacmm.analysis.cli` -- the ``aacmm mc`` and ``aacmm uncertainty``
+  subcommands.
+"""
