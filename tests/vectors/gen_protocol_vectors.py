@@ -26,7 +26,6 @@ import sys
 from pathlib import Path
 
 import isotp
-
 from aacmm.protocol import can as pcan
 from aacmm.protocol.framing import crc32, encode_frame
 from aacmm.protocol.messages import (
@@ -82,7 +81,7 @@ SAMPLE_J = Sample(
     counts=(100, 200, 300, 400, 500, 600),
     point_100nm=(0, 1, -2147483648),
     status=0x00000001,
-    jacobian=tuple((i - 37) * 0.25 for i in range(74)) + (3.0 * 2.0**-20,),
+    jacobian=(*((i - 37) * 0.25 for i in range(74)), 3.0 * 2.0**-20),
 )
 
 COMPUTE_RSP = ComputeResult(
@@ -146,18 +145,20 @@ def _hdr(t: int, seq: int = 0) -> bytes:
     return bytes([1, t, seq])
 
 
-def _params_bytes(**change: object) -> bytes:
-    fields = {
+def _params_bytes(**change: tuple[int, float]) -> bytes:
+    """The parameter set's 278 wire bytes with some fields replaced (key: f/cpr/zero/dir)."""
+    fields: dict[str, list[float]] = {
         "f": list(
             PARAMS.theta_offset_rad + PARAMS.alpha_rad + PARAMS.d_mm + PARAMS.a_mm + (PARAMS.l_mm,)
         ),
-        "cpr": list(PARAMS.counts_per_rev),
-        "zero": list(PARAMS.zero_offset_counts),
-        "dir": list(PARAMS.direction),
+        "cpr": [float(v) for v in PARAMS.counts_per_rev],
+        "zero": [float(v) for v in PARAMS.zero_offset_counts],
+        "dir": [float(v) for v in PARAMS.direction],
     }
-    for key, (index, value) in change.items():  # type: ignore[misc]
+    for key, (index, value) in change.items():
         fields[key][index] = value
-    return struct.pack("<25d6Q6I6b", *fields["f"], *fields["cpr"], *fields["zero"], *fields["dir"])
+    ints = [int(v) for v in fields["cpr"] + fields["zero"] + fields["dir"]]
+    return struct.pack("<25d6Q6I6b", *fields["f"], *ints)
 
 
 def bad_bodies() -> list[tuple[str, bytes, Status]]:
@@ -179,25 +180,61 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
         ("ping_long", good_ping + b"\x00", Status.ERR_LENGTH),
         ("info_req_payload", _hdr(0x02) + b"\x00", Status.ERR_LENGTH),
         ("stream_rate_0", _hdr(0x09) + struct.pack("<HB", 0, 0), Status.ERR_RANGE),
-        ("stream_rate_1001", _hdr(0x09) + struct.pack("<HB", 1001, 0), Status.ERR_RANGE),
-        ("stream_content_bit1", _hdr(0x89) + struct.pack("<HB", 10, 2), Status.ERR_RANGE),
+        (
+            "stream_rate_1001",
+            _hdr(0x09) + struct.pack("<HB", 1001, 0),
+            Status.ERR_RANGE,
+        ),
+        (
+            "stream_content_bit1",
+            _hdr(0x89) + struct.pack("<HB", 10, 2),
+            Status.ERR_RANGE,
+        ),
         ("measure_content_80", _hdr(0x07) + b"\x80", Status.ERR_RANGE),
-        ("params_nan", _hdr(0x04) + _params_bytes(f=(3, float("nan"))), Status.ERR_NOT_FINITE),
-        ("params_inf", _hdr(0x83) + _params_bytes(f=(24, float("-inf"))), Status.ERR_NOT_FINITE),
+        (
+            "params_nan",
+            _hdr(0x04) + _params_bytes(f=(3, float("nan"))),
+            Status.ERR_NOT_FINITE,
+        ),
+        (
+            "params_inf",
+            _hdr(0x83) + _params_bytes(f=(24, float("-inf"))),
+            Status.ERR_NOT_FINITE,
+        ),
         ("params_dir_0", _hdr(0x04) + _params_bytes(dir=(2, 0)), Status.ERR_RANGE),
         ("params_dir_2", _hdr(0x04) + _params_bytes(dir=(5, 2)), Status.ERR_RANGE),
-        ("params_cpr_1", _hdr(0x04) + _params_bytes(cpr=(0, 1), zero=(0, 0)), Status.ERR_RANGE),
-        ("params_cpr_big", _hdr(0x04) + _params_bytes(cpr=(1, 2**32 + 1)), Status.ERR_RANGE),
-        ("params_zero_ge_cpr", _hdr(0x04) + _params_bytes(zero=(3, 2)), Status.ERR_RANGE),
+        (
+            "params_cpr_1",
+            _hdr(0x04) + _params_bytes(cpr=(0, 1), zero=(0, 0)),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_cpr_big",
+            _hdr(0x04) + _params_bytes(cpr=(1, 2**32 + 1)),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_zero_ge_cpr",
+            _hdr(0x04) + _params_bytes(zero=(3, 2)),
+            Status.ERR_RANGE,
+        ),
         ("params_short", _hdr(0x04) + _params_bytes()[:-1], Status.ERR_LENGTH),
         ("error_status_0", _hdr(0xFF) + struct.pack("<hB", 0, 1), Status.ERR_RANGE),
         ("error_status_pos", _hdr(0xFF) + struct.pack("<hB", 7, 1), Status.ERR_RANGE),
         ("sample_jac_missing", _hdr(0x87) + sample53[:-1] + b"\x01", Status.ERR_LENGTH),
-        ("sample_no_jac_extra", _hdr(0x40) + sample53 + b"\x00" * 300, Status.ERR_LENGTH),
+        (
+            "sample_no_jac_extra",
+            _hdr(0x40) + sample53 + b"\x00" * 300,
+            Status.ERR_LENGTH,
+        ),
         ("sample_content_2", _hdr(0x40) + sample53[:-1] + b"\x02", Status.ERR_RANGE),
         (
             "sample_jac_nan",
-            _hdr(0x87) + sample53[:-1] + b"\x01" + struct.pack("<f", 1.0) * 74 + b"\x00\x00\xc0\x7f",
+            _hdr(0x87)
+            + sample53[:-1]
+            + b"\x01"
+            + struct.pack("<f", 1.0) * 74
+            + b"\x00\x00\xc0\x7f",
             Status.ERR_NOT_FINITE,
         ),
         (
@@ -233,8 +270,11 @@ def bad_frames() -> list[tuple[str, bytes, str]]:
     runt_raw = bytes([1, 1, 0]) + b"\x01\x02\x03"  # 6 bytes < header + CRC
     return [
         ("crc_flipped", bytes(flipped), "crc_errors"),
-        ("crc_zeroed", b"\x00" + cobs.encode(encode_message(messages()["ping_req"]) + b"\x00" * 4)
-         + b"\x00", "crc_errors"),
+        (
+            "crc_zeroed",
+            b"\x00" + cobs.encode(encode_message(messages()["ping_req"]) + b"\x00" * 4) + b"\x00",
+            "crc_errors",
+        ),
         ("torn_code_runs_past", b"\x00" + inner[:-3] + b"\x00", "cobs_errors"),
         ("garbage_code", b"\x00\x10\x41\x42\x00", "cobs_errors"),
         ("runt", b"\x00" + cobs.encode(runt_raw) + b"\x00", "runts"),
@@ -292,8 +332,10 @@ def render() -> str:
         f"crc check {b'123456789'.hex()} {crc32(b'123456789'):08x}",
         f"crc empty - {crc32(b''):08x}",
         f"crc zeros8 {bytes(8).hex()} {crc32(bytes(8)):08x}",
-        f"crc params {encode_message(messages()['get_params_rsp'])[3:].hex()} "
-        f"{param_set_crc32(PARAMS):08x}",
+        (
+            f"crc params {encode_message(messages()['get_params_rsp'])[3:].hex()} "
+            f"{param_set_crc32(PARAMS):08x}"
+        ),
     ]
     for name, msg in messages().items():
         body = encode_message(msg)
@@ -315,9 +357,44 @@ def render() -> str:
     return "\n".join(lines) + "\n"
 
 
+CORPUS = Path(__file__).parent.parent / "protocol" / "corpus"
+
+
+def corpus() -> dict[str, bytes]:
+    """Seed inputs of the libFuzzer harness (tests/protocol/fuzz_protocol.c).
+
+    The first byte selects the harness mode: 0 deframer (then a chunk-size
+    byte), 1 message body, 2 ISO-TP frame records, 3 COBS.
+    """
+    seeds: dict[str, bytes] = {}
+    wires = b""
+    for name, msg in messages().items():
+        body = encode_message(msg)
+        seeds[f"body_{name}"] = b"\x01" + body
+        wires += encode_frame(body)
+        seeds[f"cobs_{name}"] = b"\x03" + encode_frame(body)[1:-1]
+    seeds["deframe_all_valid"] = b"\x00\x07" + wires
+    bad = b"".join(w for _, w, _ in bad_frames())
+    seeds["deframe_bad_frames"] = b"\x00\x03" + bad + wires[:200]
+    for name, body, _ in bad_bodies():
+        seeds[f"badbody_{name}"] = b"\x01" + body
+    for name, _, _body, frames in isotp_cases():
+        records = b""
+        for i, fr in enumerate(frames):
+            records += bytes([1, 8]) + fr
+            if i == 0 and len(frames) > 1:  # a flow control for the harness's own send
+                records += bytes([1, 3]) + b"\x30\x00\x00" + b"\xcc" * 5
+        seeds[f"isotp_{name}"] = b"\x02\x0f" + records
+    return seeds
+
+
 def main() -> int:
     VECTORS.write_text(render())
     print(f"wrote {VECTORS}")
+    CORPUS.mkdir(exist_ok=True)
+    for name, data in corpus().items():
+        (CORPUS / name).write_bytes(data)
+    print(f"wrote {len(corpus())} seeds to {CORPUS}")
     return 0
 
 

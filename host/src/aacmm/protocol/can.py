@@ -133,6 +133,7 @@ class AssemblerStats:
     samples: int = 0
     incomplete: int = 0  # a sample missing frames or with a mismatched SeqTag
     bad_frames: int = 0  # wrong DLC or undecodable
+    orphans: int = 0  # sample frames arriving with no sample in progress
     foreign: int = 0  # frames of other nodes or unrelated ids
 
 
@@ -178,8 +179,10 @@ class SampleAssembler:
             self._parts = {0: sig}
             return None
         if not self._parts or index != len(self._parts):
-            if self._parts or index:
-                self.stats.incomplete += 1
+            if self._parts:
+                self.stats.incomplete += 1  # the sample in progress lost a frame
+            else:
+                self.stats.orphans += 1  # no sample in progress
             self._parts = {}
             return None
         self._parts[index] = sig

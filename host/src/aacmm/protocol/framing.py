@@ -29,12 +29,12 @@ CRC32_CHECK = 0xCBF43926
 _CRC32 = Calculator(Crc32.CRC32.value, optimized=True)
 
 
-def crc32(data: bytes) -> int:
+def crc32(data: bytes | bytearray | memoryview) -> int:
     """CRC-32/ISO-HDLC of ``data`` (``crc32(b"123456789") == 0xCBF43926``)."""
     return int(_CRC32.checksum(bytes(data)))
 
 
-def encode_frame(body: bytes) -> bytes:
+def encode_frame(body: bytes | bytearray | memoryview) -> bytes:
     """Wrap a message body in a serial frame, both 0x00 delimiters included.
 
     Raises:
@@ -46,7 +46,7 @@ def encode_frame(body: bytes) -> bytes:
     return b"\x00" + cobs.encode(raw) + b"\x00"
 
 
-def decode_frame(encoded: bytes) -> bytes:
+def decode_frame(encoded: bytes | bytearray | memoryview) -> bytes:
     """Check one frame's content (the bytes between two delimiters) and return its body.
 
     Raises:
@@ -97,9 +97,10 @@ class Deframer:
         self._buf = bytearray()
         self._discarding = False
 
-    def feed(self, data: bytes) -> list[bytes]:
+    def feed(self, data: bytes | bytearray | memoryview) -> list[bytes]:
         """Consume ``data``; return the bodies of the frames it completed, in order."""
         out: list[bytes] = []
+        data = bytes(data)
         start = 0
         n = len(data)
         while start < n:

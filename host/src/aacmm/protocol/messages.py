@@ -536,7 +536,7 @@ def _dec_sample(b: bytes) -> Sample:
     )
 
 
-def decode_param_set(b: bytes) -> ParamSet:
+def decode_param_set(b: bytes | bytearray | memoryview) -> ParamSet:
     """Decode and check a 278-byte parameter set.
 
     Raises:
@@ -545,7 +545,7 @@ def decode_param_set(b: bytes) -> ParamSet:
     """
     if len(b) != PARAM_SET_BYTES:
         raise _fail("parameter set must be 278 bytes", Status.ERR_LENGTH)
-    f = _PARAMS.unpack(b)
+    f = _PARAMS.unpack(bytes(b))
     _finite(tuple(f[:25]))
     cpr, zero, direction = tuple(f[25:31]), tuple(f[31:37]), tuple(f[37:43])
     for i in range(JOINTS):
@@ -611,7 +611,7 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
     return None
 
 
-def decode_message(body: bytes) -> Message:
+def decode_message(body: bytes | bytearray | memoryview) -> Message:
     """Decode one message body.
 
     Raises:

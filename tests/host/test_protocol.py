@@ -1,0 +1,519 @@
+"""Python link-protocol codec: shared vectors, C header agreement, Hypothesis properties."""
+
+from __future__ import annotations
+
+import importlib.util
+import itertools
+import math
+import re
+import struct
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import isotp
+import pytest
+from aacmm import errors
+from aacmm.protocol import can as pcan
+from aacmm.protocol import framing, messages
+from aacmm.protocol.messages import (
+    ComputeRequest,
+    ComputeResult,
+    DeviceInfo,
+    ErrorReply,
+    MeasureRequest,
+    Message,
+    MsgType,
+    ParamCrc,
+    ParamSet,
+    Ping,
+    Sample,
+    Stream,
+    Trigger,
+)
+from aacmm.protocol.status import Status
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+ROOT = Path(__file__).resolve().parents[2]
+INCLUDE = ROOT / "firmware" / "include" / "aacmm"
+VECTOR_FILE = ROOT / "tests" / "vectors" / "protocol_vectors.txt"
+
+
+def _load_generator() -> ModuleType:
+    path = ROOT / "tests" / "vectors" / "gen_protocol_vectors.py"
+    spec = importlib.util.spec_from_file_location("gen_protocol_vectors", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["gen_protocol_vectors"] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+GEN = _load_generator()
+
+
+def records(kind: str) -> list[list[str]]:
+    out = []
+    for line in VECTOR_FILE.read_text().splitlines():
+        if line and not line.startswith("#"):
+            fields = line.split()
+            if fields[0] == kind:
+                out.append(fields[1:])
+    return out
+
+
+def unhex(text: str) -> bytes:
+    return b"" if text == "-" else bytes.fromhex(text)
+
+
+# ------------------------------------------------------------------ strategies
+
+u8 = st.integers(0, 0xFF)
+u16 = st.integers(0, 0xFFFF)
+u32 = st.integers(0, 0xFFFFFFFF)
+u64 = st.integers(0, 0xFFFFFFFFFFFFFFFF)
+i32 = st.integers(-(2**31), 2**31 - 1)
+f64 = st.floats(allow_nan=False, allow_infinity=False)
+f32 = st.floats(allow_nan=False, allow_infinity=False, width=32)
+seq_ = st.integers(0, 0xFF)
+
+
+def tup(s: st.SearchStrategy[object], n: int) -> st.SearchStrategy[tuple[object, ...]]:
+    return st.tuples(*([s] * n))
+
+
+jacobians = st.none() | tup(f32, 75)
+
+
+@st.composite
+def param_sets(draw: st.DrawFn) -> ParamSet:
+    cpr = draw(tup(st.integers(2, 2**32), 6))
+    zero = tuple(draw(st.integers(0, min(c, 2**32) - 1)) for c in cpr)  # type: ignore[call-overload]
+    return ParamSet(
+        theta_offset_rad=draw(tup(f64, 6)),  # type: ignore[arg-type]
+        alpha_rad=draw(tup(f64, 6)),  # type: ignore[arg-type]
+        d_mm=draw(tup(f64, 6)),  # type: ignore[arg-type]
+        a_mm=draw(tup(f64, 6)),  # type: ignore[arg-type]
+        l_mm=draw(f64),
+        counts_per_rev=cpr,  # type: ignore[arg-type]
+        zero_offset_counts=zero,
+        direction=draw(tup(st.sampled_from([1, -1]), 6)),  # type: ignore[arg-type]
+    )
+
+
+samples = st.builds(
+    Sample,
+    seq=u32,
+    timestamp_us=u64,
+    counts=tup(u32, 6),
+    point_100nm=tup(i32, 3),
+    status=u32,
+    jacobian=jacobians,
+)
+
+PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
+    MsgType.PING_REQ: st.builds(Ping, u32),
+    MsgType.PING_RSP: st.builds(Ping, u32),
+    MsgType.INFO_RSP: st.builds(
+        DeviceInfo,
+        u16,
+        u8,
+        u8,
+        u16,
+        u32,
+        u32,
+        st.integers(0, 1),
+        st.integers(0, 3),
+        u16,
+        u32,
+        st.integers(0, 15),
+    ),
+    MsgType.SET_PARAMS_REQ: param_sets(),
+    MsgType.GET_PARAMS_RSP: param_sets(),
+    MsgType.SET_PARAMS_RSP: st.builds(ParamCrc, u32),
+    MsgType.SAVE_PARAMS_RSP: st.builds(ParamCrc, u32),
+    MsgType.RESTORE_DEFAULTS_RSP: st.builds(ParamCrc, u32),
+    MsgType.MEASURE_REQ: st.builds(MeasureRequest, st.booleans()),
+    MsgType.MEASURE_RSP: samples,
+    MsgType.SAMPLE_EVT: samples,
+    MsgType.COMPUTE_REQ: st.builds(ComputeRequest, tup(u32, 6), st.booleans()),
+    MsgType.COMPUTE_RSP: st.builds(ComputeResult, u32, tup(f64, 3), jacobians),
+    MsgType.STREAM_START_REQ: st.builds(Stream, st.integers(1, 1000), st.booleans()),
+    MsgType.STREAM_START_RSP: st.builds(Stream, st.integers(1, 1000), st.booleans()),
+    MsgType.TRIGGER_EVT: st.builds(Trigger, u8, st.booleans(), samples),
+    MsgType.ERROR_RSP: st.builds(ErrorReply, st.integers(-0x8000, -1), u8),
+}
+
+
+@st.composite
+def st_message(draw: st.DrawFn) -> Message:
+    t = draw(st.sampled_from(list(MsgType)))
+    payload = draw(PAYLOADS[t]) if t in PAYLOADS else None
+    return Message(t, draw(seq_), payload)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ vectors
+
+
+def test_crc_check_value_and_vectors() -> None:
+    assert framing.crc32(b"123456789") == 0xCBF43926 == framing.CRC32_CHECK
+    rows = records("crc")
+    assert len(rows) >= 4
+    for _name, data, crc in rows:
+        assert framing.crc32(unhex(data)) == int(crc, 16)
+
+
+def test_vector_file_is_up_to_date() -> None:
+    assert VECTOR_FILE.read_text() == GEN.render(), "run tests/vectors/gen_protocol_vectors.py"
+    corpus_dir = ROOT / "tests" / "protocol" / "corpus"
+    for name, data in GEN.corpus().items():
+        assert (corpus_dir / name).read_bytes() == data, f"stale fuzz seed {name}"
+
+
+def test_message_vectors_decode_to_the_named_values() -> None:
+    expected = GEN.messages()
+    rows = records("msg")
+    assert len(rows) == len(expected) == 23
+    assert {m.type for m in expected.values()} == set(MsgType)  # every type has a vector
+    for name, body_hex, wire_hex in rows:
+        body, wire = unhex(body_hex), unhex(wire_hex)
+        msg = messages.decode_message(body)
+        assert msg == expected[name], name
+        assert messages.encode_message(expected[name]) == body
+        assert framing.encode_frame(body) == wire
+        assert messages.frame_message(expected[name]) == wire
+        assert framing.decode_frame(wire[1:-1]) == body
+
+
+def test_bad_body_vectors_fail_with_the_named_status() -> None:
+    rows = records("badbody")
+    assert len(rows) >= 30
+    for name, body_hex, status in rows:
+        with pytest.raises(errors.FrameError) as info:
+            messages.decode_message(unhex(body_hex))
+        assert info.value.status == Status[status], name
+
+
+def test_bad_frame_vectors_are_dropped_counted_and_resynchronised() -> None:
+    good = unhex(records("msg")[0][2])
+    for name, wire_hex, counter in records("badframe"):
+        d = framing.Deframer()
+        assert d.feed(unhex(wire_hex)) == [], name
+        assert getattr(d.stats, counter) == 1, name
+        assert d.stats.frames_ok == 0
+        assert d.last_error is not None
+        assert d.feed(good) == [unhex(records("msg")[0][1])]
+
+
+def test_deframer_any_chunking_with_garbage() -> None:
+    rows = records("msg")
+    stream = b""
+    for _, _, wire in rows:
+        stream += unhex(wire) + b"\x13\x37\x00\xff\x01"
+    for _, wire, _ in records("badframe"):
+        stream += unhex(wire)
+    stream += unhex(rows[0][2])
+    want = [unhex(b) for _, b, _ in rows] + [unhex(rows[0][1])]
+    for chunk in (1, 2, 5, 64, len(stream)):
+        d = framing.Deframer()
+        got: list[bytes] = []
+        for i in range(0, len(stream), chunk):
+            got += d.feed(stream[i : i + chunk])
+        assert got == want
+        assert d.stats.frames_ok == len(want)
+
+
+def test_can_sample_vectors_and_assembler() -> None:
+    rows = records("can")
+    frames = pcan.encode_sample_frames(GEN.SAMPLE_A, node_id=5)
+    sample_rows = [r for r in rows if r[0].startswith("sample_a_n5_")]
+    assert [(f.arbitration_id, f.data) for f in frames] == [
+        (int(i, 16), unhex(d)) for _, i, d in sample_rows
+    ]
+    asm = pcan.SampleAssembler(node_id=5)
+    out = [asm.feed(int(i, 16), unhex(d)) for _, i, d in sample_rows]
+    assert out[:-1] == [None] * 5
+    s = GEN.SAMPLE_A
+    assert out[-1] == Sample(
+        s.seq, s.timestamp_us & 0xFFFFFFFF, s.counts, s.point_100nm, s.status & 0xFFFF
+    )
+    # physical values through cantools with scaling: 1e-4 mm per LSB
+    db = pcan.load_dbc()
+    phys = db.decode_message(0x140, unhex(sample_rows[4][2]))
+    assert isinstance(phys, dict)
+    assert math.isclose(float(phys["X"]), 1234.5678, abs_tol=1e-9)  # type: ignore[arg-type]
+    (trig,) = [r for r in rows if r[0] == "trigger_n5"]
+    assert int(trig[1], 16) == pcan.ID_TRIGGER + 5
+    assert pcan.decode_trigger_frame(unhex(trig[2])) == pcan.TriggerFrame(s.seq, 0, True)
+
+
+def test_assembler_drops_incomplete_and_foreign() -> None:
+    s = GEN.SAMPLE_A
+    frames = pcan.encode_sample_frames(s, node_id=2)
+    asm = pcan.SampleAssembler(node_id=2)
+    # missing Counts34: dropped, then a complete sample gets through
+    for f in frames[:2] + frames[3:]:
+        assert asm.feed(f.arbitration_id, f.data) is None
+    assert asm.stats.incomplete == 1
+    assert asm.feed(0x105, frames[0].data) is None  # node 5 frame: foreign
+    assert asm.stats.foreign == 1
+    assert asm.feed(frames[0].arbitration_id, frames[0].data[:7]) is None  # bad DLC
+    assert asm.stats.bad_frames == 1
+    got = [asm.feed(f.arbitration_id, f.data) for f in frames]
+    assert got[-1] is not None and got[-1].counts == s.counts
+    # mismatched SeqTag: the tail belongs to another sample
+    other = pcan.encode_sample_frames(Sample(7, 0, (0,) * 6, (0, 0, 0), 0), node_id=2)
+    for f in frames[:5] + other[5:]:
+        assert asm.feed(f.arbitration_id, f.data) is None
+    assert asm.stats.samples == 1
+
+
+def test_isotp_vectors_reassemble_with_can_isotp() -> None:
+    rows = records("isotp")
+    assert len(rows) == 4
+    for name, tx_hex, msg_hex, frames_hex in rows:
+        tx = int(tx_hex, 16)
+        rx = tx - 0x80 if tx >= pcan.ID_ISOTP_RESPONSE else tx + 0x80
+        queue = [
+            isotp.CanMessage(arbitration_id=tx, dlc=8, data=unhex(f)) for f in frames_hex.split(",")
+        ]
+        sent: list[isotp.CanMessage] = []
+        addr = isotp.Address(isotp.AddressingMode.Normal_11bits, txid=rx, rxid=tx)
+
+        def rxfn(_timeout: float, q: list[isotp.CanMessage] = queue) -> isotp.CanMessage | None:
+            return q.pop(0) if q else None
+
+        tp = isotp.TransportLayerLogic(
+            rxfn=rxfn,
+            txfn=sent.append,
+            address=addr,
+            params=pcan.isotp_params(),
+        )
+        for _ in range(100):
+            tp.process()
+        assert tp.recv() == unhex(msg_hex), name
+        assert all(m.data[0] >> 4 == 3 for m in sent)  # only flow control went back
+
+
+# ------------------------------------------------------------------ one definition
+
+
+def _c_defines(header: str) -> dict[str, int]:
+    text = (INCLUDE / header).read_text()
+    out = {}
+    for name, value in re.findall(r"#define\s+(AACMM_\w+)\s+(0x[0-9A-Fa-f]+|\d+)u?\b", text):
+        out[name] = int(value, 0)
+    return out
+
+
+def test_c_can_ids_match_dbc_and_python() -> None:
+    d = _c_defines("proto_can.h")
+    db = pcan.load_dbc()
+    pairs = {
+        "AACMM_CAN_ID_SAMPLE_HEADER": ("AACMM_SampleHeader", pcan.ID_SAMPLE_HEADER),
+        "AACMM_CAN_ID_COUNTS_12": ("AACMM_Counts12", pcan.ID_COUNTS_12),
+        "AACMM_CAN_ID_COUNTS_34": ("AACMM_Counts34", pcan.ID_COUNTS_34),
+        "AACMM_CAN_ID_COUNTS_56": ("AACMM_Counts56", pcan.ID_COUNTS_56),
+        "AACMM_CAN_ID_POINT_XY": ("AACMM_PointXY", pcan.ID_POINT_XY),
+        "AACMM_CAN_ID_POINT_Z": ("AACMM_PointZ", pcan.ID_POINT_Z),
+        "AACMM_CAN_ID_TRIGGER": ("AACMM_Trigger", pcan.ID_TRIGGER),
+        "AACMM_CAN_ID_ISOTP_REQUEST": ("AACMM_IsoTpRequest", pcan.ID_ISOTP_REQUEST),
+        "AACMM_CAN_ID_ISOTP_RESPONSE": ("AACMM_IsoTpResponse", pcan.ID_ISOTP_RESPONSE),
+    }
+    for cname, (dbc_name, py_id) in pairs.items():
+        assert d[cname] == db.get_message_by_name(dbc_name).frame_id == py_id, cname
+    assert len(db.messages) == len(pairs)
+    assert d["AACMM_CAN_NODE_ID_MAX"] == pcan.NODE_ID_MAX
+    assert d["AACMM_CAN_SAMPLE_FRAMES"] == len(pcan.SAMPLE_FRAME_IDS)
+    # node ids never collide: 16 nodes fit between consecutive bases
+    bases = sorted(p[1] for p in pairs.values())
+    assert all(b - a >= 16 for a, b in itertools.pairwise(bases))
+    for m in db.messages:
+        assert m.length == 8 and not m.is_extended_frame
+        for sig in m.signals:
+            assert sig.byte_order == "little_endian"
+
+
+def test_c_message_types_and_sizes_match_python() -> None:
+    text = (INCLUDE / "proto.h").read_text()
+    c_types = {
+        name: int(value, 0)
+        for name, value in re.findall(
+            r"AACMM_MSG_(\w+_(?:REQ|RSP|EVT))\s*=\s*(0x[0-9A-Fa-f]+)", text
+        )
+    }
+    assert c_types == {t.name: int(t) for t in MsgType}
+    d = _c_defines("proto.h")
+    assert d["AACMM_PROTO_VERSION"] == messages.PROTOCOL_VERSION
+    assert d["AACMM_PROTO_MAX_BODY"] == messages.MAX_BODY == framing.MAX_BODY
+    assert d["AACMM_PARAM_SET_BYTES"] == messages.PARAM_SET_BYTES == struct.calcsize("<25d6Q6I6b")
+    assert d["AACMM_INFO_BYTES"] == messages.INFO_BYTES
+    assert d["AACMM_SAMPLE_BASE_BYTES"] == messages.SAMPLE_BASE_BYTES
+    assert d["AACMM_JACOBIAN_BYTES"] == messages.JACOBIAN_BYTES
+    assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == messages.COMPUTE_RSP_BASE_BYTES
+    assert d["AACMM_CONTENT_JACOBIAN"] == messages.Content.JACOBIAN
+    for flag in messages.SampleStatus:
+        assert d[f"AACMM_SAMPLE_{flag.name}"] == flag.value
+    for build in messages.BuildFlags:
+        assert d[f"AACMM_BUILD_{build.name}"] == build.value
+    f = _c_defines("frame.h")
+    assert f["AACMM_FRAME_MAX_BODY"] == framing.MAX_BODY
+    assert _c_defines("crc32.h")["AACMM_CRC32_CHECK"] == framing.CRC32_CHECK
+
+
+def test_status_enum_matches_c_header() -> None:
+    text = (INCLUDE / "status.h").read_text()
+    c = {n: int(v) for n, v in re.findall(r"AACMM_(OK|ERR_\w+)\s*=\s*(-?\d+)", text)}
+    assert c == {s.name: int(s) for s in Status}
+
+
+# ------------------------------------------------------------------ properties
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st_message())
+def test_round_trip(msg: Message) -> None:
+    body = messages.encode_message(msg)
+    assert messages.HEADER_BYTES <= len(body) <= messages.MAX_BODY
+    assert messages.decode_message(body) == msg
+    wire = framing.encode_frame(body)
+    assert len(wire) <= framing.MAX_WIRE
+    assert b"\x00" not in wire[1:-1]
+    assert framing.Deframer().feed(wire) == [body]
+
+
+@settings(max_examples=1500, deadline=None)
+@given(st.binary(max_size=600))
+def test_arbitrary_bodies_raise_only_frame_error(data: bytes) -> None:
+    try:
+        msg = messages.decode_message(data)
+    except errors.FrameError as exc:
+        assert exc.status < 0
+    else:
+        assert messages.encode_message(msg) == data  # canonical
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(min_size=1, max_size=3), st.binary(max_size=400))
+def test_mutated_valid_bodies_raise_only_frame_error(prefix: bytes, tail: bytes) -> None:
+    body = unhex(records("msg")[13][1])
+    data = body[: len(prefix)] + prefix + tail
+    try:
+        messages.decode_message(data)
+    except errors.FrameError:
+        pass
+
+
+@settings(max_examples=500, deadline=None)
+@given(st.binary(max_size=2000), st.integers(1, 64))
+def test_deframer_arbitrary_bytes_never_raise(data: bytes, chunk: int) -> None:
+    d = framing.Deframer()
+    for i in range(0, len(data), chunk):
+        for body in d.feed(data[i : i + chunk]):
+            assert framing.MIN_BODY <= len(body) <= framing.MAX_BODY
+    # and it still works afterwards
+    good = framing.encode_frame(b"\x01\x02\x03")
+    assert d.feed(good) == [b"\x01\x02\x03"]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=700))
+def test_decode_frame_raises_only_frame_error(data: bytes) -> None:
+    try:
+        body = framing.decode_frame(data)
+    except errors.FrameError as exc:
+        assert exc.status in (Status.ERR_FRAME, Status.ERR_LENGTH, Status.ERR_CRC)
+    else:
+        assert framing.MIN_BODY <= len(body) <= framing.MAX_BODY
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 0x7FF), st.binary(max_size=8)), max_size=40))
+def test_assembler_arbitrary_frames_never_raise(
+    frames: list[tuple[int, bytes]],
+) -> None:
+    asm = pcan.SampleAssembler(node_id=1)
+    for fid, data in frames:
+        asm.feed(fid, data)
+
+
+@settings(max_examples=200, deadline=None)
+@given(samples, st.integers(0, 15))
+def test_can_sample_round_trip(sample: Sample, node: int) -> None:
+    asm = pcan.SampleAssembler(node_id=node)
+    out = [asm.feed(f.arbitration_id, f.data) for f in pcan.encode_sample_frames(sample, node)]
+    assert out[-1] == Sample(
+        sample.seq,
+        sample.timestamp_us & 0xFFFFFFFF,
+        sample.counts,
+        sample.point_100nm,
+        sample.status & 0xFFFF,
+    )
+
+
+# ------------------------------------------------------------------ arguments and errors
+
+
+def test_encoder_rejects_bad_arguments_with_value_error() -> None:
+    good = GEN.messages()
+    bad = [
+        Message(MsgType.PING_REQ, 256, Ping(1)),
+        Message(MsgType.PING_REQ, 0, Ping(-1)),
+        Message(MsgType.PING_REQ, 0, None),
+        Message(MsgType.INFO_REQ, 0, Ping(1)),
+        Message(MsgType.STREAM_START_REQ, 0, Stream(0)),
+        Message(MsgType.ERROR_RSP, 0, ErrorReply(0, 1)),
+        Message(MsgType.COMPUTE_RSP, 0, ComputeResult(0, (math.nan, 0.0, 0.0))),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 6, (0, 0, 0), 0, (1e39,) * 75)),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 5, (0, 0, 0), 0)),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 6, (2**31, 0, 0), 0)),
+        Message(MsgType.TRIGGER_EVT, 0, Trigger(0, 2, GEN.SAMPLE_A)),  # type: ignore[arg-type]
+    ]
+    p = good["set_params_req"].payload
+    assert isinstance(p, ParamSet)
+    for change in (
+        {"direction": (0, 1, 1, 1, 1, 1)},
+        {"counts_per_rev": (1, 2, 2, 2, 2, 2)},
+        {"zero_offset_counts": (0, 16777216, 0, 0, 0, 0)},
+        {"l_mm": math.inf},
+        {"d_mm": (0.0,) * 5},
+    ):
+        bad.append(Message(MsgType.SET_PARAMS_REQ, 0, ParamSet(**{**p.__dict__, **change})))
+    for m in bad:
+        with pytest.raises(ValueError):
+            messages.encode_message(m)
+    with pytest.raises(ValueError):
+        messages.encode_message(Message(0x3F, 0))  # type: ignore[arg-type]
+    with pytest.raises(ValueError):
+        framing.encode_frame(b"\x01\x02")
+    with pytest.raises(ValueError):
+        framing.encode_frame(b"\x01" * 513)
+    with pytest.raises(ValueError):
+        pcan.SampleAssembler(node_id=16)
+    with pytest.raises(ValueError):
+        pcan.isotp_address(-1)
+
+
+def test_error_tree() -> None:
+    for cls in (
+        errors.InitError,
+        errors.OperationError,
+        errors.DeviceTimeoutError,
+        errors.FrameError,
+        errors.DeviceError,
+    ):
+        assert issubclass(cls, errors.AacmmError)
+    e = errors.DeviceError("range", int(Status.ERR_RANGE), 4)
+    assert (e.status, e.request_type) == (-2, 4)
+
+
+def test_isotp_helpers() -> None:
+    addr = pcan.isotp_address(7)
+    assert addr.get_tx_arbitration_id() == 0x607
+    assert addr.get_rx_arbitration_id() == 0x687
+    params = pcan.isotp_params()
+    isotp.TransportLayerLogic(
+        rxfn=lambda _t: None, txfn=lambda _m: None, address=addr, params=params
+    )
+    assert params["tx_padding"] == 0xCC
