@@ -246,6 +246,10 @@ def test_can_sample_vectors_and_assembler() -> None:
     (trig,) = [r for r in rows if r[0] == "trigger_n5"]
     assert int(trig[1], 16) == pcan.ID_TRIGGER + 5
     assert pcan.decode_trigger_frame(unhex(trig[2])) == pcan.TriggerFrame(s.seq, 0, True)
+    with pytest.raises(errors.FrameError):
+        pcan.decode_trigger_frame(unhex(trig[2])[:7])
+    with pytest.raises(errors.FrameError):
+        pcan.decode_trigger_frame(unhex(trig[2])[:5] + b"\x02\x00\x00")
 
 
 def test_assembler_drops_incomplete_and_foreign() -> None:

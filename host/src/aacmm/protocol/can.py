@@ -16,7 +16,9 @@ import cantools
 import cantools.database
 import isotp
 
+from aacmm.errors import FrameError
 from aacmm.protocol.messages import Sample
+from aacmm.protocol.status import Status
 
 NODE_ID_MAX: Final = 15
 
@@ -210,17 +212,17 @@ class SampleAssembler:
         )
 
 
-def decode_trigger_frame(data: bytes) -> TriggerFrame:
+def decode_trigger_frame(data: bytes | bytearray) -> TriggerFrame:
     """Decode the 8 data bytes of a trigger frame.
 
     Raises:
-        ValueError: not 8 bytes or pressed not 0/1.
+        FrameError: not 8 bytes (ERR_LENGTH) or Pressed not 0/1 (ERR_RANGE).
     """
     if len(data) != 8:
-        raise ValueError("trigger frame needs 8 bytes")
+        raise FrameError("trigger frame needs 8 bytes", int(Status.ERR_LENGTH))
     sig = _decode_raw(ID_TRIGGER, bytes(data))
     if sig["Pressed"] > 1:
-        raise ValueError("trigger Pressed must be 0 or 1")
+        raise FrameError("trigger Pressed must be 0 or 1", int(Status.ERR_RANGE))
     return TriggerFrame(sig["Seq"], sig["Button"], bool(sig["Pressed"]))
 
 
