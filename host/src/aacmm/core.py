@@ -177,8 +177,9 @@ class EncoderConfig:
         Raises ValueError for values outside the C ranges (resolution
         2 .. 2^32, zero offset below the resolution, direction +1 or -1).
         """
-        for cpr, z, d in zip(self.counts_per_rev, self.zero_offset_counts, self.direction,
-                             strict=True):
+        for cpr, z, d in zip(
+            self.counts_per_rev, self.zero_offset_counts, self.direction, strict=True
+        ):
             if not 2 <= cpr <= (1 << 32):
                 raise ValueError(f"counts_per_rev must be in 2 .. 2^32, got {cpr}")
             if not 0 <= z < cpr:
@@ -306,9 +307,7 @@ def counts_to_angles(counts: npt.ArrayLike, encoders: EncoderConfig | None = Non
     return out
 
 
-def perturbed_points(
-    nominal: Params, delta: npt.ArrayLike, theta_rad: npt.ArrayLike
-) -> FloatArray:
+def perturbed_points(nominal: Params, delta: npt.ArrayLike, theta_rad: npt.ArrayLike) -> FloatArray:
     """Probe points (T, n, 3) of arms with parameters ``nominal + delta[t]``.
 
     ``delta`` is (T, 25) in Jacobian column order (rad and mm); one model is

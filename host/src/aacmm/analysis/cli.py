@@ -36,34 +36,79 @@ def register(sub: Any) -> None:
         description="Average |error transfer coefficient| (Jacobian entries, from the "
         "firmware's C core) over random or logged poses, beside the paper's Table 2.",
     )
-    mc.add_argument("-n", "--poses", type=int, default=10_000, metavar="N",
-                    help="number of random poses (default 10000, as the paper)")
-    mc.add_argument("--seed", type=int, default=None,
-                    help="random seed (default: a fresh one, printed for reproduction)")
-    mc.add_argument("--range", nargs=3, action="append", default=[], metavar=("J", "LOW", "HIGH"),
-                    help="joint J (1..6 or all) uniform in [LOW, HIGH) deg; repeatable "
-                    "(default: all joints uniform in [-180, 180))")
-    mc.add_argument("--normal", nargs=3, action="append", default=[], metavar=("J", "MEAN", "SD"),
-                    help="joint J (1..6 or all) normal with MEAN and SD in deg; repeatable")
-    mc.add_argument("--adaptive", action="store_true",
-                    help="adaptive Monte Carlo (JCGM 101 7.9): draw runs of --block poses "
-                    "until every coefficient is stable to the tolerance")
-    mc.add_argument("--ndig", type=int, default=None,
-                    help="adaptive: significant digits that must be stable (default 2)")
-    mc.add_argument("--tol", type=float, default=None, metavar="DELTA",
-                    help="adaptive: absolute numerical tolerance in mm/rad instead of --ndig")
+    mc.add_argument(
+        "-n",
+        "--poses",
+        type=int,
+        default=10_000,
+        metavar="N",
+        help="number of random poses (default 10000, as the paper)",
+    )
+    mc.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="random seed (default: a fresh one, printed for reproduction)",
+    )
+    mc.add_argument(
+        "--range",
+        nargs=3,
+        action="append",
+        default=[],
+        metavar=("J", "LOW", "HIGH"),
+        help="joint J (1..6 or all) uniform in [LOW, HIGH) deg; repeatable "
+        "(default: all joints uniform in [-180, 180))",
+    )
+    mc.add_argument(
+        "--normal",
+        nargs=3,
+        action="append",
+        default=[],
+        metavar=("J", "MEAN", "SD"),
+        help="joint J (1..6 or all) normal with MEAN and SD in deg; repeatable",
+    )
+    mc.add_argument(
+        "--adaptive",
+        action="store_true",
+        help="adaptive Monte Carlo (JCGM 101 7.9): draw runs of --block poses "
+        "until every coefficient is stable to the tolerance",
+    )
+    mc.add_argument(
+        "--ndig",
+        type=int,
+        default=None,
+        help="adaptive: significant digits that must be stable (default 2)",
+    )
+    mc.add_argument(
+        "--tol",
+        type=float,
+        default=None,
+        metavar="DELTA",
+        help="adaptive: absolute numerical tolerance in mm/rad instead of --ndig",
+    )
     mc.add_argument("--block", type=int, default=10_000, help="adaptive: poses per run (10000)")
-    mc.add_argument("--max-trials", type=int, default=100_000_000,
-                    help="adaptive: stop after this many poses (default 1e8)")
-    mc.add_argument("--log", metavar="CSV",
-                    help="use the poses of a measurement log (aacmm log CSV) instead of random")
+    mc.add_argument(
+        "--max-trials",
+        type=int,
+        default=100_000_000,
+        help="adaptive: stop after this many poses (default 1e8)",
+    )
+    mc.add_argument(
+        "--log",
+        metavar="CSV",
+        help="use the poses of a measurement log (aacmm log CSV) instead of random",
+    )
     mc.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
     mc.add_argument("--csv", metavar="PATH", help="write all 75 coefficients as CSV")
     mc.add_argument("--json", metavar="PATH", help="write the result as JSON")
     mc.add_argument("--png", metavar="PATH", help="write a figure of the coefficients (PNG)")
     mc.add_argument("-q", "--quiet", action="store_true", help="no terminal table")
-    mc.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                    help="progress bar on stderr (default: on long runs at a terminal)")
+    mc.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: on long runs at a terminal)",
+    )
     mc.set_defaults(func=run_mc)
 
     un = sub.add_parser(
@@ -73,16 +118,33 @@ def register(sub: Any) -> None:
         "point by Monte Carlo (JCGM 101) and by linear propagation J Sigma J^T (GUM); "
         "report both, their agreement, 95 %% intervals and the budget.",
     )
-    un.add_argument("spec", metavar="SPEC.toml", help="parameter-uncertainty file "
-                    "(see docs/montecarlo.md; 'example' uses the packaged example)")
+    un.add_argument(
+        "spec",
+        metavar="SPEC.toml",
+        help="parameter-uncertainty file "
+        "(see docs/montecarlo.md; 'example' uses the packaged example)",
+    )
     un.add_argument("--trials", type=int, default=100_000, help="Monte Carlo trials (1e5)")
-    un.add_argument("--workspace", type=int, default=100,
-                    help="random workspace poses to add (default 100; 0 = only given poses)")
-    un.add_argument("--pose", action="append", default=[], metavar="T1,..,T6",
-                    help="a pose to report, six joint angles in deg; repeatable")
+    un.add_argument(
+        "--workspace",
+        type=int,
+        default=100,
+        help="random workspace poses to add (default 100; 0 = only given poses)",
+    )
+    un.add_argument(
+        "--pose",
+        action="append",
+        default=[],
+        metavar="T1,..,T6",
+        help="a pose to report, six joint angles in deg; repeatable",
+    )
     un.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    un.add_argument("--ndig", type=int, default=1,
-                    help="significant digits for the JCGM 101 sec. 8 agreement check (1)")
+    un.add_argument(
+        "--ndig",
+        type=int,
+        default=1,
+        help="significant digits for the JCGM 101 sec. 8 agreement check (1)",
+    )
     un.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
     un.add_argument("--top", type=int, default=10, help="budget rows to print (10)")
     un.add_argument("--json", metavar="PATH", help="write the result as JSON")
@@ -115,26 +177,42 @@ def run_mc(args: argparse.Namespace) -> int:
     try:
         if args.log is not None:
             if args.adaptive or args.range or args.normal or args.seed is not None:
-                raise ValueError("--log takes its poses from the log: no --adaptive, --range, "
-                                 "--normal or --seed")
+                raise ValueError(
+                    "--log takes its poses from the log: no --adaptive, --range, --normal or --seed"
+                )
             from aacmm.analysis.poselog import read_pose_log
 
             log = read_pose_log(args.log)
-            res = mc.coefficients_over_poses(log.theta_rad, params=log.params,
-                                             threads=args.threads, source=f"log {args.log}",
-                                             progress=args.progress)
+            res = mc.coefficients_over_poses(
+                log.theta_rad,
+                params=log.params,
+                threads=args.threads,
+                source=f"log {args.log}",
+                progress=args.progress,
+            )
         elif args.adaptive:
             if args.tol is not None and args.ndig is not None:
                 raise ValueError("give --ndig or --tol, not both")
             res = mc.error_transfer_coefficients_adaptive(
-                ndig=None if args.tol is not None else (args.ndig or 2), tolerance=args.tol,
-                block=args.block, max_trials=args.max_trials, joints=_joints(args),
-                seed=args.seed, threads=args.threads, progress=args.progress)
+                ndig=None if args.tol is not None else (args.ndig or 2),
+                tolerance=args.tol,
+                block=args.block,
+                max_trials=args.max_trials,
+                joints=_joints(args),
+                seed=args.seed,
+                threads=args.threads,
+                progress=args.progress,
+            )
         else:
             if args.ndig is not None or args.tol is not None:
                 raise ValueError("--ndig and --tol need --adaptive")
-            res = mc.error_transfer_coefficients(args.poses, joints=_joints(args), seed=args.seed,
-                                                 threads=args.threads, progress=args.progress)
+            res = mc.error_transfer_coefficients(
+                args.poses,
+                joints=_joints(args),
+                seed=args.seed,
+                threads=args.threads,
+                progress=args.progress,
+            )
         if not args.quiet:
             print(mc.format_report(res))
         if args.csv:
@@ -146,8 +224,9 @@ def run_mc(args: argparse.Namespace) -> int:
     except (AacmmError, ValueError, OSError) as e:
         return _fail("mc", e)
     if res.converged is False:
-        print("aacmm mc: warning: adaptive run did not converge within --max-trials",
-              file=sys.stderr)
+        print(
+            "aacmm mc: warning: adaptive run did not converge within --max-trials", file=sys.stderr
+        )
         return 1
     return 0
 
@@ -167,9 +246,13 @@ def run_uncertainty(args: argparse.Namespace) -> int:
 
     try:
         if args.spec == "example":
-            spec = unc.parse_spec(tomllib.loads(
-                resources.files("aacmm").joinpath("data", "example_uncertainty.toml")
-                .read_text("utf-8")))
+            spec = unc.parse_spec(
+                tomllib.loads(
+                    resources.files("aacmm")
+                    .joinpath("data", "example_uncertainty.toml")
+                    .read_text("utf-8")
+                )
+            )
         else:
             spec = unc.load_spec(args.spec)
         if args.pose:
@@ -179,14 +262,22 @@ def run_uncertainty(args: argparse.Namespace) -> int:
                     extra.append([float(v) for v in text.split(",")])
                 except ValueError as e:
                     raise ValueError(f"--pose {text!r}: six comma-separated angles in deg") from e
-            spec = replace(spec, poses_rad=np.concatenate([spec.poses_rad,
-                                                           unc.pose_list(extra, "deg")]))
-        res = unc.propagate(spec, trials=args.trials, workspace=args.workspace, seed=args.seed,
-                            ndig=args.ndig, threads=args.threads)
+            spec = replace(
+                spec, poses_rad=np.concatenate([spec.poses_rad, unc.pose_list(extra, "deg")])
+            )
+        res = unc.propagate(
+            spec,
+            trials=args.trials,
+            workspace=args.workspace,
+            seed=args.seed,
+            ndig=args.ndig,
+            threads=args.threads,
+        )
         print(unc.format_report(res, top=args.top))
         if args.json:
-            Path(args.json).write_text(json.dumps(unc.to_json(res), indent=2) + "\n",
-                                       encoding="utf-8")
+            Path(args.json).write_text(
+                json.dumps(unc.to_json(res), indent=2) + "\n", encoding="utf-8"
+            )
     except (AacmmError, ValueError, OSError) as e:
         return _fail("uncertainty", e)
     return 0

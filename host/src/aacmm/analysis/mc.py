@@ -108,8 +108,9 @@ class JointDistribution:
             if self.b < 0:
                 raise ValueError(f"normal joint standard deviation must be >= 0, got {self.b}")
             if abs(self.a) + 10.0 * self.b > JOINT_ANGLE_MAX_RAD:
-                raise ValueError(f"normal joint distribution reaches beyond "
-                                 f"+-{JOINT_ANGLE_MAX_RAD} rad")
+                raise ValueError(
+                    f"normal joint distribution reaches beyond +-{JOINT_ANGLE_MAX_RAD} rad"
+                )
 
     @classmethod
     def uniform(cls, low: float, high: float) -> JointDistribution:
@@ -154,8 +155,9 @@ def draw_chunk(
     entropy: int, run: int, chunk: int, n: int, joints: Sequence[JointDistribution]
 ) -> FloatArray:
     """The poses (n, 6) of one chunk: a pure function of its arguments."""
-    rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(entropy,
-                                                                     spawn_key=(run, chunk))))
+    rng = np.random.Generator(
+        np.random.PCG64(np.random.SeedSequence(entropy, spawn_key=(run, chunk)))
+    )
     out = np.empty((n, JOINTS), dtype=np.float64)
     if all(j.kind == "uniform" for j in joints):  # fast path: in place, no copies
         rng.random(out=out)
@@ -192,8 +194,7 @@ def draw_poses(
         raise ValueError(f"number of poses must be >= 0, got {n}")
     js = _joints(joints)
     e = _entropy(seed)
-    parts = [draw_chunk(e, run, k, min(CHUNK, n - k * CHUNK), js)
-             for k in range(-(-n // CHUNK))]
+    parts = [draw_chunk(e, run, k, min(CHUNK, n - k * CHUNK), js) for k in range(-(-n // CHUNK))]
     return np.concatenate(parts) if parts else np.empty((0, JOINTS))
 
 
@@ -244,15 +245,17 @@ class CoefficientResult:
 def _table2(a: FloatArray) -> FloatArray:
     out = np.empty((JOINTS, len(TABLE2_COLUMNS)))
     for c, (row, off, _) in enumerate(TABLE2_COLUMNS):
-        out[:, c] = a[row, off:off + JOINTS]
+        out[:, c] = a[row, off : off + JOINTS]
     return out
 
 
 def paper_table2() -> FloatArray:
     """The paper's Table 2 (6, 6) in mm/rad, from the package's data copy."""
     text = resources.files("aacmm").joinpath("data", "paper_table2.csv").read_text("utf-8")
-    rows = [r for r in csv.reader(line for line in text.splitlines()
-                                  if line and not line.startswith("#"))]
+    rows = [
+        r
+        for r in csv.reader(line for line in text.splitlines() if line and not line.startswith("#"))
+    ]
     header, body = rows[0], rows[1:]
     if [h for h, _ in zip(header[1:], TABLE2_COLUMNS, strict=True)] != [
         c[2].replace("/", "_") for c in TABLE2_COLUMNS
@@ -317,8 +320,9 @@ class _Progress:
         if enabled:
             from tqdm import tqdm
 
-            self._bar = tqdm(total=total, desc=desc, unit="pose", unit_scale=True,
-                             file=sys.stderr, leave=False)
+            self._bar = tqdm(
+                total=total, desc=desc, unit="pose", unit_scale=True, file=sys.stderr, leave=False
+            )
 
     def update(self, n: int) -> None:
         if self._bar is not None:
@@ -438,8 +442,20 @@ def error_transfer_coefficients(
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s, q, got)
     dev, dz, checked = _checks(model, draw_chunk(e, 0, 0, min(n, CHECK_POSES, CHUNK), js))
-    return CoefficientResult(got, mean, std, sem, "random", e, tuple(j.describe() for j in js),
-                             dev, dz, checked, elapsed, nt)
+    return CoefficientResult(
+        got,
+        mean,
+        std,
+        sem,
+        "random",
+        e,
+        tuple(j.describe() for j in js),
+        dev,
+        dz,
+        checked,
+        elapsed,
+        nt,
+    )
 
 
 def jcgm_tolerance(values: FloatArray, ndig: int) -> FloatArray:
@@ -526,9 +542,23 @@ def error_transfer_coefficients_adaptive(
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s_tot, q_tot, n_tot)
     dev, dz, checked = _checks(model, draw_chunk(e, 0, 0, min(block, CHECK_POSES, CHUNK), js))
-    return CoefficientResult(n_tot, mean, std, sem, "random (adaptive, JCGM 101 7.9)", e,
-                             tuple(j.describe() for j in js), dev, dz, checked, elapsed, nt,
-                             runs=len(run_means), converged=converged, tolerance=delta)
+    return CoefficientResult(
+        n_tot,
+        mean,
+        std,
+        sem,
+        "random (adaptive, JCGM 101 7.9)",
+        e,
+        tuple(j.describe() for j in js),
+        dev,
+        dz,
+        checked,
+        elapsed,
+        nt,
+        runs=len(run_means),
+        converged=converged,
+        tolerance=delta,
+    )
 
 
 def coefficients_over_poses(
@@ -554,7 +584,7 @@ def coefficients_over_poses(
     t0 = time.perf_counter()
 
     def make(k: int) -> Callable[[], FloatArray]:
-        return lambda: th[k * CHUNK:(k + 1) * CHUNK]
+        return lambda: th[k * CHUNK : (k + 1) * CHUNK]
 
     bar = _Progress(_want_progress(progress, n), n, "mc")
     tasks = [make(k) for k in range(-(-n // CHUNK))]
@@ -566,8 +596,9 @@ def coefficients_over_poses(
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s, q, got)
     dev, dz, checked = _checks(model, th)
-    return CoefficientResult(got, mean, std, sem, source, None, ("logged",) * JOINTS, dev, dz,
-                             checked, elapsed, nt)
+    return CoefficientResult(
+        got, mean, std, sem, source, None, ("logged",) * JOINTS, dev, dz, checked, elapsed, nt
+    )
 
 
 # --------------------------------------------------------------------------
@@ -584,8 +615,10 @@ def format_report(result: CoefficientResult) -> str:
         + (f"; seed {result.seed}" if result.seed is not None else ""),
     ]
     if result.converged is not None:
-        lines.append(f"adaptive (JCGM 101 7.9): {result.runs} runs, {result.n} trials, "
-                     + ("converged" if result.converged else "NOT converged (max trials reached)"))
+        lines.append(
+            f"adaptive (JCGM 101 7.9): {result.runs} runs, {result.n} trials, "
+            + ("converged" if result.converged else "NOT converged (max trials reached)")
+        )
     head = f"{'i':>2}  {'':6}" + "".join(f"{c[2]:>12}" for c in TABLE2_COLUMNS)
     lines += ["", head, "-" * len(head)]
     for i in range(JOINTS):
@@ -594,8 +627,11 @@ def format_report(result: CoefficientResult) -> str:
         lines.append(f"{'':>2}  {'paper':6}" + "".join(f"{v:12.2f}" for v in paper[i]))
         devs = []
         for c in range(len(TABLE2_COLUMNS)):
-            devs.append(f"{'(abs)':>12}" if paper[i, c] == 0.0
-                        else f"{100.0 * (ours[i, c] - paper[i, c]) / paper[i, c]:+11.2f}%")
+            devs.append(
+                f"{'(abs)':>12}"
+                if paper[i, c] == 0.0
+                else f"{100.0 * (ours[i, c] - paper[i, c]) / paper[i, c]:+11.2f}%"
+            )
         lines.append(f"{'':>2}  {'dev':6}" + "".join(devs))
     worst, entry = max_rel_deviation(result)
     lines += [
@@ -625,9 +661,18 @@ def write_csv(result: CoefficientResult, path: str | Path) -> None:
                     col = (3 if k < 6 else 0) + r
                     pv = float(paper[k % 6, col])
                 rel = "" if pv is None or pv == 0.0 else f"{(result.mean_abs[r, k] - pv) / pv:.6g}"
-                w.writerow([axis, name, f"mm/{PARAM_UNITS[k]}", f"{result.mean_abs[r, k]:.10g}",
-                            f"{result.std_abs[r, k]:.6g}", f"{result.sem[r, k]:.6g}",
-                            "" if pv is None else f"{pv:g}", rel])
+                w.writerow(
+                    [
+                        axis,
+                        name,
+                        f"mm/{PARAM_UNITS[k]}",
+                        f"{result.mean_abs[r, k]:.10g}",
+                        f"{result.std_abs[r, k]:.6g}",
+                        f"{result.sem[r, k]:.6g}",
+                        "" if pv is None else f"{pv:g}",
+                        rel,
+                    ]
+                )
 
 
 def to_json(result: CoefficientResult) -> dict[str, Any]:
@@ -635,8 +680,14 @@ def to_json(result: CoefficientResult) -> dict[str, Any]:
     comps = compare_with_paper(result)
     worst, _ = max_rel_deviation(result)
     coeffs = {
-        name: {axis: {"mean_abs": float(result.mean_abs[r, k]), "std": float(result.std_abs[r, k]),
-                      "sem": float(result.sem[r, k])} for r, axis in enumerate(AXES)}
+        name: {
+            axis: {
+                "mean_abs": float(result.mean_abs[r, k]),
+                "std": float(result.std_abs[r, k]),
+                "sem": float(result.sem[r, k]),
+            }
+            for r, axis in enumerate(AXES)
+        }
         for k, name in enumerate(PARAM_NAMES)
     }
     out: dict[str, Any] = {
@@ -649,8 +700,15 @@ def to_json(result: CoefficientResult) -> dict[str, Any]:
         "units": {"theta": "mm/rad", "alpha": "mm/rad", "d": "mm/mm", "a": "mm/mm", "l": "mm/mm"},
         "coefficients": coeffs,
         "table2": [
-            {"joint": c.joint, "column": c.column, "ours": c.ours, "sem": c.sem,
-             "paper": c.paper, "rel_dev": c.rel_dev} for c in comps
+            {
+                "joint": c.joint,
+                "column": c.column,
+                "ours": c.ours,
+                "sem": c.sem,
+                "paper": c.paper,
+                "rel_dev": c.rel_dev,
+            }
+            for c in comps
         ],
         "max_abs_rel_dev": worst,
         "checks": {
@@ -660,9 +718,14 @@ def to_json(result: CoefficientResult) -> dict[str, Any]:
         },
     }
     if result.converged is not None:
-        out["adaptive"] = {"runs": result.runs, "trials": result.n, "converged": result.converged,
-                           "max_tolerance": float(np.max(result.tolerance))
-                           if result.tolerance is not None else None}
+        out["adaptive"] = {
+            "runs": result.runs,
+            "trials": result.n,
+            "converged": result.converged,
+            "max_tolerance": float(np.max(result.tolerance))
+            if result.tolerance is not None
+            else None,
+        }
     return out
 
 
@@ -686,10 +749,22 @@ def write_png(result: CoefficientResult, path: str | Path) -> None:
         for r, axis in enumerate(AXES):
             c = 3 * p + r
             xs = x + (r - 1) * width
-            ax.bar(xs, ours[:, c], width, yerr=sem[:, c], capsize=2,
-                   label=f"d{axis}/d{title.split('_')[0]} (this run)")
-            ax.plot(xs, paper[:, c], "k_", markersize=12, markeredgewidth=2,
-                    label="paper Table 2" if r == 0 else None)
+            ax.bar(
+                xs,
+                ours[:, c],
+                width,
+                yerr=sem[:, c],
+                capsize=2,
+                label=f"d{axis}/d{title.split('_')[0]} (this run)",
+            )
+            ax.plot(
+                xs,
+                paper[:, c],
+                "k_",
+                markersize=12,
+                markeredgewidth=2,
+                label="paper Table 2" if r == 0 else None,
+            )
         ax.set_title(f"Mean |error transfer coefficient| of {title}")
         ax.set_xlabel("joint i")
         ax.set_xticks(x)

@@ -89,14 +89,14 @@ def _read_sidecar(path: Path) -> tuple[EncoderConfig, Params | None]:
             )
             enc.to_c()
         except (AttributeError, TypeError, ValueError) as e:
-            raise PoseLogError(f"{path}: bad \"encoders\": {e}") from e
+            raise PoseLogError(f'{path}: bad "encoders": {e}') from e
     params = None
     if "params" in meta:
         try:
             params = Params(**meta["params"])
             params.validate()
         except (TypeError, ValueError) as e:
-            raise PoseLogError(f"{path}: bad \"params\": {e}") from e
+            raise PoseLogError(f'{path}: bad "params": {e}') from e
     return enc, params
 
 
@@ -113,8 +113,11 @@ def read_pose_log(path: str | Path, encoders: EncoderConfig | None = None) -> Po
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise PoseLogError(f"{p}: cannot read log: {e}") from e
-    numbered = [(i + 1, line) for i, line in enumerate(text.splitlines())
-                if line.strip() and not line.lstrip().startswith("#")]
+    numbered = [
+        (i + 1, line)
+        for i, line in enumerate(text.splitlines())
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
     if not numbered:
         raise PoseLogError(f"{p}: empty log (no header row)")
     rows = list(csv.reader(line for _, line in numbered))

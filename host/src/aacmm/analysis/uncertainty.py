@@ -92,13 +92,17 @@ class ParamUncertainty:
 
     def __post_init__(self) -> None:
         if self.name not in PARAM_NAMES:
-            raise ValueError(f"unknown parameter name {self.name!r} "
-                             f"(expected theta1..6, alpha1..6, d1..6, a1..6 or l)")
+            raise ValueError(
+                f"unknown parameter name {self.name!r} "
+                f"(expected theta1..6, alpha1..6, d1..6, a1..6 or l)"
+            )
         if not math.isfinite(self.u) or self.u < 0:
             raise ValueError(f"{self.name}: uncertainty must be finite and >= 0, got {self.u}")
         if self.distribution not in DISTRIBUTIONS:
-            raise ValueError(f"{self.name}: unknown distribution {self.distribution!r} "
-                             f"(one of {', '.join(DISTRIBUTIONS)})")
+            raise ValueError(
+                f"{self.name}: unknown distribution {self.distribution!r} "
+                f"(one of {', '.join(DISTRIBUTIONS)})"
+            )
 
     def sample(self, rng: np.random.Generator, m: int) -> FloatArray:
         """``m`` zero-mean draws with standard deviation ``u``."""
@@ -132,15 +136,18 @@ class UncertaintySpec:
         object.__setattr__(self, "poses_rad", p)
 
     @classmethod
-    def from_u(cls, u: Mapping[str, float], params: Params | None = None,
-               distribution: str = "normal") -> UncertaintySpec:
+    def from_u(
+        cls, u: Mapping[str, float], params: Params | None = None, distribution: str = "normal"
+    ) -> UncertaintySpec:
         """Spec from {name: u}, names as :data:`PARAM_NAMES` or groups (theta, alpha, d, a)."""
         vals = {n: 0.0 for n in PARAM_NAMES}
         for k, v in u.items():
             for n in _expand(k):
                 vals[n] = float(v)
-        return cls(params or Params(),
-                   tuple(ParamUncertainty(n, vals[n], distribution) for n in PARAM_NAMES))
+        return cls(
+            params or Params(),
+            tuple(ParamUncertainty(n, vals[n], distribution) for n in PARAM_NAMES),
+        )
 
     def u_vector(self) -> FloatArray:
         """Standard uncertainties (25,) in Jacobian column order (rad, mm)."""
@@ -152,8 +159,10 @@ def _expand(name: str) -> tuple[str, ...]:
         return (name,)
     if name in PARAM_GROUPS[:4]:
         return tuple(f"{name}{i}" for i in range(1, JOINTS + 1))
-    raise ValueError(f"unknown parameter name {name!r} (expected theta1..6, alpha1..6, d1..6, "
-                     f"a1..6, l, or a group theta, alpha, d, a)")
+    raise ValueError(
+        f"unknown parameter name {name!r} (expected theta1..6, alpha1..6, d1..6, "
+        f"a1..6, l, or a group theta, alpha, d, a)"
+    )
 
 
 _TOP_KEYS = {"angle_unit", "length_unit", "pose_unit", "nominal", "parameters", "poses"}
@@ -187,8 +196,9 @@ def parse_spec(doc: Mapping[str, Any]) -> UncertaintySpec:
 def _parse(doc: Mapping[str, Any]) -> UncertaintySpec:
     unknown = set(doc) - _TOP_KEYS
     if unknown:
-        raise SpecError(f"unknown key(s) {', '.join(sorted(unknown))} "
-                        f"(allowed: {', '.join(sorted(_TOP_KEYS))})")
+        raise SpecError(
+            f"unknown key(s) {', '.join(sorted(unknown))} (allowed: {', '.join(sorted(_TOP_KEYS))})"
+        )
     au = str(doc.get("angle_unit", "rad"))
     lu = str(doc.get("length_unit", "mm"))
     pu = str(doc.get("pose_unit", "deg"))
@@ -212,15 +222,19 @@ def _parse(doc: Mapping[str, Any]) -> UncertaintySpec:
             raise SpecError(f"{key}: expected a table like {{ u = 1.0 }}")
         bad = set(entry) - _ENTRY_KEYS
         if bad:
-            raise SpecError(f"{key}: unknown key(s) {', '.join(sorted(bad))} "
-                            f"(allowed: {', '.join(sorted(_ENTRY_KEYS))})")
+            raise SpecError(
+                f"{key}: unknown key(s) {', '.join(sorted(bad))} "
+                f"(allowed: {', '.join(sorted(_ENTRY_KEYS))})"
+            )
         dist = str(entry.get("distribution", "normal" if "u" in entry else "uniform"))
         if dist not in DISTRIBUTIONS:
-            raise SpecError(f"{key}: unknown distribution {dist!r} "
-                            f"(one of {', '.join(DISTRIBUTIONS)})")
+            raise SpecError(
+                f"{key}: unknown distribution {dist!r} (one of {', '.join(DISTRIBUTIONS)})"
+            )
         if ("u" in entry) == ("tolerance" in entry):
-            raise SpecError(f"{key}: give exactly one of u (standard uncertainty) "
-                            f"or tolerance (half-width)")
+            raise SpecError(
+                f"{key}: give exactly one of u (standard uncertainty) or tolerance (half-width)"
+            )
         raw = float(entry["u"] if "u" in entry else entry["tolerance"])
         if not math.isfinite(raw) or raw < 0:
             raise SpecError(f"{key}: uncertainty must be finite and >= 0, got {raw}")
@@ -237,11 +251,15 @@ def _parse(doc: Mapping[str, Any]) -> UncertaintySpec:
         elif "k" in entry:
             raise SpecError(f"{key}: k applies only to a tolerance")
         for n in names:
-            scale = ANGLE_UNITS[au] if PARAM_UNITS[PARAM_NAMES.index(n)] == "rad" \
-                else LENGTH_UNITS[lu]
+            scale = (
+                ANGLE_UNITS[au] if PARAM_UNITS[PARAM_NAMES.index(n)] == "rad" else LENGTH_UNITS[lu]
+            )
             items[n] = ParamUncertainty(n, raw * scale, dist)
-    poses = np.asarray(doc.get("poses", []), dtype=np.float64).reshape(-1, JOINTS) \
-        if doc.get("poses") else np.empty((0, JOINTS))
+    poses = (
+        np.asarray(doc.get("poses", []), dtype=np.float64).reshape(-1, JOINTS)
+        if doc.get("poses")
+        else np.empty((0, JOINTS))
+    )
     if pu == "deg":
         poses = np.radians(poses)
     if poses.size and (not np.all(np.isfinite(poses)) or np.max(np.abs(poses)) > 1024.0):
@@ -333,12 +351,12 @@ class UncertaintyResult:
     @property
     def given(self) -> tuple[PoseResult, ...]:
         """Results at the poses given explicitly."""
-        return self.poses[:self.n_given]
+        return self.poses[: self.n_given]
 
     @property
     def workspace(self) -> tuple[PoseResult, ...]:
         """Results at the random workspace poses."""
-        return self.poses[self.n_given:]
+        return self.poses[self.n_given :]
 
     def ratio_range(self) -> tuple[float, float]:
         """Min and max of u_mc / u_lin over all poses and axes (u_lin > 0)."""
@@ -387,8 +405,12 @@ def propagate(
     a bad seed, or threads < 1; KinematicsError if a drawn arm is invalid
     (an uncertainty far too large for the parameter limits).
     """
-    for name, v, lo in (("trials", trials, 2), ("workspace", workspace, 0), ("ndig", ndig, 1),
-                        ("seed", seed, 0)):
+    for name, v, lo in (
+        ("trials", trials, 2),
+        ("workspace", workspace, 0),
+        ("ndig", ndig, 1),
+        ("seed", seed, 0),
+    ):
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
             raise ValueError(f"{name} must be an integer >= {lo}, got {v!r}")
     nt = max(1, os.cpu_count() or 1) if threads is None else threads
@@ -415,9 +437,9 @@ def propagate(
 
     with ThreadPoolExecutor(max_workers=nt) as ex:
         for b in range(0, poses.shape[0], _POSE_BLOCK):
-            th = poses[b:b + _POSE_BLOCK]
+            th = poses[b : b + _POSE_BLOCK]
             pts = np.concatenate(list(ex.map(run, [(deltas[idx], th) for idx in parts])))
-            dev = pts - p_nom[b:b + _POSE_BLOCK][None, :, :]  # (trials, k, 3)
+            dev = pts - p_nom[b : b + _POSE_BLOCK][None, :, :]  # (trials, k, 3)
             u_mc = dev.std(axis=0, ddof=1)
             bias = dev.mean(axis=0)
             q = np.quantile(dev, [0.025, 0.975], axis=0)  # (2, k, 3)
@@ -429,26 +451,54 @@ def propagate(
                 ci_m = q[:, j, :].T.copy()
                 delta = _delta(ul, ndig)
                 ok = bool(np.all(np.abs(ci_l - ci_m) <= delta[:, None]))
-                results.append(PoseResult(
-                    poses[i].copy(), p_nom[i].copy(), ul, u_mc[j].copy(), bias[j].copy(),
-                    ci_l, ci_m, float(np.sqrt(var_lin[i].sum())),
-                    float(np.sqrt((u_mc[j] ** 2).sum())), float(r95[j]), contrib_all[i].copy(),
-                    delta, ok))
+                results.append(
+                    PoseResult(
+                        poses[i].copy(),
+                        p_nom[i].copy(),
+                        ul,
+                        u_mc[j].copy(),
+                        bias[j].copy(),
+                        ci_l,
+                        ci_m,
+                        float(np.sqrt(var_lin[i].sum())),
+                        float(np.sqrt((u_mc[j] ** 2).sum())),
+                        float(r95[j]),
+                        contrib_all[i].copy(),
+                        delta,
+                        ok,
+                    )
+                )
     mean_contrib = contrib_all.mean(axis=0)
     total = float(mean_contrib.sum())
     sens = np.sqrt((jac**2).sum(axis=1).mean(axis=0))  # RMS column norm (25,)
     budget = sorted(
-        (BudgetEntry(n, PARAM_UNITS[k], float(u[k]), float(sens[k]),
-                     float(math.sqrt(mean_contrib[k])),
-                     float(mean_contrib[k] / total) if total > 0 else 0.0)
-         for k, n in enumerate(PARAM_NAMES)),
+        (
+            BudgetEntry(
+                n,
+                PARAM_UNITS[k],
+                float(u[k]),
+                float(sens[k]),
+                float(math.sqrt(mean_contrib[k])),
+                float(mean_contrib[k] / total) if total > 0 else 0.0,
+            )
+            for k, n in enumerate(PARAM_NAMES)
+        ),
         key=lambda e: -e.share,
     )
     groups = {g: 0.0 for g in PARAM_GROUPS}
     for e in budget:
         groups[e.name.rstrip("0123456789")] += e.share
-    return UncertaintyResult(spec, trials, seed, ndig, tuple(results), spec.poses_rad.shape[0],
-                             tuple(budget), groups, time.perf_counter() - t0)
+    return UncertaintyResult(
+        spec,
+        trials,
+        seed,
+        ndig,
+        tuple(results),
+        spec.poses_rad.shape[0],
+        tuple(budget),
+        groups,
+        time.perf_counter() - t0,
+    )
 
 
 # --------------------------------------------------------------------------
@@ -465,14 +515,19 @@ def _fmt_unit(e: BudgetEntry) -> str:
 def format_report(res: UncertaintyResult, top: int = 10, pose_rows: int = 8) -> str:
     """Terminal report: per-pose table (given poses), workspace summary, budget."""
     um = 1e3
-    lines = [f"Probe-point uncertainty: Monte Carlo (JCGM 101, {res.trials} trials) vs "
-             f"linear J Sigma J^T (GUM); values in um; 95 % intervals of the deviation",
-             f"agreement: JCGM 101 sec. 8 check with {res.ndig} significant digit(s) of u_lin"]
+    lines = [
+        f"Probe-point uncertainty: Monte Carlo (JCGM 101, {res.trials} trials) vs "
+        f"linear J Sigma J^T (GUM); values in um; 95 % intervals of the deviation",
+        f"agreement: JCGM 101 sec. 8 check with {res.ndig} significant digit(s) of u_lin",
+    ]
     shown = list(res.given) or list(res.workspace[:pose_rows])
     title = "given poses" if res.given else f"first {len(shown)} workspace poses"
-    lines += ["", f"{title}:",
-              f"{'pose (deg)':>34} {'ax':>2} {'u_lin':>8} {'u_mc':>8} {'ratio':>6} "
-              f"{'bias_mc':>8} {'95% lin':>19} {'95% mc':>19} ok"]
+    lines += [
+        "",
+        f"{title}:",
+        f"{'pose (deg)':>34} {'ax':>2} {'u_lin':>8} {'u_mc':>8} {'ratio':>6} "
+        f"{'bias_mc':>8} {'95% lin':>19} {'95% mc':>19} ok",
+    ]
     for p in shown:
         pose = ",".join(f"{math.degrees(t):.0f}" for t in p.theta_rad)
         for r, ax in enumerate(AXES):
@@ -482,37 +537,52 @@ def format_report(res: UncertaintyResult, top: int = 10, pose_rows: int = 8) -> 
                 f"{p.u_mc[r] * um:8.3f} {ratio:6.3f} {p.bias_mc[r] * um:+8.3f} "
                 f"[{p.ci_lin[r, 0] * um:+8.3f},{p.ci_lin[r, 1] * um:+8.3f}] "
                 f"[{p.ci_mc[r, 0] * um:+8.3f},{p.ci_mc[r, 1] * um:+8.3f}] "
-                + ("yes" if r == 0 and p.valid else ("NO" if r == 0 else "")))
-        lines.append(f"{'':>34} 3D u_lin {p.u3_lin * um:.3f}, u_mc {p.u3_mc * um:.3f}, "
-                     f"95 % of MC points within {p.r95_mc * um:.3f} of nominal")
+                + ("yes" if r == 0 and p.valid else ("NO" if r == 0 else ""))
+            )
+        lines.append(
+            f"{'':>34} 3D u_lin {p.u3_lin * um:.3f}, u_mc {p.u3_mc * um:.3f}, "
+            f"95 % of MC points within {p.r95_mc * um:.3f} of nominal"
+        )
     ws = res.workspace
     if ws:
         ul = np.array([p.u_lin for p in ws])
         umc = np.array([p.u_mc for p in ws])
-        lines += ["", f"workspace ({len(ws)} random poses, joints uniform in [-180, 180) deg):",
-                  "  RMS u per axis (x, y, z), linear: "
-                  + ", ".join(f"{v * um:.3f}" for v in np.sqrt((ul**2).mean(axis=0)))
-                  + "; Monte Carlo: "
-                  + ", ".join(f"{v * um:.3f}" for v in np.sqrt((umc**2).mean(axis=0))),
-                  f"  3D u: median {np.median([p.u3_mc for p in ws]) * um:.3f}, "
-                  f"max {max(p.u3_mc for p in ws) * um:.3f}; 95 % radius: median "
-                  f"{np.median([p.r95_mc for p in ws]) * um:.3f}, "
-                  f"max {max(p.r95_mc for p in ws) * um:.3f}"]
+        lines += [
+            "",
+            f"workspace ({len(ws)} random poses, joints uniform in [-180, 180) deg):",
+            "  RMS u per axis (x, y, z), linear: "
+            + ", ".join(f"{v * um:.3f}" for v in np.sqrt((ul**2).mean(axis=0)))
+            + "; Monte Carlo: "
+            + ", ".join(f"{v * um:.3f}" for v in np.sqrt((umc**2).mean(axis=0))),
+            f"  3D u: median {np.median([p.u3_mc for p in ws]) * um:.3f}, "
+            f"max {max(p.u3_mc for p in ws) * um:.3f}; 95 % radius: median "
+            f"{np.median([p.r95_mc for p in ws]) * um:.3f}, "
+            f"max {max(p.r95_mc for p in ws) * um:.3f}",
+        ]
     lo, hi = res.ratio_range()
-    lines.append(f"agreement over all {len(res.poses)} poses: u_mc/u_lin in [{lo:.4f}, {hi:.4f}]"
-                 f", JCGM 101 sec. 8 check passed at {100 * res.valid_fraction():.0f} % of poses")
-    lines += ["", f"budget (mean over the {len(res.poses)} poses; share of the 3D variance):",
-              f"  {'param':<8} {'u':>14} {'sens (mm/unit)':>15} {'contrib um':>11} {'share':>8}"]
+    lines.append(
+        f"agreement over all {len(res.poses)} poses: u_mc/u_lin in [{lo:.4f}, {hi:.4f}]"
+        f", JCGM 101 sec. 8 check passed at {100 * res.valid_fraction():.0f} % of poses"
+    )
+    lines += [
+        "",
+        f"budget (mean over the {len(res.poses)} poses; share of the 3D variance):",
+        f"  {'param':<8} {'u':>14} {'sens (mm/unit)':>15} {'contrib um':>11} {'share':>8}",
+    ]
     for e in res.budget[:top]:
-        lines.append(f"  {e.name:<8} {_fmt_unit(e):>14} {e.sensitivity:15.3f} "
-                     f"{e.contribution_mm * um:11.3f} {100 * e.share:7.2f}%")
+        lines.append(
+            f"  {e.name:<8} {_fmt_unit(e):>14} {e.sensitivity:15.3f} "
+            f"{e.contribution_mm * um:11.3f} {100 * e.share:7.2f}%"
+        )
     g = res.group_shares
     ang = g["theta"] + g["alpha"]
-    lines += ["  groups: " + ", ".join(f"{k} {100 * v:.2f}%" for k, v in g.items()),
-              f"  => angles (alpha, theta): {100 * ang:.1f} % of the variance; "
-              f"lengths (d, a, l): {100 * (1 - ang):.1f} %"
-              + (" -- alpha and theta dominate, as the paper concludes" if ang > 0.5 else ""),
-              f"compute: {res.elapsed_s:.2f} s"]
+    lines += [
+        "  groups: " + ", ".join(f"{k} {100 * v:.2f}%" for k, v in g.items()),
+        f"  => angles (alpha, theta): {100 * ang:.1f} % of the variance; "
+        f"lengths (d, a, l): {100 * (1 - ang):.1f} %"
+        + (" -- alpha and theta dominate, as the paper concludes" if ang > 0.5 else ""),
+        f"compute: {res.elapsed_s:.2f} s",
+    ]
     return "\n".join(lines)
 
 
@@ -521,24 +591,43 @@ def to_json(res: UncertaintyResult) -> dict[str, Any]:
 
     def pose(p: PoseResult) -> dict[str, Any]:
         return {
-            "theta_rad": p.theta_rad.tolist(), "point_mm": p.point_mm.tolist(),
-            "u_lin_mm": p.u_lin.tolist(), "u_mc_mm": p.u_mc.tolist(),
-            "bias_mc_mm": p.bias_mc.tolist(), "ci95_lin_mm": p.ci_lin.tolist(),
-            "ci95_mc_mm": p.ci_mc.tolist(), "u3_lin_mm": p.u3_lin, "u3_mc_mm": p.u3_mc,
-            "r95_mc_mm": p.r95_mc, "jcgm101_delta_mm": p.delta.tolist(), "agree": p.valid,
+            "theta_rad": p.theta_rad.tolist(),
+            "point_mm": p.point_mm.tolist(),
+            "u_lin_mm": p.u_lin.tolist(),
+            "u_mc_mm": p.u_mc.tolist(),
+            "bias_mc_mm": p.bias_mc.tolist(),
+            "ci95_lin_mm": p.ci_lin.tolist(),
+            "ci95_mc_mm": p.ci_mc.tolist(),
+            "u3_lin_mm": p.u3_lin,
+            "u3_mc_mm": p.u3_mc,
+            "r95_mc_mm": p.r95_mc,
+            "jcgm101_delta_mm": p.delta.tolist(),
+            "agree": p.valid,
         }
 
     lo, hi = res.ratio_range()
     return {
-        "trials": res.trials, "seed": res.seed, "ndig": res.ndig,
-        "uncertainties": {i.name: {"u": i.u, "unit": PARAM_UNITS[k],
-                                   "distribution": i.distribution}
-                          for k, i in enumerate(res.spec.items)},
+        "trials": res.trials,
+        "seed": res.seed,
+        "ndig": res.ndig,
+        "uncertainties": {
+            i.name: {"u": i.u, "unit": PARAM_UNITS[k], "distribution": i.distribution}
+            for k, i in enumerate(res.spec.items)
+        },
         "given_poses": [pose(p) for p in res.given],
         "workspace_poses": [pose(p) for p in res.workspace],
         "agreement": {"ratio_min": lo, "ratio_max": hi, "valid_fraction": res.valid_fraction()},
-        "budget": [{"name": e.name, "unit": e.unit, "u": e.u, "sensitivity": e.sensitivity,
-                    "contribution_mm": e.contribution_mm, "share": e.share} for e in res.budget],
+        "budget": [
+            {
+                "name": e.name,
+                "unit": e.unit,
+                "u": e.u,
+                "sensitivity": e.sensitivity,
+                "contribution_mm": e.contribution_mm,
+                "share": e.share,
+            }
+            for e in res.budget
+        ],
         "group_shares": res.group_shares,
         "elapsed_s": res.elapsed_s,
     }
