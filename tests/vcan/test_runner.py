@@ -2,7 +2,7 @@
 
 They force the VM path where it matters (AACMM_VCAN_MODE=vm), so on a host
 with native vcan they still check the VM. Each VM boot costs ~6 s under TCG;
-the suite boots four (two of them stop early).
+the suite boots five (three of them stop early).
 """
 
 from __future__ import annotations
@@ -58,9 +58,15 @@ def test_exit_status_output_cwd_env(tmp_path: Path) -> None:
         'echo "out:$(pwd)"; echo "probe:$AACMM_PROBE"; echo "mode:$AACMM_VCAN"; '
         "echo to-stderr >&2; ip -br link show vcan0; seq 1 3000; exit 3"
     )
-    r = subprocess.run([str(RUNNER), "sh", "-c", script], cwd=work,
-                       env=_env(tmp_path, AACMM_PROBE="x y'z", AACMM_VCAN_MODE="vm"),
-                       capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [str(RUNNER), "sh", "-c", script],
+        cwd=work,
+        env=_env(tmp_path, AACMM_PROBE="x y'z", AACMM_VCAN_MODE="vm"),
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+    )
     assert r.returncode == 3, r.stderr
     lines = r.stdout.splitlines()
     assert f"out:{work}" in lines
@@ -75,21 +81,38 @@ def test_exit_status_output_cwd_env(tmp_path: Path) -> None:
 
 def test_missing_command_fails_fast() -> None:
     t0 = time.monotonic()
-    r = subprocess.run([str(RUNNER), "no-such-command-aacmm"], env=_env(),
-                       capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [str(RUNNER), "no-such-command-aacmm"],
+        env=_env(),
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=60,
+    )
     assert r.returncode == 127
     assert "command not found: no-such-command-aacmm" in r.stderr
     assert time.monotonic() - t0 < 20
 
 
 def test_missing_kernel_or_qemu_fails_clearly(tmp_path: Path) -> None:
-    r = subprocess.run([str(RUNNER), "true"], capture_output=True, text=True, timeout=60,
-                       env=_env(tmp_path, AACMM_VCAN_MODE="vm", AACMM_VCAN_BOOT_DIR=str(tmp_path)))
+    r = subprocess.run(
+        [str(RUNNER), "true"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=60,
+        env=_env(tmp_path, AACMM_VCAN_MODE="vm", AACMM_VCAN_BOOT_DIR=str(tmp_path)),
+    )
     assert r.returncode == 125
     assert "no kernel for the VM" in r.stderr
-    r = subprocess.run([str(RUNNER), "true"], capture_output=True, text=True, timeout=60,
-                       env=_env(tmp_path, AACMM_VCAN_MODE="vm",
-                                AACMM_VCAN_QEMU="qemu-system-none-such"))
+    r = subprocess.run(
+        [str(RUNNER), "true"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=60,
+        env=_env(tmp_path, AACMM_VCAN_MODE="vm", AACMM_VCAN_QEMU="qemu-system-none-such"),
+    )
     assert r.returncode == 125
     assert "qemu-system-none-such not found" in r.stderr
 
@@ -97,18 +120,43 @@ def test_missing_kernel_or_qemu_fails_clearly(tmp_path: Path) -> None:
 def test_module_load_failure_fails_clearly(tmp_path: Path) -> None:
     bogus = tmp_path / "bogus.ko"
     bogus.write_bytes(b"\x7fELF this is not a kernel module")
-    r = subprocess.run([str(RUNNER), "true"], capture_output=True, text=True, timeout=300,
-                       env=_env(tmp_path, AACMM_VCAN_MODE="vm",
-                                AACMM_VCAN_EXTRA_MODULES=str(bogus)))
+    r = subprocess.run(
+        [str(RUNNER), "true"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+        env=_env(tmp_path, AACMM_VCAN_MODE="vm", AACMM_VCAN_EXTRA_MODULES=str(bogus)),
+    )
     assert r.returncode == 125, r.stderr
     assert "bogus" in r.stderr and "failed to load" in r.stderr
 
 
+def test_vm_dying_without_report_is_a_failure(tmp_path: Path) -> None:
+    """A guest kernel crash (forced here) must not pass: exit 125, with the panic shown."""
+    r = subprocess.run(
+        [str(RUNNER), "sh", "-c", "echo c > /proc/sysrq-trigger; sleep 60"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+        env=_env(tmp_path, AACMM_VCAN_MODE="vm"),
+    )
+    assert r.returncode == 125, r.stderr
+    assert "without reporting an exit status" in r.stderr
+    assert "Kernel panic" in r.stderr or "sysrq" in r.stderr
+
+
 def test_timeout_kills_qemu(tmp_path: Path) -> None:
     t0 = time.monotonic()
-    r = subprocess.run([str(RUNNER), "sleep", "600"], capture_output=True, text=True,
-                       timeout=120,
-                       env=_env(tmp_path, AACMM_VCAN_MODE="vm", AACMM_VCAN_TIMEOUT="4"))
+    r = subprocess.run(
+        [str(RUNNER), "sleep", "600"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+        env=_env(tmp_path, AACMM_VCAN_MODE="vm", AACMM_VCAN_TIMEOUT="4"),
+    )
     assert r.returncode == 124, r.stderr
     assert "TIMEOUT" in r.stderr
     assert time.monotonic() - t0 < 30
@@ -117,9 +165,13 @@ def test_timeout_kills_qemu(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_interrupt_leaves_no_qemu(tmp_path: Path, sig: signal.Signals) -> None:
-    proc = subprocess.Popen([str(RUNNER), "sleep", "600"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True,
-                            env=_env(tmp_path, AACMM_VCAN_MODE="vm"))
+    proc = subprocess.Popen(
+        [str(RUNNER), "sleep", "600"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(tmp_path, AACMM_VCAN_MODE="vm"),
+    )
     try:
         deadline = time.monotonic() + 30
         while not _qemu_pids(str(tmp_path)) and time.monotonic() < deadline:
