@@ -390,7 +390,7 @@ def propagate(
     trials: int = DEFAULT_TRIALS,
     workspace: int = DEFAULT_WORKSPACE,
     seed: int = 0,
-    ndig: int = 2,
+    ndig: int = 1,
     threads: int | None = None,
     workspace_seed: int | None = None,
 ) -> UncertaintyResult:
