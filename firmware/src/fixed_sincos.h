@@ -8,8 +8,8 @@
 
 #include <stdint.h>
 
-/* sin(k pi / 512) in Q30, k = 0..256, rounded to nearest (fixed_sincos.c). */
-extern const int32_t aacmm_fixed_sin_table[257];
+/* sin(k pi / 512) in Q30, k = 0..1023, rounded to nearest (fixed_sincos.c). */
+extern const int32_t aacmm_fixed_sin_table[1024];
 
 /* Right shifts of negative values must be arithmetic (C99 leaves it to the
  * implementation; gcc, clang and armcc all shift arithmetically). */
@@ -31,25 +31,20 @@ static inline void aacmm_fixed_sincos(uint32_t angle, int32_t *s_out, int32_t *c
     const uint32_t shifted = angle + (UINT32_C(1) << 21); /* wraps mod 2^32 */
     const uint32_t k = shifted >> 22;                     /* 0 .. 1023 */
     const int32_t delta = (int32_t)(shifted & UINT32_C(0x3FFFFF)) - ((int32_t)1 << 21);
-    const uint32_t j = k & 255u; /* node within its quadrant */
-    const uint32_t q = k >> 8;   /* quadrant 0..3 */
-    const int32_t ts = aacmm_fixed_sin_table[j];
-    const int32_t tc = aacmm_fixed_sin_table[256u - j];
-    /* Rotate the node by q quarter turns: (s, c) -> (c, -s) -> (-s, -c) -> (-c, s). */
-    const int32_t odd = -(int32_t)(q & 1u);           /* all ones for q = 1, 3 */
-    const int32_t neg_s = -(int32_t)((q >> 1) & 1u); /* q = 2, 3 */
-    const int32_t neg_c = -(int32_t)(((q + 1u) >> 1) & 1u); /* q = 1, 2 */
-    const int32_t sw = (ts ^ tc) & odd;
-    const int32_t s0 = ((ts ^ sw) ^ neg_s) - neg_s;
-    const int32_t c0 = ((tc ^ sw) ^ neg_c) - neg_c;
-    /* delta in rad, Q39: |d| <= 2^21 * 804.25 = 1.687e9 < 2^31. */
-    const int32_t d = (int32_t)AACMM_FIXED_RND((int64_t)delta * AACMM_FIXED_TWO_PI_Q29, 22);
+    /* The node's sine and cosine (cos x = sin(x + a quarter turn)). */
+    const int32_t s0 = aacmm_fixed_sin_table[k];
+    const int32_t c0 = aacmm_fixed_sin_table[(k + 256u) & 1023u];
+    /* delta in rad, Q39: |d| <= 2^21 * 804.25 = 1.687e9 < 2^31. The small
+     * Q39 intermediates d, t, d6, A, B are truncated (floor): each is off by
+     * less than 2^-39 = 1.8e-12, 1/500 of an LSB of the Q30 result. */
+    const int32_t d = (int32_t)(((int64_t)delta * AACMM_FIXED_TWO_PI_Q29) >> 22);
     /* d^2 in Q39 (<= 5.2e6), d / 6 in Q39, A = sin d = d - d^3/6, B = d^2/2. */
-    const int32_t t = (int32_t)AACMM_FIXED_RND((int64_t)d * d, 39);
-    const int32_t d6 = (int32_t)AACMM_FIXED_RND((int64_t)d * AACMM_FIXED_SIXTH_Q32, 32);
-    const int32_t A = d - (int32_t)AACMM_FIXED_RND((int64_t)t * d6, 39);
-    const int32_t B = (t + 1) >> 1;
-    /* |c0 A| <= 2^30 * 1.687e9 < 2^61: both sums fit an int64. */
+    const int32_t t = (int32_t)(((int64_t)d * d) >> 39);
+    const int32_t d6 = (int32_t)(((int64_t)d * AACMM_FIXED_SIXTH_Q32) >> 32);
+    const int32_t A = d - (int32_t)(((int64_t)t * d6) >> 39);
+    const int32_t B = t >> 1;
+    /* |c0 A| <= 2^30 * 1.687e9 < 2^61: both sums fit an int64. The results
+     * are rounded half up to Q30. */
     *s_out = s0 + (int32_t)AACMM_FIXED_RND((int64_t)c0 * A - (int64_t)s0 * B, 39);
     *c_out = c0 - (int32_t)AACMM_FIXED_RND((int64_t)s0 * A + (int64_t)c0 * B, 39);
 }

@@ -77,72 +77,131 @@ aacmm_status_t aacmm_model_q_init(aacmm_model_q_t *model, const aacmm_params_q_t
 /* Chain                                                                     */
 /* ------------------------------------------------------------------------ */
 
+/*
+ * Q30 values are held in qv_t: int64_t where registers are 64 bits wide (the
+ * products below then need no sign extension), int32_t on 32-bit targets
+ * (half the memory, and the M0+ multiply helper takes the sign-extended word
+ * anyway). The values, and so the results, are the same either way: a Q30
+ * axis component never leaves the int32 range.
+ */
+#if SIZE_MAX > 0xFFFFFFFFu
+typedef int64_t qv_t;
+/* On 64-bit hosts the two loops below are unrolled (six joints: the loop
+ * bookkeeping is a tenth of the work); the M0+ build (-Os) keeps them. */
+#define UNROLL_JOINTS _Pragma("GCC unroll 6")
+#else
+typedef int32_t qv_t;
+#define UNROLL_JOINTS
+#endif
+
 /* Q30 3-vector (axes) and Q48 3-vector (positions). Small structs passed by
  * value stay in registers. */
 typedef struct {
-    int32_t x, y, z;
+    qv_t x, y, z;
 } vec3_q30;
 
 typedef struct {
     int64_t x, y, z;
 } vec3_q48;
 
+/* 32 x 32 -> 64-bit product. */
+#define MUL(a, b) ((int64_t)(a) * (int64_t)(b))
+
 /* a u + b v for Q30 a, b, u, v: exact Q60 sum in int64 (|.| < 2^61 for the
  * unit-bounded operands here), rounded half up to Q30. */
-static inline vec3_q30 lin2_q30(int32_t a, vec3_q30 u, int32_t b, vec3_q30 v)
+static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
 {
     vec3_q30 r;
-    r.x = (int32_t)AACMM_FIXED_RND((int64_t)a * u.x + (int64_t)b * v.x, 30);
-    r.y = (int32_t)AACMM_FIXED_RND((int64_t)a * u.y + (int64_t)b * v.y, 30);
-    r.z = (int32_t)AACMM_FIXED_RND((int64_t)a * u.z + (int64_t)b * v.z, 30);
+    r.x = (qv_t)AACMM_FIXED_RND(MUL(a, u.x) + MUL(b, v.x), 30);
+    r.y = (qv_t)AACMM_FIXED_RND(MUL(a, u.y) + MUL(b, v.y), 30);
+    r.z = (qv_t)AACMM_FIXED_RND(MUL(a, u.z) + MUL(b, v.z), 30);
     return r;
 }
 
-/* Q48 p - o rounded half up to Q18 int32 (|p - o| <= 8000 mm: < 2^31). */
-static inline vec3_q30 diff_q18(vec3_q48 p, vec3_q48 o)
+/* (p + 2^29) - o in Q48, shifted down by 30: p - o rounded half up to Q18
+ * (|p - o| <= 8000 mm: |result| < 2^31). ph is p + 2^29, formed once. */
+static inline vec3_q30 diff_q18(vec3_q48 ph, vec3_q48 o)
 {
     vec3_q30 r;
-    r.x = (int32_t)AACMM_FIXED_RND(p.x - o.x, 30);
-    r.y = (int32_t)AACMM_FIXED_RND(p.y - o.y, 30);
-    r.z = (int32_t)AACMM_FIXED_RND(p.z - o.z, 30);
+    r.x = (qv_t)((ph.x - o.x) >> 30);
+    r.y = (qv_t)((ph.y - o.y) >> 30);
+    r.z = (qv_t)((ph.z - o.z) >> 30);
     return r;
 }
 
-/* Q32 output of one cross-product component a1 b2 - a2 b1, a Q30, b Q18:
- * the Q48 difference (< 2^62) rounded half up by 16. */
-static inline int64_t cross_q32(int32_t a1, int32_t b2, int32_t a2, int32_t b1)
+/* Cross product a x b of a Q30 axis and a Q18 vector: each component is the
+ * exact Q48 difference of two products (|.| < 2^62), the output format. */
+static inline void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
 {
-    return AACMM_FIXED_RND((int64_t)a1 * b2 - (int64_t)a2 * b1, 16);
+    out[0 * stride] = MUL(a.y, b.z) - MUL(a.z, b.y);
+    out[1 * stride] = MUL(a.z, b.x) - MUL(a.x, b.z);
+    out[2 * stride] = MUL(a.x, b.y) - MUL(a.y, b.x);
 }
+
+/* Q30 -> Q48: times 2^18, exact (a multiplication: left shifts of negative
+ * values are undefined in C). */
+#define Q30_TO_Q48(v) ((int64_t)(v) * ((int64_t)1 << 18))
 
 /*
  * One pass down the chain (kinematics_q.h has the formulas and bounds).
- * Inlined with jac constant NULL or not, so the point-only path does no
- * Jacobian work. Frame 6's y axis is never used, so it is not formed.
+ * Joint 1 starts from the identity frame, so its step is written out with the
+ * zero products left away (bit-identical to the general step). Frame 6's y
+ * axis is never used, so it is not formed. Inlined with jac constant NULL or
+ * not, so the point-only path does no Jacobian work.
  */
 static inline void chain_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
-                           int64_t p_q32[3], int64_t *jac)
+                           int64_t p_q48[3], int64_t *jac)
 {
-    vec3_q30 X = {AACMM_Q_ONE_Q30, 0, 0};
-    vec3_q30 Y = {0, AACMM_Q_ONE_Q30, 0};
-    vec3_q30 Z = {0, 0, AACMM_Q_ONE_Q30};
-    vec3_q48 O = {0, 0, 0};
-    vec3_q30 zprev[AACMM_JOINTS], xs[AACMM_JOINTS];
-    vec3_q48 oprev[AACMM_JOINTS], os[AACMM_JOINTS];
-    vec3_q48 p;
-    const int64_t l = model->params.l_q18;
+    vec3_q30 X, Y, Z;
+    vec3_q48 O;
+    vec3_q30 zs[AACMM_JOINTS + 1], xs[AACMM_JOINTS]; /* z_0..z_6, x_1..x_6 */
+    vec3_q48 os[AACMM_JOINTS + 1];                    /* o_0..o_6 */
+    vec3_q48 p, ph;
     int i;
 
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        const int32_t sa = model->sin_alpha_q30[i];
-        const int32_t ca = model->cos_alpha_q30[i];
-        const int64_t d = model->params.d_q18[i];
-        const int64_t a = model->params.a_q18[i];
-        int32_t s, c;
+    {
+        /* Joint 1: x_0, y_0, z_0 = e_x, e_y, e_z; u = (-s, c, 0). */
+        const qv_t sa = model->sin_alpha_q30[0];
+        const qv_t ca = model->cos_alpha_q30[0];
+        int32_t s32, c32;
+        qv_t s, c;
+        aacmm_fixed_sincos(theta_bam[0] + model->params.theta_offset_bam[0], &s32, &c32);
+        s = s32;
+        c = c32;
+        X.x = c;
+        X.y = s;
+        X.z = 0;
+        Y.x = (qv_t)AACMM_FIXED_RND(MUL(ca, -s), 30);
+        Y.y = (qv_t)AACMM_FIXED_RND(MUL(ca, c), 30);
+        Y.z = sa;
+        Z.x = (qv_t)AACMM_FIXED_RND(MUL(sa, s), 30);
+        Z.y = (qv_t)AACMM_FIXED_RND(MUL(-sa, c), 30);
+        Z.z = ca;
+        /* o_1 = d_1 z_0 + a_1 x_1 */
+        O.x = MUL(model->params.a_q18[0], c);
+        O.y = MUL(model->params.a_q18[0], s);
+        O.z = MUL(model->params.d_q18[0], AACMM_Q_ONE_Q30);
+        zs[0].x = 0;
+        zs[0].y = 0;
+        zs[0].z = AACMM_Q_ONE_Q30;
+        os[0].x = os[0].y = os[0].z = 0;
+        xs[0] = X;
+        zs[1] = Z;
+        os[1] = O;
+    }
+    UNROLL_JOINTS
+    for (i = 1; i < AACMM_JOINTS; i++) {
+        const qv_t sa = model->sin_alpha_q30[i];
+        const qv_t ca = model->cos_alpha_q30[i];
+        const qv_t d = model->params.d_q18[i];
+        const qv_t a = model->params.a_q18[i];
+        const vec3_q30 zp = Z;
+        int32_t s32, c32;
+        qv_t s, c;
         vec3_q30 u;
-        aacmm_fixed_sincos(theta_bam[i] + model->params.theta_offset_bam[i], &s, &c);
-        zprev[i] = Z;
-        oprev[i] = O;
+        aacmm_fixed_sincos(theta_bam[i] + model->params.theta_offset_bam[i], &s32, &c32);
+        s = s32;
+        c = c32;
         u = lin2_q30(c, Y, -s, X);
         X = lin2_q30(c, X, s, Y);
         if (i + 1 < AACMM_JOINTS) {
@@ -150,66 +209,73 @@ static inline void chain_q(const aacmm_model_q_t *model, const uint32_t theta_ba
         }
         Z = lin2_q30(ca, Z, -sa, u);
         /* Q18 x Q30 = Q48, exact; |d z + a x| <= 2^31 * 2^30 * 2 = 2^62. */
-        O.x += d * zprev[i].x + a * X.x;
-        O.y += d * zprev[i].y + a * X.y;
-        O.z += d * zprev[i].z + a * X.z;
+        O.x += MUL(d, zp.x) + MUL(a, X.x);
+        O.y += MUL(d, zp.y) + MUL(a, X.y);
+        O.z += MUL(d, zp.z) + MUL(a, X.z);
         xs[i] = X;
-        os[i] = O;
+        zs[i + 1] = Z;
+        os[i + 1] = O;
     }
-    p.x = O.x + l * Z.x;
-    p.y = O.y + l * Z.y;
-    p.z = O.z + l * Z.z;
-    p_q32[0] = AACMM_FIXED_RND(p.x, 16);
-    p_q32[1] = AACMM_FIXED_RND(p.y, 16);
-    p_q32[2] = AACMM_FIXED_RND(p.z, 16);
+    {
+        const qv_t l = model->params.l_q18;
+        p.x = O.x + MUL(l, Z.x);
+        p.y = O.y + MUL(l, Z.y);
+        p.z = O.z + MUL(l, Z.z);
+    }
+    p_q48[0] = p.x;
+    p_q48[1] = p.y;
+    p_q48[2] = p.z;
     if (jac == NULL) {
         return;
     }
+    ph.x = p.x + ((int64_t)1 << 29);
+    ph.y = p.y + ((int64_t)1 << 29);
+    ph.z = p.z + ((int64_t)1 << 29);
+    /* d p / d theta_1 = z_0 x p = (-p_y, p_x, 0): exact, straight from Q48 */
+    jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = -p.y;
+    jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = p.x;
+    jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = 0;
+    UNROLL_JOINTS
     for (i = 0; i < AACMM_JOINTS; i++) {
-        const vec3_q30 zp = zprev[i];
-        const vec3_q30 xi = xs[i];
-        const vec3_q30 v = diff_q18(p, oprev[i]);
-        const vec3_q30 w = diff_q18(p, os[i]);
-        /* d p / d theta_i = z_{i-1} x (p - o_{i-1}) */
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = cross_q32(zp.y, v.z, zp.z, v.y);
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = cross_q32(zp.z, v.x, zp.x, v.z);
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = cross_q32(zp.x, v.y, zp.y, v.x);
+        const vec3_q30 w = diff_q18(ph, os[i + 1]); /* p - o_i (1-based i) */
         /* d p / d alpha_i = x_i x (p - o_i) */
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = cross_q32(xi.y, w.z, xi.z, w.y);
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = cross_q32(xi.z, w.x, xi.x, w.z);
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = cross_q32(xi.x, w.y, xi.y, w.x);
-        /* d p / d d_i = z_{i-1};  d p / d a_i = x_i  (Q30 -> Q32, exact) */
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_D(i)] = (int64_t)zp.x * 4;
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_D(i)] = (int64_t)zp.y * 4;
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_D(i)] = (int64_t)zp.z * 4;
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_A(i)] = (int64_t)xi.x * 4;
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_A(i)] = (int64_t)xi.y * 4;
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_A(i)] = (int64_t)xi.z * 4;
+        cross_q48(xs[i], w, jac + AACMM_COL_ALPHA(i), AACMM_JAC_COLS);
+        /* d p / d theta_{i+1} = z_i x (p - o_i) */
+        if (i + 1 < AACMM_JOINTS) {
+            cross_q48(zs[i + 1], w, jac + AACMM_COL_THETA(i + 1), AACMM_JAC_COLS);
+        }
+        /* d p / d d_i = z_{i-1};  d p / d a_i = x_i  (Q30 -> Q48, exact) */
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_D(i)] = Q30_TO_Q48(zs[i].x);
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_D(i)] = Q30_TO_Q48(zs[i].y);
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_D(i)] = Q30_TO_Q48(zs[i].z);
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_A(i)] = Q30_TO_Q48(xs[i].x);
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_A(i)] = Q30_TO_Q48(xs[i].y);
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_A(i)] = Q30_TO_Q48(xs[i].z);
     }
     /* d p / d l = z_6 */
-    jac[0 * AACMM_JAC_COLS + AACMM_COL_L] = (int64_t)Z.x * 4;
-    jac[1 * AACMM_JAC_COLS + AACMM_COL_L] = (int64_t)Z.y * 4;
-    jac[2 * AACMM_JAC_COLS + AACMM_COL_L] = (int64_t)Z.z * 4;
+    jac[0 * AACMM_JAC_COLS + AACMM_COL_L] = Q30_TO_Q48(Z.x);
+    jac[1 * AACMM_JAC_COLS + AACMM_COL_L] = Q30_TO_Q48(Z.y);
+    jac[2 * AACMM_JAC_COLS + AACMM_COL_L] = Q30_TO_Q48(Z.z);
 }
 
 aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
-                             int64_t p_q32[3])
+                             int64_t p_q48[3])
 {
-    if (model == NULL || theta_bam == NULL || p_q32 == NULL) {
+    if (model == NULL || theta_bam == NULL || p_q48 == NULL) {
         return AACMM_ERR_NULL;
     }
-    chain_q(model, theta_bam, p_q32, NULL);
+    chain_q(model, theta_bam, p_q48, NULL);
     return AACMM_OK;
 }
 
 aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
-                                      const uint32_t theta_bam[AACMM_JOINTS], int64_t p_q32[3],
-                                      int64_t jac_q32[AACMM_JAC_SIZE])
+                                      const uint32_t theta_bam[AACMM_JOINTS], int64_t p_q48[3],
+                                      int64_t jac_q48[AACMM_JAC_SIZE])
 {
-    if (model == NULL || theta_bam == NULL || p_q32 == NULL || jac_q32 == NULL) {
+    if (model == NULL || theta_bam == NULL || p_q48 == NULL || jac_q48 == NULL) {
         return AACMM_ERR_NULL;
     }
-    chain_q(model, theta_bam, p_q32, jac_q32);
+    chain_q(model, theta_bam, p_q48, jac_q48);
     return AACMM_OK;
 }
 
@@ -218,21 +284,21 @@ aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
 /* ------------------------------------------------------------------------ */
 
 aacmm_status_t aacmm_batch_bam_q(const aacmm_model_q_t *model, size_t n, const uint32_t *theta_bam,
-                                 int64_t *p_q32, int64_t *jac_q32, size_t *done)
+                                 int64_t *p_q48, int64_t *jac_q48, size_t *done)
 {
     size_t k;
     if (done != NULL) {
         *done = 0u;
     }
-    if (model == NULL || (n > 0u && (theta_bam == NULL || p_q32 == NULL))) {
+    if (model == NULL || (n > 0u && (theta_bam == NULL || p_q48 == NULL))) {
         return AACMM_ERR_NULL;
     }
     for (k = 0; k < n; k++) {
-        if (jac_q32 != NULL) {
-            chain_q(model, theta_bam + k * AACMM_JOINTS, p_q32 + k * 3u,
-                    jac_q32 + k * AACMM_JAC_SIZE);
+        if (jac_q48 != NULL) {
+            chain_q(model, theta_bam + k * AACMM_JOINTS, p_q48 + k * 3u,
+                    jac_q48 + k * AACMM_JAC_SIZE);
         } else {
-            chain_q(model, theta_bam + k * AACMM_JOINTS, p_q32 + k * 3u, NULL);
+            chain_q(model, theta_bam + k * AACMM_JOINTS, p_q48 + k * 3u, NULL);
         }
     }
     if (done != NULL) {
@@ -243,15 +309,15 @@ aacmm_status_t aacmm_batch_bam_q(const aacmm_model_q_t *model, size_t n, const u
 
 aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
                                     const aacmm_encoder_config_t *encoders, size_t n,
-                                    const uint32_t *reading_counts, int64_t *p_q32,
-                                    int64_t *jac_q32, size_t *done)
+                                    const uint32_t *reading_counts, int64_t *p_q48,
+                                    int64_t *jac_q48, size_t *done)
 {
     size_t k;
     if (done != NULL) {
         *done = 0u;
     }
     if (model == NULL || encoders == NULL ||
-        (n > 0u && (reading_counts == NULL || p_q32 == NULL))) {
+        (n > 0u && (reading_counts == NULL || p_q48 == NULL))) {
         return AACMM_ERR_NULL;
     }
     for (k = 0; k < n; k++) {
@@ -260,10 +326,10 @@ aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
         if (st != AACMM_OK) {
             return st;
         }
-        if (jac_q32 != NULL) {
-            chain_q(model, th, p_q32 + k * 3u, jac_q32 + k * AACMM_JAC_SIZE);
+        if (jac_q48 != NULL) {
+            chain_q(model, th, p_q48 + k * 3u, jac_q48 + k * AACMM_JAC_SIZE);
         } else {
-            chain_q(model, th, p_q32 + k * 3u, NULL);
+            chain_q(model, th, p_q48 + k * 3u, NULL);
         }
         if (done != NULL) {
             *done = k + 1u;

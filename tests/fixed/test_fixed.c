@@ -35,7 +35,7 @@
 #define BOUND_SINCOS 1.0e-9   /* absolute, Q30 LSB is 9.3e-10 */
 #define BOUND_PARAM_QUANT 1e-4 /* end to end, including parameter quantisation */
 
-#define Q32_TO_MM(x) ((double)(x) * 0x1p-32)
+#define Q48_TO_MM(x) ((double)(x) * 0x1p-48)
 
 /* ------------------------------------------------------------------------ */
 /* Helpers                                                                   */
@@ -124,13 +124,13 @@ static void compare_pose(const pair_t *m, const uint32_t th[6], err_t *e, int ch
         assert_memory_equal(pq, pq2, sizeof pq);
     }
     for (i = 0; i < 3; i++) {
-        double d = fabs(Q32_TO_MM(pq[i]) - pd[i]);
+        double d = fabs(Q48_TO_MM(pq[i]) - pd[i]);
         if (d > e->point) {
             e->point = d;
         }
     }
     for (i = 0; i < AACMM_JAC_SIZE; i++) {
-        double d = fabs(Q32_TO_MM(jq[i]) - jd[i]);
+        double d = fabs(Q48_TO_MM(jq[i]) - jd[i]);
         if (d > e->jac) {
             e->jac = d;
             e->jac_col = i % AACMM_JAC_COLS;
@@ -148,7 +148,7 @@ static void test_sin_table(void **state)
      * at angle k * 2^22 the remainder is 0 and sincos returns the entries. */
     int k;
     (void)state;
-    for (k = 0; k <= 256; k++) {
+    for (k = 0; k < 1024; k++) {
         int32_t s, c;
         long double want = sinl((long double)k * (TWO_PI_LD / 1024.0L)) * 1073741824.0L;
         long double wantc = cosl((long double)k * (TWO_PI_LD / 1024.0L)) * 1073741824.0L;
@@ -301,7 +301,7 @@ static void random_poses_on(const aacmm_params_f64_t *p0, long n, uint64_t seed,
         }
         assert_int_equal(aacmm_point_jacobian_f64(&mfd, thd, pfdd, jfd), AACMM_OK);
         for (i = 0; i < 3; i++) {
-            double a = fabs(Q32_TO_MM(pq[i]) - p0d[i]);
+            double a = fabs(Q48_TO_MM(pq[i]) - p0d[i]);
             double b = fabs((double)p32[i] - pfdd[i]);
             double c = fabs((double)p32[i] - p0d[i]);
             e_total.point = a > e_total.point ? a : e_total.point;
@@ -309,7 +309,7 @@ static void random_poses_on(const aacmm_params_f64_t *p0, long n, uint64_t seed,
             f32_tp = c > f32_tp ? c : f32_tp;
         }
         for (i = 0; i < AACMM_JAC_SIZE; i++) {
-            double a = fabs(Q32_TO_MM(jq[i]) - j0d[i]);
+            double a = fabs(Q48_TO_MM(jq[i]) - j0d[i]);
             double b = fabs((double)j32[i] - jfd[i]);
             double c = fabs((double)j32[i] - j0d[i]);
             e_total.jac = a > e_total.jac ? a : e_total.jac;
@@ -379,7 +379,7 @@ static void test_vs_long_double_reference(void **state)
         q[24] = (long double)m.pq.l_q18 * 0x1p-18L;
         ref_point(q, pr);
         for (i = 0; i < 3; i++) {
-            double e = (double)fabsl((long double)pq[i] * 0x1p-32L - pr[i]);
+            double e = (double)fabsl((long double)pq[i] * 0x1p-48L - pr[i]);
             worst = e > worst ? e : worst;
         }
     }
@@ -576,16 +576,16 @@ static void test_zero_pose_by_hand(void **state)
     /* every axis is exactly +-1 or 0 here (sin/cos of quarter turns are
      * exact), so the only error is the Q18 rounding of 792.7 and 883.2 */
     assert_true(p[0] == 0 && p[1] == 0);
-    assert_true(fabs(Q32_TO_MM(p[2]) - 207.0) < 4e-6);
+    assert_true(fabs(Q48_TO_MM(p[2]) - 207.0) < 4e-6);
     for (r = 0; r < 3; r++) {
         for (i = 0; i < 6; i++) {
-            assert_true(fabs(Q32_TO_MM(J[r * AACMM_JAC_COLS + AACMM_COL_THETA(i)]) -
+            assert_true(fabs(Q48_TO_MM(J[r * AACMM_JAC_COLS + AACMM_COL_THETA(i)]) -
                              theta_col[i][r]) < 1e-5);
             assert_true(J[r * AACMM_JAC_COLS + AACMM_COL_D(i)] ==
-                        (int64_t)z_axes[i][r] * (INT64_C(1) << 32));
-            assert_true(J[r * AACMM_JAC_COLS + AACMM_COL_A(i)] == (r == 0 ? INT64_C(1) << 32 : 0));
+                        (int64_t)z_axes[i][r] * (INT64_C(1) << 48));
+            assert_true(J[r * AACMM_JAC_COLS + AACMM_COL_A(i)] == (r == 0 ? INT64_C(1) << 48 : 0));
         }
-        assert_true(J[r * AACMM_JAC_COLS + AACMM_COL_L] == (int64_t)z_axes[6][r] * (INT64_C(1) << 32));
+        assert_true(J[r * AACMM_JAC_COLS + AACMM_COL_L] == (int64_t)z_axes[6][r] * (INT64_C(1) << 48));
     }
     /* d p_z / d theta_1 is exactly zero for every pose (z_0 = (0, 0, 1)). */
     {
@@ -665,11 +665,11 @@ static void test_encoder_counts(void **state)
             /* against the double core's own counts path */
             assert_int_equal(aacmm_batch_counts_f64(&m.md, &c, 1u, rd, pd, jd, NULL), AACMM_OK);
             for (i = 0; i < 3; i++) {
-                double e = fabs(Q32_TO_MM(pq[i]) - pd[i]);
+                double e = fabs(Q48_TO_MM(pq[i]) - pd[i]);
                 wp = e > wp ? e : wp;
             }
             for (i = 0; i < AACMM_JAC_SIZE; i++) {
-                double e = fabs(Q32_TO_MM(jq[i]) - jd[i]);
+                double e = fabs(Q48_TO_MM(jq[i]) - jd[i]);
                 wj = e > wj ? e : wj;
             }
         }

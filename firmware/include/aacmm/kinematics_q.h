@@ -25,16 +25,20 @@
  *   joint / offset / alpha angle uint32_t  BAM      turn    any value; wraps mod 2^32
  *   sine, cosine, unit axes      int32_t   Q30      1       [-2, 2); |value| <= 1 + 2^-27
  *   structural lengths d, a, l   int32_t   Q18      mm      |x| <= 8000 mm (see below)
- *   positions (internal)         int64_t   Q48      mm      |x| <= 8000 mm (+ tiny)
- *   probe point (output)         int64_t   Q32      mm      |x| <= 8000 mm (+ tiny)
- *   Jacobian entries (output)    int64_t   Q32      mm/rad, mm/mm  |x| <= 8000
+ *   positions, probe point       int64_t   Q48      mm      |x| <= 8000 mm (+ tiny)
+ *   Jacobian entries (output)    int64_t   Q48      mm/rad, mm/mm  |x| <= 8000
+ *   p - o for the cross products int32_t   Q18      mm      |x| <= 8000 mm
  *
- * Resolution: BAM 1.46e-9 rad; Q30 9.3e-10; Q18 3.8e-6 mm; Q32 2.3e-10 mm.
+ * Resolution: BAM 1.46e-9 rad; Q30 9.3e-10; Q18 3.8e-6 mm; Q48 3.6e-15 mm.
+ * The outputs keep the internal Q48 because it is exact (no rounding step):
+ * value in mm = x * 2^-48 (ldexp(x, -48)); the int64 range is +-32768 mm.
  *
- * Rounding: every narrowing step is round-half-up, (x + 2^(k-1)) >> k with an
- * arithmetic shift (the source checks at compile time that >> of a negative
- * value is arithmetic). Widening steps (Q30 -> Q32 for the unit columns, the
- * Q30 x Q18 -> Q48 products) are exact.
+ * Rounding: every narrowing step that reaches an output is round-half-up,
+ * (x + 2^(k-1)) >> k with an arithmetic shift (the source checks at compile
+ * time that >> of a negative value is arithmetic). The only exceptions are
+ * the Q39 intermediates inside aacmm_sincos_q (truncated, < 2^-39 each, see
+ * there). Widening steps (Q30 -> Q48 for the unit columns, the Q30 x Q18 ->
+ * Q48 products) are exact.
  *
  * Saturate or wrap: binary angles wrap (that is their meaning: adding a theta
  * offset is a uint32 addition mod 2^32). Nothing else saturates or wraps:
@@ -73,7 +77,7 @@ extern "C" {
 #define AACMM_Q_TRIG_FRAC 30 /* sine, cosine, axes: Q30 */
 #define AACMM_Q_LEN_FRAC 18  /* structural lengths: Q18 */
 #define AACMM_Q_POS_FRAC 48  /* internal positions: Q48 */
-#define AACMM_Q_OUT_FRAC 32  /* point and Jacobian outputs: Q32 */
+#define AACMM_Q_OUT_FRAC 48  /* point and Jacobian outputs: Q48 */
 
 #define AACMM_Q_ONE_Q30 ((int32_t)1 << AACMM_Q_TRIG_FRAC) /* 1.0 in Q30 */
 
@@ -177,17 +181,18 @@ aacmm_status_t aacmm_params_q_to_f64(aacmm_params_f64_t *out, const aacmm_params
 
 /*
  * *s = sin(angle), *c = cos(angle) in Q30 for angle in BAM (2^32 = one turn).
- * Method: a table of sin(k pi / 512), k = 0..256, in Q30 (one quarter turn,
- * 1028 bytes); the nearest of the 1024 nodes per turn, x_k, is looked up (the
- * quadrant by swapping and negating the table's sine and cosine), and the
+ * Method: a table of sin(k pi / 512), k = 0..1023, in Q30 (one full turn,
+ * 4 KB, so the node's cosine is entry k + 256 mod 1024 and no quadrant logic
+ * is needed); the nearest of the 1024 nodes, x_k, is looked up and the
  * remainder delta = angle - x_k (|delta| <= 2^21 BAM = 3.07e-3 rad) is applied
  * by the angle-addition formulas
  *     sin = s_k + (c_k A - s_k B),  cos = c_k - (s_k A + c_k B),
  *     A = delta - delta^3 / 6 (sin delta), B = delta^2 / 2 (1 - cos delta),
- * with delta, A, B in Q39 (int32, |delta| <= 1.69e9) and both products summed
- * in one int64 (|sum| <= 2^61) before one round-half-up shift by 39.
- * Truncation of the series: delta^4 / 24 <= 3.7e-12. Each table entry is
- * rounded to nearest (0.5 LSB), so the error is at most about 1 LSB of Q30
+ * with delta, A, B in Q39 (int32, |delta| <= 1.69e9; these small
+ * intermediates are truncated, each off by < 2^-39 = 1.8e-12) and both
+ * products summed in one int64 (|sum| <= 2^61) before one round-half-up shift
+ * by 39. Truncation of the series: delta^4 / 24 <= 3.7e-12. Each table entry
+ * is rounded to nearest (0.5 LSB), so the error is at most about 1 LSB of Q30
  * (9.3e-10); measured maximum in docs/fixed-point.md. Exact at the quarter
  * turns: sin/cos of 0, 0x40000000, 0x80000000, 0xC0000000 are exactly 0 or
  * +-2^30. |*s|, |*c| <= 2^30. Nothing saturates; the angle wraps by nature.
@@ -200,7 +205,7 @@ void aacmm_sincos_q(uint32_t angle_bam, int32_t *s, int32_t *c);
 /* ------------------------------------------------------------------------ */
 
 /*
- * Probe point p_q32 = (x, y, z) in the base frame, Q32 mm (int64), for joint
+ * Probe point p_q48 = (x, y, z) in the base frame, Q48 mm (int64), for joint
  * angles theta_bam (BAM, e.g. from aacmm_encoder_to_bam); the model's theta
  * offsets are added mod 2^32. Every uint32 is a valid angle, so the only
  * error is AACMM_ERR_NULL (then nothing is written). The model must come from
@@ -214,38 +219,40 @@ void aacmm_sincos_q(uint32_t angle_bam, int32_t *s, int32_t *c);
  *     z_i = ca z - sa u       (same)
  *     o_i = o_{i-1} + d z_{i-1} + a x_i   Q18 x Q30 -> Q48, summed exactly in
  *                                         int64 (no rounding at all)
- *     p   = o_6 + l z_6                   exact in Q48, then round >> 16 -> Q32
- * Bounds: Q30 axis components stay within 1 + 2^-27 (rotations of unit vectors,
- * a few LSB of rounding), so each Q60 sum is below 2^61; |o_i|, |p| are at most
- * the total reach 8000 mm = 2^60.97 in Q48 < 2^63.
- * Cost: 6 aacmm_sincos_q + 135 multiplies 32x32->64.
+ *     p   = o_6 + l z_6                   exact in Q48 (the output)
+ * Joint 1 starts from the identity frame; its step skips the zero products
+ * (same result). Bounds: Q30 axis components stay within 1 + 2^-27
+ * (rotations of unit vectors, a few LSB of rounding), so each Q60 sum is below
+ * 2^61; |o_i|, |p| are at most the total reach 8000 mm = 2^60.97 in Q48 < 2^63.
+ * Cost: 6 aacmm_sincos_q (8 multiplies each) + 154 multiplies 32x32->64.
  */
 aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
-                             int64_t p_q32[3]);
+                             int64_t p_q48[3]);
 
 /*
  * Probe point (as aacmm_point_q, identical result) and the full 3x25
- * Jacobian, Q32 int64, row-major jac_q32[row * AACMM_JAC_COLS + col] in the
+ * Jacobian, Q48 int64, row-major jac_q48[row * AACMM_JAC_COLS + col] in the
  * paper's column order (AACMM_COL_THETA(i), AACMM_COL_ALPHA(i), AACMM_COL_D(i),
  * AACMM_COL_A(i), AACMM_COL_L):
  *     theta_i (mm/rad): z_{i-1} x (p - o_{i-1})
  *     alpha_i (mm/rad): x_i x (p - o_i)
- *         the vector v = p - o (Q48) is rounded to Q18 int32 (|v| <= 8000 mm,
- *         so |v| * 2^18 < 2^31), the cross product's two Q30 x Q18 = Q48
- *         products are summed in int64 (< 2^62) and rounded >> 16 to Q32.
- *         Rounding error <= 2 x 2^-19 mm/rad from v plus 2^-33 from the output.
- *     d_i: z_{i-1}, a_i: x_i, l: z_6 (mm/mm): the Q30 axes times 4 (exact).
+ *         the vector v = p - o (Q48) is rounded half up to Q18 int32
+ *         (|v| <= 8000 mm, so |v| * 2^18 < 2^31), and each component of the
+ *         cross product is the exact int64 difference of two Q30 x Q18 = Q48
+ *         products (< 2^62): the output. Rounding error <= 2 x 2^-19 mm/rad,
+ *         from v. theta_1 is z_0 x p = (-p_y, p_x, 0) exactly.
+ *     d_i: z_{i-1}, a_i: x_i, l: z_6 (mm/mm): the Q30 axes times 2^18 (exact).
  * AACMM_ERR_NULL if any pointer is NULL (nothing written), else AACMM_OK.
- * jac_q32 holds AACMM_JAC_SIZE (75) values. Cost: aacmm_point_q + 72 more
+ * jac_q48 holds AACMM_JAC_SIZE (75) values. Cost: aacmm_point_q + 66 more
  * multiplies.
  */
 aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
-                                      const uint32_t theta_bam[AACMM_JOINTS], int64_t p_q32[3],
-                                      int64_t jac_q32[AACMM_JAC_SIZE]);
+                                      const uint32_t theta_bam[AACMM_JOINTS], int64_t p_q48[3],
+                                      int64_t jac_q48[AACMM_JAC_SIZE]);
 
 /*
- * Batch entry points: n poses in, n points (n*3 Q32 values) and, if jac_q32
- * is not NULL, n Jacobians (n*75 Q32 values, pose after pose) out.
+ * Batch entry points: n poses in, n points (n*3 Q48 values) and, if jac_q48
+ * is not NULL, n Jacobians (n*75 Q48 values, pose after pose) out.
  *   _bam:    theta_bam holds n*6 binary angles.
  *   _counts: reading_counts holds n*6 raw encoder readings, converted with
  *            aacmm_encoder_to_bam (shared core, integer only: exact for
@@ -258,11 +265,11 @@ aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
  * NULL arrays with n > 0. Cost: n times the single-pose cost.
  */
 aacmm_status_t aacmm_batch_bam_q(const aacmm_model_q_t *model, size_t n, const uint32_t *theta_bam,
-                                 int64_t *p_q32, int64_t *jac_q32, size_t *done);
+                                 int64_t *p_q48, int64_t *jac_q48, size_t *done);
 aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
                                     const aacmm_encoder_config_t *encoders, size_t n,
-                                    const uint32_t *reading_counts, int64_t *p_q32,
-                                    int64_t *jac_q32, size_t *done);
+                                    const uint32_t *reading_counts, int64_t *p_q48,
+                                    int64_t *jac_q48, size_t *done);
 
 #ifdef __cplusplus
 }
