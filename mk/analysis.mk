@@ -1,0 +1,36 @@
+# Monte Carlo error-transfer analysis and uncertainty propagation (host):
+# the cffi binding of the core (aacmm._core, built by scripts/setup.sh through
+# host/setup.py), the analysis helpers in firmware/src/analysis.c, their tests,
+# lint, and the benchmark.
+
+ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/_core.pyi \
+                     host/src/aacmm/core.py host/src/aacmm/analysis \
+                     tests/host/test_core.py tests/host/test_core_oracle.py \
+                     tests/host/test_mc.py tests/host/test_uncertainty.py bench/bench_analysis.py
+ANALYSIS_C := firmware/src/analysis.c
+
+.PHONY: test-analysis test-analysis-c test-analysis-lint bench-analysis
+
+# Python suite: core binding vs numpy oracle, Table 2, adaptive MC, logs,
+# uncertainty propagation, CLI.
+test-analysis:
+	$(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
+	    tests/host/test_core.py tests/host/test_core_oracle.py tests/host/test_mc*.py \
+	    tests/host/test_uncertainty*.py
+
+# analysis.c passes the project's warning set with gcc and clang.
+test-analysis-c:
+	gcc $(CSTD) $(WARN) $(HOST_OPT) -I$(FW_INC) -fsyntax-only $(ANALYSIS_C)
+	clang $(CSTD) $(WARN) $(HOST_OPT) -I$(FW_INC) -fsyntax-only $(ANALYSIS_C)
+	@echo "analysis.c: clean with gcc and clang"
+
+test-analysis-lint:
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(ANALYSIS_PY_FILES)
+	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(ANALYSIS_PY_FILES)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml $(ANALYSIS_PY_FILES)
+
+TEST_SUITES += test-analysis test-analysis-c test-analysis-lint
+
+bench-analysis:
+	@$(PYTHON) bench/bench_analysis.py
+BENCH_TARGETS += bench-analysis
