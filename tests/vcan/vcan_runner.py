@@ -562,7 +562,8 @@ def _tmp_binds(paths: list[str]) -> list[str]:
         for q in {os.path.abspath(p), os.path.realpath(p)}:
             parts = Path(q).parts
             if len(parts) >= 3 and parts[0] == "/" and parts[1] == "tmp":
-                names.add(parts[2])
+                if os.path.lexists(os.path.join("/tmp", parts[2])):
+                    names.add(parts[2])
     return sorted(names)
 
 
@@ -588,7 +589,8 @@ def write_job(jobdir: Path, cmd: list[str], env: dict[str, str], ipexe: str) -> 
             cwd,
             str(REPO),
             str(jobdir),
-            cmd[0],
+            resolve_command(cmd[0], env.get("PATH", "")) or "",
+            *[a for a in cmd[1:] if a.startswith("/tmp/")],
             env.get("VIRTUAL_ENV", ""),
             *env.get("PYTHONPATH", "").split(":"),
         ]
@@ -736,6 +738,9 @@ def _run_job(
     boot_timeout = env_num("AACMM_VCAN_BOOT_TIMEOUT", 120)
     verbose = env_flag("AACMM_VCAN_VERBOSE")
 
+    # passthrough keeps the guest's file ownership, which needs root on the
+    # host; "none" is the same minus the chown, for unprivileged runs.
+    security = "passthrough" if os.geteuid() == 0 else "none"
     con_r, con_w = os.pipe()
     out_r, out_w = os.pipe()
     err_r, err_w = os.pipe()
@@ -777,7 +782,7 @@ def _run_job(
         "-serial",
         "chardev:err",
         "-fsdev",
-        "local,id=r,path=/,security_model=passthrough,multidevs=remap",
+        f"local,id=r,path=/,security_model={security},multidevs=remap",
         "-device",
         "virtio-9p-pci,fsdev=r,mount_tag=hostroot",
     ]

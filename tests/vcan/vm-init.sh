@@ -95,7 +95,7 @@ case "$job" in
 esac
 if [ -f "$binds" ]; then
     while IFS= read -r name; do
-        [ -n "$name" ] || continue
+        [ -n "$name" ] && [ -e "/hosttmp/$name" ] || continue
         if [ -d "/hosttmp/$name" ]; then
             $BB mkdir -p "/newroot/tmp/$name"
         else
