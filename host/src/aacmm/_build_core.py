@@ -7,6 +7,7 @@ the host analysis runs exactly the code the arm runs (double-precision build).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from cffi import FFI
@@ -80,6 +81,25 @@ aacmm_status_t aacmm_counts_to_angles_f64(const aacmm_encoder_config_t *encoders
 
 ffibuilder = FFI()
 ffibuilder.cdef(CDEF)
+
+
+def _host_arch_flags() -> list[str]:
+    """FMA/AVX2 (x86-64-v3) when the build machine has them, as mk/00-common.mk.
+
+    The extension runs where it is built (editable install); set
+    AACMM_PORTABLE_BUILD=1 to build for baseline x86-64 instead.
+    """
+    if os.environ.get("AACMM_PORTABLE_BUILD"):
+        return []
+    try:
+        flags = Path("/proc/cpuinfo").read_text(encoding="ascii", errors="replace").split()
+    except OSError:
+        return []
+    if "fma" in flags and "avx2" in flags:
+        return ["-march=x86-64-v3", "-ffp-contract=fast"]
+    return []
+
+
 # One translation unit (a "unity build") that includes the firmware sources:
 # no object files land outside the build directory, and the compiler may
 # inline the core's per-pose function into the analysis loops.
@@ -89,7 +109,7 @@ ffibuilder.set_source(
     UNITY,
     include_dirs=[str(FW_INC), str(FW_SRC)],
     depends=[str(p) for p in SOURCES],
-    extra_compile_args=["-std=c99", "-O3", "-fno-math-errno"],
+    extra_compile_args=["-std=c99", "-O3", "-fno-math-errno", *_host_arch_flags()],
     libraries=["m"],
 )
 
