@@ -25,14 +25,15 @@ $(BUILD)/fixed/test_fixed_san: $(FIXED_TEST_DEPS) | $(BUILD)
 	@mkdir -p $(@D)
 	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DFIXED_TEST_POSES=100000L $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
 
-.PHONY: test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p firmware-fixed-m0p bench-fixed
+.PHONY: test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p test-fixed-icount \
+        firmware-fixed-m0p bench-fixed
 test-fixed-gcc: $(BUILD)/fixed/test_fixed_gcc
 	$<
 test-fixed-clang: $(BUILD)/fixed/test_fixed_clang
 	$<
 test-fixed-san: $(BUILD)/fixed/test_fixed_san
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $<
-TEST_SUITES += test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p
+TEST_SUITES += test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p test-fixed-icount
 
 # ---- Cortex-M0+ cross build (soft-float ABI, integer only) ----
 M0P_DIR := $(BUILD)/arm-m0p/fixed
@@ -61,7 +62,7 @@ FIRMWARE_TARGETS += firmware-fixed-m0p
 #  3. no `float` or `double` token in the integer-only sources once comments
 #     are stripped (the preprocessor is not run, so headers do not count).
 FIXED_FLOAT_EXTRA := ^__(fix|fixuns|float|floatun)[a-z]*[sdtx]f[a-z]*$$
-test-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a
+test-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a $(M0P_DIR)/float_canary.o
 	sh scripts/check-symbols.sh m0-fixed $(M0P_FIXED_OBJS)
 	@bad=$$(for o in $(M0P_FIXED_OBJS); do $(ARM_NM) -u $$o; done | awk '{print $$2}' | grep -E '$(FIXED_FLOAT_EXTRA)' || true); \
 	 if [ -n "$$bad" ]; then echo "test-fixed-m0p: float conversion helpers referenced: $$bad" >&2; exit 1; fi
@@ -69,7 +70,14 @@ test-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a
 	   if gcc -fpreprocessed -dD -E -P -x c $$f 2>/dev/null | grep -nwE 'float|double|long double'; then \
 	     echo "test-fixed-m0p: $$f uses a floating type" >&2; exit 1; fi; \
 	 done
+	@if sh scripts/check-symbols.sh m0-fixed $(M0P_DIR)/float_canary.o 2>/dev/null; then \
+	   echo "test-fixed-m0p: the symbol check accepted a floating-point object" >&2; exit 1; fi
 	@echo "m0p: $(notdir $(M0P_FIXED_OBJS)) reference no floating-point helper; sources use no float/double"
+	@echo "m0p: the check rejects a floating-point canary object (it can fail)"
+
+$(M0P_DIR)/float_canary.o: tests/fixed/float_canary.c
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -c $< -o $@
 
 # ---- benchmark ----
 $(BUILD)/fixed/bench_fixed: bench/bench_fixed.c $(FIXED_ALL_SRCS) $(CORE_HDRS) $(FIXED_HDRS) | $(BUILD)
@@ -79,3 +87,8 @@ bench-fixed: $(BUILD)/fixed/bench_fixed
 	@$<
 	@sh bench/callgrind_count.sh $<
 BENCH_TARGETS += bench-fixed
+
+# The issue's speed target as a test: point + Jacobian in at most 1.5x the
+# instructions of the f32 path on the host build (callgrind, deterministic).
+test-fixed-icount: $(BUILD)/fixed/bench_fixed
+	sh bench/callgrind_count.sh $< 10240 --check
