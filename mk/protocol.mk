@@ -16,7 +16,7 @@ PROTO_PY_FILES := host/src/aacmm/protocol host/src/aacmm/errors.py \
                   tests/host/test_protocol.py tests/host/test_protocol_interop.py \
                   tests/vectors/gen_protocol_vectors.py
 FUZZ_TIME ?= 600
-PROTO_FUZZ_TEST_TIME ?= 60
+PROTO_FUZZ_TEST_TIME ?= 50
 
 $(BUILD)/protocol/test_protocol_gcc: $(PROTO_TEST_DEPS) | $(BUILD)
 	@mkdir -p $(@D)

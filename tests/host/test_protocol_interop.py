@@ -244,7 +244,7 @@ class Link:
             rxfn=lambda _t: self.to_host.pop(0) if self.to_host else None,
             txfn=self._host_tx,
             address=pcan.isotp_address(node),
-            params=pcan.isotp_params(),
+            params=pcan.isotp_params(timeout_ms=10000),  # loaded CI machines
         )
         self.host.set_sleep_timing(0, 0)
 
@@ -293,8 +293,8 @@ def test_host_can_isotp_to_c_device(bs: int, stmin: int) -> None:
             got = got or link.device_receive()
             if got is not None and not link.host.transmitting():
                 break
-        assert got == payload, size
-    assert link.stats()[2:7] == [0, 0, 0, 0, 0]  # no sequence errors, timeouts, ...
+        assert got == payload, (size, link.stats())
+    assert link.stats()[2:7] == [0, 0, 0, 0, 0], link.stats()  # no sequence errors, timeouts, ...
 
 
 @pytest.mark.parametrize("size", [1, 7, 8, 100, 356, 512, 4095])
