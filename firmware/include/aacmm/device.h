@@ -1,0 +1,333 @@
+/*
+ * aacmm device application: the firmware of an arm controller, portable C99.
+ *
+ * One aacmm_device_t serves the link protocol (aacmm/proto.h, docs/protocol.md)
+ * on both links at once, the serial link (COBS frames, aacmm/frame.h) and the
+ * CAN link (periodic sample frames + ISO-TP, aacmm/proto_can.h), through the
+ * board's platform table (aacmm/platform.h). It reads the encoders, computes
+ * points and Jacobians with the kinematics core, answers every request,
+ * streams samples at the requested rate and emits probe-button events. It
+ * keeps the parameter set in the platform's storage as a double-buffered
+ * record with a version and a CRC.
+ *
+ * No heap, no stdio, no global state: the caller owns the aacmm_device_t (and
+ * the serial output queue it points to) and drives it from one thread:
+ *
+ *     aacmm_device_init(&dev, &config, &platform);
+ *     for (;;) {
+ *         aacmm_device_poll(&dev);
+ *         sleep until aacmm_device_next_deadline_us(&dev) or link activity
+ *     }
+ *
+ * Links. Each link has its own stream (rate, content, sequence numbers): a
+ * STREAM_START received on the serial link streams SAMPLE_EVT frames on the
+ * serial link; one received over ISO-TP streams the six CAN sample frames per
+ * sample on the CAN bus (no Jacobian: the accepted content is reported as 0).
+ *
+ * Sequence numbers. A stream's samples are numbered 0, 1, 2, ... from its
+ * STREAM_START (a restart starts again at 0). A sample that cannot be sent
+ * (output queue full, or the device fell more than
+ * AACMM_DEVICE_MAX_CATCH_UP periods behind) still uses its number, so the
+ * host sees the gap; the next sample sent carries AACMM_SAMPLE_OVERRUN and
+ * the loss is counted (aacmm_device_counters_t). MEASURE_RSP samples are
+ * numbered by a device-wide measurement counter. A trigger event's sample is
+ * taken at the button edge; its seq is that of the last stream sample sent
+ * on the link before the edge (the CAN trigger frame carries only this seq,
+ * so a CAN host joins it with the stream), or the link's next stream seq
+ * when the link has not streamed since its last STREAM_START.
+ *
+ * Timestamps are the platform's time_us at the encoder reading.
+ *
+ * Output. Serial output goes through a caller-owned byte queue. Requests are
+ * only taken from the link when the queue has room for the largest frame, so
+ * a response is never dropped; a stream sample or an event is dropped (and
+ * counted) when queuing it would eat into that reserve. CAN output goes
+ * through a queue of AACMM_DEVICE_CAN_QUEUE frames; the six frames of a
+ * sample are queued together or not at all.
+ *
+ * Parameter storage. Two slots of AACMM_STORE_SLOT_BYTES at storage offsets
+ * 0 and AACMM_STORE_SLOT_BYTES, each holding one record:
+ *
+ *     offset  size  field
+ *       0      4    magic AACMM_STORE_MAGIC, little-endian ("AACM")
+ *       4      2    record format version AACMM_STORE_VERSION
+ *       6      2    payload length (AACMM_PARAM_SET_BYTES)
+ *       8      4    generation, incremented by each save (wraps)
+ *      12    278    parameter set, wire encoding (aacmm_param_set_encode)
+ *     290      4    CRC-32/ISO-HDLC of bytes 0 .. 289
+ *
+ * A save writes the slot that does not hold the newest valid record, then
+ * reads it back. A power cut at any byte leaves the other slot, the previous
+ * good set, untouched; at start-up the newest valid record wins. When no
+ * valid record exists the device runs on its defaults and says why in device
+ * info (param_source DEFAULTS, storage_state EMPTY / CORRUPT / VERSION).
+ *
+ * Kinematics backend, chosen at build time: single-precision float core
+ * (default) or, with -DAACMM_DEVICE_KIN_FIXED, the fixed-point core
+ * (aacmm/kinematics_q.h); device info build_flags tell which
+ * (AACMM_BUILD_KIN_FIXED). See firmware/src/device/device_kin.h.
+ */
+#ifndef AACMM_DEVICE_H
+#define AACMM_DEVICE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacmm/frame.h"
+#include "aacmm/isotp.h"
+#include "aacmm/kinematics.h"
+#include "aacmm/platform.h"
+#include "aacmm/proto.h"
+#include "aacmm/proto_can.h"
+#include "aacmm/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Firmware version reported in device info. */
+#define AACMM_FW_MAJOR 0u
+#define AACMM_FW_MINOR 1u
+#define AACMM_FW_PATCH 0u
+
+/* ---- parameter storage record ---------------------------------------- */
+#define AACMM_STORE_MAGIC 0x4D434141u /* "AACM" as little-endian bytes */
+#define AACMM_STORE_VERSION 1u
+#define AACMM_STORE_RECORD_BYTES (12u + AACMM_PARAM_SET_BYTES + 4u) /* 294 */
+#define AACMM_STORE_SLOT_BYTES 512u
+#define AACMM_STORE_BYTES (2u * AACMM_STORE_SLOT_BYTES) /* storage the device needs */
+
+/* ---- sizes and timing -------------------------------------------------- */
+/* Smallest serial output queue: the reserve for one response plus one more
+ * frame. 4 KiB or more is advisable for 1 kHz streams with the Jacobian. */
+#define AACMM_DEVICE_SERIAL_TXQ_MIN (2u * AACMM_FRAME_MAX_WIRE)
+#define AACMM_DEVICE_CAN_QUEUE 64u      /* CAN frames queued in the device */
+#define AACMM_DEVICE_CAN_EVENTS 4u      /* trigger events waiting for ISO-TP */
+#define AACMM_DEVICE_MAX_CATCH_UP 64u   /* stream periods caught up after a stall */
+#define AACMM_DEVICE_IDLE_POLL_US 5000u /* longest sleep (button polling) */
+#define AACMM_DEVICE_SERIAL_RX_CHUNK 128u
+#define AACMM_DEVICE_CAN_RX_PER_POLL 32u
+
+/* Links, as indices. */
+#define AACMM_LINK_SERIAL 0u
+#define AACMM_LINK_CAN 1u
+#define AACMM_LINKS 2u
+
+/* Configuration given to aacmm_device_init (copied; buffers are borrowed). */
+typedef struct {
+    uint32_t serial_number;            /* reported in device info */
+    uint8_t can_node_id;               /* 0 .. AACMM_CAN_NODE_ID_MAX */
+    const aacmm_param_set_t *defaults; /* built-in defaults (copied); NULL = the
+                                          core's Table 1 arm with 2^32-count encoders */
+    uint8_t *serial_txq;               /* serial output queue, caller owned, lives as
+                                          long as the device; NULL if no serial link */
+    size_t serial_txq_bytes;           /* >= AACMM_DEVICE_SERIAL_TXQ_MIN */
+} aacmm_device_config_t;
+
+/* Anomaly and traffic counters. The device increments them, never clears
+ * them (they wrap at 2^32). Framing and ISO-TP counters live in the link
+ * state (aacmm_device_serial_stats, aacmm_device_isotp_stats). */
+typedef struct {
+    uint32_t requests;          /* requests answered (either link, incl. errors) */
+    uint32_t error_responses;   /* ERROR_RSP sent */
+    uint32_t samples_sent;      /* stream samples queued for output */
+    uint32_t samples_dropped;   /* stream samples lost: output queue full */
+    uint32_t samples_late;      /* stream samples skipped: device fell behind */
+    uint32_t events_sent;       /* trigger events queued (per link) */
+    uint32_t events_dropped;    /* trigger events lost: output queue full */
+    uint32_t encoder_faults;    /* encoder reads that failed or gave counts >= cpr */
+    uint32_t storage_errors;    /* storage read/write/verify failures */
+    uint32_t storage_bad_records; /* records found corrupt or of another version */
+    uint32_t serial_io_errors;  /* serial_read / serial_write failures */
+    uint32_t can_io_errors;     /* can_send / can_receive failures */
+    uint32_t can_frames_dropped; /* CAN frames not queued (device CAN queue full) */
+    uint32_t can_rsp_dropped;   /* ISO-TP responses lost (previous one still sending) */
+    uint32_t button_edges;      /* probe-button presses + releases seen */
+} aacmm_device_counters_t;
+
+/* ---- private state below: read only through the functions ------------- */
+
+/* The kinematics backend's prepared model (build-time choice). */
+#if defined(AACMM_DEVICE_KIN_FIXED)
+#include "aacmm/kinematics_q.h"
+typedef aacmm_model_q_t aacmm_device_model_t;
+#else
+typedef aacmm_model_f32_t aacmm_device_model_t;
+#endif
+
+typedef struct {
+    uint8_t active;
+    uint8_t content;     /* AACMM_CONTENT_* delivered */
+    uint8_t overrun;     /* set AACMM_SAMPLE_OVERRUN on the next sample sent */
+    uint8_t sent_any;    /* a sample went out since STREAM_START */
+    uint16_t rate_hz;
+    uint32_t seq;        /* seq of the next sample */
+    uint32_t last_seq;   /* seq of the last sample sent */
+    uint64_t start_us;   /* time of sample 0 */
+    uint64_t index;      /* number of the next sample since start */
+    uint64_t next_us;    /* its deadline */
+} aacmm_device_stream_t;
+
+typedef struct {
+    uint8_t present;
+    aacmm_deframer_t deframer;
+    uint8_t *txq;
+    size_t txq_cap;
+    size_t txq_head; /* index of the oldest byte */
+    size_t txq_len;
+    uint8_t rx[AACMM_DEVICE_SERIAL_RX_CHUNK];
+    size_t rx_pos;
+    size_t rx_len;
+    aacmm_device_stream_t stream;
+} aacmm_device_serial_t;
+
+typedef struct {
+    uint8_t present;
+    uint8_t node_id;
+    uint8_t host_seen; /* a request came over ISO-TP: the host listens there */
+    aacmm_isotp_t tp;
+    uint8_t tp_rx[AACMM_PROTO_MAX_BODY];
+    uint8_t tp_tx[AACMM_PROTO_MAX_BODY];
+    aacmm_can_frame_t q[AACMM_DEVICE_CAN_QUEUE];
+    size_t q_head;
+    size_t q_len;
+    uint8_t rsp[AACMM_PROTO_MAX_BODY]; /* response waiting for ISO-TP */
+    size_t rsp_len;                    /* 0 = none */
+    uint8_t ev[AACMM_DEVICE_CAN_EVENTS][AACMM_PROTO_HEADER_BYTES + AACMM_TRIGGER_EXTRA_BYTES +
+                                        AACMM_SAMPLE_BASE_BYTES];
+    size_t ev_head;
+    size_t ev_len;
+    aacmm_device_stream_t stream;
+} aacmm_device_can_t;
+
+typedef struct {
+    aacmm_platform_t pf;
+    uint32_t serial_number;
+    aacmm_param_set_t defaults;
+    aacmm_param_set_t active;
+    aacmm_device_model_t model;
+    uint32_t active_crc32;
+    uint8_t param_source;  /* AACMM_PARAM_SOURCE_* */
+    uint8_t storage_state; /* AACMM_STORAGE_* */
+    uint8_t storage_ok;    /* platform storage usable */
+    uint8_t button;        /* last button state */
+    uint8_t event_seq;     /* header seq of device events */
+    uint32_t store_generation; /* generation of the newest valid record */
+    uint8_t store_slot;        /* its slot (0/1); 0xFF if none */
+    uint32_t measure_seq;
+    aacmm_device_counters_t counters;
+    aacmm_device_serial_t serial;
+    aacmm_device_can_t can;
+    /* scratch, kept here to keep the stack small on microcontrollers */
+    aacmm_msg_t msg_in;
+    aacmm_msg_t msg_out;
+    uint8_t body[AACMM_PROTO_MAX_BODY];
+    uint8_t wire[AACMM_FRAME_MAX_WIRE];
+    uint8_t record[AACMM_STORE_RECORD_BYTES];
+} aacmm_device_t;
+
+/* ---- functions ----------------------------------------------------------- */
+
+/*
+ * Set up *dev: copy the platform table and config, load the parameter set
+ * from storage (newest valid record, else the defaults; see above), prepare
+ * the kinematics model and the links. No output is produced.
+ * Returns AACMM_ERR_NULL (NULL argument, missing time_us or read_encoders,
+ * serial functions without a serial_txq), AACMM_ERR_RANGE (node id, no link
+ * at all, serial_txq_bytes too small, invalid defaults), AACMM_ERR_BUFFER
+ * never, else AACMM_OK -- also when storage is empty or corrupt (that is
+ * reported in device info and the counters, not as an error).
+ * Cost: two storage reads of AACMM_STORE_RECORD_BYTES, two CRCs, one model set-up.
+ */
+aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_t *config,
+                                 const aacmm_platform_t *platform);
+
+/*
+ * Do all the work that is due now, without blocking: read and answer
+ * requests on both links, send due stream samples, check the button, move
+ * queued output to the drivers. Call it whenever a link has activity and at
+ * aacmm_device_next_deadline_us at the latest.
+ * Cost per call, worst case: AACMM_DEVICE_CAN_RX_PER_POLL CAN frames,
+ * as many serial requests as the output queue has room for (each one
+ * deframe + decode + kinematics with Jacobian + encode), and up to
+ * AACMM_DEVICE_MAX_CATCH_UP stream samples per link (each one encoder read
+ * + kinematics). AACMM_ERR_NULL for NULL, else AACMM_OK (link failures are
+ * counted, never returned).
+ */
+aacmm_status_t aacmm_device_poll(aacmm_device_t *dev);
+
+/*
+ * Move queued output (serial bytes, CAN frames) to the drivers as far as they
+ * take it, without reading requests or taking samples: for a clean shutdown.
+ * AACMM_ERR_NULL or AACMM_OK. Cost: O(bytes and frames queued).
+ */
+aacmm_status_t aacmm_device_flush(aacmm_device_t *dev);
+
+/*
+ * The platform time by which aacmm_device_poll must run next: the earliest
+ * stream deadline, ISO-TP timer, or now + AACMM_DEVICE_IDLE_POLL_US. A port
+ * may also wake earlier on link activity. O(1). 0 for NULL.
+ */
+uint64_t aacmm_device_next_deadline_us(const aacmm_device_t *dev);
+
+/* Bytes waiting in the serial output queue (the port should wait for the
+ * serial line to be writable while this is > 0). O(1). */
+size_t aacmm_device_serial_pending(const aacmm_device_t *dev);
+
+/* CAN frames waiting in the device CAN queue (wait for the bus to take
+ * frames while > 0). O(1). */
+size_t aacmm_device_can_pending(const aacmm_device_t *dev);
+
+/* The device's counters (pointer into *dev, valid as long as it). O(1). */
+const aacmm_device_counters_t *aacmm_device_counters(const aacmm_device_t *dev);
+
+/* Serial deframer and ISO-TP counters (pointers into *dev). O(1). */
+const aacmm_deframer_stats_t *aacmm_device_serial_stats(const aacmm_device_t *dev);
+const aacmm_isotp_stats_t *aacmm_device_isotp_stats(const aacmm_device_t *dev);
+
+/* Fill *info as the device answers INFO_REQ. AACMM_ERR_NULL or AACMM_OK. O(1). */
+aacmm_status_t aacmm_device_info(const aacmm_device_t *dev, aacmm_msg_info_t *info);
+
+/* AACMM_BUILD_* flags of this build and platform (kinematics backend,
+ * Jacobian, the links present). O(1). */
+uint32_t aacmm_device_build_flags(const aacmm_device_t *dev);
+
+/* ---- parameter storage, usable alone (tools, tests, boards) -------------- */
+
+/*
+ * Load the newest valid record from the platform's storage into *set (decoded
+ * and range-checked: aacmm_param_set_decode and aacmm_params_validate_f64).
+ * *state (AACMM_STORAGE_*) says what was found: OK, EMPTY (no record in
+ * either slot), CORRUPT (a record whose CRC or contents are bad and no valid
+ * one), VERSION (a record of another format version and no valid one).
+ * *generation and *slot (may be NULL) receive the record's generation and
+ * slot. *bad_records (may be NULL) is incremented for each slot that holds a
+ * bad or foreign record. *record is scratch of AACMM_STORE_RECORD_BYTES.
+ * Returns AACMM_OK when a record was loaded, AACMM_ERR_STORAGE when none
+ * (then *set is untouched), AACMM_ERR_IO when a read failed, AACMM_ERR_NULL,
+ * AACMM_ERR_UNSUPPORTED (no storage functions or storage_bytes too small).
+ * Cost: two reads of AACMM_STORE_RECORD_BYTES and two CRCs.
+ */
+aacmm_status_t aacmm_store_load(const aacmm_platform_t *pf, aacmm_param_set_t *set,
+                                uint8_t *state, uint32_t *generation, uint8_t *slot,
+                                uint32_t *bad_records, uint8_t record[AACMM_STORE_RECORD_BYTES]);
+
+/*
+ * Save *set as a new record with the next generation, into the slot that
+ * does not hold the newest valid record, then read it back and check it.
+ * *generation / *slot are updated to the new record's. Returns AACMM_OK,
+ * AACMM_ERR_NULL, AACMM_ERR_UNSUPPORTED (no storage), AACMM_ERR_NOT_FINITE /
+ * AACMM_ERR_RANGE (set not encodable), AACMM_ERR_IO (write or read-back
+ * failed), AACMM_ERR_STORAGE (read-back differs). On error the previous
+ * record is intact. Cost: one write and two reads of
+ * AACMM_STORE_RECORD_BYTES, two CRCs.
+ */
+aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_set_t *set,
+                                uint32_t *generation, uint8_t *slot,
+                                uint8_t record[AACMM_STORE_RECORD_BYTES]);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACMM_DEVICE_H */

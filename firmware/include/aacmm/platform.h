@@ -1,0 +1,83 @@
+/*
+ * aacmm platform table: everything board-specific the device application
+ * (aacmm/device.h) needs, as a small table of functions plus a user context.
+ *
+ * A port (the POSIX simulator, an ARM board) fills one aacmm_platform_t and
+ * passes it to aacmm_device_init; the device copies the table and calls the
+ * functions only from aacmm_device_init and aacmm_device_poll, on the caller's
+ * thread. Every function receives the table's ctx as its first argument.
+ *
+ * Rules for every function:
+ *   - it never blocks: it does what it can right now and returns;
+ *   - it returns an aacmm_status_t (AACMM_OK, or AACMM_ERR_IO for a hardware
+ *     or OS failure; the device counts failures, it never stops for them);
+ *   - it never allocates and never keeps pointers to the device's buffers
+ *     beyond the call.
+ *
+ * Optional groups: set both functions of a group to NULL when the board does
+ * not have it. Serial (serial_read + serial_write) and CAN (can_send +
+ * can_receive) are the two links; at least one must be present. Without a
+ * button the device emits no trigger events. Without storage (or with
+ * storage_bytes < AACMM_STORE_BYTES) the device runs on its defaults and
+ * answers SAVE_PARAMS with AACMM_ERR_UNSUPPORTED.
+ */
+#ifndef AACMM_PLATFORM_H
+#define AACMM_PLATFORM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacmm/kinematics.h"
+#include "aacmm/proto_can.h"
+#include "aacmm/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct {
+    void *ctx; /* user context, passed to every function; may be NULL */
+
+    /* Monotonic time in microseconds since an arbitrary origin; never goes
+     * backwards, does not wrap within the device's lifetime (2^64 us).
+     * Required. */
+    uint64_t (*time_us)(void *ctx);
+
+    /* Serial link. serial_read copies up to cap (> 0) received bytes into buf
+     * and sets *got (0 when nothing is waiting). serial_write takes up to len
+     * (> 0) bytes from data and sets *accepted (0 .. len; fewer than len when
+     * the driver's buffer is full: the device keeps the rest and retries). */
+    aacmm_status_t (*serial_read)(void *ctx, uint8_t *buf, size_t cap, size_t *got);
+    aacmm_status_t (*serial_write)(void *ctx, const uint8_t *data, size_t len, size_t *accepted);
+
+    /* CAN link (classic CAN, 11-bit ids). can_send queues one frame for
+     * transmission: AACMM_OK when taken, AACMM_ERR_BUSY when the driver's
+     * queue is full (the device keeps the frame and retries, in order).
+     * can_receive fills *frame and sets *got = 1 if a frame was waiting, else
+     * *got = 0. */
+    aacmm_status_t (*can_send)(void *ctx, const aacmm_can_frame_t *frame);
+    aacmm_status_t (*can_receive)(void *ctx, aacmm_can_frame_t *frame, int *got);
+
+    /* The six raw encoder readings, each < the joint's counts per revolution.
+     * On error the device flags the sample AACMM_SAMPLE_ENCODER_FAULT.
+     * Required. */
+    aacmm_status_t (*read_encoders)(void *ctx, uint32_t counts[AACMM_JOINTS]);
+
+    /* The probe button: *pressed = 1 while held, else 0. Optional. */
+    aacmm_status_t (*read_button)(void *ctx, uint8_t *pressed);
+
+    /* Non-volatile storage of storage_bytes bytes addressed from 0 (an EEPROM
+     * or a flash sector pair behind the port). A read of never-written bytes
+     * may return anything (erased flash reads 0xFF). A write may be cut by a
+     * power failure after any byte; the device's double-buffered record
+     * format (device.h) survives that. Optional. */
+    aacmm_status_t (*storage_read)(void *ctx, uint32_t offset, uint8_t *buf, size_t len);
+    aacmm_status_t (*storage_write)(void *ctx, uint32_t offset, const uint8_t *data, size_t len);
+    uint32_t storage_bytes;
+} aacmm_platform_t;
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACMM_PLATFORM_H */

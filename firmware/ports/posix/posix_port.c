@@ -1,0 +1,493 @@
+/*
+ * POSIX platform for the device application: time, serial on a pty or tty,
+ * SocketCAN, parameter storage in a file, simulated encoders and button.
+ */
+#define _GNU_SOURCE 1
+
+#include "posix_port.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <linux/can.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+
+uint64_t posix_time_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+/* ---- serial ------------------------------------------------------------ */
+
+static int make_raw(int fd)
+{
+    struct termios tio;
+    if (tcgetattr(fd, &tio) != 0) {
+        return -1;
+    }
+    cfmakeraw(&tio);
+    tio.c_cflag |= CLOCAL | CREAD;
+    tio.c_cc[VMIN] = 0;
+    tio.c_cc[VTIME] = 0;
+    return tcsetattr(fd, TCSANOW, &tio);
+}
+
+int posix_serial_open(posix_port_t *port, const char *path, char *err, size_t err_cap)
+{
+    if (strcmp(path, "pty") == 0) {
+        int m = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
+        const char *name;
+        if (m < 0) {
+            snprintf(err, err_cap, "cannot open a pseudo-terminal: %s", strerror(errno));
+            return -1;
+        }
+        if (grantpt(m) != 0 || unlockpt(m) != 0 || (name = ptsname(m)) == NULL) {
+            snprintf(err, err_cap, "cannot set up the pseudo-terminal: %s", strerror(errno));
+            close(m);
+            return -1;
+        }
+        snprintf(port->serial_path, sizeof port->serial_path, "%s", name);
+        /* Keep the slave open ourselves: the master then never sees a hang-up
+         * when a host closes its side, and the raw settings stay. */
+        port->serial_slave_fd = open(port->serial_path, O_RDWR | O_NOCTTY | O_NONBLOCK);
+        if (port->serial_slave_fd < 0 || make_raw(port->serial_slave_fd) != 0) {
+            snprintf(err, err_cap, "cannot configure %s: %s", port->serial_path, strerror(errno));
+            close(m);
+            return -1;
+        }
+        port->serial_fd = m;
+        return 0;
+    }
+    port->serial_fd = open(path, O_RDWR | O_NOCTTY | O_NONBLOCK);
+    if (port->serial_fd < 0) {
+        snprintf(err, err_cap, "cannot open serial tty %s: %s", path, strerror(errno));
+        return -1;
+    }
+    if (!isatty(port->serial_fd)) {
+        snprintf(err, err_cap, "serial %s is not a tty", path);
+        close(port->serial_fd);
+        port->serial_fd = -1;
+        return -1;
+    }
+    if (make_raw(port->serial_fd) != 0) {
+        snprintf(err, err_cap, "cannot set %s to raw mode: %s", path, strerror(errno));
+        close(port->serial_fd);
+        port->serial_fd = -1;
+        return -1;
+    }
+    snprintf(port->serial_path, sizeof port->serial_path, "%s", path);
+    return 0;
+}
+
+static aacmm_status_t serial_read(void *ctx, uint8_t *buf, size_t cap, size_t *got)
+{
+    posix_port_t *p = ctx;
+    ssize_t n = read(p->serial_fd, buf, cap);
+    *got = 0u;
+    if (n > 0) {
+        *got = (size_t)n;
+        return AACMM_OK;
+    }
+    if (n == 0 || errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) {
+        return AACMM_OK;
+    }
+    return AACMM_ERR_IO;
+}
+
+static aacmm_status_t serial_write(void *ctx, const uint8_t *data, size_t len, size_t *accepted)
+{
+    posix_port_t *p = ctx;
+    ssize_t n = write(p->serial_fd, data, len);
+    *accepted = 0u;
+    if (n >= 0) {
+        *accepted = (size_t)n;
+        return AACMM_OK;
+    }
+    if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) {
+        return AACMM_OK;
+    }
+    return AACMM_ERR_IO;
+}
+
+/* ---- CAN --------------------------------------------------------------- */
+
+int posix_can_open(posix_port_t *port, const char *iface, uint32_t rx_id, char *err,
+                   size_t err_cap)
+{
+    struct sockaddr_can addr;
+    struct can_filter filter;
+    unsigned int index;
+    int fd;
+    if (iface[0] == '\0' || strlen(iface) >= IFNAMSIZ || strchr(iface, '/') != NULL) {
+        snprintf(err, err_cap, "bad CAN interface name '%s'", iface);
+        return -1;
+    }
+    fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+    if (fd < 0) {
+        int e = errno;
+        if (e == EAFNOSUPPORT || e == EPROTONOSUPPORT || e == ESOCKTNOSUPPORT) {
+            snprintf(err, err_cap,
+                     "cannot open CAN interface %s: SocketCAN (AF_CAN) is not supported by "
+                     "this kernel (%s)",
+                     iface, strerror(e));
+        } else {
+            snprintf(err, err_cap, "cannot open a CAN socket for %s: %s", iface, strerror(e));
+        }
+        return -1;
+    }
+    index = if_nametoindex(iface);
+    if (index == 0u) {
+        snprintf(err, err_cap, "no CAN interface '%s' (%s)", iface, strerror(errno));
+        close(fd);
+        return -1;
+    }
+    filter.can_id = rx_id;
+    filter.can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
+    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, &filter, sizeof filter) != 0) {
+        snprintf(err, err_cap, "cannot set the CAN filter on %s: %s", iface, strerror(errno));
+        close(fd);
+        return -1;
+    }
+    memset(&addr, 0, sizeof addr);
+    addr.can_family = AF_CAN;
+    addr.can_ifindex = (int)index;
+    if (bind(fd, (struct sockaddr *)&addr, sizeof addr) != 0) {
+        int e = errno;
+        if (e == ENODEV) {
+            snprintf(err, err_cap, "'%s' is not a CAN interface", iface);
+        } else {
+            snprintf(err, err_cap, "cannot bind to CAN interface %s: %s", iface, strerror(e));
+        }
+        close(fd);
+        return -1;
+    }
+    port->can_fd = fd;
+    return 0;
+}
+
+static aacmm_status_t can_send(void *ctx, const aacmm_can_frame_t *frame)
+{
+    posix_port_t *p = ctx;
+    struct can_frame f;
+    ssize_t n;
+    memset(&f, 0, sizeof f);
+    f.can_id = frame->id & CAN_SFF_MASK;
+    f.can_dlc = frame->dlc > 8u ? 8u : frame->dlc;
+    memcpy(f.data, frame->data, f.can_dlc);
+    n = write(p->can_fd, &f, sizeof f);
+    if (n == (ssize_t)sizeof f) {
+        return AACMM_OK;
+    }
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == ENOBUFS || errno == EINTR)) {
+        p->can_busy = 1;
+        return AACMM_ERR_BUSY;
+    }
+    return AACMM_ERR_IO;
+}
+
+static aacmm_status_t can_receive(void *ctx, aacmm_can_frame_t *frame, int *got)
+{
+    posix_port_t *p = ctx;
+    struct can_frame f;
+    ssize_t n;
+    *got = 0;
+    for (;;) {
+        n = read(p->can_fd, &f, sizeof f);
+        if (n < 0) {
+            if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) {
+                return AACMM_OK;
+            }
+            return AACMM_ERR_IO;
+        }
+        if (n != (ssize_t)sizeof f || (f.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))) {
+            continue; /* not a classic data frame with an 11-bit id */
+        }
+        frame->id = f.can_id & CAN_SFF_MASK;
+        frame->dlc = f.can_dlc > 8u ? 8u : f.can_dlc;
+        memset(frame->data, 0, sizeof frame->data);
+        memcpy(frame->data, f.data, frame->dlc);
+        *got = 1;
+        return AACMM_OK;
+    }
+}
+
+/* ---- storage ----------------------------------------------------------- */
+
+int posix_storage_load(posix_port_t *port, char *err, size_t err_cap)
+{
+    FILE *f;
+    size_t n;
+    memset(port->storage, 0xFF, sizeof port->storage);
+    if (port->storage_path == NULL) {
+        return 0;
+    }
+    f = fopen(port->storage_path, "rb");
+    if (f == NULL) {
+        if (errno == ENOENT) {
+            return 0; /* blank storage; created on the first save */
+        }
+        snprintf(err, err_cap, "cannot read storage file %s: %s", port->storage_path,
+                 strerror(errno));
+        return -1;
+    }
+    n = fread(port->storage, 1, sizeof port->storage, f);
+    if (ferror(f)) {
+        snprintf(err, err_cap, "cannot read storage file %s: %s", port->storage_path,
+                 strerror(errno));
+        fclose(f);
+        return -1;
+    }
+    (void)n; /* a short file reads as erased beyond its end */
+    fclose(f);
+    return 0;
+}
+
+static aacmm_status_t storage_read(void *ctx, uint32_t offset, uint8_t *buf, size_t len)
+{
+    posix_port_t *p = ctx;
+    if ((uint64_t)offset + len > sizeof p->storage) {
+        return AACMM_ERR_IO;
+    }
+    memcpy(buf, p->storage + offset, len);
+    return AACMM_OK;
+}
+
+/* Write the whole image to PATH.tmp, fsync, rename over PATH: the file is
+ * always either the old or the new image. */
+static int storage_commit(const posix_port_t *p)
+{
+    char tmp[PATH_MAX];
+    const uint8_t *b = p->storage;
+    size_t left = sizeof p->storage;
+    int fd;
+    if (snprintf(tmp, sizeof tmp, "%s.tmp", p->storage_path) >= (int)sizeof tmp) {
+        return -1;
+    }
+    fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        return -1;
+    }
+    while (left > 0u) {
+        ssize_t n = write(fd, b, left);
+        if (n < 0) {
+            if (errno == EINTR) {
+                continue;
+            }
+            close(fd);
+            unlink(tmp);
+            return -1;
+        }
+        b += n;
+        left -= (size_t)n;
+    }
+    if (fsync(fd) != 0 || close(fd) != 0) {
+        unlink(tmp);
+        return -1;
+    }
+    if (rename(tmp, p->storage_path) != 0) {
+        unlink(tmp);
+        return -1;
+    }
+    return 0;
+}
+
+static aacmm_status_t storage_write(void *ctx, uint32_t offset, const uint8_t *data, size_t len)
+{
+    posix_port_t *p = ctx;
+    uint8_t old[AACMM_STORE_BYTES];
+    if ((uint64_t)offset + len > sizeof p->storage) {
+        return AACMM_ERR_IO;
+    }
+    if (p->storage_path == NULL) {
+        memcpy(p->storage + offset, data, len);
+        return AACMM_OK;
+    }
+    memcpy(old, p->storage, sizeof old);
+    memcpy(p->storage + offset, data, len);
+    if (storage_commit(p) != 0) {
+        fprintf(stderr, "aacmm-sim: cannot write storage file %s: %s\n", p->storage_path,
+                strerror(errno));
+        memcpy(p->storage, old, sizeof old);
+        return AACMM_ERR_IO;
+    }
+    return AACMM_OK;
+}
+
+/* ---- replay file ------------------------------------------------------- */
+
+int posix_replay_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t *n, char *err,
+                      size_t err_cap)
+{
+    FILE *f = fopen(path, "r");
+    char line[1024];
+    unsigned long lineno = 0;
+    uint32_t *buf = NULL;
+    size_t count = 0;
+    size_t cap = 0;
+    if (f == NULL) {
+        snprintf(err, err_cap, "cannot open replay file %s: %s", path, strerror(errno));
+        return -1;
+    }
+    while (fgets(line, sizeof line, f) != NULL) {
+        char *p = line;
+        char *hash;
+        uint32_t pose[AACMM_JOINTS];
+        int k = 0;
+        lineno++;
+        if (strchr(line, '\n') == NULL && !feof(f)) {
+            snprintf(err, err_cap, "%s:%lu: line too long", path, lineno);
+            goto fail;
+        }
+        hash = strchr(line, '#');
+        if (hash != NULL) {
+            *hash = '\0';
+        }
+        for (;;) {
+            char *end;
+            unsigned long long v;
+            while (*p == ' ' || *p == '\t' || *p == ',' || *p == '\r' || *p == '\n') {
+                p++;
+            }
+            if (*p == '\0') {
+                break;
+            }
+            if (*p < '0' || *p > '9') {
+                snprintf(err, err_cap, "%s:%lu: expected an unsigned count, got '%.20s'", path,
+                         lineno, p);
+                goto fail;
+            }
+            errno = 0;
+            v = strtoull(p, &end, 10);
+            if (errno != 0 || (*end != '\0' && *end != ' ' && *end != '\t' && *end != ',' &&
+                               *end != '\r' && *end != '\n')) {
+                snprintf(err, err_cap, "%s:%lu: bad count '%.20s'", path, lineno, p);
+                goto fail;
+            }
+            if (k == AACMM_JOINTS) {
+                snprintf(err, err_cap, "%s:%lu: more than %d counts", path, lineno, AACMM_JOINTS);
+                goto fail;
+            }
+            if (v >= cpr) {
+                snprintf(err, err_cap, "%s:%lu: count %llu is not below %llu counts per revolution",
+                         path, lineno, v, (unsigned long long)cpr);
+                goto fail;
+            }
+            pose[k++] = (uint32_t)v;
+            p = end;
+        }
+        if (k == 0) {
+            continue; /* blank or comment line */
+        }
+        if (k != AACMM_JOINTS) {
+            snprintf(err, err_cap, "%s:%lu: %d counts, expected %d", path, lineno, k,
+                     AACMM_JOINTS);
+            goto fail;
+        }
+        if (count == cap) {
+            size_t ncap = cap == 0 ? 64 : cap * 2;
+            uint32_t *nb;
+            if (ncap > (size_t)UINT32_MAX / AACMM_JOINTS) {
+                snprintf(err, err_cap, "%s:%lu: too many poses", path, lineno);
+                goto fail;
+            }
+            nb = realloc(buf, ncap * AACMM_JOINTS * sizeof *buf);
+            if (nb == NULL) {
+                snprintf(err, err_cap, "%s: out of memory", path);
+                goto fail;
+            }
+            buf = nb;
+            cap = ncap;
+        }
+        memcpy(buf + count * AACMM_JOINTS, pose, sizeof pose);
+        count++;
+    }
+    if (ferror(f)) {
+        snprintf(err, err_cap, "cannot read replay file %s: %s", path, strerror(errno));
+        goto fail;
+    }
+    fclose(f);
+    if (count == 0) {
+        snprintf(err, err_cap, "%s: no poses (expected lines of %d counts)", path, AACMM_JOINTS);
+        free(buf);
+        return -1;
+    }
+    *poses = buf;
+    *n = (uint32_t)count;
+    return 0;
+fail:
+    fclose(f);
+    free(buf);
+    return -1;
+}
+
+/* ---- encoders, button, table ------------------------------------------ */
+
+static uint64_t time_us(void *ctx)
+{
+    (void)ctx;
+    return posix_time_us();
+}
+
+static aacmm_status_t read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
+{
+    posix_port_t *p = ctx;
+    return aacmm_sim_read(&p->sim, posix_time_us() - p->t0_us, counts);
+}
+
+static aacmm_status_t read_button(void *ctx, uint8_t *pressed)
+{
+    posix_port_t *p = ctx;
+    *pressed = aacmm_sim_button(&p->sim, posix_time_us() - p->t0_us);
+    return AACMM_OK;
+}
+
+void posix_platform(posix_port_t *port, aacmm_platform_t *pf)
+{
+    memset(pf, 0, sizeof *pf);
+    pf->ctx = port;
+    pf->time_us = time_us;
+    if (port->serial_fd >= 0) {
+        pf->serial_read = serial_read;
+        pf->serial_write = serial_write;
+    }
+    if (port->can_fd >= 0) {
+        pf->can_send = can_send;
+        pf->can_receive = can_receive;
+    }
+    pf->read_encoders = read_encoders;
+    pf->read_button = read_button;
+    pf->storage_read = storage_read;
+    pf->storage_write = storage_write;
+    pf->storage_bytes = AACMM_STORE_BYTES;
+}
+
+void posix_close(posix_port_t *port)
+{
+    if (port->serial_fd >= 0) {
+        if (port->serial_slave_fd < 0) {
+            (void)tcdrain(port->serial_fd);
+        }
+        close(port->serial_fd);
+        port->serial_fd = -1;
+    }
+    if (port->serial_slave_fd >= 0) {
+        close(port->serial_slave_fd);
+        port->serial_slave_fd = -1;
+    }
+    if (port->can_fd >= 0) {
+        close(port->can_fd);
+        port->can_fd = -1;
+    }
+}

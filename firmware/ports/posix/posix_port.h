@@ -1,0 +1,59 @@
+/*
+ * POSIX port of the device application (aacmm-sim): the platform table on
+ * Linux. Internal to the simulator.
+ */
+#ifndef AACMM_POSIX_PORT_H
+#define AACMM_POSIX_PORT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacmm/device.h"
+#include "aacmm_sim.h"
+
+/* Exit codes of aacmm-sim. */
+#define SIM_EXIT_OK 0
+#define SIM_EXIT_USAGE 2
+#define SIM_EXIT_LINK 3
+
+typedef struct {
+    int serial_fd;       /* -1 if none */
+    int serial_slave_fd; /* pty: our own handle on the slave side, keeps it open */
+    char serial_path[256];
+    int can_fd; /* -1 if none */
+    int can_busy; /* the socket refused a frame: retry after a short sleep */
+    const char *storage_path; /* NULL: RAM only */
+    uint8_t storage[AACMM_STORE_BYTES];
+    uint64_t t0_us; /* simulation time origin */
+    aacmm_sim_t sim;
+} posix_port_t;
+
+/* CLOCK_MONOTONIC in us. */
+uint64_t posix_time_us(void);
+
+/* Open a pseudo-terminal (path "pty") or an existing tty, raw, non-blocking.
+ * Returns 0, or -1 with a one-line message in err. */
+int posix_serial_open(posix_port_t *port, const char *path, char *err, size_t err_cap);
+
+/* Open a raw SocketCAN socket on iface, non-blocking, receiving only
+ * rx_id. Returns 0, or -1 with a one-line message in err. */
+int posix_can_open(posix_port_t *port, const char *iface, uint32_t rx_id, char *err,
+                   size_t err_cap);
+
+/* Load the storage image from port->storage_path (missing file: blank).
+ * Returns 0, or -1 with a message. */
+int posix_storage_load(posix_port_t *port, char *err, size_t err_cap);
+
+/* Parse a replay file: one pose per line, six unsigned decimal counts
+ * separated by blanks or commas, '#' starts a comment. Every count must be
+ * < cpr. On success *poses (malloc'd, n*6 counts) and *n are set and 0 is
+ * returned; else -1 with "FILE:LINE: problem" in err. */
+int posix_replay_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t *n, char *err,
+                      size_t err_cap);
+
+/* Fill *pf with the port's functions (links present as opened). */
+void posix_platform(posix_port_t *port, aacmm_platform_t *pf);
+
+void posix_close(posix_port_t *port);
+
+#endif /* AACMM_POSIX_PORT_H */

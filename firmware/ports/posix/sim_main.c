@@ -1,0 +1,428 @@
+/*
+ * aacmm-sim: the device application as a POSIX process (docs/simulator.md).
+ *
+ * Serial on a pseudo-terminal or a tty, CAN on a SocketCAN interface, the
+ * simulated arm as encoder source, parameter storage in a file. The main loop
+ * sleeps in ppoll() until link activity or the device's next deadline, so it
+ * neither busy-waits nor oversleeps a 1 kHz stream.
+ */
+#define _GNU_SOURCE 1
+
+#include <errno.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/prctl.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "aacmm/device.h"
+#include "aacmm_sim.h"
+#include "posix_port.h"
+
+#define SERIAL_TXQ_BYTES (256u * 1024u)
+
+static volatile sig_atomic_t stop_signal = 0;
+static posix_port_t port;
+static aacmm_device_t dev;
+static uint8_t serial_txq[SERIAL_TXQ_BYTES];
+
+static void on_signal(int sig)
+{
+    stop_signal = sig;
+}
+
+static void usage(FILE *f)
+{
+    fputs("usage: aacmm-sim [--serial pty|PATH] [--can IFACE] [--node N] [--storage FILE]\n"
+          "                 [--motion sweep|walk|static|replay:FILE] [--seed N]\n"
+          "                 [--noise-counts N] [--encoder-bits B | --cpr N]\n"
+          "                 [--button-every SECONDS] [--serial-number N] [--quiet]\n"
+          "At least one of --serial and --can. See docs/simulator.md.\n",
+          f);
+}
+
+static int usage_error(const char *fmt, const char *arg)
+{
+    fputs("aacmm-sim: ", stderr);
+    fprintf(stderr, fmt, arg);
+    fputc('\n', stderr);
+    usage(stderr);
+    return SIM_EXIT_USAGE;
+}
+
+/* Parse an unsigned decimal integer in lo..hi. */
+static int parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out)
+{
+    char *end;
+    unsigned long long v;
+    if (s == NULL || *s < '0' || *s > '9') {
+        return -1;
+    }
+    errno = 0;
+    v = strtoull(s, &end, 10);
+    if (errno != 0 || *end != '\0' || v < lo || v > hi) {
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+typedef struct {
+    const char *serial;
+    const char *can;
+    uint64_t node;
+    const char *storage;
+    aacmm_sim_motion_t motion;
+    const char *replay_path;
+    uint64_t seed;
+    uint64_t noise;
+    uint64_t cpr;
+    int have_bits;
+    int have_cpr;
+    uint64_t button_us;
+    uint64_t serial_number;
+    int quiet;
+} options_t;
+
+static int parse_args(int argc, char **argv, options_t *o)
+{
+    int i;
+    memset(o, 0, sizeof *o);
+    o->node = 1u;
+    o->motion = AACMM_SIM_WALK;
+    o->cpr = UINT64_C(1) << 32;
+    o->serial_number = 1u;
+    for (i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = NULL;
+        char name[32];
+        const char *eq = strchr(a, '=');
+        size_t nlen = eq != NULL ? (size_t)(eq - a) : strlen(a);
+        if (strncmp(a, "--", 2) != 0 || nlen >= sizeof name) {
+            return usage_error("unexpected argument '%s'", a);
+        }
+        memcpy(name, a, nlen);
+        name[nlen] = '\0';
+        if (strcmp(name, "--quiet") == 0 || strcmp(name, "--help") == 0) {
+            if (eq != NULL) {
+                return usage_error("%s takes no value", name);
+            }
+            if (strcmp(name, "--help") == 0) {
+                usage(stdout);
+                exit(SIM_EXIT_OK);
+            }
+            o->quiet = 1;
+            continue;
+        }
+        if (eq != NULL) {
+            v = eq + 1;
+        } else if (i + 1 < argc) {
+            v = argv[++i];
+        } else {
+            return usage_error("%s needs a value", name);
+        }
+        if (strcmp(name, "--serial") == 0) {
+            if (v[0] == '\0') {
+                return usage_error("%s needs a value", name);
+            }
+            o->serial = v;
+        } else if (strcmp(name, "--can") == 0) {
+            if (v[0] == '\0') {
+                return usage_error("%s needs a value", name);
+            }
+            o->can = v;
+        } else if (strcmp(name, "--node") == 0) {
+            if (parse_u64(v, 0u, AACMM_CAN_NODE_ID_MAX, &o->node) != 0) {
+                return usage_error("--node: '%s' is not a CAN node id 0..15", v);
+            }
+        } else if (strcmp(name, "--storage") == 0) {
+            if (v[0] == '\0') {
+                return usage_error("%s needs a value", name);
+            }
+            o->storage = v;
+        } else if (strcmp(name, "--motion") == 0) {
+            if (strcmp(v, "sweep") == 0) {
+                o->motion = AACMM_SIM_SWEEP;
+            } else if (strcmp(v, "walk") == 0) {
+                o->motion = AACMM_SIM_WALK;
+            } else if (strcmp(v, "static") == 0) {
+                o->motion = AACMM_SIM_STATIC;
+            } else if (strncmp(v, "replay:", 7) == 0 && v[7] != '\0') {
+                o->motion = AACMM_SIM_REPLAY;
+                o->replay_path = v + 7;
+            } else {
+                return usage_error("--motion: '%s' is not sweep, walk, static or replay:FILE", v);
+            }
+        } else if (strcmp(name, "--seed") == 0) {
+            if (parse_u64(v, 0u, UINT32_MAX, &o->seed) != 0) {
+                return usage_error("--seed: '%s' is not a number 0..4294967295", v);
+            }
+        } else if (strcmp(name, "--noise-counts") == 0) {
+            if (parse_u64(v, 0u, AACMM_SIM_NOISE_MAX, &o->noise) != 0) {
+                return usage_error("--noise-counts: '%s' is not a number 0..1073741824", v);
+            }
+        } else if (strcmp(name, "--encoder-bits") == 0) {
+            uint64_t b;
+            if (parse_u64(v, 1u, 32u, &b) != 0) {
+                return usage_error("--encoder-bits: '%s' is not 1..32", v);
+            }
+            o->cpr = UINT64_C(1) << b;
+            o->have_bits = 1;
+        } else if (strcmp(name, "--cpr") == 0) {
+            if (parse_u64(v, 2u, UINT64_C(1) << 32, &o->cpr) != 0) {
+                return usage_error("--cpr: '%s' is not 2..4294967296", v);
+            }
+            o->have_cpr = 1;
+        } else if (strcmp(name, "--button-every") == 0) {
+            char *end;
+            double s;
+            errno = 0;
+            s = strtod(v, &end);
+            if (errno != 0 || end == v || *end != '\0' || !(s >= 0.001 && s <= 86400.0)) {
+                return usage_error("--button-every: '%s' is not a time 0.001..86400 s", v);
+            }
+            o->button_us = (uint64_t)(s * 1e6 + 0.5);
+        } else if (strcmp(name, "--serial-number") == 0) {
+            if (parse_u64(v, 0u, UINT32_MAX, &o->serial_number) != 0) {
+                return usage_error("--serial-number: '%s' is not a number 0..4294967295", v);
+            }
+        } else {
+            return usage_error("unknown option '%s'", name);
+        }
+    }
+    if (o->have_bits && o->have_cpr) {
+        return usage_error("%s", "--encoder-bits and --cpr are mutually exclusive");
+    }
+    if (o->serial == NULL && o->can == NULL) {
+        return usage_error("%s", "at least one of --serial and --can is required");
+    }
+    return SIM_EXIT_OK;
+}
+
+static void print_counters(void)
+{
+    const aacmm_device_counters_t *c = aacmm_device_counters(&dev);
+    const aacmm_deframer_stats_t *d = aacmm_device_serial_stats(&dev);
+    fprintf(stderr,
+            "aacmm-sim: stopped: requests %u, errors %u, samples sent %u, dropped %u, late %u, "
+            "events %u (dropped %u), serial frames ok %u, crc errors %u, cobs errors %u, "
+            "storage errors %u, bad records %u, io errors %u/%u\n",
+            c->requests, c->error_responses, c->samples_sent, c->samples_dropped, c->samples_late,
+            c->events_sent, c->events_dropped, d->frames_ok, d->crc_errors, d->cobs_errors,
+            c->storage_errors, c->storage_bad_records, c->serial_io_errors, c->can_io_errors);
+}
+
+static const char *storage_state_name(uint8_t s)
+{
+    switch (s) {
+    case AACMM_STORAGE_OK:
+        return "record loaded";
+    case AACMM_STORAGE_EMPTY:
+        return "no record, running on defaults";
+    case AACMM_STORAGE_CORRUPT:
+        return "corrupt record, running on defaults";
+    default:
+        return "record of another version, running on defaults";
+    }
+}
+
+int main(int argc, char **argv)
+{
+    options_t o;
+    char err[512];
+    int rc;
+    uint32_t *replay = NULL;
+    uint32_t replay_n = 0;
+    aacmm_sim_config_t sc;
+    aacmm_param_set_t defaults;
+    aacmm_device_config_t dc;
+    aacmm_platform_t pf;
+    aacmm_status_t st;
+    sigset_t block;
+    sigset_t waitmask;
+    struct sigaction sa;
+    int i;
+
+    setvbuf(stdout, NULL, _IOLBF, 0);
+    rc = parse_args(argc, argv, &o);
+    if (rc != SIM_EXIT_OK) {
+        return rc;
+    }
+
+    memset(&port, 0, sizeof port);
+    port.serial_fd = -1;
+    port.serial_slave_fd = -1;
+    port.can_fd = -1;
+    port.storage_path = o.storage;
+
+    /* Signals: blocked except while sleeping in ppoll, so none is lost. */
+    sigemptyset(&block);
+    sigaddset(&block, SIGINT);
+    sigaddset(&block, SIGTERM);
+    sigaddset(&block, SIGHUP);
+    sigprocmask(SIG_BLOCK, &block, &waitmask);
+    sigdelset(&waitmask, SIGINT);
+    sigdelset(&waitmask, SIGTERM);
+    sigdelset(&waitmask, SIGHUP);
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+    signal(SIGPIPE, SIG_IGN);
+    (void)prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL); /* wake on time for 1 kHz */
+
+    /* Encoder source. */
+    if (o.motion == AACMM_SIM_REPLAY &&
+        posix_replay_load(o.replay_path, o.cpr, &replay, &replay_n, err, sizeof err) != 0) {
+        fprintf(stderr, "aacmm-sim: %s\n", err);
+        return SIM_EXIT_USAGE;
+    }
+    memset(&sc, 0, sizeof sc);
+    sc.motion = o.motion;
+    sc.seed = (uint32_t)o.seed;
+    sc.noise_counts = (uint32_t)o.noise;
+    sc.counts_per_rev = o.cpr;
+    sc.replay = replay;
+    sc.replay_poses = replay_n;
+    sc.button_period_us = o.button_us;
+    if (aacmm_sim_init(&port.sim, &sc) != AACMM_OK) {
+        fprintf(stderr, "aacmm-sim: bad simulation settings\n");
+        return SIM_EXIT_USAGE;
+    }
+
+    if (posix_storage_load(&port, err, sizeof err) != 0) {
+        fprintf(stderr, "aacmm-sim: %s\n", err);
+        return SIM_EXIT_USAGE;
+    }
+
+    /* Links. */
+    if (o.serial != NULL && posix_serial_open(&port, o.serial, err, sizeof err) != 0) {
+        fprintf(stderr, "aacmm-sim: %s\n", err);
+        posix_close(&port);
+        return SIM_EXIT_LINK;
+    }
+    if (o.can != NULL &&
+        posix_can_open(&port, o.can, AACMM_CAN_ID_ISOTP_REQUEST + (uint32_t)o.node, err,
+                       sizeof err) != 0) {
+        fprintf(stderr, "aacmm-sim: %s\n", err);
+        posix_close(&port);
+        return SIM_EXIT_LINK;
+    }
+
+    /* The device: its default encoder configuration is the simulated one. */
+    (void)aacmm_params_default_f64(&defaults.kin);
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        defaults.enc.counts_per_rev[i] = o.cpr;
+        defaults.enc.zero_offset_counts[i] = 0u;
+        defaults.enc.direction[i] = 1;
+    }
+    memset(&dc, 0, sizeof dc);
+    dc.serial_number = (uint32_t)o.serial_number;
+    dc.can_node_id = (uint8_t)o.node;
+    dc.defaults = &defaults;
+    dc.serial_txq = serial_txq;
+    dc.serial_txq_bytes = sizeof serial_txq;
+    port.t0_us = posix_time_us();
+    posix_platform(&port, &pf);
+    st = aacmm_device_init(&dev, &dc, &pf);
+    if (st != AACMM_OK) {
+        fprintf(stderr, "aacmm-sim: device set-up failed: %s\n", aacmm_status_str(st));
+        posix_close(&port);
+        return SIM_EXIT_USAGE;
+    }
+    if (!o.quiet && o.storage != NULL) {
+        fprintf(stderr, "aacmm-sim: storage %s: %s\n", o.storage,
+                storage_state_name(dev.storage_state));
+    }
+
+    if (port.serial_fd >= 0) {
+        printf("aacmm-sim: serial %s\n", port.serial_path);
+        fflush(stdout);
+    }
+    if (port.can_fd >= 0) {
+        printf("aacmm-sim: can %s node %lu\n", o.can, (unsigned long)o.node);
+        fflush(stdout);
+    }
+    printf("aacmm-sim: ready\n");
+    fflush(stdout);
+
+    while (!stop_signal) {
+        struct pollfd fds[2];
+        nfds_t nfds = 0;
+        uint64_t now;
+        uint64_t deadline;
+        uint64_t wait_us;
+        struct timespec ts;
+        aacmm_device_poll(&dev);
+        if (stop_signal) {
+            break;
+        }
+        port.can_busy = 0;
+        deadline = aacmm_device_next_deadline_us(&dev);
+        if (port.serial_fd >= 0) {
+            fds[nfds].fd = port.serial_fd;
+            fds[nfds].events = POLLIN;
+            if (aacmm_device_serial_pending(&dev) > 0u) {
+                fds[nfds].events |= POLLOUT;
+            }
+            fds[nfds].revents = 0;
+            nfds++;
+        }
+        if (port.can_fd >= 0) {
+            fds[nfds].fd = port.can_fd;
+            fds[nfds].events = POLLIN;
+            fds[nfds].revents = 0;
+            nfds++;
+            /* Frames waiting for the socket: look again in 1 ms (POLLOUT
+             * does not report ENOBUFS relief). */
+            if (aacmm_device_can_pending(&dev) > 0u) {
+                uint64_t soon = posix_time_us() + 1000u;
+                if (soon < deadline) {
+                    deadline = soon;
+                }
+            }
+        }
+        now = posix_time_us();
+        wait_us = deadline > now ? deadline - now : 0u;
+        ts.tv_sec = (time_t)(wait_us / 1000000u);
+        ts.tv_nsec = (long)((wait_us % 1000000u) * 1000u);
+        if (ppoll(fds, nfds, &ts, &waitmask) < 0 && errno != EINTR) {
+            fprintf(stderr, "aacmm-sim: poll failed: %s\n", strerror(errno));
+            break;
+        }
+        for (i = 0; i < (int)nfds; i++) {
+            if ((fds[i].revents & (POLLERR | POLLNVAL)) != 0 && fds[i].fd == port.serial_fd) {
+                /* A tty that went away (USB unplugged): avoid spinning. */
+                struct timespec nap = {0, 10000000L};
+                nanosleep(&nap, NULL);
+            }
+        }
+    }
+
+    /* Clean shutdown: give queued output a moment to drain, then close. */
+    {
+        uint64_t until = posix_time_us() + 200000u;
+        aacmm_device_flush(&dev);
+        while (aacmm_device_serial_pending(&dev) > 0u && posix_time_us() < until) {
+            struct pollfd pfd;
+            pfd.fd = port.serial_fd;
+            pfd.events = POLLOUT;
+            pfd.revents = 0;
+            if (poll(&pfd, 1, 20) <= 0) {
+                break; /* nobody reads: give up */
+            }
+            aacmm_device_flush(&dev);
+        }
+    }
+    if (!o.quiet) {
+        print_counters();
+    }
+    posix_close(&port);
+    free(replay);
+    return SIM_EXIT_OK;
+}

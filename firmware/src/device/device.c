@@ -1,0 +1,903 @@
+/*
+ * The device application (aacmm/device.h): request handling, streaming,
+ * probe-button events and the two links. Portable C99: no heap, no stdio,
+ * everything board-specific goes through the platform table.
+ */
+#include "aacmm/device.h"
+
+#include <string.h>
+
+#include "aacmm/crc32.h"
+#include "device_kin.h"
+
+#define US_PER_S 1000000u
+#define CAN_SAMPLE_RESERVE 8u /* CAN queue slots kept free of samples for ISO-TP */
+
+/* ------------------------------------------------------------------------ */
+/* small helpers                                                             */
+/* ------------------------------------------------------------------------ */
+
+static uint64_t now_us(const aacmm_device_t *dev)
+{
+    return dev->pf.time_us(dev->pf.ctx);
+}
+
+static uint32_t now_ms32(uint64_t t_us)
+{
+    return (uint32_t)((t_us / 1000u) & 0xFFFFFFFFu);
+}
+
+static size_t txq_free(const aacmm_device_serial_t *s)
+{
+    return s->txq_cap - s->txq_len;
+}
+
+/* Append n bytes (the caller checked the room). */
+static void txq_put(aacmm_device_serial_t *s, const uint8_t *data, size_t n)
+{
+    size_t tail = s->txq_head + s->txq_len;
+    size_t i;
+    if (tail >= s->txq_cap) {
+        tail -= s->txq_cap;
+    }
+    for (i = 0; i < n; i++) {
+        s->txq[tail] = data[i];
+        tail++;
+        if (tail == s->txq_cap) {
+            tail = 0;
+        }
+    }
+    s->txq_len += n;
+}
+
+static size_t canq_free(const aacmm_device_can_t *c)
+{
+    return AACMM_DEVICE_CAN_QUEUE - c->q_len;
+}
+
+static void canq_put(aacmm_device_can_t *c, const aacmm_can_frame_t *f)
+{
+    size_t tail = (c->q_head + c->q_len) % AACMM_DEVICE_CAN_QUEUE;
+    c->q[tail] = *f;
+    c->q_len++;
+}
+
+/* Deadline of stream sample number index. */
+static uint64_t stream_deadline(const aacmm_device_stream_t *s, uint64_t index)
+{
+    return s->start_us + (index * US_PER_S) / s->rate_hz;
+}
+
+/* ------------------------------------------------------------------------ */
+/* parameters                                                                */
+/* ------------------------------------------------------------------------ */
+
+/* Check a parameter set completely: ranges, encoders, encodable, and the
+ * backend can build a model from it (into *model). */
+static aacmm_status_t check_set(const aacmm_param_set_t *set, aacmm_device_model_t *model,
+                                uint32_t *crc)
+{
+    aacmm_status_t st = aacmm_params_validate_f64(&set->kin);
+    if (st == AACMM_OK) {
+        st = aacmm_encoder_validate(&set->enc);
+    }
+    if (st == AACMM_OK) {
+        st = aacmm_param_set_crc32(set, crc);
+    }
+    if (st == AACMM_OK) {
+        st = aacmm_device_kin_load(model, &set->kin);
+    }
+    return st;
+}
+
+/* Make *set the active set (already checked into model/crc). */
+static void activate(aacmm_device_t *dev, const aacmm_param_set_t *set,
+                     const aacmm_device_model_t *model, uint32_t crc, uint8_t source)
+{
+    dev->active = *set;
+    dev->model = *model;
+    dev->active_crc32 = crc;
+    dev->param_source = source;
+}
+
+/* ------------------------------------------------------------------------ */
+/* samples                                                                   */
+/* ------------------------------------------------------------------------ */
+
+static uint8_t button_state(const aacmm_device_t *dev)
+{
+    return dev->button;
+}
+
+/* Read the encoders now and fill *s (all but seq). */
+static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
+{
+    aacmm_status_t st;
+    double p[3];
+    int i;
+    s->timestamp_us = now_us(dev);
+    s->status = 0u;
+    s->content = content;
+    st = dev->pf.read_encoders(dev->pf.ctx, s->counts);
+    if (st != AACMM_OK) {
+        for (i = 0; i < AACMM_JOINTS; i++) {
+            s->counts[i] = 0u;
+        }
+    } else {
+        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, s->counts, p,
+                                      (content & AACMM_CONTENT_JACOBIAN) != 0u ? s->jacobian : NULL);
+    }
+    if (st == AACMM_OK) {
+        int clipped = 0;
+        int any = 0;
+        for (i = 0; i < 3; i++) {
+            s->point_100nm[i] = aacmm_point_mm_to_wire(p[i], &clipped);
+            any |= clipped;
+        }
+        s->status |= AACMM_SAMPLE_POINT_VALID;
+        if (any) {
+            s->status |= AACMM_SAMPLE_POINT_CLIPPED;
+        }
+    } else {
+        dev->counters.encoder_faults++;
+        s->status |= AACMM_SAMPLE_ENCODER_FAULT;
+        for (i = 0; i < 3; i++) {
+            s->point_100nm[i] = 0;
+        }
+        if ((content & AACMM_CONTENT_JACOBIAN) != 0u) {
+            for (i = 0; i < AACMM_JAC_SIZE; i++) {
+                s->jacobian[i] = 0.0f;
+            }
+        }
+    }
+    if (button_state(dev) != 0u) {
+        s->status |= AACMM_SAMPLE_TRIGGER_DOWN;
+    }
+    if (dev->param_source == AACMM_PARAM_SOURCE_DEFAULTS) {
+        s->status |= AACMM_SAMPLE_PARAMS_DEFAULT;
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* info                                                                      */
+/* ------------------------------------------------------------------------ */
+
+uint32_t aacmm_device_build_flags(const aacmm_device_t *dev)
+{
+    uint32_t f = aacmm_device_kin_flags() | AACMM_BUILD_JACOBIAN;
+    if (dev == NULL) {
+        return f;
+    }
+    if (dev->serial.present) {
+        f |= AACMM_BUILD_SERIAL;
+    }
+    if (dev->can.present) {
+        f |= AACMM_BUILD_CAN;
+    }
+    return f;
+}
+
+aacmm_status_t aacmm_device_info(const aacmm_device_t *dev, aacmm_msg_info_t *info)
+{
+    if (dev == NULL || info == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    info->protocol_version = (uint16_t)AACMM_PROTO_VERSION;
+    info->fw_major = (uint8_t)AACMM_FW_MAJOR;
+    info->fw_minor = (uint8_t)AACMM_FW_MINOR;
+    info->fw_patch = (uint16_t)AACMM_FW_PATCH;
+    info->build_flags = aacmm_device_build_flags(dev);
+    info->param_crc32 = dev->active_crc32;
+    info->param_source = dev->param_source;
+    info->storage_state = dev->storage_state;
+    info->max_body_bytes = (uint16_t)AACMM_PROTO_MAX_BODY;
+    info->serial_number = dev->serial_number;
+    info->can_node_id = dev->can.node_id;
+    return AACMM_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* requests                                                                  */
+/* ------------------------------------------------------------------------ */
+
+static void set_error(aacmm_msg_t *rsp, aacmm_status_t st, uint8_t req_type)
+{
+    rsp->type = (uint8_t)AACMM_MSG_ERROR_RSP;
+    rsp->u.error.status = (int16_t)st;
+    rsp->u.error.request_type = req_type;
+}
+
+static void stream_start(aacmm_device_t *dev, aacmm_device_stream_t *s, uint16_t rate_hz,
+                         uint8_t content)
+{
+    s->active = 1u;
+    s->rate_hz = rate_hz;
+    s->content = content;
+    s->overrun = 0u;
+    s->sent_any = 0u;
+    s->seq = 0u;
+    s->last_seq = 0u;
+    s->start_us = now_us(dev);
+    s->index = 0u;
+    s->next_us = s->start_us;
+}
+
+/* Build the response to the request in body[0..len-1] (from link) in dev->msg_out. */
+static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *body, size_t len)
+{
+    aacmm_msg_t *req = &dev->msg_in;
+    aacmm_msg_t *rsp = &dev->msg_out;
+    aacmm_status_t st = aacmm_msg_decode(body, len, req);
+    rsp->seq = req->seq;
+    rsp->type = (uint8_t)(req->type | AACMM_MSG_RESPONSE_BIT);
+    dev->counters.requests++;
+    if (st != AACMM_OK) {
+        set_error(rsp, st, req->type);
+        return;
+    }
+    switch (req->type) {
+    case AACMM_MSG_PING_REQ:
+        rsp->u.ping.token = req->u.ping.token;
+        break;
+    case AACMM_MSG_INFO_REQ:
+        (void)aacmm_device_info(dev, &rsp->u.info);
+        break;
+    case AACMM_MSG_GET_PARAMS_REQ:
+        rsp->u.params = dev->active;
+        break;
+    case AACMM_MSG_SET_PARAMS_REQ: {
+        aacmm_device_model_t model;
+        uint32_t crc = 0u;
+        st = check_set(&req->u.params, &model, &crc);
+        if (st != AACMM_OK) {
+            set_error(rsp, st, req->type);
+            break;
+        }
+        activate(dev, &req->u.params, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_STORAGE);
+        rsp->u.param_crc.param_crc32 = crc;
+        break;
+    }
+    case AACMM_MSG_SAVE_PARAMS_REQ:
+        if (!dev->storage_ok) {
+            set_error(rsp, AACMM_ERR_UNSUPPORTED, req->type);
+            break;
+        }
+        st = aacmm_store_save(&dev->pf, &dev->active, &dev->store_generation, &dev->store_slot,
+                              dev->record);
+        if (st != AACMM_OK) {
+            dev->counters.storage_errors++;
+            set_error(rsp, st == AACMM_ERR_IO ? AACMM_ERR_STORAGE : st, req->type);
+            break;
+        }
+        dev->storage_state = (uint8_t)AACMM_STORAGE_OK;
+        dev->param_source = (uint8_t)AACMM_PARAM_SOURCE_STORAGE;
+        rsp->u.param_crc.param_crc32 = dev->active_crc32;
+        break;
+    case AACMM_MSG_RESTORE_DEFAULTS_REQ: {
+        aacmm_device_model_t model;
+        uint32_t crc = 0u;
+        st = check_set(&dev->defaults, &model, &crc); /* checked at init: cannot fail */
+        if (st != AACMM_OK) {
+            set_error(rsp, st, req->type);
+            break;
+        }
+        activate(dev, &dev->defaults, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_DEFAULTS);
+        rsp->u.param_crc.param_crc32 = crc;
+        break;
+    }
+    case AACMM_MSG_MEASURE_REQ:
+        take_sample(dev, req->u.measure.content, &rsp->u.sample);
+        rsp->u.sample.seq = dev->measure_seq++;
+        break;
+    case AACMM_MSG_COMPUTE_REQ: {
+        aacmm_msg_compute_rsp_t *c = &rsp->u.compute_rsp;
+        uint8_t content = req->u.compute_req.content;
+        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, req->u.compute_req.counts,
+                                      c->point_mm,
+                                      (content & AACMM_CONTENT_JACOBIAN) != 0u ? c->jacobian : NULL);
+        if (st != AACMM_OK) {
+            set_error(rsp, st, req->type);
+            break;
+        }
+        c->status = AACMM_SAMPLE_POINT_VALID;
+        if (dev->param_source == AACMM_PARAM_SOURCE_DEFAULTS) {
+            c->status |= AACMM_SAMPLE_PARAMS_DEFAULT;
+        }
+        c->content = content;
+        break;
+    }
+    case AACMM_MSG_STREAM_START_REQ: {
+        aacmm_device_stream_t *s = link == AACMM_LINK_SERIAL ? &dev->serial.stream
+                                                             : &dev->can.stream;
+        /* CAN sample frames carry no Jacobian. */
+        uint8_t content = link == AACMM_LINK_SERIAL ? req->u.stream.content : 0u;
+        stream_start(dev, s, req->u.stream.rate_hz, content);
+        rsp->u.stream.rate_hz = req->u.stream.rate_hz;
+        rsp->u.stream.content = content;
+        break;
+    }
+    case AACMM_MSG_STREAM_STOP_REQ:
+        if (link == AACMM_LINK_SERIAL) {
+            dev->serial.stream.active = 0u;
+        } else {
+            dev->can.stream.active = 0u;
+        }
+        break;
+    default: /* a response or an event sent to the device */
+        set_error(rsp, AACMM_ERR_UNKNOWN_TYPE, req->type);
+        break;
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* serial link                                                               */
+/* ------------------------------------------------------------------------ */
+
+/* Frame msg into dev->wire; returns the wire length or 0 on error. */
+static size_t frame_msg(aacmm_device_t *dev, const aacmm_msg_t *msg)
+{
+    size_t n = 0u;
+    if (aacmm_msg_encode_frame(msg, dev->body, sizeof dev->body, dev->wire, sizeof dev->wire, &n) !=
+        AACMM_OK) {
+        return 0u;
+    }
+    return n;
+}
+
+static void serial_flush(aacmm_device_t *dev)
+{
+    aacmm_device_serial_t *s = &dev->serial;
+    while (s->txq_len > 0u) {
+        size_t chunk = s->txq_cap - s->txq_head;
+        size_t done = 0u;
+        if (chunk > s->txq_len) {
+            chunk = s->txq_len;
+        }
+        if (dev->pf.serial_write(dev->pf.ctx, s->txq + s->txq_head, chunk, &done) != AACMM_OK) {
+            dev->counters.serial_io_errors++;
+            return;
+        }
+        if (done > chunk) {
+            done = chunk;
+        }
+        s->txq_head += done;
+        if (s->txq_head == s->txq_cap) {
+            s->txq_head = 0u;
+        }
+        s->txq_len -= done;
+        if (done < chunk) {
+            return; /* driver full */
+        }
+    }
+    s->txq_head = 0u;
+}
+
+/* Queue a framed message that must not be dropped (a response: the room was
+ * reserved before the request was taken). */
+static void serial_send_response(aacmm_device_t *dev, const aacmm_msg_t *msg)
+{
+    size_t n = frame_msg(dev, msg);
+    if (n == 0u || n > txq_free(&dev->serial)) {
+        return; /* cannot happen: encodable responses, reserved room */
+    }
+    txq_put(&dev->serial, dev->wire, n);
+    if (msg->type == (uint8_t)AACMM_MSG_ERROR_RSP) {
+        dev->counters.error_responses++;
+    }
+}
+
+/* Queue a droppable message (sample or event), keeping the response reserve.
+ * Returns 1 if queued. */
+static int serial_send_droppable(aacmm_device_t *dev, const aacmm_msg_t *msg)
+{
+    size_t n = frame_msg(dev, msg);
+    if (n == 0u) {
+        return 0;
+    }
+    if (txq_free(&dev->serial) < n + AACMM_FRAME_MAX_WIRE) {
+        serial_flush(dev); /* make room if the driver can take bytes now */
+        if (txq_free(&dev->serial) < n + AACMM_FRAME_MAX_WIRE) {
+            return 0;
+        }
+    }
+    txq_put(&dev->serial, dev->wire, n);
+    return 1;
+}
+
+#define SERIAL_CHUNKS_PER_POLL 8u
+
+static void serial_receive(aacmm_device_t *dev)
+{
+    aacmm_device_serial_t *s = &dev->serial;
+    unsigned reads = 0u;
+    for (;;) {
+        const uint8_t *body = NULL;
+        size_t body_len = 0u;
+        if (txq_free(s) < AACMM_FRAME_MAX_WIRE) {
+            serial_flush(dev);
+            if (txq_free(s) < AACMM_FRAME_MAX_WIRE) {
+                return; /* no room for a response: leave the request waiting */
+            }
+        }
+        if (s->rx_pos == s->rx_len) {
+            size_t got = 0u;
+            if (reads == SERIAL_CHUNKS_PER_POLL) {
+                return;
+            }
+            reads++;
+            s->rx_pos = 0u;
+            s->rx_len = 0u;
+            if (dev->pf.serial_read(dev->pf.ctx, s->rx, sizeof s->rx, &got) != AACMM_OK) {
+                dev->counters.serial_io_errors++;
+                return;
+            }
+            if (got == 0u) {
+                return;
+            }
+            s->rx_len = got > sizeof s->rx ? sizeof s->rx : got;
+        }
+        s->rx_pos += aacmm_deframer_feed(&s->deframer, s->rx + s->rx_pos, s->rx_len - s->rx_pos,
+                                         &body, &body_len);
+        if (body != NULL) {
+            handle_request(dev, AACMM_LINK_SERIAL, body, body_len);
+            serial_send_response(dev, &dev->msg_out);
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* CAN link                                                                  */
+/* ------------------------------------------------------------------------ */
+
+static void can_flush(aacmm_device_t *dev)
+{
+    aacmm_device_can_t *c = &dev->can;
+    while (c->q_len > 0u) {
+        aacmm_status_t st = dev->pf.can_send(dev->pf.ctx, &c->q[c->q_head]);
+        if (st == AACMM_ERR_BUSY) {
+            return;
+        }
+        if (st != AACMM_OK) {
+            dev->counters.can_io_errors++; /* the frame is dropped */
+        }
+        c->q_head = (c->q_head + 1u) % AACMM_DEVICE_CAN_QUEUE;
+        c->q_len--;
+    }
+}
+
+/* Start the next ISO-TP transmission if the endpoint is free, and move its
+ * frames into the CAN queue. */
+static void can_isotp_service(aacmm_device_t *dev, uint64_t t_us)
+{
+    aacmm_device_can_t *c = &dev->can;
+    uint32_t ms = now_ms32(t_us);
+    aacmm_can_frame_t f;
+    if (aacmm_isotp_tx_result(&c->tp) != AACMM_ERR_BUSY) {
+        if (c->rsp_len > 0u) {
+            if (aacmm_isotp_send(&c->tp, c->rsp, c->rsp_len, ms) == AACMM_OK) {
+                c->rsp_len = 0u;
+            }
+        } else if (c->ev_len > 0u) {
+            size_t n = AACMM_PROTO_HEADER_BYTES + AACMM_TRIGGER_EXTRA_BYTES + AACMM_SAMPLE_BASE_BYTES;
+            if (aacmm_isotp_send(&c->tp, c->ev[c->ev_head], n, ms) == AACMM_OK) {
+                c->ev_head = (c->ev_head + 1u) % AACMM_DEVICE_CAN_EVENTS;
+                c->ev_len--;
+            }
+        }
+    }
+    while (canq_free(c) > 0u && aacmm_isotp_poll(&c->tp, ms, &f)) {
+        canq_put(c, &f);
+    }
+}
+
+static void can_send_response(aacmm_device_t *dev, const aacmm_msg_t *msg)
+{
+    aacmm_device_can_t *c = &dev->can;
+    size_t n = 0u;
+    if (c->rsp_len > 0u) {
+        dev->counters.can_rsp_dropped++; /* the previous response is still waiting */
+        return;
+    }
+    if (aacmm_msg_encode(msg, c->rsp, sizeof c->rsp, &n) != AACMM_OK) {
+        return;
+    }
+    c->rsp_len = n;
+    if (msg->type == (uint8_t)AACMM_MSG_ERROR_RSP) {
+        dev->counters.error_responses++;
+    }
+}
+
+static void can_receive(aacmm_device_t *dev)
+{
+    aacmm_device_can_t *c = &dev->can;
+    unsigned k;
+    for (k = 0u; k < AACMM_DEVICE_CAN_RX_PER_POLL; k++) {
+        aacmm_can_frame_t f;
+        const uint8_t *data = NULL;
+        size_t len = 0u;
+        int got = 0;
+        uint64_t t;
+        if (dev->pf.can_receive(dev->pf.ctx, &f, &got) != AACMM_OK) {
+            dev->counters.can_io_errors++;
+            return;
+        }
+        if (!got) {
+            return;
+        }
+        t = now_us(dev);
+        aacmm_isotp_on_frame(&c->tp, &f, now_ms32(t));
+        if (aacmm_isotp_receive(&c->tp, &data, &len)) {
+            c->host_seen = 1u;
+            handle_request(dev, AACMM_LINK_CAN, data, len);
+            can_send_response(dev, &dev->msg_out);
+        }
+        /* Flow control for a multi-frame request goes out promptly. */
+        can_isotp_service(dev, t);
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* streams and events                                                        */
+/* ------------------------------------------------------------------------ */
+
+/* Emit sample number s->seq on link; returns 1 if it went into the queue. */
+static int emit_stream_sample(aacmm_device_t *dev, unsigned link, aacmm_device_stream_t *s)
+{
+    aacmm_msg_t *m = &dev->msg_out;
+    int ok;
+    m->type = (uint8_t)AACMM_MSG_SAMPLE_EVT;
+    m->seq = dev->event_seq;
+    take_sample(dev, s->content, &m->u.sample);
+    m->u.sample.seq = s->seq;
+    if (s->overrun) {
+        m->u.sample.status |= AACMM_SAMPLE_OVERRUN;
+    }
+    if (link == AACMM_LINK_SERIAL) {
+        ok = serial_send_droppable(dev, m);
+        if (ok) {
+            dev->event_seq++;
+        }
+    } else {
+        aacmm_can_frame_t frames[AACMM_CAN_SAMPLE_FRAMES];
+        size_t i;
+        ok = 0;
+        if (canq_free(&dev->can) < AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE) {
+            can_flush(dev);
+        }
+        if (canq_free(&dev->can) >= AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE &&
+            aacmm_can_sample_encode(&m->u.sample, dev->can.node_id, frames) == AACMM_OK) {
+            for (i = 0; i < AACMM_CAN_SAMPLE_FRAMES; i++) {
+                canq_put(&dev->can, &frames[i]);
+            }
+            ok = 1;
+        }
+    }
+    if (ok) {
+        s->overrun = 0u;
+        s->sent_any = 1u;
+        s->last_seq = s->seq;
+        dev->counters.samples_sent++;
+    } else {
+        s->overrun = 1u;
+        dev->counters.samples_dropped++;
+    }
+    s->seq++;
+    return ok;
+}
+
+static void stream_service(aacmm_device_t *dev, unsigned link, aacmm_device_stream_t *s)
+{
+    uint64_t t;
+    uint64_t last_due;
+    uint64_t due;
+    if (!s->active) {
+        return;
+    }
+    t = now_us(dev);
+    if (t < s->next_us) {
+        return;
+    }
+    /* Largest k with deadline(k) <= t:  floor(k * 1e6 / rate) <= t - start
+     * <=>  k * 1e6 < (t - start + 1) * rate. */
+    last_due = (((t - s->start_us) + 1u) * s->rate_hz + (US_PER_S - 1u)) / US_PER_S - 1u;
+    due = last_due - s->index + 1u;
+    if (due > AACMM_DEVICE_MAX_CATCH_UP) {
+        uint64_t skip = due - 1u; /* keep only the newest one */
+        dev->counters.samples_late += (uint32_t)(skip > 0xFFFFFFFFu ? 0xFFFFFFFFu : skip);
+        s->seq += (uint32_t)(skip & 0xFFFFFFFFu);
+        s->index += skip;
+        s->overrun = 1u;
+        due = 1u;
+    }
+    while (due > 0u) {
+        (void)emit_stream_sample(dev, link, s);
+        s->index++;
+        due--;
+    }
+    s->next_us = stream_deadline(s, s->index);
+}
+
+/* A button edge: one trigger event per link. */
+static void button_edge(aacmm_device_t *dev, uint8_t pressed)
+{
+    aacmm_msg_t *m = &dev->msg_out;
+    aacmm_device_stream_t *ss = &dev->serial.stream;
+    aacmm_device_stream_t *cs = &dev->can.stream;
+    uint8_t content = (dev->serial.present && ss->active) ? ss->content : 0u;
+    dev->counters.button_edges++;
+    m->type = (uint8_t)AACMM_MSG_TRIGGER_EVT;
+    m->u.trigger.button = 0u;
+    m->u.trigger.pressed = pressed;
+    take_sample(dev, content, &m->u.trigger.sample);
+    if (dev->serial.present) {
+        m->seq = dev->event_seq;
+        m->u.trigger.sample.seq = ss->sent_any ? ss->last_seq : ss->seq;
+        if (serial_send_droppable(dev, m)) {
+            dev->event_seq++;
+            dev->counters.events_sent++;
+        } else {
+            dev->counters.events_dropped++;
+        }
+    }
+    if (dev->can.present) {
+        aacmm_device_can_t *c = &dev->can;
+        aacmm_can_frame_t f;
+        uint32_t seq = cs->sent_any ? cs->last_seq : cs->seq;
+        m->u.trigger.sample.seq = seq;
+        if (canq_free(c) == 0u) {
+            can_flush(dev);
+        }
+        if (canq_free(c) > 0u &&
+            aacmm_can_trigger_encode(seq, 0u, pressed, c->node_id, &f) == AACMM_OK) {
+            canq_put(c, &f);
+            dev->counters.events_sent++;
+        } else {
+            dev->counters.events_dropped++;
+        }
+        if (c->host_seen) {
+            /* The full event (no Jacobian) over ISO-TP. */
+            size_t n = 0u;
+            m->u.trigger.sample.content = 0u;
+            m->seq = dev->event_seq;
+            if (c->ev_len < AACMM_DEVICE_CAN_EVENTS) {
+                size_t slot = (c->ev_head + c->ev_len) % AACMM_DEVICE_CAN_EVENTS;
+                if (aacmm_msg_encode(m, c->ev[slot], sizeof c->ev[slot], &n) == AACMM_OK) {
+                    c->ev_len++;
+                    dev->event_seq++;
+                    dev->counters.events_sent++;
+                }
+            } else {
+                dev->counters.events_dropped++;
+            }
+        }
+    }
+}
+
+static void button_service(aacmm_device_t *dev)
+{
+    uint8_t pressed = 0u;
+    if (dev->pf.read_button == NULL) {
+        return;
+    }
+    if (dev->pf.read_button(dev->pf.ctx, &pressed) != AACMM_OK) {
+        return;
+    }
+    pressed = pressed != 0u ? 1u : 0u;
+    if (pressed != dev->button) {
+        dev->button = pressed;
+        button_edge(dev, pressed);
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* public                                                                    */
+/* ------------------------------------------------------------------------ */
+
+aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_t *config,
+                                 const aacmm_platform_t *platform)
+{
+    aacmm_status_t st;
+    aacmm_device_model_t model;
+    uint32_t crc = 0u;
+    int has_serial;
+    int has_can;
+    if (dev == NULL || config == NULL || platform == NULL || platform->time_us == NULL ||
+        platform->read_encoders == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    has_serial = platform->serial_read != NULL && platform->serial_write != NULL;
+    has_can = platform->can_send != NULL && platform->can_receive != NULL;
+    if (!has_serial && !has_can) {
+        return AACMM_ERR_RANGE;
+    }
+    if (has_serial && config->serial_txq == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if (has_serial && config->serial_txq_bytes < AACMM_DEVICE_SERIAL_TXQ_MIN) {
+        return AACMM_ERR_RANGE;
+    }
+    if (config->can_node_id > AACMM_CAN_NODE_ID_MAX) {
+        return AACMM_ERR_RANGE;
+    }
+
+    memset(dev, 0, sizeof *dev);
+    dev->pf = *platform;
+    dev->serial_number = config->serial_number;
+    dev->store_slot = 0xFFu;
+
+    /* Defaults. */
+    if (config->defaults != NULL) {
+        dev->defaults = *config->defaults;
+    } else {
+        (void)aacmm_params_default_f64(&dev->defaults.kin);
+        (void)aacmm_encoder_default(&dev->defaults.enc);
+    }
+    st = check_set(&dev->defaults, &model, &crc);
+    if (st != AACMM_OK) {
+        return st == AACMM_ERR_NULL ? AACMM_ERR_NULL : AACMM_ERR_RANGE;
+    }
+    activate(dev, &dev->defaults, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_DEFAULTS);
+
+    /* Stored set. */
+    dev->storage_ok = (uint8_t)(platform->storage_read != NULL && platform->storage_write != NULL &&
+                                platform->storage_bytes >= AACMM_STORE_BYTES);
+    dev->storage_state = (uint8_t)AACMM_STORAGE_EMPTY;
+    if (dev->storage_ok) {
+        aacmm_param_set_t stored;
+        uint8_t state = (uint8_t)AACMM_STORAGE_EMPTY;
+        st = aacmm_store_load(&dev->pf, &stored, &state, &dev->store_generation, &dev->store_slot,
+                              &dev->counters.storage_bad_records, dev->record);
+        if (st == AACMM_ERR_IO) {
+            dev->counters.storage_errors++;
+        }
+        dev->storage_state = state;
+        if (st == AACMM_OK) {
+            if (check_set(&stored, &model, &crc) == AACMM_OK) {
+                activate(dev, &stored, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_STORAGE);
+            } else {
+                dev->storage_state = (uint8_t)AACMM_STORAGE_CORRUPT;
+                dev->counters.storage_bad_records++;
+            }
+        }
+    }
+
+    /* Links. */
+    if (has_serial) {
+        dev->serial.present = 1u;
+        dev->serial.txq = config->serial_txq;
+        dev->serial.txq_cap = config->serial_txq_bytes;
+        aacmm_deframer_init(&dev->serial.deframer);
+    }
+    if (has_can) {
+        aacmm_isotp_config_t tc;
+        dev->can.present = 1u;
+        dev->can.node_id = config->can_node_id;
+        tc.tx_id = AACMM_CAN_ID_ISOTP_RESPONSE + config->can_node_id;
+        tc.rx_id = AACMM_CAN_ID_ISOTP_REQUEST + config->can_node_id;
+        tc.rx_buf = dev->can.tp_rx;
+        tc.rx_cap = sizeof dev->can.tp_rx;
+        tc.tx_buf = dev->can.tp_tx;
+        tc.tx_cap = sizeof dev->can.tp_tx;
+        tc.block_size = 0u;
+        tc.st_min = 0u;
+        tc.padding = 0xCCu;
+        tc.max_wait = (uint8_t)AACMM_ISOTP_DEFAULT_MAX_WAIT;
+        tc.timeout_ms = AACMM_ISOTP_DEFAULT_TIMEOUT_MS;
+        st = aacmm_isotp_init(&dev->can.tp, &tc);
+        if (st != AACMM_OK) {
+            return st;
+        }
+    } else {
+        dev->can.node_id = config->can_node_id;
+    }
+
+    /* Button: the state at start-up is not an edge. */
+    if (dev->pf.read_button != NULL) {
+        uint8_t pressed = 0u;
+        if (dev->pf.read_button(dev->pf.ctx, &pressed) == AACMM_OK) {
+            dev->button = pressed != 0u ? 1u : 0u;
+        }
+    }
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_device_poll(aacmm_device_t *dev)
+{
+    if (dev == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if (dev->serial.present) {
+        serial_flush(dev);
+        serial_receive(dev);
+    }
+    if (dev->can.present) {
+        can_flush(dev);
+        can_receive(dev);
+        can_isotp_service(dev, now_us(dev)); /* responses before samples */
+    }
+    button_service(dev);
+    if (dev->serial.present) {
+        stream_service(dev, AACMM_LINK_SERIAL, &dev->serial.stream);
+        serial_flush(dev);
+    }
+    if (dev->can.present) {
+        stream_service(dev, AACMM_LINK_CAN, &dev->can.stream);
+        can_isotp_service(dev, now_us(dev));
+        can_flush(dev);
+    }
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_device_flush(aacmm_device_t *dev)
+{
+    if (dev == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if (dev->serial.present) {
+        serial_flush(dev);
+    }
+    if (dev->can.present) {
+        can_isotp_service(dev, now_us(dev));
+        can_flush(dev);
+    }
+    return AACMM_OK;
+}
+
+uint64_t aacmm_device_next_deadline_us(const aacmm_device_t *dev)
+{
+    uint64_t t;
+    uint64_t d;
+    if (dev == NULL) {
+        return 0u;
+    }
+    t = now_us(dev);
+    d = t + AACMM_DEVICE_IDLE_POLL_US;
+    if (dev->serial.present) {
+        const aacmm_device_serial_t *s = &dev->serial;
+        if (s->stream.active && s->stream.next_us < d) {
+            d = s->stream.next_us;
+        }
+        /* Received bytes left over (poll budget) and room to answer: now. */
+        if (s->rx_pos < s->rx_len && txq_free(s) >= AACMM_FRAME_MAX_WIRE) {
+            d = t;
+        }
+    }
+    if (dev->can.present) {
+        const aacmm_device_can_t *c = &dev->can;
+        if (c->stream.active && c->stream.next_us < d) {
+            d = c->stream.next_us;
+        }
+        /* ISO-TP timers run in ms: look again within 1 ms while busy. */
+        if ((c->tp.tx_state != 0u || c->tp.rx_state == 1u || c->tp.fc_pending != 0u ||
+             c->rsp_len > 0u || c->ev_len > 0u) &&
+            t + 1000u < d) {
+            d = t + 1000u;
+        }
+    }
+    return d;
+}
+
+size_t aacmm_device_serial_pending(const aacmm_device_t *dev)
+{
+    return dev == NULL ? 0u : dev->serial.txq_len;
+}
+
+size_t aacmm_device_can_pending(const aacmm_device_t *dev)
+{
+    return dev == NULL ? 0u : dev->can.q_len;
+}
+
+const aacmm_device_counters_t *aacmm_device_counters(const aacmm_device_t *dev)
+{
+    return dev == NULL ? NULL : &dev->counters;
+}
+
+const aacmm_deframer_stats_t *aacmm_device_serial_stats(const aacmm_device_t *dev)
+{
+    return dev == NULL ? NULL : &dev->serial.deframer.stats;
+}
+
+const aacmm_isotp_stats_t *aacmm_device_isotp_stats(const aacmm_device_t *dev)
+{
+    return dev == NULL ? NULL : &dev->can.tp.stats;
+}

@@ -1,0 +1,41 @@
+/*
+ * The device's kinematics seam: the three functions the device application
+ * needs from a kinematics backend. Exactly one backend is linked, chosen at
+ * build time:
+ *
+ *   device_kin_f32.c  single-precision float core (default; Cortex-M4F FPU)
+ *   (a fixed-point backend on aacmm/kinematics_q.h for FPU-less parts, built
+ *    with -DAACMM_DEVICE_KIN_FIXED, which also switches aacmm_device_model_t
+ *    in aacmm/device.h to the fixed-point model type)
+ *
+ * Not part of the public API.
+ */
+#ifndef AACMM_DEVICE_KIN_H
+#define AACMM_DEVICE_KIN_H
+
+#include <stdint.h>
+
+#include "aacmm/device.h"
+
+/* AACMM_BUILD_KIN_* flags of the linked backend (0 for the float core). O(1). */
+uint32_t aacmm_device_kin_flags(void);
+
+/*
+ * Prepare *model from a double-precision parameter set (already range
+ * checked by aacmm_params_validate_f64). On error *model is unchanged.
+ * Returns AACMM_OK or the core's error. Cost: one model set-up.
+ */
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_params_f64_t *params);
+
+/*
+ * Point (mm) and, if jac is not NULL, the 3x25 Jacobian for raw readings.
+ * Errors: AACMM_ERR_RANGE (a reading >= its counts per revolution) or the
+ * core's; nothing is written on error. Cost: one encoder conversion + one
+ * point (+ Jacobian) evaluation.
+ */
+aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
+                                        const aacmm_encoder_config_t *enc,
+                                        const uint32_t counts[AACMM_JOINTS], double point_mm[3],
+                                        float jac[AACMM_JAC_SIZE]);
+
+#endif /* AACMM_DEVICE_KIN_H */

@@ -1,0 +1,111 @@
+/*
+ * Simulated arm: a portable encoder source for the device application.
+ *
+ * Generates six joint readings as a function of time for a selectable motion
+ * and converts them to raw encoder counts at a given resolution, with
+ * optional uniform noise; also a periodic probe-button press. Used by the
+ * POSIX simulator (aacmm-sim) and by boards without real encoders.
+ *
+ * Portable: float arithmetic only (the core's aacmm_sincos_f32, no libm, no
+ * double), integer time, no heap, no libc beyond <stdint.h>/<stddef.h>.
+ * The caller owns the state and the replay buffer.
+ *
+ * Motions:
+ *   STATIC  a fixed pose (AACMM_SIM_STATIC_POSE_RAD): every read gives the
+ *           same counts (plus noise, if any).
+ *   SWEEP   joint i = centre_i + amplitude_i * sin(2 pi t / period_i), each
+ *           joint through its range at its own slow period (7 .. 25 s).
+ *   WALK    a smooth random walk through the workspace: every joint passes
+ *           through a random waypoint inside its range every
+ *           AACMM_SIM_WALK_SEGMENT_US, interpolated with a Catmull-Rom
+ *           spline (continuous position and velocity). The waypoints are a
+ *           hash of (seed, joint, segment), so the pose is a pure function of
+ *           seed and time.
+ *   REPLAY  raw counts from a caller buffer of poses, one pose per read, in
+ *           order, looping at the end (the resolution is not applied; noise
+ *           is).
+ *
+ * Counts: reading = round(theta * cpr / (2 pi)) mod cpr, i.e. zero offset 0
+ * and direction +1 at every joint: this matches the device's encoder
+ * configuration {counts_per_rev = cpr, zero_offset_counts = 0, direction = +1}.
+ * Float precision limits the simulated resolution to about 2^-24 turn: at
+ * 32-bit resolution the low 8 bits of a noise-free reading are 0.
+ */
+#ifndef AACMM_SIM_H
+#define AACMM_SIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacmm/kinematics.h"
+#include "aacmm/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum {
+    AACMM_SIM_STATIC = 0,
+    AACMM_SIM_SWEEP = 1,
+    AACMM_SIM_WALK = 2,
+    AACMM_SIM_REPLAY = 3
+} aacmm_sim_motion_t;
+
+#define AACMM_SIM_WALK_SEGMENT_US 4000000u /* one waypoint every 4 s */
+#define AACMM_SIM_NOISE_MAX 0x40000000u     /* largest noise amplitude, counts */
+#define AACMM_SIM_BUTTON_HOLD_US 200000u    /* how long a press lasts (at most half the period) */
+
+typedef struct {
+    aacmm_sim_motion_t motion;
+    uint32_t seed;            /* WALK waypoints and the noise generator */
+    uint32_t noise_counts;    /* uniform +-noise_counts on every reading, 0 .. AACMM_SIM_NOISE_MAX */
+    uint64_t counts_per_rev;  /* every joint, 2 .. 2^32 */
+    const uint32_t *replay;   /* REPLAY: replay_poses * 6 counts, each < counts_per_rev */
+    uint32_t replay_poses;    /* >= 1 for REPLAY */
+    uint64_t button_period_us; /* a press every period (first at t = period); 0 = never */
+} aacmm_sim_config_t;
+
+typedef struct {
+    aacmm_sim_config_t cfg;
+    uint32_t rng;        /* noise generator state, never 0 */
+    uint32_t replay_pos; /* next replay pose */
+} aacmm_sim_t;
+
+/*
+ * Check *cfg and set up *sim. AACMM_ERR_NULL, AACMM_ERR_RANGE (unknown
+ * motion, resolution, noise, empty replay or a replay count >= cpr), else
+ * AACMM_OK. Cost: O(replay_poses) for the replay check.
+ */
+aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg);
+
+/*
+ * Noise-free joint angles in rad at time t_us (since the simulation began)
+ * for STATIC, SWEEP and WALK. AACMM_ERR_NULL, AACMM_ERR_UNSUPPORTED for
+ * REPLAY, else AACMM_OK. Cost: 6 sine evaluations (SWEEP) or 24 hashes (WALK).
+ */
+aacmm_status_t aacmm_sim_angles(const aacmm_sim_t *sim, uint64_t t_us,
+                                float theta_rad[AACMM_JOINTS]);
+
+/*
+ * One encoder reading at time t_us: counts[i] < cpr (REPLAY: the next pose).
+ * Advances the noise generator and the replay position. AACMM_ERR_NULL or
+ * AACMM_OK. Cost: as aacmm_sim_angles plus 6 conversions.
+ */
+aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[AACMM_JOINTS]);
+
+/*
+ * Convert one angle in rad (|theta| <= 1024) to a reading at resolution cpr
+ * (2 .. 2^32): round(theta * cpr / 2 pi) mod cpr. O(1).
+ */
+uint32_t aacmm_sim_angle_to_counts(float theta_rad, uint64_t cpr);
+
+/* Probe button at time t_us: 1 during the first
+ * min(AACMM_SIM_BUTTON_HOLD_US, period / 2) us of every period after the
+ * first, else 0. O(1). */
+uint8_t aacmm_sim_button(const aacmm_sim_t *sim, uint64_t t_us);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACMM_SIM_H */

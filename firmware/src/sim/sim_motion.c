@@ -1,0 +1,232 @@
+/*
+ * Simulated arm motion and encoders (aacmm_sim.h). Float and integer only.
+ */
+#include "aacmm_sim.h"
+
+#define TWO_PI_F 6.28318530717958647692f
+#define INV_TWO_PI_F 0.15915494309189533577f
+#define CPR_MAX (UINT64_C(1) << 32)
+
+/* Joint ranges of the simulated arm: centre and half-range in rad. Joints 1,
+ * 4 and 6 turn almost all the way round; 2, 3 and 5 are hinge-like. */
+static const float centre_rad[AACMM_JOINTS] = {0.0f, 0.2f, -0.3f, 0.0f, 0.0f, 0.0f};
+static const float amplitude_rad[AACMM_JOINTS] = {3.0f, 1.3f, 2.2f, 3.0f, 1.5f, 3.0f};
+/* SWEEP periods, us: all different so the arm visits many combinations. */
+static const uint32_t sweep_period_us[AACMM_JOINTS] = {25000000u, 19000000u, 15000000u,
+                                                       12000000u, 9000000u,  7000000u};
+/* STATIC pose, rad. */
+static const float static_pose_rad[AACMM_JOINTS] = {0.5f, 0.6f, -0.9f, 0.4f, 1.2f, -0.3f};
+
+/* A 32-bit integer hash with good avalanche (two multiply-xorshift rounds). */
+static uint32_t mix32(uint32_t x)
+{
+    x ^= x >> 16;
+    x *= 0x7FEB352Du;
+    x ^= x >> 15;
+    x *= 0x846CA68Bu;
+    x ^= x >> 16;
+    return x;
+}
+
+/* Uniform in [-1, 1] from a hash. */
+static float unit_from_hash(uint32_t h)
+{
+    return (float)(h >> 8) * (2.0f / 16777215.0f) - 1.0f;
+}
+
+static float waypoint(uint32_t seed, int joint, uint64_t k)
+{
+    uint32_t h = mix32(seed ^ mix32((uint32_t)joint * 0x9E3779B9u + 0x632BE5ABu));
+    h = mix32(h ^ (uint32_t)(k & 0xFFFFFFFFu));
+    h = mix32(h ^ (uint32_t)(k >> 32) ^ 0x5BD1E995u);
+    /* 0.9 of the range leaves room for the spline's overshoot. */
+    return centre_rad[joint] + 0.9f * amplitude_rad[joint] * unit_from_hash(h);
+}
+
+aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg)
+{
+    uint64_t i;
+    if (sim == NULL || cfg == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if (cfg->counts_per_rev < 2u || cfg->counts_per_rev > CPR_MAX ||
+        cfg->noise_counts > AACMM_SIM_NOISE_MAX) {
+        return AACMM_ERR_RANGE;
+    }
+    switch (cfg->motion) {
+    case AACMM_SIM_STATIC:
+    case AACMM_SIM_SWEEP:
+    case AACMM_SIM_WALK:
+        break;
+    case AACMM_SIM_REPLAY:
+        if (cfg->replay == NULL) {
+            return AACMM_ERR_NULL;
+        }
+        if (cfg->replay_poses == 0u) {
+            return AACMM_ERR_RANGE;
+        }
+        for (i = 0; i < (uint64_t)cfg->replay_poses * AACMM_JOINTS; i++) {
+            if ((uint64_t)cfg->replay[i] >= cfg->counts_per_rev) {
+                return AACMM_ERR_RANGE;
+            }
+        }
+        break;
+    default:
+        return AACMM_ERR_RANGE;
+    }
+    sim->cfg = *cfg;
+    sim->rng = mix32(cfg->seed ^ 0xA5A5A5A5u);
+    if (sim->rng == 0u) {
+        sim->rng = 0x12345678u;
+    }
+    sim->replay_pos = 0u;
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_sim_angles(const aacmm_sim_t *sim, uint64_t t_us,
+                                float theta_rad[AACMM_JOINTS])
+{
+    int j;
+    if (sim == NULL || theta_rad == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    switch (sim->cfg.motion) {
+    case AACMM_SIM_STATIC:
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            theta_rad[j] = static_pose_rad[j];
+        }
+        return AACMM_OK;
+    case AACMM_SIM_SWEEP:
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            uint32_t period = sweep_period_us[j];
+            float phase = (float)(uint32_t)(t_us % period) / (float)period;
+            float s;
+            float c;
+            aacmm_sincos_f32(TWO_PI_F * phase, &s, &c);
+            theta_rad[j] = centre_rad[j] + amplitude_rad[j] * s;
+        }
+        return AACMM_OK;
+    case AACMM_SIM_WALK: {
+        uint64_t k = t_us / AACMM_SIM_WALK_SEGMENT_US + 1u; /* +1: k - 1 never wraps */
+        float u = (float)(uint32_t)(t_us % AACMM_SIM_WALK_SEGMENT_US) /
+                  (float)AACMM_SIM_WALK_SEGMENT_US;
+        float u2 = u * u;
+        float u3 = u2 * u;
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            float p0 = waypoint(sim->cfg.seed, j, k - 1u);
+            float p1 = waypoint(sim->cfg.seed, j, k);
+            float p2 = waypoint(sim->cfg.seed, j, k + 1u);
+            float p3 = waypoint(sim->cfg.seed, j, k + 2u);
+            theta_rad[j] = 0.5f * (2.0f * p1 + (p2 - p0) * u +
+                                   (2.0f * p0 - 5.0f * p1 + 4.0f * p2 - p3) * u2 +
+                                   (3.0f * p1 - p0 - 3.0f * p2 + p3) * u3);
+        }
+        return AACMM_OK;
+    }
+    case AACMM_SIM_REPLAY:
+    default:
+        return AACMM_ERR_UNSUPPORTED;
+    }
+}
+
+uint32_t aacmm_sim_angle_to_counts(float theta_rad, uint64_t cpr)
+{
+    /* Whole turns off first, in 32-bit integers (native FPU conversions on
+     * the M4F, no 64-bit float helpers): frac in [0, 1]. */
+    float turns = theta_rad * INV_TWO_PI_F;
+    int32_t whole = (int32_t)turns;
+    float frac = turns - (float)whole;
+    float cprf = cpr >= CPR_MAX ? 4294967296.0f : (float)(uint32_t)cpr;
+    float x;
+    uint64_t c;
+    if (frac < 0.0f) {
+        frac += 1.0f;
+    }
+    x = frac * cprf + 0.5f; /* round to nearest by truncation below */
+    if (x >= cprf) {
+        return 0u; /* a whole turn */
+    }
+    c = (uint32_t)x;
+    if (c >= cpr) { /* cprf was rounded up from cpr */
+        c -= cpr;
+    }
+    return (uint32_t)c;
+}
+
+/* xorshift32: period 2^32 - 1, never 0. */
+static uint32_t next_random(aacmm_sim_t *sim)
+{
+    uint32_t x = sim->rng;
+    x ^= x << 13;
+    x ^= x >> 17;
+    x ^= x << 5;
+    sim->rng = x;
+    return x;
+}
+
+/* counts + uniform noise in [-n, n], wrapped into 0 .. cpr-1. */
+static uint32_t add_noise(aacmm_sim_t *sim, uint32_t counts)
+{
+    uint64_t n = sim->cfg.noise_counts;
+    uint64_t cpr = sim->cfg.counts_per_rev;
+    uint64_t span;
+    uint64_t r;
+    uint64_t off;
+    if (n == 0u) {
+        return counts;
+    }
+    span = 2u * n + 1u;
+    r = (((uint64_t)next_random(sim) << 32) | next_random(sim)) % span; /* bias < 2^-31 */
+    /* counts + r - n  (mod cpr), without negatives */
+    off = (r + cpr - (n % cpr)) % cpr;
+    return (uint32_t)(((uint64_t)counts + off) % cpr);
+}
+
+aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[AACMM_JOINTS])
+{
+    int j;
+    if (sim == NULL || counts == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if (sim->cfg.motion == AACMM_SIM_REPLAY) {
+        const uint32_t *pose = sim->cfg.replay + (size_t)sim->replay_pos * AACMM_JOINTS;
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            counts[j] = pose[j];
+        }
+        sim->replay_pos++;
+        if (sim->replay_pos >= sim->cfg.replay_poses) {
+            sim->replay_pos = 0u;
+        }
+    } else {
+        float theta[AACMM_JOINTS];
+        aacmm_status_t st = aacmm_sim_angles(sim, t_us, theta);
+        if (st != AACMM_OK) {
+            return st;
+        }
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            counts[j] = aacmm_sim_angle_to_counts(theta[j], sim->cfg.counts_per_rev);
+        }
+    }
+    for (j = 0; j < AACMM_JOINTS; j++) {
+        counts[j] = add_noise(sim, counts[j]);
+    }
+    return AACMM_OK;
+}
+
+uint8_t aacmm_sim_button(const aacmm_sim_t *sim, uint64_t t_us)
+{
+    uint64_t period;
+    uint64_t hold;
+    if (sim == NULL || sim->cfg.button_period_us == 0u) {
+        return 0u;
+    }
+    period = sim->cfg.button_period_us;
+    hold = period / 2u;
+    if (hold > AACMM_SIM_BUTTON_HOLD_US) {
+        hold = AACMM_SIM_BUTTON_HOLD_US;
+    }
+    if (t_us < period) {
+        return 0u;
+    }
+    return (t_us % period) < hold ? 1u : 0u;
+}

@@ -1,0 +1,99 @@
+# Device application (firmware/src/device), portable simulated arm
+# (firmware/src/sim), the POSIX simulator aacmm-sim (firmware/ports/posix),
+# and their CMocka suites (gcc, clang, ASan+UBSan) plus a smoke test of the
+# real binary. See docs/architecture.md and docs/simulator.md.
+
+# The protocol codec's sources (the protocol fragment may name them too; a
+# wildcard keeps this fragment independent of its variable names).
+DEV_PROTO_SRCS := $(sort $(wildcard firmware/src/protocol/*.c))
+DEV_CORE_SRCS  := firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c \
+                  firmware/src/kinematics_f64.c
+
+# Kinematics backend of the device: f32 (float core, default). A fixed-point
+# backend (firmware/src/device/device_kin_q.c on aacmm/kinematics_q.h, built
+# with -DAACMM_DEVICE_KIN_FIXED) plugs in here.
+DEVICE_KIN    ?= f32
+DEV_KIN_SRCS  := firmware/src/device/device_kin_$(DEVICE_KIN).c
+DEV_KIN_FLAGS := $(if $(filter q,$(DEVICE_KIN)),-DAACMM_DEVICE_KIN_FIXED)
+
+DEVICE_SRCS := firmware/src/device/device.c firmware/src/device/param_store.c $(DEV_KIN_SRCS)
+SIM_SRCS    := firmware/src/sim/sim_motion.c
+POSIX_SRCS  := firmware/ports/posix/sim_main.c firmware/ports/posix/posix_port.c
+
+DEV_ALL_SRCS := $(DEVICE_SRCS) $(SIM_SRCS) $(DEV_CORE_SRCS) $(DEV_PROTO_SRCS)
+DEV_HDRS := $(wildcard firmware/include/aacmm/*.h) $(wildcard firmware/src/*.h) \
+            firmware/src/device/device_kin.h firmware/src/sim/aacmm_sim.h \
+            firmware/ports/posix/posix_port.h
+DEV_INC  := -I$(FW_INC) -Ifirmware/src/device -Ifirmware/src/sim
+
+# ---- the simulator -------------------------------------------------------
+SIM_BIN := $(BUILD)/sim/aacmm-sim
+
+$(SIM_BIN): $(DEV_ALL_SRCS) $(POSIX_SRCS) $(DEV_HDRS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(HOST_OPT) $(DEV_KIN_FLAGS) $(DEV_INC) -Ifirmware/ports/posix \
+	    $(DEV_ALL_SRCS) $(POSIX_SRCS) -lm -o $@
+
+# The same with clang, only to keep the port warning-free there too.
+$(BUILD)/sim/aacmm-sim-clang: $(DEV_ALL_SRCS) $(POSIX_SRCS) $(DEV_HDRS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(HOST_OPT) $(DEV_KIN_FLAGS) $(DEV_INC) -Ifirmware/ports/posix \
+	    $(DEV_ALL_SRCS) $(POSIX_SRCS) -lm -o $@
+
+.PHONY: sim
+sim: $(SIM_BIN)
+
+# ---- CMocka suites -------------------------------------------------------
+DEV_TEST_SRCS := tests/device/test_device.c tests/device/fake_platform.c
+DEV_TEST_DEPS := $(DEV_ALL_SRCS) $(DEV_HDRS) $(DEV_TEST_SRCS) tests/device/fake_platform.h
+
+$(BUILD)/device/test_device_gcc: $(DEV_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(HOST_OPT) $(DEV_KIN_FLAGS) $(DEV_INC) -Itests/device \
+	    $(DEV_ALL_SRCS) $(DEV_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/device/test_device_clang: $(DEV_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(HOST_OPT) $(DEV_KIN_FLAGS) $(DEV_INC) -Itests/device \
+	    $(DEV_ALL_SRCS) $(DEV_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/device/test_device_san: $(DEV_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(SAN_FLAGS) $(DEV_KIN_FLAGS) $(DEV_INC) -Itests/device \
+	    $(DEV_ALL_SRCS) $(DEV_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+
+.PHONY: test-device-gcc test-device-clang test-device-san test-device-sim test-device-m4f
+test-device-gcc: $(BUILD)/device/test_device_gcc
+	$<
+test-device-clang: $(BUILD)/device/test_device_clang
+	$<
+test-device-san: $(BUILD)/device/test_device_san
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $<
+
+# The real binary: arguments, exit codes, stdout lines, a ping and a 1 kHz
+# stream over the pty (tests/device/sim_smoke.py, standard library only).
+test-device-sim: $(SIM_BIN) $(BUILD)/sim/aacmm-sim-clang
+	/usr/bin/python3 tests/device/sim_smoke.py $(SIM_BIN)
+
+TEST_SUITES += test-device-gcc test-device-clang test-device-san test-device-sim test-device-m4f
+
+# ---- portability: the device application and the simulated arm compile for
+# Cortex-M4F (float core) and Cortex-M0+ with the ARM toolchain, warning-free,
+# without POSIX or stdio.
+DEV_ARM_DIR := $(BUILD)/arm-m4f/device
+DEV_ARM_SRCS := $(DEVICE_SRCS) $(SIM_SRCS)
+DEV_M4F_OBJS := $(patsubst firmware/src/%.c,$(DEV_ARM_DIR)/%.o,$(DEV_ARM_SRCS))
+DEV_M0_DIR := $(BUILD)/arm-m0/device
+DEV_M0_OBJS := $(patsubst firmware/src/%.c,$(DEV_M0_DIR)/%.o,$(DEV_ARM_SRCS))
+
+$(DEV_ARM_DIR)/%.o: firmware/src/%.c $(DEV_HDRS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M4F_FLAGS) $(DEV_INC) -c $< -o $@
+$(DEV_M0_DIR)/%.o: firmware/src/%.c $(DEV_HDRS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) $(DEV_INC) -c $< -o $@
+
+test-device-m4f: $(DEV_M4F_OBJS) $(DEV_M0_OBJS)
+	sh scripts/check-symbols.sh m4f-float $(DEV_ARM_DIR)/sim/sim_motion.o
+	@for o in $(DEV_M4F_OBJS) $(DEV_M0_OBJS); do \
+	    if $(ARM_NM) -u $$o | grep -Eq ' (malloc|free|calloc|realloc|printf|fprintf|puts|fopen|open|read|write|clock_gettime)$$'; then \
+	        echo "$$o uses heap, stdio or POSIX:"; $(ARM_NM) -u $$o; exit 1; fi; done
+	@echo "device + sim: build for Cortex-M4F and Cortex-M0+, no heap/stdio/POSIX; sim_motion.o float-only on the M4F"

@@ -1,0 +1,1526 @@
+/*
+ * CMocka tests of the device application against a fake in-memory platform
+ * (fake_platform.h), of the parameter storage, and of the simulated arm.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "aacmm/crc32.h"
+#include "aacmm/device.h"
+#include "aacmm/frame.h"
+#include "aacmm/isotp.h"
+#include "aacmm/proto.h"
+#include "aacmm/proto_can.h"
+#include "aacmm_sim.h"
+#include "fake_platform.h"
+
+static fake_t F;
+static aacmm_device_t D;
+static aacmm_platform_t PF;
+static uint8_t TXQ[64 * 1024];
+static aacmm_device_config_t CFG;
+
+/* Host-side reader of the serial output. */
+static aacmm_deframer_t host_rx;
+static size_t host_pos;
+static aacmm_msg_t M; /* last message read */
+
+/* ------------------------------------------------------------------------ */
+/* helpers                                                                   */
+/* ------------------------------------------------------------------------ */
+
+static void setup_links(int serial, int can, int storage, int button, int keep_storage)
+{
+    uint8_t saved[AACMM_STORE_BYTES];
+    if (keep_storage) {
+        memcpy(saved, F.storage, sizeof saved);
+    }
+    fake_init(&F);
+    if (keep_storage) {
+        memcpy(F.storage, saved, sizeof saved);
+    }
+    fake_platform(&F, &PF, serial, can, storage, button);
+    memset(&CFG, 0, sizeof CFG);
+    CFG.serial_number = 77u;
+    CFG.can_node_id = 3u;
+    CFG.serial_txq = TXQ;
+    CFG.serial_txq_bytes = sizeof TXQ;
+    aacmm_deframer_init(&host_rx);
+    host_pos = 0;
+}
+
+static void boot(void)
+{
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_OK);
+}
+
+static int setup_default(void **state)
+{
+    (void)state;
+    setup_links(1, 1, 1, 1, 0);
+    boot();
+    return 0;
+}
+
+static void send_body(const uint8_t *body, size_t len)
+{
+    size_t n = 0;
+    assert_true(F.rx_len + AACMM_FRAME_MAX_WIRE <= sizeof F.rx);
+    assert_int_equal(aacmm_frame_encode(body, len, F.rx + F.rx_len, sizeof F.rx - F.rx_len, &n),
+                     AACMM_OK);
+    F.rx_len += n;
+}
+
+static void send_msg(const aacmm_msg_t *m)
+{
+    uint8_t body[AACMM_PROTO_MAX_BODY];
+    size_t n = 0;
+    assert_int_equal(aacmm_msg_encode(m, body, sizeof body, &n), AACMM_OK);
+    send_body(body, n);
+}
+
+static void send_simple(uint8_t type, uint8_t seq)
+{
+    aacmm_msg_t m;
+    memset(&m, 0, sizeof m);
+    m.type = type;
+    m.seq = seq;
+    send_msg(&m);
+}
+
+/* Next message from the serial output into M: 1, or 0 when none is left. */
+static int next_msg(void)
+{
+    while (host_pos < F.tx_len) {
+        const uint8_t *body = NULL;
+        size_t len = 0;
+        host_pos += aacmm_deframer_feed(&host_rx, F.tx + host_pos, F.tx_len - host_pos, &body, &len);
+        if (body != NULL) {
+            assert_int_equal(aacmm_msg_decode(body, len, &M), AACMM_OK);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Poll, then expect exactly one message of type with seq. */
+static void expect_response(uint8_t type, uint8_t seq)
+{
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, type);
+    assert_int_equal(M.seq, seq);
+}
+
+static void expect_error(aacmm_status_t st, uint8_t req_type, uint8_t seq)
+{
+    expect_response(AACMM_MSG_ERROR_RSP, seq);
+    assert_int_equal(M.u.error.status, st);
+    assert_int_equal(M.u.error.request_type, req_type);
+}
+
+static void default_set(aacmm_param_set_t *s)
+{
+    assert_int_equal(aacmm_params_default_f64(&s->kin), AACMM_OK);
+    assert_int_equal(aacmm_encoder_default(&s->enc), AACMM_OK);
+}
+
+static void other_set(aacmm_param_set_t *s, double l_mm)
+{
+    default_set(s);
+    s->kin.l_mm = l_mm;
+    s->kin.d_mm[2] = 790.0;
+    s->enc.zero_offset_counts[1] = 12345u;
+}
+
+static uint32_t set_crc(const aacmm_param_set_t *s)
+{
+    uint32_t crc = 0;
+    assert_int_equal(aacmm_param_set_crc32(s, &crc), AACMM_OK);
+    return crc;
+}
+
+static void advance(uint64_t us)
+{
+    F.now_us += us;
+}
+
+/* ------------------------------------------------------------------------ */
+/* init                                                                      */
+/* ------------------------------------------------------------------------ */
+
+static void test_init_errors(void **state)
+{
+    aacmm_param_set_t bad;
+    (void)state;
+    setup_links(1, 1, 1, 1, 0);
+    assert_int_equal(aacmm_device_init(NULL, &CFG, &PF), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_device_init(&D, NULL, &PF), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_device_init(&D, &CFG, NULL), AACMM_ERR_NULL);
+    PF.time_us = NULL;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_NULL);
+    fake_platform(&F, &PF, 1, 1, 1, 1);
+    PF.read_encoders = NULL;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_NULL);
+    fake_platform(&F, &PF, 0, 0, 1, 1);
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE); /* no link */
+    fake_platform(&F, &PF, 1, 0, 1, 1);
+    CFG.serial_txq = NULL;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_NULL);
+    CFG.serial_txq = TXQ;
+    CFG.serial_txq_bytes = AACMM_DEVICE_SERIAL_TXQ_MIN - 1u;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
+    CFG.serial_txq_bytes = sizeof TXQ;
+    CFG.can_node_id = 16u;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
+    CFG.can_node_id = 15u;
+    default_set(&bad);
+    bad.kin.d_mm[0] = 20000.0;
+    CFG.defaults = &bad;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
+    bad.kin.d_mm[0] = 300.0;
+    bad.enc.direction[0] = 0;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
+    CFG.defaults = NULL;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_OK);
+    /* CAN only works without a serial queue. */
+    fake_platform(&F, &PF, 0, 1, 0, 0);
+    CFG.serial_txq = NULL;
+    CFG.serial_txq_bytes = 0;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_OK);
+    assert_int_equal(aacmm_device_build_flags(&D) & (AACMM_BUILD_SERIAL | AACMM_BUILD_CAN),
+                     AACMM_BUILD_CAN);
+    assert_int_equal(aacmm_device_poll(NULL), AACMM_ERR_NULL);
+    assert_null(aacmm_device_counters(NULL));
+}
+
+/* ------------------------------------------------------------------------ */
+/* every request over serial                                                 */
+/* ------------------------------------------------------------------------ */
+
+static void test_ping_info(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_param_set_t def;
+    (void)state;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_PING_REQ;
+    m.seq = 9;
+    m.u.ping.token = 0xCAFEF00Du;
+    send_msg(&m);
+    expect_response(AACMM_MSG_PING_RSP, 9);
+    assert_int_equal(M.u.ping.token, 0xCAFEF00Du);
+
+    send_simple(AACMM_MSG_INFO_REQ, 10);
+    expect_response(AACMM_MSG_INFO_RSP, 10);
+    default_set(&def);
+    assert_int_equal(M.u.info.protocol_version, AACMM_PROTO_VERSION);
+    assert_int_equal(M.u.info.fw_major, AACMM_FW_MAJOR);
+    assert_int_equal(M.u.info.fw_minor, AACMM_FW_MINOR);
+    assert_int_equal(M.u.info.build_flags,
+                     AACMM_BUILD_JACOBIAN | AACMM_BUILD_SERIAL | AACMM_BUILD_CAN);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&def));
+    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_DEFAULTS);
+    assert_int_equal(M.u.info.storage_state, AACMM_STORAGE_EMPTY);
+    assert_int_equal(M.u.info.max_body_bytes, AACMM_PROTO_MAX_BODY);
+    assert_int_equal(M.u.info.serial_number, 77u);
+    assert_int_equal(M.u.info.can_node_id, 3u);
+    assert_false(next_msg());
+    assert_int_equal(aacmm_device_counters(&D)->requests, 2u);
+}
+
+static void test_params_set_get_restore(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_param_set_t s;
+    (void)state;
+    other_set(&s, 150.0);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 1;
+    m.u.params = s;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 1);
+    assert_int_equal(M.u.param_crc.param_crc32, set_crc(&s));
+
+    send_simple(AACMM_MSG_GET_PARAMS_REQ, 2);
+    expect_response(AACMM_MSG_GET_PARAMS_RSP, 2);
+    assert_int_equal(set_crc(&M.u.params), set_crc(&s));
+    assert_true(M.u.params.kin.l_mm > 149.9 && M.u.params.kin.l_mm < 150.1);
+
+    send_simple(AACMM_MSG_INFO_REQ, 3);
+    expect_response(AACMM_MSG_INFO_RSP, 3);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&s));
+    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_STORAGE);
+
+    send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 4);
+    expect_response(AACMM_MSG_RESTORE_DEFAULTS_RSP, 4);
+    default_set(&s);
+    assert_int_equal(M.u.param_crc.param_crc32, set_crc(&s));
+    send_simple(AACMM_MSG_INFO_REQ, 5);
+    expect_response(AACMM_MSG_INFO_RSP, 5);
+    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_DEFAULTS);
+}
+
+static void test_measure_and_compute(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_model_f32_t model;
+    aacmm_params_f32_t p32;
+    aacmm_encoder_config_t enc;
+    float theta[AACMM_JOINTS];
+    float p[3];
+    float jac[AACMM_JAC_SIZE];
+    static const uint32_t counts[AACMM_JOINTS] = {0x12345678u, 0xE0000000u, 0x30000000u,
+                                                  0xF0000000u, 0x2AAAAAABu, 0x9ABCDEF0u};
+    int i;
+    (void)state;
+    assert_int_equal(aacmm_params_default_f32(&p32), AACMM_OK);
+    assert_int_equal(aacmm_model_init_f32(&model, &p32), AACMM_OK);
+    assert_int_equal(aacmm_encoder_default(&enc), AACMM_OK);
+    assert_int_equal(aacmm_encoder_to_angles_f32(&enc, counts, theta), AACMM_OK);
+    assert_int_equal(aacmm_point_jacobian_f32(&model, theta, p, jac), AACMM_OK);
+
+    memcpy(F.counts, counts, sizeof counts);
+    F.now_us = 5000000u;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_MEASURE_REQ;
+    m.seq = 20;
+    m.u.measure.content = AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_response(AACMM_MSG_MEASURE_RSP, 20);
+    assert_int_equal(M.u.sample.seq, 0u);
+    assert_int_equal(M.u.sample.timestamp_us, 5000000u);
+    assert_memory_equal(M.u.sample.counts, counts, sizeof counts);
+    assert_int_equal(M.u.sample.status, AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_PARAMS_DEFAULT);
+    assert_int_equal(M.u.sample.content, AACMM_CONTENT_JACOBIAN);
+    for (i = 0; i < 3; i++) {
+        assert_int_equal(M.u.sample.point_100nm[i], aacmm_point_mm_to_wire((double)p[i], NULL));
+    }
+    assert_memory_equal(M.u.sample.jacobian, jac, sizeof jac);
+
+    m.seq = 21;
+    m.u.measure.content = 0;
+    send_msg(&m);
+    expect_response(AACMM_MSG_MEASURE_RSP, 21);
+    assert_int_equal(M.u.sample.seq, 1u); /* device-wide measurement counter */
+    assert_int_equal(M.u.sample.content, 0);
+
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 22;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+    memcpy(m.u.compute_req.counts, counts, sizeof counts);
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 22);
+    assert_int_equal(M.u.compute_rsp.status, AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_PARAMS_DEFAULT);
+    for (i = 0; i < 3; i++) {
+        double want = (double)p[i];
+        assert_memory_equal(&M.u.compute_rsp.point_mm[i], &want, sizeof want);
+    }
+    assert_memory_equal(M.u.compute_rsp.jacobian, jac, sizeof jac);
+    assert_int_equal(F.encoder_reads, 2u); /* compute does not read the encoders */
+}
+
+static void test_stream_start_stop(void **state)
+{
+    aacmm_msg_t m;
+    int n = 0;
+    (void)state;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 30;
+    m.u.stream.rate_hz = 100;
+    m.u.stream.content = AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_response(AACMM_MSG_STREAM_START_RSP, 30);
+    assert_int_equal(M.u.stream.rate_hz, 100);
+    assert_int_equal(M.u.stream.content, AACMM_CONTENT_JACOBIAN);
+    /* Sample 0 goes out right after the response. */
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+    assert_int_equal(M.u.sample.seq, 0u);
+    assert_int_equal(M.u.sample.content, AACMM_CONTENT_JACOBIAN);
+    advance(10000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.u.sample.seq, 1u);
+    send_simple(AACMM_MSG_STREAM_STOP_REQ, 31);
+    expect_response(AACMM_MSG_STREAM_STOP_RSP, 31);
+    advance(100000u);
+    aacmm_device_poll(&D);
+    while (next_msg()) {
+        n++;
+    }
+    assert_int_equal(n, 0);
+}
+
+/* ------------------------------------------------------------------------ */
+/* bad requests                                                              */
+/* ------------------------------------------------------------------------ */
+
+static void test_bad_requests(void **state)
+{
+    uint8_t body[AACMM_PROTO_MAX_BODY];
+    aacmm_msg_t m;
+    size_t n = 0;
+    (void)state;
+    /* Wrong version. */
+    body[0] = 2;
+    body[1] = AACMM_MSG_PING_REQ;
+    body[2] = 40;
+    memset(body + 3, 0, 4);
+    send_body(body, 7);
+    expect_error(AACMM_ERR_VERSION, AACMM_MSG_PING_REQ, 40);
+    /* Unknown type. */
+    body[0] = 1;
+    body[1] = 0x3E;
+    body[2] = 41;
+    send_body(body, 3);
+    expect_error(AACMM_ERR_UNKNOWN_TYPE, 0x3E, 41);
+    /* Wrong payload length. */
+    body[1] = AACMM_MSG_PING_REQ;
+    body[2] = 42;
+    send_body(body, 5);
+    expect_error(AACMM_ERR_LENGTH, AACMM_MSG_PING_REQ, 42);
+    /* Stream rate out of range (raw: the encoder refuses it). */
+    body[1] = AACMM_MSG_STREAM_START_REQ;
+    body[2] = 43;
+    body[3] = 0xE9; /* 1001 Hz */
+    body[4] = 0x03;
+    body[5] = 0;
+    send_body(body, 6);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_STREAM_START_REQ, 43);
+    /* Unknown content bit. */
+    body[1] = AACMM_MSG_MEASURE_REQ;
+    body[2] = 44;
+    body[3] = 0x80;
+    send_body(body, 4);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_MEASURE_REQ, 44);
+    /* A response type sent to the device. */
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_PING_RSP;
+    m.seq = 45;
+    send_msg(&m);
+    expect_error(AACMM_ERR_UNKNOWN_TYPE, AACMM_MSG_PING_RSP, 45);
+    /* Parameters out of the core's range: d = 20 m. */
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 46;
+    default_set(&m.u.params);
+    m.u.params.kin.d_mm[1] = 20000.0;
+    send_msg(&m);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_SET_PARAMS_REQ, 46);
+    /* NaN in a parameter (raw). */
+    default_set(&m.u.params);
+    m.u.params.kin.d_mm[1] = 65.5;
+    assert_int_equal(aacmm_msg_encode(&m, body, sizeof body, &n), AACMM_OK);
+    body[2] = 47;
+    memset(body + 3 + 8 * 13, 0xFF, 8); /* d_2 := NaN */
+    send_body(body, n);
+    expect_error(AACMM_ERR_NOT_FINITE, AACMM_MSG_SET_PARAMS_REQ, 47);
+    /* COMPUTE with a count >= cpr after a 12-bit encoder set. */
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 48;
+    default_set(&m.u.params);
+    {
+        int i;
+        for (i = 0; i < AACMM_JOINTS; i++) {
+            m.u.params.enc.counts_per_rev[i] = 4096u;
+        }
+    }
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 48);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 49;
+    m.u.compute_req.counts[3] = 4096u;
+    send_msg(&m);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_COMPUTE_REQ, 49);
+    /* A measurement with such a count is an encoder fault, not an error. */
+    F.counts[3] = 5000u;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_MEASURE_REQ;
+    m.seq = 50;
+    send_msg(&m);
+    expect_response(AACMM_MSG_MEASURE_RSP, 50);
+    assert_true((M.u.sample.status & AACMM_SAMPLE_ENCODER_FAULT) != 0u);
+    assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) == 0u);
+    assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 1u);
+    assert_int_equal(aacmm_device_counters(&D)->error_responses, 9u);
+    assert_false(next_msg());
+}
+
+static void test_garbage_and_crc_errors(void **state)
+{
+    static const uint8_t garbage[] = {0x13, 0x37, 0x00, 0x05, 0x11, 0x22, 0x33, 0x44, 0x00,
+                                      0xFF, 0xFE, 0x01, 0x02};
+    uint8_t body[7] = {1, AACMM_MSG_PING_REQ, 60, 1, 2, 3, 4};
+    size_t start;
+    (void)state;
+    memcpy(F.rx + F.rx_len, garbage, sizeof garbage);
+    F.rx_len += sizeof garbage;
+    /* A frame with a wrong CRC. */
+    start = F.rx_len;
+    send_body(body, sizeof body);
+    F.rx[start + 3] ^= 0x40;
+    /* Then a good one. */
+    body[2] = 61;
+    send_body(body, sizeof body);
+    expect_response(AACMM_MSG_PING_RSP, 61);
+    assert_int_equal(M.u.ping.token, 0x04030201u);
+    assert_false(next_msg());
+    assert_true(aacmm_device_serial_stats(&D)->crc_errors + aacmm_device_serial_stats(&D)->cobs_errors +
+                    aacmm_device_serial_stats(&D)->runts >=
+                2u);
+    assert_int_equal(aacmm_device_serial_stats(&D)->frames_ok, 1u);
+}
+
+static void test_storage_unsupported(void **state)
+{
+    (void)state;
+    setup_links(1, 0, 0, 0, 0);
+    boot();
+    send_simple(AACMM_MSG_SAVE_PARAMS_REQ, 70);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SAVE_PARAMS_REQ, 70);
+    send_simple(AACMM_MSG_INFO_REQ, 71);
+    expect_response(AACMM_MSG_INFO_RSP, 71);
+    assert_int_equal(M.u.info.storage_state, AACMM_STORAGE_EMPTY);
+    assert_int_equal(M.u.info.build_flags & AACMM_BUILD_CAN, 0u);
+}
+
+/* ------------------------------------------------------------------------ */
+/* streaming cadence                                                         */
+/* ------------------------------------------------------------------------ */
+
+static void start_stream(uint16_t rate, uint8_t content)
+{
+    aacmm_msg_t m;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 99;
+    m.u.stream.rate_hz = rate;
+    m.u.stream.content = content;
+    send_msg(&m);
+    expect_response(AACMM_MSG_STREAM_START_RSP, 99);
+}
+
+static void test_stream_1khz_cadence(void **state)
+{
+    uint64_t t0;
+    uint32_t expect_seq = 0;
+    int k;
+    (void)state;
+    t0 = F.now_us;
+    start_stream(1000, 0);
+    for (k = 0; k <= 5000; k++) {
+        if (k > 0) {
+            advance(1000u);
+            /* The device asks to be woken at the next sample, not later. */
+            aacmm_device_poll(&D);
+        }
+        while (next_msg()) {
+            assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+            assert_int_equal(M.u.sample.seq, expect_seq);
+            assert_int_equal(M.u.sample.timestamp_us, t0 + 1000u * expect_seq);
+            assert_int_equal(M.u.sample.status & AACMM_SAMPLE_OVERRUN, 0u);
+            expect_seq++;
+        }
+        assert_int_equal(expect_seq, (uint32_t)k + 1u);
+        assert_int_equal(aacmm_device_next_deadline_us(&D), t0 + 1000u * ((uint64_t)k + 1u));
+    }
+    assert_int_equal(aacmm_device_counters(&D)->samples_sent, 5001u);
+    assert_int_equal(aacmm_device_counters(&D)->samples_dropped, 0u);
+}
+
+static void test_stream_odd_rate_and_jitter(void **state)
+{
+    /* 7 Hz with irregular wake-ups: sample k is due at t0 + floor(k * 1e6 / 7),
+     * each comes exactly once, none early. */
+    static const uint32_t steps[] = {1, 50000, 92856, 142857, 3, 250000, 1, 1, 7000, 400000};
+    uint64_t t0;
+    uint32_t got = 0;
+    size_t i;
+    int round;
+    (void)state;
+    t0 = F.now_us;
+    start_stream(7, 0);
+    for (round = 0; round < 30; round++) {
+        for (i = 0; i < sizeof steps / sizeof steps[0]; i++) {
+            uint64_t elapsed;
+            advance(steps[i]);
+            aacmm_device_poll(&D);
+            while (next_msg()) {
+                assert_int_equal(M.u.sample.seq, got);
+                assert_true(M.u.sample.timestamp_us >= t0 + ((uint64_t)got * 1000000u) / 7u);
+                got++;
+            }
+            elapsed = F.now_us - t0;
+            /* samples due so far: k with floor(k * 1e6 / 7) <= elapsed */
+            {
+                uint64_t due = 0;
+                while ((due * 1000000u) / 7u <= elapsed) {
+                    due++;
+                }
+                assert_int_equal(got, (uint32_t)due);
+            }
+        }
+    }
+}
+
+static void test_stream_catch_up_and_stall(void **state)
+{
+    uint32_t seq = 0;
+    int overrun_seen = 0;
+    (void)state;
+    start_stream(1000, 0);
+    while (next_msg()) {
+        seq++;
+    }
+    /* A 20 ms hiccup: the 20 missed samples are sent at once, numbered. */
+    advance(20000u);
+    aacmm_device_poll(&D);
+    while (next_msg()) {
+        assert_int_equal(M.u.sample.seq, seq);
+        seq++;
+    }
+    assert_int_equal(seq, 21u);
+    /* A 1 s stall: too late to catch up: one sample, with the gap visible. */
+    advance(1000000u);
+    aacmm_device_poll(&D);
+    while (next_msg()) {
+        assert_int_equal(M.u.sample.seq, 1020u);
+        overrun_seen = (M.u.sample.status & AACMM_SAMPLE_OVERRUN) != 0u;
+        seq++;
+    }
+    assert_int_equal(seq, 22u);
+    assert_true(overrun_seen);
+    assert_int_equal(aacmm_device_counters(&D)->samples_late, 999u);
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.u.sample.seq, 1021u);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_OVERRUN, 0u);
+}
+
+static void test_stream_output_full(void **state)
+{
+    uint32_t last = 0;
+    uint32_t n = 0;
+    int overrun = 0;
+    aacmm_msg_t m;
+    (void)state;
+    start_stream(1000, AACMM_CONTENT_JACOBIAN);
+    F.tx_limit = 0; /* the host stops reading */
+    {
+        int k;
+        for (k = 0; k < 1000; k++) {
+            advance(1000u);
+            aacmm_device_poll(&D);
+        }
+    }
+    /* A request arrives while the queue is full of samples: it is answered
+     * as soon as there is room (never dropped). */
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_PING_REQ;
+    m.seq = 123;
+    m.u.ping.token = 5;
+    send_msg(&m);
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(aacmm_device_counters(&D)->samples_dropped > 800u);
+    assert_true(aacmm_device_serial_pending(&D) > 0u);
+    F.tx_limit = (size_t)-1;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    {
+        int got_ping = 0;
+        while (next_msg()) {
+            if (M.type == AACMM_MSG_PING_RSP) {
+                assert_int_equal(M.seq, 123);
+                got_ping = 1;
+                continue;
+            }
+            assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+            if (n > 0 && M.u.sample.seq != last + 1u) {
+                /* the first sample after a gap says so */
+                assert_true((M.u.sample.status & AACMM_SAMPLE_OVERRUN) != 0u);
+                overrun = 1;
+            }
+            last = M.u.sample.seq;
+            n++;
+        }
+        assert_true(got_ping);
+    }
+    assert_true(overrun);
+    assert_int_equal(last, 1002u);
+    assert_int_equal(n + aacmm_device_counters(&D)->samples_dropped, 1003u);
+}
+
+/* ------------------------------------------------------------------------ */
+/* storage                                                                   */
+/* ------------------------------------------------------------------------ */
+
+static void save_via_request(uint8_t seq)
+{
+    send_simple(AACMM_MSG_SAVE_PARAMS_REQ, seq);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.seq, seq);
+}
+
+static void test_save_and_reload(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_param_set_t s;
+    (void)state;
+    other_set(&s, 200.0);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 1;
+    m.u.params = s;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 1);
+    save_via_request(2);
+    assert_int_equal(M.type, AACMM_MSG_SAVE_PARAMS_RSP);
+    assert_int_equal(M.u.param_crc.param_crc32, set_crc(&s));
+    /* Reboot on the same storage. */
+    setup_links(1, 1, 1, 1, 1);
+    boot();
+    send_simple(AACMM_MSG_INFO_REQ, 3);
+    expect_response(AACMM_MSG_INFO_RSP, 3);
+    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_STORAGE);
+    assert_int_equal(M.u.info.storage_state, AACMM_STORAGE_OK);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&s));
+    /* Samples no longer carry PARAMS_DEFAULT. */
+    send_simple(AACMM_MSG_MEASURE_REQ, 4);
+    expect_response(AACMM_MSG_MEASURE_RSP, 4);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_PARAMS_DEFAULT, 0u);
+}
+
+static void test_store_alternates_slots(void **state)
+{
+    aacmm_param_set_t s;
+    aacmm_param_set_t got;
+    uint8_t rec[AACMM_STORE_RECORD_BYTES];
+    uint32_t gen = 0;
+    uint8_t slot = 9;
+    uint8_t st = 0;
+    int i;
+    (void)state;
+    setup_links(1, 0, 1, 0, 0);
+    fake_platform(&F, &PF, 1, 0, 1, 0);
+    assert_int_equal(aacmm_store_load(&PF, &got, &st, NULL, NULL, NULL, rec), AACMM_ERR_STORAGE);
+    assert_int_equal(st, AACMM_STORAGE_EMPTY);
+    for (i = 0; i < 5; i++) {
+        other_set(&s, 100.0 + i);
+        assert_int_equal(aacmm_store_save(&PF, &s, &gen, &slot, rec), AACMM_OK);
+        assert_int_equal(gen, (uint32_t)i + 1u);
+        assert_int_equal(slot, (uint8_t)(i % 2));
+        assert_int_equal(aacmm_store_load(&PF, &got, &st, &gen, &slot, NULL, rec), AACMM_OK);
+        assert_int_equal(st, AACMM_STORAGE_OK);
+        assert_int_equal(set_crc(&got), set_crc(&s));
+    }
+}
+
+/* The heart of it: cut the power after every byte of a save. The device
+ * always comes back with either the previous good set or the new one. */
+static void test_power_cut_at_every_byte(void **state)
+{
+    aacmm_param_set_t old_set;
+    aacmm_param_set_t new_set;
+    uint8_t rec[AACMM_STORE_RECORD_BYTES];
+    uint8_t before[AACMM_STORE_BYTES];
+    uint32_t gen;
+    uint8_t slot;
+    long cut;
+    int pass;
+    (void)state;
+    /* pass 0: one old record; pass 1: two old records (the older one is overwritten). */
+    for (pass = 0; pass < 2; pass++) {
+        setup_links(1, 0, 1, 0, 0);
+        other_set(&old_set, 111.0);
+        if (pass == 1) {
+            aacmm_param_set_t older;
+            other_set(&older, 99.0);
+            assert_int_equal(aacmm_store_save(&PF, &older, &gen, &slot, rec), AACMM_OK);
+        }
+        assert_int_equal(aacmm_store_save(&PF, &old_set, &gen, &slot, rec), AACMM_OK);
+        memcpy(before, F.storage, sizeof before);
+        other_set(&new_set, 222.0);
+        for (cut = 0; cut <= (long)AACMM_STORE_RECORD_BYTES; cut++) {
+            aacmm_status_t st;
+            memcpy(F.storage, before, sizeof before);
+            F.write_budget = cut;
+            st = aacmm_store_save(&PF, &new_set, &gen, &slot, rec);
+            F.write_budget = -1;
+            if (cut < (long)AACMM_STORE_RECORD_BYTES) {
+                assert_int_not_equal(st, AACMM_OK);
+            } else {
+                assert_int_equal(st, AACMM_OK);
+            }
+            /* Power back on: boot the device on this storage. */
+            setup_links(1, 0, 1, 0, 1);
+            boot();
+            assert_int_equal(D.storage_state, AACMM_STORAGE_OK);
+            assert_int_equal(D.param_source, AACMM_PARAM_SOURCE_STORAGE);
+            if (cut < (long)AACMM_STORE_RECORD_BYTES) {
+                assert_int_equal(D.active_crc32, set_crc(&old_set));
+            } else {
+                assert_int_equal(D.active_crc32, set_crc(&new_set));
+            }
+        }
+    }
+}
+
+/* Through the device: a cut during SAVE_PARAMS answers an error and the
+ * previous set is still there after a reboot. */
+static void test_power_cut_via_request(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_param_set_t a;
+    aacmm_param_set_t b;
+    (void)state;
+    other_set(&a, 120.0);
+    other_set(&b, 130.0);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 1;
+    m.u.params = a;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 1);
+    save_via_request(2);
+    assert_int_equal(M.type, AACMM_MSG_SAVE_PARAMS_RSP);
+    m.seq = 3;
+    m.u.params = b;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 3);
+    F.write_budget = 100;
+    save_via_request(4);
+    assert_int_equal(M.type, AACMM_MSG_ERROR_RSP);
+    assert_int_equal(M.u.error.status, AACMM_ERR_STORAGE);
+    assert_int_equal(aacmm_device_counters(&D)->storage_errors, 1u);
+    setup_links(1, 0, 1, 0, 1);
+    boot();
+    assert_int_equal(D.active_crc32, set_crc(&a));
+    assert_int_equal(D.counters.storage_bad_records, 1u); /* the torn slot */
+}
+
+static void write_raw_record(uint8_t slot, uint16_t version, uint32_t gen, const aacmm_param_set_t *s,
+                             int corrupt)
+{
+    uint8_t *r = F.storage + (size_t)slot * AACMM_STORE_SLOT_BYTES;
+    uint32_t crc;
+    r[0] = 0x41;
+    r[1] = 0x41;
+    r[2] = 0x43;
+    r[3] = 0x4D;
+    r[4] = (uint8_t)version;
+    r[5] = (uint8_t)(version >> 8);
+    r[6] = (uint8_t)(AACMM_PARAM_SET_BYTES & 0xFF);
+    r[7] = (uint8_t)(AACMM_PARAM_SET_BYTES >> 8);
+    r[8] = (uint8_t)gen;
+    r[9] = (uint8_t)(gen >> 8);
+    r[10] = (uint8_t)(gen >> 16);
+    r[11] = (uint8_t)(gen >> 24);
+    assert_int_equal(aacmm_param_set_encode(s, r + 12, AACMM_PARAM_SET_BYTES), AACMM_OK);
+    crc = aacmm_crc32(r, 290);
+    r[290] = (uint8_t)crc;
+    r[291] = (uint8_t)(crc >> 8);
+    r[292] = (uint8_t)(crc >> 16);
+    r[293] = (uint8_t)(crc >> 24);
+    if (corrupt) {
+        r[100] ^= 0x01;
+    }
+}
+
+static void test_store_generation_wraps(void **state)
+{
+    aacmm_param_set_t s;
+    aacmm_param_set_t got;
+    uint8_t rec[AACMM_STORE_RECORD_BYTES];
+    uint32_t gen = 0;
+    uint8_t slot = 9;
+    uint8_t st = 0;
+    (void)state;
+    setup_links(1, 0, 1, 0, 0);
+    other_set(&s, 100.0);
+    write_raw_record(0, AACMM_STORE_VERSION, 0xFFFFFFFFu, &s, 0);
+    write_raw_record(1, AACMM_STORE_VERSION, 0xFFFFFFFEu, &s, 0);
+    assert_int_equal(aacmm_store_load(&PF, &got, &st, &gen, &slot, NULL, rec), AACMM_OK);
+    assert_int_equal(slot, 0u);
+    assert_int_equal(gen, 0xFFFFFFFFu);
+    other_set(&s, 333.0);
+    assert_int_equal(aacmm_store_save(&PF, &s, &gen, &slot, rec), AACMM_OK);
+    assert_int_equal(gen, 0u);
+    assert_int_equal(slot, 1u);
+    assert_int_equal(aacmm_store_load(&PF, &got, &st, &gen, &slot, NULL, rec), AACMM_OK);
+    assert_int_equal(slot, 1u); /* 0 is newer than 0xFFFFFFFF */
+    assert_true(got.kin.l_mm > 332.9 && got.kin.l_mm < 333.1);
+    other_set(&s, 444.0);
+    assert_int_equal(aacmm_store_save(&PF, &s, &gen, &slot, rec), AACMM_OK);
+    assert_int_equal(gen, 1u);
+    assert_int_equal(slot, 0u);
+}
+
+static void boot_on_storage_and_check(uint8_t state, uint8_t source, uint32_t bad)
+{
+    setup_links(1, 0, 1, 0, 1);
+    boot();
+    send_simple(AACMM_MSG_INFO_REQ, 5);
+    expect_response(AACMM_MSG_INFO_RSP, 5);
+    assert_int_equal(M.u.info.storage_state, state);
+    assert_int_equal(M.u.info.param_source, source);
+    assert_int_equal(D.counters.storage_bad_records, bad);
+}
+
+static void test_corrupt_and_foreign_records(void **state)
+{
+    aacmm_param_set_t s;
+    aacmm_param_set_t def;
+    (void)state;
+    other_set(&s, 144.0);
+    default_set(&def);
+    /* Empty (erased). */
+    setup_links(1, 0, 1, 0, 0);
+    boot_on_storage_and_check(AACMM_STORAGE_EMPTY, AACMM_PARAM_SOURCE_DEFAULTS, 0);
+    /* Zeroed storage is empty too. */
+    memset(F.storage, 0, sizeof F.storage);
+    boot_on_storage_and_check(AACMM_STORAGE_EMPTY, AACMM_PARAM_SOURCE_DEFAULTS, 0);
+    /* One record with a flipped bit. */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    write_raw_record(0, AACMM_STORE_VERSION, 1, &s, 1);
+    boot_on_storage_and_check(AACMM_STORAGE_CORRUPT, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&def));
+    send_simple(AACMM_MSG_MEASURE_REQ, 6);
+    expect_response(AACMM_MSG_MEASURE_RSP, 6);
+    assert_true((M.u.sample.status & AACMM_SAMPLE_PARAMS_DEFAULT) != 0u);
+    /* A record of a future format. */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    write_raw_record(1, 2, 1, &s, 0);
+    boot_on_storage_and_check(AACMM_STORAGE_VERSION, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    /* A good record beside a corrupt newer one: the good one wins. */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    write_raw_record(0, AACMM_STORE_VERSION, 7, &s, 0);
+    write_raw_record(1, AACMM_STORE_VERSION, 8, &def, 1);
+    boot_on_storage_and_check(AACMM_STORAGE_OK, AACMM_PARAM_SOURCE_STORAGE, 1);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&s));
+    /* Newest of two valid records wins. */
+    write_raw_record(1, AACMM_STORE_VERSION, 8, &def, 0);
+    boot_on_storage_and_check(AACMM_STORAGE_OK, AACMM_PARAM_SOURCE_STORAGE, 0);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&def));
+    /* A record with a good CRC but parameters out of range is corrupt. */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    s.kin.a_mm[0] = 50000.0;
+    write_raw_record(0, AACMM_STORE_VERSION, 1, &s, 0);
+    boot_on_storage_and_check(AACMM_STORAGE_CORRUPT, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    /* Read errors: defaults, counted. */
+    setup_links(1, 0, 1, 0, 1);
+    F.read_error = 1;
+    boot();
+    assert_int_equal(D.param_source, AACMM_PARAM_SOURCE_DEFAULTS);
+    assert_int_equal(D.counters.storage_errors, 1u);
+}
+
+/* ------------------------------------------------------------------------ */
+/* button                                                                    */
+/* ------------------------------------------------------------------------ */
+
+static void test_button_events(void **state)
+{
+    size_t can_before;
+    (void)state;
+    F.counts[0] = 0x01000000u;
+    aacmm_device_poll(&D);
+    assert_false(next_msg());
+    F.button = 1;
+    advance(1000u);
+    can_before = F.can_tx_len;
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    assert_int_equal(M.u.trigger.button, 0);
+    assert_int_equal(M.u.trigger.pressed, 1);
+    assert_int_equal(M.u.trigger.sample.counts[0], 0x01000000u);
+    assert_int_equal(M.u.trigger.sample.timestamp_us, F.now_us);
+    assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN) != 0u);
+    assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_POINT_VALID) != 0u);
+    assert_false(next_msg());
+    /* The CAN trigger frame. */
+    assert_int_equal(F.can_tx_len, can_before + 1u);
+    assert_int_equal(F.can_tx[can_before].id, AACMM_CAN_ID_TRIGGER + 3u);
+    assert_int_equal(F.can_tx[can_before].data[4], 0);
+    assert_int_equal(F.can_tx[can_before].data[5], 1);
+    /* Held: no more events. */
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_false(next_msg());
+    F.button = 0;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    assert_int_equal(M.u.trigger.pressed, 0);
+    assert_int_equal(M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN, 0u);
+    assert_int_equal(F.can_tx[F.can_tx_len - 1u].data[5], 0);
+    assert_int_equal(aacmm_device_counters(&D)->button_edges, 2u);
+}
+
+static void test_button_during_stream(void **state)
+{
+    uint32_t last_seq = 0;
+    int k;
+    (void)state;
+    start_stream(1000, AACMM_CONTENT_JACOBIAN);
+    for (k = 0; k < 10; k++) {
+        advance(1000u);
+        aacmm_device_poll(&D);
+    }
+    while (next_msg()) {
+        last_seq = M.u.sample.seq;
+    }
+    assert_int_equal(last_seq, 10u);
+    advance(300u);
+    F.button = 1;
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    assert_int_equal(M.u.trigger.sample.seq, 10u); /* the last stream sample sent */
+    assert_int_equal(M.u.trigger.sample.content, AACMM_CONTENT_JACOBIAN);
+    advance(700u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+    assert_int_equal(M.u.sample.seq, 11u);
+    assert_true((M.u.sample.status & AACMM_SAMPLE_TRIGGER_DOWN) != 0u);
+}
+
+/* ------------------------------------------------------------------------ */
+/* CAN link                                                                  */
+/* ------------------------------------------------------------------------ */
+
+static aacmm_isotp_t host_tp;
+static uint8_t host_tp_rx[AACMM_ISOTP_MAX_LEN];
+static uint8_t host_tp_tx[AACMM_ISOTP_MAX_LEN];
+static size_t can_seen;
+
+static void host_isotp_init(uint8_t node)
+{
+    aacmm_isotp_config_t c;
+    memset(&c, 0, sizeof c);
+    c.tx_id = AACMM_CAN_ID_ISOTP_REQUEST + node;
+    c.rx_id = AACMM_CAN_ID_ISOTP_RESPONSE + node;
+    c.rx_buf = host_tp_rx;
+    c.rx_cap = sizeof host_tp_rx;
+    c.tx_buf = host_tp_tx;
+    c.tx_cap = sizeof host_tp_tx;
+    c.padding = 0xCC;
+    c.max_wait = 10;
+    c.timeout_ms = 1000;
+    assert_int_equal(aacmm_isotp_init(&host_tp, &c), AACMM_OK);
+    can_seen = F.can_tx_len;
+}
+
+/* Run host and device until the host has a complete ISO-TP message (into M)
+ * or the rounds run out. Non-ISO-TP frames are left in F.can_tx. */
+static int can_exchange(int rounds)
+{
+    int r;
+    for (r = 0; r < rounds; r++) {
+        aacmm_can_frame_t f;
+        const uint8_t *data;
+        size_t len;
+        uint32_t ms = (uint32_t)(F.now_us / 1000u);
+        while (aacmm_isotp_poll(&host_tp, ms, &f)) {
+            assert_true(F.can_rx_len < FAKE_CAN_RX);
+            F.can_rx[F.can_rx_len++] = f;
+        }
+        aacmm_device_poll(&D);
+        while (can_seen < F.can_tx_len) {
+            aacmm_isotp_on_frame(&host_tp, &F.can_tx[can_seen], ms);
+            can_seen++;
+            if (aacmm_isotp_receive(&host_tp, &data, &len)) {
+                assert_int_equal(aacmm_msg_decode(data, len, &M), AACMM_OK);
+                return 1;
+            }
+        }
+        advance(100u);
+    }
+    return 0;
+}
+
+static void can_request(const aacmm_msg_t *m)
+{
+    uint8_t body[AACMM_PROTO_MAX_BODY];
+    size_t n = 0;
+    assert_int_equal(aacmm_msg_encode(m, body, sizeof body, &n), AACMM_OK);
+    assert_int_equal(aacmm_isotp_send(&host_tp, body, n, (uint32_t)(F.now_us / 1000u)), AACMM_OK);
+}
+
+static void test_can_requests(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_param_set_t s;
+    (void)state;
+    host_isotp_init(3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_PING_REQ;
+    m.seq = 1;
+    m.u.ping.token = 0x11223344u;
+    can_request(&m);
+    assert_true(can_exchange(10));
+    assert_int_equal(M.type, AACMM_MSG_PING_RSP);
+    assert_int_equal(M.seq, 1);
+    assert_int_equal(M.u.ping.token, 0x11223344u);
+    /* A multi-frame request (flow control from the device) and a multi-frame
+     * response (flow control from the host). */
+    other_set(&s, 171.0);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 2;
+    m.u.params = s;
+    can_request(&m);
+    assert_true(can_exchange(50));
+    assert_int_equal(M.type, AACMM_MSG_SET_PARAMS_RSP);
+    assert_int_equal(M.u.param_crc.param_crc32, set_crc(&s));
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_GET_PARAMS_REQ;
+    m.seq = 3;
+    can_request(&m);
+    assert_true(can_exchange(50));
+    assert_int_equal(M.type, AACMM_MSG_GET_PARAMS_RSP);
+    assert_int_equal(set_crc(&M.u.params), set_crc(&s));
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_INFO_REQ;
+    m.seq = 4;
+    can_request(&m);
+    assert_true(can_exchange(10));
+    assert_int_equal(M.type, AACMM_MSG_INFO_RSP);
+    assert_int_equal(M.u.info.can_node_id, 3);
+    /* Errors come back over ISO-TP as well. */
+    {
+        uint8_t body[3] = {1, 0x3D, 5};
+        assert_int_equal(aacmm_isotp_send(&host_tp, body, 3, (uint32_t)(F.now_us / 1000u)), AACMM_OK);
+        assert_true(can_exchange(10));
+        assert_int_equal(M.type, AACMM_MSG_ERROR_RSP);
+        assert_int_equal(M.seq, 5);
+        assert_int_equal(M.u.error.status, AACMM_ERR_UNKNOWN_TYPE);
+    }
+    /* Nothing went out on the serial link. */
+    assert_false(next_msg());
+    /* Frames for other nodes are ignored. */
+    host_isotp_init(4);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_PING_REQ;
+    m.seq = 6;
+    can_request(&m);
+    assert_false(can_exchange(5));
+}
+
+static void test_can_stream_and_both_links(void **state)
+{
+    aacmm_msg_t m;
+    size_t i;
+    uint32_t can_samples = 0;
+    uint32_t serial_samples = 0;
+    int k;
+    (void)state;
+    host_isotp_init(3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 7;
+    m.u.stream.rate_hz = 500;
+    m.u.stream.content = AACMM_CONTENT_JACOBIAN;
+    can_request(&m);
+    assert_true(can_exchange(5));
+    assert_int_equal(M.type, AACMM_MSG_STREAM_START_RSP);
+    assert_int_equal(M.u.stream.rate_hz, 500);
+    assert_int_equal(M.u.stream.content, 0); /* no Jacobian on CAN frames */
+    start_stream(1000, 0);                   /* and a serial stream at the same time */
+    for (k = 0; k < 100; k++) {
+        advance(1000u);
+        aacmm_device_poll(&D);
+    }
+    while (next_msg()) {
+        assert_int_equal(M.u.sample.seq, serial_samples);
+        serial_samples++;
+    }
+    assert_int_equal(serial_samples, 101u);
+    /* CAN: groups of six frames in order, Seq counting up. */
+    for (i = 0; i < F.can_tx_len; i++) {
+        const aacmm_can_frame_t *f = &F.can_tx[i];
+        if (f->id == AACMM_CAN_ID_SAMPLE_HEADER + 3u) {
+            uint32_t seq = (uint32_t)f->data[0] | ((uint32_t)f->data[1] << 8) |
+                           ((uint32_t)f->data[2] << 16) | ((uint32_t)f->data[3] << 24);
+            assert_true(i + 5u < F.can_tx_len);
+            assert_int_equal(seq, can_samples);
+            assert_int_equal(F.can_tx[i + 1].id, AACMM_CAN_ID_COUNTS_12 + 3u);
+            assert_int_equal(F.can_tx[i + 2].id, AACMM_CAN_ID_COUNTS_34 + 3u);
+            assert_int_equal(F.can_tx[i + 3].id, AACMM_CAN_ID_COUNTS_56 + 3u);
+            assert_int_equal(F.can_tx[i + 4].id, AACMM_CAN_ID_POINT_XY + 3u);
+            assert_int_equal(F.can_tx[i + 5].id, AACMM_CAN_ID_POINT_Z + 3u);
+            assert_int_equal(F.can_tx[i + 5].data[6], (uint8_t)seq);
+            can_samples++;
+        }
+    }
+    assert_int_equal(can_samples, 51u);
+    /* Bus full: samples are dropped and counted, never block. */
+    F.can_busy = 1;
+    for (k = 0; k < 200; k++) {
+        advance(1000u);
+        aacmm_device_poll(&D);
+    }
+    assert_true(aacmm_device_counters(&D)->samples_dropped > 80u);
+    assert_true(aacmm_device_can_pending(&D) <= AACMM_DEVICE_CAN_QUEUE);
+    F.can_busy = 0;
+    aacmm_device_poll(&D);
+    assert_int_equal(aacmm_device_can_pending(&D), 0u);
+}
+
+static void test_can_trigger_over_isotp(void **state)
+{
+    aacmm_msg_t m;
+    (void)state;
+    host_isotp_init(3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_PING_REQ;
+    m.seq = 1;
+    can_request(&m);
+    assert_true(can_exchange(5)); /* the host is now known to listen */
+    F.button = 1;
+    assert_true(can_exchange(20));
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    assert_int_equal(M.u.trigger.pressed, 1);
+    assert_int_equal(M.u.trigger.sample.content, 0);
+}
+
+static void test_encoder_io_fault(void **state)
+{
+    (void)state;
+    F.encoder_status = AACMM_ERR_IO;
+    start_stream(10, 0);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+    assert_true((M.u.sample.status & AACMM_SAMPLE_ENCODER_FAULT) != 0u);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_POINT_VALID, 0u);
+    assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 1u);
+}
+
+static void test_serial_io_errors_counted(void **state)
+{
+    (void)state;
+    F.serial_error = 1;
+    aacmm_device_poll(&D);
+    aacmm_device_poll(&D);
+    assert_true(aacmm_device_counters(&D)->serial_io_errors >= 2u);
+    F.serial_error = 0;
+    send_simple(AACMM_MSG_INFO_REQ, 1);
+    expect_response(AACMM_MSG_INFO_RSP, 1);
+}
+
+/* ------------------------------------------------------------------------ */
+/* simulated arm                                                             */
+/* ------------------------------------------------------------------------ */
+
+static void sim_cfg(aacmm_sim_config_t *c, aacmm_sim_motion_t motion, uint64_t cpr)
+{
+    memset(c, 0, sizeof *c);
+    c->motion = motion;
+    c->counts_per_rev = cpr;
+    c->seed = 1;
+}
+
+static uint32_t count_dist(uint32_t a, uint32_t b, uint64_t cpr)
+{
+    uint64_t d = (a >= b) ? (uint64_t)(a - b) : (uint64_t)(b - a);
+    return (uint32_t)(d > cpr / 2u ? cpr - d : d);
+}
+
+static void test_sim_init_errors(void **state)
+{
+    aacmm_sim_t s;
+    aacmm_sim_config_t c;
+    static const uint32_t poses[12] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 4096};
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_WALK, 1);
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE);
+    c.counts_per_rev = (UINT64_C(1) << 32) + 1u;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE);
+    c.counts_per_rev = 4096;
+    c.noise_counts = AACMM_SIM_NOISE_MAX + 1u;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE);
+    c.noise_counts = 0;
+    c.motion = (aacmm_sim_motion_t)9;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE);
+    c.motion = AACMM_SIM_REPLAY;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_NULL);
+    c.replay = poses;
+    c.replay_poses = 2;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE); /* 4096 >= cpr */
+    c.replay_poses = 1;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_init(NULL, &c), AACMM_ERR_NULL);
+}
+
+static void test_sim_static_repeatable(void **state)
+{
+    aacmm_sim_t a;
+    aacmm_sim_t b;
+    aacmm_sim_config_t c;
+    uint32_t x[AACMM_JOINTS];
+    uint32_t y[AACMM_JOINTS];
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_STATIC, UINT64_C(1) << 20);
+    assert_int_equal(aacmm_sim_init(&a, &c), AACMM_OK);
+    c.seed = 99;
+    assert_int_equal(aacmm_sim_init(&b, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_read(&a, 0, x), AACMM_OK);
+    assert_int_equal(aacmm_sim_read(&b, 123456789u, y), AACMM_OK);
+    assert_memory_equal(x, y, sizeof x);
+    /* Joint 0 at 0.5 rad: 0.5 / 2 pi * 2^20 = 83443.0 counts. */
+    assert_true(count_dist(x[0], 83443u, UINT64_C(1) << 20) <= 1u);
+    /* Joint 5 at -0.3 rad wraps below zero. */
+    assert_true(x[5] > (1u << 19));
+}
+
+static void test_sim_angle_to_counts(void **state)
+{
+    (void)state;
+    assert_int_equal(aacmm_sim_angle_to_counts(0.0f, 4096), 0u);
+    assert_int_equal(aacmm_sim_angle_to_counts(1.5707964f, 4096), 1024u);
+    assert_int_equal(aacmm_sim_angle_to_counts(-1.5707964f, 4096), 3072u);
+    assert_int_equal(aacmm_sim_angle_to_counts(3.1415927f, 4096), 2048u);
+    assert_int_equal(aacmm_sim_angle_to_counts(-1.5707964f, UINT64_C(1) << 32), 0xC0000000u);
+    assert_int_equal(aacmm_sim_angle_to_counts(0.0f, 3600), 0u);
+    assert_int_equal(aacmm_sim_angle_to_counts(-0.0017453292f, 3600), 3599u); /* -0.1 deg */
+    assert_int_equal(aacmm_sim_angle_to_counts(6.2831853f, 3600), 0u);
+}
+
+static void test_sim_sweep_and_walk_smooth(void **state)
+{
+    static const aacmm_sim_motion_t motions[2] = {AACMM_SIM_SWEEP, AACMM_SIM_WALK};
+    int mi;
+    (void)state;
+    for (mi = 0; mi < 2; mi++) {
+        aacmm_sim_t s;
+        aacmm_sim_config_t c;
+        float prev[AACMM_JOINTS];
+        float th[AACMM_JOINTS];
+        float lo[AACMM_JOINTS];
+        float hi[AACMM_JOINTS];
+        uint64_t t;
+        int j;
+        sim_cfg(&c, motions[mi], UINT64_C(1) << 32);
+        assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+        assert_int_equal(aacmm_sim_angles(&s, 0, prev), AACMM_OK);
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            lo[j] = hi[j] = prev[j];
+        }
+        for (t = 10000u; t <= 120000000u; t += 10000u) {
+            assert_int_equal(aacmm_sim_angles(&s, t, th), AACMM_OK);
+            for (j = 0; j < AACMM_JOINTS; j++) {
+                float d = th[j] - prev[j];
+                /* smooth: under 4 rad/s, i.e. 0.04 rad per 10 ms */
+                assert_true(d < 0.04f && d > -0.04f);
+                assert_true(th[j] > -3.3f && th[j] < 3.3f);
+                if (th[j] < lo[j]) {
+                    lo[j] = th[j];
+                }
+                if (th[j] > hi[j]) {
+                    hi[j] = th[j];
+                }
+                prev[j] = th[j];
+            }
+        }
+        /* every joint really moves through a good part of its range */
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            assert_true(hi[j] - lo[j] > 1.0f);
+        }
+    }
+}
+
+static void test_sim_walk_seeded(void **state)
+{
+    aacmm_sim_t a;
+    aacmm_sim_t b;
+    aacmm_sim_config_t c;
+    float x[AACMM_JOINTS];
+    float y[AACMM_JOINTS];
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_WALK, 4096);
+    c.seed = 5;
+    assert_int_equal(aacmm_sim_init(&a, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_init(&b, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_angles(&a, 7777777u, x), AACMM_OK);
+    assert_int_equal(aacmm_sim_angles(&b, 7777777u, y), AACMM_OK);
+    assert_memory_equal(x, y, sizeof x);
+    c.seed = 6;
+    assert_int_equal(aacmm_sim_init(&b, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_angles(&b, 7777777u, y), AACMM_OK);
+    assert_memory_not_equal(x, y, sizeof x);
+    /* Passes through waypoints: continuous across a segment boundary. */
+    assert_int_equal(aacmm_sim_angles(&a, AACMM_SIM_WALK_SEGMENT_US - 1u, x), AACMM_OK);
+    assert_int_equal(aacmm_sim_angles(&a, AACMM_SIM_WALK_SEGMENT_US, y), AACMM_OK);
+    assert_true(x[0] - y[0] < 1e-4f && y[0] - x[0] < 1e-4f);
+}
+
+static void test_sim_noise_bounds(void **state)
+{
+    aacmm_sim_t s;
+    aacmm_sim_config_t c;
+    uint32_t clean[AACMM_JOINTS];
+    uint32_t noisy[AACMM_JOINTS];
+    uint32_t maxd = 0;
+    int k;
+    int j;
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_STATIC, 4096);
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_read(&s, 0, clean), AACMM_OK);
+    c.noise_counts = 3;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    for (k = 0; k < 2000; k++) {
+        assert_int_equal(aacmm_sim_read(&s, 0, noisy), AACMM_OK);
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            uint32_t d = count_dist(noisy[j], clean[j], 4096);
+            assert_true(noisy[j] < 4096u);
+            assert_true(d <= 3u);
+            if (d > maxd) {
+                maxd = d;
+            }
+        }
+    }
+    assert_int_equal(maxd, 3u); /* the full range is used */
+}
+
+static void test_sim_replay_loops(void **state)
+{
+    aacmm_sim_t s;
+    aacmm_sim_config_t c;
+    static const uint32_t poses[18] = {1, 2, 3, 4, 5, 6, 10, 20, 30, 40, 50, 60,
+                                       100, 200, 300, 400, 500, 600};
+    uint32_t got[AACMM_JOINTS];
+    float th[AACMM_JOINTS];
+    int k;
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_REPLAY, 4096);
+    c.replay = poses;
+    c.replay_poses = 3;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    for (k = 0; k < 7; k++) {
+        assert_int_equal(aacmm_sim_read(&s, 0, got), AACMM_OK);
+        assert_memory_equal(got, poses + (k % 3) * 6, sizeof got);
+    }
+    assert_int_equal(aacmm_sim_angles(&s, 0, th), AACMM_ERR_UNSUPPORTED);
+}
+
+static void test_sim_button(void **state)
+{
+    aacmm_sim_t s;
+    aacmm_sim_config_t c;
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_STATIC, 4096);
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_button(&s, 5000000u), 0);
+    c.button_period_us = 2000000u;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_button(&s, 0), 0);
+    assert_int_equal(aacmm_sim_button(&s, 100000u), 0);
+    assert_int_equal(aacmm_sim_button(&s, 1999999u), 0);
+    assert_int_equal(aacmm_sim_button(&s, 2000000u), 1);
+    assert_int_equal(aacmm_sim_button(&s, 2199999u), 1);
+    assert_int_equal(aacmm_sim_button(&s, 2200000u), 0);
+    assert_int_equal(aacmm_sim_button(&s, 4100000u), 1);
+    c.button_period_us = 100000u; /* short period: held half of it */
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_button(&s, 149999u), 1);
+    assert_int_equal(aacmm_sim_button(&s, 150000u), 0);
+}
+
+/* The simulated arm as the device's encoders: the counts it produces are
+ * valid for the device's default encoder configuration. */
+static aacmm_sim_t sim_for_device;
+static aacmm_status_t sim_read(void *ctx, uint32_t counts[AACMM_JOINTS])
+{
+    (void)ctx;
+    return aacmm_sim_read(&sim_for_device, F.now_us, counts);
+}
+
+static void test_sim_drives_device(void **state)
+{
+    aacmm_sim_config_t c;
+    aacmm_param_set_t def;
+    int k;
+    int i;
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_WALK, 3600);
+    c.noise_counts = 2;
+    assert_int_equal(aacmm_sim_init(&sim_for_device, &c), AACMM_OK);
+    setup_links(1, 0, 0, 0, 0);
+    PF.read_encoders = sim_read;
+    default_set(&def);
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        def.enc.counts_per_rev[i] = 3600u;
+    }
+    CFG.defaults = &def;
+    boot();
+    start_stream(100, 0);
+    for (k = 0; k < 500; k++) {
+        advance(10000u);
+        aacmm_device_poll(&D);
+    }
+    k = 0;
+    while (next_msg()) {
+        assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) != 0u);
+        k++;
+    }
+    assert_int_equal(k, 501);
+    assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 0u);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_init_errors),
+        cmocka_unit_test_setup(test_ping_info, setup_default),
+        cmocka_unit_test_setup(test_params_set_get_restore, setup_default),
+        cmocka_unit_test_setup(test_measure_and_compute, setup_default),
+        cmocka_unit_test_setup(test_stream_start_stop, setup_default),
+        cmocka_unit_test_setup(test_bad_requests, setup_default),
+        cmocka_unit_test_setup(test_garbage_and_crc_errors, setup_default),
+        cmocka_unit_test(test_storage_unsupported),
+        cmocka_unit_test_setup(test_stream_1khz_cadence, setup_default),
+        cmocka_unit_test_setup(test_stream_odd_rate_and_jitter, setup_default),
+        cmocka_unit_test_setup(test_stream_catch_up_and_stall, setup_default),
+        cmocka_unit_test_setup(test_stream_output_full, setup_default),
+        cmocka_unit_test_setup(test_save_and_reload, setup_default),
+        cmocka_unit_test(test_store_alternates_slots),
+        cmocka_unit_test(test_power_cut_at_every_byte),
+        cmocka_unit_test_setup(test_power_cut_via_request, setup_default),
+        cmocka_unit_test(test_corrupt_and_foreign_records),
+        cmocka_unit_test(test_store_generation_wraps),
+        cmocka_unit_test_setup(test_button_events, setup_default),
+        cmocka_unit_test_setup(test_button_during_stream, setup_default),
+        cmocka_unit_test_setup(test_can_requests, setup_default),
+        cmocka_unit_test_setup(test_can_stream_and_both_links, setup_default),
+        cmocka_unit_test_setup(test_can_trigger_over_isotp, setup_default),
+        cmocka_unit_test_setup(test_encoder_io_fault, setup_default),
+        cmocka_unit_test_setup(test_serial_io_errors_counted, setup_default),
+        cmocka_unit_test(test_sim_init_errors),
+        cmocka_unit_test(test_sim_static_repeatable),
+        cmocka_unit_test(test_sim_angle_to_counts),
+        cmocka_unit_test(test_sim_sweep_and_walk_smooth),
+        cmocka_unit_test(test_sim_walk_seeded),
+        cmocka_unit_test(test_sim_noise_bounds),
+        cmocka_unit_test(test_sim_replay_loops),
+        cmocka_unit_test(test_sim_button),
+        cmocka_unit_test(test_sim_drives_device),
+    };
+    return cmocka_run_group_tests_name("device", tests, NULL, NULL);
+}
