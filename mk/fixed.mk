@@ -26,7 +26,7 @@ $(BUILD)/fixed/test_fixed_san: $(FIXED_TEST_DEPS) | $(BUILD)
 	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DFIXED_TEST_POSES=100000L $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
 
 .PHONY: test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p test-fixed-icount \
-        firmware-fixed-m0p bench-fixed
+        firmware-fixed-m0p bench-fixed bench-fixed-m0
 test-fixed-gcc: $(BUILD)/fixed/test_fixed_gcc
 	$<
 test-fixed-clang: $(BUILD)/fixed/test_fixed_clang
@@ -92,3 +92,23 @@ BENCH_TARGETS += bench-fixed
 # instructions of the f32 path on the host build (callgrind, deterministic).
 test-fixed-icount: $(BUILD)/fixed/bench_fixed
 	sh bench/callgrind_count.sh $< 10240 --check
+
+# ---- Cortex-M0 instruction counts under QEMU (fixed vs soft-float f32) ----
+# The -Os M0+ objects of `make firmware` plus the f32 core built the same way
+# (soft-float), linked bare metal for QEMU's micro:bit (Cortex-M0) and run with
+# -icount shift=0 (see bench/bench_fixed_m0.c). Skipped, with a note, when
+# qemu-system-arm is missing.
+M0_BENCH_DIR := $(BUILD)/arm-m0p/bench
+$(M0_BENCH_DIR)/kinematics_f32.o: firmware/src/kinematics_f32.c $(CORE_HDRS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -c $< -o $@
+$(M0_BENCH_DIR)/bench_fixed_m0.elf: bench/bench_fixed_m0.c bench/m0_microbit.ld $(M0P_FIXED_OBJS) $(M0_BENCH_DIR)/kinematics_f32.o
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
+	  -T bench/m0_microbit.ld bench/bench_fixed_m0.c $(M0P_FIXED_OBJS) $(M0_BENCH_DIR)/kinematics_f32.o -lm -lc -lgcc -o $@
+bench-fixed-m0: $(M0_BENCH_DIR)/bench_fixed_m0.elf
+	@if command -v qemu-system-arm >/dev/null 2>&1; then \
+	   timeout 120 qemu-system-arm -M microbit -nographic -monitor none -serial none \
+	     -semihosting-config enable=on,target=native -icount shift=0 -kernel $<; \
+	 else echo '{"bench": "fixed.m0", "skipped": "qemu-system-arm not installed"}'; fi
+BENCH_TARGETS += bench-fixed-m0
