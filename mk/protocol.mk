@@ -61,7 +61,9 @@ test-protocol-fuzz: $(BUILD)/protocol/fuzz_protocol
 	    $(BUILD)/protocol/fuzz-work tests/protocol/corpus
 
 # Longer fuzzing: `make fuzz FUZZ_TIME=3600`. Crashes land in build/protocol/.
-fuzz fuzz-protocol: $(BUILD)/protocol/fuzz_protocol
+# (`fuzz` only depends on fuzz-protocol so other fragments can add their harnesses.)
+fuzz: fuzz-protocol
+fuzz-protocol: $(BUILD)/protocol/fuzz_protocol
 	@mkdir -p $(BUILD)/protocol/fuzz-corpus
 	$< -max_total_time=$(FUZZ_TIME) -max_len=1200 -timeout=10 -print_final_stats=1 \
 	    -artifact_prefix=$(BUILD)/protocol/ $(BUILD)/protocol/fuzz-corpus tests/protocol/corpus

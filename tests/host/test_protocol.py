@@ -512,6 +512,21 @@ def test_error_tree() -> None:
     assert (e.status, e.request_type) == (-2, 4)
 
 
+def test_response_type_and_device_error() -> None:
+    for t in MsgType:
+        if int(t) <= 0x3F:
+            assert messages.response_type(t) == MsgType(int(t) | 0x80)
+        else:
+            with pytest.raises(ValueError):
+                messages.response_type(t)
+    err = messages.device_error(GEN.messages()["error_rsp"])
+    assert isinstance(err, errors.DeviceError)
+    assert (err.status, err.request_type) == (Status.ERR_RANGE, MsgType.SET_PARAMS_REQ)
+    assert "SET_PARAMS_REQ" in str(err) and "ERR_RANGE" in str(err)
+    with pytest.raises(ValueError):
+        messages.device_error(GEN.messages()["ping_req"])
+
+
 def test_isotp_helpers() -> None:
     addr = pcan.isotp_address(7)
     assert addr.get_tx_arbitration_id() == 0x607

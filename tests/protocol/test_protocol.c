@@ -255,6 +255,48 @@ static void test_unknown_types_and_version(void **state)
     assert_int_equal(aacmm_msg_decode(body, 3, NULL), AACMM_ERR_NULL);
 }
 
+static void test_helpers_counted_decode_error_reply(void **state)
+{
+    aacmm_msg_stats_t stats;
+    aacmm_msg_t m, e;
+    uint8_t out[16];
+    size_t i, n = 0, bad = 0;
+    unsigned t;
+    (void)state;
+    memset(&stats, 0, sizeof stats);
+    for (i = 0; i < g_nvec; i++) {
+        if (strcmp(g_vec[i].kind, "badbody") == 0) {
+            assert_int_not_equal(aacmm_msg_decode_counted(g_vec[i].a, g_vec[i].a_len, &m, &stats),
+                                 AACMM_OK);
+            bad++;
+        } else if (strcmp(g_vec[i].kind, "msg") == 0) {
+            assert_int_equal(aacmm_msg_decode_counted(g_vec[i].a, g_vec[i].a_len, &m, NULL), AACMM_OK);
+            assert_int_equal(aacmm_msg_decode_counted(g_vec[i].a, g_vec[i].a_len, &m, &stats), AACMM_OK);
+        }
+    }
+    assert_int_equal(stats.ok, 23);
+    assert_int_equal(stats.length + stats.version + stats.unknown_type + stats.range +
+                         stats.not_finite, bad);
+    assert_int_equal(stats.version, 2);
+    assert_int_equal(stats.unknown_type, 3);
+    assert_int_equal(stats.other, 0);
+    for (t = 0; t < 256; t++) {
+        uint8_t r = aacmm_msg_response_type((uint8_t)t);
+        if (t >= 1 && t <= 0x0A) {
+            assert_int_equal(r, t | 0x80u);
+            assert_true(aacmm_msg_type_known(r));
+        } else {
+            assert_int_equal(r, 0);
+        }
+    }
+    assert_int_equal(aacmm_msg_make_error(&e, 3, 0x04, AACMM_ERR_RANGE), AACMM_OK);
+    assert_true(vec_expected_msg("error_rsp", &m));
+    assert_true(vec_msg_equal(&e, &m));
+    assert_int_equal(aacmm_msg_encode(&e, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(aacmm_msg_make_error(&e, 3, 0x04, AACMM_OK), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_msg_make_error(NULL, 3, 0x04, AACMM_ERR_CRC), AACMM_ERR_NULL);
+}
+
 static void test_encode_rejects(void **state)
 {
     aacmm_msg_t m;
@@ -932,6 +974,7 @@ int main(void)
         cmocka_unit_test(test_truncated_and_extended),
         cmocka_unit_test(test_unknown_types_and_version),
         cmocka_unit_test(test_encode_rejects),
+        cmocka_unit_test(test_helpers_counted_decode_error_reply),
         cmocka_unit_test(test_param_set_crc),
         cmocka_unit_test(test_point_to_wire),
         cmocka_unit_test(test_frame_encode_limits),

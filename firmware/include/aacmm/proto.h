@@ -239,6 +239,39 @@ aacmm_status_t aacmm_msg_encode_frame(const aacmm_msg_t *msg, uint8_t *scratch,
                                       size_t scratch_cap, uint8_t *out, size_t out_cap,
                                       size_t *out_len);
 
+/* Counters of rejected message bodies, by reason (caller owned; only
+ * aacmm_msg_decode_counted increments them, nothing clears them). */
+typedef struct {
+    uint32_t ok;           /* bodies decoded */
+    uint32_t length;       /* AACMM_ERR_LENGTH */
+    uint32_t version;      /* AACMM_ERR_VERSION */
+    uint32_t unknown_type; /* AACMM_ERR_UNKNOWN_TYPE */
+    uint32_t range;        /* AACMM_ERR_RANGE */
+    uint32_t not_finite;   /* AACMM_ERR_NOT_FINITE */
+    uint32_t other;        /* any other status */
+} aacmm_msg_stats_t;
+
+/*
+ * aacmm_msg_decode, then count the outcome in *stats (which may be NULL).
+ * Same return value and cost.
+ */
+aacmm_status_t aacmm_msg_decode_counted(const uint8_t *body, size_t len, aacmm_msg_t *msg,
+                                        aacmm_msg_stats_t *stats);
+
+/*
+ * The response type of a request type (request | 0x80), or 0 if type is not
+ * a request of this version. O(1).
+ */
+uint8_t aacmm_msg_response_type(uint8_t request_type);
+
+/*
+ * Fill *msg with an ERROR_RSP answering a request of type request_type with
+ * sequence number seq. status must be negative (AACMM_ERR_RANGE otherwise,
+ * and *msg is untouched); AACMM_ERR_NULL for NULL. O(1).
+ */
+aacmm_status_t aacmm_msg_make_error(aacmm_msg_t *msg, uint8_t seq, uint8_t request_type,
+                                    aacmm_status_t status);
+
 /* Payload length of a type for the given content flags; 0 for unknown types
  * (a valid empty payload also gives 0: check aacmm_msg_type_known). O(1). */
 size_t aacmm_msg_payload_len(uint8_t type, uint8_t content);

@@ -660,6 +660,48 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
     return AACMM_OK;
 }
 
+aacmm_status_t aacmm_msg_decode_counted(const uint8_t *body, size_t len, aacmm_msg_t *msg,
+                                        aacmm_msg_stats_t *stats)
+{
+    aacmm_status_t st = aacmm_msg_decode(body, len, msg);
+    if (stats != NULL) {
+        switch (st) {
+        case AACMM_OK: stats->ok++; break;
+        case AACMM_ERR_LENGTH: stats->length++; break;
+        case AACMM_ERR_VERSION: stats->version++; break;
+        case AACMM_ERR_UNKNOWN_TYPE: stats->unknown_type++; break;
+        case AACMM_ERR_RANGE: stats->range++; break;
+        case AACMM_ERR_NOT_FINITE: stats->not_finite++; break;
+        default: stats->other++; break;
+        }
+    }
+    return st;
+}
+
+uint8_t aacmm_msg_response_type(uint8_t request_type)
+{
+    if (request_type >= AACMM_MSG_PING_REQ && request_type <= AACMM_MSG_STREAM_STOP_REQ) {
+        return (uint8_t)(request_type | AACMM_MSG_RESPONSE_BIT);
+    }
+    return 0u;
+}
+
+aacmm_status_t aacmm_msg_make_error(aacmm_msg_t *msg, uint8_t seq, uint8_t request_type,
+                                    aacmm_status_t status)
+{
+    if (msg == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if ((int)status >= 0) { /* every aacmm_status_t fits the i16 field */
+        return AACMM_ERR_RANGE;
+    }
+    msg->type = AACMM_MSG_ERROR_RSP;
+    msg->seq = seq;
+    msg->u.error.status = (int16_t)status;
+    msg->u.error.request_type = request_type;
+    return AACMM_OK;
+}
+
 aacmm_status_t aacmm_msg_encode_frame(const aacmm_msg_t *msg, uint8_t *scratch,
                                       size_t scratch_cap, uint8_t *out, size_t out_cap,
                                       size_t *out_len)

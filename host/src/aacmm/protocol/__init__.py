@@ -40,10 +40,12 @@ from aacmm.protocol.messages import (
     Trigger,
     decode_message,
     decode_param_set,
+    device_error,
     encode_message,
     encode_param_set,
     frame_message,
     param_set_crc32,
+    response_type,
 )
 from aacmm.protocol.status import Status, status_name
 
@@ -75,6 +77,7 @@ __all__ = [
     "decode_frame",
     "decode_message",
     "decode_param_set",
+    "device_error",
     "encode_frame",
     "encode_message",
     "encode_param_set",
@@ -85,5 +88,6 @@ __all__ = [
     "load_dbc",
     "make_isotp_stack",
     "param_set_crc32",
+    "response_type",
     "status_name",
 ]

@@ -21,8 +21,9 @@ from dataclasses import dataclass
 from enum import IntEnum, IntFlag
 from typing import Final, TypeAlias
 
-from aacmm.errors import FrameError
-from aacmm.protocol.status import Status
+from aacmm.errors import DeviceError, FrameError
+from aacmm.protocol.framing import crc32, encode_frame
+from aacmm.protocol.status import Status, status_name
 
 PROTOCOL_VERSION: Final = 1
 HEADER_BYTES: Final = 3
@@ -382,8 +383,6 @@ def encode_param_set(p: ParamSet) -> bytes:
 
 def param_set_crc32(p: ParamSet) -> int:
     """The parameter-set CRC reported by the device: CRC-32/ISO-HDLC of the wire encoding."""
-    from aacmm.protocol.framing import crc32
-
     return crc32(encode_param_set(p))
 
 
@@ -644,6 +643,35 @@ def frame_message(msg: Message) -> bytes:
     Raises:
         ValueError: as :func:`encode_message`.
     """
-    from aacmm.protocol.framing import encode_frame
-
     return encode_frame(encode_message(msg))
+
+
+def response_type(request: MsgType) -> MsgType:
+    """The response type of a request type (``request | 0x80``).
+
+    Raises:
+        ValueError: ``request`` is not a request type (0x01..0x3F).
+    """
+    if not 0x01 <= int(request) <= 0x3F:
+        raise ValueError(f"{request!r} is not a request type")
+    return MsgType(int(request) | RESPONSE_BIT)
+
+
+def device_error(msg: Message) -> DeviceError:
+    """The :class:`aacmm.errors.DeviceError` for an ERROR_RSP message (for the caller to raise).
+
+    Raises:
+        ValueError: ``msg`` is not an ERROR_RSP.
+    """
+    if not isinstance(msg.payload, ErrorReply):
+        raise ValueError("not an error response")
+    reply = msg.payload
+    try:
+        req = MsgType(reply.request_type).name
+    except ValueError:
+        req = f"type 0x{reply.request_type:02x}"
+    return DeviceError(
+        f"device refused {req} (seq {msg.seq}): {status_name(reply.status)}",
+        reply.status,
+        reply.request_type,
+    )
