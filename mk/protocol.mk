@@ -102,3 +102,12 @@ FIRMWARE_TARGETS += firmware-protocol
 # as bits, never computed, except in aacmm_point_mm_to_wire).
 test-protocol-m0p: $(PROTO_M0P_OBJS)
 	@echo "protocol codec builds for Cortex-M0+ and Cortex-M4F"
+
+# ---- benchmark: codec cost per frame on the host CPU (JSON lines) ----
+$(BUILD)/protocol/bench_protocol: $(PROTO_SRCS) $(PROTO_HDRS) tests/protocol/bench_protocol.c | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) -O2 -I$(FW_INC) $(PROTO_SRCS) tests/protocol/bench_protocol.c -o $@
+.PHONY: bench-protocol
+bench-protocol: $(BUILD)/protocol/bench_protocol
+	@$<
+BENCH_TARGETS += bench-protocol
