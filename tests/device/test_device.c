@@ -952,11 +952,16 @@ static void test_button_events(void **state)
     assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN) != 0u);
     assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_POINT_VALID) != 0u);
     assert_false(next_msg());
-    /* The CAN trigger frame. */
-    assert_int_equal(F.can_tx_len, can_before + 1u);
-    assert_int_equal(F.can_tx[can_before].id, AACMM_CAN_ID_TRIGGER + 3u);
-    assert_int_equal(F.can_tx[can_before].data[4], 0);
-    assert_int_equal(F.can_tx[can_before].data[5], 1);
+    /* CAN: the latched sample as six sample frames (seq 0), then the trigger frame. */
+    assert_int_equal(F.can_tx_len, can_before + 7u);
+    assert_int_equal(F.can_tx[can_before].id, AACMM_CAN_ID_SAMPLE_HEADER + 3u);
+    assert_int_equal(F.can_tx[can_before].data[0], 0);
+    assert_int_equal(F.can_tx[can_before + 1u].data[3], 0x01); /* count 1, high byte */
+    assert_int_equal(F.can_tx[can_before + 5u].id, AACMM_CAN_ID_POINT_Z + 3u);
+    assert_int_equal(F.can_tx[can_before + 6u].id, AACMM_CAN_ID_TRIGGER + 3u);
+    assert_int_equal(F.can_tx[can_before + 6u].data[0], 0); /* seq */
+    assert_int_equal(F.can_tx[can_before + 6u].data[4], 0); /* button */
+    assert_int_equal(F.can_tx[can_before + 6u].data[5], 1); /* pressed */
     /* Held: no more events. */
     advance(1000u);
     aacmm_device_poll(&D);
@@ -968,6 +973,8 @@ static void test_button_events(void **state)
     assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
     assert_int_equal(M.u.trigger.pressed, 0);
     assert_int_equal(M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN, 0u);
+    assert_int_equal(F.can_tx[F.can_tx_len - 1u].id, AACMM_CAN_ID_TRIGGER + 3u);
+    assert_int_equal(F.can_tx[F.can_tx_len - 1u].data[0], 1); /* the next seq */
     assert_int_equal(F.can_tx[F.can_tx_len - 1u].data[5], 0);
     assert_int_equal(aacmm_device_counters(&D)->button_edges, 2u);
 }
@@ -1136,23 +1143,28 @@ static void test_can_stream_and_both_links(void **state)
     m.type = AACMM_MSG_STREAM_START_REQ;
     m.seq = 7;
     m.u.stream.rate_hz = 500;
-    m.u.stream.content = AACMM_CONTENT_JACOBIAN;
+    m.u.stream.content = 0;
     can_request(&m);
     assert_true(can_exchange(5));
     assert_int_equal(M.type, AACMM_MSG_STREAM_START_RSP);
     assert_int_equal(M.u.stream.rate_hz, 500);
-    assert_int_equal(M.u.stream.content, 0); /* no Jacobian on CAN frames */
-    start_stream(1000, 0);                   /* and a serial stream at the same time */
+    assert_int_equal(M.u.stream.content, 0);
+    start_stream(1000, 0); /* and a serial stream at the same time */
     for (k = 0; k < 100; k++) {
         advance(1000u);
+        F.button = (uint8_t)(k >= 50 && k < 70); /* a press and a release on the way */
         aacmm_device_poll(&D);
     }
     while (next_msg()) {
+        if (M.type == AACMM_MSG_TRIGGER_EVT) {
+            continue;
+        }
         assert_int_equal(M.u.sample.seq, serial_samples);
         serial_samples++;
     }
     assert_int_equal(serial_samples, 101u);
-    /* CAN: groups of six frames in order, Seq counting up. */
+    /* CAN: groups of six frames in order, Seq counting up without gaps
+     * (the two trigger samples take their own numbers). */
     for (i = 0; i < F.can_tx_len; i++) {
         const aacmm_can_frame_t *f = &F.can_tx[i];
         if (f->id == AACMM_CAN_ID_SAMPLE_HEADER + 3u) {
@@ -1169,7 +1181,20 @@ static void test_can_stream_and_both_links(void **state)
             can_samples++;
         }
     }
-    assert_int_equal(can_samples, 51u);
+    assert_int_equal(can_samples, 53u);
+    {
+        int triggers = 0;
+        for (i = 0; i < F.can_tx_len; i++) {
+            if (F.can_tx[i].id == AACMM_CAN_ID_TRIGGER + 3u) {
+                /* right after the six frames of the sample it names */
+                assert_true(i >= 6u);
+                assert_int_equal(F.can_tx[i - 6u].id, AACMM_CAN_ID_SAMPLE_HEADER + 3u);
+                assert_memory_equal(F.can_tx[i].data, F.can_tx[i - 6u].data, 4);
+                triggers++;
+            }
+        }
+        assert_int_equal(triggers, 2);
+    }
     /* Bus full: samples are dropped and counted, never block. */
     F.can_busy = 1;
     for (k = 0; k < 200; k++) {
@@ -1183,21 +1208,42 @@ static void test_can_stream_and_both_links(void **state)
     assert_int_equal(aacmm_device_can_pending(&D), 0u);
 }
 
-static void test_can_trigger_over_isotp(void **state)
+static void test_can_jacobian_stream_over_isotp(void **state)
 {
     aacmm_msg_t m;
+    uint32_t n = 0;
+    int rounds = 0;
     (void)state;
     host_isotp_init(3);
     memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_PING_REQ;
-    m.seq = 1;
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 8;
+    m.u.stream.rate_hz = 1000;
+    m.u.stream.content = AACMM_CONTENT_JACOBIAN;
     can_request(&m);
-    assert_true(can_exchange(5)); /* the host is now known to listen */
-    F.button = 1;
-    assert_true(can_exchange(20));
-    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
-    assert_int_equal(M.u.trigger.pressed, 1);
-    assert_int_equal(M.u.trigger.sample.content, 0);
+    assert_true(can_exchange(5));
+    assert_int_equal(M.type, AACMM_MSG_STREAM_START_RSP);
+    assert_int_equal(M.u.stream.rate_hz, AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ);
+    assert_int_equal(M.u.stream.content, AACMM_CONTENT_JACOBIAN);
+    while (n < 20u && rounds < 1000) {
+        if (can_exchange(200)) {
+            assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+            assert_int_equal(M.u.sample.content, AACMM_CONTENT_JACOBIAN);
+            assert_int_equal(M.u.sample.seq, n);
+            assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) != 0u);
+            n++;
+        }
+        rounds++;
+    }
+    assert_int_equal(n, 20u);
+    assert_int_equal(aacmm_device_counters(&D)->samples_dropped, 0u);
+    /* No periodic sample frames for this stream. */
+    {
+        size_t i;
+        for (i = 0; i < F.can_tx_len; i++) {
+            assert_int_not_equal(F.can_tx[i].id, AACMM_CAN_ID_SAMPLE_HEADER + 3u);
+        }
+    }
 }
 
 static void test_encoder_io_fault(void **state)
@@ -1509,7 +1555,7 @@ int main(void)
         cmocka_unit_test_setup(test_button_during_stream, setup_default),
         cmocka_unit_test_setup(test_can_requests, setup_default),
         cmocka_unit_test_setup(test_can_stream_and_both_links, setup_default),
-        cmocka_unit_test_setup(test_can_trigger_over_isotp, setup_default),
+        cmocka_unit_test_setup(test_can_jacobian_stream_over_isotp, setup_default),
         cmocka_unit_test_setup(test_encoder_io_fault, setup_default),
         cmocka_unit_test_setup(test_serial_io_errors_counted, setup_default),
         cmocka_unit_test(test_sim_init_errors),

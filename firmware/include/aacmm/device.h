@@ -21,8 +21,10 @@
  *
  * Links. Each link has its own stream (rate, content, sequence numbers): a
  * STREAM_START received on the serial link streams SAMPLE_EVT frames on the
- * serial link; one received over ISO-TP streams the six CAN sample frames per
- * sample on the CAN bus (no Jacobian: the accepted content is reported as 0).
+ * serial link; one received over ISO-TP streams on the CAN bus, as the six
+ * periodic sample frames per sample, or -- when the Jacobian is asked for --
+ * as SAMPLE_EVT messages over ISO-TP at up to AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ
+ * (the granted rate in STREAM_START_RSP says so).
  *
  * Sequence numbers. A stream's samples are numbered 0, 1, 2, ... from its
  * STREAM_START (a restart starts again at 0). A sample that cannot be sent
@@ -30,11 +32,15 @@
  * AACMM_DEVICE_MAX_CATCH_UP periods behind) still uses its number, so the
  * host sees the gap; the next sample sent carries AACMM_SAMPLE_OVERRUN and
  * the loss is counted (aacmm_device_counters_t). MEASURE_RSP samples are
- * numbered by a device-wide measurement counter. A trigger event's sample is
- * taken at the button edge; its seq is that of the last stream sample sent
- * on the link before the edge (the CAN trigger frame carries only this seq,
- * so a CAN host joins it with the stream), or the link's next stream seq
- * when the link has not streamed since its last STREAM_START.
+ * numbered by a device-wide measurement counter.
+ *
+ * Probe button. Each edge is reported on every link with a sample taken at
+ * the edge. Serial: a TRIGGER_EVT whose sample carries the seq of the last
+ * stream sample sent before the edge (the link's next seq if none was sent
+ * since STREAM_START) and the stream's Jacobian if it has one. CAN (as
+ * docs/protocol.md 4.1): the latched sample goes out as six sample frames
+ * with the link's next stream seq (which it uses up, so the stream numbering
+ * stays gap-free), followed by the trigger frame carrying that seq.
  *
  * Timestamps are the platform's time_us at the encoder reading.
  *
@@ -102,7 +108,7 @@ extern "C" {
  * frame. 4 KiB or more is advisable for 1 kHz streams with the Jacobian. */
 #define AACMM_DEVICE_SERIAL_TXQ_MIN (2u * AACMM_FRAME_MAX_WIRE)
 #define AACMM_DEVICE_CAN_QUEUE 64u      /* CAN frames queued in the device */
-#define AACMM_DEVICE_CAN_EVENTS 4u      /* trigger events waiting for ISO-TP */
+#define AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ 100u /* CAN streams with Jacobian (ISO-TP) */
 #define AACMM_DEVICE_MAX_CATCH_UP 64u   /* stream periods caught up after a stall */
 #define AACMM_DEVICE_IDLE_POLL_US 5000u /* longest sleep (button polling) */
 #define AACMM_DEVICE_SERIAL_RX_CHUNK 128u
@@ -184,7 +190,6 @@ typedef struct {
 typedef struct {
     uint8_t present;
     uint8_t node_id;
-    uint8_t host_seen; /* a request came over ISO-TP: the host listens there */
     aacmm_isotp_t tp;
     uint8_t tp_rx[AACMM_PROTO_MAX_BODY];
     uint8_t tp_tx[AACMM_PROTO_MAX_BODY];
@@ -193,10 +198,8 @@ typedef struct {
     size_t q_len;
     uint8_t rsp[AACMM_PROTO_MAX_BODY]; /* response waiting for ISO-TP */
     size_t rsp_len;                    /* 0 = none */
-    uint8_t ev[AACMM_DEVICE_CAN_EVENTS][AACMM_PROTO_HEADER_BYTES + AACMM_TRIGGER_EXTRA_BYTES +
-                                        AACMM_SAMPLE_BASE_BYTES];
-    size_t ev_head;
-    size_t ev_len;
+    uint8_t evt[AACMM_PROTO_MAX_BODY]; /* SAMPLE_EVT (with Jacobian) waiting for ISO-TP */
+    size_t evt_len;                    /* 0 = none */
     aacmm_device_stream_t stream;
 } aacmm_device_can_t;
 

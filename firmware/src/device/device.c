@@ -309,10 +309,13 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     case AACMM_MSG_STREAM_START_REQ: {
         aacmm_device_stream_t *s = link == AACMM_LINK_SERIAL ? &dev->serial.stream
                                                              : &dev->can.stream;
-        /* CAN sample frames carry no Jacobian. */
-        uint8_t content = link == AACMM_LINK_SERIAL ? req->u.stream.content : 0u;
-        stream_start(dev, s, req->u.stream.rate_hz, content);
-        rsp->u.stream.rate_hz = req->u.stream.rate_hz;
+        uint8_t content = req->u.stream.content;
+        uint16_t rate = req->u.stream.rate_hz;
+        if (link != AACMM_LINK_SERIAL && content != 0u && rate > AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ) {
+            rate = (uint16_t)AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ;
+        }
+        stream_start(dev, s, rate, content);
+        rsp->u.stream.rate_hz = rate;
         rsp->u.stream.content = content;
         break;
     }
@@ -477,11 +480,9 @@ static void can_isotp_service(aacmm_device_t *dev, uint64_t t_us)
             if (aacmm_isotp_send(&c->tp, c->rsp, c->rsp_len, ms) == AACMM_OK) {
                 c->rsp_len = 0u;
             }
-        } else if (c->ev_len > 0u) {
-            size_t n = AACMM_PROTO_HEADER_BYTES + AACMM_TRIGGER_EXTRA_BYTES + AACMM_SAMPLE_BASE_BYTES;
-            if (aacmm_isotp_send(&c->tp, c->ev[c->ev_head], n, ms) == AACMM_OK) {
-                c->ev_head = (c->ev_head + 1u) % AACMM_DEVICE_CAN_EVENTS;
-                c->ev_len--;
+        } else if (c->evt_len > 0u) {
+            if (aacmm_isotp_send(&c->tp, c->evt, c->evt_len, ms) == AACMM_OK) {
+                c->evt_len = 0u;
             }
         }
     }
@@ -527,7 +528,6 @@ static void can_receive(aacmm_device_t *dev)
         t = now_us(dev);
         aacmm_isotp_on_frame(&c->tp, &f, now_ms32(t));
         if (aacmm_isotp_receive(&c->tp, &data, &len)) {
-            c->host_seen = 1u;
             handle_request(dev, AACMM_LINK_CAN, data, len);
             can_send_response(dev, &dev->msg_out);
         }
@@ -539,6 +539,25 @@ static void can_receive(aacmm_device_t *dev)
 /* ------------------------------------------------------------------------ */
 /* streams and events                                                        */
 /* ------------------------------------------------------------------------ */
+
+/* Queue the six frames of a sample (all or none, keeping room for ISO-TP).
+ * Returns 1 if queued. */
+static int can_queue_sample(aacmm_device_t *dev, const aacmm_sample_t *sample)
+{
+    aacmm_can_frame_t frames[AACMM_CAN_SAMPLE_FRAMES];
+    size_t i;
+    if (canq_free(&dev->can) < AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE) {
+        can_flush(dev);
+    }
+    if (canq_free(&dev->can) < AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE ||
+        aacmm_can_sample_encode(sample, dev->can.node_id, frames) != AACMM_OK) {
+        return 0;
+    }
+    for (i = 0; i < AACMM_CAN_SAMPLE_FRAMES; i++) {
+        canq_put(&dev->can, &frames[i]);
+    }
+    return 1;
+}
 
 /* Emit sample number s->seq on link; returns 1 if it went into the queue. */
 static int emit_stream_sample(aacmm_device_t *dev, unsigned link, aacmm_device_stream_t *s)
@@ -557,20 +576,20 @@ static int emit_stream_sample(aacmm_device_t *dev, unsigned link, aacmm_device_s
         if (ok) {
             dev->event_seq++;
         }
-    } else {
-        aacmm_can_frame_t frames[AACMM_CAN_SAMPLE_FRAMES];
-        size_t i;
+    } else if ((s->content & AACMM_CONTENT_JACOBIAN) != 0u) {
+        /* With the Jacobian: SAMPLE_EVT over ISO-TP, if the endpoint is free. */
+        aacmm_device_can_t *c = &dev->can;
+        size_t n = 0u;
         ok = 0;
-        if (canq_free(&dev->can) < AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE) {
-            can_flush(dev);
-        }
-        if (canq_free(&dev->can) >= AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE &&
-            aacmm_can_sample_encode(&m->u.sample, dev->can.node_id, frames) == AACMM_OK) {
-            for (i = 0; i < AACMM_CAN_SAMPLE_FRAMES; i++) {
-                canq_put(&dev->can, &frames[i]);
-            }
+        if (c->evt_len == 0u && c->rsp_len == 0u &&
+            aacmm_isotp_tx_result(&c->tp) != AACMM_ERR_BUSY &&
+            aacmm_msg_encode(m, c->evt, sizeof c->evt, &n) == AACMM_OK) {
+            c->evt_len = n;
+            dev->event_seq++;
             ok = 1;
         }
+    } else {
+        ok = can_queue_sample(dev, &m->u.sample);
     }
     if (ok) {
         s->overrun = 0u;
@@ -640,36 +659,29 @@ static void button_edge(aacmm_device_t *dev, uint8_t pressed)
         }
     }
     if (dev->can.present) {
+        /* The latched sample as sample frames with the stream's next seq,
+         * then the trigger frame naming it. */
         aacmm_device_can_t *c = &dev->can;
         aacmm_can_frame_t f;
-        uint32_t seq = cs->sent_any ? cs->last_seq : cs->seq;
-        m->u.trigger.sample.seq = seq;
-        if (canq_free(c) == 0u) {
+        aacmm_sample_t *smp = &m->u.trigger.sample;
+        smp->seq = cs->seq;
+        smp->content = 0u;
+        if (cs->overrun) {
+            smp->status |= AACMM_SAMPLE_OVERRUN;
+        }
+        if (canq_free(c) < AACMM_CAN_SAMPLE_FRAMES + 1u) {
             can_flush(dev);
         }
-        if (canq_free(c) > 0u &&
-            aacmm_can_trigger_encode(seq, 0u, pressed, c->node_id, &f) == AACMM_OK) {
+        if (canq_free(c) >= AACMM_CAN_SAMPLE_FRAMES + 1u && can_queue_sample(dev, smp) &&
+            aacmm_can_trigger_encode(smp->seq, 0u, pressed, c->node_id, &f) == AACMM_OK) {
             canq_put(c, &f);
+            cs->overrun = 0u;
             dev->counters.events_sent++;
         } else {
+            cs->overrun = 1u;
             dev->counters.events_dropped++;
         }
-        if (c->host_seen) {
-            /* The full event (no Jacobian) over ISO-TP. */
-            size_t n = 0u;
-            m->u.trigger.sample.content = 0u;
-            m->seq = dev->event_seq;
-            if (c->ev_len < AACMM_DEVICE_CAN_EVENTS) {
-                size_t slot = (c->ev_head + c->ev_len) % AACMM_DEVICE_CAN_EVENTS;
-                if (aacmm_msg_encode(m, c->ev[slot], sizeof c->ev[slot], &n) == AACMM_OK) {
-                    c->ev_len++;
-                    dev->event_seq++;
-                    dev->counters.events_sent++;
-                }
-            } else {
-                dev->counters.events_dropped++;
-            }
-        }
+        cs->seq++; /* used up either way: a lost trigger sample shows as a gap */
     }
 }
 
@@ -869,7 +881,7 @@ uint64_t aacmm_device_next_deadline_us(const aacmm_device_t *dev)
         }
         /* ISO-TP timers run in ms: look again within 1 ms while busy. */
         if ((c->tp.tx_state != 0u || c->tp.rx_state == 1u || c->tp.fc_pending != 0u ||
-             c->rsp_len > 0u || c->ev_len > 0u) &&
+             c->rsp_len > 0u || c->evt_len > 0u) &&
             t + 1000u < d) {
             d = t + 1000u;
         }
