@@ -617,6 +617,7 @@ class VmRun:
         self.dmesg: list[str] = []
         self.exit_line: int | None = None
         self.exit_seen = threading.Event()
+        self.exit_seen_at = 0.0
         self.command_started = threading.Event()
         self.lock = threading.Lock()
         self.t0 = time.monotonic()
@@ -662,6 +663,7 @@ class VmRun:
                 self.exit_line = int(val.strip().split()[0])
             except (ValueError, IndexError):
                 pass
+            self.exit_seen_at = time.monotonic()
             self.exit_seen.set()
 
     @staticmethod
@@ -748,44 +750,19 @@ def _run_job(
         f"console=ttyS0 quiet loglevel=3 panic=-1 8250.nr_uarts=4 "
         f"aacmm_job={jobdir} aacmm_9p_cache={cache}"
     )
+    # fmt: off
     argv = [
-        qemu_exe,
-        "-accel",
-        "tcg",
-        "-cpu",
-        "max",
-        "-m",
-        str(mem),
-        "-smp",
-        str(smp),
-        "-nodefaults",
-        "-no-user-config",
-        "-display",
-        "none",
-        "-no-reboot",
-        "-kernel",
-        str(image),
-        "-initrd",
-        str(initrd),
-        "-append",
-        append,
-        "-chardev",
-        f"file,id=con,path=/dev/fd/{con_w}",
-        "-serial",
-        "chardev:con",
-        "-chardev",
-        f"file,id=out,path=/dev/fd/{out_w}",
-        "-serial",
-        "chardev:out",
-        "-chardev",
-        f"file,id=err,path=/dev/fd/{err_w}",
-        "-serial",
-        "chardev:err",
-        "-fsdev",
-        f"local,id=r,path=/,security_model={security},multidevs=remap",
-        "-device",
-        "virtio-9p-pci,fsdev=r,mount_tag=hostroot",
+        qemu_exe, "-accel", "tcg", "-cpu", "max", "-m", str(mem), "-smp", str(smp),
+        "-nodefaults", "-no-user-config", "-display", "none", "-no-reboot",
+        "-kernel", str(image), "-initrd", str(initrd), "-append", append,
+        # ttyS0: console, ttyS1: the command's stdout, ttyS2: its stderr
+        "-chardev", f"file,id=con,path=/dev/fd/{con_w}", "-serial", "chardev:con",
+        "-chardev", f"file,id=out,path=/dev/fd/{out_w}", "-serial", "chardev:out",
+        "-chardev", f"file,id=err,path=/dev/fd/{err_w}", "-serial", "chardev:err",
+        "-fsdev", f"local,id=r,path=/,security_model={security},multidevs=remap",
+        "-device", "virtio-9p-pci,fsdev=r,mount_tag=hostroot",
     ]
+    # fmt: on
     run = VmRun(jobdir, verbose)
     qemu_log = open(jobdir / "qemu-stderr.log", "w+b")
     log(
@@ -851,7 +828,7 @@ def _run_job(
                 )
                 rc = EXIT_INFRA
                 break
-            if run.exit_seen.is_set() and now - run.stages.get("done", now) > 15:
+            if run.exit_seen.is_set() and now - run.exit_seen_at > 10:
                 break  # reported but did not power off: stop it ourselves
     finally:
         stop_qemu()

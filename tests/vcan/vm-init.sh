@@ -47,7 +47,7 @@ finish() {
 
 fail() {
     echo "AACMM_VCAN_ERROR=$*"
-    $BB dmesg 2>/dev/null | $BB tail -n 15 | $BB sed 's/^/AACMM_VCAN_DMESG=/'
+    $BB dmesg 2>/dev/null | $BB tail -n 8 | $BB sed 's/^/AACMM_VCAN_DMESG=/'
     finish 125
 }
 
