@@ -104,8 +104,12 @@ typedef struct {
     int64_t x, y, z;
 } vec3_q48;
 
-/* 32 x 32 -> 64-bit product. */
+/* 32 x 32 -> 64-bit product (operands within the int32 range). */
+#if AACMM_FIXED_SPLIT_MUL
+#define MUL(a, b) aacmm_fixed_mul((int32_t)(a), (int32_t)(b))
+#else
 #define MUL(a, b) ((int64_t)(a) * (int64_t)(b))
+#endif
 
 /* a u + b v for Q30 a, b, u, v: exact Q60 sum in int64 (|.| < 2^61 for the
  * unit-bounded operands here), rounded half up to Q30. */

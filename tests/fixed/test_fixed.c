@@ -22,6 +22,15 @@
 #include "aacmm/kinematics_q.h"
 #include "reference.h"
 
+/* The split 32 x 32 -> 64 multiply that the Cortex-M0+ build uses, compiled
+ * here on the host so it is tested in every build (the library itself uses
+ * it only on ARMv6-M, or everywhere with -DAACMM_Q_SPLIT_MUL, as in the
+ * sanitizer build). */
+#ifndef AACMM_Q_SPLIT_MUL
+#define AACMM_Q_SPLIT_MUL 1
+#endif
+#include "fixed_sincos.h"
+
 #ifndef FIXED_TEST_POSES
 #define FIXED_TEST_POSES 1000000L /* the plain builds; the ASan build uses fewer */
 #endif
@@ -203,6 +212,42 @@ static void test_sincos_accuracy(void **state)
            "max %.3g (%.3f LSB of Q30)\n",
            4 * FIXED_TEST_POSES, worst, worst * 1073741824.0);
     assert_true(worst <= BOUND_SINCOS);
+}
+
+static void check_mul(int32_t a, int32_t b)
+{
+    int64_t want = (int64_t)a * (int64_t)b;
+    int64_t got = aacmm_fixed_mul(a, b);
+    if (got != want) {
+        fail_msg("aacmm_fixed_mul(%ld, %ld) = %lld, want %lld", (long)a, (long)b, (long long)got,
+                 (long long)want);
+    }
+}
+
+static void test_split_multiply(void **state)
+{
+    static const int32_t edge[] = {0,      1,       -1,      2,         -2,        32767,
+                                   -32768, 32768,   -32769,  65535,     -65535,    65536,
+                                   -65536, 65537,   1 << 30, -(1 << 30), INT32_MAX, INT32_MIN,
+                                   INT32_MIN + 1, 0x7FFF8000, -0x7FFF8000, 0x0000FFFF, 0x7FFF0001};
+    test_rng_t g = {99991u};
+    size_t i, j;
+    long k;
+    (void)state;
+    assert_int_equal(AACMM_FIXED_SPLIT_MUL, 1);
+    for (i = 0; i < sizeof edge / sizeof edge[0]; i++) {
+        for (j = 0; j < sizeof edge / sizeof edge[0]; j++) {
+            check_mul(edge[i], edge[j]);
+        }
+    }
+    for (k = 0; k < FIXED_TEST_POSES; k++) {
+        uint64_t r = rng_next(&g);
+        /* full-range words, and words near a power of two */
+        int32_t a = (int32_t)(uint32_t)(r >> 32);
+        int32_t b = (int32_t)(uint32_t)r;
+        check_mul(a, b);
+        check_mul((int32_t)(a >> (r & 31u)), b);
+    }
 }
 
 static void test_sincos_exact_points(void **state)
@@ -909,6 +954,7 @@ int main(void)
         cmocka_unit_test(test_sin_table),
         cmocka_unit_test(test_sincos_accuracy),
         cmocka_unit_test(test_sincos_exact_points),
+        cmocka_unit_test(test_split_multiply),
         cmocka_unit_test(test_random_poses_table1),
         cmocka_unit_test(test_random_poses_perturbed),
         cmocka_unit_test(test_vs_long_double_reference),
