@@ -192,6 +192,22 @@ def test_logged_poses_theta_columns_and_defaults(tmp_path: Path) -> None:
     assert pl.sidecar is None and pl.theta_rad[0, 0] == pytest.approx(math.pi / 2)
 
 
+def test_log_sidecar_params_used_by_cli(tmp_path: Path) -> None:
+    log = tmp_path / "p.csv"
+    th = mc.draw_poses(300, seed=12)
+    _write_log(log, [f"theta{i}" for i in range(1, 7)], th.tolist())
+    prm = Params(l_mm=250.0, a_mm=(0.0, 10.0, 0.0, 0.0, 0.0, 0.0))
+    side = {"params": {"l_mm": 250.0, "a_mm": [0, 10, 0, 0, 0, 0]}}
+    log.with_name("p.csv.json").write_text(json.dumps(side))
+    out = _cli("mc", "--log", str(log), "-q", "--json", str(tmp_path / "p.json"))
+    assert out.returncode == 0, out.stderr
+    doc = json.loads((tmp_path / "p.json").read_text())
+    _, j = numpy_point_jacobian(prm, th)
+    want = np.abs(j).mean(axis=0)
+    assert doc["coefficients"]["theta6"]["x"]["mean_abs"] == pytest.approx(want[0, 5], rel=1e-9)
+    assert doc["seed"] is None and doc["n"] == 300
+
+
 def test_bad_logs(tmp_path: Path) -> None:
     with pytest.raises(PoseLogError, match="cannot read"):
         read_pose_log(tmp_path / "missing.csv")

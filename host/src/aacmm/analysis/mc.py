@@ -771,7 +771,8 @@ def write_png(result: CoefficientResult, path: str | Path) -> None:
         ax.grid(axis="y", alpha=0.3)
         ax.legend(fontsize=8)
     axes[0].set_ylabel("mm/rad")
-    fig.suptitle(f"{result.n} poses ({result.source})", fontsize=9)
+    seed = f", seed {result.seed}" if result.seed is not None else ""
+    fig.suptitle(f"{result.n} poses ({result.source}{seed})", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
