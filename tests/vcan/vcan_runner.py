@@ -700,10 +700,13 @@ def run_vm(cmd: list[str], timeout: float) -> int:
     ipexe = _ip()
     if not ipexe:
         raise InfraError("no ip(8) on the host (the VM uses the host's); apt-get install iproute2")
-    build = Path(os.environ.get("AACMM_VCAN_BUILD", str(REPO / "build" / "vcan"))).absolute()
+    default = str(REPO / "build" / "vcan")
+    build = Path(os.environ.get("AACMM_VCAN_BUILD", default)).absolute()  # job dirs, logs
+    cache = Path(os.environ.get("AACMM_VCAN_CACHE", default)).absolute()  # vmlinux, initramfs
     build.mkdir(parents=True, exist_ok=True)
-    initrd = build_initramfs(build, ver, moddir)
-    image = boot_image(build, ver, kernel, moddir)
+    cache.mkdir(parents=True, exist_ok=True)
+    initrd = build_initramfs(cache, ver, moddir)
+    image = boot_image(cache, ver, kernel, moddir)
 
     jobdir = build / f"run-{os.getpid()}-{int(time.time())}"
     if re.search(r"[\s\"'\\]", str(jobdir)):
