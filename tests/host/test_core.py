@@ -102,6 +102,22 @@ def test_counts_to_angles() -> None:
         counts_to_angles([[0] * 6], EncoderConfig(direction=(2, 1, 1, 1, 1, 1)))
 
 
+def test_points_from_counts_equal_angles_path() -> None:
+    rng = np.random.default_rng(21)
+    enc = EncoderConfig(
+        counts_per_rev=(1 << 20,) * 6, zero_offset_counts=(77,) * 6, direction=(1, -1, 1, -1, 1, -1)
+    )
+    counts = rng.integers(0, 1 << 20, (200, 6))
+    m = Model(random_params(rng))
+    p, j = m.points_from_counts(counts, enc)
+    p2, j2 = m.points_jacobians(counts_to_angles(counts, enc))
+    assert np.array_equal(p, p2) and np.array_equal(j, j2)
+    counts[150, 4] = 1 << 20
+    with pytest.raises(KinematicsError) as ei:
+        m.points_from_counts(counts, enc)
+    assert ei.value.index == 150
+
+
 def test_bad_inputs_raise_value_errors() -> None:
     with pytest.raises(KinematicsError, match="out of range") as ei:
         Model(Params(l_mm=20000.0))

@@ -13,7 +13,8 @@ Main names:
 * :class:`EncoderConfig` -- per-joint encoder description.
 * :class:`Model` -- a prepared model: :meth:`Model.point`,
   :meth:`Model.point_jacobian`, :meth:`Model.points`,
-  :meth:`Model.points_jacobians`, :meth:`Model.abs_jacobian_sums`.
+  :meth:`Model.points_jacobians`, :meth:`Model.points_from_counts`,
+  :meth:`Model.abs_jacobian_sums`.
 * :func:`counts_to_angles`, :func:`perturbed_points`.
 * :data:`PARAM_NAMES` -- the 25 parameter names in Jacobian column order.
 
@@ -266,6 +267,29 @@ class Model:
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return p, j
 
+    def points_from_counts(
+        self, counts: npt.ArrayLike, encoders: EncoderConfig | None = None
+    ) -> tuple[FloatArray, FloatArray]:
+        """Points (n, 3) and Jacobians (n, 3, 25) from raw readings (n, 6).
+
+        The core's ``aacmm_batch_counts_f64`` (counts -> angles -> point), as
+        the firmware computes it; ``encoders`` defaults to 2^32 counts/rev,
+        offset 0, direction +1. Raises ValueError for readings outside
+        0 .. 2^32-1 or a bad config, KinematicsError (``index`` = pose) for a
+        reading >= counts_per_rev.
+        """
+        c = _counts(counts)
+        enc = (encoders or EncoderConfig()).to_c()
+        n = c.shape[0]
+        p = np.empty((n, 3), dtype=np.float64)
+        j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=np.float64)
+        done = ffi.new("size_t *")
+        st = lib.aacmm_batch_counts_f64(
+            self._c, enc, n, ffi.cast("uint32_t *", ffi.from_buffer(c)), _dptr(p), _dptr(j), done
+        )
+        _check(st, "invalid encoder reading", int(done[0]) if st else None)
+        return p, j
+
     def abs_jacobian_sums(self, theta_rad: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Sums over the poses of |J| and of J^2, each (3, 25).
 
@@ -283,12 +307,7 @@ class Model:
         return s, q
 
 
-def counts_to_angles(counts: npt.ArrayLike, encoders: EncoderConfig | None = None) -> FloatArray:
-    """Joint angles (n, 6) in rad from raw readings (n, 6) with the core's converter.
-
-    Raises ValueError for negative or non-integer-range readings and
-    KinematicsError for a reading >= counts_per_rev.
-    """
+def _counts(counts: npt.ArrayLike) -> npt.NDArray[np.uint32]:
     raw = np.asarray(counts)
     if raw.ndim == 1 and raw.size == JOINTS:
         raw = raw.reshape(1, JOINTS)
@@ -296,7 +315,16 @@ def counts_to_angles(counts: npt.ArrayLike, encoders: EncoderConfig | None = Non
         raise ValueError(f"encoder readings must have shape (n, {JOINTS}), got {raw.shape}")
     if raw.size and (raw.min() < 0 or raw.max() > 0xFFFFFFFF):
         raise ValueError("encoder readings must be in 0 .. 2^32-1")
-    c = np.ascontiguousarray(raw, dtype=np.uint32)
+    return np.ascontiguousarray(raw, dtype=np.uint32)
+
+
+def counts_to_angles(counts: npt.ArrayLike, encoders: EncoderConfig | None = None) -> FloatArray:
+    """Joint angles (n, 6) in rad from raw readings (n, 6) with the core's converter.
+
+    Raises ValueError for negative or non-integer-range readings and
+    KinematicsError for a reading >= counts_per_rev.
+    """
+    c = _counts(counts)
     enc = (encoders or EncoderConfig()).to_c()
     out = np.empty(c.shape, dtype=np.float64)
     done = ffi.new("size_t *")
