@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Smoke test of the real aacmm-sim binary (standard library only).
 
-    python3 tests/device/sim_smoke.py build/sim/aacmm-sim [--stream-seconds S]
+    python3 tests/device/sim_smoke.py build/sim/aacmm-sim [--stream-seconds S] [--jacobian]
 
 Checks the command-line contract (exit codes 2 and 3 with one clear line,
 the stdout lines, exit 0 on SIGTERM and SIGINT), then talks to the simulator
@@ -132,6 +132,13 @@ class Link:
         os.close(self.fd)
 
 
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (Linux /proc)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def run(args: list[str], timeout: float = 5.0) -> subprocess.CompletedProcess[str]:
     return subprocess.run(args, capture_output=True, text=True, timeout=timeout)
 
@@ -189,7 +196,7 @@ def test_arguments(sim: str, tmp: str) -> None:
           f"bad CAN interface: exit 3, one line ({r.stderr.strip()!r})")
 
 
-def test_session(sim: str, tmp: str, stream_seconds: float) -> dict[str, float]:
+def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dict[str, float]:
     store = os.path.join(tmp, "params.bin")
     p, path = start(sim, "--storage", store, "--motion", "static", "--serial-number", "4242")
     link = Link(path)
@@ -211,19 +218,23 @@ def test_session(sim: str, tmp: str, stream_seconds: float) -> dict[str, float]:
     rsp = link.request(0x7E)
     check(rsp is not None and rsp[1] == ERROR_RSP, "unknown request type answered with ERROR_RSP")
     # 1 kHz stream.
-    rsp = link.request(START, struct.pack("<HB", 1000, 0))
-    check(rsp is not None and rsp[1] == START | 0x80 and rsp[3:] == struct.pack("<HB", 1000, 0),
-          "STREAM_START 1000 Hz accepted")
+    rsp = link.request(START, struct.pack("<HB", 1000, content))
+    check(rsp is not None and rsp[1] == START | 0x80 and rsp[3:] == struct.pack("<HB", 1000, content),
+          f"STREAM_START 1000 Hz (content {content}) accepted")
     seqs: list[int] = []
     stamps: list[int] = []
+    cpu0, wall0 = cpu_seconds(p.pid), time.monotonic()
     t_end = time.monotonic() + stream_seconds
     for body in link.frames(0.5):
         if body[1] == SAMPLE_EVT:
             seq, ts = struct.unpack_from("<IQ", body, 3)
+            if len(body) != 3 + 53 + (300 if content else 0):
+                link.bad += 1
             seqs.append(seq)
             stamps.append(ts)
         if time.monotonic() > t_end:
             break
+    cpu_pct = 100.0 * (cpu_seconds(p.pid) - cpu0) / (time.monotonic() - wall0)
     link.send(STOP)
     for _ in link.frames(0.3):
         pass
@@ -234,7 +245,9 @@ def test_session(sim: str, tmp: str, stream_seconds: float) -> dict[str, float]:
     span_s = (stamps[-1] - stamps[0]) / 1e6 if n > 1 else 0.0
     rate = (n - 1) / span_s if span_s > 0 else 0.0
     check(abs(rate - 1000.0) < 5.0, f"device timestamps give {rate:.2f} Hz")
+    check(link.bad == 0, f"no bad frames ({link.bad})")
     deltas = sorted(b - a for a, b in zip(stamps, stamps[1:]))
+    p50 = deltas[len(deltas) // 2] if deltas else 0
     p99 = deltas[int(0.99 * (len(deltas) - 1))] if deltas else 0
     worst = deltas[-1] if deltas else 0
     # Save, restart, and the stored set is back.
@@ -254,7 +267,7 @@ def test_session(sim: str, tmp: str, stream_seconds: float) -> dict[str, float]:
     link.close()
     check(stop(p, signal.SIGINT) == 0, "SIGINT: exit 0")
     return {"samples": n, "seconds": round(span_s, 3), "rate_hz": round(rate, 3), "gaps": gaps,
-            "interval_p99_us": p99, "interval_max_us": worst, "bad_frames": link.bad}
+            "interval_p50_us": p50, "interval_p99_us": p99, "sim_cpu_percent": round(cpu_pct, 1), "interval_max_us": worst, "bad_frames": link.bad}
 
 
 def main() -> int:
@@ -262,9 +275,11 @@ def main() -> int:
     seconds = 3.0
     if "--stream-seconds" in sys.argv:
         seconds = float(sys.argv[sys.argv.index("--stream-seconds") + 1])
+    content = 1 if "--jacobian" in sys.argv else 0
     with tempfile.TemporaryDirectory() as tmp:
         test_arguments(sim, tmp)
-        stats = test_session(sim, tmp, seconds)
+        stats = test_session(sim, tmp, seconds, content)
+        stats["jacobian"] = content
     print(json.dumps({"sim_stream": stats}))
     if failures:
         print(f"sim smoke: {len(failures)} failed", file=sys.stderr)

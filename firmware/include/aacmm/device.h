@@ -28,8 +28,9 @@
  *
  * Sequence numbers. A stream's samples are numbered 0, 1, 2, ... from its
  * STREAM_START (a restart starts again at 0). A sample that cannot be sent
- * (output queue full, or the device fell more than
- * AACMM_DEVICE_MAX_CATCH_UP periods behind) still uses its number, so the
+ * (output queue full, or the device fell more than max_catch_up periods
+ * behind: after a shorter stall the missed samples are sent at once, each
+ * read fresh) still uses its number, so the
  * host sees the gap; the next sample sent carries AACMM_SAMPLE_OVERRUN and
  * the loss is counted (aacmm_device_counters_t). MEASURE_RSP samples are
  * numbered by a device-wide measurement counter.
@@ -112,6 +113,7 @@ extern "C" {
 #define AACMM_DEVICE_MAX_CATCH_UP 64u   /* stream periods caught up after a stall */
 #define AACMM_DEVICE_IDLE_POLL_US 5000u /* longest sleep (button polling) */
 #define AACMM_DEVICE_SERIAL_RX_CHUNK 128u
+#define AACMM_DEVICE_SERIAL_RX_BYTES_PER_POLL (8u * AACMM_DEVICE_SERIAL_RX_CHUNK)
 #define AACMM_DEVICE_CAN_RX_PER_POLL 32u
 
 /* Links, as indices. */
@@ -128,6 +130,9 @@ typedef struct {
     uint8_t *serial_txq;               /* serial output queue, caller owned, lives as
                                           long as the device; NULL if no serial link */
     size_t serial_txq_bytes;           /* >= AACMM_DEVICE_SERIAL_TXQ_MIN */
+    uint32_t max_catch_up;             /* stream periods sent late after a stall
+                                          before samples are skipped; 0 = default
+                                          AACMM_DEVICE_MAX_CATCH_UP */
 } aacmm_device_config_t;
 
 /* Anomaly and traffic counters. The device increments them, never clears
@@ -218,6 +223,7 @@ typedef struct {
     uint32_t store_generation; /* generation of the newest valid record */
     uint8_t store_slot;        /* its slot (0/1); 0xFF if none */
     uint32_t measure_seq;
+    uint32_t max_catch_up;
     aacmm_device_counters_t counters;
     aacmm_device_serial_t serial;
     aacmm_device_can_t can;
@@ -250,11 +256,12 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
  * requests on both links, send due stream samples, check the button, move
  * queued output to the drivers. Call it whenever a link has activity and at
  * aacmm_device_next_deadline_us at the latest.
- * Cost per call, worst case: AACMM_DEVICE_CAN_RX_PER_POLL CAN frames,
- * as many serial requests as the output queue has room for (each one
- * deframe + decode + kinematics with Jacobian + encode), and up to
- * AACMM_DEVICE_MAX_CATCH_UP stream samples per link (each one encoder read
- * + kinematics). AACMM_ERR_NULL for NULL, else AACMM_OK (link failures are
+ * Cost per call, worst case: AACMM_DEVICE_CAN_RX_PER_POLL CAN frames;
+ * AACMM_DEVICE_SERIAL_RX_BYTES_PER_POLL received serial bytes, i.e. at most
+ * that / 7 requests (each one deframe + decode + kinematics with Jacobian +
+ * encode) and only while the output queue has room for a response; up to
+ * max_catch_up stream samples per link (each one encoder read + kinematics
+ * + encode). AACMM_ERR_NULL for NULL, else AACMM_OK (link failures are
  * counted, never returned).
  */
 aacmm_status_t aacmm_device_poll(aacmm_device_t *dev);

@@ -327,6 +327,7 @@ int main(int argc, char **argv)
     dc.defaults = &defaults;
     dc.serial_txq = serial_txq;
     dc.serial_txq_bytes = sizeof serial_txq;
+    dc.max_catch_up = 1000u; /* a loaded host may deschedule us for a while: up to 1 s at 1 kHz */
     port.t0_us = posix_time_us();
     posix_platform(&port, &pf);
     st = aacmm_device_init(&dev, &dc, &pf);

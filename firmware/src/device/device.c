@@ -407,7 +407,7 @@ static int serial_send_droppable(aacmm_device_t *dev, const aacmm_msg_t *msg)
     return 1;
 }
 
-#define SERIAL_CHUNKS_PER_POLL 8u
+#define SERIAL_CHUNKS_PER_POLL (AACMM_DEVICE_SERIAL_RX_BYTES_PER_POLL / AACMM_DEVICE_SERIAL_RX_CHUNK)
 
 static void serial_receive(aacmm_device_t *dev)
 {
@@ -620,7 +620,7 @@ static void stream_service(aacmm_device_t *dev, unsigned link, aacmm_device_stre
      * <=>  k * 1e6 < (t - start + 1) * rate. */
     last_due = (((t - s->start_us) + 1u) * s->rate_hz + (US_PER_S - 1u)) / US_PER_S - 1u;
     due = last_due - s->index + 1u;
-    if (due > AACMM_DEVICE_MAX_CATCH_UP) {
+    if (due > dev->max_catch_up) {
         uint64_t skip = due - 1u; /* keep only the newest one */
         dev->counters.samples_late += (uint32_t)(skip > 0xFFFFFFFFu ? 0xFFFFFFFFu : skip);
         s->seq += (uint32_t)(skip & 0xFFFFFFFFu);
@@ -735,6 +735,7 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     memset(dev, 0, sizeof *dev);
     dev->pf = *platform;
     dev->serial_number = config->serial_number;
+    dev->max_catch_up = config->max_catch_up != 0u ? config->max_catch_up : AACMM_DEVICE_MAX_CATCH_UP;
     dev->store_slot = 0xFFu;
 
     /* Defaults. */
