@@ -14,7 +14,7 @@ PROTO_TEST_DEPS := $(PROTO_SRCS) $(PROTO_HDRS) $(PROTO_TEST_SRCS) tests/protocol
 PROTO_TEST_FLAGS := -Itests/protocol -DVECTORS_PATH='"$(PROTO_VECTORS)"'
 PROTO_PY_FILES := host/src/aacmm/protocol host/src/aacmm/errors.py \
                   tests/host/test_protocol.py tests/host/test_protocol_interop.py \
-                  tests/vectors/gen_protocol_vectors.py
+                  tests/host/test_protocol_vcan.py tests/vectors/gen_protocol_vectors.py
 FUZZ_TIME ?= 600
 PROTO_FUZZ_TEST_TIME ?= 50
 
@@ -111,3 +111,9 @@ $(BUILD)/protocol/bench_protocol: $(PROTO_SRCS) $(PROTO_HDRS) tests/protocol/ben
 bench-protocol: $(BUILD)/protocol/bench_protocol
 	@$<
 BENCH_TARGETS += bench-protocol
+
+# ---- on a real SocketCAN interface: runs in the shared vcan session (mk/vcan.mk) ----
+# can-isotp's threaded stack (make_isotp_stack) against the C ISO-TP endpoint,
+# and C sample frames decoded with the DBC, over python-can on vcan0.
+VCAN_TESTS += tests/host/test_protocol_vcan.py
+test-vcan-suite: $(BUILD)/protocol/libaacmm_proto_shim.so
