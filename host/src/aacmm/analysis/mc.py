@@ -509,34 +509,53 @@ def error_transfer_coefficients_adaptive(
     nt = _threads(threads)
     model = Model(params or Params())
     t0 = time.perf_counter()
-    run_means: list[FloatArray] = []
+    runs = 0
+    ybar = np.zeros((JAC_ROWS, JAC_COLS))
+    m2 = np.zeros((JAC_ROWS, JAC_COLS))
     s_tot = np.zeros((JAC_ROWS, JAC_COLS))
     q_tot = np.zeros((JAC_ROWS, JAC_COLS))
     n_tot = 0
     converged = False
     delta = np.zeros((JAC_ROWS, JAC_COLS))
     bar = _Progress(progress if progress is not None else sys.stderr.isatty(), None, "mc adaptive")
+    no_bar = _Progress(False, None, "")
+
+    def run_sums(h: int) -> tuple[FloatArray, FloatArray, int]:
+        return _accumulate(model, _chunk_tasks(e, h, block, js), None, no_bar)
+
+    # Runs go to the threads `nt` at a time, each run whole on one thread, and
+    # are examined in order: the stopping run, and so the result, is the same
+    # as with one thread (runs computed past it are discarded).
+    max_runs = max(1, max_trials // block)
     try:
-        with _pool(min(nt, -(-block // CHUNK))) as pool:
-            while n_tot + block <= max_trials or not run_means:
-                h = len(run_means)
-                s, q, got = _accumulate(model, _chunk_tasks(e, h, block, js), pool, bar)
-                run_means.append(s / got)
-                s_tot += s
-                q_tot += q
-                n_tot += got
-                if len(run_means) < 2:
-                    continue
-                ybar = np.mean(run_means, axis=0)
-                sy = np.std(run_means, axis=0, ddof=1) / math.sqrt(len(run_means))
-                if tolerance is not None:
-                    delta = np.full_like(ybar, tolerance)
-                else:
-                    assert ndig is not None
-                    delta = jcgm_tolerance(ybar, ndig)
-                if bool(np.all(2.0 * sy <= delta)):
-                    converged = True
-                    break
+        with _pool(min(nt, max_runs)) as pool:
+            h_next = 0
+            while not converged and h_next < max_runs:
+                batch = list(range(h_next, min(h_next + nt, max_runs)))
+                h_next = batch[-1] + 1
+                results = map(run_sums, batch) if pool is None else pool.map(run_sums, batch)
+                for s, q, got in results:
+                    bar.update(got)
+                    runs += 1
+                    y = s / got
+                    # Welford: mean and sum of squared deviations of the run means
+                    d = y - ybar
+                    ybar += d / runs
+                    m2 += d * (y - ybar)
+                    s_tot += s
+                    q_tot += q
+                    n_tot += got
+                    if runs < 2:
+                        continue
+                    sy = np.sqrt(m2 / (runs - 1) / runs)
+                    if tolerance is not None:
+                        delta = np.full_like(ybar, tolerance)
+                    else:
+                        assert ndig is not None
+                        delta = jcgm_tolerance(ybar, ndig)
+                    if bool(np.all(2.0 * sy <= delta)):
+                        converged = True
+                        break
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
@@ -555,7 +574,7 @@ def error_transfer_coefficients_adaptive(
         checked,
         elapsed,
         nt,
-        runs=len(run_means),
+        runs=runs,
         converged=converged,
         tolerance=delta,
     )
