@@ -8,10 +8,11 @@
 /* ---- little-endian writer / reader with sticky bounds errors ------------ */
 
 typedef struct {
-    uint8_t *buf;
+    uint8_t *buf; /* NULL: only run the CRC over the bytes (no buffer needed) */
     size_t cap;
     size_t pos;
     aacmm_status_t err;
+    uint32_t crc; /* running CRC-32 when buf is NULL */
 } wr_t;
 
 typedef struct {
@@ -24,6 +25,11 @@ typedef struct {
 static void wr_u8(wr_t *w, uint8_t v)
 {
     if (w->err != AACMM_OK) {
+        return;
+    }
+    if (w->buf == NULL) {
+        w->crc = aacmm_crc32_update(w->crc, &v, 1u);
+        w->pos++;
         return;
     }
     if (w->pos >= w->cap) {
@@ -417,6 +423,7 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
     w.cap = out_cap;
     w.pos = 0u;
     w.err = AACMM_OK;
+    w.crc = 0u;
     wr_u8(&w, (uint8_t)AACMM_PROTO_VERSION);
     wr_u8(&w, msg->type);
     wr_u8(&w, msg->seq);
@@ -732,6 +739,7 @@ aacmm_status_t aacmm_param_set_encode(const aacmm_param_set_t *set, uint8_t *out
     w.cap = out_cap;
     w.pos = 0u;
     w.err = AACMM_OK;
+    w.crc = 0u;
     wr_params(&w, set);
     return w.err;
 }
@@ -755,17 +763,21 @@ aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param
 
 aacmm_status_t aacmm_param_set_crc32(const aacmm_param_set_t *set, uint32_t *crc32)
 {
-    uint8_t buf[AACMM_PARAM_SET_BYTES];
-    aacmm_status_t st;
-    if (crc32 == NULL) {
+    wr_t w; /* CRC-only writer: no 278-byte buffer on the stack */
+    if (crc32 == NULL || set == NULL) {
         return AACMM_ERR_NULL;
     }
     *crc32 = 0u;
-    st = aacmm_param_set_encode(set, buf, sizeof buf);
-    if (st != AACMM_OK) {
-        return st;
+    w.buf = NULL;
+    w.cap = 0u;
+    w.pos = 0u;
+    w.err = AACMM_OK;
+    w.crc = AACMM_CRC32_INIT;
+    wr_params(&w, set);
+    if (w.err != AACMM_OK) {
+        return w.err;
     }
-    *crc32 = aacmm_crc32(buf, sizeof buf);
+    *crc32 = aacmm_crc32_final(w.crc);
     return AACMM_OK;
 }
 
