@@ -106,8 +106,10 @@ def test_adaptive_jcgm101() -> None:
     one = mc.error_transfer_coefficients_adaptive(ndig=2, seed=4, max_trials=mc.DEFAULT_BLOCK)
     assert one.converged is False and one.runs == 1
     assert np.array_equal(first.mean_abs, one.mean_abs)
-    tight = mc.error_transfer_coefficients_adaptive(tolerance=0.5, seed=4)
+    tight = mc.error_transfer_coefficients_adaptive(tolerance=0.5, seed=4, threads=2)
     assert tight.converged and tight.n > r.n
+    serial = mc.error_transfer_coefficients_adaptive(tolerance=0.5, seed=4, threads=1)
+    assert serial.runs == tight.runs and np.array_equal(serial.mean_abs, tight.mean_abs)
     with pytest.raises(ValueError, match="tolerance"):
         mc.error_transfer_coefficients_adaptive(tolerance=-1.0)
     with pytest.raises(ValueError, match="digits"):
