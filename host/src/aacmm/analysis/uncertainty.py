@@ -75,7 +75,8 @@ DISTRIBUTIONS: tuple[str, ...] = ("normal", "uniform", "triangular", "arcsine")
 K95 = 1.959963984540054
 DEFAULT_TRIALS = 100_000
 DEFAULT_WORKSPACE = 100
-_POSE_BLOCK = 16
+_POSE_BLOCK = 16  # poses per block at most ...
+_BLOCK_VALUES = 2_000_000  # ... and trials x poses per block at most (memory ~ 100 MB)
 
 
 class SpecError(AacmmError, ValueError):
@@ -436,13 +437,14 @@ def propagate(
         return perturbed_points(spec.params, d, th)
 
     with ThreadPoolExecutor(max_workers=nt) as ex:
-        for b in range(0, poses.shape[0], _POSE_BLOCK):
-            th = poses[b : b + _POSE_BLOCK]
+        pb = max(1, min(_POSE_BLOCK, _BLOCK_VALUES // trials))
+        for b in range(0, poses.shape[0], pb):
+            th = poses[b : b + pb]
             pts = np.concatenate(list(ex.map(run, [(deltas[idx], th) for idx in parts])))
             # deviations as (k, 3, trials): every statistic runs along the
             # contiguous last axis (quantiles across a strided axis are slow)
             dev = np.ascontiguousarray(pts.transpose(1, 2, 0))
-            dev -= p_nom[b : b + _POSE_BLOCK][:, :, None]
+            dev -= p_nom[b : b + pb][:, :, None]
             u_mc = dev.std(axis=2, ddof=1)
             bias = dev.mean(axis=2)
             q = np.quantile(dev, [0.025, 0.975], axis=2)  # (2, k, 3)
