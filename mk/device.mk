@@ -97,3 +97,8 @@ test-device-m4f: $(DEV_M4F_OBJS) $(DEV_M0_OBJS)
 	    if $(ARM_NM) -u $$o | grep -Eq ' (malloc|free|calloc|realloc|printf|fprintf|puts|fopen|open|read|write|clock_gettime)$$'; then \
 	        echo "$$o uses heap, stdio or POSIX:"; $(ARM_NM) -u $$o; exit 1; fi; done
 	@echo "device + sim: build for Cortex-M4F and Cortex-M0+, no heap/stdio/POSIX; sim_motion.o float-only on the M4F"
+
+# ---- CAN side of the simulator on vcan0 (in the shared vcan session, see
+# mk/vcan.mk): ISO-TP requests, periodic sample frames, trigger frames.
+VCAN_TESTS += tests/device/test_sim_vcan.py
+test-vcan-suite: $(SIM_BIN)

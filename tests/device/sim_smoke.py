@@ -14,6 +14,7 @@ the host client live in tests/host.
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import select
@@ -26,6 +27,7 @@ import termios
 import time
 import tty
 import zlib
+from collections.abc import Iterator
 
 PROTO = 1
 PING, INFO, GET_PARAMS, SET_PARAMS, SAVE, RESTORE, MEASURE, COMPUTE, START, STOP = range(1, 11)
@@ -93,7 +95,7 @@ class Link:
         os.write(self.fd, frame(bytes([PROTO, mtype, self.seq]) + payload))
         return self.seq
 
-    def frames(self, timeout: float):
+    def frames(self, timeout: float) -> Iterator[bytes]:
         """Yield decoded bodies until timeout (seconds) passes without data."""
         while True:
             while b"\x00" in self.buf:
@@ -144,12 +146,18 @@ def run(args: list[str], timeout: float = 5.0) -> subprocess.CompletedProcess[st
 
 
 def start(sim: str, *extra: str) -> tuple[subprocess.Popen[str], str]:
-    p = subprocess.Popen([sim, "--serial", "pty", "--quiet", *extra], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [sim, "--serial", "pty", "--quiet", *extra],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     assert p.stdout is not None
     first = p.stdout.readline().strip()
     second = p.stdout.readline().strip()
-    check(first.startswith("aacmm-sim: serial /dev/"), f"first stdout line names the pty: {first!r}")
+    check(
+        first.startswith("aacmm-sim: serial /dev/"), f"first stdout line names the pty: {first!r}"
+    )
     check(second == "aacmm-sim: ready", f"then 'aacmm-sim: ready': {second!r}")
     return p, first.split(" ", 2)[2]
 
@@ -178,22 +186,34 @@ def test_arguments(sim: str, tmp: str) -> None:
     ]
     for args in bad:
         r = run([sim, *args])
-        check(r.returncode == 2 and "aacmm-sim:" in r.stderr and r.stdout == "",
-              f"bad arguments {args}: exit 2 with a message (got {r.returncode})")
+        check(
+            r.returncode == 2 and "aacmm-sim:" in r.stderr and r.stdout == "",
+            f"bad arguments {args}: exit 2 with a message (got {r.returncode})",
+        )
     replay = os.path.join(tmp, "bad.txt")
     with open(replay, "w") as f:
         f.write("# header\n1 2 3 4 5 6\n1, 2, 3, 4, 5\n")
     r = run([sim, "--serial", "pty", "--motion", "replay:" + replay])
-    check(r.returncode == 2 and f"{replay}:3:" in r.stderr,
-          f"malformed replay file: exit 2 naming line 3 ({r.stderr.strip()!r})")
+    check(
+        r.returncode == 2 and f"{replay}:3:" in r.stderr,
+        f"malformed replay file: exit 2 naming line 3 ({r.stderr.strip()!r})",
+    )
     r = run([sim, "--serial", "/dev/aacmm-no-such-tty"])
-    check(r.returncode == 3 and "/dev/aacmm-no-such-tty" in r.stderr and len(r.stderr.splitlines()) == 1,
-          f"missing tty: exit 3, one line naming it ({r.stderr.strip()!r})")
+    check(
+        r.returncode == 3
+        and "/dev/aacmm-no-such-tty" in r.stderr
+        and len(r.stderr.splitlines()) == 1,
+        f"missing tty: exit 3, one line naming it ({r.stderr.strip()!r})",
+    )
     r = run([sim, "--serial", "/dev/null"])
-    check(r.returncode == 3 and "not a tty" in r.stderr, f"not a tty: exit 3 ({r.stderr.strip()!r})")
+    check(
+        r.returncode == 3 and "not a tty" in r.stderr, f"not a tty: exit 3 ({r.stderr.strip()!r})"
+    )
     r = run([sim, "--can", "aacmmnosuch0"])
-    check(r.returncode == 3 and "aacmmnosuch0" in r.stderr and len(r.stderr.splitlines()) == 1,
-          f"bad CAN interface: exit 3, one line ({r.stderr.strip()!r})")
+    check(
+        r.returncode == 3 and "aacmmnosuch0" in r.stderr and len(r.stderr.splitlines()) == 1,
+        f"bad CAN interface: exit 3, one line ({r.stderr.strip()!r})",
+    )
 
 
 def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dict[str, float]:
@@ -203,24 +223,34 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
     # Garbage first: the deframer must resynchronise.
     os.write(link.fd, b"\x13\x37garbage\x00\x05\x01\x02\x03\x04\x05\x06\x00")
     rsp = link.request(PING, struct.pack("<I", 0xDEADBEEF))
-    check(rsp is not None and rsp[1] == PING | 0x80 and rsp[3:] == struct.pack("<I", 0xDEADBEEF),
-          "PING after garbage answered with the token")
+    check(
+        rsp is not None and rsp[1] == PING | 0x80 and rsp[3:] == struct.pack("<I", 0xDEADBEEF),
+        "PING after garbage answered with the token",
+    )
     rsp = link.request(INFO)
     ok = rsp is not None and rsp[1] == INFO | 0x80 and len(rsp) == 3 + 23
     check(ok, "INFO answered (23-byte payload)")
     if ok:
         assert rsp is not None
         (pv, _maj, _min, _pat, flags, _crc, source, state, maxb, serial, _node) = struct.unpack(
-            "<HBBHIIBBHIB", rsp[3:])
-        check(pv == 1 and source == 0 and state == 1 and maxb == 512 and serial == 4242,
-              f"INFO: defaults, empty storage, serial number (src {source}, state {state})")
-        check(flags & 0x0001 == 0 and flags & 0x0008 != 0, "INFO: float kinematics, serial link built in")
+            "<HBBHIIBBHIB", rsp[3:]
+        )
+        check(
+            pv == 1 and source == 0 and state == 1 and maxb == 512 and serial == 4242,
+            f"INFO: defaults, empty storage, serial number (src {source}, state {state})",
+        )
+        check(
+            flags & 0x0001 == 0 and flags & 0x0008 != 0,
+            "INFO: float kinematics, serial link built in",
+        )
     rsp = link.request(0x7E)
     check(rsp is not None and rsp[1] == ERROR_RSP, "unknown request type answered with ERROR_RSP")
     # 1 kHz stream.
     rsp = link.request(START, struct.pack("<HB", 1000, content))
-    check(rsp is not None and rsp[1] == START | 0x80 and rsp[3:] == struct.pack("<HB", 1000, content),
-          f"STREAM_START 1000 Hz (content {content}) accepted")
+    check(
+        rsp is not None and rsp[1] == START | 0x80 and rsp[3:] == struct.pack("<HB", 1000, content),
+        f"STREAM_START 1000 Hz (content {content}) accepted",
+    )
     seqs: list[int] = []
     stamps: list[int] = []
     cpu0, wall0 = cpu_seconds(p.pid), time.monotonic()
@@ -239,14 +269,14 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
     for _ in link.frames(0.3):
         pass
     n = len(seqs)
-    gaps = sum(1 for a, b in zip(seqs, seqs[1:]) if b != a + 1)
+    gaps = sum(1 for a, b in itertools.pairwise(seqs) if b != a + 1)
     check(n > 0 and seqs[0] == 0, "stream starts at seq 0")
     check(gaps == 0, f"{n} samples, no lost or duplicated sequence numbers ({gaps} gaps)")
     span_s = (stamps[-1] - stamps[0]) / 1e6 if n > 1 else 0.0
     rate = (n - 1) / span_s if span_s > 0 else 0.0
     check(abs(rate - 1000.0) < 5.0, f"device timestamps give {rate:.2f} Hz")
     check(link.bad == 0, f"no bad frames ({link.bad})")
-    deltas = sorted(b - a for a, b in zip(stamps, stamps[1:]))
+    deltas = sorted(b - a for a, b in itertools.pairwise(stamps))
     p50 = deltas[len(deltas) // 2] if deltas else 0
     p99 = deltas[int(0.99 * (len(deltas) - 1))] if deltas else 0
     worst = deltas[-1] if deltas else 0
@@ -255,19 +285,34 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
     check(rsp is not None and rsp[1] == SAVE | 0x80, "SAVE_PARAMS answered")
     link.close()
     check(stop(p, signal.SIGTERM) == 0, "SIGTERM: exit 0")
-    check(os.path.exists(store) and not os.path.exists(store + ".tmp"), "storage file written, no temp left")
+    check(
+        os.path.exists(store) and not os.path.exists(store + ".tmp"),
+        "storage file written, no temp left",
+    )
     p, path = start(sim, "--storage", store)
     link = Link(path)
     rsp = link.request(INFO)
     if rsp is not None and len(rsp) == 26:
         source, state = struct.unpack_from("<BB", rsp, 3 + 14)
-        check(source == 1 and state == 0, f"after restart: parameters from storage (src {source}, state {state})")
+        check(
+            source == 1 and state == 0,
+            f"after restart: parameters from storage (src {source}, state {state})",
+        )
     else:
         check(False, "INFO after restart")
     link.close()
     check(stop(p, signal.SIGINT) == 0, "SIGINT: exit 0")
-    return {"samples": n, "seconds": round(span_s, 3), "rate_hz": round(rate, 3), "gaps": gaps,
-            "interval_p50_us": p50, "interval_p99_us": p99, "sim_cpu_percent": round(cpu_pct, 1), "interval_max_us": worst, "bad_frames": link.bad}
+    return {
+        "samples": n,
+        "seconds": round(span_s, 3),
+        "rate_hz": round(rate, 3),
+        "gaps": gaps,
+        "interval_p50_us": p50,
+        "interval_p99_us": p99,
+        "sim_cpu_percent": round(cpu_pct, 1),
+        "interval_max_us": worst,
+        "bad_frames": link.bad,
+    }
 
 
 def main() -> int:
