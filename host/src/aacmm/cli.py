@@ -11,7 +11,12 @@ from aacmm import __version__
 # Modules that add subcommands: each has register(subparsers), and each parser
 # it adds sets ``func`` (args -> exit status). Keep their top-level imports
 # light; import heavy modules inside the command functions.
-COMMAND_MODULES: tuple[str, ...] = ("aacmm.analysis.cli",)
+COMMAND_MODULES: tuple[str, ...] = (
+    "aacmm.analysis.cli",
+    "aacmm.commands.device",
+    "aacmm.commands.log",
+    "aacmm.commands.sim",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -30,7 +35,26 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None or func is None:
         parser.print_help()
         return 0
-    return int(func(args))
+    # Errors end in one line on stderr and a documented exit status
+    # (aacmm.commands.exitcodes, docs/cli.md), never a traceback.
+    from aacmm.commands.exitcodes import exit_code
+    from aacmm.errors import AacmmError
+
+    try:
+        return int(func(args))
+    except KeyboardInterrupt:
+        print(f"aacmm {args.command}: interrupted", file=sys.stderr)
+        return exit_code(KeyboardInterrupt())
+    except (AacmmError, ValueError) as exc:
+        print(f"aacmm {args.command}: error: {exc}", file=sys.stderr)
+        return exit_code(exc)
+    except BrokenPipeError:
+        # stdout closed by the reader (aacmm ... | head): not an error
+        sys.stderr.close()
+        return 0
+    except OSError as exc:
+        print(f"aacmm {args.command}: error: {exc}", file=sys.stderr)
+        return exit_code(exc)
 
 
 if __name__ == "__main__":

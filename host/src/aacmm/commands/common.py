@@ -1,0 +1,315 @@
+"""Shared pieces of the device commands: the connection options, opening a
+device (lock, connect, handshake), the live status line and small helpers.
+
+Heavy modules (the client, python-can, pyserial) are imported inside the
+functions so that ``aacmm --help`` and the analysis commands start fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fcntl
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import IO, TYPE_CHECKING, Any
+
+from aacmm.commands.exitcodes import PortBusyError, UsageError, VersionMismatchError
+
+if TYPE_CHECKING:
+    from aacmm.client import Client
+    from aacmm.protocol import DeviceInfo
+
+ENV_PORT = "AACMM_PORT"
+DEFAULT_TIMEOUT = 1.0
+DEFAULT_RETRIES = 2
+
+
+def add_connection_options(parser: argparse.ArgumentParser) -> None:
+    """``--port``, ``--timeout`` and ``--retries``: the same on every device command."""
+    g = parser.add_argument_group("connection")
+    g.add_argument(
+        "-p",
+        "--port",
+        metavar="URL",
+        default=None,
+        help="device URL: serial:///dev/ttyUSB0, /dev/pts/3, socketcan://can0?node=1, "
+        f"socket://host:port ... (default: ${ENV_PORT})",
+    )
+    g.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT,
+        metavar="S",
+        help=f"seconds to wait for each answer (default {DEFAULT_TIMEOUT})",
+    )
+    g.add_argument(
+        "--retries",
+        type=int,
+        default=DEFAULT_RETRIES,
+        metavar="N",
+        help=f"extra attempts for read-only requests after a timeout (default {DEFAULT_RETRIES})",
+    )
+
+
+def port_url(args: argparse.Namespace) -> str:
+    """The device URL from ``--port`` or the environment.
+
+    Raises:
+        UsageError: neither is given, or the URL is malformed.
+    """
+    url = (args.port or os.environ.get(ENV_PORT, "")).strip()
+    if not url:
+        raise UsageError(f"no device given: use --port URL or set {ENV_PORT}")
+    from aacmm.transport import parse_url
+
+    try:
+        parse_url(url)
+    except ValueError as exc:
+        raise UsageError(f"bad device URL {url!r}: {exc}") from None
+    return url
+
+
+def url_kind(url: str) -> tuple[str, str, int]:
+    """``(kind, target, node)`` of a valid device URL (kind: serial, socketcan, virtual)."""
+    from aacmm.transport import parse_url
+
+    u = parse_url(url)
+    return u.kind, u.target, u.node
+
+
+def lock_serial_port(url: str) -> int | None:
+    """Take an exclusive advisory lock on a serial device path; return the fd (or None).
+
+    Two aacmm processes on one serial port would steal each other's answers,
+    so the second one is refused. The lock is ``flock(LOCK_EX | LOCK_NB)``, the
+    same pyserial takes with ``exclusive=True``. Non-path URLs (sockets, CAN)
+    and paths that do not exist are not locked (opening them reports the error).
+
+    Raises:
+        PortBusyError: another process holds the lock.
+    """
+    kind, target, _ = url_kind(url)
+    if kind != "serial" or not target.startswith("/") or not os.path.exists(target):
+        return None
+    try:
+        fd = os.open(target, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError:
+        return None  # let the real open report it
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise PortBusyError(f"port {target} is busy (another aacmm process uses it)") from None
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def check_version(client: Client) -> DeviceInfo:
+    """Read the device info and check the protocol version.
+
+    A device speaking another version is recognised three ways: its info
+    names another version; it answers with ERR_VERSION; or its answers carry
+    another version byte, so the host drops them (the request then times out
+    with version frame errors counted).
+
+    Raises:
+        VersionMismatchError, DeviceTimeoutError, DeviceError, OperationError.
+    """
+    from aacmm.errors import DeviceError, DeviceTimeoutError
+    from aacmm.protocol import PROTOCOL_VERSION
+    from aacmm.protocol.status import Status
+
+    try:
+        info = client.info()
+    except DeviceTimeoutError:
+        fe = client.last_frame_error
+        if fe is not None and fe.status == int(Status.ERR_VERSION):
+            raise VersionMismatchError(
+                f"{client.transport.description}: the device speaks another protocol "
+                f"version ({fe}); this host speaks {PROTOCOL_VERSION}"
+            ) from None
+        raise
+    except DeviceError as exc:
+        if exc.status == int(Status.ERR_VERSION):
+            raise VersionMismatchError(
+                f"{client.transport.description}: the device refused protocol version "
+                f"{PROTOCOL_VERSION} ({exc})"
+            ) from None
+        raise
+    if info.protocol_version != PROTOCOL_VERSION:
+        raise VersionMismatchError(
+            f"{client.transport.description}: the device speaks protocol version "
+            f"{info.protocol_version}, this host {PROTOCOL_VERSION}"
+        )
+    return info
+
+
+@dataclass
+class Device:
+    """An open, checked connection: the client, the device info, the port lock."""
+
+    url: str
+    client: Client
+    info: DeviceInfo
+    lock_fd: int | None = None
+    _closed: bool = field(default=False, repr=False)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self.client.close()
+        finally:
+            if self.lock_fd is not None:
+                os.close(self.lock_fd)
+                self.lock_fd = None
+
+    def __enter__(self) -> Device:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def open_device(url: str, timeout: float, retries: int) -> Device:
+    """Lock (serial paths), connect and check the protocol version.
+
+    Raises:
+        PortBusyError, InitError, VersionMismatchError, DeviceTimeoutError,
+        DeviceError, UsageError (bad timeout or retries).
+    """
+    from aacmm.client import connect
+
+    if not timeout > 0:
+        raise UsageError(f"--timeout must be positive, got {timeout}")
+    if retries < 0:
+        raise UsageError(f"--retries must be >= 0, got {retries}")
+    own_fd = lock_serial_port(url)
+    try:
+        client = connect(url, timeout=timeout, retries=retries)
+    except BaseException:
+        if own_fd is not None:
+            os.close(own_fd)
+        raise
+    try:
+        info = check_version(client)
+    except BaseException:
+        client.close()
+        if own_fd is not None:
+            os.close(own_fd)
+        raise
+    return Device(url, client, info, own_fd)
+
+
+def device_from_args(args: argparse.Namespace) -> Device:
+    """:func:`open_device` with the connection options of a command."""
+    return open_device(port_url(args), args.timeout, args.retries)
+
+
+# ---------------------------------------------------------------- output helpers
+
+
+def fmt_point(v: int) -> str:
+    """A coordinate in 1e-4 mm as an exact decimal string in mm (``-12.3456``)."""
+    sign = "-" if v < 0 else ""
+    q, r = divmod(abs(v), 10000)
+    return f"{sign}{q}.{r:04d}"
+
+
+def flag_names(status: int) -> str:
+    """Sample status bits as names (``POINT_VALID|PARAMS_DEFAULT``)."""
+    from aacmm.protocol import SampleStatus
+
+    names = [f.name for f in SampleStatus if f.name and status & f.value]
+    unknown = status & ~sum(f.value for f in SampleStatus)
+    if unknown:
+        names.append(f"0x{unknown:x}")
+    return "|".join(names) if names else "0"
+
+
+def info_dict(info: DeviceInfo) -> dict[str, Any]:
+    """Device info as JSON-ready data (with readable names beside the codes)."""
+    from dataclasses import asdict
+
+    from aacmm.protocol import BuildFlags, ParamSource, StorageState
+
+    d: dict[str, Any] = asdict(info)
+    d["firmware"] = f"{info.fw_major}.{info.fw_minor}.{info.fw_patch}"
+    d["build_flags_names"] = [f.name for f in BuildFlags if f.name and info.build_flags & f.value]
+    d["param_crc32_hex"] = f"0x{info.param_crc32:08x}"
+    try:
+        d["param_source_name"] = ParamSource(info.param_source).name.lower()
+    except ValueError:
+        d["param_source_name"] = f"unknown ({info.param_source})"
+    try:
+        d["storage_state_name"] = StorageState(info.storage_state).name.lower()
+    except ValueError:
+        d["storage_state_name"] = f"unknown ({info.storage_state})"
+    return d
+
+
+def is_tty(stream: IO[str]) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+class StatusLine:
+    """A live one-line status on stderr (tqdm), only when stderr is a terminal.
+
+    Shows samples (and the target count), elapsed time, the rate and any
+    extra text; it is removed when closed (``leave=False``), so only the final
+    summary stays on the screen. Off a terminal it does nothing.
+    """
+
+    def __init__(self, total: int | None = None, unit: str = "sample", enabled: bool = True):
+        self.enabled = enabled and is_tty(sys.stderr)
+        self._bar: Any = None
+        self._last = 0.0
+        if self.enabled:
+            from tqdm import tqdm
+
+            fmt = (
+                "{n_fmt} {unit}s | {elapsed} | {rate_fmt} | {postfix}"
+                if total is None
+                else "{n_fmt}/{total_fmt} {unit}s {bar:20} | {elapsed} | {rate_fmt} | {postfix}"
+            )
+            self._bar = tqdm(
+                total=total,
+                unit=unit,
+                file=sys.stderr,
+                leave=False,
+                dynamic_ncols=True,
+                mininterval=0.25,
+                bar_format=fmt,
+            )
+
+    def update(self, n: int, text: str = "") -> None:
+        """Add ``n`` samples; refresh the text at most 4 times a second."""
+        if self._bar is None:
+            return
+        self._bar.update(n)
+        now = time.monotonic()
+        if now - self._last >= 0.25:
+            self._last = now
+            self._bar.set_postfix_str(text, refresh=False)
+
+    def note(self, text: str) -> None:
+        """Show ``text`` now (e.g. "reconnecting")."""
+        if self._bar is not None:
+            self._bar.set_postfix_str(text, refresh=True)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+def print_err(cmd: str, text: str) -> None:
+    print(f"aacmm {cmd}: {text}", file=sys.stderr, flush=True)

@@ -1,0 +1,316 @@
+"""Device commands: ``aacmm info``, ``aacmm params``, ``aacmm measure``, ``aacmm compute``.
+
+Each opens the device named by ``--port`` (or ``$AACMM_PORT``), checks the
+protocol version, does its work and prints the result (``--json`` for
+machine-readable output). Errors end the command through
+:func:`aacmm.cli.main`: one line on stderr and the status of
+:mod:`aacmm.commands.exitcodes`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import TYPE_CHECKING, Any
+
+from aacmm.commands.common import (
+    add_connection_options,
+    device_from_args,
+    flag_names,
+    fmt_point,
+    info_dict,
+)
+from aacmm.commands.exitcodes import OK
+from aacmm.errors import DeviceError
+
+if TYPE_CHECKING:
+    from aacmm.protocol import ComputeResult, ParamSet, Sample
+
+JAC_ROWS = 3
+JAC_COLS = 25
+PARAM_COLUMN_NAMES = (
+    [f"theta{i}" for i in range(1, 7)]
+    + [f"alpha{i}" for i in range(1, 7)]
+    + [f"d{i}" for i in range(1, 7)]
+    + [f"a{i}" for i in range(1, 7)]
+    + ["l"]
+)
+
+
+class ReadBackError(DeviceError):
+    """The device's parameters differ from what was sent (exit status 1)."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(message, status=-2)
+
+
+def register(sub: Any) -> None:
+    info = sub.add_parser(
+        "info",
+        help="device identity, firmware, protocol version and parameter state",
+        description="Connect, check the protocol version and print the device info.",
+    )
+    add_connection_options(info)
+    info.add_argument("--json", action="store_true", help="print JSON")
+    info.set_defaults(func=cmd_info)
+
+    params = sub.add_parser(
+        "params",
+        help="read, write, store or reset the device's parameter set",
+        description="Parameter sets as TOML or JSON files (see docs/cli.md).",
+    )
+    psub = params.add_subparsers(dest="params_command", metavar="ACTION", required=True)
+    get = psub.add_parser("get", help="print the active set or write it to a file")
+    add_connection_options(get)
+    get.add_argument(
+        "-o", "--output", metavar="FILE", help="write to FILE (.toml or .json) instead of stdout"
+    )
+    get.add_argument(
+        "--format", choices=("toml", "json"), default=None, help="stdout format (default toml)"
+    )
+    get.set_defaults(func=cmd_params_get)
+    pset = psub.add_parser(
+        "set",
+        help="validate a file, send it, read the set back and compare",
+        description="Validate FILE (nothing is sent if it is bad), activate it on the device, "
+        "then read the active set back and compare it and its CRC with the file.",
+    )
+    add_connection_options(pset)
+    pset.add_argument("file", metavar="FILE", help="parameter file (.toml or .json)")
+    pset.add_argument("--save", action="store_true", help="also store it on the device")
+    pset.add_argument("--check", action="store_true", help="only validate FILE; do not connect")
+    pset.set_defaults(func=cmd_params_set)
+    save = psub.add_parser("save", help="store the active set in the device's storage")
+    add_connection_options(save)
+    save.set_defaults(func=cmd_params_save)
+    dflt = psub.add_parser("defaults", help="activate the device's built-in default set")
+    add_connection_options(dflt)
+    dflt.add_argument("--save", action="store_true", help="also store the defaults")
+    dflt.set_defaults(func=cmd_params_defaults)
+
+    meas = sub.add_parser(
+        "measure",
+        help="one sample: encoder counts, point, status (optionally the Jacobian)",
+        description="Ask the device for one sample now.",
+    )
+    add_connection_options(meas)
+    meas.add_argument("-j", "--jacobian", action="store_true", help="include the 3x25 Jacobian")
+    meas.add_argument("--json", action="store_true", help="print JSON")
+    meas.set_defaults(func=cmd_measure)
+
+    comp = sub.add_parser(
+        "compute",
+        help="have the device compute the point (and Jacobian) for six encoder counts",
+        description="Send six encoder readings; print the device's point and optional Jacobian.",
+    )
+    add_connection_options(comp)
+    comp.add_argument(
+        "counts", nargs=6, type=_count, metavar="COUNT", help="six encoder counts 0..2^32-1"
+    )
+    comp.add_argument("-j", "--jacobian", action="store_true", help="include the 3x25 Jacobian")
+    comp.add_argument("--json", action="store_true", help="print JSON")
+    comp.set_defaults(func=cmd_compute)
+
+
+def _count(text: str) -> int:
+    try:
+        v = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not 0 <= v <= 0xFFFFFFFF:
+        raise argparse.ArgumentTypeError(f"{v} outside 0..4294967295")
+    return v
+
+
+def _print_json(data: Any) -> None:
+    print(json.dumps(data, indent=2))
+
+
+def _jacobian_text(jac: tuple[float, ...]) -> str:
+    lines = ["jacobian (mm per parameter unit; rows x, y, z):"]
+    for c in range(JAC_COLS):
+        vals = "  ".join(f"{jac[r * JAC_COLS + c]:+.6e}" for r in range(JAC_ROWS))
+        lines.append(f"  {PARAM_COLUMN_NAMES[c]:<7} {vals}")
+    return "\n".join(lines)
+
+
+def _jacobian_rows(jac: tuple[float, ...]) -> list[list[float]]:
+    return [list(jac[r * JAC_COLS : (r + 1) * JAC_COLS]) for r in range(JAC_ROWS)]
+
+
+# ---------------------------------------------------------------- info
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    with device_from_args(args) as dev:
+        d = info_dict(dev.info)
+        d["url"] = dev.url
+        d["transport"] = dev.client.transport.description
+        rtt = dev.client.ping()
+        d["ping_ms"] = round(rtt * 1e3, 3)
+    if args.json:
+        _print_json(d)
+        return OK
+    print(f"device      {d['url']} ({d['transport']})")
+    print(f"serial no.  {d['serial_number']}")
+    print(f"firmware    {d['firmware']}, protocol {d['protocol_version']}")
+    print(f"build       {' '.join(d['build_flags_names']) or '-'}")
+    print(f"parameters  crc {d['param_crc32_hex']}, from {d['param_source_name']}")
+    print(f"storage     {d['storage_state_name']}")
+    print(f"max body    {d['max_body_bytes']} bytes, CAN node {d['can_node_id']}")
+    print(f"ping        {d['ping_ms']:.3f} ms")
+    return OK
+
+
+# ---------------------------------------------------------------- params
+
+
+def _local_crc(ps: ParamSet) -> int:
+    from aacmm.protocol import param_set_crc32
+    from aacmm.transport.serialport import FRAMING_LOCK
+
+    with FRAMING_LOCK:  # the codec's CRC is shared with the reader thread
+        return param_set_crc32(ps)
+
+
+def cmd_params_get(args: argparse.Namespace) -> int:
+    from aacmm.commands.paramfile import dump_param_set, write_param_file
+
+    with device_from_args(args) as dev:
+        ps = dev.client.get_params()
+    crc = _local_crc(ps)
+    if args.output:
+        write_param_file(ps, args.output, crc)
+        print(f"wrote {args.output} (crc 0x{crc:08x})", file=sys.stderr)
+    else:
+        sys.stdout.write(dump_param_set(ps, args.format or "toml", crc))
+    return OK
+
+
+def _verify(dev_params: ParamSet, sent: ParamSet, what: str) -> None:
+    if dev_params != sent:
+        from aacmm.commands.paramfile import param_set_dict
+
+        a, b = param_set_dict(sent), param_set_dict(dev_params)
+        diff = [k for k in a if a[k] != b[k]]
+        raise ReadBackError(f"{what}: the device reads back other values for {', '.join(diff)}")
+
+
+def cmd_params_set(args: argparse.Namespace) -> int:
+    from aacmm.commands.paramfile import load_param_file
+
+    ps = load_param_file(args.file)  # validated before anything is sent
+    want = _local_crc(ps)
+    if args.check:
+        print(f"{args.file}: valid parameter set, crc 0x{want:08x}")
+        return OK
+    with device_from_args(args) as dev:
+        c = dev.client
+        got = c.set_params(ps)
+        if got != want:
+            raise ReadBackError(
+                f"device reports crc 0x{got:08x} for the set, expected 0x{want:08x}"
+            )
+        _verify(c.get_params(), ps, args.file)
+        info = c.info()
+        if info.param_crc32 != want:
+            raise ReadBackError(f"device info names crc 0x{info.param_crc32:08x} after set")
+        msg = f"active: {args.file} (crc 0x{want:08x}), read back and identical"
+        if args.save:
+            saved = c.save_params()
+            if saved != want:
+                raise ReadBackError(f"device stored crc 0x{saved:08x}, expected 0x{want:08x}")
+            msg += "; saved"
+    print(msg)
+    return OK
+
+
+def cmd_params_save(args: argparse.Namespace) -> int:
+    with device_from_args(args) as dev:
+        active = dev.info.param_crc32
+        saved = dev.client.save_params()
+    if saved != active:
+        raise ReadBackError(f"device stored crc 0x{saved:08x}, active set is 0x{active:08x}")
+    print(f"saved the active set (crc 0x{saved:08x})")
+    return OK
+
+
+def cmd_params_defaults(args: argparse.Namespace) -> int:
+    with device_from_args(args) as dev:
+        c = dev.client
+        crc = c.restore_defaults()
+        ps = c.get_params()
+        if _local_crc(ps) != crc:
+            raise ReadBackError(
+                f"device reports crc 0x{crc:08x} for its defaults but reads back another set"
+            )
+        msg = f"defaults active (crc 0x{crc:08x})"
+        if args.save:
+            saved = c.save_params()
+            if saved != crc:
+                raise ReadBackError(f"device stored crc 0x{saved:08x}, expected 0x{crc:08x}")
+            msg += "; saved"
+    print(msg)
+    return OK
+
+
+# ---------------------------------------------------------------- measure / compute
+
+
+def sample_dict(s: Sample) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "seq": s.seq,
+        "device_time_us": s.timestamp_us,
+        "counts": list(s.counts),
+        "point_mm": [float(fmt_point(v)) for v in s.point_100nm],
+        "flags": s.status,
+        "flag_names": flag_names(s.status).split("|"),
+    }
+    if s.jacobian is not None:
+        d["jacobian"] = _jacobian_rows(s.jacobian)
+    return d
+
+
+def cmd_measure(args: argparse.Namespace) -> int:
+    with device_from_args(args) as dev:
+        s = dev.client.measure(jacobian=args.jacobian)
+    if args.json:
+        _print_json(sample_dict(s))
+        return OK
+    x, y, z = (fmt_point(v) for v in s.point_100nm)
+    print(f"seq         {s.seq}")
+    print(f"time        {s.timestamp_us} us (device)")
+    print(f"counts      {' '.join(str(c) for c in s.counts)}")
+    print(f"point       x {x}  y {y}  z {z} mm")
+    print(f"flags       0x{s.status:04x} {flag_names(s.status)}")
+    if s.jacobian is not None:
+        print(_jacobian_text(s.jacobian))
+    return OK
+
+
+def compute_dict(counts: list[int], r: ComputeResult) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "counts": counts,
+        "point_mm": list(r.point_mm),
+        "flags": r.status,
+        "flag_names": flag_names(r.status).split("|"),
+    }
+    if r.jacobian is not None:
+        d["jacobian"] = _jacobian_rows(r.jacobian)
+    return d
+
+
+def cmd_compute(args: argparse.Namespace) -> int:
+    with device_from_args(args) as dev:
+        r = dev.client.compute(args.counts, jacobian=args.jacobian)
+    if args.json:
+        _print_json(compute_dict(args.counts, r))
+        return OK
+    x, y, z = r.point_mm
+    print(f"counts      {' '.join(str(c) for c in args.counts)}")
+    print(f"point       x {x:.6f}  y {y:.6f}  z {z:.6f} mm")
+    print(f"flags       0x{r.status:04x} {flag_names(r.status)}")
+    if r.jacobian is not None:
+        print(_jacobian_text(r.jacobian))
+    return OK

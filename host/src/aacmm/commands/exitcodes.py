@@ -1,0 +1,82 @@
+"""Exit statuses of the ``aacmm`` command, in one place (documented in docs/cli.md).
+
+:func:`exit_code` maps an exception to its status; :func:`aacmm.cli.main`
+prints one line for it and returns the status, never a traceback.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+from aacmm.errors import (
+    AacmmError,
+    DeviceError,
+    DeviceTimeoutError,
+    InitError,
+    OperationError,
+)
+
+OK: Final = 0
+"""Success (also: an open-ended ``aacmm log`` stopped with Ctrl-C or SIGTERM)."""
+DEVICE: Final = 1
+"""The device refused a request, answered nonsense, or read back other values."""
+USAGE: Final = 2
+"""Bad arguments, a bad URL, a bad or unreadable input file (nothing was sent)."""
+PORT: Final = 3
+"""The port or bus cannot be opened, or another aacmm process holds it (busy)."""
+TIMEOUT: Final = 4
+"""The device did not answer in time (after the retries)."""
+VERSION: Final = 5
+"""The device speaks another protocol version."""
+LINK_LOST: Final = 6
+"""The link was lost mid-operation (device gone, port closed, samples stopped)."""
+INTERRUPTED: Final = 130
+"""Ctrl-C or SIGTERM before the work was done (data written so far is kept)."""
+
+NAMES: Final[dict[int, str]] = {
+    OK: "ok",
+    DEVICE: "device or operation error",
+    USAGE: "usage error or bad input file",
+    PORT: "cannot open port, or port busy",
+    TIMEOUT: "no answer (timeout)",
+    VERSION: "protocol version mismatch",
+    LINK_LOST: "link lost mid-operation",
+    INTERRUPTED: "interrupted",
+}
+
+
+class UsageError(AacmmError, ValueError):
+    """Bad arguments or a bad input file (exit status 2)."""
+
+
+class PortBusyError(InitError):
+    """Another process holds the port (exit status 3)."""
+
+
+class VersionMismatchError(InitError):
+    """The device speaks another protocol version (exit status 5)."""
+
+
+class LinkLostError(OperationError):
+    """The link went away in the middle of an operation (exit status 6)."""
+
+
+def exit_code(exc: BaseException) -> int:
+    """The exit status for an exception that ended a command."""
+    if isinstance(exc, KeyboardInterrupt):
+        return INTERRUPTED
+    if isinstance(exc, VersionMismatchError):
+        return VERSION
+    if isinstance(exc, InitError):
+        return PORT
+    if isinstance(exc, DeviceTimeoutError):
+        return TIMEOUT
+    if isinstance(exc, LinkLostError):
+        return LINK_LOST
+    if isinstance(exc, OperationError) and "link lost" in str(exc):
+        return LINK_LOST
+    if isinstance(exc, (UsageError, ValueError, TypeError)):
+        return USAGE
+    if isinstance(exc, (DeviceError, AacmmError)):
+        return DEVICE
+    return DEVICE

@@ -1,0 +1,907 @@
+"""``aacmm log`` (stream samples to a CSV file) and ``aacmm summary`` (summarise one).
+
+Files of a log ``run.csv`` (format in docs/cli.md):
+
+- ``run.csv``: one row per streamed sample, columns :data:`COLUMNS`;
+  readable by ``aacmm mc --log`` (:mod:`aacmm.analysis.poselog`);
+- ``run.csv.json``: the sidecar (device info, parameter set and its CRC,
+  units, start and end times, counters, gaps); written when the log starts
+  (``"status": "running"``), after every reconnect, and atomically replaced
+  at the end;
+- ``run.triggers.csv``: probe-button captures (created at the first one);
+- with ``--raw FILE`` over CAN: the raw frames in python-can's log formats.
+
+Flush policy: rows go to the operating system every :data:`FLUSH_INTERVAL_S`
+seconds or :data:`FLUSH_ROWS` rows, whichever comes first, in single
+``write`` calls of whole rows; so a logger killed with SIGKILL leaves a CSV
+whose every line up to the last flush is complete. The files are fsynced
+when the log ends.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import contextlib
+import csv
+import datetime as dt
+import json
+import math
+import os
+import platform
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType
+from typing import TYPE_CHECKING, Any
+
+from aacmm import __version__
+from aacmm.commands.common import (
+    StatusLine,
+    add_connection_options,
+    fmt_point,
+    info_dict,
+    open_device,
+    port_url,
+    print_err,
+    url_kind,
+)
+from aacmm.commands.exitcodes import (
+    INTERRUPTED,
+    OK,
+    LinkLostError,
+    UsageError,
+    VersionMismatchError,
+)
+from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
+
+if TYPE_CHECKING:
+    from aacmm.client import SampleStream
+    from aacmm.commands.common import Device
+    from aacmm.protocol import ParamSet, Sample, Trigger
+
+FORMAT = "aacmm-log-1"
+COUNT_COLUMNS = tuple(f"count{i}" for i in range(1, 7))
+COLUMNS = ("seq", "device_time_us", "host_time", *COUNT_COLUMNS, "x_mm", "y_mm", "z_mm", "flags")
+TRIGGER_COLUMNS = (
+    "seq",
+    "device_time_us",
+    "host_time",
+    "button",
+    "pressed",
+    *COUNT_COLUMNS,
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "flags",
+)
+UNITS = {
+    "seq": "device sample counter (u32, wraps)",
+    "device_time_us": "us, device clock",
+    "host_time": "s since the Unix epoch (UTC), host clock when the logger took the sample",
+    "count1..count6": "encoder counts (u32)",
+    "x_mm,y_mm,z_mm": "mm (resolution 0.0001 mm)",
+    "flags": "sample status bits (docs/protocol.md 2.4)",
+}
+FLUSH_INTERVAL_S = 0.25
+FLUSH_ROWS = 256
+DEFAULT_RATE_HZ = 100
+RAW_SUFFIXES = (".blf", ".asc", ".log")
+POINT_VALID = 0x0001
+RECONNECT_PAUSE_S = 0.5
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "log",
+        help="stream samples to a CSV file (+ JSON sidecar) until Ctrl-C, a duration or a count",
+        description="Stream samples from the device into FILE.csv with a JSON sidecar "
+        "FILE.csv.json; probe-button captures go to FILE.triggers.csv. Stops at Ctrl-C, "
+        "SIGTERM, --duration or --count; the files are complete in every case.",
+    )
+    add_connection_options(p)
+    p.add_argument("output", metavar="FILE.csv", help="the CSV file to write")
+    p.add_argument(
+        "-r",
+        "--rate",
+        type=int,
+        default=DEFAULT_RATE_HZ,
+        metavar="HZ",
+        help=f"sample rate 1..1000 Hz (default {DEFAULT_RATE_HZ})",
+    )
+    p.add_argument("-d", "--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("-n", "--count", type=int, metavar="N", help="stop after N samples")
+    p.add_argument(
+        "--triggers",
+        metavar="FILE",
+        help="probe-button captures file (default: FILE.triggers.csv beside the log)",
+    )
+    p.add_argument("--no-triggers", action="store_true", help="do not record button captures")
+    p.add_argument(
+        "--raw",
+        metavar="FILE",
+        help="CAN only: also record the raw frames (.blf, .asc or .log, by suffix)",
+    )
+    p.add_argument(
+        "--reconnect",
+        action="store_true",
+        help="when the device goes away, keep trying and continue the same log (gap recorded)",
+    )
+    p.add_argument(
+        "--reconnect-timeout",
+        type=float,
+        metavar="S",
+        help="with --reconnect: give up after S seconds without the device (default: never)",
+    )
+    p.add_argument(
+        "--stall",
+        type=float,
+        default=2.0,
+        metavar="S",
+        help="no sample for S seconds means the link is lost (default 2)",
+    )
+    p.add_argument("-f", "--force", action="store_true", help="overwrite existing files")
+    p.add_argument("-q", "--quiet", action="store_true", help="no live status line and no summary")
+    p.set_defaults(func=cmd_log)
+
+    s = sub.add_parser(
+        "summary",
+        help="summarise a log written by 'aacmm log' (samples, rate, lost, extent)",
+        description="Read FILE.csv and its sidecar and print samples, rate, lost samples "
+        "and the extent of the point cloud. Works on a log cut short by kill -9.",
+    )
+    s.add_argument("output", metavar="FILE.csv", help="the log")
+    s.add_argument("--json", action="store_true", help="print JSON")
+    s.set_defaults(func=cmd_summary)
+
+
+# ---------------------------------------------------------------- small helpers
+
+
+def utc_iso(t: float) -> str:
+    return dt.datetime.fromtimestamp(t, dt.UTC).isoformat(timespec="microseconds")
+
+
+def sidecar_path(csv_path: Path) -> Path:
+    return csv_path.with_name(csv_path.name + ".json")
+
+
+def default_triggers_path(csv_path: Path) -> Path:
+    stem = csv_path.name[: -len(csv_path.suffix)] if csv_path.suffix else csv_path.name
+    return csv_path.with_name(stem + ".triggers.csv")
+
+
+def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
+    """Write JSON to ``path`` through a temporary file, fsync and rename."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        json.dump(data, f, indent=2)
+        f.write("\n")
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def params_meta(ps: ParamSet) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The sidecar's ``params`` (keys of :class:`aacmm.core.Params`) and ``encoders``."""
+    return (
+        {
+            "theta_offset_rad": list(ps.theta_offset_rad),
+            "alpha_rad": list(ps.alpha_rad),
+            "d_mm": list(ps.d_mm),
+            "a_mm": list(ps.a_mm),
+            "l_mm": ps.l_mm,
+        },
+        {
+            "counts_per_rev": list(ps.counts_per_rev),
+            "zero_offset_counts": list(ps.zero_offset_counts),
+            "direction": list(ps.direction),
+        },
+    )
+
+
+def _row(s: Sample, host_time: float, extra: tuple[int, ...] = ()) -> str:
+    x, y, z = s.point_100nm
+    parts = [str(s.seq), str(s.timestamp_us), f"{host_time:.6f}"]
+    parts += [str(v) for v in extra]
+    parts += [str(c) for c in s.counts]
+    parts += [fmt_point(x), fmt_point(y), fmt_point(z), str(s.status)]
+    return ",".join(parts) + "\n"
+
+
+class RowFile:
+    """A CSV file written in whole rows with the log's flush policy (see the module doc)."""
+
+    def __init__(
+        self, path: Path, columns: tuple[str, ...], force: bool, interval: float, rows: int
+    ) -> None:
+        self.path = path
+        self.interval = interval
+        self.max_rows = rows
+        self.rows = 0
+        self._buf: list[str] = []
+        self._last_flush = time.monotonic()
+        flags = os.O_WRONLY | os.O_CREAT | (os.O_TRUNC if force else os.O_EXCL)
+        try:
+            self._fd: int | None = os.open(path, flags, 0o644)
+        except FileExistsError:
+            raise UsageError(f"{path} exists (use --force to overwrite)") from None
+        except OSError as exc:
+            raise UsageError(f"cannot create {path}: {exc.strerror}") from None
+        self._write((",".join(columns) + "\n").encode())
+
+    def _write(self, data: bytes) -> None:
+        assert self._fd is not None
+        view = memoryview(data)
+        while view:
+            n = os.write(self._fd, view)
+            view = view[n:]
+
+    def add(self, line: str) -> None:
+        self._buf.append(line)
+        self.rows += 1
+        if len(self._buf) >= self.max_rows:
+            self.flush()
+
+    def maybe_flush(self, now: float) -> None:
+        if self._buf and now - self._last_flush >= self.interval:
+            self.flush()
+
+    def flush(self) -> None:
+        self._last_flush = time.monotonic()
+        if self._buf and self._fd is not None:
+            data = "".join(self._buf).encode()
+            self._buf.clear()
+            self._write(data)  # one write of whole rows
+
+    def close(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            self.flush()
+            with contextlib.suppress(OSError):
+                os.fsync(self._fd)
+        finally:
+            os.close(self._fd)
+            self._fd = None
+
+
+class RawCanRecorder:
+    """Records the node's CAN frames (both directions) with python-can's ``Logger``.
+
+    A second socket on the same interface sees the frames the client sends
+    (SocketCAN loopback) and those the device sends; timestamps are the
+    kernel's. The format follows the suffix: ``.blf`` (Vector BLF), ``.asc``
+    (Vector ASCII), ``.log`` (can-utils candump -l).
+    """
+
+    def __init__(self, path: Path, kind: str, channel: str, node: int, force: bool) -> None:
+        import can
+
+        from aacmm.protocol.can import ID_ISOTP_REQUEST
+        from aacmm.transport.canbus import CanTransport
+
+        if path.exists() and not force:
+            raise UsageError(f"{path} exists (use --force to overwrite)")
+        filters = [
+            *CanTransport.filters(node),
+            {"can_id": ID_ISOTP_REQUEST + node, "can_mask": 0x7FF, "extended": False},
+        ]
+        try:
+            self.bus = can.Bus(
+                interface="socketcan" if kind == "socketcan" else "virtual",
+                channel=channel,
+                can_filters=filters,
+                receive_own_messages=False,
+            )
+        except (can.CanError, OSError, ValueError, ImportError) as exc:
+            raise InitError(f"cannot open CAN interface {channel} for --raw: {exc}") from None
+        try:
+            self.logger: Any = can.Logger(str(path))
+        except (OSError, ValueError) as exc:
+            self.bus.shutdown()
+            raise UsageError(f"cannot write {path}: {exc}") from None
+        self.notifier = can.Notifier(self.bus, [self.logger], timeout=0.1)
+        self.path = path
+
+    def stop(self) -> None:
+        with contextlib.suppress(Exception):
+            self.notifier.stop()
+        with contextlib.suppress(Exception):
+            self.logger.stop()
+        with contextlib.suppress(Exception):
+            self.bus.shutdown()
+
+
+@dataclass
+class Extent:
+    """Bounding box of the valid points, in 1e-4 mm."""
+
+    lo: list[int] = field(default_factory=lambda: [0, 0, 0])
+    hi: list[int] = field(default_factory=lambda: [0, 0, 0])
+    n: int = 0
+
+    def add(self, p: tuple[int, ...]) -> None:
+        if self.n == 0:
+            self.lo, self.hi = list(p), list(p)
+        else:
+            for i in range(3):
+                v = p[i]
+                if v < self.lo[i]:
+                    self.lo[i] = v
+                elif v > self.hi[i]:
+                    self.hi[i] = v
+        self.n += 1
+
+    def as_dict(self) -> dict[str, Any] | None:
+        if self.n == 0:
+            return None
+        return {
+            axis: {
+                "min": float(fmt_point(self.lo[i])),
+                "max": float(fmt_point(self.hi[i])),
+                "size": float(fmt_point(self.hi[i] - self.lo[i])),
+            }
+            for i, axis in enumerate("xyz")
+        }
+
+
+@dataclass
+class Session:
+    """Counters of one log run (over all reconnects)."""
+
+    samples: int = 0
+    lost: int = 0
+    duplicates: int = 0
+    overruns: int = 0
+    dropped: int = 0
+    triggers: int = 0
+    reconnects: int = 0
+    first_host: float | None = None
+    last_host: float | None = None
+    last_seq: int | None = None
+    extent: Extent = field(default_factory=Extent)
+    gaps: list[dict[str, Any]] = field(default_factory=list)
+
+
+class StopFlag:
+    """Set by SIGINT/SIGTERM; a second Ctrl-C raises KeyboardInterrupt at once."""
+
+    def __init__(self) -> None:
+        self.event = threading.Event()
+        self.signal: int | None = None
+        self._old: dict[int, Any] = {}
+
+    def _handler(self, signum: int, frame: FrameType | None) -> None:
+        if self.event.is_set() and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.signal = signum
+        self.event.set()
+
+    def install(self) -> None:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            self._old[s] = signal.signal(s, self._handler)
+
+    def restore(self) -> None:
+        for s, h in self._old.items():
+            signal.signal(s, h)
+        self._old.clear()
+
+    @property
+    def set(self) -> bool:
+        return self.event.is_set()
+
+
+# ---------------------------------------------------------------- the logger
+
+
+class Logger:
+    """One ``aacmm log`` run (see :func:`cmd_log`)."""
+
+    def __init__(self, args: argparse.Namespace, url: str) -> None:
+        self.args = args
+        self.url = url
+        self.csv_path = Path(args.output)
+        self.sidecar = sidecar_path(self.csv_path)
+        self.trig_path: Path | None = None
+        if not args.no_triggers:
+            self.trig_path = (
+                Path(args.triggers) if args.triggers else default_triggers_path(self.csv_path)
+            )
+        self.stop = StopFlag()
+        self.s = Session()
+        self.dev: Device | None = None
+        self.rows: RowFile | None = None
+        self.trig_rows: RowFile | None = None
+        self.raw: RawCanRecorder | None = None
+        self.meta: dict[str, Any] = {}
+        self.t0 = 0.0
+        self.start_wall = 0.0
+        self.param_crc = 0
+        self.trig_queue: collections.deque[tuple[float, Trigger]] = collections.deque()
+        self.status = StatusLine(args.count, enabled=not args.quiet)
+        self.granted_rate: int | None = None
+
+    # ---------------------------------------------------------- set-up
+
+    def check_outputs(self) -> None:
+        a = self.args
+        paths = [self.csv_path, self.sidecar]
+        if self.trig_path is not None:
+            paths.append(self.trig_path)
+        if a.raw:
+            paths.append(Path(a.raw))
+        if len({p.resolve() for p in paths}) != len(paths):
+            raise UsageError("the log, trigger and raw files must be different files")
+        if not a.force:
+            for p in paths:
+                if p.exists():
+                    raise UsageError(f"{p} exists (use --force to overwrite)")
+        parent = self.csv_path.resolve().parent
+        if not parent.is_dir():
+            raise UsageError(f"directory {parent} does not exist")
+
+    def _on_trigger(self, trig: Trigger) -> None:  # reader thread
+        self.trig_queue.append((time.time(), trig))
+
+    def connect(self) -> Device:
+        dev = open_device(self.url, self.args.timeout, self.args.retries)
+        dev.client.add_trigger_callback(self._on_trigger)
+        return dev
+
+    def base_meta(self, dev: Device, ps: ParamSet, crc: int) -> dict[str, Any]:
+        params, encoders = params_meta(ps)
+        a = self.args
+        return {
+            "format": FORMAT,
+            "status": "running",
+            "csv": self.csv_path.name,
+            "columns": list(COLUMNS),
+            "units": UNITS,
+            "triggers_csv": None,
+            "trigger_columns": list(TRIGGER_COLUMNS),
+            "raw_can": Path(a.raw).name if a.raw else None,
+            "port": self.url,
+            "transport": dev.client.transport.description,
+            "device": info_dict(dev.info),
+            "param_crc32": crc,
+            "param_crc32_hex": f"0x{crc:08x}",
+            "params": params,
+            "encoders": encoders,
+            "rate_hz_requested": a.rate,
+            "rate_hz": None,
+            "limits": {"duration_s": a.duration, "count": a.count},
+            "flush_policy": {"interval_s": FLUSH_INTERVAL_S, "rows": FLUSH_ROWS},
+            "start_time": utc_iso(self.start_wall),
+            "start_unix": self.start_wall,
+            "end_time": None,
+            "end_unix": None,
+            "host": {
+                "aacmm": __version__,
+                "python": platform.python_version(),
+                "node": platform.node(),
+            },
+        }
+
+    def write_meta(self, status: str, end_reason: str | None = None) -> None:
+        s = self.s
+        m = self.meta
+        m["status"] = status
+        m["rate_hz"] = self.granted_rate
+        m["samples"] = s.samples
+        m["lost_samples"] = s.lost + s.dropped
+        m["lost_detail"] = {
+            "sequence_gaps": s.lost,
+            "host_queue_dropped": s.dropped,
+            "duplicates": s.duplicates,
+            "overrun_flags": s.overruns,
+        }
+        m["triggers"] = s.triggers
+        if self.trig_rows is not None:
+            m["triggers_csv"] = self.trig_rows.path.name
+        m["reconnects"] = s.reconnects
+        m["gaps"] = s.gaps
+        m["first_sample_host_time"] = s.first_host
+        m["last_sample_host_time"] = s.last_host
+        m["extent_mm"] = s.extent.as_dict()
+        if end_reason is not None:
+            now = time.time()
+            m["end_time"] = utc_iso(now)
+            m["end_unix"] = now
+            m["end_reason"] = end_reason
+        write_json_atomic(self.sidecar, m)
+
+    # ---------------------------------------------------------- writing
+
+    def take(self, sample: Sample, host_time: float) -> None:
+        s = self.s
+        assert self.rows is not None
+        self.rows.add(_row(sample, host_time))
+        s.samples += 1
+        if s.first_host is None:
+            s.first_host = host_time
+        s.last_host = host_time
+        s.last_seq = sample.seq
+        if sample.status & POINT_VALID:
+            s.extent.add(sample.point_100nm)
+
+    def take_triggers(self) -> None:
+        while self.trig_queue:
+            host_time, trig = self.trig_queue.popleft()
+            if self.trig_path is None:
+                continue
+            if self.trig_rows is None:
+                self.trig_rows = RowFile(
+                    self.trig_path, TRIGGER_COLUMNS, True, FLUSH_INTERVAL_S, FLUSH_ROWS
+                )
+            self.trig_rows.add(_row(trig.sample, host_time, (trig.button, int(trig.pressed))))
+            self.s.triggers += 1
+
+    def account(self, stream: SampleStream) -> None:
+        st = stream.stats
+        self.s.lost += st.lost
+        self.s.duplicates += st.duplicates
+        self.s.overruns += st.overruns
+        self.s.dropped += st.dropped
+
+    # ---------------------------------------------------------- the run
+
+    def target_reached(self) -> str | None:
+        a = self.args
+        if a.count is not None and self.s.samples >= a.count:
+            return "count"
+        if a.duration is not None and time.monotonic() - self.t0 >= a.duration:
+            return "duration"
+        return None
+
+    def stream_once(self, dev: Device) -> str:
+        """Stream until a stop condition; return the reason (or raise LinkLostError)."""
+        a = self.args
+        client = dev.client
+        stall = max(a.stall, 2.0 / a.rate + 0.1)
+        stream = client.stream(a.rate, timeout=stall, max_queue=1_000_000)
+        if stream.accepted is not None:
+            self.granted_rate = stream.accepted.rate_hz
+        last_sample = time.monotonic()
+        pending_status = 0
+        last_status = last_sample
+        reason: str | None = None
+        link_error: BaseException | None = None
+        try:
+            while True:
+                reason = self.target_reached()
+                if reason is not None:
+                    break
+                if self.stop.set:
+                    reason = "signal"
+                    break
+                try:
+                    sample = stream.get(timeout=0.1)
+                except DeviceTimeoutError:
+                    now = time.monotonic()
+                    if now - last_sample >= stall:
+                        link_error = LinkLostError(f"no sample for {now - last_sample:.1f} s")
+                        break
+                    sample = None
+                except StopIteration:
+                    link_error = LinkLostError("the stream ended unexpectedly")
+                    break
+                except OperationError as exc:
+                    link_error = LinkLostError(f"link lost: {exc}")
+                    break
+                now = time.monotonic()
+                if sample is not None:
+                    last_sample = now
+                    self.take(sample, time.time())
+                    pending_status += 1
+                if self.trig_queue:
+                    self.take_triggers()
+                assert self.rows is not None
+                self.rows.maybe_flush(now)
+                if self.trig_rows is not None:
+                    self.trig_rows.maybe_flush(now)
+                if now - last_status >= 0.25:
+                    self.status.update(pending_status, self.status_text(stream))
+                    pending_status, last_status = 0, now
+        finally:
+            self.status.update(pending_status, self.status_text(stream))
+            if link_error is None and not client.closed:
+                with contextlib.suppress(AacmmError):
+                    stream.stop()
+            # samples received before the stop are still queued
+            while True:
+                try:
+                    leftover = stream.get(timeout=0.0)
+                except (StopIteration, AacmmError):
+                    break
+                if self.args.count is not None and self.s.samples >= self.args.count:
+                    break
+                self.take(leftover, time.time())
+            self.take_triggers()
+            self.account(stream)
+        if link_error is not None:
+            raise link_error
+        assert reason is not None
+        return reason
+
+    def status_text(self, stream: SampleStream | None) -> str:
+        lost = self.s.lost + self.s.dropped
+        if stream is not None:
+            lost += stream.stats.lost + stream.stats.dropped
+        text = f"lost {lost}"
+        if self.s.triggers:
+            text += f", triggers {self.s.triggers}"
+        if self.s.reconnects:
+            text += f", reconnects {self.s.reconnects}"
+        return text
+
+    def reconnect(self, err: BaseException) -> Device | None:
+        """Try to get the device back; None if stopped or given up."""
+        a = self.args
+        gap: dict[str, Any] = {
+            "start_time": utc_iso(time.time()),
+            "after_row": self.s.samples,
+            "last_seq": self.s.last_seq,
+            "reason": str(err),
+        }
+        self.s.gaps.append(gap)
+        self.write_meta("running")
+        if not a.quiet:
+            self.status.note("link lost, reconnecting")
+        print_err("log", f"{err}; reconnecting (Ctrl-C to stop)")
+        t_lost = time.monotonic()
+        attempts = 0
+        while True:
+            if self.stop.set or self.target_reached() == "duration":
+                gap["end_time"] = None
+                return None
+            if a.reconnect_timeout is not None and time.monotonic() - t_lost >= a.reconnect_timeout:
+                gap["end_time"] = None
+                gap["gave_up"] = True
+                return None
+            self.stop.event.wait(RECONNECT_PAUSE_S)
+            if self.stop.set:
+                continue
+            attempts += 1
+            try:
+                dev = self.connect()
+            except VersionMismatchError:
+                raise
+            except (InitError, DeviceTimeoutError, OperationError) as exc:
+                gap["last_error"] = str(exc)
+                continue
+            except AacmmError as exc:
+                gap["last_error"] = str(exc)
+                continue
+            break
+        now = time.time()
+        gap["end_time"] = utc_iso(now)
+        gap["duration_s"] = round(time.monotonic() - t_lost, 3)
+        gap["attempts"] = attempts
+        gap["param_crc32"] = dev.info.param_crc32
+        if dev.info.param_crc32 != self.param_crc:
+            gap["params_changed"] = True
+            print_err(
+                "log",
+                f"warning: the device's parameter set changed (crc "
+                f"0x{dev.info.param_crc32:08x}, was 0x{self.param_crc:08x})",
+            )
+        gap.pop("last_error", None)
+        self.s.reconnects += 1
+        print_err("log", f"reconnected after {gap['duration_s']:.1f} s; logging on")
+        return dev
+
+    def run(self) -> int:
+        a = self.args
+        self.check_outputs()
+        kind, channel, node = url_kind(self.url)
+        if a.raw:
+            if kind not in ("socketcan", "virtual"):
+                raise UsageError("--raw records CAN frames: it needs a socketcan:// port")
+            raw_path = Path(a.raw)
+            if raw_path.suffix.lower() not in RAW_SUFFIXES:
+                raise UsageError(
+                    f"--raw {raw_path}: the suffix picks the format: {', '.join(RAW_SUFFIXES)}"
+                )
+            self.raw = RawCanRecorder(raw_path, kind, channel, node, a.force)
+        self.stop.install()
+        try:
+            return self._run()
+        finally:
+            self.stop.restore()
+            self.status.close()
+            if self.raw is not None:
+                self.raw.stop()
+
+    def _run(self) -> int:
+        a = self.args
+        dev = self.connect()
+        end_status, end_reason = "error", "error"
+        error: BaseException | None = None
+        try:
+            ps = dev.client.get_params()
+            self.param_crc = dev.info.param_crc32
+            self.start_wall = time.time()
+            self.t0 = time.monotonic()
+            self.rows = RowFile(self.csv_path, COLUMNS, a.force, FLUSH_INTERVAL_S, FLUSH_ROWS)
+            self.meta = self.base_meta(dev, ps, self.param_crc)
+            self.write_meta("running")
+            self.dev = dev
+            while True:
+                try:
+                    reason = self.stream_once(dev)
+                except LinkLostError as exc:
+                    dev.close()
+                    self.dev = None
+                    if not a.reconnect:
+                        raise
+                    new = self.reconnect(exc)
+                    if new is None:
+                        reason = "signal" if self.stop.set else self.target_reached() or ""
+                        if not reason:
+                            raise LinkLostError(
+                                f"{exc}; device not back within {a.reconnect_timeout:g} s"
+                            ) from None
+                        break
+                    dev = self.dev = new
+                    continue
+                break
+            if reason == "signal":
+                sig = "SIGTERM" if self.stop.signal == signal.SIGTERM else "SIGINT"
+                open_ended = a.count is None and a.duration is None
+                end_status = "complete" if open_ended else "interrupted"
+                end_reason = sig
+                return OK if open_ended else INTERRUPTED
+            end_status, end_reason = "complete", reason
+            return OK
+        except LinkLostError as exc:
+            end_status, end_reason = "link_lost", str(exc)
+            error = exc
+            raise LinkLostError(
+                f"{exc}; {self.s.samples} samples kept in {self.csv_path}"
+            ) from None
+        except BaseException as exc:
+            error = exc
+            end_reason = f"{type(exc).__name__}: {exc}"
+            if isinstance(exc, KeyboardInterrupt):
+                end_status, end_reason = "interrupted", "SIGINT"
+            raise
+        finally:
+            if self.dev is not None:
+                self.dev.close()
+            self.take_triggers()
+            if self.rows is not None:
+                self.rows.close()
+                if self.trig_rows is not None:
+                    self.trig_rows.close()
+                self.write_meta(end_status, end_reason)
+            if not a.quiet and self.rows is not None:
+                self.status.close()
+                self.print_summary(error)
+
+    def print_summary(self, error: BaseException | None) -> None:
+        s = self.s
+        elapsed = (s.last_host - s.first_host) if s.first_host and s.last_host else 0.0
+        summary = {
+            "samples": s.samples,
+            "duration_s": elapsed,
+            "rate_hz": (s.samples - 1) / elapsed if elapsed > 0 else None,
+            "lost_samples": s.lost + s.dropped,
+            "triggers": s.triggers,
+            "reconnects": s.reconnects,
+            "extent_mm": s.extent.as_dict(),
+        }
+        files = [self.csv_path, self.sidecar]
+        if self.trig_rows is not None:
+            files.append(self.trig_rows.path)
+        if self.raw is not None:
+            files.append(self.raw.path)
+        out = sys.stdout if error is None else sys.stderr
+        print(format_summary(summary, files), file=out, flush=True)
+
+
+def format_summary(d: dict[str, Any], files: list[Path] | None = None) -> str:
+    rate = f"{d['rate_hz']:.1f} Hz" if d.get("rate_hz") else "- Hz"
+    lines = [
+        f"samples {d['samples']} in {d['duration_s']:.2f} s ({rate}), "
+        f"lost {d['lost_samples']}, triggers {d['triggers']}, reconnects {d['reconnects']}"
+    ]
+    ext = d.get("extent_mm")
+    if ext:
+        lines.append(
+            "extent "
+            + ", ".join(
+                f"{ax} {e['min']:.3f} .. {e['max']:.3f} ({e['size']:.3f})" for ax, e in ext.items()
+            )
+            + " mm"
+        )
+    else:
+        lines.append("extent - (no valid points)")
+    if files:
+        lines.append("files " + " ".join(str(f) for f in files))
+    return "\n".join(lines)
+
+
+def cmd_log(args: argparse.Namespace) -> int:
+    if not 1 <= args.rate <= 1000:
+        raise UsageError(f"--rate {args.rate} outside 1..1000 Hz")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise UsageError("--duration must be a positive number of seconds")
+    if args.count is not None and args.count < 1:
+        raise UsageError("--count must be at least 1")
+    if args.reconnect_timeout is not None and not args.reconnect_timeout > 0:
+        raise UsageError("--reconnect-timeout must be positive")
+    if not args.stall > 0:
+        raise UsageError("--stall must be positive")
+    if args.no_triggers and args.triggers:
+        raise UsageError("--triggers and --no-triggers exclude each other")
+    url = port_url(args)
+    return Logger(args, url).run()
+
+
+# ---------------------------------------------------------------- summary of a file
+
+
+def summarize_file(path: Path) -> dict[str, Any]:
+    """Samples, duration, rate, lost samples and extent of a log (sidecar optional).
+
+    Raises:
+        UsageError: unreadable file or not a log.
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{path}: cannot read: {exc}") from None
+    reader = csv.reader(text.splitlines())
+    header = next(reader, None)
+    if header is None or not all(c in header for c in ("host_time", "x_mm", "flags")):
+        raise UsageError(f"{path}: not an aacmm log (header {header})")
+    ih, ix, iflags = header.index("host_time"), header.index("x_mm"), header.index("flags")
+    ext = Extent()
+    n, first, last = 0, None, None
+    for lineno, row in enumerate(reader, start=2):
+        if not row:
+            continue
+        try:
+            t = float(row[ih])
+            flags = int(row[iflags])
+            pt = tuple(round(float(row[ix + i]) * 10000) for i in range(3))
+        except (ValueError, IndexError):
+            raise UsageError(f"{path}:{lineno}: bad row") from None
+        n += 1
+        first = t if first is None else first
+        last = t
+        if flags & POINT_VALID:
+            ext.add(pt)
+    meta: dict[str, Any] = {}
+    side = sidecar_path(path)
+    if side.is_file():
+        with contextlib.suppress(OSError, ValueError):
+            loaded = json.loads(side.read_text(encoding="utf-8"))
+            if isinstance(loaded, dict):
+                meta = loaded
+    elapsed = (last - first) if first is not None and last is not None else 0.0
+    return {
+        "file": str(path),
+        "status": meta.get("status", "unknown"),
+        "samples": n,
+        "duration_s": elapsed,
+        "rate_hz": (n - 1) / elapsed if elapsed > 0 else None,
+        "lost_samples": meta.get("lost_samples", 0),
+        "triggers": meta.get("triggers", 0),
+        "reconnects": meta.get("reconnects", 0),
+        "extent_mm": ext.as_dict(),
+    }
+
+
+def cmd_summary(args: argparse.Namespace) -> int:
+    d = summarize_file(Path(args.output))
+    if args.json:
+        print(json.dumps(d, indent=2))
+    else:
+        print(f"log {d['file']} ({d['status']})")
+        print(format_summary(d))
+    return OK

@@ -1,0 +1,213 @@
+"""Parameter-set files (TOML or JSON) for ``aacmm params``.
+
+A file holds the eight fields of a device parameter set (docs/protocol.md
+2.3), flat::
+
+    # aacmm parameter set (mm, rad, encoder counts)
+    theta_offset_rad = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    alpha_rad = [1.5707963267948966, ...]
+    d_mm = [300.0, 65.5, 792.7, 65.5, 883.2, 0.0]
+    a_mm = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    l_mm = 183.5
+    counts_per_rev = [4294967296, ...]
+    zero_offset_counts = [0, 0, 0, 0, 0, 0]
+    direction = [1, 1, 1, 1, 1, 1]
+
+or split as in a log sidecar: a ``params`` table (the five kinematic keys)
+and an ``encoders`` table (the three encoder keys). A log's ``.csv.json``
+sidecar (``"format": "aacmm-log-1"``) can be loaded as it is: only its
+``params`` and ``encoders`` are read. The optional keys ``format`` and
+``param_crc32`` are ignored on reading; any other key is an error. The format is chosen by the
+suffix: ``.toml`` or ``.json``.
+
+:func:`load_param_file` checks everything the device would check (types,
+six values each, finite, encoder ranges, |angle| <= 2 pi, |length| <= 10 m)
+before anything is sent; problems raise :class:`ParamFileError` naming the
+file and the key.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from aacmm.commands.exitcodes import UsageError
+from aacmm.protocol import ParamSet
+from aacmm.protocol.messages import COUNTS_PER_REV_MAX, JOINTS
+
+KIN_KEYS = ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm", "l_mm")
+ENC_KEYS = ("counts_per_rev", "zero_offset_counts", "direction")
+ALL_KEYS = KIN_KEYS + ENC_KEYS
+IGNORED_KEYS = frozenset({"format", "param_crc32", "param_crc32_hex"})
+ANGLE_MAX = 2.0 * math.pi
+LENGTH_MAX_MM = 10_000.0
+
+
+class ParamFileError(UsageError):
+    """A parameter file cannot be read or is not a valid parameter set."""
+
+
+def _floats(src: str, key: str, value: Any, n: int) -> tuple[float, ...]:
+    if n == 1:
+        value = [value]
+    if not isinstance(value, list) or len(value) != n:
+        want = "a number" if n == 1 else f"a list of {n} numbers"
+        raise ParamFileError(f"{src}: {key} must be {want}")
+    out = []
+    for i, v in enumerate(value):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ParamFileError(f"{src}: {key}[{i}] must be a number, got {v!r}")
+        if not math.isfinite(v):
+            raise ParamFileError(f"{src}: {key}[{i}] is not finite")
+        out.append(float(v))
+    return tuple(out)
+
+
+def _ints(src: str, key: str, value: Any, lo: int, hi: int) -> tuple[int, ...]:
+    if not isinstance(value, list) or len(value) != JOINTS:
+        raise ParamFileError(f"{src}: {key} must be a list of {JOINTS} integers")
+    out = []
+    for i, v in enumerate(value):
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ParamFileError(f"{src}: {key}[{i}] must be an integer, got {v!r}")
+        if not lo <= v <= hi:
+            raise ParamFileError(f"{src}: {key}[{i}]={v} outside {lo}..{hi}")
+        out.append(v)
+    return tuple(out)
+
+
+def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
+    """A validated :class:`ParamSet` from a flat or split mapping (see the module doc).
+
+    Raises:
+        ParamFileError: missing, unknown or bad keys, values out of range.
+    """
+    if not isinstance(data, dict):
+        raise ParamFileError(f"{src}: expected a table of parameters")
+    fmt = data.get("format")
+    if isinstance(fmt, str) and fmt.startswith("aacmm-log"):  # a log sidecar: its set only
+        data = {k: data[k] for k in ("params", "encoders") if k in data}
+    flat: dict[str, Any] = {}
+    for key, value in data.items():
+        if key in ("params", "encoders") and isinstance(value, dict):
+            allowed = KIN_KEYS if key == "params" else ENC_KEYS
+            for k, v in value.items():
+                if k not in allowed:
+                    raise ParamFileError(f"{src}: unknown key {key}.{k}")
+                flat[k] = v
+        elif key in ALL_KEYS:
+            flat[key] = value
+        elif key not in IGNORED_KEYS:
+            raise ParamFileError(f"{src}: unknown key {key!r} (expected {', '.join(ALL_KEYS)})")
+    missing = [k for k in ALL_KEYS if k not in flat]
+    if missing:
+        raise ParamFileError(f"{src}: missing {', '.join(missing)}")
+    kin = {k: _floats(src, k, flat[k], 1 if k == "l_mm" else JOINTS) for k in KIN_KEYS}
+    for k in ("theta_offset_rad", "alpha_rad"):
+        for i, v in enumerate(kin[k]):
+            if abs(v) > ANGLE_MAX:
+                raise ParamFileError(f"{src}: {k}[{i}]={v} beyond +-2 pi")
+    for k in ("d_mm", "a_mm", "l_mm"):
+        for i, v in enumerate(kin[k]):
+            if abs(v) > LENGTH_MAX_MM:
+                raise ParamFileError(f"{src}: {k}[{i}]={v} beyond +-{LENGTH_MAX_MM:g} mm")
+    cpr = _ints(src, "counts_per_rev", flat["counts_per_rev"], 2, COUNTS_PER_REV_MAX)
+    zero = _ints(src, "zero_offset_counts", flat["zero_offset_counts"], 0, 0xFFFFFFFF)
+    direction = _ints(src, "direction", flat["direction"], -1, 1)
+    for i in range(JOINTS):
+        if direction[i] == 0:
+            raise ParamFileError(f"{src}: direction[{i}] must be +1 or -1")
+        if zero[i] >= cpr[i]:
+            raise ParamFileError(
+                f"{src}: zero_offset_counts[{i}]={zero[i]} must be < counts_per_rev[{i}]"
+            )
+    ps = ParamSet(
+        theta_offset_rad=kin["theta_offset_rad"],
+        alpha_rad=kin["alpha_rad"],
+        d_mm=kin["d_mm"],
+        a_mm=kin["a_mm"],
+        l_mm=kin["l_mm"][0],
+        counts_per_rev=cpr,
+        zero_offset_counts=zero,
+        direction=direction,
+    )
+    from aacmm.protocol import encode_param_set
+
+    try:
+        encode_param_set(ps)  # the codec's own checks, as a last line
+    except ValueError as exc:
+        raise ParamFileError(f"{src}: {exc}") from None
+    return ps
+
+
+def _format(path: Path, fmt: str | None) -> str:
+    if fmt:
+        return fmt
+    suffix = path.suffix.lower()
+    if suffix == ".toml":
+        return "toml"
+    if suffix == ".json":
+        return "json"
+    raise ParamFileError(f"{path}: unknown format (use a .toml or .json file)")
+
+
+def load_param_file(path: str | Path) -> ParamSet:
+    """Read and validate a parameter file (TOML or JSON by suffix).
+
+    Raises:
+        ParamFileError: unreadable, not TOML/JSON, or not a valid parameter set.
+    """
+    p = Path(path)
+    fmt = _format(p, None)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ParamFileError(f"{p}: cannot read: {exc}") from None
+    try:
+        data: Any = tomllib.loads(text) if fmt == "toml" else json.loads(text)
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
+        raise ParamFileError(f"{p}: not valid {fmt.upper()}: {exc}") from None
+    return param_set_from_mapping(data, str(p))
+
+
+def param_set_dict(ps: ParamSet) -> dict[str, Any]:
+    """The flat mapping of a parameter set (lists, JSON/TOML-ready)."""
+    return {
+        "theta_offset_rad": list(ps.theta_offset_rad),
+        "alpha_rad": list(ps.alpha_rad),
+        "d_mm": list(ps.d_mm),
+        "a_mm": list(ps.a_mm),
+        "l_mm": ps.l_mm,
+        "counts_per_rev": list(ps.counts_per_rev),
+        "zero_offset_counts": list(ps.zero_offset_counts),
+        "direction": list(ps.direction),
+    }
+
+
+def dump_param_set(ps: ParamSet, fmt: str, crc: int | None = None) -> str:
+    """A parameter file's text (``fmt``: ``toml`` or ``json``)."""
+    data: dict[str, Any] = {"format": "aacmm-params-1"}
+    if crc is not None:
+        data["param_crc32"] = crc
+    data.update(param_set_dict(ps))
+    if fmt == "json":
+        return json.dumps(data, indent=2) + "\n"
+    import tomli_w
+
+    head = "# aacmm parameter set: lengths in mm, angles in rad, encoder counts\n"
+    return head + tomli_w.dumps(data)
+
+
+def write_param_file(ps: ParamSet, path: str | Path, crc: int | None = None) -> None:
+    """Write a parameter file, format by suffix (atomically: temp file + rename)."""
+    p = Path(path)
+    text = dump_param_set(ps, _format(p, None), crc)
+    tmp = p.with_name(p.name + ".tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(p)
+    except OSError as exc:
+        raise ParamFileError(f"{p}: cannot write: {exc}") from None

@@ -1,0 +1,316 @@
+"""``aacmm sim``: start the device simulator (``aacmm-sim``) and print its URLs.
+
+The binary is ``$AACMM_SIM``, else ``build/sim/aacmm-sim`` in the source tree
+this package runs from, else ``aacmm-sim`` on ``PATH``; ``make sim`` builds
+it. The command prints one URL per link on stdout (``serial:///dev/pts/N``,
+``socketcan://vcan0?node=1``) as soon as the simulator is ready, then runs
+until Ctrl-C or SIGTERM, which stop the simulator cleanly.
+
+:class:`SimProcess` is the same as a Python API (used by the tests and the
+demo).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+from types import FrameType, TracebackType
+from typing import IO, Any
+
+from aacmm.commands.exitcodes import INTERRUPTED, OK, PORT, USAGE, UsageError
+from aacmm.errors import AacmmError, InitError
+
+ENV_SIM = "AACMM_SIM"
+READY_TIMEOUT_S = 10.0
+SIM_EXIT_USAGE = 2
+SIM_EXIT_LINK = 3
+
+
+class SimulatorError(InitError):
+    """The simulator is missing or did not start (exit status 3)."""
+
+
+class SimulatorUsageError(UsageError):
+    """The simulator refused its options (exit status 2)."""
+
+
+def repo_root() -> Path | None:
+    """The source tree this package runs from (an editable install), if any."""
+    here = Path(__file__).resolve()
+    for parent in here.parents:
+        if (parent / "Makefile").is_file() and (parent / "firmware").is_dir():
+            return parent
+    return None
+
+
+def find_simulator() -> Path:
+    """The ``aacmm-sim`` binary (see the module docstring).
+
+    Raises:
+        SimulatorError: not found or not executable ("run make sim").
+    """
+    env = os.environ.get(ENV_SIM, "").strip()
+    if env:
+        p = Path(env)
+        if p.is_file() and os.access(p, os.X_OK):
+            return p
+        raise SimulatorError(f"${ENV_SIM}={env} is not an executable file")
+    root = repo_root()
+    if root is not None:
+        p = root / "build" / "sim" / "aacmm-sim"
+        if p.is_file() and os.access(p, os.X_OK):
+            return p
+    found = shutil.which("aacmm-sim")
+    if found:
+        return Path(found)
+    where = f" in {root}" if root is not None else ""
+    raise SimulatorError(f"simulator aacmm-sim not found: run 'make sim'{where} or set ${ENV_SIM}")
+
+
+class SimProcess:
+    """A running ``aacmm-sim``: start it, wait for ``ready``, know its URLs.
+
+    Args:
+        args: simulator options (e.g. ``["--serial", "pty", "--seed", "1"]``).
+        link: make ``link`` a symlink to the simulator's pty, so the port keeps
+            one name across restarts (replaced atomically, removed on stop).
+        stderr: where the simulator's stderr goes (default: inherited).
+
+    Raises:
+        SimulatorError: binary missing, or it ended or stayed silent before ``ready``.
+        SimulatorUsageError: it refused the options (its exit status 2).
+    """
+
+    def __init__(
+        self,
+        args: Sequence[str] = ("--serial", "pty"),
+        link: str | Path | None = None,
+        stderr: int | IO[Any] | None = None,
+        binary: Path | None = None,
+    ) -> None:
+        self.binary = binary or find_simulator()
+        self.args = list(args)
+        self.link = Path(link) if link is not None else None
+        self.serial_path: str | None = None
+        self.can: tuple[str, int] | None = None
+        self.lines: list[str] = []
+        self.proc = subprocess.Popen(
+            [str(self.binary), *self.args],
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            bufsize=1,
+        )
+        try:
+            self._wait_ready()
+        except BaseException:
+            self.stop()
+            raise
+        if self.link is not None and self.serial_path is not None:
+            tmp = self.link.with_name(f".{self.link.name}.{os.getpid()}.tmp")
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
+            os.symlink(self.serial_path, tmp)
+            os.replace(tmp, self.link)
+
+    def _wait_ready(self) -> None:
+        assert self.proc.stdout is not None
+        out = self.proc.stdout
+        result: list[str] = []
+        done = threading.Event()
+
+        def reader() -> None:
+            for line in out:
+                result.append(line.rstrip("\n"))
+                if line.startswith("aacmm-sim: ready"):
+                    break
+            done.set()
+
+        t = threading.Thread(target=reader, daemon=True)
+        t.start()
+        done.wait(READY_TIMEOUT_S)
+        self.lines = list(result)
+        for line in self.lines:
+            parts = line.split()
+            if line.startswith("aacmm-sim: serial ") and len(parts) >= 3:
+                self.serial_path = parts[2]
+            elif line.startswith("aacmm-sim: can ") and len(parts) >= 5:
+                self.can = (parts[2], int(parts[4]))
+        if any(line.startswith("aacmm-sim: ready") for line in self.lines):
+            # keep draining stdout so the simulator never blocks on a full pipe
+            threading.Thread(target=lambda: [None for _ in out], daemon=True).start()
+            return
+        if not done.is_set():
+            raise SimulatorError(f"simulator not ready within {READY_TIMEOUT_S:g} s")
+        rc = self.proc.wait(timeout=5)
+        if rc == SIM_EXIT_USAGE:
+            raise SimulatorUsageError(f"simulator refused its options {' '.join(self.args)}")
+        raise SimulatorError(f"simulator ended before it was ready (exit status {rc})")
+
+    @property
+    def urls(self) -> list[str]:
+        """The device URLs to connect to (serial first)."""
+        out = []
+        if self.serial_path is not None:
+            out.append(f"serial://{self.link if self.link is not None else self.serial_path}")
+        if self.can is not None:
+            out.append(f"socketcan://{self.can[0]}?node={self.can[1]}")
+        return out
+
+    @property
+    def url(self) -> str:
+        return self.urls[0]
+
+    def running(self) -> bool:
+        return self.proc.poll() is None
+
+    def kill(self) -> None:
+        """SIGKILL (a device that vanishes); the link is left dangling on purpose."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+
+    def stop(self, timeout: float = 5.0) -> int:
+        """SIGTERM, wait (SIGKILL after ``timeout``), remove the link; the exit status."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        if self.link is not None and self.serial_path is not None:
+            with contextlib.suppress(OSError):
+                if os.readlink(self.link) == self.serial_path:
+                    self.link.unlink()
+        if self.proc.stdout is not None:
+            with contextlib.suppress(OSError):
+                self.proc.stdout.close()
+        return int(self.proc.returncode)
+
+    def __enter__(self) -> SimProcess:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.stop()
+
+
+# ---------------------------------------------------------------- the command
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "sim",
+        help="start the device simulator and print the URL to connect to",
+        description="Start aacmm-sim (see docs/simulator.md), print one device URL per line "
+        "on stdout once it is ready, run until Ctrl-C. Without --serial or --can it opens "
+        "a pseudo-terminal.",
+    )
+    p.add_argument(
+        "--serial",
+        metavar="pty|PATH",
+        help="serial link: 'pty' (a new pseudo-terminal) or a tty path",
+    )
+    p.add_argument("--can", metavar="IFACE", help="SocketCAN interface (e.g. vcan0)")
+    p.add_argument("--node", type=int, metavar="N", help="CAN node id 0..15 (default 1)")
+    p.add_argument("--storage", metavar="FILE", help="parameter storage file")
+    p.add_argument("--motion", metavar="KIND", help="sweep, walk, static or replay:FILE")
+    p.add_argument("--seed", type=int, metavar="N", help="random seed of the motion")
+    p.add_argument("--noise-counts", type=int, metavar="N", help="encoder noise in counts")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--encoder-bits", type=int, metavar="B", help="encoder resolution in bits")
+    g.add_argument("--cpr", type=int, metavar="N", help="encoder counts per revolution")
+    p.add_argument(
+        "--button-every", type=float, metavar="S", help="press/release the probe button every S s"
+    )
+    p.add_argument("--serial-number", type=int, metavar="N", help="device serial number")
+    p.add_argument("--quiet", action="store_true", help="less simulator output on stderr")
+    p.add_argument(
+        "--link",
+        metavar="PATH",
+        help="also make PATH a symlink to the pty and print serial://PATH "
+        "(a stable port name across restarts)",
+    )
+    p.set_defaults(func=cmd_sim)
+
+
+def sim_args(args: argparse.Namespace) -> list[str]:
+    """Simulator options from the parsed ``aacmm sim`` arguments."""
+    out: list[str] = []
+    serial = args.serial
+    if serial is None and args.can is None:
+        serial = "pty"
+    if serial is not None:
+        out += ["--serial", serial]
+    for opt, val in (
+        ("--can", args.can),
+        ("--node", args.node),
+        ("--storage", args.storage),
+        ("--motion", args.motion),
+        ("--seed", args.seed),
+        ("--noise-counts", args.noise_counts),
+        ("--encoder-bits", args.encoder_bits),
+        ("--cpr", args.cpr),
+        ("--button-every", args.button_every),
+        ("--serial-number", args.serial_number),
+    ):
+        if val is not None:
+            out += [opt, str(val)]
+    if args.quiet:
+        out.append("--quiet")
+    return out
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    if args.link is not None and args.serial is None and args.can is not None:
+        raise UsageError("--link needs a serial link (--serial pty)")
+    stop = threading.Event()
+    received: list[int] = []
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        received.append(signum)
+        stop.set()
+
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        sim = SimProcess(sim_args(args), link=args.link)
+        try:
+            for url in sim.urls:
+                print(url, flush=True)
+            print(
+                f"aacmm sim: {sim.binary} running (pid {sim.proc.pid}); Ctrl-C to stop",
+                file=sys.stderr,
+                flush=True,
+            )
+            while not stop.is_set() and sim.running():
+                stop.wait(0.2)
+        finally:
+            rc = sim.stop()
+    except AacmmError:
+        raise
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+    if received:
+        return OK if rc in (0, -signal.SIGTERM) else INTERRUPTED
+    # the simulator ended by itself
+    if rc == SIM_EXIT_USAGE:
+        return USAGE
+    if rc == SIM_EXIT_LINK:
+        return PORT
+    print(f"aacmm sim: simulator ended (exit status {rc})", file=sys.stderr)
+    return OK if rc == 0 else 1
