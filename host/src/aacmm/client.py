@@ -1,0 +1,736 @@
+"""The aacmm device client: one API over serial, SocketCAN and the virtual CAN bus.
+
+>>> from aacmm.client import connect
+>>> with connect("serial:///dev/pts/3") as arm:          # doctest: +SKIP
+...     print(arm.info())
+...     sample = arm.measure()
+...     with arm.stream(1000) as samples:
+...         for s in samples:
+...             ...
+
+URL forms are listed in :mod:`aacmm.transport`; without a URL, :func:`connect`
+uses the ``AACMM_PORT`` environment variable.
+
+Requests carry a sequence number the device echoes, so a late answer to an
+earlier, timed-out attempt is never taken for the answer to a later one.
+Each request waits ``timeout`` seconds; idempotent requests (ping, info, get
+parameters, measure, compute, stream start/stop) are retried up to
+``retries`` times after a timeout or a busy device, the others (set, save and
+restore parameters) never, so they are not applied twice.
+
+Errors (all but ``ValueError``/``TypeError`` derive from
+:class:`aacmm.errors.AacmmError`):
+
+- :class:`~aacmm.errors.InitError`: the port or bus cannot be opened, or the
+  handshake found an incompatible device;
+- :class:`~aacmm.errors.DeviceTimeoutError`: no answer in time (after retries);
+- :class:`~aacmm.errors.DeviceError`: the device answered with an error
+  response (``status`` is its ``aacmm_status_t``);
+- :class:`~aacmm.errors.FrameError`: the device answered with a response that
+  does not fit the request;
+- :class:`~aacmm.errors.OperationError`: the client is closed or the link was
+  lost;
+- ``ValueError``/``TypeError``: bad arguments (checked before anything is sent).
+"""
+
+from __future__ import annotations
+
+import operator
+import os
+import random
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+from typing import Final
+
+from aacmm.errors import (
+    AacmmError,
+    DeviceError,
+    DeviceTimeoutError,
+    FrameError,
+    InitError,
+    OperationError,
+)
+from aacmm.protocol import (
+    PROTOCOL_VERSION,
+    ComputeRequest,
+    ComputeResult,
+    DeviceInfo,
+    ErrorReply,
+    MeasureRequest,
+    Message,
+    MsgType,
+    ParamCrc,
+    ParamSet,
+    Ping,
+    Sample,
+    SampleStatus,
+    Stream,
+    Trigger,
+    encode_message,
+    status_name,
+)
+from aacmm.protocol.messages import JOINTS, RESPONSE_BIT, STREAM_RATE_MAX_HZ, STREAM_RATE_MIN_HZ
+from aacmm.protocol.status import Status
+from aacmm.transport import Transport, open_transport
+
+__all__ = [
+    "DEFAULT_RETRIES",
+    "DEFAULT_TIMEOUT",
+    "ENV_PORT",
+    "IDEMPOTENT_REQUESTS",
+    "Client",
+    "ClientStats",
+    "SampleStream",
+    "StreamStats",
+    "connect",
+]
+
+ENV_PORT: Final = "AACMM_PORT"
+"""Environment variable with the default device URL."""
+DEFAULT_TIMEOUT: Final = 1.0
+DEFAULT_RETRIES: Final = 2
+TRIGGER_QUEUE: Final = 1024
+
+IDEMPOTENT_REQUESTS: Final = frozenset(
+    {
+        MsgType.PING_REQ,
+        MsgType.INFO_REQ,
+        MsgType.GET_PARAMS_REQ,
+        MsgType.MEASURE_REQ,
+        MsgType.COMPUTE_REQ,
+        MsgType.STREAM_START_REQ,
+        MsgType.STREAM_STOP_REQ,
+    }
+)
+"""Requests that may be sent again after a timeout; the others are sent once."""
+
+
+@dataclass
+class ClientStats:
+    """Counters of one client (never reset)."""
+
+    requests: int = 0
+    retries: int = 0
+    timeouts: int = 0
+    device_errors: int = 0
+    stale_responses: int = 0
+    """Responses whose sequence number matched no waiting request (late or foreign)."""
+    frame_errors: int = 0
+    """Invalid frames or messages the transport dropped."""
+    unsolicited_samples: int = 0
+    """Samples received while no stream was open."""
+    unexpected_messages: int = 0
+    callback_errors: int = 0
+    """Exceptions raised by trigger callbacks (swallowed)."""
+
+
+@dataclass
+class StreamStats:
+    """Counters of one sample stream."""
+
+    received: int = 0
+    lost: int = 0
+    """Samples missing according to the sequence numbers (gaps)."""
+    duplicates: int = 0
+    """Samples whose sequence number was not newer than the previous one."""
+    overruns: int = 0
+    """Samples flagged OVERRUN by the device (it dropped samples before them)."""
+    dropped: int = 0
+    """Samples discarded on the host because the consumer fell ``max_queue`` behind."""
+    first_seq: int | None = None
+    last_seq: int | None = None
+
+
+class _Pending:
+    __slots__ = ("event", "response", "seq", "type")
+
+    def __init__(self, msg_type: MsgType, seq: int) -> None:
+        self.type = msg_type
+        self.seq = seq
+        self.event = threading.Event()
+        self.response: Message | None = None
+
+
+class SampleStream:
+    """Samples streamed by the device: an iterator and a context manager.
+
+    Made by :meth:`Client.stream`, which has already started the stream;
+    leaving the ``with`` block (or :meth:`stop`) stops it. Iteration yields
+    :class:`~aacmm.protocol.Sample` objects in arrival order, raises
+    :class:`~aacmm.errors.DeviceTimeoutError` when no sample came for
+    ``timeout`` seconds, and ends once the stream is stopped and the samples
+    received before the stop are consumed. Gaps and repeats in the sequence
+    numbers are counted in :attr:`stats`, not hidden.
+    """
+
+    def __init__(
+        self, client: Client, rate_hz: int, jacobian: bool, timeout: float, max_queue: int
+    ) -> None:
+        self._client = client
+        self.rate_hz = rate_hz
+        self.jacobian = jacobian
+        self.timeout = timeout
+        self.max_queue = max_queue
+        self.accepted: Stream | None = None
+        """The device's STREAM_START_RSP (rate and content it runs with)."""
+        self.stats = StreamStats()
+        self._queue: deque[Sample] = deque()
+        self._cond = threading.Condition()
+        self._ended = False
+        self._error: BaseException | None = None
+
+    # called from the transport's reader thread
+    def _push(self, sample: Sample) -> None:
+        st = self.stats
+        with self._cond:
+            if self._ended:
+                return
+            st.received += 1
+            if st.last_seq is None:
+                st.first_seq = sample.seq
+            else:
+                step = (sample.seq - st.last_seq) & 0xFFFFFFFF
+                if step == 0 or step >= 1 << 31:
+                    st.duplicates += 1
+                elif step > 1:
+                    st.lost += step - 1
+            if step_is_newer(st.last_seq, sample.seq):
+                st.last_seq = sample.seq
+            if sample.status & SampleStatus.OVERRUN:
+                st.overruns += 1
+            if len(self._queue) >= self.max_queue:
+                self._queue.popleft()
+                st.dropped += 1
+            self._queue.append(sample)
+            self._cond.notify()
+
+    def _end(self, error: BaseException | None = None) -> None:
+        with self._cond:
+            self._ended = True
+            if error is not None and self._error is None:
+                self._error = error
+            self._cond.notify_all()
+
+    @property
+    def active(self) -> bool:
+        """True until the stream is stopped or the link is lost."""
+        return not self._ended
+
+    def pending(self) -> int:
+        """Samples received and not yet consumed."""
+        with self._cond:
+            return len(self._queue)
+
+    def get(self, timeout: float | None = None) -> Sample:
+        """The next sample.
+
+        Raises:
+            DeviceTimeoutError: none within ``timeout`` (default: the stream's).
+            OperationError: the link was lost and the queue is empty.
+            StopIteration: the stream was stopped and the queue is empty.
+        """
+        wait = self.timeout if timeout is None else timeout
+        deadline = time.monotonic() + wait
+        with self._cond:
+            while not self._queue:
+                if self._ended:
+                    if self._error is not None:
+                        raise OperationError(f"stream ended: {self._error}") from self._error
+                    raise StopIteration
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise DeviceTimeoutError(f"no sample within {wait:.3f} s")
+                self._cond.wait(remaining)
+            return self._queue.popleft()
+
+    def __iter__(self) -> Iterator[Sample]:
+        return self
+
+    def __next__(self) -> Sample:
+        return self.get()
+
+    def stop(self) -> None:
+        """Stop the stream on the device (idempotent). Samples already received stay readable.
+
+        Raises:
+            DeviceTimeoutError, DeviceError, OperationError: the stop request failed
+                (the stream is ended on the host side regardless).
+        """
+        self._client._stop_stream(self)
+
+    def __enter__(self) -> SampleStream:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is None:
+            self.stop()
+            return
+        try:
+            self.stop()
+        except AacmmError:
+            pass  # do not mask the exception that ended the block
+
+
+def step_is_newer(last: int | None, seq: int) -> bool:
+    """True if sample counter ``seq`` comes after ``last`` (modulo 2**32)."""
+    if last is None:
+        return True
+    step = (seq - last) & 0xFFFFFFFF
+    return 0 < step < 1 << 31
+
+
+def _counts(counts: Sequence[int]) -> tuple[int, ...]:
+    try:
+        values = tuple(operator.index(c) for c in counts)
+    except TypeError:
+        raise TypeError("encoder counts must be integers") from None
+    if len(values) != JOINTS:
+        raise ValueError(f"need {JOINTS} encoder counts, got {len(values)}")
+    for i, v in enumerate(values):
+        if not 0 <= v <= 0xFFFFFFFF:
+            raise ValueError(f"counts[{i}]={v} outside 0..2**32-1")
+    return values
+
+
+def _flag(name: str, value: object) -> bool:
+    if not isinstance(value, bool):
+        raise TypeError(f"{name} must be a bool")
+    return value
+
+
+class Client:
+    """A connection to one device over a started :class:`~aacmm.transport.Transport`.
+
+    Thread-safe: requests from several threads are serialised. Use
+    :func:`connect` to open one from a URL.
+
+    Args:
+        transport: an opened, not yet started transport (the client starts it
+            and closes it on :meth:`close`).
+        timeout: seconds to wait for each response.
+        retries: extra attempts for idempotent requests.
+    """
+
+    def __init__(
+        self,
+        transport: Transport,
+        timeout: float = DEFAULT_TIMEOUT,
+        retries: int = DEFAULT_RETRIES,
+    ) -> None:
+        if not timeout > 0:
+            raise ValueError(f"timeout must be positive, got {timeout}")
+        if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+            raise ValueError(f"retries must be a non-negative int, got {retries!r}")
+        self.transport = transport
+        self.timeout = float(timeout)
+        self.retries = retries
+        self.stats = ClientStats()
+        self.last_frame_error: FrameError | None = None
+        self.device_info: DeviceInfo | None = None
+        """The last :meth:`info` answer."""
+        self._lock = threading.Lock()  # guards the fields below
+        self._req_lock = threading.Lock()  # one request at a time
+        self._pending: _Pending | None = None
+        self._stream: SampleStream | None = None
+        self._link_error: BaseException | None = None
+        self._closed = False
+        self._seq = random.randrange(256)
+        self._triggers: deque[Trigger] = deque(maxlen=TRIGGER_QUEUE)
+        self._trigger_cond = threading.Condition()
+        self._trigger_callbacks: list[Callable[[Trigger], None]] = []
+        transport.start(self)
+
+    # ------------------------------------------------------------ sink (reader threads)
+
+    def on_message(self, msg: Message) -> None:
+        t = msg.type
+        if t == MsgType.SAMPLE_EVT:
+            stream = self._stream
+            if stream is not None and isinstance(msg.payload, Sample):
+                stream._push(msg.payload)
+            else:
+                self.stats.unsolicited_samples += 1
+            return
+        if t == MsgType.TRIGGER_EVT:
+            if isinstance(msg.payload, Trigger):
+                self._on_trigger(msg.payload)
+            return
+        if t & RESPONSE_BIT:
+            with self._lock:
+                p = self._pending
+                if p is not None and p.seq == msg.seq and p.response is None:
+                    foreign = isinstance(
+                        msg.payload, ErrorReply
+                    ) and msg.payload.request_type not in (0, int(p.type))
+                    if not foreign:
+                        p.response = msg
+                        p.event.set()
+                        return
+            self.stats.stale_responses += 1
+            return
+        self.stats.unexpected_messages += 1
+
+    def on_frame_error(self, err: FrameError) -> None:
+        self.stats.frame_errors += 1
+        self.last_frame_error = err
+
+    def on_link_lost(self, err: BaseException) -> None:
+        with self._lock:
+            self._link_error = err
+            pending, stream = self._pending, self._stream
+        if pending is not None:
+            pending.event.set()
+        if stream is not None:
+            stream._end(err)
+        with self._trigger_cond:
+            self._trigger_cond.notify_all()
+
+    def _on_trigger(self, trig: Trigger) -> None:
+        with self._trigger_cond:
+            self._triggers.append(trig)
+            self._trigger_cond.notify_all()
+            callbacks = list(self._trigger_callbacks)
+        for cb in callbacks:
+            try:
+                cb(trig)
+            except Exception:  # a user callback must not kill the reader
+                self.stats.callback_errors += 1
+
+    # ------------------------------------------------------------ requests
+
+    def _check_usable(self) -> None:
+        if self._closed:
+            raise OperationError("client is closed")
+        if self._link_error is not None:
+            raise OperationError(f"link lost: {self._link_error}") from self._link_error
+
+    def request(
+        self,
+        msg_type: MsgType,
+        payload: object = None,
+        *,
+        timeout: float | None = None,
+        retries: int | None = None,
+    ) -> Message:
+        """Send one request and return the device's matching response.
+
+        ``retries`` (default: the client's) applies only to idempotent
+        requests (:data:`IDEMPOTENT_REQUESTS`); others are sent once.
+
+        Raises:
+            ValueError: not a request type, or a payload the codec rejects.
+            DeviceTimeoutError: no answer after all attempts.
+            DeviceError: the device answered with an error response.
+            FrameError: the answer has the wrong type for the request.
+            OperationError: closed client or lost link.
+        """
+        try:
+            t = MsgType(msg_type)
+        except ValueError:
+            raise ValueError(f"unknown message type {msg_type!r}") from None
+        if int(t) >= 0x40:
+            raise ValueError(f"{t.name} is not a request")
+        wait = self.timeout if timeout is None else float(timeout)
+        if not wait > 0:
+            raise ValueError(f"timeout must be positive, got {timeout}")
+        extra = self.retries if retries is None else retries
+        if t not in IDEMPOTENT_REQUESTS:
+            extra = 0
+        encode_message(Message(t, 0, payload))  # type: ignore[arg-type]  # ValueError early
+        self._check_usable()
+        last: AacmmError | None = None
+        with self._req_lock:
+            self.stats.requests += 1
+            for attempt in range(1 + extra):
+                if attempt:
+                    self.stats.retries += 1
+                self._check_usable()
+                with self._lock:
+                    self._seq = (self._seq + 1) & 0xFF
+                    pending = _Pending(t, self._seq)
+                    self._pending = pending
+                body = encode_message(Message(t, pending.seq, payload))  # type: ignore[arg-type]
+                try:
+                    self.transport.send(body)
+                    answered = pending.event.wait(wait)
+                except DeviceTimeoutError as exc:
+                    answered, last = False, exc
+                finally:
+                    with self._lock:
+                        self._pending = None
+                self._check_usable()
+                rsp = pending.response
+                if not answered or rsp is None:
+                    self.stats.timeouts += 1
+                    last = DeviceTimeoutError(
+                        f"{self.transport.description}: no answer to {t.name} within {wait:.3f} s"
+                        + (f" ({attempt + 1} attempts)" if attempt else "")
+                    )
+                    continue
+                if isinstance(rsp.payload, ErrorReply):
+                    self.stats.device_errors += 1
+                    err = DeviceError(
+                        f"device refused {t.name}: {status_name(rsp.payload.status)}",
+                        rsp.payload.status,
+                        rsp.payload.request_type or int(t),
+                    )
+                    if rsp.payload.status == Status.ERR_BUSY and attempt < extra:
+                        last = err
+                        continue
+                    raise err
+                if rsp.type != int(t) | RESPONSE_BIT:
+                    raise FrameError(
+                        f"answer {rsp.type.name} to {t.name}", int(Status.ERR_UNKNOWN_TYPE)
+                    )
+                return rsp
+        assert last is not None
+        raise last
+
+    def ping(self, token: int | None = None) -> float:
+        """Ping the device; return the round-trip time in seconds.
+
+        Raises:
+            FrameError: the echoed token differs.
+        """
+        tok = random.getrandbits(32) if token is None else token
+        start = time.perf_counter()
+        rsp = self.request(MsgType.PING_REQ, Ping(tok))
+        rtt = time.perf_counter() - start
+        if not isinstance(rsp.payload, Ping) or rsp.payload.token != tok:
+            raise FrameError("ping answered with another token", int(Status.ERR_FRAME))
+        return rtt
+
+    def info(self) -> DeviceInfo:
+        """Device identity, firmware version, build flags and parameter state."""
+        payload = self.request(MsgType.INFO_REQ).payload
+        assert isinstance(payload, DeviceInfo)
+        self.device_info = payload
+        return payload
+
+    def get_params(self) -> ParamSet:
+        """The active parameter set (kinematic parameters and encoder configuration)."""
+        payload = self.request(MsgType.GET_PARAMS_REQ).payload
+        assert isinstance(payload, ParamSet)
+        return payload
+
+    def set_params(self, params: ParamSet) -> int:
+        """Activate ``params`` (in RAM; see :meth:`save_params`); return the device's CRC of it.
+
+        Not retried. Raises ValueError for values the protocol cannot carry and
+        DeviceError if the device refuses them.
+        """
+        if not isinstance(params, ParamSet):
+            raise TypeError("params must be an aacmm.protocol.ParamSet")
+        payload = self.request(MsgType.SET_PARAMS_REQ, params).payload
+        assert isinstance(payload, ParamCrc)
+        return payload.param_crc32
+
+    def save_params(self) -> int:
+        """Store the active set in non-volatile storage; return its CRC. Not retried."""
+        payload = self.request(MsgType.SAVE_PARAMS_REQ).payload
+        assert isinstance(payload, ParamCrc)
+        return payload.param_crc32
+
+    def restore_defaults(self) -> int:
+        """Activate the built-in default parameters; return their CRC. Not retried."""
+        payload = self.request(MsgType.RESTORE_DEFAULTS_REQ).payload
+        assert isinstance(payload, ParamCrc)
+        return payload.param_crc32
+
+    def measure(self, jacobian: bool = False) -> Sample:
+        """Read the encoders now and return the sample (with the 3x25 Jacobian if asked)."""
+        payload = self.request(
+            MsgType.MEASURE_REQ, MeasureRequest(_flag("jacobian", jacobian))
+        ).payload
+        assert isinstance(payload, Sample)
+        return payload
+
+    def compute(self, counts: Sequence[int], jacobian: bool = False) -> ComputeResult:
+        """Have the device evaluate its model at six encoder readings (0..2**32-1)."""
+        req = ComputeRequest(_counts(counts), _flag("jacobian", jacobian))
+        payload = self.request(MsgType.COMPUTE_REQ, req).payload
+        assert isinstance(payload, ComputeResult)
+        return payload
+
+    def stream(
+        self,
+        rate_hz: int,
+        jacobian: bool = False,
+        *,
+        timeout: float | None = None,
+        max_queue: int = 1_000_000,
+    ) -> SampleStream:
+        """Start streaming at ``rate_hz`` (1..1000) and return the :class:`SampleStream`.
+
+        ``timeout`` is the longest wait for one sample (default: the request
+        timeout plus two sample periods, at least 1 s more); ``max_queue`` bounds the samples
+        buffered for a slow consumer (the oldest are dropped and counted).
+
+        Raises:
+            ValueError: rate out of range, bad ``max_queue``.
+            OperationError: a stream is already open on this client.
+        """
+        if isinstance(rate_hz, bool) or not isinstance(rate_hz, int):
+            raise TypeError("rate_hz must be an int")
+        if not STREAM_RATE_MIN_HZ <= rate_hz <= STREAM_RATE_MAX_HZ:
+            raise ValueError(
+                f"rate_hz={rate_hz} outside {STREAM_RATE_MIN_HZ}..{STREAM_RATE_MAX_HZ}"
+            )
+        if max_queue < 1:
+            raise ValueError("max_queue must be at least 1")
+        wait = self.timeout + max(1.0, 2.0 / rate_hz) if timeout is None else float(timeout)
+        stream = SampleStream(self, rate_hz, _flag("jacobian", jacobian), wait, max_queue)
+        with self._lock:
+            if self._stream is not None:
+                raise OperationError("a stream is already open on this client")
+            self._stream = stream
+        try:
+            rsp = self.request(MsgType.STREAM_START_REQ, Stream(rate_hz, jacobian))
+        except BaseException:
+            with self._lock:
+                self._stream = None
+            stream._end()
+            raise
+        assert isinstance(rsp.payload, Stream)
+        stream.accepted = rsp.payload
+        return stream
+
+    def _stop_stream(self, stream: SampleStream) -> None:
+        with self._lock:
+            if self._stream is not stream:
+                return
+        try:
+            if not self._closed and self._link_error is None:
+                self.request(MsgType.STREAM_STOP_REQ)
+        finally:
+            with self._lock:
+                if self._stream is stream:
+                    self._stream = None
+            stream._end()
+
+    @property
+    def streaming(self) -> SampleStream | None:
+        """The open stream, if any."""
+        return self._stream
+
+    # ------------------------------------------------------------ trigger events
+
+    def wait_trigger(self, timeout: float | None = None) -> Trigger:
+        """The oldest probe-button event not yet taken (waits up to ``timeout`` s).
+
+        Raises:
+            DeviceTimeoutError: none arrived in time.
+            OperationError: the link was lost.
+        """
+        wait = self.timeout if timeout is None else timeout
+        deadline = time.monotonic() + wait
+        with self._trigger_cond:
+            while not self._triggers:
+                self._check_usable()
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise DeviceTimeoutError(f"no trigger event within {wait:.3f} s")
+                self._trigger_cond.wait(remaining)
+            return self._triggers.popleft()
+
+    def drain_triggers(self) -> list[Trigger]:
+        """All trigger events received and not yet taken (oldest first)."""
+        with self._trigger_cond:
+            out = list(self._triggers)
+            self._triggers.clear()
+            return out
+
+    def add_trigger_callback(self, callback: Callable[[Trigger], None]) -> None:
+        """Call ``callback(trigger)`` from the reader thread for every event (keep it short)."""
+        with self._trigger_cond:
+            self._trigger_callbacks.append(callback)
+
+    def remove_trigger_callback(self, callback: Callable[[Trigger], None]) -> None:
+        with self._trigger_cond:
+            self._trigger_callbacks.remove(callback)
+
+    # ------------------------------------------------------------ life cycle
+
+    def handshake(self) -> DeviceInfo:
+        """Read the device info and check the protocol version.
+
+        Raises:
+            InitError: the device speaks another protocol version.
+        """
+        info = self.info()
+        if info.protocol_version != PROTOCOL_VERSION:
+            raise InitError(
+                f"device speaks protocol {info.protocol_version}, host {PROTOCOL_VERSION}"
+            )
+        return info
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        """Stop an open stream (best effort) and close the transport (idempotent)."""
+        if self._closed:
+            return
+        stream = self._stream
+        if stream is not None:
+            try:
+                stream.stop()
+            except AacmmError:
+                pass
+        self._closed = True
+        self.transport.close()
+        with self._trigger_cond:
+            self._trigger_cond.notify_all()
+
+    def __enter__(self) -> Client:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def connect(
+    url: str | None = None,
+    *,
+    timeout: float = DEFAULT_TIMEOUT,
+    retries: int = DEFAULT_RETRIES,
+    handshake: bool = False,
+) -> Client:
+    """Open a client from a device URL (default: ``$AACMM_PORT``).
+
+    With ``handshake=True`` the device info is read and the protocol version
+    checked before returning.
+
+    Raises:
+        ValueError: no URL given nor in the environment, or a malformed URL.
+        InitError: the port or bus cannot be opened (or the handshake failed
+            on the protocol version).
+        DeviceTimeoutError: handshake without an answer.
+    """
+    if url is None:
+        url = os.environ.get(ENV_PORT, "").strip()
+        if not url:
+            raise ValueError(f"no device URL given and {ENV_PORT} is not set")
+    transport = open_transport(url, write_timeout=max(timeout, 1.0))
+    try:
+        client = Client(transport, timeout=timeout, retries=retries)
+    except BaseException:
+        transport.close()
+        raise
+    if handshake:
+        try:
+            client.handshake()
+        except BaseException:
+            client.close()
+            raise
+    return client

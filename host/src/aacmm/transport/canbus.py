@@ -1,0 +1,404 @@
+"""CAN transports: SocketCAN (python-can ``socketcan``) and python-can's in-process ``virtual`` bus.
+
+Layout (``firmware/include/aacmm/proto_can.h``, ``aacmm/data/aacmm.dbc``):
+plain samples arrive as six periodic 8-byte frames at 0x100+n .. 0x150+n,
+probe button edges as a trigger frame at 0x160+n, and every other message
+is a protocol message body carried by ISO-TP (``can-isotp``) on 0x600+n
+(host to device) and 0x680+n (device to host).
+
+One reader thread takes every frame off the bus as it arrives (so a flood of
+sample frames never overruns the socket's receive queue while the host is
+busy elsewhere) and routes it: sample frames to a small assembler, ISO-TP
+frames to the user-space ISO-TP stack, which runs in its own threads. Samples
+rebuilt from CAN frames carry the device's 32-bit timestamp extended to 64
+bits across wrap-arounds, the low 16 status bits, and no Jacobian (a sample
+with a Jacobian travels as an ISO-TP message instead).
+"""
+
+from __future__ import annotations
+
+import queue
+import socket
+import struct
+import threading
+from collections import OrderedDict
+from typing import Any, Final
+
+import can
+import isotp
+
+from aacmm.errors import DeviceTimeoutError, FrameError, InitError, OperationError
+from aacmm.protocol import Message, MsgType, Sample, Trigger, decode_message
+from aacmm.protocol.can import (
+    ID_ISOTP_RESPONSE,
+    ID_POINT_Z,
+    ID_SAMPLE_HEADER,
+    ID_TRIGGER,
+    NODE_ID_MAX,
+    SAMPLE_FRAME_IDS,
+    isotp_address,
+    isotp_params,
+)
+from aacmm.protocol.status import Status
+from aacmm.transport.base import Transport
+
+_POLL_S: Final = 0.05
+_RCVBUF_BYTES: Final = 8 << 20
+_SO_RCVBUFFORCE: Final = 33  # Linux; lets root exceed net.core.rmem_max
+_RECENT_SAMPLES: Final = 256
+_TRIGGER_WAIT_SAMPLES: Final = 64
+
+_HDR = struct.Struct("<II")
+_PAIR_U = struct.Struct("<II")
+_PAIR_I = struct.Struct("<ii")
+_POINT_Z = struct.Struct("<iHBB")
+_TRIG = struct.Struct("<IBBH")
+
+
+def check_node(node_id: int) -> int:
+    """Return ``node_id`` if it is a valid CAN node id (0..15), else raise ValueError."""
+    if isinstance(node_id, bool) or not isinstance(node_id, int):
+        raise ValueError(f"CAN node id must be an int, got {node_id!r}")
+    if not 0 <= node_id <= NODE_ID_MAX:
+        raise ValueError(f"CAN node id {node_id} outside 0..{NODE_ID_MAX}")
+    return node_id
+
+
+class SampleFrameDecoder:
+    """Rebuilds samples and trigger events from one node's periodic frames.
+
+    Decodes with :mod:`struct` (the layout of ``proto_can.h``), independently
+    of the DBC, and is fast enough for 1 kHz streams. A sample whose frames
+    are missing, out of order or whose SeqTag does not match its header is
+    dropped and counted in :attr:`incomplete`.
+    """
+
+    def __init__(self, node_id: int) -> None:
+        self.node_id = check_node(node_id)
+        self.incomplete = 0
+        self.bad_frames = 0
+        self.triggers_unmatched = 0
+        self._parts: list[bytes] = []
+        self._orphan = False
+        self._ts_high = 0
+        self._ts_last = -1
+        self._recent: OrderedDict[int, Sample] = OrderedDict()
+        self._pending: list[tuple[int, int, bool, int]] = []  # seq, button, pressed, age
+
+    def _timestamp(self, low: int) -> int:
+        if self._ts_last >= 0 and low < self._ts_last and self._ts_last - low > 1 << 31:
+            self._ts_high += 1 << 32
+        self._ts_last = low
+        return self._ts_high | low
+
+    def feed(self, arbitration_id: int, data: bytes) -> list[Message]:
+        """Process one frame; return the messages it completes (SAMPLE_EVT, TRIGGER_EVT)."""
+        base = arbitration_id - self.node_id
+        if len(data) != 8:
+            self.bad_frames += 1
+            return []
+        if base == ID_TRIGGER:
+            return self._trigger(data)
+        if base == ID_SAMPLE_HEADER:
+            if self._parts:
+                self.incomplete += 1
+            self._parts = [data]
+            self._orphan = False
+            return []
+        if base not in SAMPLE_FRAME_IDS:
+            return []
+        if SAMPLE_FRAME_IDS.index(base) != len(self._parts):
+            # A frame is missing: drop the sample, count it once.
+            if self._parts or not self._orphan:
+                self.incomplete += 1
+            self._parts = []
+            self._orphan = True
+            return []
+        self._parts.append(data)
+        if base != ID_POINT_Z:
+            return []
+        parts, self._parts = self._parts, []
+        return self._complete(parts)
+
+    def _complete(self, parts: list[bytes]) -> list[Message]:
+        seq, ts_low = _HDR.unpack(parts[0])
+        c1, c2 = _PAIR_U.unpack(parts[1])
+        c3, c4 = _PAIR_U.unpack(parts[2])
+        c5, c6 = _PAIR_U.unpack(parts[3])
+        x, y = _PAIR_I.unpack(parts[4])
+        z, status, seq_tag, _reserved = _POINT_Z.unpack(parts[5])
+        if seq_tag != seq & 0xFF:
+            self.incomplete += 1
+            return []
+        sample = Sample(
+            seq=seq,
+            timestamp_us=self._timestamp(ts_low),
+            counts=(c1, c2, c3, c4, c5, c6),
+            point_100nm=(x, y, z),
+            status=status,
+        )
+        self._recent[seq] = sample
+        if len(self._recent) > _RECENT_SAMPLES:
+            self._recent.popitem(last=False)
+        out = [Message(MsgType.SAMPLE_EVT, seq & 0xFF, sample)]
+        still: list[tuple[int, int, bool, int]] = []
+        for t_seq, button, pressed, age in self._pending:
+            if t_seq == seq:
+                trig = Trigger(button, pressed, sample)
+                out.append(Message(MsgType.TRIGGER_EVT, seq & 0xFF, trig))
+            elif age + 1 < _TRIGGER_WAIT_SAMPLES:
+                still.append((t_seq, button, pressed, age + 1))
+            else:
+                self.triggers_unmatched += 1
+        self._pending = still
+        return out
+
+    def _trigger(self, data: bytes) -> list[Message]:
+        seq, button, pressed, _reserved = _TRIG.unpack(data)
+        if pressed > 1:
+            self.bad_frames += 1
+            return []
+        sample = self._recent.get(seq)
+        if sample is None:
+            self._pending.append((seq, button, bool(pressed), 0))
+            return []
+        return [Message(MsgType.TRIGGER_EVT, seq & 0xFF, Trigger(button, bool(pressed), sample))]
+
+
+class CanTransport(Transport):
+    """Protocol over a python-can bus: ISO-TP requests/responses plus periodic sample frames.
+
+    Prefer the subclasses :class:`SocketCanTransport` and
+    :class:`VirtualCanTransport`; this one takes an already open bus.
+
+    Args:
+        bus: an open python-can bus (closed by :meth:`close` if ``own_bus``).
+        node_id: the device's CAN node id, 0..15.
+        isotp_timeout_ms: ISO-TP flow-control and consecutive-frame timeout.
+        send_timeout: seconds a request may take to leave (flow control included).
+        own_bus: shut the bus down on close.
+    """
+
+    def __init__(
+        self,
+        bus: can.BusABC,
+        node_id: int = 0,
+        isotp_timeout_ms: int = 1000,
+        send_timeout: float = 2.0,
+        own_bus: bool = True,
+    ) -> None:
+        super().__init__()
+        self.node_id = check_node(node_id)
+        self.bus = bus
+        self.description = f"can {bus.channel_info} node {node_id}"
+        self.samples = SampleFrameDecoder(node_id)
+        self.frames_foreign = 0
+        self._own_bus = own_bus
+        self._send_timeout = send_timeout
+        self._stop = threading.Event()
+        self._send_lock = threading.Lock()
+        self._threads: list[threading.Thread] = []
+        self._isotp_rx: queue.SimpleQueue[isotp.CanMessage] = queue.SimpleQueue()
+        params = isotp_params(isotp_timeout_ms)
+        params["blocking_send"] = True
+        self._tp = isotp.TransportLayer(
+            rxfn=self._isotp_rxfn,
+            txfn=self._isotp_txfn,
+            address=isotp_address(node_id),
+            error_handler=self._isotp_error,
+            params=params,
+            read_timeout=_POLL_S,
+        )
+        self._rx_id = ID_ISOTP_RESPONSE + node_id
+
+    @staticmethod
+    def filters(node_id: int) -> list[can.typechecking.CanFilter]:
+        """python-can receive filters for one node: its sample, trigger and ISO-TP response ids."""
+        ids = [*SAMPLE_FRAME_IDS, ID_TRIGGER, ID_ISOTP_RESPONSE]
+        return [{"can_id": i + node_id, "can_mask": 0x7FF, "extended": False} for i in ids]
+
+    # ------------------------------------------------------------ ISO-TP glue
+
+    def _isotp_rxfn(self, timeout: float) -> isotp.CanMessage | None:
+        try:
+            return self._isotp_rx.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+    def _isotp_txfn(self, msg: isotp.CanMessage) -> None:
+        frame = can.Message(
+            arbitration_id=msg.arbitration_id,
+            data=bytes(msg.data),
+            is_extended_id=False,
+            is_fd=False,
+        )
+        try:
+            self.bus.send(frame, timeout=self._send_timeout)
+        except can.CanError as exc:
+            # Raising here would kill can-isotp's thread; report and let the
+            # transfer time out instead.
+            self._frame_error(FrameError(f"CAN send failed: {exc}", int(Status.ERR_IO)))
+
+    def _isotp_error(self, err: Exception) -> None:
+        self._frame_error(FrameError(f"ISO-TP: {err}", int(Status.ERR_FRAME)))
+
+    # ------------------------------------------------------------ reading
+
+    def _start_reader(self) -> None:
+        self._tp.start()
+        for target, name in ((self._bus_reader, "bus"), (self._isotp_reader, "isotp")):
+            t = threading.Thread(target=target, name=f"aacmm-can-{name}", daemon=True)
+            self._threads.append(t)
+            t.start()
+
+    def _bus_reader(self) -> None:
+        while not self._stop.is_set():
+            try:
+                frame = self.bus.recv(timeout=_POLL_S)
+            except (can.CanError, OSError, ValueError) as exc:
+                if not self._stop.is_set():
+                    self._link_lost(OperationError(f"{self.description}: {exc}"))
+                return
+            if frame is None:
+                continue
+            self.feed_frame(frame)
+
+    def feed_frame(self, frame: can.Message) -> None:
+        """Route one received CAN frame as the reader thread does."""
+        self.stats.bytes_rx += 1
+        if frame.is_error_frame or frame.is_remote_frame or frame.is_extended_id:
+            self.frames_foreign += 1
+            return
+        arb = frame.arbitration_id
+        if arb == self._rx_id:
+            self._isotp_rx.put(isotp.CanMessage(arbitration_id=arb, data=bytes(frame.data)))
+            return
+        base = arb - self.node_id
+        if base in SAMPLE_FRAME_IDS or base == ID_TRIGGER:
+            for msg in self.samples.feed(arb, bytes(frame.data)):
+                self._deliver(msg)
+        else:
+            self.frames_foreign += 1
+
+    def _isotp_reader(self) -> None:
+        while not self._stop.is_set():
+            data = self._tp.recv(block=True, timeout=_POLL_S)
+            if data is None:
+                continue
+            try:
+                msg = decode_message(bytes(data))
+            except FrameError as exc:
+                self._frame_error(exc)
+                continue
+            self._deliver(msg)
+
+    # ------------------------------------------------------------ writing
+
+    def send(self, body: bytes) -> None:
+        self._check_open()
+        if not 3 <= len(body) <= 4095:
+            raise ValueError(f"body of {len(body)} bytes does not fit ISO-TP")
+        with self._send_lock:
+            try:
+                self._tp.send(bytes(body), send_timeout=self._send_timeout)
+            except isotp.BlockingSendTimeout as exc:
+                raise DeviceTimeoutError(f"{self.description}: ISO-TP send timed out") from exc
+            except isotp.BlockingSendFailure as exc:
+                raise OperationError(f"{self.description}: ISO-TP send failed: {exc}") from exc
+            except RuntimeError as exc:
+                raise OperationError(f"{self.description}: {exc}") from exc
+        self.stats.messages_tx += 1
+
+    def send_frame(self, arbitration_id: int, data: bytes) -> None:
+        """Send one raw classic CAN frame (diagnostics and fault injection).
+
+        Raises:
+            OperationError: closed or the bus refused the frame.
+        """
+        self._check_open()
+        try:
+            self.bus.send(
+                can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=False),
+                timeout=self._send_timeout,
+            )
+        except can.CanError as exc:
+            raise OperationError(f"{self.description}: send failed: {exc}") from exc
+
+    def close(self) -> None:
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        self._closed.set()
+        if self._started:
+            self._tp.stop()
+        me = threading.current_thread()
+        for t in self._threads:
+            if t is not me:
+                t.join(timeout=2.0)
+        if self._own_bus:
+            try:
+                self.bus.shutdown()
+            except Exception:  # closing must not raise
+                pass
+
+
+def _enlarge_rcvbuf(bus: Any) -> None:
+    sock = getattr(bus, "socket", None)
+    if not isinstance(sock, socket.socket):
+        return
+    for opt in (_SO_RCVBUFFORCE, socket.SO_RCVBUF):
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, opt, _RCVBUF_BYTES)
+            return
+        except OSError:
+            continue
+
+
+class SocketCanTransport(CanTransport):
+    """SocketCAN interface (e.g. ``vcan0``, ``can0``) via python-can's ``socketcan`` bus.
+
+    Kernel filters pass only the node's frames, and the socket's receive
+    buffer is enlarged (best effort) so a stalled host survives a burst.
+
+    Raises:
+        InitError: the interface does not exist, is down, or SocketCAN is missing.
+        ValueError: bad node id.
+    """
+
+    def __init__(self, channel: str, node_id: int = 0, **kwargs: Any) -> None:
+        check_node(node_id)
+        try:
+            bus = can.Bus(
+                interface="socketcan",
+                channel=channel,
+                can_filters=self.filters(node_id),
+                receive_own_messages=False,
+            )
+        except (can.CanError, OSError, ValueError, ImportError) as exc:
+            raise InitError(f"cannot open SocketCAN interface {channel}: {exc}") from exc
+        _enlarge_rcvbuf(bus)
+        super().__init__(bus, node_id, **kwargs)
+        self.description = f"socketcan {channel} node {node_id}"
+
+
+class VirtualCanTransport(CanTransport):
+    """python-can's in-process ``virtual`` bus (unit tests; the peer lives in the same process).
+
+    Raises:
+        InitError: the bus cannot be created.
+        ValueError: bad node id.
+    """
+
+    def __init__(self, channel: str, node_id: int = 0, **kwargs: Any) -> None:
+        check_node(node_id)
+        try:
+            bus = can.Bus(
+                interface="virtual",
+                channel=channel,
+                can_filters=self.filters(node_id),
+                receive_own_messages=False,
+            )
+        except (can.CanError, OSError, ValueError) as exc:
+            raise InitError(f"cannot open virtual CAN channel {channel}: {exc}") from exc
+        super().__init__(bus, node_id, **kwargs)
+        self.description = f"virtual {channel} node {node_id}"

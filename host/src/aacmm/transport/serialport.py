@@ -1,0 +1,151 @@
+"""Serial transport: protocol frames over anything pyserial opens.
+
+The port is opened with :func:`serial.serial_for_url`, so a device path
+(``/dev/ttyACM0``, a pseudo-terminal ``/dev/pts/3``, ``COM3``) and pyserial's
+URL handlers (``socket://host:port``, ``rfc2217://host:port``, ``loop://``,
+``spy://...``) all work. A reader thread feeds the received bytes to the
+resynchronising :class:`~aacmm.protocol.Deframer`; each good frame is decoded
+and handed to the sink, bad ones are counted and reported and reception goes
+on at the next delimiter.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import serial
+
+from aacmm.errors import DeviceTimeoutError, FrameError, InitError, OperationError
+from aacmm.protocol import Deframer, decode_message, encode_frame
+from aacmm.transport.base import Transport
+
+DEFAULT_BAUDRATE = 921600
+_READ_POLL_S = 0.05
+
+FRAMING_LOCK = threading.Lock()
+"""Serialises every use of the protocol's CRC-32 in this process.
+
+:func:`aacmm.protocol.framing.crc32` shares one ``crc.Calculator``, whose
+register is not thread-safe: a frame encoded in one thread while another
+decodes gets a wrong CRC. The serial transport's writer and reader threads
+(and any other in-process framing user, such as a test peer) hold this lock
+around framing calls. Remove once the codec's CRC is thread-safe.
+"""
+
+
+class SerialTransport(Transport):
+    """Frames over a serial port or pyserial URL.
+
+    Args:
+        url: device path or pyserial URL (see the module docstring).
+        baudrate: line rate for real UARTs (ignored by ptys and sockets).
+        write_timeout: seconds a write may block before
+            :class:`~aacmm.errors.DeviceTimeoutError`.
+
+    Raises:
+        InitError: the port cannot be opened or configured.
+        ValueError: empty URL or non-positive baud rate.
+    """
+
+    def __init__(
+        self, url: str, baudrate: int = DEFAULT_BAUDRATE, write_timeout: float = 2.0
+    ) -> None:
+        super().__init__()
+        if not url:
+            raise ValueError("empty serial port")
+        if baudrate <= 0:
+            raise ValueError(f"baud rate must be positive, got {baudrate}")
+        self.url = url
+        self.description = f"serial {url}"
+        self.deframer = Deframer()
+        self._write_lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        try:
+            self._port: Any = serial.serial_for_url(
+                url, baudrate=baudrate, timeout=_READ_POLL_S, write_timeout=write_timeout
+            )
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise InitError(f"cannot open serial port {url}: {exc}") from exc
+
+    # ------------------------------------------------------------ reading
+
+    def _start_reader(self) -> None:
+        self._thread = threading.Thread(
+            target=self._reader, name=f"aacmm-serial-rx {self.url}", daemon=True
+        )
+        self._thread.start()
+
+    def _errors(self) -> int:
+        s = self.deframer.stats
+        return s.crc_errors + s.cobs_errors + s.oversize + s.runts
+
+    def _reader(self) -> None:
+        port = self._port
+        while not self._stop.is_set():
+            try:
+                data = port.read(max(1, port.in_waiting))
+            except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+                # TypeError/AttributeError: pyserial internals after a close from
+                # another thread (fd set to None).
+                if not self._stop.is_set():
+                    self._link_lost(OperationError(f"{self.description}: {exc}"))
+                return
+            if not data:
+                continue
+            self.feed(bytes(data))
+
+    def feed(self, data: bytes) -> None:
+        """Process received bytes as the reader thread does (also for tests)."""
+        self.stats.bytes_rx += len(data)
+        with FRAMING_LOCK:
+            before = self._errors()
+            bodies = self.deframer.feed(data)
+            new_errors = self._errors() - before
+        for _ in range(new_errors):
+            err = self.deframer.last_error or FrameError("bad frame", -6)
+            self._frame_error(err)
+        for body in bodies:
+            try:
+                msg = decode_message(body)
+            except FrameError as exc:
+                self._frame_error(exc)
+                continue
+            self._deliver(msg)
+
+    # ------------------------------------------------------------ writing
+
+    def send(self, body: bytes) -> None:
+        with FRAMING_LOCK:
+            frame = encode_frame(body)
+        self.write_raw(frame)
+        self.stats.messages_tx += 1
+
+    def write_raw(self, data: bytes) -> None:
+        """Write raw bytes to the line (diagnostics, fault injection in tests).
+
+        Raises:
+            OperationError: closed or I/O failure.
+            DeviceTimeoutError: the write blocked longer than ``write_timeout``.
+        """
+        self._check_open()
+        with self._write_lock:
+            try:
+                self._port.write(data)
+            except serial.SerialTimeoutException as exc:
+                raise DeviceTimeoutError(f"{self.description}: write timed out") from exc
+            except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+                raise OperationError(f"{self.description}: write failed: {exc}") from exc
+
+    def close(self) -> None:
+        self._stop.set()
+        self._closed.set()
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=2.0)
+        with self._write_lock:
+            try:
+                self._port.close()
+            except Exception:  # closing must not raise
+                pass

@@ -1,0 +1,20 @@
+# Host client (issue 5, host half): the aacmm.client API and its transports.
+#   test-client        unit tests against an in-process fake device (pyserial
+#                      socket:// and python-can's virtual bus), ruff, mypy --strict
+#   test-loopback-pty  the client against the real simulator over a pty
+# The SocketCAN tests (tests/host/vcan) run in the shared vcan VM session
+# (mk/vcan.mk, make test-vcan).
+
+CLIENT_PY_FILES := host/src/aacmm/client.py host/src/aacmm/transport \
+                   tests/host/test_client.py tests/host/test_client_transport.py \
+                   tests/host/fakedevice.py
+CLIENT_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300
+
+.PHONY: test-client
+test-client:
+	$(CLIENT_PYTEST) tests/host/test_client.py tests/host/test_client_transport.py
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(CLIENT_PY_FILES)
+	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CLIENT_PY_FILES)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CLIENT_PY_FILES)
+
+TEST_SUITES += test-client
