@@ -6,7 +6,7 @@
  * the error analysis and the measured accuracy, size, stack and speed.
  *
  * Files:
- *   firmware/src/fixed_sincos.c        aacmm_sincos_q and its table
+ *   firmware/src/fixed_sincos.c, .h    aacmm_sincos_q, its table, the multiply
  *   firmware/src/kinematics_q.c        model set-up, point, Jacobian, batches
  *   firmware/src/encoder.c             (shared core) counts -> binary angles
  *   firmware/src/kinematics_q_convert.c  double -> fixed parameter conversion:
@@ -23,13 +23,17 @@
  *
  *   what                         type      format   unit    range
  *   joint / offset / alpha angle uint32_t  BAM      turn    any value; wraps mod 2^32
- *   sine, cosine, unit axes      int32_t   Q30      1       [-2, 2); |value| <= 1 + 2^-27
+ *   sine, cosine, unit axes      int32_t   Q30      1       [-2, 2); |value| <= 1 + 2^-25
  *   structural lengths d, a, l   int32_t   Q18      mm      |x| <= 8000 mm (see below)
  *   positions, probe point       int64_t   Q48      mm      |x| <= 8000 mm (+ tiny)
  *   Jacobian entries (output)    int64_t   Q48      mm/rad, mm/mm  |x| <= 8000
  *   p - o for the cross products int32_t   Q18      mm      |x| <= 8000 mm
  *
  * Resolution: BAM 1.46e-9 rad; Q30 9.3e-10; Q18 3.8e-6 mm; Q48 3.6e-15 mm.
+ * Axes: each joint step rotates unit vectors with a sine/cosine off by <= 1
+ * LSB and rounds each component by <= 1/2 LSB, so after six joints a
+ * component is off by at most ~24 LSB (< 2^-25); measured, a few LSB. The
+ * overflow bounds below only need |axis component| < 1.02.
  * The outputs keep the internal Q48 because it is exact (no rounding step):
  * value in mm = x * 2^-48 (ldexp(x, -48)); the int64 range is +-32768 mm.
  *
@@ -114,7 +118,7 @@ typedef struct {
 
 /*
  * A prepared model: the parameters plus the Q30 sine and cosine of each
- * alpha. Treat as opaque; build it with aacmm_model_q_init. 100 bytes.
+ * alpha. Treat as opaque; build it with aacmm_model_q_init. 148 bytes.
  */
 typedef struct {
     aacmm_params_q_t params;
@@ -221,9 +225,9 @@ void aacmm_sincos_q(uint32_t angle_bam, int32_t *s, int32_t *c);
  *                                         int64 (no rounding at all)
  *     p   = o_6 + l z_6                   exact in Q48 (the output)
  * Joint 1 starts from the identity frame; its step skips the zero products
- * (same result). Bounds: Q30 axis components stay within 1 + 2^-27
- * (rotations of unit vectors, a few LSB of rounding), so each Q60 sum is below
- * 2^61; |o_i|, |p| are at most the total reach 8000 mm = 2^60.97 in Q48 < 2^63.
+ * (same result). Bounds: Q30 axis components stay within 1 + 2^-25 (see the
+ * top), so each Q60 sum is below 2^61.1; |o_i|, |p| are at most the total
+ * reach 8000 mm (times 1 + 2^-25) = 2^60.97 in Q48 < 2^63.
  * Cost: 6 aacmm_sincos_q (8 multiplies each) + 154 multiplies 32x32->64.
  */
 aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
