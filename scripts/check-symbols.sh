@@ -14,7 +14,7 @@ m4f-float)
     pattern='^(__aeabi_d[a-z0-9]*|__aeabi_[a-z0-9]*2d|__aeabi_f[a-z0-9]*|__(add|sub|mul|div|extendsf|truncdf)[a-z0-9]*df[0-9]*|sin|cos|tan|sqrt|ldexp|frexp|exp|log|pow|atan2?|fabs|floor|ceil|round|fmod)$'
     ;;
 m0-fixed)
-    pattern='^(__aeabi_[df][a-z0-9]*|__aeabi_[a-z0-9]*2[df]|__aeabi_[a-z0-9]*2[a-z]*f|__[a-z]*[sd]f[0-9]*|[a-z]+f|sin|cos|tan|sqrt|ldexp|frexp|exp|log|pow|atan2?|fabs|floor|ceil|round|fmod)$'
+    pattern='^(__(fix|float)[a-z]*[sd]f[a-z]*|__aeabi_[df][a-z0-9]*|__aeabi_[a-z0-9]*2[df]|__aeabi_[a-z0-9]*2[a-z]*f|__[a-z]*[sd]f[0-9]*|[a-z]+f|sin|cos|tan|sqrt|ldexp|frexp|exp|log|pow|atan2?|fabs|floor|ceil|round|fmod)$'
     ;;
 *)
     echo "check-symbols: unknown profile '$profile'" >&2
