@@ -39,7 +39,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
 INIT_SCRIPT = HERE / "vm-init.sh"
-FORMAT_VERSION = "3"  # bump when the initramfs layout changes
+FORMAT_VERSION = "4"  # bump when the initramfs layout changes
 
 EXIT_TIMEOUT = 124
 EXIT_INFRA = 125
@@ -540,7 +540,7 @@ def build_initramfs(build: Path, ver: str, moddir: Path) -> Path:
     c.file("bin/busybox", busybox.read_bytes(), 0o755)
     c.file("init", init, 0o755)
     for i, m in enumerate(mods):
-        c.file(f"lib/modules/{i:02d}-{_modname(m.name)}.ko", _read_module(m))
+        c.file(f"lib/modules/{i:03d}-{_modname(m.name)}.ko", _read_module(m))
     tmp = out.with_suffix(f".tmp{os.getpid()}")
     tmp.write_bytes(c.bytes())
     os.replace(tmp, out)
