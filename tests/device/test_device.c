@@ -19,6 +19,12 @@
 #include "aacmm_sim.h"
 #include "fake_platform.h"
 
+#ifdef AACMM_DEVICE_KIN_FIXED
+#define KIN_FLAGS AACMM_BUILD_KIN_FIXED
+#else
+#define KIN_FLAGS 0u
+#endif
+
 static fake_t F;
 static aacmm_device_t D;
 static aacmm_platform_t PF;
@@ -223,7 +229,7 @@ static void test_ping_info(void **state)
     assert_int_equal(M.u.info.fw_major, AACMM_FW_MAJOR);
     assert_int_equal(M.u.info.fw_minor, AACMM_FW_MINOR);
     assert_int_equal(M.u.info.build_flags,
-                     AACMM_BUILD_JACOBIAN | AACMM_BUILD_SERIAL | AACMM_BUILD_CAN);
+                     KIN_FLAGS | AACMM_BUILD_JACOBIAN | AACMM_BUILD_SERIAL | AACMM_BUILD_CAN);
     assert_int_equal(M.u.info.param_crc32, set_crc(&def));
     assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_DEFAULTS);
     assert_int_equal(M.u.info.storage_state, AACMM_STORAGE_EMPTY);
@@ -267,6 +273,57 @@ static void test_params_set_get_restore(void **state)
     assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_DEFAULTS);
 }
 
+/* The device's point (wire units or mm) and Jacobian against the float core:
+ * bit for bit on the float backend; on the fixed-point backend against the
+ * double-precision core, within 1 wire unit (0.1 um) / 1e-9 mm and 1e-3 of
+ * the Jacobian (float32 output of an exact Q48 value vs float32 core). */
+static void check_point_and_jacobian(const int32_t *wire, const double *mm, const float *jac_got,
+                                     const float p32[3], const float jac32[AACMM_JAC_SIZE],
+                                     const uint32_t counts[AACMM_JOINTS])
+{
+    int i;
+#ifndef AACMM_DEVICE_KIN_FIXED
+    (void)counts;
+    for (i = 0; i < 3; i++) {
+        if (wire != NULL) {
+            assert_int_equal(wire[i], aacmm_point_mm_to_wire((double)p32[i], NULL));
+        }
+        if (mm != NULL) {
+            double want = (double)p32[i];
+            assert_memory_equal(&mm[i], &want, sizeof want);
+        }
+    }
+    assert_memory_equal(jac_got, jac32, AACMM_JAC_SIZE * sizeof(float));
+#else
+    aacmm_params_f64_t p64;
+    aacmm_model_f64_t m64;
+    aacmm_encoder_config_t enc;
+    double th[AACMM_JOINTS];
+    double p[3];
+    double jac[AACMM_JAC_SIZE];
+    (void)p32;
+    (void)jac32;
+    assert_int_equal(aacmm_params_default_f64(&p64), AACMM_OK);
+    assert_int_equal(aacmm_model_init_f64(&m64, &p64), AACMM_OK);
+    assert_int_equal(aacmm_encoder_default(&enc), AACMM_OK);
+    assert_int_equal(aacmm_encoder_to_angles_f64(&enc, counts, th), AACMM_OK);
+    assert_int_equal(aacmm_point_jacobian_f64(&m64, th, p, jac), AACMM_OK);
+    for (i = 0; i < 3; i++) {
+        if (wire != NULL) {
+            int32_t want = aacmm_point_mm_to_wire(p[i], NULL);
+            assert_true(wire[i] - want <= 1 && want - wire[i] <= 1);
+        }
+        if (mm != NULL) {
+            assert_true(mm[i] - p[i] < 1e-6 && p[i] - mm[i] < 1e-6);
+        }
+    }
+    for (i = 0; i < AACMM_JAC_SIZE; i++) {
+        double d = (double)jac_got[i] - jac[i];
+        assert_true(d < 1e-3 && d > -1e-3);
+    }
+#endif
+}
+
 static void test_measure_and_compute(void **state)
 {
     aacmm_msg_t m;
@@ -278,7 +335,6 @@ static void test_measure_and_compute(void **state)
     float jac[AACMM_JAC_SIZE];
     static const uint32_t counts[AACMM_JOINTS] = {0x12345678u, 0xE0000000u, 0x30000000u,
                                                   0xF0000000u, 0x2AAAAAABu, 0x9ABCDEF0u};
-    int i;
     (void)state;
     assert_int_equal(aacmm_params_default_f32(&p32), AACMM_OK);
     assert_int_equal(aacmm_model_init_f32(&model, &p32), AACMM_OK);
@@ -299,11 +355,7 @@ static void test_measure_and_compute(void **state)
     assert_memory_equal(M.u.sample.counts, counts, sizeof counts);
     assert_int_equal(M.u.sample.status, AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_PARAMS_DEFAULT);
     assert_int_equal(M.u.sample.content, AACMM_CONTENT_JACOBIAN);
-    for (i = 0; i < 3; i++) {
-        assert_int_equal(M.u.sample.point_100nm[i], aacmm_point_mm_to_wire((double)p[i], NULL));
-    }
-    assert_memory_equal(M.u.sample.jacobian, jac, sizeof jac);
-
+    check_point_and_jacobian(M.u.sample.point_100nm, NULL, M.u.sample.jacobian, p, jac, counts);
     m.seq = 21;
     m.u.measure.content = 0;
     send_msg(&m);
@@ -319,11 +371,7 @@ static void test_measure_and_compute(void **state)
     send_msg(&m);
     expect_response(AACMM_MSG_COMPUTE_RSP, 22);
     assert_int_equal(M.u.compute_rsp.status, AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_PARAMS_DEFAULT);
-    for (i = 0; i < 3; i++) {
-        double want = (double)p[i];
-        assert_memory_equal(&M.u.compute_rsp.point_mm[i], &want, sizeof want);
-    }
-    assert_memory_equal(M.u.compute_rsp.jacobian, jac, sizeof jac);
+    check_point_and_jacobian(NULL, M.u.compute_rsp.point_mm, M.u.compute_rsp.jacobian, p, jac, counts);
     assert_int_equal(F.encoder_reads, 2u); /* compute does not read the encoders */
 }
 

@@ -113,7 +113,7 @@ static uint8_t button_state(const aacmm_device_t *dev)
 static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
 {
     aacmm_status_t st;
-    double p[3];
+    aacmm_device_point_t pt;
     int i;
     s->timestamp_us = now_us(dev);
     s->status = 0u;
@@ -124,18 +124,15 @@ static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
             s->counts[i] = 0u;
         }
     } else {
-        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, s->counts, p,
+        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, s->counts, 0, &pt,
                                       (content & AACMM_CONTENT_JACOBIAN) != 0u ? s->jacobian : NULL);
     }
     if (st == AACMM_OK) {
-        int clipped = 0;
-        int any = 0;
         for (i = 0; i < 3; i++) {
-            s->point_100nm[i] = aacmm_point_mm_to_wire(p[i], &clipped);
-            any |= clipped;
+            s->point_100nm[i] = pt.point_100nm[i];
         }
         s->status |= AACMM_SAMPLE_POINT_VALID;
-        if (any) {
+        if (pt.clipped) {
             s->status |= AACMM_SAMPLE_POINT_CLIPPED;
         }
     } else {
@@ -292,12 +289,17 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     case AACMM_MSG_COMPUTE_REQ: {
         aacmm_msg_compute_rsp_t *c = &rsp->u.compute_rsp;
         uint8_t content = req->u.compute_req.content;
-        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, req->u.compute_req.counts,
-                                      c->point_mm,
+        aacmm_device_point_t pt;
+        int i;
+        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, req->u.compute_req.counts, 1,
+                                      &pt,
                                       (content & AACMM_CONTENT_JACOBIAN) != 0u ? c->jacobian : NULL);
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
             break;
+        }
+        for (i = 0; i < 3; i++) {
+            c->point_mm[i] = pt.point_mm[i];
         }
         c->status = AACMM_SAMPLE_POINT_VALID;
         if (dev->param_source == AACMM_PARAM_SOURCE_DEFAULTS) {

@@ -4,9 +4,9 @@
  * build time:
  *
  *   device_kin_f32.c  single-precision float core (default; Cortex-M4F FPU)
- *   (a fixed-point backend on aacmm/kinematics_q.h for FPU-less parts, built
- *    with -DAACMM_DEVICE_KIN_FIXED, which also switches aacmm_device_model_t
- *    in aacmm/device.h to the fixed-point model type)
+ *   device_kin_q.c    fixed-point core (aacmm/kinematics_q.h) for FPU-less
+ *                     parts; built with -DAACMM_DEVICE_KIN_FIXED, which also
+ *                     switches aacmm_device_model_t in aacmm/device.h
  *
  * Not part of the public API.
  */
@@ -27,15 +27,24 @@ uint32_t aacmm_device_kin_flags(void);
  */
 aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_params_f64_t *params);
 
+/* A computed point in the forms the device sends. */
+typedef struct {
+    int32_t point_100nm[3]; /* wire unit 1e-4 mm, rounded half away from zero, clamped */
+    uint8_t clipped;        /* 1 if a coordinate was clamped to the int32 range */
+    double point_mm[3];     /* the backend's own result in mm (only if asked for) */
+} aacmm_device_point_t;
+
 /*
- * Point (mm) and, if jac is not NULL, the 3x25 Jacobian for raw readings.
- * Errors: AACMM_ERR_RANGE (a reading >= its counts per revolution) or the
- * core's; nothing is written on error. Cost: one encoder conversion + one
- * point (+ Jacobian) evaluation.
+ * Point and, if jac is not NULL, the 3x25 Jacobian (float32, as on the wire)
+ * for raw readings, with the encoder configuration enc. point_mm is filled
+ * only when want_mm is non-zero (COMPUTE; the fixed-point backend avoids
+ * double arithmetic otherwise). Errors: AACMM_ERR_RANGE (a reading >= its
+ * counts per revolution) or the core's; *out and jac are not written on
+ * error. Cost: one encoder conversion + one point (+ Jacobian) evaluation.
  */
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
                                         const aacmm_encoder_config_t *enc,
-                                        const uint32_t counts[AACMM_JOINTS], double point_mm[3],
-                                        float jac[AACMM_JAC_SIZE]);
+                                        const uint32_t counts[AACMM_JOINTS], int want_mm,
+                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE]);
 
 #endif /* AACMM_DEVICE_KIN_H */

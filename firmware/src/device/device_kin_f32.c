@@ -3,6 +3,8 @@
 
 #include <stddef.h>
 
+#include "aacmm/proto.h"
+
 uint32_t aacmm_device_kin_flags(void)
 {
     return 0u; /* floating point, single precision */
@@ -27,13 +29,14 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_pa
 
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
                                         const aacmm_encoder_config_t *enc,
-                                        const uint32_t counts[AACMM_JOINTS], double point_mm[3],
-                                        float jac[AACMM_JAC_SIZE])
+                                        const uint32_t counts[AACMM_JOINTS], int want_mm,
+                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE])
 {
     float theta[AACMM_JOINTS];
     float p[3];
     aacmm_status_t st;
-    if (model == NULL || enc == NULL || counts == NULL || point_mm == NULL) {
+    int i;
+    if (model == NULL || enc == NULL || counts == NULL || out == NULL) {
         return AACMM_ERR_NULL;
     }
     st = aacmm_encoder_to_angles_f32(enc, counts, theta);
@@ -48,8 +51,16 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
     if (st != AACMM_OK) {
         return st;
     }
-    point_mm[0] = (double)p[0];
-    point_mm[1] = (double)p[1];
-    point_mm[2] = (double)p[2];
+    out->clipped = 0u;
+    for (i = 0; i < 3; i++) {
+        int clipped = 0;
+        out->point_100nm[i] = aacmm_point_mm_to_wire((double)p[i], &clipped);
+        if (clipped) {
+            out->clipped = 1u;
+        }
+        if (want_mm) {
+            out->point_mm[i] = (double)p[i];
+        }
+    }
     return AACMM_OK;
 }

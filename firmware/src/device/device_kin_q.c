@@ -1,0 +1,100 @@
+/*
+ * Kinematics backend: the fixed-point core (aacmm/kinematics_q.h), for parts
+ * without an FPU. Build with -DAACMM_DEVICE_KIN_FIXED.
+ *
+ * Per sample everything is integer: counts -> binary angles
+ * (aacmm_encoder_to_bam), point in Q48 mm (aacmm_point_q), and the wire
+ * point in 1e-4 mm by an exact integer rounding. Floating point appears only
+ * where the protocol asks for it: the float32 Jacobian entries and COMPUTE's
+ * float64 point (conversions only), and aacmm_params_q_from_f64 when a
+ * parameter set is loaded (once per SET_PARAMS / start-up).
+ */
+#include "device_kin.h"
+
+#include <stddef.h>
+
+#include "aacmm/kinematics_q.h"
+
+#ifndef AACMM_DEVICE_KIN_FIXED
+#error "device_kin_q.c needs -DAACMM_DEVICE_KIN_FIXED (aacmm_device_model_t is the Q model)"
+#endif
+
+#define Q48_TO_MM 3.552713678800501e-15 /* 2^-48 */
+#define Q48_TO_MM_F 3.5527137e-15f
+
+uint32_t aacmm_device_kin_flags(void)
+{
+    return AACMM_BUILD_KIN_FIXED;
+}
+
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_params_f64_t *params)
+{
+    aacmm_params_q_t q;
+    aacmm_status_t st;
+    if (model == NULL || params == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = aacmm_params_q_from_f64(&q, params);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    return aacmm_model_q_init(model, &q);
+}
+
+/* round(v * 10^4 / 2^48), half away from zero, exactly, for |v| < 2^62.
+ * The fixed path's reach limit (8000 mm) keeps the result far inside int32. */
+static int32_t q48_to_100nm(int64_t v)
+{
+    uint64_t m = v < 0 ? (uint64_t)0 - (uint64_t)v : (uint64_t)v;
+    /* m * 10^4 / 2^24 = hi * 10^4 + (lo * 10^4) / 2^24, kept as an integer t
+     * plus a fraction that cannot change the rounding below. */
+    uint64_t hi = m >> 24;
+    uint64_t lo = m & 0xFFFFFFu;
+    uint64_t t = hi * 10000u + ((lo * 10000u) >> 24);
+    uint64_t r = (t + (UINT64_C(1) << 23)) >> 24; /* half up on the magnitude */
+    if (r > 0x7FFFFFFFu) {
+        r = 0x7FFFFFFFu;
+    }
+    return v < 0 ? -(int32_t)r : (int32_t)r;
+}
+
+aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
+                                        const aacmm_encoder_config_t *enc,
+                                        const uint32_t counts[AACMM_JOINTS], int want_mm,
+                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE])
+{
+    uint32_t bam[AACMM_JOINTS];
+    int64_t p[3];
+    aacmm_status_t st;
+    int i;
+    if (model == NULL || enc == NULL || counts == NULL || out == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = aacmm_encoder_to_bam(enc, counts, bam);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    if (jac != NULL) {
+        int64_t jq[AACMM_JAC_SIZE];
+        st = aacmm_point_jacobian_q(model, bam, p, jq);
+        if (st != AACMM_OK) {
+            return st;
+        }
+        for (i = 0; i < AACMM_JAC_SIZE; i++) {
+            jac[i] = (float)jq[i] * Q48_TO_MM_F;
+        }
+    } else {
+        st = aacmm_point_q(model, bam, p);
+        if (st != AACMM_OK) {
+            return st;
+        }
+    }
+    out->clipped = 0u;
+    for (i = 0; i < 3; i++) {
+        out->point_100nm[i] = q48_to_100nm(p[i]);
+        if (want_mm) {
+            out->point_mm[i] = (double)p[i] * Q48_TO_MM;
+        }
+    }
+    return AACMM_OK;
+}
