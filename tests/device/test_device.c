@@ -1531,10 +1531,33 @@ static void test_sim_button(void **state)
     assert_int_equal(aacmm_sim_button(&s, 2199999u), 1);
     assert_int_equal(aacmm_sim_button(&s, 2200000u), 0);
     assert_int_equal(aacmm_sim_button(&s, 4100000u), 1);
+    assert_int_equal(aacmm_sim_next_button_edge_us(&s, 0), 2000000u);
+    assert_int_equal(aacmm_sim_next_button_edge_us(&s, 2000000u), 2200000u);
+    assert_int_equal(aacmm_sim_next_button_edge_us(&s, 2100000u), 2200000u);
+    assert_int_equal(aacmm_sim_next_button_edge_us(&s, 2200000u), 4000000u);
     c.button_period_us = 100000u; /* short period: held half of it */
     assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
     assert_int_equal(aacmm_sim_button(&s, 149999u), 1);
     assert_int_equal(aacmm_sim_button(&s, 150000u), 0);
+    {
+        /* Every change happens exactly at a reported edge. */
+        uint64_t t = 0;
+        uint64_t edge = aacmm_sim_next_button_edge_us(&s, 0);
+        uint8_t level = aacmm_sim_button(&s, 0);
+        for (t = 1; t < 1000000u; t += 7) {
+            uint8_t now = aacmm_sim_button(&s, t);
+            if (now != level) {
+                assert_true(t >= edge && t < edge + 7u);
+                level = now;
+            }
+            if (t >= edge) {
+                edge = aacmm_sim_next_button_edge_us(&s, t);
+            }
+        }
+    }
+    c.button_period_us = 0;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    assert_true(aacmm_sim_next_button_edge_us(&s, 5u) == UINT64_MAX);
 }
 
 /* The simulated arm as the device's encoders: the counts it produces are

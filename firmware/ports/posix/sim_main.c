@@ -365,6 +365,14 @@ int main(int argc, char **argv)
         }
         port.can_busy = 0;
         deadline = aacmm_device_next_deadline_us(&dev);
+        {
+            /* Wake at the simulated button's next edge, so short presses are seen. */
+            uint64_t t = posix_time_us() - port.t0_us;
+            uint64_t edge = aacmm_sim_next_button_edge_us(&port.sim, t);
+            if (edge != UINT64_MAX && port.t0_us + edge < deadline) {
+                deadline = port.t0_us + edge;
+            }
+        }
         if (port.serial_fd >= 0) {
             fds[nfds].fd = port.serial_fd;
             fds[nfds].events = POLLIN;

@@ -104,6 +104,11 @@ uint32_t aacmm_sim_angle_to_counts(float theta_rad, uint64_t cpr);
  * first, else 0. O(1). */
 uint8_t aacmm_sim_button(const aacmm_sim_t *sim, uint64_t t_us);
 
+/* The first time > t_us at which aacmm_sim_button changes, or UINT64_MAX if
+ * it never does (no button period). Lets a port wake exactly at the edges.
+ * O(1). */
+uint64_t aacmm_sim_next_button_edge_us(const aacmm_sim_t *sim, uint64_t t_us);
+
 #ifdef __cplusplus
 }
 #endif

@@ -213,6 +213,30 @@ aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[A
     return AACMM_OK;
 }
 
+static uint64_t button_hold(uint64_t period)
+{
+    uint64_t hold = period / 2u;
+    return hold > AACMM_SIM_BUTTON_HOLD_US ? AACMM_SIM_BUTTON_HOLD_US : hold;
+}
+
+uint64_t aacmm_sim_next_button_edge_us(const aacmm_sim_t *sim, uint64_t t_us)
+{
+    uint64_t period;
+    uint64_t start;
+    if (sim == NULL || sim->cfg.button_period_us == 0u) {
+        return UINT64_MAX;
+    }
+    period = sim->cfg.button_period_us;
+    if (t_us < period) {
+        return period;
+    }
+    start = t_us - t_us % period; /* the press of the current period */
+    if (t_us < start + button_hold(period)) {
+        return start + button_hold(period);
+    }
+    return start + period;
+}
+
 uint8_t aacmm_sim_button(const aacmm_sim_t *sim, uint64_t t_us)
 {
     uint64_t period;
@@ -221,10 +245,7 @@ uint8_t aacmm_sim_button(const aacmm_sim_t *sim, uint64_t t_us)
         return 0u;
     }
     period = sim->cfg.button_period_us;
-    hold = period / 2u;
-    if (hold > AACMM_SIM_BUTTON_HOLD_US) {
-        hold = AACMM_SIM_BUTTON_HOLD_US;
-    }
+    hold = button_hold(period);
     if (t_us < period) {
         return 0u;
     }
