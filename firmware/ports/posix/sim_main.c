@@ -405,8 +405,9 @@ int main(int argc, char **argv)
             break;
         }
         for (i = 0; i < (int)nfds; i++) {
-            if ((fds[i].revents & (POLLERR | POLLNVAL)) != 0 && fds[i].fd == port.serial_fd) {
-                /* A tty that went away (USB unplugged): avoid spinning. */
+            if (fds[i].fd == port.serial_fd &&
+                (fds[i].revents & (POLLERR | POLLHUP | POLLNVAL)) != 0) {
+                /* A tty that hung up or went away (USB unplugged): no spinning. */
                 struct timespec nap = {0, 10000000L};
                 nanosleep(&nap, NULL);
             }
