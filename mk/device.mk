@@ -126,3 +126,12 @@ test-device-m4f: $(DEV_M4F_OBJS) $(DEV_M0_OBJS) $(DEV_M0Q_OBJS)
 # mk/vcan.mk): ISO-TP requests, periodic sample frames, trigger frames.
 VCAN_TESTS += tests/device/test_sim_vcan.py
 test-vcan-suite: $(SIM_BIN)
+
+# Code size of the device application and the simulated arm on the two cores.
+.PHONY: firmware-device
+firmware-device: $(DEV_M4F_OBJS) $(DEV_M0Q_OBJS)
+	@echo "device application + simulated arm, Cortex-M4F (float backend):"
+	@$(ARM_SIZE) -t $(DEV_M4F_OBJS)
+	@echo "device application, Cortex-M0+ (fixed-point backend):"
+	@$(ARM_SIZE) -t $(DEV_M0Q_OBJS)
+FIRMWARE_TARGETS += firmware-device
