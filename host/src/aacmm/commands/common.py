@@ -263,42 +263,58 @@ def is_tty(stream: IO[str]) -> bool:
 class StatusLine:
     """A live one-line status on stderr (tqdm), only when stderr is a terminal.
 
-    Shows samples (and the target count), elapsed time, the rate and any
-    extra text; it is removed when closed (``leave=False``), so only the final
-    summary stays on the screen. Off a terminal it does nothing.
+    Shows the samples (and the target count), the elapsed time, the current
+    rate and the caller's text (lost samples, ...). It is removed when closed
+    (``leave=False``), so only the final summary stays on the screen. Off a
+    terminal it does nothing.
     """
 
-    def __init__(self, total: int | None = None, unit: str = "sample", enabled: bool = True):
+    def __init__(self, total: int | None = None, enabled: bool = True) -> None:
         self.enabled = enabled and is_tty(sys.stderr)
         self._bar: Any = None
-        self._last = 0.0
+        self._last = time.monotonic()
+        self._last_n = 0
+        self._n = 0
         if self.enabled:
             from tqdm import tqdm
 
+            try:
+                size = os.get_terminal_size(sys.stderr.fileno())
+                sized = size.columns > 0 and size.lines > 0
+            except (OSError, ValueError):
+                sized = False
             fmt = (
-                "{n_fmt} {unit}s | {elapsed} | {rate_fmt} | {postfix}"
+                "{n_fmt} samples | {elapsed}{postfix}"
                 if total is None
-                else "{n_fmt}/{total_fmt} {unit}s {bar:20} | {elapsed} | {rate_fmt} | {postfix}"
+                else "{n_fmt}/{total_fmt} samples {bar:20} {elapsed}<{remaining}{postfix}"
             )
             self._bar = tqdm(
                 total=total,
-                unit=unit,
                 file=sys.stderr,
                 leave=False,
-                dynamic_ncols=True,
+                # a terminal that reports no size (a fresh pty) counts as 80x24;
+                # tqdm would print nothing on it
+                dynamic_ncols=sized,
+                ncols=None if sized else 80,
+                nrows=None if sized else 24,
                 mininterval=0.25,
                 bar_format=fmt,
             )
 
     def update(self, n: int, text: str = "") -> None:
-        """Add ``n`` samples; refresh the text at most 4 times a second."""
+        """Add ``n`` samples; refresh the rate and text at most 4 times a second."""
         if self._bar is None:
             return
-        self._bar.update(n)
+        self._n += n
         now = time.monotonic()
-        if now - self._last >= 0.25:
-            self._last = now
-            self._bar.set_postfix_str(text, refresh=False)
+        dt = now - self._last
+        if dt >= 0.25:
+            rate = (self._n - self._last_n) / dt
+            self._last, self._last_n = now, self._n
+            self._bar.set_postfix_str(
+                f"{rate:.0f} Hz, {text}" if text else f"{rate:.0f} Hz", refresh=False
+            )
+        self._bar.update(n)
 
     def note(self, text: str) -> None:
         """Show ``text`` now (e.g. "reconnecting")."""

@@ -29,7 +29,7 @@ from aacmm.commands.exitcodes import INTERRUPTED, OK, PORT, USAGE, UsageError
 from aacmm.errors import AacmmError, InitError
 
 ENV_SIM = "AACMM_SIM"
-READY_TIMEOUT_S = 10.0
+READY_TIMEOUT_S = 15.0
 SIM_EXIT_USAGE = 2
 SIM_EXIT_LINK = 3
 
