@@ -96,6 +96,8 @@ def sim() -> Iterator[subprocess.Popen[str]]:
     p = subprocess.Popen(
         [
             SIM,
+            "--serial",
+            "pty",
             "--can",
             name,
             "--node",
@@ -111,6 +113,8 @@ def sim() -> Iterator[subprocess.Popen[str]]:
         text=True,
     )
     assert p.stdout is not None
+    # Both links at once: the lines come in the documented order.
+    assert p.stdout.readline().startswith("aacmm-sim: serial /dev/")
     assert p.stdout.readline().strip() == f"aacmm-sim: can {name} node {NODE}"
     assert p.stdout.readline().strip() == "aacmm-sim: ready"
     yield p
@@ -129,7 +133,7 @@ def test_requests_stream_and_trigger(sim: subprocess.Popen[str]) -> None:
         assert info[:3] == bytes([1, 0x82, 8]) and len(info) == 3 + 23
         assert info[3 + 22] == NODE
         flags = struct.unpack_from("<I", info, 3 + 6)[0]
-        assert flags & 0x10  # CAN built in
+        assert flags & 0x18 == 0x18  # serial and CAN built in
         rsp = isotp_request(bus, bytes([1, 0x09, 9]) + struct.pack("<HB", 200, 0), other)
         assert rsp == bytes([1, 0x89, 9]) + struct.pack("<HB", 200, 0)
         frames = list(other)
