@@ -25,3 +25,4 @@ demo-session: sim
 	@$(PYTHON) -m aacmm.commands.demo
 
 DEMO_STEPS += demo-session
+TEST_SUITES += test-cli
