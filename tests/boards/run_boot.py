@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""Boot check of the board ports over their emulated UARTs.
+
+Usage: run_boot.py build/boards/<board>/echo.elf...
+
+Starts each boot image (firmware/boards/common/echo_main.c) under QEMU with
+its UART on a TCP socket, as aacmm.boards.start_board does for every image,
+and checks over pyserial's socket:// URL that
+
+* the banner names the board and its clock;
+* the clock advances ("?" returns the board's microseconds);
+* 16 KiB sent in one go come back unchanged: the interrupt-driven UART
+  driver loses nothing when its receive ring fills (it holds the emulated
+  UART back instead).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import serial
+from aacmm.boards import start_board, stop_board
+
+
+def read_until(port: serial.SerialBase, end: bytes, timeout: float = 10.0) -> bytes:
+    buf = b""
+    deadline = time.monotonic() + timeout
+    while not buf.endswith(end):
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"waiting for {end!r}, got {buf[-200:]!r}")
+        buf += port.read(1)
+    return buf
+
+
+def check(elf: Path) -> None:
+    board = elf.parent.name
+    proc, url = start_board(board, elf)
+    try:
+        port = serial.serial_for_url(url, timeout=0.2)
+        try:
+            banner = read_until(port, b"\r\n").decode()
+            print(f"{board}: {banner.strip()}  ({url})")
+            assert f"aacmm boot {board} tick_hz=" in banner, banner
+            t1 = int(port.write(b"?") and read_until(port, b"\n"))
+            time.sleep(0.2)
+            port.write(b"?")
+            t2 = int(read_until(port, b"\n"))
+            assert t2 > t1, (t1, t2)
+            print(f"{board}: clock {t1} us -> {t2} us")
+            data = bytes(range(256)).replace(b"?", b"!") * 64
+            t0 = time.monotonic()
+            port.write(data)
+            got = b""
+            while len(got) < len(data) and time.monotonic() - t0 < 30:
+                got += port.read(len(data) - len(got))
+            dt = time.monotonic() - t0
+            assert got == data, f"echo: {len(got)} of {len(data)} bytes, equal prefix " \
+                f"{next((i for i, (a, b) in enumerate(zip(got, data)) if a != b), len(got))}"
+            print(f"{board}: echoed {len(data)} bytes intact ({len(data) / dt / 1000:.1f} kB/s)")
+        finally:
+            port.close()
+    finally:
+        stop_board(proc)
+
+
+def main(argv: list[str]) -> int:
+    failed = 0
+    for arg in argv:
+        try:
+            check(Path(arg))
+        except (AssertionError, TimeoutError, OSError) as exc:
+            print(f"FAIL {arg}: {exc}")
+            failed += 1
+    print(f"board boot checks: {len(argv)} image(s), {'FAILED' if failed else 'passed'}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,59 @@
+#!/usr/bin/env python3
+"""Run the on-target self-test images under QEMU with semihosting.
+
+Usage: run_selftest.py build/boards/<board>/selftest.elf...
+
+Each image checks its kinematics paths against golden vectors from the
+host's double-precision core and exits 0 (pass), 1 (a check failed) or 2
+(fault); see firmware/boards/common/selftest.c. This runner prints each
+image's output and fails unless every image exited 0, said "self-test
+passed", and printed one well-formed JSON benchmark line per path (float
+and fixed) with the primary path flagged.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from aacmm.boards import run_semihosted
+
+
+def check_one(elf: Path) -> list[str]:
+    board = elf.parent.name
+    status, out = run_semihosted(board, elf, timeout=60.0)
+    print(f"--- {board}: {elf} (exit {status})")
+    print(out.rstrip())
+    problems: list[str] = []
+    if status != 0:
+        problems.append(f"{board}: exit status {status}")
+    if "self-test passed" not in out:
+        problems.append(f"{board}: no 'self-test passed' line")
+    rows = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
+    paths = {r.get("path") for r in rows}
+    if paths != {"f32", "q"}:
+        problems.append(f"{board}: benchmark lines for {sorted(map(str, paths))}, want f32 and q")
+    if sum(1 for r in rows if r.get("primary")) != 1:
+        problems.append(f"{board}: not exactly one primary path")
+    for r in rows:
+        if not 0 < r.get("insn_point_jacobian", 0) < 10**6:
+            problems.append(f"{board}: implausible instruction count {r}")
+    return problems
+
+
+def main(argv: list[str]) -> int:
+    if not argv:
+        print(__doc__, file=sys.stderr)
+        return 2
+    problems: list[str] = []
+    for arg in argv:
+        problems += check_one(Path(arg))
+    for p in problems:
+        print(f"FAIL {p}")
+    print(f"board self-tests: {len(argv)} image(s), {'FAILED' if problems else 'passed'}")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
