@@ -18,3 +18,22 @@ test-client:
 	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CLIENT_PY_FILES)
 
 TEST_SUITES += test-client
+
+# ---- loopback over a pty against the real simulator (builds it first) ----
+LOOPBACK_PY_FILES := tests/host/test_loopback_pty.py tests/host/simproc.py tests/host/hostref.py \
+                     tests/host/vcan/test_socketcan_client.py
+
+.PHONY: test-loopback-pty
+test-loopback-pty: export AACMM_SIM = $(abspath $(SIM_BIN))
+test-loopback-pty: sim
+	$(CLIENT_PYTEST) -s tests/host/test_loopback_pty.py
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(LOOPBACK_PY_FILES)
+	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(LOOPBACK_PY_FILES)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml $(LOOPBACK_PY_FILES)
+
+TEST_SUITES += test-loopback-pty
+
+# ---- the client over SocketCAN + ISO-TP against the simulator (vcan VM session) ----
+VCAN_TESTS += tests/host/vcan
+test-vcan-suite: export AACMM_SIM = $(abspath $(SIM_BIN))
+test-vcan-suite: sim

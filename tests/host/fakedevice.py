@@ -346,16 +346,21 @@ class SerialFakeServer:
 
 
 class CanFakeDevice:
-    """The fake as a node on python-can's ``virtual`` bus (``virtual://CHANNEL?node=N``)."""
+    """The fake as a CAN node: python-can ``virtual`` bus by default (``virtual://CHANNEL?node=N``)."""
 
-    def __init__(self, device: FakeDevice | None = None, channel: str | None = None) -> None:
+    def __init__(
+        self,
+        device: FakeDevice | None = None,
+        channel: str | None = None,
+        interface: str = "virtual",
+    ) -> None:
         self.device = device or FakeDevice()
         self.device.emit = self._send_msg
         n = self.device.node_id
         self.channel = channel or f"aacmm-test-{uuid.uuid4().hex[:12]}"
-        self.url = f"virtual://{self.channel}?node={n}"
+        self.url = f"{interface}://{self.channel}?node={n}"
         self.bus = can.Bus(
-            interface="virtual",
+            interface=interface,
             channel=self.channel,
             receive_own_messages=False,
             can_filters=[{"can_id": 0x600 + n, "can_mask": 0x7FF, "extended": False}],

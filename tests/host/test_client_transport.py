@@ -47,8 +47,12 @@ from fakedevice import FakeDevice
         ("socketcan://can1", TransportUrl("socketcan", "can1", node=1)),
         ("SocketCAN://vcan0?node=15", TransportUrl("socketcan", "vcan0", node=15)),
         (
+            "socketcan://vcan0?isotp=user",
+            TransportUrl("socketcan", "vcan0", node=1, isotp="user"),
+        ),
+        (
             "virtual://bus7?node=0&isotp_timeout_ms=250",
-            TransportUrl("virtual", "bus7", node=0, isotp_timeout_ms=250),
+            TransportUrl("virtual", "bus7", node=0, isotp_timeout_ms=250, isotp="user"),
         ),
     ],
 )
@@ -72,6 +76,8 @@ def test_parse_url(url: str, want: TransportUrl) -> None:
         "socketcan://vcan0?node=-1",
         "socketcan://vcan0?bitrate=500000",
         "virtual://x?isotp_timeout_ms=0",
+        "virtual://x?isotp=kernel",
+        "socketcan://vcan0?isotp=fast",
     ],
 )
 def test_parse_url_rejects(url: str) -> None:
@@ -274,3 +280,22 @@ def test_fake_device_answers_codec_errors() -> None:
     (rsp,) = dev.handle(b"\x01\x77\x05")
     assert rsp.type == MsgType.ERROR_RSP and rsp.seq == 5
     assert decode_message(encode_message(rsp)) == rsp
+
+
+# ---------------------------------------------------------------- host reference
+
+
+def test_host_reference_numpy_matches_core() -> None:
+    import hostref
+    import numpy as np
+    from fakedevice import DEFAULT_PARAMS
+
+    if not hostref.have_core():
+        pytest.skip("aacmm.core not built; the numpy fallback is the reference")
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        counts = [int(c) for c in rng.integers(0, 2**32, 6)]
+        pc, jc = hostref.core_point_jacobian(DEFAULT_PARAMS, counts)
+        pn, jn = hostref.numpy_point_jacobian(DEFAULT_PARAMS, counts)
+        assert np.allclose(pc, pn, atol=1e-9)
+        assert np.allclose(jc, jn, atol=1e-5)

@@ -13,11 +13,14 @@ Accepted URL forms (:func:`parse_url`, :func:`open_transport`):
 ``socket://host:port``, ``rfc2217://...``,  bare pyserial URLs are serial too
 ``loop://``, ``spy://...``
 ``socketcan://vcan0?node=1``                SocketCAN interface, device CAN node 0..15
+``socketcan://can0?node=3&isotp=user``      ... with the user-space ISO-TP stack
 ``virtual://name?node=1``                   python-can's in-process virtual bus
 ==========================================  ===========================================
 
 CAN URLs take ``node`` (default 1, the simulator's default) and
-``isotp_timeout_ms`` (default 1000) in the query.
+``isotp_timeout_ms`` (default 1000) in the query; SocketCAN URLs also
+``isotp=auto|kernel|user`` (default ``auto``: the kernel's ISO-TP sockets
+when the kernel has them, else the user-space ``can-isotp`` stack).
 """
 
 from __future__ import annotations
@@ -70,6 +73,7 @@ class TransportUrl:
     baudrate: int = DEFAULT_BAUDRATE
     node: int = DEFAULT_CAN_NODE
     isotp_timeout_ms: int = 1000
+    isotp: str = "auto"
 
 
 def _int(name: str, text: str, lo: int, hi: int) -> int:
@@ -116,15 +120,19 @@ def parse_url(url: str) -> TransportUrl:
         channel = parts.netloc or parts.path.lstrip("/")
         if not channel:
             raise ValueError(f"no CAN channel in {url!r}")
-        node, tmo = DEFAULT_CAN_NODE, 1000
+        node, tmo, tp = DEFAULT_CAN_NODE, 1000, "auto" if scheme == "socketcan" else "user"
         for key, value in parse_qsl(parts.query, keep_blank_values=True):
             if key == "node":
                 node = _int(key, value, 0, 15)
             elif key == "isotp_timeout_ms":
                 tmo = _int(key, value, 1, 60_000)
+            elif key == "isotp" and scheme == "socketcan":
+                if value not in ("auto", "kernel", "user"):
+                    raise ValueError(f"isotp={value!r}: use auto, kernel or user")
+                tp = value
             else:
                 raise ValueError(f"unknown CAN URL parameter {key!r}")
-        return TransportUrl(scheme, channel, node=node, isotp_timeout_ms=tmo)
+        return TransportUrl(scheme, channel, node=node, isotp_timeout_ms=tmo, isotp=tp)
     raise ValueError(f"unknown URL scheme {scheme!r} in {url!r}")
 
 
@@ -140,7 +148,11 @@ def open_transport(url: str | TransportUrl, write_timeout: float = 2.0) -> Trans
         return SerialTransport(u.target, baudrate=u.baudrate, write_timeout=write_timeout)
     if u.kind == "socketcan":
         return SocketCanTransport(
-            u.target, u.node, isotp_timeout_ms=u.isotp_timeout_ms, send_timeout=write_timeout
+            u.target,
+            u.node,
+            isotp=u.isotp,
+            isotp_timeout_ms=u.isotp_timeout_ms,
+            send_timeout=write_timeout,
         )
     if u.kind == "virtual":
         return VirtualCanTransport(

@@ -12,6 +12,7 @@ on at the next delimiter.
 from __future__ import annotations
 
 import threading
+import time
 from typing import Any
 
 import serial
@@ -22,6 +23,7 @@ from aacmm.transport.base import Transport
 
 DEFAULT_BAUDRATE = 921600
 _READ_POLL_S = 0.05
+_MAX_EMPTY_READS = 20
 
 FRAMING_LOCK = threading.Lock()
 """Serialises every use of the protocol's CRC-32 in this process.
@@ -59,6 +61,8 @@ class SerialTransport(Transport):
         self.url = url
         self.description = f"serial {url}"
         self.deframer = Deframer()
+        self.spurious_wakeups = 0
+        """Reads that found no data after select() reported some (tolerated)."""
         self._write_lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -83,10 +87,24 @@ class SerialTransport(Transport):
 
     def _reader(self) -> None:
         port = self._port
+        empty_reads = 0
         while not self._stop.is_set():
             try:
                 data = port.read(max(1, port.in_waiting))
-            except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+            except serial.SerialException as exc:
+                # pyserial reads a tty with VMIN=0 after select(); on a Linux
+                # pty, select() now and then reports input the read then does
+                # not get ("readiness to read but returned no data"). Only a
+                # run of these means the other side hung up.
+                if "returned no data" in str(exc) and empty_reads < _MAX_EMPTY_READS:
+                    empty_reads += 1
+                    self.spurious_wakeups += 1
+                    time.sleep(0.0005 * empty_reads)
+                    continue
+                if not self._stop.is_set():
+                    self._link_lost(OperationError(f"{self.description}: {exc}"))
+                return
+            except (OSError, TypeError, AttributeError) as exc:
                 # TypeError/AttributeError: pyserial internals after a close from
                 # another thread (fd set to None).
                 if not self._stop.is_set():
@@ -94,6 +112,7 @@ class SerialTransport(Transport):
                 return
             if not data:
                 continue
+            empty_reads = 0
             self.feed(bytes(data))
 
     def feed(self, data: bytes) -> None:

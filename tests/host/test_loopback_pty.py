@@ -1,0 +1,326 @@
+"""Loopback: the host client against the real simulator (``aacmm-sim``) over a pty.
+
+Needs ``build/sim/aacmm-sim`` (``make sim``; ``make test-loopback-pty`` builds
+it). Never skipped: a missing simulator is a failure.
+
+Covers every message type, parameter save and reload across a simulator
+restart, a 1 kHz stream for 10 s checked by sequence number, garbage and torn
+frames injected into the line, and ``compute``/``measure`` against the host's
+double-precision reference (the C core through cffi, or numpy).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import os
+import random
+import time
+from collections.abc import Iterator
+from dataclasses import replace
+from pathlib import Path
+
+import hostref
+import numpy as np
+import pytest
+from aacmm.client import Client, connect
+from aacmm.errors import DeviceError, OperationError
+from aacmm.protocol import (
+    PROTOCOL_VERSION,
+    BuildFlags,
+    Message,
+    MsgType,
+    ParamSet,
+    Ping,
+    SampleStatus,
+    StorageState,
+    encode_frame,
+    encode_message,
+)
+from aacmm.protocol.status import Status
+from aacmm.transport import SerialTransport
+from simproc import REPO, Sim
+
+STREAM_SECONDS = float(os.environ.get("AACMM_LOOPBACK_STREAM_S", "10"))
+FLOAT_PATH_BOUND_MM = 1e-3
+RESULTS = REPO / "build" / "client" / "loopback-pty.json"
+
+
+def _record(key: str, value: object) -> None:
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    data = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+    data[key] = value
+    RESULTS.write_text(json.dumps(data, indent=2) + "\n")
+
+
+@pytest.fixture(scope="module")
+def sim() -> Iterator[Sim]:
+    s = Sim("--serial", "pty", "--motion", "static", "--seed", "7")
+    yield s
+    assert s.stop() == 0, s.stderr_lines
+
+
+@pytest.fixture
+def client(sim: Sim) -> Iterator[Client]:
+    with connect(sim.serial_url, timeout=1.0, retries=2) as c:
+        yield c
+        # every test leaves the device on its defaults and idle
+        c.restore_defaults()
+
+
+def modified(p: ParamSet) -> ParamSet:
+    return replace(
+        p,
+        theta_offset_rad=(0.001, -0.002, 0.003, 0.0, 0.0005, -0.0015),
+        d_mm=(p.d_mm[0] + 0.5, *p.d_mm[1:5], 0.25),
+        a_mm=(0.1, -0.2, 0.0, 0.05, 0.0, 0.0),
+        l_mm=p.l_mm + 1.25,
+    )
+
+
+# ---------------------------------------------------------------- every message type
+
+
+def test_ping_info(client: Client) -> None:
+    assert client.ping() < 0.5
+    info = client.handshake()
+    assert info.protocol_version == PROTOCOL_VERSION
+    assert info.build_flags & BuildFlags.SERIAL
+    assert info.build_flags & BuildFlags.JACOBIAN
+    assert info.max_body_bytes <= 512
+    assert info.param_source == 0  # defaults (RAM-only storage)
+
+
+def test_params_roundtrip(client: Client) -> None:
+    defaults = client.get_params()
+    new = modified(defaults)
+    crc = client.set_params(new)
+    assert client.get_params() == new
+    assert client.info().param_crc32 == crc
+    assert client.measure().status & SampleStatus.PARAMS_DEFAULT == 0
+    crc_default = client.restore_defaults()
+    assert client.get_params() == defaults
+    assert client.info().param_crc32 == crc_default != crc
+    assert client.measure().status & SampleStatus.PARAMS_DEFAULT
+
+
+def test_device_refuses_bad_params(client: Client) -> None:
+    p = client.get_params()
+    with pytest.raises(DeviceError) as ei:
+        client.set_params(replace(p, d_mm=(1e6, *p.d_mm[1:])))
+    assert ei.value.status in (Status.ERR_RANGE, Status.ERR_NOT_FINITE)
+    assert ei.value.request_type == MsgType.SET_PARAMS_REQ
+    assert client.get_params() == p
+
+
+def test_unknown_request_type_gets_an_error_response(client: Client) -> None:
+    assert isinstance(client.transport, SerialTransport)
+    before = client.stats.stale_responses
+    client.transport.send(bytes([PROTOCOL_VERSION, 0x3F, 0x42]))  # no pending request
+    deadline = time.monotonic() + 2
+    while client.stats.stale_responses == before and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert client.stats.stale_responses == before + 1  # the ERROR_RSP, matched to nothing
+    client.ping()
+
+
+def test_measure_and_compute_against_host_reference(client: Client) -> None:
+    params = client.get_params()
+    s = client.measure(jacobian=True)
+    assert s.status & SampleStatus.POINT_VALID
+    ref_p, ref_j = hostref.point_jacobian(params, s.counts)
+    assert np.max(np.abs(np.array(s.point_mm) - ref_p)) < FLOAT_PATH_BOUND_MM
+    assert s.jacobian is not None
+    jac = np.array(s.jacobian).reshape(3, 25)
+    assert np.allclose(jac, ref_j, rtol=1e-4, atol=1e-3)
+
+    rng = random.Random(11)
+    worst = 0.0
+    for i in range(60):
+        counts = [rng.randrange(2**32) for _ in range(6)]
+        r = client.compute(counts, jacobian=i % 10 == 0)
+        assert r.status & SampleStatus.POINT_VALID
+        ref_p, ref_j = hostref.point_jacobian(params, counts)
+        worst = max(worst, float(np.max(np.abs(np.array(r.point_mm) - ref_p))))
+        if r.jacobian is not None:
+            assert np.allclose(np.array(r.jacobian).reshape(3, 25), ref_j, rtol=1e-4, atol=1e-3)
+    assert worst < FLOAT_PATH_BOUND_MM
+    _record("compute_max_error_mm", worst)
+    _record("host_reference", "aacmm.core (cffi)" if hostref.have_core() else "numpy")
+
+
+def test_compute_uses_the_active_parameters(client: Client) -> None:
+    new = modified(client.get_params())
+    client.set_params(new)
+    counts = [1 << 30, 3 << 29, 5 << 28, 7 << 27, 9 << 26, 11 << 25]
+    r = client.compute(counts)
+    ref_p, _ = hostref.point_jacobian(new, counts)
+    assert np.max(np.abs(np.array(r.point_mm) - ref_p)) < FLOAT_PATH_BOUND_MM
+
+
+def test_stream_start_stop_and_jacobian_content(client: Client) -> None:
+    with client.stream(100, jacobian=True) as samples:
+        assert samples.accepted is not None
+        assert samples.accepted.rate_hz == 100 and samples.accepted.jacobian
+        got = [next(samples) for _ in range(20)]
+    assert all(s.jacobian is not None and len(s.jacobian) == 75 for s in got)
+    assert samples.stats.lost == samples.stats.duplicates == 0
+    # stopped: nothing more arrives
+    before = client.stats.unsolicited_samples
+    time.sleep(0.2)
+    assert client.stats.unsolicited_samples == before
+    client.ping()
+
+
+def test_trigger_events() -> None:
+    with Sim("--serial", "pty", "--motion", "static", "--button-every", "0.3") as sim:
+        with connect(sim.serial_url, timeout=1.0) as c:
+            first = c.wait_trigger(timeout=3.0)
+            second = c.wait_trigger(timeout=3.0)
+            assert {first.pressed, second.pressed} == {True, False}
+            down = first if first.pressed else second
+            assert down.button == 0
+            assert down.sample.status & SampleStatus.POINT_VALID
+            assert down.sample.status & SampleStatus.TRIGGER_DOWN
+            assert down.sample.counts == c.measure().counts  # static pose
+
+
+# ---------------------------------------------------------------- storage across restarts
+
+
+def test_params_saved_and_reloaded_across_restart(tmp_path: Path) -> None:
+    store = tmp_path / "arm.bin"
+    args = ("--serial", "pty", "--motion", "static", "--storage", str(store))
+    with Sim(*args) as sim, connect(sim.serial_url) as c:
+        info = c.info()
+        assert info.storage_state == StorageState.EMPTY and info.param_source == 0
+        defaults = c.get_params()
+        new = modified(defaults)
+        crc = c.set_params(new)
+        assert c.save_params() == crc
+        c.restore_defaults()  # RAM only: the stored set stays
+    assert store.exists()
+
+    with Sim(*args) as sim, connect(sim.serial_url) as c:
+        info = c.info()
+        assert info.storage_state == StorageState.OK
+        assert info.param_source == 1
+        assert info.param_crc32 == crc
+        assert c.get_params() == new
+        assert c.measure().status & SampleStatus.PARAMS_DEFAULT == 0
+        c.restore_defaults()
+        assert c.get_params() == defaults
+
+    with Sim(*args) as sim, connect(sim.serial_url) as c:
+        assert c.get_params() == new  # restore_defaults did not touch storage
+
+
+# ---------------------------------------------------------------- streaming at 1 kHz
+
+
+def test_stream_1khz_no_lost_or_duplicated_samples(client: Client) -> None:
+    n_want = int(STREAM_SECONDS * 1000) + 1
+    seqs: list[int] = []
+    stamps: list[int] = []
+    t0 = time.monotonic()
+    with client.stream(1000) as samples:
+        assert samples.accepted is not None and samples.accepted.rate_hz == 1000
+        for s in samples:
+            seqs.append(s.seq)
+            stamps.append(s.timestamp_us)
+            if len(seqs) >= n_want:
+                break
+    wall = time.monotonic() - t0
+    st = samples.stats
+    diffs = np.array([(b - a) & 0xFFFFFFFF for a, b in itertools.pairwise(seqs)])
+    span_s = (stamps[-1] - stamps[0]) * 1e-6
+    rate = (len(seqs) - 1) / span_s
+    figures = {
+        "samples": len(seqs),
+        "device_span_s": round(span_s, 4),
+        "rate_hz_device_clock": round(rate, 3),
+        "wall_s": round(wall, 3),
+        "lost": st.lost,
+        "duplicates": st.duplicates,
+        "overruns": st.overruns,
+        "host_dropped": st.dropped,
+        "frame_errors": client.stats.frame_errors,
+        "pty_spurious_wakeups": getattr(client.transport, "spurious_wakeups", 0),
+    }
+    _record("stream_1khz", figures)
+    print("stream 1 kHz over the pty:", figures)
+    assert np.all(diffs == 1), f"sequence gaps/duplicates at {np.nonzero(diffs != 1)[0][:10]}"
+    assert (st.lost, st.duplicates, st.overruns, st.dropped) == (0, 0, 0, 0)
+    assert span_s >= STREAM_SECONDS - 0.01
+    assert abs(rate - 1000.0) < 5.0
+    assert all(b >= a for a, b in itertools.pairwise(stamps))  # device clock never goes back
+    assert client.stats.frame_errors == 0
+
+
+# ---------------------------------------------------------------- garbage on the line
+
+
+def _garbage(rng: random.Random, valid: bytes) -> list[bytes]:
+    return [
+        bytes(rng.randrange(256) for _ in range(200)),  # random bytes, zeros included
+        bytes(rng.randrange(1, 256) for _ in range(700)),  # oversize run without delimiter
+        valid[: len(valid) // 2],  # torn frame
+        b"\x00" + valid[1:-3] + b"\x55\x00",  # corrupted tail (CRC/COBS error)
+        b"\x00\x00\x00",  # empty frames
+        valid[: len(valid) - 1],  # frame missing its end delimiter
+    ]
+
+
+def test_garbage_on_the_line_device_resyncs(client: Client) -> None:
+    assert isinstance(client.transport, SerialTransport)
+    rng = random.Random(3)
+    valid = encode_frame(encode_message(Message(MsgType.PING_REQ, 0x10, Ping(1))))
+    for round_ in range(20):
+        for chunk in _garbage(rng, valid):
+            client.transport.write_raw(chunk)
+        # the very next request is answered, no retry needed
+        retries = client.stats.retries
+        client.ping()
+        client.info()
+        assert client.stats.retries == retries, f"round {round_}: a request needed a retry"
+
+
+def test_garbage_while_streaming(client: Client) -> None:
+    assert isinstance(client.transport, SerialTransport)
+    rng = random.Random(4)
+    valid = encode_frame(encode_message(Message(MsgType.PING_REQ, 0x11, Ping(2))))
+    with client.stream(1000) as samples:
+        for i, _s in enumerate(samples):
+            if i % 100 == 50:
+                for chunk in _garbage(rng, valid):
+                    client.transport.write_raw(chunk)
+                client.measure()
+            if i >= 1000:
+                break
+    assert samples.stats.lost == 0 and samples.stats.duplicates == 0
+    assert client.stats.retries == 0
+
+
+def test_link_lost_when_simulator_exits() -> None:
+    sim = Sim("--serial", "pty", "--motion", "static")
+    c = connect(sim.serial_url, timeout=1.0, retries=0)
+    try:
+        c.ping()
+        assert sim.stop() == 0
+        with pytest.raises((OperationError, Exception)) as ei:
+            for _ in range(3):
+                c.ping()
+        assert not isinstance(ei.value, AssertionError)
+    finally:
+        c.close()
+        sim.kill()
+
+
+def test_math_sanity_of_static_pose(client: Client) -> None:
+    # --motion static is the documented pose (0.5, 0.6, -0.9, 0.4, 1.2, -0.3) rad
+    s = client.measure()
+    params = client.get_params()
+    angles = hostref.counts_to_angles(params, s.counts)
+    assert np.allclose(angles, [0.5, 0.6, -0.9, 0.4, 1.2, -0.3], atol=1e-6)
+    assert math.isfinite(s.point_mm[0])
