@@ -2,6 +2,9 @@
 # (BBC micro:bit, nRF51) images, run under qemu-system-arm. See docs/boards.md.
 #
 # Per board, under build/boards/<board>/:
+#   fw.elf        the device application (firmware/src/device) on the board:
+#                 UART link, board clock, simulated arm, RAM-backed storage
+#   fw.bin        the same as a raw image from address 0 (for flashing)
 #   echo.elf      boot check: banner, UART echo, clock
 #   selftest.elf  semihosting self-test: golden vectors + instruction counts
 #
@@ -26,7 +29,22 @@ BOARD_KIN_Q   := firmware/src/kinematics_q.c firmware/src/fixed_sincos.c
 BOARD_DEFS_mps2-an386 := -DSELFTEST_F32 -DSELFTEST_Q -DBOARD_KIN_PRIMARY='"f32"'
 BOARD_DEFS_microbit   := -DSELFTEST_F32 -DSELFTEST_Q -DBOARD_KIN_PRIMARY='"q"'
 
-BOARD_CFLAGS  = $(ARM_CFLAGS) -fcallgraph-info=su -I$(BOARD_COMMON) -Ifirmware/src -I$(BOARD_OUT)
+# Buffers: the micro:bit has 16 KiB of RAM for the ~7 KiB device state, the
+# device's serial output queue, the UART rings, the storage and the stack.
+BOARD_DEFS_microbit += -DBOARD_UART_RX_BYTES=256u -DBOARD_UART_TX_BYTES=256u \
+                       -DBOARD_SERIAL_TXQ_BYTES=2048u
+# The device application with its kinematics backend (as mk/device.mk).
+BOARD_DEVICE_SRCS := firmware/src/device/device.c firmware/src/device/param_store.c \
+                     firmware/src/sim/sim_motion.c $(sort $(wildcard firmware/src/protocol/*.c)) \
+                     firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c \
+                     firmware/src/kinematics_f64.c $(BOARD_COMMON)/device_main.c
+BOARD_DEVKIN_mps2-an386 := firmware/src/device/device_kin_f32.c
+BOARD_DEVKIN_microbit   := firmware/src/device/device_kin_q.c $(BOARD_KIN_Q) \
+                           firmware/src/kinematics_q_convert.c
+BOARD_DEVFLAGS_microbit := -DAACMM_DEVICE_KIN_FIXED
+
+BOARD_CFLAGS  = $(ARM_CFLAGS) -fcallgraph-info=su -I$(BOARD_COMMON) -Ifirmware/src \
+                -Ifirmware/src/device -Ifirmware/src/sim -I$(BOARD_OUT)
 BOARD_LDFLAGS := -nostartfiles -Wl,--gc-sections -L$(BOARD_COMMON)
 BOARD_HDRS := $(wildcard $(BOARD_COMMON)/*.h) $(wildcard firmware/include/aacmm/*.h) \
               $(wildcard firmware/src/*.h) $(BOARD_COMMON)/sections.ld
@@ -44,6 +62,21 @@ $(BOARD_OUT)/$(1)/obj/%.o: %.c $(BOARD_HDRS)
 
 $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/selftest.o: $(BOARD_OUT)/golden.h
 
+# The device image's objects get the backend switch too (own directory).
+$(BOARD_OUT)/$(1)/dev/%.o: %.c $(BOARD_HDRS) $(wildcard firmware/src/device/*.h firmware/src/sim/*.h)
+	@mkdir -p $$(@D)
+	$(ARM_CC) $(BOARD_CFLAGS) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) $(BOARD_DEVFLAGS_$(1)) -c $$< -o $$@
+
+BOARD_FW_OBJS_$(1) := $$(patsubst %.c,$(BOARD_OUT)/$(1)/dev/%.o,$(BOARD_COMMON)/startup.c \
+                        firmware/boards/$(1)/board.c $(BOARD_DEVICE_SRCS) $(BOARD_DEVKIN_$(1)))
+
+$(BOARD_OUT)/$(1)/fw.elf: $$(BOARD_FW_OBJS_$(1)) firmware/boards/$(1)/memory.ld $(BOARD_COMMON)/sections.ld
+	$(ARM_CC) $(BOARD_FLAGS_$(1)) $(BOARD_LDFLAGS) --specs=nano.specs --specs=nosys.specs \
+	    -Tfirmware/boards/$(1)/memory.ld -Wl,-Map=$$@.map $$(BOARD_FW_OBJS_$(1)) -o $$@
+
+$(BOARD_OUT)/$(1)/fw.bin: $(BOARD_OUT)/$(1)/fw.elf
+	arm-none-eabi-objcopy -O binary $$< $$@
+
 BOARD_BASE_OBJS_$(1) := $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/startup.o \
                         $(BOARD_OUT)/$(1)/obj/firmware/boards/$(1)/board.o
 BOARD_ECHO_OBJS_$(1) := $$(BOARD_BASE_OBJS_$(1)) $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/echo_main.o
@@ -60,25 +93,46 @@ $(BOARD_OUT)/$(1)/selftest.elf: $$(BOARD_SELF_OBJS_$(1)) firmware/boards/$(1)/me
 endef
 $(foreach b,$(BOARDS),$(eval $(call BOARD_RULES,$(b))))
 
+BOARD_FW_ELFS   := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw.elf)
+BOARD_FW_BINS   := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw.bin)
 BOARD_ECHO_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/echo.elf)
 BOARD_SELF_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/selftest.elf)
 
-.PHONY: firmware-boards test-boards-selftest test-boards-boot bench-boards
-firmware-boards: $(BOARD_ECHO_ELFS) $(BOARD_SELF_ELFS)
+# Limits for the size report: flash, RAM, and the stack each linker script
+# reserves (memory.ld).
+BOARD_LIMITS_mps2-an386 := 4096 4194304 4194304
+BOARD_LIMITS_microbit   := 4096 262144 16384
+
+.PHONY: firmware-boards test-boards-selftest test-boards-boot test-boards-loopback bench-boards \
+        run-mps2-an386 run-microbit
+firmware-boards: $(BOARD_FW_ELFS) $(BOARD_FW_BINS) $(BOARD_ECHO_ELFS) $(BOARD_SELF_ELFS)
 	@for b in $(BOARDS); do \
-	  echo "board $$b:"; \
-	  $(ARM_SIZE) $(BOARD_OUT)/$$b/echo.elf $(BOARD_OUT)/$$b/selftest.elf; \
-	  /usr/bin/python3 scripts/stack_usage.py $(BOARD_OUT)/$$b/obj main aacmm_point_jacobian_f32 aacmm_point_jacobian_q \
-	    | sed "s/^/  /"; \
+	  case $$b in mps2-an386) lim="$(BOARD_LIMITS_mps2-an386)";; microbit) lim="$(BOARD_LIMITS_microbit)";; esac; \
+	  echo "board $$b: device image (build/boards/$$b/fw.elf, fw.bin):"; \
+	  /usr/bin/python3 firmware/boards/fw_report.py $$b $(BOARD_OUT)/$$b/fw.elf $(BOARD_OUT)/$$b/dev $$lim || exit 1; \
+	  echo "board $$b: boot check and self-test images:"; \
+	  $(ARM_SIZE) $(BOARD_OUT)/$$b/echo.elf $(BOARD_OUT)/$$b/selftest.elf | sed "s/^/  /"; \
 	done
 FIRMWARE_TARGETS += firmware-boards
 
-TEST_SUITES += test-boards-selftest test-boards-boot
+TEST_SUITES += test-boards-selftest test-boards-boot test-boards-loopback
 test-boards-selftest: $(BOARD_SELF_ELFS) | setup
 	$(PYTHON) tests/boards/run_selftest.py $(BOARD_SELF_ELFS)
 
 test-boards-boot: $(BOARD_ECHO_ELFS) | setup
 	$(PYTHON) tests/boards/run_boot.py $(BOARD_ECHO_ELFS)
+
+# The host loopback suite and golden vectors over each board's emulated UART.
+BOARD_PY_FILES := host/src/aacmm/boards.py tests/boards bench/bench_boards.py firmware/boards/fw_report.py
+test-boards-loopback: $(BOARD_FW_ELFS) | setup
+	cd tests/boards && ../../$(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=120 \
+	    test_board_loopback.py
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(BOARD_PY_FILES)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml host/src/aacmm/boards.py
+
+# Start a board's device image and print the URL to connect to (Ctrl-C stops).
+run-mps2-an386 run-microbit: run-%: $(BOARD_OUT)/%/fw.elf | setup
+	$(PYTHON) -m aacmm.boards $*
 
 bench-boards: $(BOARD_SELF_ELFS)
 	@$(PYTHON) bench/bench_boards.py $(BOARD_SELF_ELFS)

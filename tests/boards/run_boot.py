@@ -56,8 +56,11 @@ def check(elf: Path) -> None:
             while len(got) < len(data) and time.monotonic() - t0 < 30:
                 got += port.read(len(data) - len(got))
             dt = time.monotonic() - t0
-            assert got == data, f"echo: {len(got)} of {len(data)} bytes, equal prefix " \
-                f"{next((i for i, (a, b) in enumerate(zip(got, data)) if a != b), len(got))}"
+            first_bad = next(
+                (i for i, (a, b) in enumerate(zip(got, data, strict=False)) if a != b), len(got)
+            )
+            assert got == data, f"echo: {len(got)} of {len(data)} bytes, first difference at " \
+                f"{first_bad}"
             print(f"{board}: echoed {len(data)} bytes intact ({len(data) / dt / 1000:.1f} kB/s)")
         finally:
             port.close()

@@ -179,3 +179,34 @@ def run_semihosted(board: str, elf: str | os.PathLike[str], *, qemu: str = QEMU,
         out = (exc.stdout or b"").decode(errors="replace")
         return -1, out + f"\n(killed after {timeout} s)\n"
     return r.returncode, r.stdout.decode(errors="replace") + r.stderr.decode(errors="replace")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m aacmm.boards BOARD [ELF]``: start a board, print its URL, run until Ctrl-C."""
+    import argparse
+    import signal
+    import sys
+
+    ap = argparse.ArgumentParser(prog="python -m aacmm.boards",
+                                 description="Run a board's device image under QEMU.")
+    ap.add_argument("board", choices=sorted(BOARDS))
+    ap.add_argument("elf", nargs="?", help="image (default build/boards/BOARD/fw.elf)")
+    args = ap.parse_args(argv)
+    try:
+        proc, url = start_board(args.board, args.elf)
+    except (OSError, RuntimeError, ValueError) as exc:
+        print(f"aacmm.boards: {exc}", file=sys.stderr)
+        return 1
+    print(f"{args.board}: {url}  (the board starts when a client connects, e.g. "
+          f"aacmm info --port {url}; Ctrl-C stops it)", flush=True)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))  # stop QEMU on kill too
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        stop_board(proc)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
