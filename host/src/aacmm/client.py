@@ -11,8 +11,11 @@
 URL forms are listed in :mod:`aacmm.transport`; without a URL, :func:`connect`
 uses the ``AACMM_PORT`` environment variable.
 
-Requests carry a sequence number the device echoes, so a late answer to an
-earlier, timed-out attempt is never taken for the answer to a later one.
+Requests carry a sequence number the device echoes; a response is taken only
+if its number and its type fit the waiting request, so a late answer to an
+earlier, timed-out attempt (or to another program's request on the same line)
+is never taken for the answer to a later one: it is counted in
+``stats.stale_responses`` and ignored.
 Each request waits ``timeout`` seconds; idempotent requests (ping, info, get
 parameters, measure, compute, stream start/stop) are retried up to
 ``retries`` times after a timeout or a busy device, the others (set, save and
@@ -26,8 +29,8 @@ Errors (all but ``ValueError``/``TypeError`` derive from
 - :class:`~aacmm.errors.DeviceTimeoutError`: no answer in time (after retries);
 - :class:`~aacmm.errors.DeviceError`: the device answered with an error
   response (``status`` is its ``aacmm_status_t``);
-- :class:`~aacmm.errors.FrameError`: the device answered with a response that
-  does not fit the request;
+- :class:`~aacmm.errors.FrameError`: a ping answered with another token
+  (invalid frames on the link are dropped and counted, never raised);
 - :class:`~aacmm.errors.OperationError`: the client is closed or the link was
   lost;
 - ``ValueError``/``TypeError``: bad arguments (checked before anything is sent).
@@ -118,7 +121,7 @@ class ClientStats:
     timeouts: int = 0
     device_errors: int = 0
     stale_responses: int = 0
-    """Responses whose sequence number matched no waiting request (late or foreign)."""
+    """Responses that fit no waiting request by sequence number and type (late or foreign)."""
     frame_errors: int = 0
     """Invalid frames or messages the transport dropped."""
     unsolicited_samples: int = 0
@@ -288,6 +291,16 @@ def step_is_newer(last: int | None, seq: int) -> bool:
     return 0 < step < 1 << 31
 
 
+def _answers(msg: Message, pending: _Pending) -> bool:
+    """True if ``msg`` is the response to ``pending``: same sequence number, and
+    the matching response type or an error response naming the request (or 0)."""
+    if msg.seq != pending.seq:
+        return False
+    if isinstance(msg.payload, ErrorReply):
+        return msg.payload.request_type in (0, int(pending.type))
+    return int(msg.type) == int(pending.type) | RESPONSE_BIT
+
+
 def _counts(counts: Sequence[int]) -> tuple[int, ...]:
     try:
         values = tuple(operator.index(c) for c in counts)
@@ -367,14 +380,10 @@ class Client:
         if t & RESPONSE_BIT:
             with self._lock:
                 p = self._pending
-                if p is not None and p.seq == msg.seq and p.response is None:
-                    foreign = isinstance(
-                        msg.payload, ErrorReply
-                    ) and msg.payload.request_type not in (0, int(p.type))
-                    if not foreign:
-                        p.response = msg
-                        p.event.set()
-                        return
+                if p is not None and p.response is None and _answers(msg, p):
+                    p.response = msg
+                    p.event.set()
+                    return
             self.stats.stale_responses += 1
             return
         self.stats.unexpected_messages += 1
@@ -430,7 +439,6 @@ class Client:
             ValueError: not a request type, or a payload the codec rejects.
             DeviceTimeoutError: no answer after all attempts.
             DeviceError: the device answered with an error response.
-            FrameError: the answer has the wrong type for the request.
             OperationError: closed client or lost link.
         """
         try:
@@ -487,10 +495,6 @@ class Client:
                         last = err
                         continue
                     raise err
-                if rsp.type != int(t) | RESPONSE_BIT:
-                    raise FrameError(
-                        f"answer {rsp.type.name} to {t.name}", int(Status.ERR_UNKNOWN_TYPE)
-                    )
                 return rsp
         assert last is not None
         raise last
