@@ -5,8 +5,10 @@
 #   fw.elf        the device application (firmware/src/device) on the board:
 #                 UART link, board clock, simulated arm, RAM-backed storage
 #   fw.bin        the same as a raw image from address 0 (for flashing)
+#   fw.hex        the same in Intel hex (micro:bit drag-and-drop, pyOCD, ...)
 #   echo.elf      boot check: banner, UART echo, clock
 #   selftest.elf  semihosting self-test: golden vectors + instruction counts
+#   selftest-canary.elf  the same with its checks rigged to fail (must fail)
 #
 #   make firmware-boards          build them, print size and worst-case stack
 #   make test-boards-selftest     run the self-tests (exit status via semihosting)
@@ -76,6 +78,9 @@ $(BOARD_OUT)/$(1)/fw.elf: $$(BOARD_FW_OBJS_$(1)) firmware/boards/$(1)/memory.ld 
 
 $(BOARD_OUT)/$(1)/fw.bin: $(BOARD_OUT)/$(1)/fw.elf
 	arm-none-eabi-objcopy -O binary $$< $$@
+$(BOARD_OUT)/$(1)/fw.hex: $(BOARD_OUT)/$(1)/fw.elf
+	arm-none-eabi-objcopy -O ihex $$< $$@
+
 
 BOARD_BASE_OBJS_$(1) := $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/startup.o \
                         $(BOARD_OUT)/$(1)/obj/firmware/boards/$(1)/board.o
@@ -90,11 +95,20 @@ $(BOARD_OUT)/$(1)/echo.elf: $$(BOARD_ECHO_OBJS_$(1)) firmware/boards/$(1)/memory
 $(BOARD_OUT)/$(1)/selftest.elf: $$(BOARD_SELF_OBJS_$(1)) firmware/boards/$(1)/memory.ld $(BOARD_COMMON)/sections.ld
 	$(ARM_CC) $(BOARD_FLAGS_$(1)) $(BOARD_LDFLAGS) --specs=nano.specs --specs=rdimon.specs \
 	    -Tfirmware/boards/$(1)/memory.ld -Wl,-Map=$$@.map $$(BOARD_SELF_OBJS_$(1)) -o $$@
+
+$(BOARD_OUT)/$(1)/canary/selftest.o: $(BOARD_COMMON)/selftest.c $(BOARD_OUT)/golden.h $(BOARD_HDRS)
+	@mkdir -p $$(@D)
+	$(ARM_CC) $(BOARD_CFLAGS) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) -DSELFTEST_CANARY -c $$< -o $$@
+$(BOARD_OUT)/$(1)/selftest-canary.elf: $$(BOARD_SELF_OBJS_$(1)) $(BOARD_OUT)/$(1)/canary/selftest.o
+	$(ARM_CC) $(BOARD_FLAGS_$(1)) $(BOARD_LDFLAGS) --specs=nano.specs --specs=rdimon.specs \
+	    -Tfirmware/boards/$(1)/memory.ld \
+	    $$(filter-out %/common/selftest.o,$$(BOARD_SELF_OBJS_$(1))) $(BOARD_OUT)/$(1)/canary/selftest.o -o $$@
 endef
 $(foreach b,$(BOARDS),$(eval $(call BOARD_RULES,$(b))))
 
 BOARD_FW_ELFS   := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw.elf)
-BOARD_FW_BINS   := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw.bin)
+BOARD_FW_BINS   := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw.bin $(BOARD_OUT)/$(b)/fw.hex)
+BOARD_CANARY_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/selftest-canary.elf)
 BOARD_ECHO_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/echo.elf)
 BOARD_SELF_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/selftest.elf)
 
@@ -116,8 +130,9 @@ firmware-boards: $(BOARD_FW_ELFS) $(BOARD_FW_BINS) $(BOARD_ECHO_ELFS) $(BOARD_SE
 FIRMWARE_TARGETS += firmware-boards
 
 TEST_SUITES += test-boards-selftest test-boards-boot test-boards-loopback
-test-boards-selftest: $(BOARD_SELF_ELFS) | setup
+test-boards-selftest: $(BOARD_SELF_ELFS) $(BOARD_CANARY_ELFS) | setup
 	$(PYTHON) tests/boards/run_selftest.py $(BOARD_SELF_ELFS)
+	$(PYTHON) tests/boards/run_selftest.py --expect-fail $(BOARD_CANARY_ELFS)
 
 test-boards-boot: $(BOARD_ECHO_ELFS) | setup
 	$(PYTHON) tests/boards/run_boot.py $(BOARD_ECHO_ELFS)

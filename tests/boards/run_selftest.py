@@ -2,13 +2,16 @@
 """Run the on-target self-test images under QEMU with semihosting.
 
 Usage: run_selftest.py build/boards/<board>/selftest.elf...
+       run_selftest.py --expect-fail build/boards/<board>/selftest-canary.elf...
 
 Each image checks its kinematics paths against golden vectors from the
 host's double-precision core and exits 0 (pass), 1 (a check failed) or 2
 (fault); see firmware/boards/common/selftest.c. This runner prints each
 image's output and fails unless every image exited 0, said "self-test
 passed", and printed one well-formed JSON benchmark line per path (float
-and fixed) with the primary path flagged.
+and fixed) with the primary path flagged. With --expect-fail, each image
+(a canary build whose checks are rigged to fail) must exit with status 1
+and report its failures.
 """
 
 from __future__ import annotations
@@ -42,13 +45,27 @@ def check_one(elf: Path) -> list[str]:
     return problems
 
 
+def check_canary(elf: Path) -> list[str]:
+    board = elf.parent.name
+    status, out = run_semihosted(board, elf, timeout=60.0)
+    print(f"--- {board}: {elf} (canary, exit {status})")
+    fails = out.count(": FAIL")
+    print(f"    {fails} check(s) reported FAIL")
+    if status != 1 or fails != 4 or "self-test FAILED: 4 failure(s)" not in out:
+        return [f"{board}: canary image did not fail as rigged (exit {status}, {fails} FAIL)"]
+    return []
+
+
 def main(argv: list[str]) -> int:
+    expect_fail = bool(argv) and argv[0] == "--expect-fail"
+    if expect_fail:
+        argv = argv[1:]
     if not argv:
         print(__doc__, file=sys.stderr)
         return 2
     problems: list[str] = []
     for arg in argv:
-        problems += check_one(Path(arg))
+        problems += check_canary(Path(arg)) if expect_fail else check_one(Path(arg))
     for p in problems:
         print(f"FAIL {p}")
     print(f"board self-tests: {len(argv)} image(s), {'FAILED' if problems else 'passed'}")
