@@ -91,6 +91,8 @@ FLUSH_ROWS = 256
 DEFAULT_RATE_HZ = 100
 RAW_SUFFIXES = (".blf", ".asc", ".log")
 POINT_VALID = 0x0001
+RAW_RCVBUF_BYTES = 8 << 20
+SO_RCVBUFFORCE = 33  # Linux; lets root exceed net.core.rmem_max
 RECONNECT_PAUSE_S = 0.5
 
 
@@ -299,15 +301,40 @@ class RawCanRecorder:
             )
         except (can.CanError, OSError, ValueError, ImportError) as exc:
             raise InitError(f"cannot open CAN interface {channel} for --raw: {exc}") from None
+        self._enlarge_rcvbuf()
         try:
             self.logger: Any = can.Logger(str(path))
         except (OSError, ValueError) as exc:
             self.bus.shutdown()
             raise UsageError(f"cannot write {path}: {exc}") from None
-        self.notifier = can.Notifier(self.bus, [self.logger], timeout=0.1)
+        self._last_rx = time.monotonic()
+        self.frames = 0
+        self.notifier = can.Notifier(self.bus, [self.logger, self._seen], timeout=0.1)
         self.path = path
 
-    def stop(self) -> None:
+    def _enlarge_rcvbuf(self) -> None:
+        """A big socket receive buffer (best effort), so a slow writer loses no frames."""
+        import socket
+
+        sock = getattr(self.bus, "socket", None)
+        if not isinstance(sock, socket.socket):
+            return
+        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
+            try:
+                sock.setsockopt(socket.SOL_SOCKET, opt, RAW_RCVBUF_BYTES)
+                return
+            except OSError:
+                continue
+
+    def _seen(self, msg: Any) -> None:  # notifier thread
+        self._last_rx = time.monotonic()
+        self.frames += 1
+
+    def stop(self, quiet_s: float = 0.3, max_wait_s: float = 3.0) -> None:
+        """Let the recorder catch up (until the bus is quiet for ``quiet_s``), then close."""
+        end = time.monotonic() + max_wait_s
+        while time.monotonic() < end and time.monotonic() - self._last_rx < quiet_s:
+            time.sleep(0.05)
         with contextlib.suppress(Exception):
             self.notifier.stop()
         with contextlib.suppress(Exception):
@@ -638,6 +665,15 @@ class Logger:
             text += f", reconnects {self.s.reconnects}"
         return text
 
+    @staticmethod
+    def drop(dev: Device) -> None:
+        """Close a device whose link is lost without waiting for it: the transport
+        first, so no STREAM_STOP is sent (over CAN a silent device would cost
+        a full request timeout with its retries)."""
+        with contextlib.suppress(Exception):
+            dev.client.transport.close()
+        dev.close()
+
     def reconnect(self, err: BaseException) -> Device | None:
         """Try to get the device back; None if stopped or given up."""
         a = self.args
@@ -691,6 +727,7 @@ class Logger:
             )
         gap.pop("last_error", None)
         self.s.reconnects += 1
+        self.write_meta("running")
         print_err("log", f"reconnected after {gap['duration_s']:.1f} s; logging on")
         return dev
 
@@ -734,7 +771,7 @@ class Logger:
                 try:
                     reason = self.stream_once(dev)
                 except LinkLostError as exc:
-                    dev.close()
+                    self.drop(dev)
                     self.dev = None
                     if not a.reconnect:
                         raise
