@@ -92,6 +92,7 @@ class Faults:
     skip_seqs: set[int] = field(default_factory=set)  # stream: sample counters not sent
     dup_seqs: set[int] = field(default_factory=set)  # stream: sample counters sent twice
     delay_s: float = 0.0  # answer after this delay
+    bad_token: int = 0  # answer this many pings with another token
 
 
 class FakeDevice:
@@ -207,6 +208,9 @@ class FakeDevice:
         t, seq, p = req.type, req.seq, req.payload
         rsp = MsgType(int(t) | 0x80)
         if t == MsgType.PING_REQ:
+            if self.faults.bad_token > 0 and isinstance(p, Ping):
+                self.faults.bad_token -= 1
+                return Message(rsp, seq, Ping(p.token ^ 1))
             return Message(rsp, seq, p)
         if t == MsgType.INFO_REQ:
             info = DeviceInfo(

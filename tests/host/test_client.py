@@ -19,6 +19,7 @@ from aacmm.errors import (
     AacmmError,
     DeviceError,
     DeviceTimeoutError,
+    FrameError,
     InitError,
     OperationError,
 )
@@ -254,6 +255,30 @@ def test_response_of_the_wrong_type_is_not_taken(client: Client, fake: Fake) -> 
     assert client.info().serial_number == 4242
     assert client.stats.stale_responses == 1
     assert client.stats.retries == 1
+
+
+def test_ping_with_another_token_is_a_frame_error(client: Client, fake: Fake) -> None:
+    fake.device.faults.bad_token = 1
+    with pytest.raises(FrameError):
+        client.ping()
+    client.ping()
+
+
+def test_explicit_retries_never_apply_to_parameter_writes(client: Client, fake: Fake) -> None:
+    fake.device.faults.drop = 1
+    with pytest.raises(DeviceTimeoutError):
+        client.request(MsgType.SAVE_PARAMS_REQ, retries=5, timeout=0.2)
+    assert len(fake.device.requests) == 1
+    fake.device.faults.drop = 1
+    assert client.request(MsgType.INFO_REQ, retries=1, timeout=0.2).type == MsgType.INFO_RSP
+
+
+def test_stream_sample_timeout(client: Client) -> None:
+    with client.stream(1, timeout=0.2) as samples:
+        next(samples)  # the first sample comes at once
+        with pytest.raises(DeviceTimeoutError):
+            samples.get()
+        assert samples.active
 
 
 def test_stale_response_is_ignored(client: Client, fake: Fake) -> None:
