@@ -11,11 +11,14 @@ on at the next delimiter.
 
 from __future__ import annotations
 
+import select
+import socket
 import threading
 import time
 from typing import Any
 
 import serial
+from serial.urlhandler import protocol_socket
 
 from aacmm.errors import DeviceTimeoutError, FrameError, InitError, OperationError
 from aacmm.protocol import Deframer, decode_message, encode_frame
@@ -72,6 +75,12 @@ class SerialTransport(Transport):
             )
         except (serial.SerialException, OSError, ValueError) as exc:
             raise InitError(f"cannot open serial port {url}: {exc}") from exc
+        sock = getattr(self._port, "_socket", None)
+        self._socket: socket.socket | None = (
+            sock
+            if isinstance(self._port, protocol_socket.Serial) and isinstance(sock, socket.socket)
+            else None
+        )
 
     # ------------------------------------------------------------ reading
 
@@ -85,12 +94,27 @@ class SerialTransport(Transport):
         s = self.deframer.stats
         return s.crc_errors + s.cobs_errors + s.oversize + s.runts
 
-    def _reader(self) -> None:
+    def _read_chunk(self) -> bytes:
+        """Whatever has arrived (waits up to the poll interval), possibly nothing."""
         port = self._port
+        sock = self._socket
+        if sock is None:
+            return bytes(port.read(max(1, port.in_waiting)))
+        # pyserial's socket:// reads one byte per select() (its in_waiting is
+        # 0 or 1); take everything the socket holds instead.
+        ready, _, _ = select.select([sock], [], [], _READ_POLL_S)
+        if not ready:
+            return b""
+        data = sock.recv(65536)
+        if not data:
+            raise serial.SerialException("socket disconnected")
+        return bytes(data)
+
+    def _reader(self) -> None:
         empty_reads = 0
         while not self._stop.is_set():
             try:
-                data = port.read(max(1, port.in_waiting))
+                data = self._read_chunk()
             except serial.SerialException as exc:
                 # pyserial reads a tty with VMIN=0 after select(); on a Linux
                 # pty, select() now and then reports input the read then does
@@ -104,9 +128,9 @@ class SerialTransport(Transport):
                 if not self._stop.is_set():
                     self._link_lost(OperationError(f"{self.description}: {exc}"))
                 return
-            except (OSError, TypeError, AttributeError) as exc:
-                # TypeError/AttributeError: pyserial internals after a close from
-                # another thread (fd set to None).
+            except (OSError, TypeError, AttributeError, ValueError) as exc:
+                # TypeError/AttributeError/ValueError: pyserial internals or a
+                # socket after a close from another thread.
                 if not self._stop.is_set():
                     self._link_lost(OperationError(f"{self.description}: {exc}"))
                 return
