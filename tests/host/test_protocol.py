@@ -536,3 +536,28 @@ def test_isotp_helpers() -> None:
         rxfn=lambda _t: None, txfn=lambda _m: None, address=addr, params=params
     )
     assert params["tx_padding"] == 0xCC
+
+
+def test_crc32_is_thread_safe() -> None:
+    """Regression: a shared crc.Calculator mixed the data of concurrent callers,
+    so a client's reader thread corrupted the CRCs its caller computed."""
+    import threading
+    import zlib
+
+    from aacmm.protocol.framing import crc32
+
+    payloads = [bytes([i]) * (40 + i) for i in range(8)]
+    expected = [zlib.crc32(p) for p in payloads]  # the stdlib as the oracle
+    wrong: list[int] = []
+
+    def worker(k: int) -> None:
+        for _ in range(400):
+            if crc32(payloads[k]) != expected[k]:
+                wrong.append(k)
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in range(len(payloads))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert wrong == []

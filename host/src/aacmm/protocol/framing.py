@@ -8,6 +8,7 @@ stuffing uses the ``cobs`` package. See ``docs/protocol.md``.
 from __future__ import annotations
 
 import struct
+import threading
 from dataclasses import dataclass
 
 from cobs import cobs  # type: ignore[import-untyped]
@@ -26,12 +27,26 @@ MAX_WIRE = MAX_RAW + MAX_RAW // 254 + 1 + 2
 """Largest frame on the wire including both delimiters (521 bytes)."""
 CRC32_CHECK = 0xCBF43926
 
-_CRC32 = Calculator(Crc32.CRC32.value, optimized=True)
+# A crc.Calculator keeps its register between init() and digest(), so one
+# instance shared by two threads (a client's reader and its caller) mixes their
+# data. Each thread gets its own.
+_CRC32_PER_THREAD = threading.local()
+
+
+def _calculator() -> Calculator:
+    calc: Calculator | None = getattr(_CRC32_PER_THREAD, "calc", None)
+    if calc is None:
+        calc = Calculator(Crc32.CRC32.value, optimized=True)
+        _CRC32_PER_THREAD.calc = calc
+    return calc
 
 
 def crc32(data: bytes | bytearray | memoryview) -> int:
-    """CRC-32/ISO-HDLC of ``data`` (``crc32(b"123456789") == 0xCBF43926``)."""
-    return int(_CRC32.checksum(bytes(data)))
+    """CRC-32/ISO-HDLC of ``data`` (``crc32(b"123456789") == 0xCBF43926``).
+
+    Safe to call from several threads at once.
+    """
+    return int(_calculator().checksum(bytes(data)))
 
 
 def encode_frame(body: bytes | bytearray | memoryview) -> bytes:
