@@ -134,7 +134,10 @@ def test_isotp_jacobian_transfer(client: Client) -> None:
     assert r.jacobian is not None
     assert np.max(np.abs(np.array(r.point_mm) - ref_p)) < FLOAT_PATH_BOUND_MM
     assert np.allclose(np.array(r.jacobian).reshape(3, 25), ref_j, rtol=1e-4, atol=1e-3)
-    with client.stream(50, jacobian=True) as samples:
+    # Each Jacobian sample is ~52 ISO-TP frames with flow control, and both
+    # ends run under TCG emulation in the VM: 20 Hz keeps the stream well
+    # inside what a loaded emulated machine sustains (50 Hz lost samples once).
+    with client.stream(20, jacobian=True) as samples:
         got = [next(samples) for _ in range(10)]
     assert all(g.jacobian is not None for g in got)
     assert samples.stats.lost == samples.stats.duplicates == 0
