@@ -1,6 +1,7 @@
 /* Double-precision kinematics: the shared template with REAL = double. */
 #include <math.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "aacmm/kinematics.h"
 #include "aacmm_internal.h"
@@ -9,8 +10,18 @@
 #define SFX(name) name##_f64
 #define TYPE(name) name##_f64_t
 #define LIT(x) x
-#define LDEXP ldexp
-#define TO_REAL_U64(u) ((double)(u))
+#define ROUND_MANT(m) ((double)(m))
+#define POW2(e) pow2_f64(e)
+
+/* 2^e for -1022 <= e <= 1023, exact: the bits of a double with a zero
+ * mantissa. Cheaper than ldexp, which is a library call. */
+static inline double pow2_f64(int e)
+{
+    uint64_t bits = (uint64_t)(e + 1023) << 52;
+    double d;
+    memcpy(&d, &bits, sizeof d);
+    return d;
+}
 
 /* pi/2 = PIO2_1 + PIO2_2 + PIO2_3, the first two with 33 significant bits. */
 #define ROUND_MAGIC 0x1.8p52

@@ -5,8 +5,8 @@
  *   REAL       float or double
  *   SFX(name)  name##_f32 or name##_f64
  *   LIT(x)     a literal of type REAL (x##f or x)
- *   LDEXP      ldexpf or ldexp
- *   TO_REAL_U64(u)  conversion of a uint64_t to REAL (round to nearest)
+ *   ROUND_MANT(m)   a 64-bit mantissa with bit 63 set, rounded once to REAL
+ *   POW2(e)    2^e as a REAL, built from its bits (e within the normal range)
  * and the Taylor coefficients and pi/2 split constants for REAL.
  *
  * No other floating type appears here, so the float build uses only
@@ -286,7 +286,7 @@ aacmm_status_t SFX(aacmm_encoder_to_angles)(const aacmm_encoder_config_t *config
             REAL mag;
             aacmm_internal_angle_exact((uint32_t)(s[i] < 0 ? -s[i] : s[i]),
                                        config->counts_per_rev[i], &mant, &e);
-            mag = LDEXP(TO_REAL_U64(mant), e); /* one rounding, then an exact scaling */
+            mag = ROUND_MANT(mant) * POW2(e); /* one rounding, then an exact scaling */
             out[i] = (s[i] < 0) ? -mag : mag;
         }
     }
