@@ -8,7 +8,8 @@
 # (Named host-cli.mk, not cli.mk, so that it is read after mk/demo.mk, which
 # sets DEMO_STEPS with :=; fragments are read in name order.)
 
-CLI_PY_FILES := host/src/aacmm/cli.py host/src/aacmm/commands tests/host/test_cli.py
+CLI_PY_FILES := host/src/aacmm/cli.py host/src/aacmm/commands tests/host/test_cli.py \
+                tests/host/vcan_cli
 CLI_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-cli test-cli-lint demo-session
@@ -26,3 +27,7 @@ demo-session: sim
 
 DEMO_STEPS += demo-session
 TEST_SUITES += test-cli
+
+# SocketCAN: aacmm log --raw (.blf/.asc/.log) and --reconnect on vcan0, in
+# the shared vcan session (one VM boot; mk/vcan.mk).
+VCAN_TESTS += tests/host/vcan_cli
