@@ -1,7 +1,7 @@
 # Host CLI (issue 6): the aacmm device commands (info, params, measure,
 # compute, log, summary, sim), their end-to-end tests against the real
 # simulator over a pty, lint, and the demo's measurement session.
-#   test-cli       tests/host/test_cli*.py (real `aacmm` command + aacmm-sim), ruff, mypy --strict
+#   test-cli       tests/host/test_cli.py (real `aacmm` command + aacmm-sim), ruff, mypy --strict
 #   demo-session   make demo's step: simulator, aacmm log (3 s), summary, Monte Carlo,
 #                  outputs under out/demo-<UTC time>/ (path printed)
 # The SocketCAN CLI tests (tests/host/vcan_cli) run in the shared vcan VM session.
@@ -14,7 +14,7 @@ CLI_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject
 
 .PHONY: test-cli test-cli-lint demo-session
 test-cli: sim
-	$(CLI_PYTEST) tests/host/test_cli*.py
+	$(CLI_PYTEST) tests/host/test_cli.py
 	@$(MAKE) --no-print-directory test-cli-lint
 
 test-cli-lint:

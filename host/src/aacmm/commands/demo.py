@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import json
 import shlex
 import subprocess
 import sys
@@ -111,7 +112,11 @@ def main(argv: list[str] | None = None) -> int:
         out,
         "mc.txt",
     )
-    print("\ndemo: files:")
+    from aacmm.commands.log import format_summary
+
+    summary = json.loads((out / "summary.json").read_text())
+    print("\ndemo: session " + format_summary(summary).replace("\n", "\n              "))
+    print("demo: files:")
     for f in sorted(out.iterdir()):
         print(f"  {f.name:<22} {f.stat().st_size:>9} bytes")
     print(f"demo: outputs in {out}", flush=True)
