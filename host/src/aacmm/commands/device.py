@@ -168,10 +168,8 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 def _local_crc(ps: ParamSet) -> int:
     from aacmm.protocol import param_set_crc32
-    from aacmm.transport.serialport import FRAMING_LOCK
 
-    with FRAMING_LOCK:  # the codec's CRC is shared with the reader thread
-        return param_set_crc32(ps)
+    return param_set_crc32(ps)  # thread-safe (a CRC calculator per thread)
 
 
 def cmd_params_get(args: argparse.Namespace) -> int:
