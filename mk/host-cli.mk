@@ -13,7 +13,7 @@ CLI_PY_FILES := host/src/aacmm/cli.py host/src/aacmm/commands tests/host/test_cl
 CLI_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-cli test-cli-lint demo-session
-test-cli: sim
+test-cli: sim $(BUILD)/boards/mps2-an386/fw.elf
 	$(CLI_PYTEST) tests/host/test_cli.py
 	@$(MAKE) --no-print-directory test-cli-lint
 

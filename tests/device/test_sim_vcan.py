@@ -34,6 +34,8 @@ pytestmark = pytest.mark.skipif(not hasattr(socket, "AF_CAN"), reason="no AF_CAN
 def iface() -> str:
     names = os.environ.get("AACMM_VCAN_IFACES", "").split()
     if not names:
+        if os.environ.get("AACMM_VCAN"):
+            pytest.fail("under the vcan runner but AACMM_VCAN_IFACES is empty")
         pytest.skip("not under tests/vcan/run-in-vcan.sh")
     return names[0]
 

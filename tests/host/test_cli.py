@@ -607,3 +607,32 @@ def test_demo_session(tmp_path: Path) -> None:
         assert (out / name).stat().st_size > 0, name
     s = json.loads((out / "summary.json").read_text())
     assert s["samples"] > 100 and s["status"] == "complete"
+
+
+def test_sim_board_command() -> None:
+    """`aacmm sim --board` runs the device firmware on an emulated Cortex-M4F and
+    prints a URL the other commands take."""
+    proc = subprocess.Popen(
+        [str(AACMM), "sim", "--board", "mps2-an386"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        url = proc.stdout.readline().strip()
+        assert url.startswith("socket://127.0.0.1:"), url
+        p = run("info", "--json", "--port", url, timeout=60)
+        assert p.returncode == 0, p.stderr
+        assert json.loads(p.stdout)["build_flags"] is not None
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=15)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0
+    p = run("sim", "--board", "pdp11")
+    one_error_line(p, exitcodes.USAGE, "unknown board")
+    p = run("sim", "--board", "microbit", "--motion", "static")
+    one_error_line(p, exitcodes.USAGE, "--board")

@@ -240,6 +240,13 @@ def register(sub: Any) -> None:
     p.add_argument("--serial-number", type=int, metavar="N", help="device serial number")
     p.add_argument("--quiet", action="store_true", help="less simulator output on stderr")
     p.add_argument(
+        "--board",
+        metavar="NAME",
+        help="run the device firmware image on an emulated ARM board under QEMU instead "
+        "(mps2-an386: Cortex-M4F float path; microbit: Cortex-M0 fixed path; built by "
+        "'make firmware'); prints the board UART's socket:// URL",
+    )
+    p.add_argument(
         "--link",
         metavar="PATH",
         help="also make PATH a symlink to the pty and print serial://PATH "
@@ -275,7 +282,51 @@ def sim_args(args: argparse.Namespace) -> list[str]:
     return out
 
 
+def _wait_for_signal(stop: threading.Event, alive: Any) -> None:
+    while not stop.is_set() and alive():
+        stop.wait(0.2)
+
+
+def cmd_board(args: argparse.Namespace) -> int:
+    """``aacmm sim --board NAME``: the board's device image under QEMU until Ctrl-C."""
+    from aacmm import boards
+
+    if args.board not in boards.BOARDS:
+        raise UsageError(
+            f"unknown board {args.board!r} (known: {', '.join(sorted(boards.BOARDS))})"
+        )
+    if sim_args(args) != ["--serial", "pty"] or args.link is not None:
+        raise UsageError("--board takes no simulator options (the board's firmware has its own)")
+    try:
+        proc, url = boards.start_board(args.board)
+    except FileNotFoundError as exc:
+        raise InitError(f"{exc}; run 'make firmware'") from exc
+    except (OSError, RuntimeError, TimeoutError) as exc:
+        raise InitError(f"cannot start the {args.board} board: {exc}") from exc
+    stop = threading.Event()
+    old = {
+        s: signal.signal(s, lambda signum, frame: stop.set())
+        for s in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        print(url, flush=True)
+        print(
+            f"aacmm sim: {args.board} under QEMU (pid {proc.pid}); the board starts when a "
+            "client connects (one client); Ctrl-C to stop",
+            file=sys.stderr,
+            flush=True,
+        )
+        _wait_for_signal(stop, lambda: proc.poll() is None)
+    finally:
+        boards.stop_board(proc)
+        for s, h in old.items():
+            signal.signal(s, h)
+    return OK
+
+
 def cmd_sim(args: argparse.Namespace) -> int:
+    if args.board is not None:
+        return cmd_board(args)
     if args.link is not None and args.serial is None and args.can is not None:
         raise UsageError("--link needs a serial link (--serial pty)")
     stop = threading.Event()
@@ -296,8 +347,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 file=sys.stderr,
                 flush=True,
             )
-            while not stop.is_set() and sim.running():
-                stop.wait(0.2)
+            _wait_for_signal(stop, sim.running)
         finally:
             rc = sim.stop()
     except AacmmError:
