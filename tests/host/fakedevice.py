@@ -52,7 +52,6 @@ from aacmm.protocol import (
 )
 from aacmm.protocol.can import ID_TRIGGER, isotp_params
 from aacmm.protocol.status import Status
-from aacmm.transport.serialport import FRAMING_LOCK
 
 DEFAULT_PARAMS = ParamSet(
     theta_offset_rad=(0.0,) * 6,
@@ -67,9 +66,8 @@ DEFAULT_PARAMS = ParamSet(
 
 
 def param_crc(p: ParamSet) -> int:
-    """``param_set_crc32`` under the framing lock (the codec's CRC is not thread-safe)."""
-    with FRAMING_LOCK:
-        return param_set_crc32(p)
+    """``param_set_crc32`` of a parameter set."""
+    return param_set_crc32(p)
 
 
 def fake_point(counts: tuple[int, ...]) -> tuple[int, int, int]:
@@ -282,9 +280,7 @@ class SerialFakeServer:
         self._thread.start()
 
     def _send_msg(self, msg: Message) -> None:
-        with FRAMING_LOCK:
-            frame = encode_frame(encode_message(msg))
-        self.send_raw(frame)
+        self.send_raw(encode_frame(encode_message(msg)))
 
     def send_raw(self, data: bytes) -> None:
         with self._wlock:
@@ -320,8 +316,7 @@ class SerialFakeServer:
                     break
                 if not data:
                     break
-                with FRAMING_LOCK:
-                    bodies = self.deframer.feed(data)
+                bodies = self.deframer.feed(data)
                 for body in bodies:
                     for msg in self.device.handle(body):
                         if self.garbage_before_response:

@@ -28,17 +28,6 @@ DEFAULT_BAUDRATE = 921600
 _READ_POLL_S = 0.05
 _MAX_EMPTY_READS = 20
 
-FRAMING_LOCK = threading.Lock()
-"""Serialises every use of the protocol's CRC-32 in this process.
-
-:func:`aacmm.protocol.framing.crc32` shares one ``crc.Calculator``, whose
-register is not thread-safe: a frame encoded in one thread while another
-decodes gets a wrong CRC. The serial transport's writer and reader threads
-(and any other in-process framing user, such as a test peer) hold this lock
-around framing calls. Remove once the codec's CRC is thread-safe.
-"""
-
-
 class SerialTransport(Transport):
     """Frames over a serial port or pyserial URL.
 
@@ -142,10 +131,9 @@ class SerialTransport(Transport):
     def feed(self, data: bytes) -> None:
         """Process received bytes as the reader thread does (also for tests)."""
         self.stats.bytes_rx += len(data)
-        with FRAMING_LOCK:
-            before = self._errors()
-            bodies = self.deframer.feed(data)
-            new_errors = self._errors() - before
+        before = self._errors()
+        bodies = self.deframer.feed(data)
+        new_errors = self._errors() - before
         for _ in range(new_errors):
             err = self.deframer.last_error or FrameError("bad frame", -6)
             self._frame_error(err)
@@ -160,9 +148,7 @@ class SerialTransport(Transport):
     # ------------------------------------------------------------ writing
 
     def send(self, body: bytes) -> None:
-        with FRAMING_LOCK:
-            frame = encode_frame(body)
-        self.write_raw(frame)
+        self.write_raw(encode_frame(body))
         self.stats.messages_tx += 1
 
     def write_raw(self, data: bytes) -> None:
