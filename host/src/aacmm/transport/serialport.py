@@ -28,6 +28,7 @@ DEFAULT_BAUDRATE = 921600
 _READ_POLL_S = 0.05
 _MAX_EMPTY_READS = 20
 
+
 class SerialTransport(Transport):
     """Frames over a serial port or pyserial URL.
 
