@@ -300,6 +300,22 @@ aacmm_status_t SFX(aacmm_encoder_to_angles)(const aacmm_encoder_config_t *config
 /* Batches                                                                   */
 /* ------------------------------------------------------------------------ */
 
+/* Pose k of a batch: its point (and Jacobian if jac is not NULL) into the
+ * k-th slots, then *done = k + 1. Inlined, so each branch calls a chain
+ * specialised for its jac. */
+static inline void SFX(batch_pose)(const TYPE(aacmm_model) *model, const REAL *th, size_t k,
+                                   REAL *p_mm, REAL *jac, size_t *done)
+{
+    if (jac != NULL) {
+        SFX(chain)(model, th, p_mm + k * 3u, jac + k * AACMM_JAC_SIZE);
+    } else {
+        SFX(chain)(model, th, p_mm + k * 3u, NULL);
+    }
+    if (done != NULL) {
+        *done = k + 1u;
+    }
+}
+
 aacmm_status_t SFX(aacmm_batch_angles)(const TYPE(aacmm_model) *model, size_t n,
                                        const REAL *theta_rad, REAL *p_mm, REAL *jac, size_t *done)
 {
@@ -316,14 +332,7 @@ aacmm_status_t SFX(aacmm_batch_angles)(const TYPE(aacmm_model) *model, size_t n,
         if (st != AACMM_OK) {
             return st;
         }
-        if (jac != NULL) {
-            SFX(chain)(model, th, p_mm + k * 3u, jac + k * AACMM_JAC_SIZE);
-        } else {
-            SFX(chain)(model, th, p_mm + k * 3u, NULL);
-        }
-        if (done != NULL) {
-            *done = k + 1u;
-        }
+        SFX(batch_pose)(model, th, k, p_mm, jac, done);
     }
     return AACMM_OK;
 }
@@ -348,14 +357,7 @@ aacmm_status_t SFX(aacmm_batch_counts)(const TYPE(aacmm_model) *model,
         if (st != AACMM_OK) {
             return st;
         }
-        if (jac != NULL) {
-            SFX(chain)(model, th, p_mm + k * 3u, jac + k * AACMM_JAC_SIZE);
-        } else {
-            SFX(chain)(model, th, p_mm + k * 3u, NULL);
-        }
-        if (done != NULL) {
-            *done = k + 1u;
-        }
+        SFX(batch_pose)(model, th, k, p_mm, jac, done);
     }
     return AACMM_OK;
 }
