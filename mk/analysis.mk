@@ -6,7 +6,8 @@
 ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/_core.pyi \
                      host/src/aacmm/core.py host/src/aacmm/analysis \
                      tests/host/test_core.py tests/host/test_core_oracle.py \
-                     tests/host/test_mc.py tests/host/test_uncertainty.py bench/bench_analysis.py
+                     tests/host/test_mc.py tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
+                     bench/bench_analysis.py
 ANALYSIS_C := firmware/src/analysis.c
 
 .PHONY: test-analysis test-analysis-c test-analysis-lint bench-analysis
@@ -16,6 +17,7 @@ ANALYSIS_C := firmware/src/analysis.c
 test-analysis:
 	$(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_core.py tests/host/test_core_oracle.py tests/host/test_mc*.py \
+	    tests/host/test_analysis_api.py \
 	    tests/host/test_uncertainty*.py
 
 # analysis.c passes the project's warning set with gcc and clang.

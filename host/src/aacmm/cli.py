@@ -12,10 +12,11 @@ from aacmm import __version__
 # it adds sets ``func`` (args -> exit status). Keep their top-level imports
 # light; import heavy modules inside the command functions.
 COMMAND_MODULES: tuple[str, ...] = (
-    "aacmm.analysis.cli",
     "aacmm.commands.device",
     "aacmm.commands.log",
+    "aacmm.commands.mc",
     "aacmm.commands.sim",
+    "aacmm.commands.uncertainty",
 )
 
 

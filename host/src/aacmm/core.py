@@ -37,6 +37,27 @@ import numpy.typing as npt
 
 from aacmm._core import ffi, lib
 
+__all__ = [
+    "AXES",
+    "JAC_COLS",
+    "JAC_ROWS",
+    "JOINTS",
+    "JOINT_ANGLE_MAX_RAD",
+    "LENGTH_MAX_MM",
+    "PARAM_ANGLE_MAX_RAD",
+    "PARAM_GROUPS",
+    "PARAM_NAMES",
+    "PARAM_UNITS",
+    "EncoderConfig",
+    "FloatArray",
+    "KinematicsError",
+    "Model",
+    "Params",
+    "counts_to_angles",
+    "perturbed_points",
+    "status_str",
+]
+
 JOINTS = 6
 JAC_ROWS = 3
 JAC_COLS = 25

@@ -35,6 +35,7 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -268,14 +269,25 @@ def _parse(doc: Mapping[str, Any]) -> UncertaintySpec:
     return UncertaintySpec(nominal, tuple(items[n] for n in PARAM_NAMES), poses)
 
 
+#: The name :func:`load_spec` takes for the packaged example spec.
+EXAMPLE_SPEC = "example"
+
+
 def load_spec(path: str | Path) -> UncertaintySpec:
     """Read and parse a parameter-uncertainty TOML file (see :func:`parse_spec`).
+
+    ``"example"`` (:data:`EXAMPLE_SPEC`) is the packaged example
+    (``aacmm/data/example_uncertainty.toml``), as ``aacmm uncertainty example``.
 
     Raises SpecError if the file cannot be read, is not TOML, or is invalid.
     """
     p = Path(path)
     try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
+        if isinstance(path, str) and path == EXAMPLE_SPEC:
+            src = resources.files("aacmm").joinpath("data", "example_uncertainty.toml")
+            doc = tomllib.loads(src.read_text(encoding="utf-8"))
+        else:
+            doc = tomllib.loads(p.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as e:
         raise SpecError(f"{p}: cannot read: {e}") from e
     except tomllib.TOMLDecodeError as e:

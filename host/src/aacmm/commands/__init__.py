@@ -1,7 +1,9 @@
-"""Subcommands of the ``aacmm`` tool that talk to a device or the simulator.
+"""Every subcommand of the ``aacmm`` tool (``aacmm.cli`` registers them).
 
 - :mod:`aacmm.commands.device`: ``info``, ``params``, ``measure``, ``compute``
 - :mod:`aacmm.commands.log`: ``log``, ``summary``
 - :mod:`aacmm.commands.sim`: ``sim``
+- :mod:`aacmm.commands.mc`: ``mc`` (on :mod:`aacmm.analysis.mc`)
+- :mod:`aacmm.commands.uncertainty`: ``uncertainty`` (on :mod:`aacmm.analysis.uncertainty`)
 - :mod:`aacmm.commands.exitcodes`: the exit statuses of every command
 """

@@ -1,19 +1,20 @@
-"""The ``aacmm mc`` and ``aacmm uncertainty`` subcommands.
+"""``aacmm mc``: Monte Carlo error-transfer coefficients (the paper's Table 2).
 
-:func:`register` adds them to the main parser (see ``aacmm.cli``). Heavy
-imports (numpy, the C core, matplotlib) happen only when a command runs, so
-the other commands start fast. User errors (bad arguments, unreadable files)
-print one line ``aacmm <cmd>: error: ...`` on stderr and exit with status 2.
+The computation lives in :mod:`aacmm.analysis.mc`; this module parses the
+arguments, prints the report and writes the outputs. Heavy imports (numpy,
+the C core, matplotlib) happen only when the command runs, so the other
+commands start fast. User errors (bad arguments, unreadable files) print one
+line ``aacmm mc: error: ...`` on stderr and exit with status 2.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import sys
 from typing import Any
 
-EXIT_USAGE = 2
+from aacmm.commands.common import print_err
+from aacmm.commands.exitcodes import USAGE
 
 
 def _joint_index(text: str) -> list[int]:
@@ -29,7 +30,7 @@ def _joint_index(text: str) -> list[int]:
 
 
 def register(sub: Any) -> None:
-    """Add ``mc`` and ``uncertainty`` to an argparse subparsers object."""
+    """Add ``mc`` to an argparse subparsers object."""
     mc = sub.add_parser(
         "mc",
         help="Monte Carlo error-transfer coefficients (the paper's Table 2)",
@@ -111,50 +112,6 @@ def register(sub: Any) -> None:
     )
     mc.set_defaults(func=run_mc)
 
-    un = sub.add_parser(
-        "uncertainty",
-        help="probe-point uncertainty from parameter uncertainties (Monte Carlo and linear)",
-        description="Propagate structural-parameter uncertainties (TOML file) to the probe "
-        "point by Monte Carlo (JCGM 101) and by linear propagation J Sigma J^T (GUM); "
-        "report both, their agreement, 95 %% intervals and the budget.",
-    )
-    un.add_argument(
-        "spec",
-        metavar="SPEC.toml",
-        help="parameter-uncertainty file "
-        "(see docs/montecarlo.md; 'example' uses the packaged example)",
-    )
-    un.add_argument("--trials", type=int, default=100_000, help="Monte Carlo trials (1e5)")
-    un.add_argument(
-        "--workspace",
-        type=int,
-        default=100,
-        help="random workspace poses to add (default 100; 0 = only given poses)",
-    )
-    un.add_argument(
-        "--pose",
-        action="append",
-        default=[],
-        metavar="T1,..,T6",
-        help="a pose to report, six joint angles in deg; repeatable",
-    )
-    un.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    un.add_argument(
-        "--ndig",
-        type=int,
-        default=1,
-        help="significant digits for the JCGM 101 sec. 8 agreement check (1)",
-    )
-    un.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
-    un.add_argument("--top", type=int, default=10, help="budget rows to print (10)")
-    un.add_argument("--json", metavar="PATH", help="write the result as JSON")
-    un.set_defaults(func=run_uncertainty)
-
-
-def _fail(cmd: str, err: BaseException) -> int:
-    print(f"aacmm {cmd}: error: {err}", file=sys.stderr)
-    return EXIT_USAGE
-
 
 def _joints(args: argparse.Namespace) -> Any:
     from aacmm.analysis.mc import DEFAULT_JOINTS, JointDistribution
@@ -222,62 +179,9 @@ def run_mc(args: argparse.Namespace) -> int:
         if args.png:
             mc.write_png(res, args.png)
     except (AacmmError, ValueError, OSError) as e:
-        return _fail("mc", e)
+        print_err("mc", f"error: {e}")
+        return USAGE
     if res.converged is False:
-        print(
-            "aacmm mc: warning: adaptive run did not converge within --max-trials", file=sys.stderr
-        )
+        print_err("mc", "warning: adaptive run did not converge within --max-trials")
         return 1
-    return 0
-
-
-def run_uncertainty(args: argparse.Namespace) -> int:
-    """``aacmm uncertainty``: returns the exit status."""
-    import json
-    import tomllib
-    from dataclasses import replace
-    from importlib import resources
-    from pathlib import Path
-
-    import numpy as np
-
-    from aacmm.analysis import uncertainty as unc
-    from aacmm.errors import AacmmError
-
-    try:
-        if args.spec == "example":
-            spec = unc.parse_spec(
-                tomllib.loads(
-                    resources.files("aacmm")
-                    .joinpath("data", "example_uncertainty.toml")
-                    .read_text("utf-8")
-                )
-            )
-        else:
-            spec = unc.load_spec(args.spec)
-        if args.pose:
-            extra = []
-            for text in args.pose:
-                try:
-                    extra.append([float(v) for v in text.split(",")])
-                except ValueError as e:
-                    raise ValueError(f"--pose {text!r}: six comma-separated angles in deg") from e
-            spec = replace(
-                spec, poses_rad=np.concatenate([spec.poses_rad, unc.pose_list(extra, "deg")])
-            )
-        res = unc.propagate(
-            spec,
-            trials=args.trials,
-            workspace=args.workspace,
-            seed=args.seed,
-            ndig=args.ndig,
-            threads=args.threads,
-        )
-        print(unc.format_report(res, top=args.top))
-        if args.json:
-            Path(args.json).write_text(
-                json.dumps(unc.to_json(res), indent=2) + "\n", encoding="utf-8"
-            )
-    except (AacmmError, ValueError, OSError) as e:
-        return _fail("uncertainty", e)
     return 0
