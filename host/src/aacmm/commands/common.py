@@ -1,5 +1,13 @@
-"""Shared pieces of the device commands: the connection options, opening a
-device (lock, connect, handshake), the live status line and small helpers.
+"""Shared pieces of the commands: the connection options, opening a device
+(lock, connect, handshake), output files, the live status line and small
+helpers.
+
+Output files: every file a command writes goes through :func:`atomic_output`,
+:func:`write_output` or :func:`save_figure` (from :mod:`aacmm.fileio`):
+refused if it exists unless ``--force`` (:func:`add_force_option`), written
+to a temporary file in the same directory, fsynced and renamed. Call
+:func:`check_outputs` with all of a command's outputs before its work starts,
+so a refusal comes at once, not after a long computation.
 
 Heavy modules (the client, python-can, pyserial) are imported inside the
 functions so that ``aacmm --help`` and the analysis commands start fast.
@@ -16,6 +24,14 @@ from dataclasses import dataclass, field
 from typing import IO, TYPE_CHECKING, Any
 
 from aacmm.commands.exitcodes import PortBusyError, UsageError, VersionMismatchError
+
+# The output-file rule, re-exported for the commands (explicit re-exports).
+from aacmm.fileio import OutputExistsError as OutputExistsError
+from aacmm.fileio import OutputFileError as OutputFileError
+from aacmm.fileio import atomic_output as atomic_output
+from aacmm.fileio import check_outputs as check_outputs
+from aacmm.fileio import save_figure as save_figure
+from aacmm.fileio import write_output as write_output
 
 if TYPE_CHECKING:
     from aacmm.client import Client
@@ -50,6 +66,13 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_RETRIES,
         metavar="N",
         help=f"extra attempts for read-only requests after a timeout (default {DEFAULT_RETRIES})",
+    )
+
+
+def add_force_option(parser: argparse.ArgumentParser) -> None:
+    """``-f``/``--force``: the one switch that lets a command replace its output files."""
+    parser.add_argument(
+        "-f", "--force", action="store_true", help="replace output files that already exist"
     )
 
 

@@ -12,10 +12,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aacmm.commands.common import (
     add_connection_options,
+    add_force_option,
+    check_outputs,
     device_from_args,
     flag_names,
     fmt_point,
@@ -69,6 +72,7 @@ def register(sub: Any) -> None:
     get.add_argument(
         "--format", choices=("toml", "json"), default=None, help="stdout format (default toml)"
     )
+    add_force_option(get)
     get.set_defaults(func=cmd_params_get)
     pset = psub.add_parser(
         "set",
@@ -173,13 +177,16 @@ def _local_crc(ps: ParamSet) -> int:
 
 
 def cmd_params_get(args: argparse.Namespace) -> int:
-    from aacmm.commands.paramfile import dump_param_set, write_param_file
+    from aacmm.commands.paramfile import dump_param_set, file_format, write_param_file
 
+    if args.output:  # refused before the device is touched
+        file_format(Path(args.output))
+        check_outputs([args.output], args.force)
     with device_from_args(args) as dev:
         ps = dev.client.get_params()
     crc = _local_crc(ps)
     if args.output:
-        write_param_file(ps, args.output, crc)
+        write_param_file(ps, args.output, crc, force=args.force)
         print(f"wrote {args.output} (crc 0x{crc:08x})", file=sys.stderr)
     else:
         sys.stdout.write(dump_param_set(ps, args.format or "toml", crc))

@@ -30,11 +30,11 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
 from aacmm.commands.exitcodes import UsageError
+from aacmm.fileio import InputFileError, load_structured, write_output
 from aacmm.protocol import ParamSet
 from aacmm.protocol.messages import COUNTS_PER_REV_MAX, JOINTS
 
@@ -143,9 +143,12 @@ def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
     return ps
 
 
-def _format(path: Path, fmt: str | None) -> str:
-    if fmt:
-        return fmt
+def file_format(path: Path) -> str:
+    """``"toml"`` or ``"json"`` from a parameter file's suffix.
+
+    Raises:
+        ParamFileError: another suffix.
+    """
     suffix = path.suffix.lower()
     if suffix == ".toml":
         return "toml"
@@ -158,18 +161,15 @@ def load_param_file(path: str | Path) -> ParamSet:
     """Read and validate a parameter file (TOML or JSON by suffix).
 
     Raises:
-        ParamFileError: unreadable, not TOML/JSON, or not a valid parameter set.
+        ParamFileError: unreadable, not TOML/JSON, nested deeper than
+            :data:`aacmm.fileio.MAX_NESTING`, or not a valid parameter set.
     """
     p = Path(path)
-    fmt = _format(p, None)
+    file_format(p)
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ParamFileError(f"{p}: cannot read: {exc}") from None
-    try:
-        data: Any = tomllib.loads(text) if fmt == "toml" else json.loads(text)
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
-        raise ParamFileError(f"{p}: not valid {fmt.upper()}: {exc}") from None
+        data = load_structured(p)  # bounded nesting: a hostile file is one line
+    except InputFileError as exc:
+        raise ParamFileError(str(exc)) from None
     return param_set_from_mapping(data, str(p))
 
 
@@ -201,13 +201,16 @@ def dump_param_set(ps: ParamSet, fmt: str, crc: int | None = None) -> str:
     return head + tomli_w.dumps(data)
 
 
-def write_param_file(ps: ParamSet, path: str | Path, crc: int | None = None) -> None:
-    """Write a parameter file, format by suffix (atomically: temp file + rename)."""
+def write_param_file(
+    ps: ParamSet, path: str | Path, crc: int | None = None, *, force: bool = False
+) -> None:
+    """Write a parameter file, format by suffix (:func:`aacmm.fileio.write_output`:
+    refused if it exists unless ``force``; temporary file, fsync, rename).
+
+    Raises:
+        ParamFileError: unknown suffix.
+        OutputExistsError, OutputFileError: see :func:`aacmm.fileio.atomic_output`.
+        OSError: the write failed (the file is untouched).
+    """
     p = Path(path)
-    text = dump_param_set(ps, _format(p, None), crc)
-    tmp = p.with_name(p.name + ".tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(p)
-    except OSError as exc:
-        raise ParamFileError(f"{p}: cannot write: {exc}") from None
+    write_output(p, dump_param_set(ps, file_format(p), crc), force=force)

@@ -1,0 +1,86 @@
+"""The CLI's file rules, end to end (issue 15 items 2, 3 and 9).
+
+- Output files (15.9): every command refuses an existing output file unless
+  ``--force`` (one line, exit status 2, the file untouched, nothing done),
+  and writes atomically.
+- Input files (15.2): a deeply nested TOML/JSON file ends in one line and
+  exit status 2, never a traceback.
+- ``--timeout`` (15.3): a value out of range ends in one line and exit status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tomllib
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from aacmm.commands import exitcodes
+from aacmm.commands.sim import SimProcess, find_simulator
+from aacmm.errors import AacmmError
+
+pytestmark = pytest.mark.timeout(120)
+
+AACMM = Path(sys.executable).with_name("aacmm")
+NOWHERE = "serial:///nonexistent/aacmm-port"
+
+
+def run(
+    *args: str, timeout: float = 60, cwd: Path | None = None
+) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "AACMM_PORT"}
+    return subprocess.run(
+        [str(AACMM), *args], capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd
+    )
+
+
+def one_error_line(p: subprocess.CompletedProcess[str], code: int, *words: str) -> str:
+    """Exit status ``code`` and exactly one line on stderr naming ``words``."""
+    assert p.returncode == code, (p.returncode, p.stdout, p.stderr)
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, p.stderr
+    assert lines[0].startswith("aacmm "), lines
+    for w in words:
+        assert w.lower() in lines[0].lower(), (w, lines[0])
+    return lines[0]
+
+
+def no_temp_files(directory: Path) -> bool:
+    return not [p for p in directory.iterdir() if p.name.endswith(".tmp")]
+
+
+@pytest.fixture(scope="module")
+def sim() -> Iterator[SimProcess]:
+    try:
+        find_simulator()
+    except AacmmError as exc:
+        pytest.fail(f"{exc} (make test-host-io builds it)")
+    with SimProcess(["--serial", "pty", "--quiet", "--seed", "5"]) as s:
+        yield s
+
+
+# ------------------------------------------------------------------ outputs (15.9)
+
+
+def test_params_get_refuses_existing_output(sim: SimProcess, tmp_path: Path) -> None:
+    out = tmp_path / "arm.toml"
+    out.write_text("# mine\n")
+    p = run("params", "get", "-o", str(out), "--port", sim.url)
+    one_error_line(p, exitcodes.USAGE, str(out), "exists", "--force")
+    assert out.read_text() == "# mine\n"
+    # refused before the device is opened: a missing port would be status 3
+    p = run("params", "get", "-o", str(out), "--port", NOWHERE)
+    one_error_line(p, exitcodes.USAGE, "exists")
+    p = run("params", "get", "-o", str(out), "--force", "--port", sim.url)
+    assert p.returncode == 0, p.stderr
+    assert "l_mm" in tomllib.loads(out.read_text())
+    p = run("params", "get", "-o", str(tmp_path / "new.json"), "--port", sim.url)
+    assert p.returncode == 0, p.stderr
+    assert "l_mm" in json.loads((tmp_path / "new.json").read_text())
+    assert no_temp_files(tmp_path)
+    p = run("params", "get", "-o", str(tmp_path / "no" / "dir.toml"), "--port", sim.url)
+    one_error_line(p, exitcodes.USAGE, "does not exist")
