@@ -5,7 +5,7 @@
 # The SocketCAN tests (tests/host/vcan) run in the shared vcan VM session
 # (mk/vcan.mk, make test-vcan).
 
-CLIENT_PY_FILES := host/src/aacmm/client.py host/src/aacmm/transport \
+CLIENT_PY_FILES := host/src/aacmm/client.py host/src/aacmm/transport bench/bench_host_rx.py \
                    tests/host/test_client.py tests/host/test_client_transport.py \
                    tests/host/fakedevice.py
 CLIENT_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300
@@ -37,3 +37,9 @@ TEST_SUITES += test-loopback-pty
 VCAN_TESTS += tests/host/vcan
 test-vcan-suite: export AACMM_SIM = $(abspath $(SIM_BIN))
 test-vcan-suite: sim
+
+# ---- benchmark: the host's receive cost per serial frame (JSON lines) ----
+.PHONY: bench-host-rx
+bench-host-rx:
+	@$(PYTHON) bench/bench_host_rx.py
+BENCH_TARGETS += bench-host-rx

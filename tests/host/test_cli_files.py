@@ -84,3 +84,26 @@ def test_params_get_refuses_existing_output(sim: SimProcess, tmp_path: Path) -> 
     assert no_temp_files(tmp_path)
     p = run("params", "get", "-o", str(tmp_path / "no" / "dir.toml"), "--port", sim.url)
     one_error_line(p, exitcodes.USAGE, "does not exist")
+
+
+# ------------------------------------------------------------------ --timeout (15.3)
+
+
+TIMEOUT_CASES = [(["info"], v) for v in ("inf", "1e10", "nan", "0", "-1", "3600.5")] + [
+    (cmd, "inf") for cmd in (["measure"], ["params", "get"], ["params", "save"], ["log", "x.csv"])
+]
+
+
+@pytest.mark.parametrize(("command", "value"), TIMEOUT_CASES)
+def test_timeout_out_of_range(
+    sim: SimProcess, tmp_path: Path, command: list[str], value: str
+) -> None:
+    """inf and 1e10 ended in an OverflowError traceback (exit 1)."""
+    p = run(*command, "--timeout", value, "--port", sim.url, cwd=tmp_path)
+    one_error_line(p, exitcodes.USAGE, "--timeout must be in (0, 3600] seconds")
+    assert list(tmp_path.iterdir()) == []  # the log wrote nothing
+
+
+def test_timeout_at_the_maximum_works(sim: SimProcess) -> None:
+    p = run("info", "--timeout", "3600", "--port", sim.url)
+    assert p.returncode == 0, p.stderr

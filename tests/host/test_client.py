@@ -23,7 +23,7 @@ from aacmm.errors import (
     InitError,
     OperationError,
 )
-from aacmm.protocol import MsgType, ParamSet, Sample, Trigger
+from aacmm.protocol import MsgType, ParamSet, Ping, Sample, Trigger
 from aacmm.protocol.status import Status
 from aacmm.transport import SerialTransport
 from fakedevice import (
@@ -306,6 +306,24 @@ def test_bad_arguments_raise_value_or_type_error(client: Client, fake: Fake) -> 
     with pytest.raises(ValueError):
         client.request(MsgType.SAMPLE_EVT)
     assert fake.device.requests == []
+
+
+@pytest.mark.parametrize("bad", [math.inf, 1e10, math.nan, 0.0, -1.0, 3600.5])
+def test_timeout_out_of_range_is_a_value_error(client: Client, fake: Fake, bad: float) -> None:
+    """#15.3: inf or 1e10 ended in OverflowError deep in a wait; now ValueError up front."""
+    with pytest.raises(ValueError, match=r"timeout must be in \(0, 3600\] seconds"):
+        client.request(MsgType.PING_REQ, Ping(1), timeout=bad)
+    with pytest.raises(ValueError, match="timeout"):
+        client.wait_trigger(timeout=bad)
+    with pytest.raises(ValueError, match="timeout"):
+        client.stream(10, timeout=bad)
+    with pytest.raises(ValueError, match="timeout"):
+        connect(fake.url, timeout=bad)
+    assert fake.device.requests == []
+    with client.stream(10) as s:
+        with pytest.raises(ValueError, match="timeout"):
+            s.get(timeout=bad)
+    assert client.request(MsgType.PING_REQ, Ping(1), timeout=3600).type == MsgType.PING_RSP
 
 
 def test_second_stream_refused(client: Client) -> None:

@@ -538,16 +538,33 @@ def test_isotp_helpers() -> None:
     assert params["tx_padding"] == 0xCC
 
 
+def crc32_bitwise(data: bytes) -> int:
+    """CRC-32/ISO-HDLC bit by bit from its definition (reflected polynomial
+    0xEDB88320, init and xorout 0xFFFFFFFF): the oracle, independent of zlib."""
+    reg = 0xFFFFFFFF
+    for byte in data:
+        reg ^= byte
+        for _ in range(8):
+            reg = (reg >> 1) ^ (0xEDB88320 if reg & 1 else 0)
+    return reg ^ 0xFFFFFFFF
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=600))
+def test_crc32_matches_the_bitwise_definition(data: bytes) -> None:
+    assert framing.crc32(data) == crc32_bitwise(data)
+    assert framing.crc32(bytearray(data)) == framing.crc32(memoryview(data))
+
+
 def test_crc32_is_thread_safe() -> None:
     """Regression: a shared crc.Calculator mixed the data of concurrent callers,
     so a client's reader thread corrupted the CRCs its caller computed."""
     import threading
-    import zlib
 
     from aacmm.protocol.framing import crc32
 
     payloads = [bytes([i]) * (40 + i) for i in range(8)]
-    expected = [zlib.crc32(p) for p in payloads]  # the stdlib as the oracle
+    expected = [crc32_bitwise(p) for p in payloads]
     wrong: list[int] = []
 
     def worker(k: int) -> None:
@@ -561,3 +578,36 @@ def test_crc32_is_thread_safe() -> None:
     for t in threads:
         t.join()
     assert wrong == []
+
+
+@pytest.mark.parametrize("jacobian", [False, True])
+def test_receive_cost_per_frame_does_not_grow_with_its_length(jacobian: bool) -> None:
+    """#14.3 regression: the ``crc`` package's pure-Python table loop cost about
+    60 Python lines per body byte (3,600 lines for a 56-byte sample frame,
+    21,600 for 356 bytes: 113 and 663 us, 70 % of a core at 1 kHz). Taking a
+    frame off the line (delimiters, COBS, CRC) must cost a constant number of
+    interpreted lines, whatever its length (the per-byte work is in C: zlib,
+    cobs). Counted with
+    ``sys.settrace``, so the check is deterministic, not timed; the time itself
+    is measured by ``make bench`` (bench/bench_host_rx.py)."""
+    jac = tuple(float(i) for i in range(75)) if jacobian else None
+    sample = Sample(7, 1000, (1, 2, 3, 4, 5, 6), (10, -20, 30), 1, jac)
+    body = messages.encode_message(Message(MsgType.SAMPLE_EVT, 7, sample))
+    assert len(body) == (356 if jacobian else 56)
+    frame = framing.encode_frame(body)
+    deframer = framing.Deframer()
+    lines = 0
+
+    def tracer(frame_: object, event: str, arg: object) -> object:
+        nonlocal lines
+        if event == "line":
+            lines += 1
+        return tracer
+
+    sys.settrace(tracer)  # type: ignore[arg-type]
+    try:
+        bodies = deframer.feed(frame)
+    finally:
+        sys.settrace(None)
+    assert messages.decode_message(bodies[0]).payload == sample
+    assert lines < 100, lines

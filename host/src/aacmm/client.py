@@ -85,16 +85,21 @@ __all__ = [
     "DEFAULT_TIMEOUT",
     "ENV_PORT",
     "IDEMPOTENT_REQUESTS",
+    "TIMEOUT_MAX",
     "Client",
     "ClientStats",
     "SampleStream",
     "StreamStats",
+    "check_timeout",
     "connect",
 ]
 
 ENV_PORT: Final = "AACMM_PORT"
 """Environment variable with the default device URL."""
 DEFAULT_TIMEOUT: Final = 1.0
+TIMEOUT_MAX: Final = 3600.0
+"""Longest wait (s) a timeout may name: longer ones are refused (``inf`` would
+overflow the clocks of the waits; no device takes an hour to answer)."""
 DEFAULT_RETRIES: Final = 2
 TRIGGER_QUEUE: Final = 1024
 
@@ -236,7 +241,7 @@ class SampleStream:
             OperationError: the link was lost and the queue is empty.
             StopIteration: the stream was stopped and the queue is empty.
         """
-        wait = self.timeout if timeout is None else timeout
+        wait = self.timeout if timeout is None else check_timeout(timeout)
         deadline = time.monotonic() + wait
         with self._cond:
             while not self._queue:
@@ -314,6 +319,20 @@ def _counts(counts: Sequence[int]) -> tuple[int, ...]:
     return values
 
 
+def check_timeout(value: object, name: str = "timeout") -> float:
+    """``value`` as a float of seconds in (0, :data:`TIMEOUT_MAX`].
+
+    Raises:
+        ValueError: not a number, not finite, not positive, or above the maximum.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{name} must be a number of seconds, got {value!r}")
+    t = float(value)
+    if not 0.0 < t <= TIMEOUT_MAX:  # also refuses nan
+        raise ValueError(f"{name} must be in (0, {TIMEOUT_MAX:g}] seconds, got {value!r}")
+    return t
+
+
 def _flag(name: str, value: object) -> bool:
     if not isinstance(value, bool):
         raise TypeError(f"{name} must be a bool")
@@ -339,8 +358,7 @@ class Client:
         timeout: float = DEFAULT_TIMEOUT,
         retries: int = DEFAULT_RETRIES,
     ) -> None:
-        if not timeout > 0:
-            raise ValueError(f"timeout must be positive, got {timeout}")
+        timeout = check_timeout(timeout)
         if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
             raise ValueError(f"retries must be a non-negative int, got {retries!r}")
         self.transport = transport
@@ -447,9 +465,7 @@ class Client:
             raise ValueError(f"unknown message type {msg_type!r}") from None
         if int(t) >= 0x40:
             raise ValueError(f"{t.name} is not a request")
-        wait = self.timeout if timeout is None else float(timeout)
-        if not wait > 0:
-            raise ValueError(f"timeout must be positive, got {timeout}")
+        wait = self.timeout if timeout is None else check_timeout(timeout)
         extra = self.retries if retries is None else retries
         if t not in IDEMPOTENT_REQUESTS:
             extra = 0
@@ -591,7 +607,7 @@ class Client:
             )
         if max_queue < 1:
             raise ValueError("max_queue must be at least 1")
-        wait = self.timeout + max(1.0, 2.0 / rate_hz) if timeout is None else float(timeout)
+        wait = self.timeout + max(1.0, 2.0 / rate_hz) if timeout is None else check_timeout(timeout)
         stream = SampleStream(self, rate_hz, _flag("jacobian", jacobian), wait, max_queue)
         with self._lock:
             if self._stream is not None:
@@ -635,7 +651,7 @@ class Client:
             DeviceTimeoutError: none arrived in time.
             OperationError: the link was lost.
         """
-        wait = self.timeout if timeout is None else timeout
+        wait = self.timeout if timeout is None else check_timeout(timeout)
         deadline = time.monotonic() + wait
         with self._trigger_cond:
             while not self._triggers:
@@ -725,6 +741,7 @@ def connect(
         url = os.environ.get(ENV_PORT, "").strip()
         if not url:
             raise ValueError(f"no device URL given and {ENV_PORT} is not set")
+    timeout = check_timeout(timeout)
     transport = open_transport(url, write_timeout=max(timeout, 1.0))
     try:
         client = Client(transport, timeout=timeout, retries=retries)

@@ -58,7 +58,7 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=DEFAULT_TIMEOUT,
         metavar="S",
-        help=f"seconds to wait for each answer (default {DEFAULT_TIMEOUT})",
+        help=f"seconds to wait for each answer, up to 3600 (default {DEFAULT_TIMEOUT})",
     )
     g.add_argument(
         "--retries",
@@ -206,10 +206,12 @@ def open_device(url: str, timeout: float, retries: int) -> Device:
         PortBusyError, InitError, VersionMismatchError, DeviceTimeoutError,
         DeviceError, UsageError (bad timeout or retries).
     """
-    from aacmm.client import connect
+    from aacmm.client import check_timeout, connect
 
-    if not timeout > 0:
-        raise UsageError(f"--timeout must be positive, got {timeout}")
+    try:
+        timeout = check_timeout(timeout, "--timeout")
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     if retries < 0:
         raise UsageError(f"--retries must be >= 0, got {retries}")
     own_fd = lock_serial_port(url)

@@ -1,18 +1,19 @@
 """Serial framing: ``0x00 COBS(body || CRC32(body) LE) 0x00``.
 
 The CRC is CRC-32/ISO-HDLC (poly 0x04C11DB7 reflected, init and xorout
-0xFFFFFFFF; check value 0xCBF43926), computed with the ``crc`` package; the
-stuffing uses the ``cobs`` package. See ``docs/protocol.md``.
+0xFFFFFFFF; check value 0xCBF43926): exactly zlib's CRC-32, so
+:func:`zlib.crc32` computes it (in C, thread-safe, ~0.1 us for a sample
+frame where a pure-Python table loop took ~100 us). The stuffing uses the
+``cobs`` package (C extension). See ``docs/protocol.md``.
 """
 
 from __future__ import annotations
 
 import struct
-import threading
+import zlib
 from dataclasses import dataclass
 
 from cobs import cobs  # type: ignore[import-untyped]
-from crc import Calculator, Crc32
 
 from aacmm.errors import FrameError
 from aacmm.protocol.status import Status
@@ -27,26 +28,13 @@ MAX_WIRE = MAX_RAW + MAX_RAW // 254 + 1 + 2
 """Largest frame on the wire including both delimiters (521 bytes)."""
 CRC32_CHECK = 0xCBF43926
 
-# A crc.Calculator keeps its register between init() and digest(), so one
-# instance shared by two threads (a client's reader and its caller) mixes their
-# data. Each thread gets its own.
-_CRC32_PER_THREAD = threading.local()
-
-
-def _calculator() -> Calculator:
-    calc: Calculator | None = getattr(_CRC32_PER_THREAD, "calc", None)
-    if calc is None:
-        calc = Calculator(Crc32.CRC32.value, optimized=True)
-        _CRC32_PER_THREAD.calc = calc
-    return calc
-
 
 def crc32(data: bytes | bytearray | memoryview) -> int:
     """CRC-32/ISO-HDLC of ``data`` (``crc32(b"123456789") == 0xCBF43926``).
 
     Safe to call from several threads at once.
     """
-    return int(_calculator().checksum(bytes(data)))
+    return zlib.crc32(data) & 0xFFFFFFFF
 
 
 def encode_frame(body: bytes | bytearray | memoryview) -> bytes:
