@@ -262,7 +262,9 @@ static void test_params_set_get_restore(void **state)
     send_simple(AACMM_MSG_INFO_REQ, 3);
     expect_response(AACMM_MSG_INFO_RSP, 3);
     assert_int_equal(M.u.info.param_crc32, set_crc(&s));
-    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_STORAGE);
+    /* #14.1: a set that was not saved is not "from storage". */
+    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_HOST);
+    assert_int_equal(M.u.info.storage_state, AACMM_STORAGE_EMPTY);
 
     send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 4);
     expect_response(AACMM_MSG_RESTORE_DEFAULTS_RSP, 4);
@@ -757,22 +759,28 @@ static void test_store_alternates_slots(void **state)
     aacmm_param_set_t s;
     aacmm_param_set_t got;
     uint8_t rec[AACMM_STORE_RECORD_BYTES];
-    uint32_t gen = 0;
-    uint8_t slot = 9;
+    aacmm_store_report_t rep;
     uint8_t st = 0;
     int i;
     (void)state;
     setup_links(1, 0, 1, 0, 0);
     fake_platform(&F, &PF, 1, 0, 1, 0);
-    assert_int_equal(aacmm_store_load(&PF, &got, &st, NULL, NULL, NULL, rec), AACMM_ERR_STORAGE);
+    assert_int_equal(aacmm_store_load(&PF, &got, &st, NULL, NULL, rec), AACMM_ERR_STORAGE);
     assert_int_equal(st, AACMM_STORAGE_EMPTY);
     for (i = 0; i < 5; i++) {
+        uint8_t slot = (uint8_t)(i % 2);
         other_set(&s, 100.0 + i);
-        assert_int_equal(aacmm_store_save(&PF, &s, &gen, &slot, rec), AACMM_OK);
-        assert_int_equal(gen, (uint32_t)i + 1u);
-        assert_int_equal(slot, (uint8_t)(i % 2));
-        assert_int_equal(aacmm_store_load(&PF, &got, &st, &gen, &slot, NULL, rec), AACMM_OK);
+        assert_int_equal(aacmm_store_save(&PF, &s, &rep, rec), AACMM_OK);
+        assert_int_equal(rep.slot_generation[slot], (uint32_t)i + 1u);
+        assert_int_equal(rep.newest, slot);
+        assert_int_equal(rep.slot_state[slot], AACMM_SLOT_NEWEST);
+        assert_int_equal(rep.slot_state[1 - slot], i == 0 ? AACMM_SLOT_ERASED : AACMM_SLOT_OLDER);
+        memset(&rep, 0x5A, sizeof rep);
+        assert_int_equal(aacmm_store_load(&PF, &got, &st, &rep, NULL, rec), AACMM_OK);
         assert_int_equal(st, AACMM_STORAGE_OK);
+        assert_int_equal(rep.newest, slot);
+        assert_int_equal(rep.slot_state[slot], AACMM_SLOT_NEWEST);
+        assert_int_equal(rep.slot_state[1 - slot], i == 0 ? AACMM_SLOT_ERASED : AACMM_SLOT_OLDER);
         assert_int_equal(set_crc(&got), set_crc(&s));
     }
 }
@@ -785,8 +793,6 @@ static void test_power_cut_at_every_byte(void **state)
     aacmm_param_set_t new_set;
     uint8_t rec[AACMM_STORE_RECORD_BYTES];
     uint8_t before[AACMM_STORE_BYTES];
-    uint32_t gen;
-    uint8_t slot;
     long cut;
     int pass;
     (void)state;
@@ -797,16 +803,16 @@ static void test_power_cut_at_every_byte(void **state)
         if (pass == 1) {
             aacmm_param_set_t older;
             other_set(&older, 99.0);
-            assert_int_equal(aacmm_store_save(&PF, &older, &gen, &slot, rec), AACMM_OK);
+            assert_int_equal(aacmm_store_save(&PF, &older, NULL, rec), AACMM_OK);
         }
-        assert_int_equal(aacmm_store_save(&PF, &old_set, &gen, &slot, rec), AACMM_OK);
+        assert_int_equal(aacmm_store_save(&PF, &old_set, NULL, rec), AACMM_OK);
         memcpy(before, F.storage, sizeof before);
         other_set(&new_set, 222.0);
         for (cut = 0; cut <= (long)AACMM_STORE_RECORD_BYTES; cut++) {
             aacmm_status_t st;
             memcpy(F.storage, before, sizeof before);
             F.write_budget = cut;
-            st = aacmm_store_save(&PF, &new_set, &gen, &slot, rec);
+            st = aacmm_store_save(&PF, &new_set, NULL, rec);
             F.write_budget = -1;
             if (cut < (long)AACMM_STORE_RECORD_BYTES) {
                 assert_int_not_equal(st, AACMM_OK);
@@ -893,28 +899,164 @@ static void test_store_generation_wraps(void **state)
     aacmm_param_set_t s;
     aacmm_param_set_t got;
     uint8_t rec[AACMM_STORE_RECORD_BYTES];
-    uint32_t gen = 0;
-    uint8_t slot = 9;
+    aacmm_store_report_t rep;
     uint8_t st = 0;
     (void)state;
     setup_links(1, 0, 1, 0, 0);
     other_set(&s, 100.0);
     write_raw_record(0, AACMM_STORE_VERSION, 0xFFFFFFFFu, &s, 0);
     write_raw_record(1, AACMM_STORE_VERSION, 0xFFFFFFFEu, &s, 0);
-    assert_int_equal(aacmm_store_load(&PF, &got, &st, &gen, &slot, NULL, rec), AACMM_OK);
-    assert_int_equal(slot, 0u);
-    assert_int_equal(gen, 0xFFFFFFFFu);
+    assert_int_equal(aacmm_store_load(&PF, &got, &st, &rep, NULL, rec), AACMM_OK);
+    assert_int_equal(rep.newest, 0u);
+    assert_int_equal(rep.slot_generation[0], 0xFFFFFFFFu);
     other_set(&s, 333.0);
-    assert_int_equal(aacmm_store_save(&PF, &s, &gen, &slot, rec), AACMM_OK);
-    assert_int_equal(gen, 0u);
-    assert_int_equal(slot, 1u);
-    assert_int_equal(aacmm_store_load(&PF, &got, &st, &gen, &slot, NULL, rec), AACMM_OK);
-    assert_int_equal(slot, 1u); /* 0 is newer than 0xFFFFFFFF */
+    assert_int_equal(aacmm_store_save(&PF, &s, &rep, rec), AACMM_OK);
+    assert_int_equal(rep.slot_generation[1], 0u);
+    assert_int_equal(rep.newest, 1u);
+    assert_int_equal(aacmm_store_load(&PF, &got, &st, &rep, NULL, rec), AACMM_OK);
+    assert_int_equal(rep.newest, 1u); /* 0 is newer than 0xFFFFFFFF */
     assert_true(got.kin.l_mm > 332.9 && got.kin.l_mm < 333.1);
     other_set(&s, 444.0);
-    assert_int_equal(aacmm_store_save(&PF, &s, &gen, &slot, rec), AACMM_OK);
-    assert_int_equal(gen, 1u);
-    assert_int_equal(slot, 0u);
+    assert_int_equal(aacmm_store_save(&PF, &s, &rep, rec), AACMM_OK);
+    assert_int_equal(rep.slot_generation[0], 1u);
+    assert_int_equal(rep.newest, 0u);
+}
+
+static void set_via_request(const aacmm_param_set_t *p, uint8_t seq)
+{
+    aacmm_msg_t m;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = seq;
+    m.u.params = *p;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, seq);
+}
+
+static uint8_t info_source(uint8_t seq)
+{
+    send_simple(AACMM_MSG_INFO_REQ, seq);
+    expect_response(AACMM_MSG_INFO_RSP, seq);
+    return M.u.info.param_source;
+}
+
+static void diag(uint8_t seq)
+{
+    send_simple(AACMM_MSG_DIAG_REQ, seq);
+    expect_response(AACMM_MSG_DIAG_RSP, seq);
+}
+
+/* #14.1: the three parameter states, through every transition. */
+static void test_param_source_three_states(void **state)
+{
+    aacmm_param_set_t a;
+    aacmm_param_set_t b;
+    (void)state;
+    other_set(&a, 120.0);
+    other_set(&b, 130.0);
+    setup_links(1, 0, 1, 0, 0);
+    boot();
+    assert_int_equal(info_source(1), AACMM_PARAM_SOURCE_DEFAULTS);
+    set_via_request(&a, 2);
+    assert_int_equal(info_source(3), AACMM_PARAM_SOURCE_HOST);
+    send_simple(AACMM_MSG_MEASURE_REQ, 4); /* not defaults: no PARAMS_DEFAULT */
+    expect_response(AACMM_MSG_MEASURE_RSP, 4);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_PARAMS_DEFAULT, 0u);
+    save_via_request(5);
+    assert_int_equal(M.type, AACMM_MSG_SAVE_PARAMS_RSP);
+    assert_int_equal(info_source(6), AACMM_PARAM_SOURCE_STORAGE);
+    set_via_request(&b, 7);
+    assert_int_equal(info_source(8), AACMM_PARAM_SOURCE_HOST);
+    set_via_request(&a, 9); /* exactly the stored set again */
+    assert_int_equal(info_source(10), AACMM_PARAM_SOURCE_STORAGE);
+    set_via_request(&b, 11);
+    send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 12);
+    expect_response(AACMM_MSG_RESTORE_DEFAULTS_RSP, 12);
+    assert_int_equal(info_source(13), AACMM_PARAM_SOURCE_DEFAULTS);
+    /* A restart loads the saved set a, not b and not the defaults. */
+    setup_links(1, 0, 1, 0, 1);
+    boot();
+    assert_int_equal(info_source(14), AACMM_PARAM_SOURCE_STORAGE);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&a));
+    /* Without storage a set stays "not saved". */
+    setup_links(1, 0, 0, 0, 0);
+    boot();
+    set_via_request(&a, 15);
+    assert_int_equal(info_source(16), AACMM_PARAM_SOURCE_HOST);
+}
+
+/* DIAG_RSP: storage kind, slots, reset facts from the config, uptime. */
+static void test_diag_request(void **state)
+{
+    aacmm_param_set_t a;
+    (void)state;
+    other_set(&a, 120.0);
+    setup_links(1, 0, 1, 0, 0);
+    PF.storage_kind = AACMM_STORAGE_KIND_FLASH;
+    PF.storage_flags = AACMM_STORAGE_PERSISTENT | 0x80u; /* unknown bits are not reported */
+    CFG.reset_cause = AACMM_RESET_WATCHDOG;
+    CFG.reset_raw = 0x2u;
+    CFG.boot_count = 4u;
+    CFG.watchdog_ms = 1000u;
+    boot();
+    F.now_us += 2500u;
+    diag(1);
+    assert_int_equal(M.u.diag.storage_kind, AACMM_STORAGE_KIND_FLASH);
+    assert_int_equal(M.u.diag.storage_flags, AACMM_STORAGE_PERSISTENT);
+    assert_int_equal(M.u.diag.slot_state[0], AACMM_SLOT_ERASED);
+    assert_int_equal(M.u.diag.slot_state[1], AACMM_SLOT_ERASED);
+    assert_int_equal(M.u.diag.reset_cause, AACMM_RESET_WATCHDOG);
+    assert_int_equal(M.u.diag.reset_raw, 2u);
+    assert_int_equal(M.u.diag.boot_count, 4u);
+    assert_int_equal(M.u.diag.watchdog_ms, 1000u);
+    assert_int_equal(M.u.diag.uptime_us, 2500u);
+    assert_int_equal(M.u.diag.joints[0].interface, AACMM_ENC_COUNTS);
+    set_via_request(&a, 2);
+    save_via_request(3);
+    save_via_request(4);
+    diag(5);
+    assert_int_equal(M.u.diag.slot_state[0], AACMM_SLOT_OLDER);
+    assert_int_equal(M.u.diag.slot_generation[0], 1u);
+    assert_int_equal(M.u.diag.slot_state[1], AACMM_SLOT_NEWEST);
+    assert_int_equal(M.u.diag.slot_generation[1], 2u);
+    /* No storage at all: kind NONE, whatever the table says. */
+    setup_links(1, 0, 0, 0, 0);
+    PF.storage_kind = AACMM_STORAGE_KIND_FILE;
+    boot();
+    diag(6);
+    assert_int_equal(M.u.diag.storage_kind, AACMM_STORAGE_KIND_NONE);
+    assert_int_equal(M.u.diag.storage_flags, 0u);
+    /* A torn frame on the line, a joint out of range and a failed read are
+     * counted. */
+    F.rx[F.rx_len++] = 0x00;
+    F.rx[F.rx_len++] = 0x05;
+    F.rx[F.rx_len++] = 0x01;
+    F.rx[F.rx_len++] = 0x00;
+    aacmm_device_poll(&D);
+    {
+        aacmm_param_set_t small;
+        default_set(&small);
+        small.enc.counts_per_rev[2] = 1000u;
+        set_via_request(&small, 7);
+    }
+    F.counts[2] = 1000u;
+    send_simple(AACMM_MSG_MEASURE_REQ, 8);
+    expect_response(AACMM_MSG_MEASURE_RSP, 8);
+    assert_int_equal(M.u.sample.status & (AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_ENCODER_FAULT),
+                     AACMM_SAMPLE_ENCODER_FAULT);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT3_FAULT);
+    assert_int_equal(M.u.sample.counts[2], 1000u); /* the raw reading is kept */
+    F.encoder_status = AACMM_ERR_IO;
+    send_simple(AACMM_MSG_MEASURE_REQ, 9);
+    expect_response(AACMM_MSG_MEASURE_RSP, 9);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT_FAULTS);
+    diag(10);
+    assert_int_equal(M.u.diag.serial_frames_bad, 1u);
+    assert_int_equal(M.u.diag.encoder_faults, 2u);
+    assert_int_equal(M.u.diag.joints[2].faults, 2u);
+    assert_int_equal(M.u.diag.joints[2].last_fault, AACMM_ENC_FAULT_READ);
+    assert_int_equal(M.u.diag.joints[0].faults, 1u);
+    assert_int_equal(M.u.diag.joints[0].last_fault, AACMM_ENC_FAULT_READ);
 }
 
 static void boot_on_storage_and_check(uint8_t state, uint8_t source, uint32_t bad)
@@ -974,6 +1116,61 @@ static void test_corrupt_and_foreign_records(void **state)
     boot();
     assert_int_equal(D.param_source, AACMM_PARAM_SOURCE_DEFAULTS);
     assert_int_equal(D.counters.storage_errors, 1u);
+    assert_int_equal(D.store.slot_state[0], AACMM_SLOT_READ_ERROR);
+    assert_int_equal(D.store.slot_state[1], AACMM_SLOT_READ_ERROR);
+}
+
+/* #15.7: the slots say what was found, and a damaged newest record that
+ * leaves the older set active is reported, not hidden. */
+static void test_store_report_says_what_was_found(void **state)
+{
+    aacmm_param_set_t older;
+    aacmm_param_set_t newer;
+    uint32_t x = 12345u;
+    size_t i;
+    (void)state;
+    other_set(&older, 144.0);
+    other_set(&newer, 155.0);
+    /* Newest record damaged: the older one is loaded, the report says which
+     * slot and why the other was rejected; the bad record is counted. */
+    setup_links(1, 0, 1, 0, 0);
+    write_raw_record(0, AACMM_STORE_VERSION, 7, &older, 0);
+    write_raw_record(1, AACMM_STORE_VERSION, 8, &newer, 1);
+    boot_on_storage_and_check(AACMM_STORAGE_OK, AACMM_PARAM_SOURCE_STORAGE, 1);
+    diag(6);
+    assert_int_equal(M.u.diag.slot_state[0], AACMM_SLOT_NEWEST);
+    assert_int_equal(M.u.diag.slot_generation[0], 7u);
+    assert_int_equal(M.u.diag.slot_state[1], AACMM_SLOT_BAD_CRC);
+    assert_int_equal(M.u.diag.slot_generation[1], 8u); /* newer than the set in use */
+    assert_int_equal(M.u.diag.storage_bad_records, 1u);
+    /* The magic overwritten: "unrecognised data", counted (it was silently
+     * "empty" before). */
+    F.storage[AACMM_STORE_SLOT_BYTES] = 0x00;
+    boot_on_storage_and_check(AACMM_STORAGE_OK, AACMM_PARAM_SOURCE_STORAGE, 1);
+    assert_int_equal(D.store.slot_state[1], AACMM_SLOT_UNRECOGNISED);
+    /* Random bytes everywhere: not "no record" but unrecognised data. */
+    for (i = 0; i < sizeof F.storage; i++) {
+        x = x * 1103515245u + 12345u;
+        F.storage[i] = (uint8_t)(x >> 16);
+    }
+    boot_on_storage_and_check(AACMM_STORAGE_CORRUPT, AACMM_PARAM_SOURCE_DEFAULTS, 2);
+    assert_int_equal(D.store.slot_state[0], AACMM_SLOT_UNRECOGNISED);
+    assert_int_equal(D.store.slot_state[1], AACMM_SLOT_UNRECOGNISED);
+    /* Only the 4-byte magic (a 4-byte file; flash cut after the first word):
+     * an incomplete record, not "another version". */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    memcpy(F.storage, "AACM", 4);
+    boot_on_storage_and_check(AACMM_STORAGE_CORRUPT, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    assert_int_equal(D.store.slot_state[0], AACMM_SLOT_INCOMPLETE);
+    assert_int_equal(D.store.slot_state[1], AACMM_SLOT_ERASED);
+    /* Wrong length field, and another version. */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    write_raw_record(0, AACMM_STORE_VERSION, 3, &older, 0);
+    F.storage[6] = 0x10;
+    write_raw_record(1, 9, 4, &older, 0);
+    boot_on_storage_and_check(AACMM_STORAGE_CORRUPT, AACMM_PARAM_SOURCE_DEFAULTS, 2);
+    assert_int_equal(D.store.slot_state[0], AACMM_SLOT_BAD_LENGTH);
+    assert_int_equal(D.store.slot_state[1], AACMM_SLOT_VERSION);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -1621,6 +1818,9 @@ int main(void)
         cmocka_unit_test(test_power_cut_at_every_byte),
         cmocka_unit_test_setup(test_power_cut_via_request, setup_default),
         cmocka_unit_test(test_corrupt_and_foreign_records),
+        cmocka_unit_test(test_store_report_says_what_was_found),
+        cmocka_unit_test(test_param_source_three_states),
+        cmocka_unit_test(test_diag_request),
         cmocka_unit_test(test_store_generation_wraps),
         cmocka_unit_test_setup(test_button_events, setup_default),
         cmocka_unit_test_setup(test_button_during_stream, setup_default),

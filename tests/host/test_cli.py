@@ -204,6 +204,53 @@ def test_params_get_set_save_defaults(sim: SimProcess, tmp_path: Path) -> None:
     assert p.returncode == 0 and "valid" in p.stdout
 
 
+def test_params_three_states_and_storage_report(tmp_path: Path) -> None:
+    """#14.1: defaults / set, not saved / stored, in text and JSON; `params set`
+    without --save says the set is lost at restart; `params save` warns about a
+    store that does not survive power-off; info shows the storage slots."""
+    _sim_or_skip()
+    store = tmp_path / "arm.bin"
+    with SimProcess(["--serial", "pty", "--quiet", "--storage", str(store)]) as s:
+        info = json.loads(run("info", "--json", "--port", s.url).stdout)
+        assert info["param_source_name"] == "defaults"
+        diag = info["diagnostics"]
+        assert diag["storage_kind_name"] == "file" and diag["storage_persistent"] is True
+        assert diag["slot_state_names"] == ["erased", "erased"]
+        assert diag["reset_cause_name"] == "power_on"
+        data = tomllib.loads(run("params", "get", "--port", s.url).stdout)
+        data["l_mm"] = 190.0
+        pfile = tmp_path / "p.json"
+        pfile.write_text(json.dumps(data))
+        p = run("params", "set", str(pfile), "--port", s.url)
+        assert p.returncode == 0, p.stderr
+        assert "NOT saved: lost at restart" in p.stdout
+        info = json.loads(run("info", "--json", "--port", s.url).stdout)
+        assert info["param_source_name"] == "host"
+        assert info["storage_state_name"] == "empty"
+        text = run("info", "--port", s.url).stdout
+        assert "set by the host, not saved: lost at restart" in text
+        assert "from storage" not in text
+        p = run("params", "save", "--port", s.url)
+        assert p.returncode == 0 and p.stderr == "", p.stderr  # a file is persistent
+        info = json.loads(run("info", "--json", "--port", s.url).stdout)
+        assert info["param_source_name"] == "storage"
+        assert info["diagnostics"]["slot_state_names"] == ["newest", "erased"]
+        p = run("params", "set", str(pfile), "--port", s.url)
+        assert "identical to the stored set" in p.stdout
+        text = run("info", "--port", s.url).stdout
+        assert "slot 0: newest record (generation 1); slot 1: erased" in text
+        p = run("params", "defaults", "--port", s.url)
+        assert "not saved: a restart loads the stored set" in p.stdout
+    # RAM only: saving works but warns, and info says so
+    with SimProcess(["--serial", "pty", "--quiet"]) as s:
+        p = run("params", "save", "--port", s.url)
+        assert p.returncode == 0, p.stderr
+        assert "will not survive a power cycle" in p.stderr
+        text = run("info", "--port", s.url).stdout
+        assert "RAM (lost at every restart)" in text
+        assert "the stored set (a restart loads it), but the store is lost at power-off" in text
+
+
 BAD_PARAM_FILES = {
     "syntax.toml": ("l_mm = [", "not valid TOML"),
     "syntax.json": ("{", "not valid JSON"),

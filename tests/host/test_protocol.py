@@ -8,6 +8,7 @@ import math
 import re
 import struct
 import sys
+from enum import IntEnum
 from pathlib import Path
 from types import ModuleType
 
@@ -20,7 +21,9 @@ from aacmm.protocol.messages import (
     ComputeRequest,
     ComputeResult,
     DeviceInfo,
+    Diagnostics,
     ErrorReply,
+    JointDiagnostics,
     MeasureRequest,
     Message,
     MsgType,
@@ -123,7 +126,7 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
         u16,
         u32,
         u32,
-        st.integers(0, 1),
+        st.integers(0, 2),
         st.integers(0, 3),
         u16,
         u32,
@@ -143,6 +146,31 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
     MsgType.STREAM_START_RSP: st.builds(Stream, st.integers(1, 1000), st.booleans()),
     MsgType.TRIGGER_EVT: st.builds(Trigger, u8, st.booleans(), samples),
     MsgType.ERROR_RSP: st.builds(ErrorReply, st.integers(-0x8000, -1), u8),
+    MsgType.DIAG_RSP: st.builds(
+        Diagnostics,
+        storage_kind=st.integers(0, 5),
+        storage_flags=st.integers(0, 1),
+        slot_state=tup(st.integers(0, 9), 2),
+        slot_generation=tup(u32, 2),
+        storage_errors=u32,
+        storage_bad_records=u32,
+        reset_cause=st.integers(0, 5),
+        reset_raw=u32,
+        fault_pc=u32,
+        boot_count=u32,
+        watchdog_ms=u16,
+        uptime_us=u64,
+        encoder_faults=u32,
+        serial_frames_bad=u32,
+        samples_dropped=u32,
+        samples_late=u32,
+        joints=tup(
+            st.builds(
+                JointDiagnostics, st.integers(0, 3), st.integers(0, 32), st.integers(0, 8), u32, u32
+            ),
+            6,
+        ),
+    ),
 }
 
 
@@ -174,7 +202,7 @@ def test_vector_file_is_up_to_date() -> None:
 def test_message_vectors_decode_to_the_named_values() -> None:
     expected = GEN.messages()
     rows = records("msg")
-    assert len(rows) == len(expected) == 23
+    assert len(rows) == len(expected) == 25
     assert {m.type for m in expected.values()} == set(MsgType)  # every type has a vector
     for name, body_hex, wire_hex in rows:
         body, wire = unhex(body_hex), unhex(wire_hex)
@@ -361,6 +389,21 @@ def test_c_message_types_and_sizes_match_python() -> None:
         assert d[f"AACMM_SAMPLE_{flag.name}"] == flag.value
     for build in messages.BuildFlags:
         assert d[f"AACMM_BUILD_{build.name}"] == build.value
+    assert d["AACMM_DIAG_JOINT_BYTES"] == messages.DIAG_JOINT_BYTES
+    assert messages.DIAG_BYTES == 125  # 59 + 6 * 11 (the C macro is an expression)
+    enums: list[tuple[str, type[IntEnum], str]] = [
+        ("AACMM_PARAM_SOURCE_", messages.ParamSource, "AACMM_PARAM_SOURCE_MAX"),
+        ("AACMM_STORAGE_KIND_", messages.StorageKind, "AACMM_STORAGE_KIND_MAX"),
+        ("AACMM_SLOT_", messages.SlotState, "AACMM_SLOT_STATE_MAX"),
+        ("AACMM_RESET_", messages.ResetCause, "AACMM_RESET_CAUSE_MAX"),
+        ("AACMM_ENC_", messages.EncoderInterface, "AACMM_ENC_INTERFACE_MAX"),
+        ("AACMM_ENC_FAULT_", messages.EncoderFault, "AACMM_ENC_FAULT_MAX"),
+    ]
+    for prefix, enum, max_name in enums:
+        for member in enum:
+            assert d[prefix + member.name] == member.value, prefix + member.name
+        assert d[max_name] == max(enum)
+    assert d["AACMM_STORAGE_PERSISTENT"] == messages.StorageFlags.PERSISTENT
     f = _c_defines("frame.h")
     assert f["AACMM_FRAME_MAX_BODY"] == framing.MAX_BODY
     assert _c_defines("crc32.h")["AACMM_CRC32_CHECK"] == framing.CRC32_CHECK

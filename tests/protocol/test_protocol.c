@@ -179,7 +179,7 @@ static void test_vectors_encode_decode(void **state)
         }
         checked++;
     }
-    assert_int_equal(checked, 23);
+    assert_int_equal(checked, 25);
 }
 
 static void test_vectors_bad_bodies(void **state)
@@ -274,7 +274,7 @@ static void test_helpers_counted_decode_error_reply(void **state)
             assert_int_equal(aacmm_msg_decode_counted(g_vec[i].a, g_vec[i].a_len, &m, &stats), AACMM_OK);
         }
     }
-    assert_int_equal(stats.ok, 23);
+    assert_int_equal(stats.ok, 25);
     assert_int_equal(stats.length + stats.version + stats.unknown_type + stats.range +
                          stats.not_finite, bad);
     assert_int_equal(stats.version, 2);
@@ -282,7 +282,7 @@ static void test_helpers_counted_decode_error_reply(void **state)
     assert_int_equal(stats.other, 0);
     for (t = 0; t < 256; t++) {
         uint8_t r = aacmm_msg_response_type((uint8_t)t);
-        if (t >= 1 && t <= 0x0A) {
+        if (t >= 1 && t <= 0x0B) {
             assert_int_equal(r, t | 0x80u);
             assert_true(aacmm_msg_type_known(r));
         } else {
@@ -339,6 +339,20 @@ static void test_encode_rejects(void **state)
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
     assert_true(vec_expected_msg("info_rsp", &m));
     m.u.info.can_node_id = 16;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("info_rsp", &m));
+    m.u.info.param_source = AACMM_PARAM_SOURCE_HOST;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    m.u.info.param_source = AACMM_PARAM_SOURCE_MAX + 1u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("diag_rsp", &m));
+    m.u.diag.joints[5].bits = 33u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("diag_rsp", &m));
+    m.u.diag.storage_flags = 2u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("diag_rsp", &m));
+    m.u.diag.reset_cause = AACMM_RESET_CAUSE_MAX + 1u;
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
     /* every too-small buffer is refused without overrun */
     assert_true(vec_expected_msg("get_params_rsp", &m));

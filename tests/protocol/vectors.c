@@ -222,6 +222,24 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
     } else if (IS("trigger_evt")) {
         m->type = AACMM_MSG_TRIGGER_EVT; m->seq = 11;
         m->u.trigger.button = 0; m->u.trigger.pressed = 1; vec_sample_a(&m->u.trigger.sample);
+    } else if (IS("diag_req")) {
+        m->type = AACMM_MSG_DIAG_REQ; m->seq = 12;
+    } else if (IS("diag_rsp")) {
+        static const aacmm_diag_joint_t joints[6] = {
+            {1, 32, 0, 0u, 0u},         {1, 26, 1, 12u, 3u}, {2, 20, 6, 1u, 0u},
+            {3, 13, 3, 0xFFFFFFFFu, 0u}, {0, 0, 7, 2u, 0u},  {1, 1, 8, 1u, 0xFFFFFFFFu},
+        };
+        aacmm_msg_diag_t *d = &m->u.diag;
+        m->type = AACMM_MSG_DIAG_RSP; m->seq = 12;
+        d->storage_kind = AACMM_STORAGE_KIND_FLASH; d->storage_flags = AACMM_STORAGE_PERSISTENT;
+        d->slot_state[0] = AACMM_SLOT_NEWEST; d->slot_state[1] = AACMM_SLOT_BAD_CRC;
+        d->slot_generation[0] = 0x01020304u; d->slot_generation[1] = 0xFFFFFFFFu;
+        d->storage_errors = 2u; d->storage_bad_records = 1u;
+        d->reset_cause = AACMM_RESET_FAULT; d->reset_raw = 4u; d->fault_pc = 0x12A6u;
+        d->boot_count = 3u; d->watchdog_ms = 1000u; d->uptime_us = 0x123456789ull;
+        d->encoder_faults = 17u; d->serial_frames_bad = 0x80000000u;
+        d->samples_dropped = 5u; d->samples_late = 6u;
+        memcpy(d->joints, joints, sizeof joints);
     } else if (IS("error_rsp")) {
         m->type = AACMM_MSG_ERROR_RSP; m->seq = 3;
         m->u.error.status = (int16_t)AACMM_ERR_RANGE; m->u.error.request_type = 0x04;
@@ -306,6 +324,33 @@ int vec_msg_equal(const aacmm_msg_t *x, const aacmm_msg_t *y)
         return x->u.trigger.button == y->u.trigger.button &&
                x->u.trigger.pressed == y->u.trigger.pressed &&
                sample_equal(&x->u.trigger.sample, &y->u.trigger.sample);
+    case AACMM_MSG_DIAG_RSP: {
+        const aacmm_msg_diag_t *a = &x->u.diag;
+        const aacmm_msg_diag_t *b = &y->u.diag;
+        int k;
+        if (a->storage_kind != b->storage_kind || a->storage_flags != b->storage_flags ||
+            memcmp(a->slot_state, b->slot_state, sizeof a->slot_state) != 0 ||
+            memcmp(a->slot_generation, b->slot_generation, sizeof a->slot_generation) != 0 ||
+            a->storage_errors != b->storage_errors ||
+            a->storage_bad_records != b->storage_bad_records || a->reset_cause != b->reset_cause ||
+            a->reset_raw != b->reset_raw || a->fault_pc != b->fault_pc ||
+            a->boot_count != b->boot_count || a->watchdog_ms != b->watchdog_ms ||
+            a->uptime_us != b->uptime_us || a->encoder_faults != b->encoder_faults ||
+            a->serial_frames_bad != b->serial_frames_bad ||
+            a->samples_dropped != b->samples_dropped || a->samples_late != b->samples_late) {
+            return 0;
+        }
+        for (k = 0; k < 6; k++) {
+            const aacmm_diag_joint_t *p = &a->joints[k];
+            const aacmm_diag_joint_t *q = &b->joints[k];
+            if (p->interface != q->interface || p->bits != q->bits ||
+                p->last_fault != q->last_fault || p->faults != q->faults ||
+                p->warnings != q->warnings) {
+                return 0;
+            }
+        }
+        return 1;
+    }
     case AACMM_MSG_ERROR_RSP:
         return x->u.error.status == y->u.error.status &&
                x->u.error.request_type == y->u.error.request_type;

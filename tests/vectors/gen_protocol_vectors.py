@@ -32,7 +32,9 @@ from aacmm.protocol.messages import (
     ComputeRequest,
     ComputeResult,
     DeviceInfo,
+    Diagnostics,
     ErrorReply,
+    JointDiagnostics,
     MeasureRequest,
     Message,
     MsgType,
@@ -82,6 +84,33 @@ SAMPLE_J = Sample(
     point_100nm=(0, 1, -2147483648),
     status=0x00000001,
     jacobian=(*((i - 37) * 0.25 for i in range(74)), 3.0 * 2.0**-20),
+)
+
+DIAG = Diagnostics(
+    storage_kind=4,
+    storage_flags=1,
+    slot_state=(1, 3),
+    slot_generation=(0x01020304, 0xFFFFFFFF),
+    storage_errors=2,
+    storage_bad_records=1,
+    reset_cause=5,
+    reset_raw=0x00000004,
+    fault_pc=0x000012A6,
+    boot_count=3,
+    watchdog_ms=1000,
+    uptime_us=0x0000000123456789,
+    encoder_faults=17,
+    serial_frames_bad=0x80000000,
+    samples_dropped=5,
+    samples_late=6,
+    joints=(
+        JointDiagnostics(1, 32, 0, 0, 0),
+        JointDiagnostics(1, 26, 1, 12, 3),
+        JointDiagnostics(2, 20, 6, 1, 0),
+        JointDiagnostics(3, 13, 3, 0xFFFFFFFF, 0),
+        JointDiagnostics(0, 0, 7, 2, 0),
+        JointDiagnostics(1, 1, 8, 1, 0xFFFFFFFF),
+    ),
 )
 
 COMPUTE_RSP = ComputeResult(
@@ -137,6 +166,8 @@ def messages() -> dict[str, Message]:
         "stream_stop_rsp": Message(MsgType.STREAM_STOP_RSP, 9),
         "sample_evt": Message(MsgType.SAMPLE_EVT, 10, SAMPLE_A),
         "trigger_evt": Message(MsgType.TRIGGER_EVT, 11, Trigger(0, True, SAMPLE_A)),
+        "diag_req": Message(MsgType.DIAG_REQ, 12),
+        "diag_rsp": Message(MsgType.DIAG_RSP, 12, DIAG),
         "error_rsp": Message(MsgType.ERROR_RSP, 3, ErrorReply(int(Status.ERR_RANGE), 0x04)),
     }
 
@@ -168,12 +199,13 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
         "<IQ6I3iIB", s.seq, s.timestamp_us, *s.counts, *s.point_100nm, s.status, 0
     )
     good_ping = encode_message(messages()["ping_req"])
+    diag = encode_message(messages()["diag_rsp"])[3:]
     return [
         ("empty", b"", Status.ERR_LENGTH),
         ("header_short", bytes([1, 1]), Status.ERR_LENGTH),
         ("version_0", bytes([0]) + good_ping[1:], Status.ERR_VERSION),
         ("version_2", bytes([2]) + good_ping[1:], Status.ERR_VERSION),
-        ("type_unknown_0b", _hdr(0x0B), Status.ERR_UNKNOWN_TYPE),
+        ("type_unknown_0c", _hdr(0x0C), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_00", _hdr(0x00), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_c1", _hdr(0xC1, 9) + b"\x00" * 4, Status.ERR_UNKNOWN_TYPE),
         ("ping_short", good_ping[:-1], Status.ERR_LENGTH),
@@ -252,6 +284,20 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
             _hdr(0x82) + struct.pack("<HBBHIIBBHIB", 1, 0, 0, 0, 0, 0, 0, 0, 512, 0, 16),
             Status.ERR_RANGE,
         ),
+        (
+            "info_source_3",
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIB", 1, 0, 0, 0, 0, 0, 3, 0, 512, 0, 0),
+            Status.ERR_RANGE,
+        ),
+        ("diag_req_payload", _hdr(0x0B) + b"\x00", Status.ERR_LENGTH),
+        ("diag_short", _hdr(0x8B) + diag[:-1], Status.ERR_LENGTH),
+        ("diag_kind_6", _hdr(0x8B) + b"\x06" + diag[1:], Status.ERR_RANGE),
+        ("diag_flags_2", _hdr(0x8B) + diag[:1] + b"\x02" + diag[2:], Status.ERR_RANGE),
+        ("diag_slot_10", _hdr(0x8B) + diag[:3] + b"\x0a" + diag[4:], Status.ERR_RANGE),
+        ("diag_reset_6", _hdr(0x8B) + diag[:20] + b"\x06" + diag[21:], Status.ERR_RANGE),
+        ("diag_interface_4", _hdr(0x8B) + diag[:59] + b"\x04" + diag[60:], Status.ERR_RANGE),
+        ("diag_bits_33", _hdr(0x8B) + diag[:71] + b"\x21" + diag[72:], Status.ERR_RANGE),
+        ("diag_fault_9", _hdr(0x8B) + diag[:-9] + b"\x09" + diag[-8:], Status.ERR_RANGE),
         ("trigger_pressed_2", _hdr(0x41) + b"\x00\x02" + sample53, Status.ERR_RANGE),
         ("trigger_short", _hdr(0x41) + b"\x00\x01" + sample53[:-2], Status.ERR_LENGTH),
     ]

@@ -143,6 +143,8 @@ int main(void)
     pf.storage_read = pf_storage_read;
     pf.storage_write = pf_storage_write;
     pf.storage_bytes = AACMM_STORE_BYTES;
+    pf.storage_kind = (uint8_t)AACMM_STORAGE_KIND_RAM_RETAINED;
+    pf.storage_flags = 0u; /* lost at power-off */
 
     memset(&dc, 0, sizeof dc);
     dc.serial_number = BOARD_SERIAL_NUMBER;

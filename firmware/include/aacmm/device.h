@@ -133,7 +133,30 @@ typedef struct {
     uint32_t max_catch_up;             /* stream periods sent late after a stall
                                           before samples are skipped; 0 = default
                                           AACMM_DEVICE_MAX_CATCH_UP */
+    /* Start-up facts the port knows, reported in DIAG_RSP as given. */
+    uint8_t reset_cause;               /* AACMM_RESET_* (0 = unknown) */
+    uint32_t reset_raw;                /* the board's reset-reason register, 0 if none */
+    uint32_t fault_pc;                 /* AACMM_RESET_FAULT: where the fault happened */
+    uint32_t boot_count;               /* starts since power-up; 0 = not counted */
+    uint16_t watchdog_ms;              /* the watchdog the port feeds; 0 = none */
 } aacmm_device_config_t;
+
+/* What the two record slots held when last read (aacmm_store_load,
+ * aacmm_store_save), as reported in DIAG_RSP. */
+typedef struct {
+    uint8_t slot_state[2];       /* AACMM_SLOT_* */
+    uint32_t slot_generation[2]; /* generation field as read (0 without a readable header) */
+    uint8_t newest;              /* slot of the newest valid record; 0xFF if none */
+} aacmm_store_report_t;
+
+/* Encoder input statistics of one joint (DIAG_RSP). */
+typedef struct {
+    uint8_t interface;  /* AACMM_ENC_* */
+    uint8_t bits;
+    uint8_t last_fault; /* AACMM_ENC_FAULT_* */
+    uint32_t faults;
+    uint32_t warnings;
+} aacmm_device_joint_t;
 
 /* Anomaly and traffic counters. The device increments them, never clears
  * them (they wrap at 2^32). Framing and ISO-TP counters live in the link
@@ -220,8 +243,16 @@ typedef struct {
     uint8_t storage_ok;    /* platform storage usable */
     uint8_t button;        /* last button state */
     uint8_t event_seq;     /* header seq of device events */
-    uint32_t store_generation; /* generation of the newest valid record */
-    uint8_t store_slot;        /* its slot (0/1); 0xFF if none */
+    uint8_t have_stored;   /* a valid record exists; stored_crc32 is its set's CRC */
+    uint32_t stored_crc32;
+    aacmm_store_report_t store; /* the slots as last read or written */
+    uint64_t start_us;
+    uint8_t reset_cause;
+    uint16_t watchdog_ms;
+    uint32_t reset_raw;
+    uint32_t fault_pc;
+    uint32_t boot_count;
+    aacmm_device_joint_t joints[AACMM_JOINTS];
     uint32_t measure_seq;
     uint32_t max_catch_up;
     aacmm_device_counters_t counters;
@@ -298,6 +329,9 @@ const aacmm_isotp_stats_t *aacmm_device_isotp_stats(const aacmm_device_t *dev);
 /* Fill *info as the device answers INFO_REQ. AACMM_ERR_NULL or AACMM_OK. O(1). */
 aacmm_status_t aacmm_device_info(const aacmm_device_t *dev, aacmm_msg_info_t *info);
 
+/* Fill *diag as the device answers DIAG_REQ. AACMM_ERR_NULL or AACMM_OK. O(1). */
+aacmm_status_t aacmm_device_diag(const aacmm_device_t *dev, aacmm_msg_diag_t *diag);
+
 /* AACMM_BUILD_* flags of this build and platform (kinematics backend,
  * Jacobian, the links present). O(1). */
 uint32_t aacmm_device_build_flags(const aacmm_device_t *dev);
@@ -307,33 +341,38 @@ uint32_t aacmm_device_build_flags(const aacmm_device_t *dev);
 /*
  * Load the newest valid record from the platform's storage into *set (decoded
  * and range-checked: aacmm_param_set_decode and aacmm_params_validate_f64).
- * *state (AACMM_STORAGE_*) says what was found: OK, EMPTY (no record in
- * either slot), CORRUPT (a record whose CRC or contents are bad and no valid
- * one), VERSION (a record of another format version and no valid one).
- * *generation and *slot (may be NULL) receive the record's generation and
- * slot. *bad_records (may be NULL) is incremented for each slot that holds a
- * bad or foreign record. *record is scratch of AACMM_STORE_RECORD_BYTES.
- * Returns AACMM_OK when a record was loaded, AACMM_ERR_STORAGE when none
- * (then *set is untouched), AACMM_ERR_IO when a read failed, AACMM_ERR_NULL,
+ * *state (AACMM_STORAGE_*) sums up what was found: OK, EMPTY (both slots
+ * erased), CORRUPT (no valid record, and a slot holds something that is not
+ * one: damaged, cut, unrecognised or unreadable), VERSION (no valid record,
+ * a record of another format version, nothing worse). *report (may be NULL)
+ * receives each slot's state (AACMM_SLOT_*: which one is the newest, and why
+ * the other was not taken) and generation. *bad_records (may be NULL) is
+ * incremented for each slot that holds something other than an erased area,
+ * a valid record or an unreadable one. *record is scratch of
+ * AACMM_STORE_RECORD_BYTES. Returns AACMM_OK when a record was loaded,
+ * AACMM_ERR_STORAGE when none (then *set is untouched), AACMM_ERR_IO when a
+ * read failed and no record was loaded, AACMM_ERR_NULL,
  * AACMM_ERR_UNSUPPORTED (no storage functions or storage_bytes too small).
- * Cost: two reads of AACMM_STORE_RECORD_BYTES and two CRCs.
+ * Cost: three reads of AACMM_STORE_RECORD_BYTES, up to three CRCs and decodes.
  */
 aacmm_status_t aacmm_store_load(const aacmm_platform_t *pf, aacmm_param_set_t *set,
-                                uint8_t *state, uint32_t *generation, uint8_t *slot,
+                                uint8_t *state, aacmm_store_report_t *report,
                                 uint32_t *bad_records, uint8_t record[AACMM_STORE_RECORD_BYTES]);
 
 /*
  * Save *set as a new record with the next generation, into the slot that
- * does not hold the newest valid record, then read it back and check it.
- * *generation / *slot are updated to the new record's. Returns AACMM_OK,
- * AACMM_ERR_NULL, AACMM_ERR_UNSUPPORTED (no storage), AACMM_ERR_NOT_FINITE /
- * AACMM_ERR_RANGE (set not encodable), AACMM_ERR_IO (write or read-back
- * failed), AACMM_ERR_STORAGE (read-back differs). On error the previous
- * record is intact. Cost: one write and two reads of
- * AACMM_STORE_RECORD_BYTES, two CRCs.
+ * does not hold the newest valid record (storage_erase first, if the
+ * platform has it), then read it back and check it. *report (may be NULL)
+ * receives the slots' states afterwards (on failure the target slot reads
+ * AACMM_SLOT_BAD_CRC). Returns AACMM_OK, AACMM_ERR_NULL,
+ * AACMM_ERR_UNSUPPORTED (no storage), AACMM_ERR_NOT_FINITE / AACMM_ERR_RANGE
+ * (set not encodable), AACMM_ERR_IO (erase, write or read failed),
+ * AACMM_ERR_STORAGE (read-back differs). On error the previous record is
+ * intact. Cost: one erase, one write and three reads of
+ * AACMM_STORE_RECORD_BYTES, three CRCs and decodes.
  */
 aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_set_t *set,
-                                uint32_t *generation, uint8_t *slot,
+                                aacmm_store_report_t *report,
                                 uint8_t record[AACMM_STORE_RECORD_BYTES]);
 
 #ifdef __cplusplus

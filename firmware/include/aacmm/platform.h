@@ -28,6 +28,7 @@
 #include <stdint.h>
 
 #include "aacmm/kinematics.h"
+#include "aacmm/proto.h"
 #include "aacmm/proto_can.h"
 #include "aacmm/status.h"
 
@@ -70,10 +71,21 @@ typedef struct {
      * or a flash sector pair behind the port). A read of never-written bytes
      * may return anything (erased flash reads 0xFF). A write may be cut by a
      * power failure after any byte; the device's double-buffered record
-     * format (device.h) survives that. Optional. */
+     * format (device.h) survives that. Optional.
+     * storage_erase (optional, for flash): set [offset, offset + len) to the
+     * erased state before a write; the device calls it with one whole record
+     * slot (AACMM_STORE_SLOT_BYTES at a multiple of it), so a port with flash
+     * pages puts each slot in a page of its own. It may be cut too.
+     * storage_kind (AACMM_STORAGE_KIND_*) and storage_flags
+     * (AACMM_STORAGE_PERSISTENT) say what the store is; the device reports
+     * them in its diagnostics so the host can warn about a store that does
+     * not survive power-off. */
     aacmm_status_t (*storage_read)(void *ctx, uint32_t offset, uint8_t *buf, size_t len);
     aacmm_status_t (*storage_write)(void *ctx, uint32_t offset, const uint8_t *data, size_t len);
+    aacmm_status_t (*storage_erase)(void *ctx, uint32_t offset, size_t len);
     uint32_t storage_bytes;
+    uint8_t storage_kind;
+    uint8_t storage_flags;
 } aacmm_platform_t;
 
 #ifdef __cplusplus

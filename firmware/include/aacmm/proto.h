@@ -56,6 +56,7 @@ typedef enum {
     AACMM_MSG_COMPUTE_REQ = 0x08,          /* u8 content, u32 counts[6] */
     AACMM_MSG_STREAM_START_REQ = 0x09,     /* u16 rate_hz, u8 content */
     AACMM_MSG_STREAM_STOP_REQ = 0x0A,      /* empty */
+    AACMM_MSG_DIAG_REQ = 0x0B,             /* empty: device diagnostics */
 
     AACMM_MSG_SAMPLE_EVT = 0x40,  /* streamed sample (same layout as MEASURE_RSP) */
     AACMM_MSG_TRIGGER_EVT = 0x41, /* probe button edge with the sample taken at it */
@@ -70,6 +71,7 @@ typedef enum {
     AACMM_MSG_COMPUTE_RSP = 0x88,          /* compute result (29 or 329 bytes) */
     AACMM_MSG_STREAM_START_RSP = 0x89,     /* u16 rate_hz accepted, u8 content */
     AACMM_MSG_STREAM_STOP_RSP = 0x8A,      /* empty */
+    AACMM_MSG_DIAG_RSP = 0x8B,             /* diagnostics (125 bytes) */
 
     AACMM_MSG_ERROR_RSP = 0xFF /* i16 status (aacmm_status_t), u8 request type */
 } aacmm_msg_type_t;
@@ -87,6 +89,16 @@ typedef enum {
 #define AACMM_SAMPLE_PARAMS_DEFAULT 0x0008u /* running on built-in default parameters */
 #define AACMM_SAMPLE_POINT_CLIPPED 0x0010u  /* point outside the int32 range; clamped */
 #define AACMM_SAMPLE_OVERRUN 0x0020u        /* samples were dropped before this one */
+#define AACMM_SAMPLE_ENCODER_WARNING 0x0040u /* an encoder flagged a warning; point valid */
+/* Joint 1..6 gave no reading (its fault kind is counted in the diagnostics). */
+#define AACMM_SAMPLE_JOINT1_FAULT 0x0100u
+#define AACMM_SAMPLE_JOINT2_FAULT 0x0200u
+#define AACMM_SAMPLE_JOINT3_FAULT 0x0400u
+#define AACMM_SAMPLE_JOINT4_FAULT 0x0800u
+#define AACMM_SAMPLE_JOINT5_FAULT 0x1000u
+#define AACMM_SAMPLE_JOINT6_FAULT 0x2000u
+#define AACMM_SAMPLE_JOINT_FAULT(j) (AACMM_SAMPLE_JOINT1_FAULT << (j)) /* j = 0..5 */
+#define AACMM_SAMPLE_JOINT_FAULTS 0x3F00u /* any joint */
 
 /* Device info build_flags. */
 #define AACMM_BUILD_KIN_FIXED 0x0001u  /* fixed-point kinematics (else floating point) */
@@ -95,15 +107,67 @@ typedef enum {
 #define AACMM_BUILD_SERIAL 0x0008u     /* serial transport built in */
 #define AACMM_BUILD_CAN 0x0010u        /* CAN transport built in */
 
-/* Device info param_source. */
-#define AACMM_PARAM_SOURCE_DEFAULTS 0u
-#define AACMM_PARAM_SOURCE_STORAGE 1u
+/* Device info param_source: where the active parameter set came from. */
+#define AACMM_PARAM_SOURCE_DEFAULTS 0u /* the built-in defaults */
+#define AACMM_PARAM_SOURCE_STORAGE 1u  /* loaded from storage, or saved since: a restart loads it */
+#define AACMM_PARAM_SOURCE_HOST 2u     /* set by the host (SET_PARAMS), not saved: lost at restart */
+#define AACMM_PARAM_SOURCE_MAX 2u
 /* Device info storage_state. */
 #define AACMM_STORAGE_OK 0u
 #define AACMM_STORAGE_EMPTY 1u   /* no record found */
 #define AACMM_STORAGE_CORRUPT 2u /* record CRC failed */
 #define AACMM_STORAGE_VERSION 3u /* record of another format version */
 #define AACMM_STORAGE_STATE_MAX 3u
+
+/* ---- diagnostics (DIAG_RSP) ---------------------------------------------- */
+/* storage_kind: where the parameter records live. */
+#define AACMM_STORAGE_KIND_NONE 0u         /* no storage: SAVE_PARAMS is refused */
+#define AACMM_STORAGE_KIND_RAM 1u          /* RAM: lost at every restart */
+#define AACMM_STORAGE_KIND_RAM_RETAINED 2u /* RAM kept across resets, lost at power-off */
+#define AACMM_STORAGE_KIND_FILE 3u         /* a file (the POSIX simulator) */
+#define AACMM_STORAGE_KIND_FLASH 4u        /* the microcontroller's own flash pages */
+#define AACMM_STORAGE_KIND_EEPROM 5u       /* an EEPROM or external flash chip */
+#define AACMM_STORAGE_KIND_MAX 5u
+/* storage_flags */
+#define AACMM_STORAGE_PERSISTENT 0x01u /* the store survives power-off */
+#define AACMM_STORAGE_FLAGS_KNOWN 0x01u
+/* slot_state: what each of the two record slots held when last read. */
+#define AACMM_SLOT_ERASED 0u       /* blank (never written): all 0xFF or all 0x00 */
+#define AACMM_SLOT_NEWEST 1u       /* valid record, the newest: what a restart loads */
+#define AACMM_SLOT_OLDER 2u        /* valid record, older: the fallback */
+#define AACMM_SLOT_BAD_CRC 3u      /* record whose CRC fails (a cut save or damage) */
+#define AACMM_SLOT_BAD_CONTENTS 4u /* CRC good, but the set is out of range */
+#define AACMM_SLOT_VERSION 5u      /* record of another format version */
+#define AACMM_SLOT_BAD_LENGTH 6u   /* record with another payload length */
+#define AACMM_SLOT_INCOMPLETE 7u   /* record magic, header partly blank: a save cut early */
+#define AACMM_SLOT_UNRECOGNISED 8u /* not blank and not a record: foreign data */
+#define AACMM_SLOT_READ_ERROR 9u   /* the storage read failed */
+#define AACMM_SLOT_STATE_MAX 9u
+/* reset_cause: why the device last started. */
+#define AACMM_RESET_UNKNOWN 0u   /* not recorded (a reset the board cannot tell apart) */
+#define AACMM_RESET_POWER_ON 1u  /* power-up (the simulator: process start) */
+#define AACMM_RESET_PIN 2u       /* the reset pin or a debugger */
+#define AACMM_RESET_WATCHDOG 3u  /* the watchdog expired: the main loop stalled */
+#define AACMM_RESET_SOFTWARE 4u  /* a software reset request (SYSRESETREQ) */
+#define AACMM_RESET_FAULT 5u     /* a CPU fault (HardFault, lockup); fault_pc says where */
+#define AACMM_RESET_CAUSE_MAX 5u
+/* Encoder interface of a joint. */
+#define AACMM_ENC_COUNTS 0u     /* counts from the port (no frame decoding) */
+#define AACMM_ENC_BISS_C 1u     /* BiSS-C: ack, start, CDS, position, nE, nW, CRC-6 */
+#define AACMM_ENC_SSI_BINARY 2u /* SSI, natural binary */
+#define AACMM_ENC_SSI_GRAY 3u   /* SSI, Gray code */
+#define AACMM_ENC_INTERFACE_MAX 3u
+/* Joint fault kinds (last_fault): the reading was discarded. */
+#define AACMM_ENC_FAULT_NONE 0u       /* no fault */
+#define AACMM_ENC_FAULT_CRC 1u        /* the frame's CRC does not match */
+#define AACMM_ENC_FAULT_ERROR_BIT 2u  /* the encoder reports an error (BiSS nE) */
+#define AACMM_ENC_FAULT_STUCK_LOW 3u  /* the data line reads all zeros */
+#define AACMM_ENC_FAULT_STUCK_HIGH 4u /* the data line reads all ones (nothing answers) */
+#define AACMM_ENC_FAULT_TIMEOUT 5u    /* no start bit, or the frame ended early */
+#define AACMM_ENC_FAULT_FRAMING 6u    /* frame bits that must be fixed are wrong (SSI) */
+#define AACMM_ENC_FAULT_RANGE 7u      /* position >= the joint's counts per revolution */
+#define AACMM_ENC_FAULT_READ 8u       /* the port's read failed */
+#define AACMM_ENC_FAULT_MAX 8u
 
 #define AACMM_STREAM_RATE_MIN_HZ 1u
 #define AACMM_STREAM_RATE_MAX_HZ 1000u
@@ -118,6 +182,8 @@ typedef enum {
 #define AACMM_JACOBIAN_BYTES 300u        /* 75 float32 */
 #define AACMM_COMPUTE_RSP_BASE_BYTES 29u /* without Jacobian */
 #define AACMM_TRIGGER_EXTRA_BYTES 2u     /* before the embedded sample */
+#define AACMM_DIAG_JOINT_BYTES 11u
+#define AACMM_DIAG_BYTES (59u + AACMM_JOINTS * AACMM_DIAG_JOINT_BYTES) /* 125 */
 
 typedef struct {
     uint32_t token; /* any value; echoed unchanged */
@@ -130,7 +196,7 @@ typedef struct {
     uint16_t fw_patch;
     uint32_t build_flags;    /* AACMM_BUILD_* */
     uint32_t param_crc32;    /* aacmm_param_set_crc32 of the active set */
-    uint8_t param_source;    /* AACMM_PARAM_SOURCE_* (0..1) */
+    uint8_t param_source;    /* AACMM_PARAM_SOURCE_* (0..2) */
     uint8_t storage_state;   /* AACMM_STORAGE_* (0..3) */
     uint16_t max_body_bytes; /* largest body the device accepts (<= 512) */
     uint32_t serial_number;
@@ -185,6 +251,36 @@ typedef struct {
     aacmm_sample_t sample; /* the sample latched at the edge */
 } aacmm_msg_trigger_t;
 
+/* One joint's encoder input in DIAG_RSP. */
+typedef struct {
+    uint8_t interface;  /* AACMM_ENC_* */
+    uint8_t bits;       /* position bits 1..32; 0 for AACMM_ENC_COUNTS */
+    uint8_t last_fault; /* AACMM_ENC_FAULT_* of the latest fault, NONE if none yet */
+    uint32_t faults;    /* readings discarded since start-up */
+    uint32_t warnings;  /* readings with the encoder's warning bit (still used) */
+} aacmm_diag_joint_t;
+
+/* DIAG_RSP: what a firmware engineer bringing up an arm needs to see. */
+typedef struct {
+    uint8_t storage_kind;        /* AACMM_STORAGE_KIND_* */
+    uint8_t storage_flags;       /* AACMM_STORAGE_PERSISTENT */
+    uint8_t slot_state[2];       /* AACMM_SLOT_* per record slot, as last read */
+    uint32_t slot_generation[2]; /* each slot's generation field (0 when it has no header) */
+    uint32_t storage_errors;     /* storage read/write/verify failures */
+    uint32_t storage_bad_records; /* damaged, foreign or unrecognised slots found */
+    uint8_t reset_cause;         /* AACMM_RESET_* */
+    uint32_t reset_raw;          /* the board's reset-reason register as read, 0 if none */
+    uint32_t fault_pc;           /* AACMM_RESET_FAULT: program counter of the fault */
+    uint32_t boot_count;         /* starts since power-up, 1 = first; 0 = not counted */
+    uint16_t watchdog_ms;        /* watchdog timeout, 0 = no watchdog */
+    uint64_t uptime_us;          /* time since start-up */
+    uint32_t encoder_faults;     /* samples without a point because of an encoder fault */
+    uint32_t serial_frames_bad;  /* serial frames dropped: CRC, COBS, runts, oversize */
+    uint32_t samples_dropped;    /* stream samples lost: output queue full or stale */
+    uint32_t samples_late;       /* stream samples skipped: the device fell behind */
+    aacmm_diag_joint_t joints[AACMM_JOINTS];
+} aacmm_msg_diag_t;
+
 typedef struct {
     int16_t status;       /* aacmm_status_t, negative */
     uint8_t request_type; /* type of the request that failed (0 if unknown) */
@@ -205,6 +301,7 @@ typedef struct {
         aacmm_msg_compute_rsp_t compute_rsp; /* COMPUTE_RSP */
         aacmm_msg_stream_t stream;           /* STREAM_START_REQ, STREAM_START_RSP */
         aacmm_msg_trigger_t trigger;         /* TRIGGER_EVT */
+        aacmm_msg_diag_t diag;               /* DIAG_RSP */
         aacmm_msg_error_t error;             /* ERROR_RSP */
     } u;                                     /* empty for the other types */
 } aacmm_msg_t;

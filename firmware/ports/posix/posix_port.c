@@ -471,6 +471,9 @@ void posix_platform(posix_port_t *port, aacmm_platform_t *pf)
     pf->storage_read = storage_read;
     pf->storage_write = storage_write;
     pf->storage_bytes = AACMM_STORE_BYTES;
+    pf->storage_kind = (uint8_t)(port->storage_path != NULL ? AACMM_STORAGE_KIND_FILE
+                                                            : AACMM_STORAGE_KIND_RAM);
+    pf->storage_flags = (uint8_t)(port->storage_path != NULL ? AACMM_STORAGE_PERSISTENT : 0u);
 }
 
 void posix_close(posix_port_t *port)

@@ -328,6 +328,8 @@ int main(int argc, char **argv)
     dc.serial_txq = serial_txq;
     dc.serial_txq_bytes = sizeof serial_txq;
     dc.max_catch_up = 1000u; /* a loaded host may deschedule us for a while: up to 1 s at 1 kHz */
+    dc.reset_cause = (uint8_t)AACMM_RESET_POWER_ON; /* a process start is a power-up */
+    dc.boot_count = 1u;
     port.t0_us = posix_time_us();
     posix_platform(&port, &pf);
     st = aacmm_device_init(&dev, &dc, &pf);

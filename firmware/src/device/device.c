@@ -109,21 +109,48 @@ static uint8_t button_state(const aacmm_device_t *dev)
     return dev->button;
 }
 
+/* Count a fault of joint j. */
+static void joint_fault(aacmm_device_t *dev, int j, uint8_t kind)
+{
+    dev->joints[j].faults++;
+    dev->joints[j].last_fault = kind;
+}
+
+/* Read the six joints into counts[]; returns the AACMM_SAMPLE_JOINT*_FAULT
+ * and ENCODER_WARNING bits. A faulty joint's count is 0 and counted. */
+static uint32_t read_joints(aacmm_device_t *dev, uint32_t counts[AACMM_JOINTS])
+{
+    uint32_t flags = 0u;
+    int i;
+    if (dev->pf.read_encoders(dev->pf.ctx, counts) != AACMM_OK) {
+        for (i = 0; i < AACMM_JOINTS; i++) {
+            counts[i] = 0u;
+            joint_fault(dev, i, (uint8_t)AACMM_ENC_FAULT_READ);
+            flags |= AACMM_SAMPLE_JOINT_FAULT(i);
+        }
+        return flags;
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        if ((uint64_t)counts[i] >= dev->active.enc.counts_per_rev[i]) { /* raw count kept */
+            joint_fault(dev, i, (uint8_t)AACMM_ENC_FAULT_RANGE);
+            flags |= AACMM_SAMPLE_JOINT_FAULT(i);
+        }
+    }
+    return flags;
+}
+
 /* Read the encoders now and fill *s (all but seq). */
 static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
 {
-    aacmm_status_t st;
+    aacmm_status_t st = AACMM_ERR_RANGE;
     aacmm_device_point_t pt;
+    uint32_t joint_flags;
     int i;
     s->timestamp_us = now_us(dev);
-    s->status = 0u;
     s->content = content;
-    st = dev->pf.read_encoders(dev->pf.ctx, s->counts);
-    if (st != AACMM_OK) {
-        for (i = 0; i < AACMM_JOINTS; i++) {
-            s->counts[i] = 0u;
-        }
-    } else {
+    joint_flags = read_joints(dev, s->counts);
+    s->status = joint_flags;
+    if ((joint_flags & AACMM_SAMPLE_JOINT_FAULTS) == 0u) {
         st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, s->counts, 0, &pt,
                                       (content & AACMM_CONTENT_JACOBIAN) != 0u ? s->jacobian : NULL);
     }
@@ -193,6 +220,45 @@ aacmm_status_t aacmm_device_info(const aacmm_device_t *dev, aacmm_msg_info_t *in
     return AACMM_OK;
 }
 
+aacmm_status_t aacmm_device_diag(const aacmm_device_t *dev, aacmm_msg_diag_t *diag)
+{
+    const aacmm_deframer_stats_t *d;
+    int i;
+    if (dev == NULL || diag == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    d = &dev->serial.deframer.stats;
+    diag->storage_kind = dev->storage_ok ? dev->pf.storage_kind : (uint8_t)AACMM_STORAGE_KIND_NONE;
+    diag->storage_flags = dev->storage_ok ? (uint8_t)(dev->pf.storage_flags &
+                                                      AACMM_STORAGE_FLAGS_KNOWN)
+                                          : 0u;
+    for (i = 0; i < 2; i++) {
+        diag->slot_state[i] = dev->store.slot_state[i];
+        diag->slot_generation[i] = dev->store.slot_generation[i];
+    }
+    diag->storage_errors = dev->counters.storage_errors;
+    diag->storage_bad_records = dev->counters.storage_bad_records;
+    diag->reset_cause = dev->reset_cause;
+    diag->reset_raw = dev->reset_raw;
+    diag->fault_pc = dev->fault_pc;
+    diag->boot_count = dev->boot_count;
+    diag->watchdog_ms = dev->watchdog_ms;
+    diag->uptime_us = now_us(dev) - dev->start_us;
+    diag->encoder_faults = dev->counters.encoder_faults;
+    diag->serial_frames_bad = d->crc_errors + d->cobs_errors + d->runts + d->oversize;
+    diag->samples_dropped = dev->counters.samples_dropped;
+    diag->samples_late = dev->counters.samples_late;
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        const aacmm_device_joint_t *j = &dev->joints[i];
+        diag->joints[i].interface = j->interface;
+        diag->joints[i].bits = j->bits;
+        diag->joints[i].last_fault = j->last_fault;
+        diag->joints[i].faults = j->faults;
+        diag->joints[i].warnings = j->warnings;
+    }
+    return AACMM_OK;
+}
+
 /* ------------------------------------------------------------------------ */
 /* requests                                                                  */
 /* ------------------------------------------------------------------------ */
@@ -250,7 +316,11 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
             set_error(rsp, st, req->type);
             break;
         }
-        activate(dev, &req->u.params, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_STORAGE);
+        /* Set but not saved, unless it is exactly the stored set. */
+        activate(dev, &req->u.params, &model, crc,
+                 (uint8_t)(dev->have_stored && crc == dev->stored_crc32
+                               ? AACMM_PARAM_SOURCE_STORAGE
+                               : AACMM_PARAM_SOURCE_HOST));
         rsp->u.param_crc.param_crc32 = crc;
         break;
     }
@@ -259,15 +329,17 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
             set_error(rsp, AACMM_ERR_UNSUPPORTED, req->type);
             break;
         }
-        st = aacmm_store_save(&dev->pf, &dev->active, &dev->store_generation, &dev->store_slot,
-                              dev->record);
+        st = aacmm_store_save(&dev->pf, &dev->active, &dev->store, dev->record);
         if (st != AACMM_OK) {
             dev->counters.storage_errors++;
+            dev->have_stored = (uint8_t)(dev->store.newest != 0xFFu);
             set_error(rsp, st == AACMM_ERR_IO ? AACMM_ERR_STORAGE : st, req->type);
             break;
         }
         dev->storage_state = (uint8_t)AACMM_STORAGE_OK;
-        dev->param_source = (uint8_t)AACMM_PARAM_SOURCE_STORAGE;
+        dev->have_stored = 1u;
+        dev->stored_crc32 = dev->active_crc32;
+        dev->param_source = (uint8_t)AACMM_PARAM_SOURCE_STORAGE; /* what a restart loads */
         rsp->u.param_crc.param_crc32 = dev->active_crc32;
         break;
     case AACMM_MSG_RESTORE_DEFAULTS_REQ: {
@@ -327,6 +399,9 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
         } else {
             dev->can.stream.active = 0u;
         }
+        break;
+    case AACMM_MSG_DIAG_REQ:
+        (void)aacmm_device_diag(dev, &rsp->u.diag);
         break;
     default: /* a response or an event sent to the device */
         set_error(rsp, AACMM_ERR_UNKNOWN_TYPE, req->type);
@@ -738,7 +813,17 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     dev->pf = *platform;
     dev->serial_number = config->serial_number;
     dev->max_catch_up = config->max_catch_up != 0u ? config->max_catch_up : AACMM_DEVICE_MAX_CATCH_UP;
-    dev->store_slot = 0xFFu;
+    dev->store.newest = 0xFFu;
+    dev->start_us = platform->time_us(platform->ctx);
+    dev->reset_cause = config->reset_cause <= AACMM_RESET_CAUSE_MAX ? config->reset_cause
+                                                                    : (uint8_t)AACMM_RESET_UNKNOWN;
+    dev->reset_raw = config->reset_raw;
+    dev->fault_pc = config->fault_pc;
+    dev->boot_count = config->boot_count;
+    dev->watchdog_ms = config->watchdog_ms;
+    if (dev->pf.storage_kind > AACMM_STORAGE_KIND_MAX) {
+        dev->pf.storage_kind = (uint8_t)AACMM_STORAGE_KIND_NONE;
+    }
 
     /* Defaults. */
     if (config->defaults != NULL) {
@@ -760,7 +845,7 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     if (dev->storage_ok) {
         aacmm_param_set_t stored;
         uint8_t state = (uint8_t)AACMM_STORAGE_EMPTY;
-        st = aacmm_store_load(&dev->pf, &stored, &state, &dev->store_generation, &dev->store_slot,
+        st = aacmm_store_load(&dev->pf, &stored, &state, &dev->store,
                               &dev->counters.storage_bad_records, dev->record);
         if (st == AACMM_ERR_IO) {
             dev->counters.storage_errors++;
@@ -769,8 +854,12 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
         if (st == AACMM_OK) {
             if (check_set(&stored, &model, &crc) == AACMM_OK) {
                 activate(dev, &stored, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_STORAGE);
-            } else {
+                dev->have_stored = 1u;
+                dev->stored_crc32 = crc;
+            } else { /* valid record the kinematics backend cannot take */
                 dev->storage_state = (uint8_t)AACMM_STORAGE_CORRUPT;
+                dev->store.slot_state[dev->store.newest] = (uint8_t)AACMM_SLOT_BAD_CONTENTS;
+                dev->store.newest = 0xFFu;
                 dev->counters.storage_bad_records++;
             }
         }

@@ -1,8 +1,9 @@
 /*
  * Parameter storage: two slots, each one record with magic, format version,
  * generation and CRC (layout in aacmm/device.h). A save goes to the slot that
- * does not hold the newest valid record, so a power cut at any byte keeps the
- * previous good set.
+ * does not hold the newest valid record, so a power cut at any byte (or
+ * during the erase of a flash page) keeps the previous good set. Every slot
+ * is classified when read, so the device can say what it found.
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -17,8 +18,7 @@
 #define OFF_PAYLOAD 12u
 #define OFF_CRC (OFF_PAYLOAD + AACMM_PARAM_SET_BYTES)
 
-/* What one slot holds. */
-enum { SLOT_EMPTY = 0, SLOT_VALID, SLOT_CORRUPT, SLOT_FOREIGN };
+#define NO_SLOT 0xFFu
 
 static uint32_t get_u32(const uint8_t *p)
 {
@@ -50,24 +50,19 @@ static int storage_usable(const aacmm_platform_t *pf)
            pf->storage_bytes >= AACMM_STORE_BYTES;
 }
 
-/* Classify the record in rec (header and CRC only). */
-static int classify(const uint8_t *rec, uint32_t *generation)
+/* All record bytes equal to b. */
+static int all_bytes(const uint8_t *rec, uint8_t b)
 {
-    if (get_u32(rec + OFF_MAGIC) != AACMM_STORE_MAGIC) {
-        return SLOT_EMPTY;
+    size_t i;
+    for (i = 0; i < AACMM_STORE_RECORD_BYTES; i++) {
+        if (rec[i] != b) {
+            return 0;
+        }
     }
-    if (get_u16(rec + OFF_VERSION) != AACMM_STORE_VERSION) {
-        return SLOT_FOREIGN;
-    }
-    if (get_u16(rec + OFF_LEN) != AACMM_PARAM_SET_BYTES ||
-        aacmm_crc32(rec, OFF_CRC) != get_u32(rec + OFF_CRC)) {
-        return SLOT_CORRUPT;
-    }
-    *generation = get_u32(rec + OFF_GEN);
-    return SLOT_VALID;
+    return 1;
 }
 
-/* Decode and range-check the payload of a valid record. */
+/* Decode and range-check the payload of a record whose CRC is good. */
 static aacmm_status_t decode_payload(const uint8_t *rec, aacmm_param_set_t *set)
 {
     aacmm_status_t st = aacmm_param_set_decode(rec + OFF_PAYLOAD, AACMM_PARAM_SET_BYTES, set);
@@ -80,136 +75,156 @@ static aacmm_status_t decode_payload(const uint8_t *rec, aacmm_param_set_t *set)
     return st;
 }
 
+/* What the record bytes in rec are: AACMM_SLOT_OLDER for a valid record
+ * (the caller ranks valid records), else the reason it is not one. When the
+ * header is readable, *generation receives the generation field. *set is
+ * scratch (the decoded set of a valid record). */
+static uint8_t classify(const uint8_t *rec, uint32_t *generation, aacmm_param_set_t *set)
+{
+    uint16_t version;
+    *generation = 0u;
+    if (all_bytes(rec, 0xFFu) || all_bytes(rec, 0x00u)) {
+        return AACMM_SLOT_ERASED;
+    }
+    if (get_u32(rec + OFF_MAGIC) != AACMM_STORE_MAGIC) {
+        return AACMM_SLOT_UNRECOGNISED;
+    }
+    version = get_u16(rec + OFF_VERSION);
+    if (version == 0xFFFFu) {
+        return AACMM_SLOT_INCOMPLETE; /* only the magic was written */
+    }
+    if (version != AACMM_STORE_VERSION) {
+        return AACMM_SLOT_VERSION;
+    }
+    *generation = get_u32(rec + OFF_GEN);
+    if (get_u16(rec + OFF_LEN) != AACMM_PARAM_SET_BYTES) {
+        return AACMM_SLOT_BAD_LENGTH;
+    }
+    if (aacmm_crc32(rec, OFF_CRC) != get_u32(rec + OFF_CRC)) {
+        return AACMM_SLOT_BAD_CRC;
+    }
+    if (decode_payload(rec, set) != AACMM_OK) {
+        return AACMM_SLOT_BAD_CONTENTS;
+    }
+    return AACMM_SLOT_OLDER;
+}
+
 /* gen a newer than gen b (serial-number arithmetic, so it survives wrap). */
 static int newer(uint32_t a, uint32_t b)
 {
     return a != b && (uint32_t)(a - b) < 0x80000000u;
 }
 
-typedef struct {
-    int kind[2];
-    uint32_t gen[2];
-    int io_error;
-} scan_t;
-
-static void scan(const aacmm_platform_t *pf, uint8_t *rec, scan_t *s)
+static int is_valid(uint8_t state)
 {
-    uint8_t k;
-    s->io_error = 0;
-    for (k = 0; k < 2u; k++) {
-        s->gen[k] = 0u;
-        if (pf->storage_read(pf->ctx, (uint32_t)k * AACMM_STORE_SLOT_BYTES, rec,
-                             AACMM_STORE_RECORD_BYTES) != AACMM_OK) {
-            s->io_error = 1;
-            s->kind[k] = SLOT_CORRUPT;
-            continue;
-        }
-        s->kind[k] = classify(rec, &s->gen[k]);
-    }
+    return state == AACMM_SLOT_NEWEST || state == AACMM_SLOT_OLDER;
 }
 
-/* Slot of the newest valid record, or -1. */
-static int newest(const scan_t *s)
+static int is_bad(uint8_t state)
 {
-    if (s->kind[0] == SLOT_VALID && s->kind[1] == SLOT_VALID) {
-        return newer(s->gen[1], s->gen[0]) ? 1 : 0;
+    return state != AACMM_SLOT_ERASED && !is_valid(state) && state != AACMM_SLOT_READ_ERROR;
+}
+
+/* Read and classify both slots into *r, ranking the valid ones. Returns 1 if
+ * a read failed. */
+static int scan(const aacmm_platform_t *pf, uint8_t *rec, aacmm_param_set_t *tmp,
+                aacmm_store_report_t *r)
+{
+    uint8_t k;
+    int io_error = 0;
+    r->newest = NO_SLOT;
+    for (k = 0; k < 2u; k++) {
+        if (pf->storage_read(pf->ctx, (uint32_t)k * AACMM_STORE_SLOT_BYTES, rec,
+                             AACMM_STORE_RECORD_BYTES) != AACMM_OK) {
+            io_error = 1;
+            r->slot_state[k] = AACMM_SLOT_READ_ERROR;
+            r->slot_generation[k] = 0u;
+            continue;
+        }
+        r->slot_state[k] = classify(rec, &r->slot_generation[k], tmp);
     }
-    if (s->kind[0] == SLOT_VALID) {
-        return 0;
+    if (is_valid(r->slot_state[0]) && is_valid(r->slot_state[1])) {
+        r->newest = newer(r->slot_generation[1], r->slot_generation[0]) ? 1u : 0u;
+    } else if (is_valid(r->slot_state[0])) {
+        r->newest = 0u;
+    } else if (is_valid(r->slot_state[1])) {
+        r->newest = 1u;
     }
-    if (s->kind[1] == SLOT_VALID) {
-        return 1;
+    if (r->newest != NO_SLOT) {
+        r->slot_state[r->newest] = AACMM_SLOT_NEWEST;
     }
-    return -1;
+    return io_error;
 }
 
 aacmm_status_t aacmm_store_load(const aacmm_platform_t *pf, aacmm_param_set_t *set,
-                                uint8_t *state, uint32_t *generation, uint8_t *slot,
+                                uint8_t *state, aacmm_store_report_t *report,
                                 uint32_t *bad_records, uint8_t record[AACMM_STORE_RECORD_BYTES])
 {
-    scan_t s;
-    int order[2];
-    int n = 0;
-    int i;
-    int first;
-    int corrupt = 0;
-    int foreign = 0;
+    aacmm_store_report_t r;
+    aacmm_param_set_t tmp;
+    int io_error;
+    int k;
     if (pf == NULL || set == NULL || state == NULL || record == NULL) {
         return AACMM_ERR_NULL;
     }
+    r.slot_state[0] = r.slot_state[1] = AACMM_SLOT_ERASED;
+    r.slot_generation[0] = r.slot_generation[1] = 0u;
+    r.newest = NO_SLOT;
     if (!storage_usable(pf)) {
         *state = AACMM_STORAGE_EMPTY;
+        if (report != NULL) {
+            *report = r;
+        }
         return AACMM_ERR_UNSUPPORTED;
     }
-    scan(pf, record, &s);
-    /* Candidates, newest first. */
-    first = newest(&s);
-    if (first >= 0) {
-        order[n++] = first;
-        if (s.kind[1 - first] == SLOT_VALID) {
-            order[n++] = 1 - first;
-        }
-    }
-    for (i = 0; i < 2; i++) {
-        if (s.kind[i] == SLOT_CORRUPT) {
-            corrupt = 1;
-        } else if (s.kind[i] == SLOT_FOREIGN) {
-            foreign = 1;
-        }
-    }
-    for (i = 0; i < n; i++) {
-        int k = order[i];
-        aacmm_param_set_t tmp;
-        if (pf->storage_read(pf->ctx, (uint32_t)k * AACMM_STORE_SLOT_BYTES, record,
+    io_error = scan(pf, record, &tmp, &r);
+    if (r.newest != NO_SLOT) {
+        /* Read the winner again into *set (tmp holds the last slot scanned). */
+        uint32_t gen = 0u;
+        if (pf->storage_read(pf->ctx, (uint32_t)r.newest * AACMM_STORE_SLOT_BYTES, record,
                              AACMM_STORE_RECORD_BYTES) != AACMM_OK) {
-            s.io_error = 1;
-            corrupt = 1;
-            continue;
+            io_error = 1;
+            r.slot_state[r.newest] = AACMM_SLOT_READ_ERROR;
+            r.newest = NO_SLOT;
+        } else if (classify(record, &gen, &tmp) != AACMM_SLOT_OLDER ||
+                   gen != r.slot_generation[r.newest]) {
+            r.slot_state[r.newest] = AACMM_SLOT_BAD_CRC; /* changed under us */
+            r.newest = NO_SLOT;
+        } else {
+            *set = tmp;
         }
-        {
-            uint32_t g = 0u;
-            if (classify(record, &g) != SLOT_VALID || g != s.gen[k] ||
-                decode_payload(record, &tmp) != AACMM_OK) {
-                corrupt = 1;
-                s.kind[k] = SLOT_CORRUPT;
-                continue;
-            }
-        }
-        *set = tmp;
-        *state = AACMM_STORAGE_OK;
-        if (generation != NULL) {
-            *generation = s.gen[k];
-        }
-        if (slot != NULL) {
-            *slot = (uint8_t)k;
-        }
-        if (bad_records != NULL) {
-            *bad_records += (uint32_t)(s.kind[0] == SLOT_CORRUPT || s.kind[0] == SLOT_FOREIGN) +
-                            (uint32_t)(s.kind[1] == SLOT_CORRUPT || s.kind[1] == SLOT_FOREIGN);
-        }
-        return AACMM_OK;
     }
     if (bad_records != NULL) {
-        *bad_records += (uint32_t)(s.kind[0] == SLOT_CORRUPT || s.kind[0] == SLOT_FOREIGN) +
-                        (uint32_t)(s.kind[1] == SLOT_CORRUPT || s.kind[1] == SLOT_FOREIGN);
+        *bad_records += (uint32_t)is_bad(r.slot_state[0]) + (uint32_t)is_bad(r.slot_state[1]);
     }
-    if (corrupt) {
-        *state = AACMM_STORAGE_CORRUPT;
-    } else if (foreign) {
-        *state = AACMM_STORAGE_VERSION;
-    } else {
-        *state = AACMM_STORAGE_EMPTY;
+    if (report != NULL) {
+        *report = r;
     }
-    return s.io_error ? AACMM_ERR_IO : AACMM_ERR_STORAGE;
+    if (r.newest != NO_SLOT) {
+        *state = AACMM_STORAGE_OK;
+        return AACMM_OK;
+    }
+    *state = AACMM_STORAGE_EMPTY;
+    for (k = 0; k < 2; k++) {
+        if (r.slot_state[k] == AACMM_SLOT_VERSION && *state == AACMM_STORAGE_EMPTY) {
+            *state = AACMM_STORAGE_VERSION;
+        }
+    }
+    for (k = 0; k < 2; k++) {
+        if (r.slot_state[k] != AACMM_SLOT_ERASED && r.slot_state[k] != AACMM_SLOT_VERSION) {
+            *state = AACMM_STORAGE_CORRUPT;
+        }
+    }
+    return io_error ? AACMM_ERR_IO : AACMM_ERR_STORAGE;
 }
 
 aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_set_t *set,
-                                uint32_t *generation, uint8_t *slot,
+                                aacmm_store_report_t *report,
                                 uint8_t record[AACMM_STORE_RECORD_BYTES])
 {
-    scan_t s;
-    int cur;
-    int target;
+    aacmm_store_report_t r;
+    aacmm_param_set_t tmp;
+    uint8_t target;
     uint32_t gen;
     uint32_t crc;
     uint32_t offset;
@@ -220,13 +235,14 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     if (!storage_usable(pf)) {
         return AACMM_ERR_UNSUPPORTED;
     }
-    scan(pf, record, &s);
-    if (s.io_error) {
+    if (scan(pf, record, &tmp, &r)) {
+        if (report != NULL) {
+            *report = r;
+        }
         return AACMM_ERR_IO;
     }
-    cur = newest(&s);
-    target = cur < 0 ? 0 : 1 - cur;
-    gen = cur < 0 ? 1u : s.gen[cur] + 1u;
+    target = r.newest == NO_SLOT ? 0u : (uint8_t)(1u - r.newest);
+    gen = r.newest == NO_SLOT ? 1u : r.slot_generation[r.newest] + 1u;
 
     put_u32(record + OFF_MAGIC, AACMM_STORE_MAGIC);
     put_u16(record + OFF_VERSION, (uint16_t)AACMM_STORE_VERSION);
@@ -240,6 +256,17 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     put_u32(record + OFF_CRC, crc);
 
     offset = (uint32_t)target * AACMM_STORE_SLOT_BYTES;
+    /* From here on the target slot is neither its old contents nor the new
+     * record until the read-back below says so. */
+    r.slot_state[target] = AACMM_SLOT_BAD_CRC;
+    r.slot_generation[target] = gen;
+    if (report != NULL) {
+        *report = r;
+    }
+    if (pf->storage_erase != NULL &&
+        pf->storage_erase(pf->ctx, offset, AACMM_STORE_SLOT_BYTES) != AACMM_OK) {
+        return AACMM_ERR_IO;
+    }
     if (pf->storage_write(pf->ctx, offset, record, AACMM_STORE_RECORD_BYTES) != AACMM_OK) {
         return AACMM_ERR_IO;
     }
@@ -249,15 +276,18 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     }
     {
         uint32_t g = 0u;
-        if (classify(record, &g) != SLOT_VALID || g != gen || get_u32(record + OFF_CRC) != crc) {
+        if (classify(record, &g, &tmp) != AACMM_SLOT_OLDER || g != gen ||
+            get_u32(record + OFF_CRC) != crc) {
             return AACMM_ERR_STORAGE;
         }
     }
-    if (generation != NULL) {
-        *generation = gen;
+    if (r.newest != NO_SLOT) {
+        r.slot_state[r.newest] = AACMM_SLOT_OLDER;
     }
-    if (slot != NULL) {
-        *slot = (uint8_t)target;
+    r.slot_state[target] = AACMM_SLOT_NEWEST;
+    r.newest = target;
+    if (report != NULL) {
+        *report = r;
     }
     return AACMM_OK;
 }

@@ -338,6 +338,93 @@ static void rd_sample(rd_t *r, aacmm_sample_t *s)
     }
 }
 
+static int diag_in_range(const aacmm_msg_diag_t *d)
+{
+    size_t i;
+    if (d->storage_kind > AACMM_STORAGE_KIND_MAX ||
+        (d->storage_flags & (uint8_t)~AACMM_STORAGE_FLAGS_KNOWN) != 0u ||
+        d->slot_state[0] > AACMM_SLOT_STATE_MAX || d->slot_state[1] > AACMM_SLOT_STATE_MAX ||
+        d->reset_cause > AACMM_RESET_CAUSE_MAX) {
+        return 0;
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        const aacmm_diag_joint_t *j = &d->joints[i];
+        if (j->interface > AACMM_ENC_INTERFACE_MAX || j->bits > 32u ||
+            j->last_fault > AACMM_ENC_FAULT_MAX) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static void wr_diag(wr_t *w, const aacmm_msg_diag_t *d)
+{
+    size_t i;
+    if (!diag_in_range(d)) {
+        wr_fail(w, AACMM_ERR_RANGE);
+    }
+    wr_u8(w, d->storage_kind);
+    wr_u8(w, d->storage_flags);
+    wr_u8(w, d->slot_state[0]);
+    wr_u8(w, d->slot_state[1]);
+    wr_u32(w, d->slot_generation[0]);
+    wr_u32(w, d->slot_generation[1]);
+    wr_u32(w, d->storage_errors);
+    wr_u32(w, d->storage_bad_records);
+    wr_u8(w, d->reset_cause);
+    wr_u32(w, d->reset_raw);
+    wr_u32(w, d->fault_pc);
+    wr_u32(w, d->boot_count);
+    wr_u16(w, d->watchdog_ms);
+    wr_u64(w, d->uptime_us);
+    wr_u32(w, d->encoder_faults);
+    wr_u32(w, d->serial_frames_bad);
+    wr_u32(w, d->samples_dropped);
+    wr_u32(w, d->samples_late);
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        const aacmm_diag_joint_t *j = &d->joints[i];
+        wr_u8(w, j->interface);
+        wr_u8(w, j->bits);
+        wr_u8(w, j->last_fault);
+        wr_u32(w, j->faults);
+        wr_u32(w, j->warnings);
+    }
+}
+
+static void rd_diag(rd_t *r, aacmm_msg_diag_t *d)
+{
+    size_t i;
+    d->storage_kind = rd_u8(r);
+    d->storage_flags = rd_u8(r);
+    d->slot_state[0] = rd_u8(r);
+    d->slot_state[1] = rd_u8(r);
+    d->slot_generation[0] = rd_u32(r);
+    d->slot_generation[1] = rd_u32(r);
+    d->storage_errors = rd_u32(r);
+    d->storage_bad_records = rd_u32(r);
+    d->reset_cause = rd_u8(r);
+    d->reset_raw = rd_u32(r);
+    d->fault_pc = rd_u32(r);
+    d->boot_count = rd_u32(r);
+    d->watchdog_ms = rd_u16(r);
+    d->uptime_us = rd_u64(r);
+    d->encoder_faults = rd_u32(r);
+    d->serial_frames_bad = rd_u32(r);
+    d->samples_dropped = rd_u32(r);
+    d->samples_late = rd_u32(r);
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        aacmm_diag_joint_t *j = &d->joints[i];
+        j->interface = rd_u8(r);
+        j->bits = rd_u8(r);
+        j->last_fault = rd_u8(r);
+        j->faults = rd_u32(r);
+        j->warnings = rd_u32(r);
+    }
+    if (r->err == AACMM_OK && !diag_in_range(d)) {
+        rd_fail(r, AACMM_ERR_RANGE);
+    }
+}
+
 /* ---- public API -------------------------------------------------------- */
 
 int aacmm_msg_type_known(uint8_t type)
@@ -353,6 +440,7 @@ int aacmm_msg_type_known(uint8_t type)
     case AACMM_MSG_COMPUTE_REQ:
     case AACMM_MSG_STREAM_START_REQ:
     case AACMM_MSG_STREAM_STOP_REQ:
+    case AACMM_MSG_DIAG_REQ:
     case AACMM_MSG_SAMPLE_EVT:
     case AACMM_MSG_TRIGGER_EVT:
     case AACMM_MSG_PING_RSP:
@@ -365,6 +453,7 @@ int aacmm_msg_type_known(uint8_t type)
     case AACMM_MSG_COMPUTE_RSP:
     case AACMM_MSG_STREAM_START_RSP:
     case AACMM_MSG_STREAM_STOP_RSP:
+    case AACMM_MSG_DIAG_RSP:
     case AACMM_MSG_ERROR_RSP:
         return 1;
     default:
@@ -402,6 +491,8 @@ size_t aacmm_msg_payload_len(uint8_t type, uint8_t content)
         return AACMM_TRIGGER_EXTRA_BYTES + AACMM_SAMPLE_BASE_BYTES + jac;
     case AACMM_MSG_COMPUTE_RSP:
         return AACMM_COMPUTE_RSP_BASE_BYTES + jac;
+    case AACMM_MSG_DIAG_RSP:
+        return AACMM_DIAG_BYTES;
     default:
         return 0u;
     }
@@ -435,7 +526,7 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         break;
     case AACMM_MSG_INFO_RSP: {
         const aacmm_msg_info_t *in = &msg->u.info;
-        if (in->param_source > AACMM_PARAM_SOURCE_STORAGE ||
+        if (in->param_source > AACMM_PARAM_SOURCE_MAX ||
             in->storage_state > AACMM_STORAGE_STATE_MAX || in->can_node_id > 15u) {
             wr_fail(&w, AACMM_ERR_RANGE);
         }
@@ -503,6 +594,9 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         }
         break;
     }
+    case AACMM_MSG_DIAG_RSP:
+        wr_diag(&w, &msg->u.diag);
+        break;
     case AACMM_MSG_ERROR_RSP:
         if (msg->u.error.status >= 0) {
             wr_fail(&w, AACMM_ERR_RANGE);
@@ -510,7 +604,7 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         wr_u16(&w, (uint16_t)msg->u.error.status);
         wr_u8(&w, msg->u.error.request_type);
         break;
-    default: /* INFO_REQ, GET/SAVE_PARAMS_REQ, RESTORE_DEFAULTS_REQ, STREAM_STOP_*: empty */
+    default: /* INFO_REQ, GET/SAVE_PARAMS_REQ, RESTORE_DEFAULTS_REQ, STREAM_STOP_*, DIAG_REQ */
         break;
     }
     if (w.err != AACMM_OK) {
@@ -586,7 +680,7 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
         in->max_body_bytes = rd_u16(&r);
         in->serial_number = rd_u32(&r);
         in->can_node_id = rd_u8(&r);
-        if (in->param_source > AACMM_PARAM_SOURCE_STORAGE ||
+        if (in->param_source > AACMM_PARAM_SOURCE_MAX ||
             in->storage_state > AACMM_STORAGE_STATE_MAX || in->can_node_id > 15u) {
             rd_fail(&r, AACMM_ERR_RANGE);
         }
@@ -645,6 +739,9 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
         }
         break;
     }
+    case AACMM_MSG_DIAG_RSP:
+        rd_diag(&r, &msg->u.diag);
+        break;
     case AACMM_MSG_ERROR_RSP: {
         uint16_t raw = rd_u16(&r);
         int32_t v = (raw >= 0x8000u) ? (int32_t)raw - 0x10000 : (int32_t)raw;
@@ -687,7 +784,7 @@ aacmm_status_t aacmm_msg_decode_counted(const uint8_t *body, size_t len, aacmm_m
 
 uint8_t aacmm_msg_response_type(uint8_t request_type)
 {
-    if (request_type >= AACMM_MSG_PING_REQ && request_type <= AACMM_MSG_STREAM_STOP_REQ) {
+    if (request_type >= AACMM_MSG_PING_REQ && request_type <= AACMM_MSG_DIAG_REQ) {
         return (uint8_t)(request_type | AACMM_MSG_RESPONSE_BIT);
     }
     return 0u;

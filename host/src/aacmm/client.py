@@ -62,6 +62,7 @@ from aacmm.protocol import (
     ComputeRequest,
     ComputeResult,
     DeviceInfo,
+    Diagnostics,
     ErrorReply,
     MeasureRequest,
     Message,
@@ -112,6 +113,7 @@ IDEMPOTENT_REQUESTS: Final = frozenset(
         MsgType.COMPUTE_REQ,
         MsgType.STREAM_START_REQ,
         MsgType.STREAM_STOP_REQ,
+        MsgType.DIAG_REQ,
     }
 )
 """Requests that may be sent again after a timeout; the others are sent once."""
@@ -534,6 +536,21 @@ class Client:
         payload = self.request(MsgType.INFO_REQ).payload
         assert isinstance(payload, DeviceInfo)
         self.device_info = payload
+        return payload
+
+    def diagnostics(self) -> Diagnostics | None:
+        """Storage slots, reset cause, watchdog, encoder faults and link counters.
+
+        ``None`` when the device predates the request or does not offer it
+        (it answers ERR_UNKNOWN_TYPE or ERR_UNSUPPORTED).
+        """
+        try:
+            payload = self.request(MsgType.DIAG_REQ).payload
+        except DeviceError as exc:
+            if exc.status in (int(Status.ERR_UNKNOWN_TYPE), int(Status.ERR_UNSUPPORTED)):
+                return None
+            raise
+        assert isinstance(payload, Diagnostics)
         return payload
 
     def get_params(self) -> ParamSet:

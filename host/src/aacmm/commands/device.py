@@ -23,11 +23,13 @@ from aacmm.commands.common import (
     flag_names,
     fmt_point,
     info_dict,
+    print_err,
 )
 from aacmm.commands.exitcodes import OK
 from aacmm.errors import DeviceError
 
 if TYPE_CHECKING:
+    from aacmm.client import Client
     from aacmm.protocol import ComputeResult, ParamSet, Sample
 
 JAC_ROWS = 3
@@ -147,12 +149,17 @@ def _jacobian_rows(jac: tuple[float, ...]) -> list[list[float]]:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    from aacmm.commands import devstate
+
     with device_from_args(args) as dev:
         d = info_dict(dev.info)
         d["url"] = dev.url
         d["transport"] = dev.client.transport.description
+        diag = dev.client.diagnostics()
         rtt = dev.client.ping()
         d["ping_ms"] = round(rtt * 1e3, 3)
+    d["param_source_text"] = devstate.param_source_text(dev.info, diag)
+    d["diagnostics"] = devstate.diag_dict(diag) if diag is not None else None
     if args.json:
         _print_json(d)
         return OK
@@ -160,8 +167,23 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"serial no.  {d['serial_number']}")
     print(f"firmware    {d['firmware']}, protocol {d['protocol_version']}")
     print(f"build       {' '.join(d['build_flags_names']) or '-'}")
-    print(f"parameters  crc {d['param_crc32_hex']}, from {d['param_source_name']}")
-    print(f"storage     {d['storage_state_name']}")
+    print(f"parameters  crc {d['param_crc32_hex']}, {d['param_source_text']}")
+    if diag is None:
+        print(f"storage     {d['storage_state_name']}")
+    else:
+        print(f"storage     {devstate.storage_text(diag)}")
+        warning = devstate.storage_warning(diag)
+        if warning:
+            print(f"            warning: {warning}")
+        print(f"reset       {devstate.reset_text(diag)}")
+        lines = devstate.encoder_lines(diag)
+        print(f"encoders    {lines[0]}")
+        for line in lines[1:]:
+            print(f"            {line}")
+        print(
+            f"link        {diag.serial_frames_bad} bad frames, {diag.samples_dropped} samples "
+            f"dropped, {diag.samples_late} late, {diag.encoder_faults} without a point"
+        )
     print(f"max body    {d['max_body_bytes']} bytes, CAN node {d['can_node_id']}")
     print(f"ping        {d['ping_ms']:.3f} ms")
     return OK
@@ -204,6 +226,7 @@ def _verify(dev_params: ParamSet, sent: ParamSet, what: str) -> None:
 
 def cmd_params_set(args: argparse.Namespace) -> int:
     from aacmm.commands.paramfile import load_param_file
+    from aacmm.protocol import ParamSource
 
     ps = load_param_file(args.file)  # validated before anything is sent
     want = _local_crc(ps)
@@ -227,16 +250,39 @@ def cmd_params_set(args: argparse.Namespace) -> int:
             if saved != want:
                 raise ReadBackError(f"device stored crc 0x{saved:08x}, expected 0x{want:08x}")
             msg += "; saved"
+            _warn_if_volatile(c, "params set")
+        elif info.param_source == ParamSource.STORAGE:  # exactly the stored set
+            msg += "; identical to the stored set"
+        else:
+            msg += (
+                "; NOT saved: lost at restart (add --save, or run `aacmm params save` to keep it)"
+            )
     print(msg)
     return OK
+
+
+def _warn_if_volatile(client: Client, cmd: str) -> None:
+    """Warn on stderr when the device's store does not survive power-off."""
+    from aacmm.commands import devstate
+    from aacmm.protocol import StorageKind
+
+    diag = client.diagnostics()
+    if diag is not None and not devstate.persistent(diag):
+        kind = devstate.STORAGE_KIND_TEXT.get(StorageKind(diag.storage_kind), "unknown")
+        print_err(
+            cmd,
+            f"warning: the device stores parameters in {kind}: "
+            "the saved set will not survive a power cycle",
+        )
 
 
 def cmd_params_save(args: argparse.Namespace) -> int:
     with device_from_args(args) as dev:
         active = dev.info.param_crc32
         saved = dev.client.save_params()
-    if saved != active:
-        raise ReadBackError(f"device stored crc 0x{saved:08x}, active set is 0x{active:08x}")
+        if saved != active:
+            raise ReadBackError(f"device stored crc 0x{saved:08x}, active set is 0x{active:08x}")
+        _warn_if_volatile(dev.client, "params save")
     print(f"saved the active set (crc 0x{saved:08x})")
     return OK
 
@@ -256,6 +302,12 @@ def cmd_params_defaults(args: argparse.Namespace) -> int:
             if saved != crc:
                 raise ReadBackError(f"device stored crc 0x{saved:08x}, expected 0x{crc:08x}")
             msg += "; saved"
+            _warn_if_volatile(c, "params defaults")
+        else:
+            from aacmm.commands.devstate import has_saved_set
+
+            if has_saved_set(c.diagnostics()):
+                msg += "; not saved: a restart loads the stored set (add --save to replace it)"
     print(msg)
     return OK
 

@@ -54,6 +54,7 @@ class MsgType(IntEnum):
     COMPUTE_REQ = 0x08
     STREAM_START_REQ = 0x09
     STREAM_STOP_REQ = 0x0A
+    DIAG_REQ = 0x0B
     SAMPLE_EVT = 0x40
     TRIGGER_EVT = 0x41
     PING_RSP = 0x81
@@ -66,6 +67,7 @@ class MsgType(IntEnum):
     COMPUTE_RSP = 0x88
     STREAM_START_RSP = 0x89
     STREAM_STOP_RSP = 0x8A
+    DIAG_RSP = 0x8B
     ERROR_RSP = 0xFF
 
 
@@ -85,6 +87,13 @@ class SampleStatus(IntFlag):
     PARAMS_DEFAULT = 0x0008
     POINT_CLIPPED = 0x0010
     OVERRUN = 0x0020
+    ENCODER_WARNING = 0x0040
+    JOINT1_FAULT = 0x0100
+    JOINT2_FAULT = 0x0200
+    JOINT3_FAULT = 0x0400
+    JOINT4_FAULT = 0x0800
+    JOINT5_FAULT = 0x1000
+    JOINT6_FAULT = 0x2000
 
 
 class BuildFlags(IntFlag):
@@ -98,8 +107,14 @@ class BuildFlags(IntFlag):
 
 
 class ParamSource(IntEnum):
+    """Device info ``param_source``: where the active parameter set came from."""
+
     DEFAULTS = 0
+    """The built-in defaults."""
     STORAGE = 1
+    """Loaded from storage, or saved since: a restart loads this set."""
+    HOST = 2
+    """Set by the host (SET_PARAMS) and not saved: lost at restart."""
 
 
 class StorageState(IntEnum):
@@ -107,6 +122,73 @@ class StorageState(IntEnum):
     EMPTY = 1
     CORRUPT = 2
     VERSION = 3
+
+
+class StorageKind(IntEnum):
+    """Diagnostics ``storage_kind``: where the parameter records live."""
+
+    NONE = 0
+    RAM = 1
+    RAM_RETAINED = 2
+    FILE = 3
+    FLASH = 4
+    EEPROM = 5
+
+
+class StorageFlags(IntFlag):
+    """Diagnostics ``storage_flags``."""
+
+    NONE = 0
+    PERSISTENT = 0x01
+
+
+class SlotState(IntEnum):
+    """Diagnostics ``slot_state``: what a record slot held when last read."""
+
+    ERASED = 0
+    NEWEST = 1
+    OLDER = 2
+    BAD_CRC = 3
+    BAD_CONTENTS = 4
+    VERSION = 5
+    BAD_LENGTH = 6
+    INCOMPLETE = 7
+    UNRECOGNISED = 8
+    READ_ERROR = 9
+
+
+class ResetCause(IntEnum):
+    """Diagnostics ``reset_cause``: why the device last started."""
+
+    UNKNOWN = 0
+    POWER_ON = 1
+    PIN = 2
+    WATCHDOG = 3
+    SOFTWARE = 4
+    FAULT = 5
+
+
+class EncoderInterface(IntEnum):
+    """Diagnostics: a joint's encoder interface."""
+
+    COUNTS = 0
+    BISS_C = 1
+    SSI_BINARY = 2
+    SSI_GRAY = 3
+
+
+class EncoderFault(IntEnum):
+    """Diagnostics: kind of a joint's latest fault (the reading was discarded)."""
+
+    NONE = 0
+    CRC = 1
+    ERROR_BIT = 2
+    STUCK_LOW = 3
+    STUCK_HIGH = 4
+    TIMEOUT = 5
+    FRAMING = 6
+    RANGE = 7
+    READ = 8
 
 
 # ---------------------------------------------------------------- payloads
@@ -226,6 +308,45 @@ class Trigger:
 
 
 @dataclass(frozen=True)
+class JointDiagnostics:
+    """One joint's encoder input in DIAG_RSP (11 bytes)."""
+
+    interface: int
+    """:class:`EncoderInterface`."""
+    bits: int
+    """Position bits 1..32 (0 for ``COUNTS``)."""
+    last_fault: int
+    """:class:`EncoderFault` of the latest fault (``NONE`` if none yet)."""
+    faults: int
+    """Readings discarded since start-up."""
+    warnings: int
+    """Readings that carried the encoder's warning bit (still used)."""
+
+
+@dataclass(frozen=True)
+class Diagnostics:
+    """DIAG_RSP (125 bytes): storage, reset cause, watchdog, encoder faults, link counters."""
+
+    storage_kind: int
+    storage_flags: int
+    slot_state: tuple[int, int]
+    slot_generation: tuple[int, int]
+    storage_errors: int
+    storage_bad_records: int
+    reset_cause: int
+    reset_raw: int
+    fault_pc: int
+    boot_count: int
+    watchdog_ms: int
+    uptime_us: int
+    encoder_faults: int
+    serial_frames_bad: int
+    samples_dropped: int
+    samples_late: int
+    joints: tuple[JointDiagnostics, ...]
+
+
+@dataclass(frozen=True)
 class ErrorReply:
     """ERROR_RSP: negative status code and the type of the failed request."""
 
@@ -244,6 +365,7 @@ Payload: TypeAlias = (
     | ComputeResult
     | Stream
     | Trigger
+    | Diagnostics
     | ErrorReply
     | None
 )
@@ -271,6 +393,8 @@ PAYLOAD_CLASS: Final[dict[MsgType, type | None]] = {
     MsgType.COMPUTE_RSP: ComputeResult,
     MsgType.STREAM_START_RSP: Stream,
     MsgType.STREAM_STOP_RSP: None,
+    MsgType.DIAG_REQ: None,
+    MsgType.DIAG_RSP: Diagnostics,
     MsgType.ERROR_RSP: ErrorReply,
 }
 """Which payload class each message type carries (``None``: empty payload)."""
@@ -292,6 +416,8 @@ INFO_BYTES: Final = 23
 SAMPLE_BASE_BYTES: Final = 53
 JACOBIAN_BYTES: Final = 300
 COMPUTE_RSP_BASE_BYTES: Final = 29
+DIAG_JOINT_BYTES: Final = 11
+DIAG_BYTES: Final = 59 + JOINTS * DIAG_JOINT_BYTES
 
 _INFO = struct.Struct("<HBBHIIBBHIB")
 _SAMPLE = struct.Struct("<IQ6I3iIB")
@@ -299,6 +425,8 @@ _PARAMS = struct.Struct("<25d6Q6I6b")
 _COMPUTE_REQ = struct.Struct("<B6I")
 _COMPUTE_RSP = struct.Struct("<I3dB")
 _JAC = struct.Struct("<75f")
+_DIAG = struct.Struct("<BB2B2IIIBIIIHQIIII")
+_DIAG_JOINT = struct.Struct("<BBBII")
 
 
 def _check_int(name: str, value: int, lo: int, hi: int) -> None:
@@ -397,7 +525,7 @@ def _enc_payload(t: MsgType, p: Payload) -> bytes:
         _check_int("fw_patch", p.fw_patch, 0, 0xFFFF)
         _check_int("build_flags", p.build_flags, 0, 0xFFFFFFFF)
         _check_int("param_crc32", p.param_crc32, 0, 0xFFFFFFFF)
-        _check_int("param_source", p.param_source, 0, 1)
+        _check_int("param_source", p.param_source, 0, max(ParamSource))
         _check_int("storage_state", p.storage_state, 0, 3)
         _check_int("max_body_bytes", p.max_body_bytes, 0, 0xFFFF)
         _check_int("serial_number", p.serial_number, 0, 0xFFFFFFFF)
@@ -442,11 +570,68 @@ def _enc_payload(t: MsgType, p: Payload) -> bytes:
         _check_int("button", p.button, 0, 0xFF)
         _check_flag("pressed", p.pressed)
         return bytes([p.button, int(p.pressed)]) + _enc_sample(p.sample)
+    if isinstance(p, Diagnostics):
+        return _enc_diag(p)
     if isinstance(p, ErrorReply):
         _check_int("status", p.status, -0x8000, -1)
         _check_int("request_type", p.request_type, 0, 0xFF)
         return struct.pack("<hB", p.status, p.request_type)
     return b""
+
+
+def _enc_diag(d: Diagnostics) -> bytes:
+    _check_int("storage_kind", d.storage_kind, 0, max(StorageKind))
+    _check_int("storage_flags", d.storage_flags, 0, 0xFF)
+    if d.storage_flags & ~int(StorageFlags.PERSISTENT):
+        raise ValueError(f"storage_flags=0x{d.storage_flags:02x} has unknown bits")
+    _check_ints("slot_state", d.slot_state, 2, 0, max(SlotState))
+    _check_ints("slot_generation", d.slot_generation, 2, 0, 0xFFFFFFFF)
+    _check_int("reset_cause", d.reset_cause, 0, max(ResetCause))
+    _check_int("watchdog_ms", d.watchdog_ms, 0, 0xFFFF)
+    _check_int("uptime_us", d.uptime_us, 0, 0xFFFFFFFFFFFFFFFF)
+    u32s = (
+        "storage_errors",
+        "storage_bad_records",
+        "reset_raw",
+        "fault_pc",
+        "boot_count",
+        "encoder_faults",
+        "serial_frames_bad",
+        "samples_dropped",
+        "samples_late",
+    )
+    for name in u32s:
+        _check_int(name, getattr(d, name), 0, 0xFFFFFFFF)
+    if len(d.joints) != JOINTS:
+        raise ValueError(f"joints needs {JOINTS} entries, got {len(d.joints)}")
+    out = _DIAG.pack(
+        d.storage_kind,
+        d.storage_flags,
+        *d.slot_state,
+        *d.slot_generation,
+        d.storage_errors,
+        d.storage_bad_records,
+        d.reset_cause,
+        d.reset_raw,
+        d.fault_pc,
+        d.boot_count,
+        d.watchdog_ms,
+        d.uptime_us,
+        d.encoder_faults,
+        d.serial_frames_bad,
+        d.samples_dropped,
+        d.samples_late,
+    )
+    for i, j in enumerate(d.joints):
+        if not isinstance(j, JointDiagnostics):
+            raise ValueError(f"joints[{i}] must be a JointDiagnostics")
+        _check_int(f"joints[{i}].interface", j.interface, 0, max(EncoderInterface))
+        _check_int(f"joints[{i}].bits", j.bits, 0, 32)
+        _check_int(f"joints[{i}].last_fault", j.last_fault, 0, max(EncoderFault))
+        _check_int(f"joints[{i}].faults", j.faults, 0, 0xFFFFFFFF)
+        _check_int(f"joints[{i}].warnings", j.warnings, 0, 0xFFFFFFFF)
+        out += _DIAG_JOINT.pack(j.interface, j.bits, j.last_fault, j.faults, j.warnings)
+    return out
 
 
 def encode_message(msg: Message) -> bytes:
@@ -509,6 +694,7 @@ def payload_length(t: MsgType, jacobian: bool = False) -> int:
         MsgType.SAMPLE_EVT: SAMPLE_BASE_BYTES + jac,
         MsgType.TRIGGER_EVT: 2 + SAMPLE_BASE_BYTES + jac,
         MsgType.COMPUTE_RSP: COMPUTE_RSP_BASE_BYTES + jac,
+        MsgType.DIAG_RSP: DIAG_BYTES,
     }
     return sizes.get(t, 0)
 
@@ -564,12 +750,55 @@ def decode_param_set(b: bytes | bytearray | memoryview) -> ParamSet:
     )
 
 
+def _dec_diag(b: bytes) -> Diagnostics:
+    f = _DIAG.unpack_from(b)
+    joints = tuple(
+        JointDiagnostics(*_DIAG_JOINT.unpack_from(b, _DIAG.size + i * DIAG_JOINT_BYTES))
+        for i in range(JOINTS)
+    )
+    d = Diagnostics(
+        storage_kind=f[0],
+        storage_flags=f[1],
+        slot_state=(f[2], f[3]),
+        slot_generation=(f[4], f[5]),
+        storage_errors=f[6],
+        storage_bad_records=f[7],
+        reset_cause=f[8],
+        reset_raw=f[9],
+        fault_pc=f[10],
+        boot_count=f[11],
+        watchdog_ms=f[12],
+        uptime_us=f[13],
+        encoder_faults=f[14],
+        serial_frames_bad=f[15],
+        samples_dropped=f[16],
+        samples_late=f[17],
+        joints=joints,
+    )
+    if (
+        d.storage_kind > max(StorageKind)
+        or d.storage_flags & ~int(StorageFlags.PERSISTENT)
+        or max(d.slot_state) > max(SlotState)
+        or d.reset_cause > max(ResetCause)
+        or any(
+            j.interface > max(EncoderInterface) or j.bits > 32 or j.last_fault > max(EncoderFault)
+            for j in joints
+        )
+    ):
+        raise _fail("diagnostics field out of range", Status.ERR_RANGE)
+    return d
+
+
 def _dec_payload(t: MsgType, b: bytes) -> Payload:
     if t in (MsgType.PING_REQ, MsgType.PING_RSP):
         return Ping(struct.unpack("<I", b)[0])
     if t == MsgType.INFO_RSP:
         info = DeviceInfo(*_INFO.unpack(b))
-        if info.param_source > 1 or info.storage_state > 3 or info.can_node_id > 15:
+        if (
+            info.param_source > max(ParamSource)
+            or info.storage_state > max(StorageState)
+            or info.can_node_id > 15
+        ):
             raise _fail("device info field out of range", Status.ERR_RANGE)
         return info
     if t in (MsgType.SET_PARAMS_REQ, MsgType.GET_PARAMS_RSP):
@@ -602,6 +831,8 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
             point_mm=point,
             jacobian=_finite(_JAC.unpack_from(b, COMPUTE_RSP_BASE_BYTES)) if jac else None,
         )
+    if t == MsgType.DIAG_RSP:
+        return _dec_diag(b)
     if t == MsgType.ERROR_RSP:
         code, req = struct.unpack("<hB", b)
         if code >= 0:
