@@ -4,12 +4,13 @@
 # end against the simulator.
 #   test-host-io   tests/host/test_fileio.py, tests/host/test_cli_files.py, ruff, mypy --strict
 
-HOST_IO_PY_FILES := host/src/aacmm/fileio.py tests/host/test_fileio.py tests/host/test_cli_files.py
+HOST_IO_PY_FILES := host/src/aacmm/fileio.py tests/host/test_fileio.py tests/host/test_cli_files.py \
+                    tests/host/test_port_lock.py
 
 .PHONY: test-host-io
 test-host-io: sim
 	$(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=. \
-	    tests/host/test_fileio.py tests/host/test_cli_files.py
+	    tests/host/test_fileio.py tests/host/test_cli_files.py tests/host/test_port_lock.py
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(HOST_IO_PY_FILES)
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(HOST_IO_PY_FILES)
 	$(VENV)/bin/mypy --config-file host/pyproject.toml $(HOST_IO_PY_FILES)

@@ -243,7 +243,7 @@ class SampleStream:
             OperationError: the link was lost and the queue is empty.
             StopIteration: the stream was stopped and the queue is empty.
         """
-        wait = self.timeout if timeout is None else check_timeout(timeout)
+        wait = self.timeout if timeout is None else check_timeout(timeout, poll=True)
         deadline = time.monotonic() + wait
         with self._cond:
             while not self._queue:
@@ -321,17 +321,20 @@ def _counts(counts: Sequence[int]) -> tuple[int, ...]:
     return values
 
 
-def check_timeout(value: object, name: str = "timeout") -> float:
-    """``value`` as a float of seconds in (0, :data:`TIMEOUT_MAX`].
+def check_timeout(value: object, name: str = "timeout", *, poll: bool = False) -> float:
+    """``value`` as a float of seconds in (0, :data:`TIMEOUT_MAX`] (``[0, ...]`` with
+    ``poll``: waits for something already queued may be 0, "do not wait").
 
     Raises:
-        ValueError: not a number, not finite, not positive, or above the maximum.
+        ValueError: not a number, not finite, negative or zero, or above the maximum.
     """
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f"{name} must be a number of seconds, got {value!r}")
     t = float(value)
-    if not 0.0 < t <= TIMEOUT_MAX:  # also refuses nan
-        raise ValueError(f"{name} must be in (0, {TIMEOUT_MAX:g}] seconds, got {value!r}")
+    lo_ok = t >= 0.0 if poll else t > 0.0
+    if not (lo_ok and t <= TIMEOUT_MAX):  # also refuses nan
+        bracket = "[" if poll else "("
+        raise ValueError(f"{name} must be in {bracket}0, {TIMEOUT_MAX:g}] seconds, got {value!r}")
     return t
 
 
@@ -668,7 +671,7 @@ class Client:
             DeviceTimeoutError: none arrived in time.
             OperationError: the link was lost.
         """
-        wait = self.timeout if timeout is None else check_timeout(timeout)
+        wait = self.timeout if timeout is None else check_timeout(timeout, poll=True)
         deadline = time.monotonic() + wait
         with self._trigger_cond:
             while not self._triggers:

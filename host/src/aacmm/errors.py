@@ -16,6 +16,11 @@ class InitError(AacmmError):
     """A device, port or bus could not be opened or configured."""
 
 
+class PortBusyError(InitError):
+    """Another process or connection holds the port (the serial transport opens
+    it exclusively, so two clients never share a link)."""
+
+
 class OperationError(AacmmError):
     """An operation failed on the host side (I/O error, closed port, ...)."""
 

@@ -1,5 +1,5 @@
 """Shared pieces of the commands: the connection options, opening a device
-(lock, connect, handshake), output files, the live status line and small
+(connect with the port held exclusively, handshake), output files, the live status line and small
 helpers.
 
 Output files: every file a command writes goes through :func:`atomic_output`,
@@ -16,14 +16,13 @@ functions so that ``aacmm --help`` and the analysis commands start fast.
 from __future__ import annotations
 
 import argparse
-import fcntl
 import os
 import sys
 import time
 from dataclasses import dataclass, field
 from typing import IO, TYPE_CHECKING, Any
 
-from aacmm.commands.exitcodes import PortBusyError, UsageError, VersionMismatchError
+from aacmm.commands.exitcodes import UsageError, VersionMismatchError
 
 # The output-file rule, re-exported for the commands (explicit re-exports).
 from aacmm.fileio import OutputExistsError as OutputExistsError
@@ -102,35 +101,6 @@ def url_kind(url: str) -> tuple[str, str, int]:
     return u.kind, u.target, u.node
 
 
-def lock_serial_port(url: str) -> int | None:
-    """Take an exclusive advisory lock on a serial device path; return the fd (or None).
-
-    Two aacmm processes on one serial port would steal each other's answers,
-    so the second one is refused. The lock is ``flock(LOCK_EX | LOCK_NB)``, the
-    same pyserial takes with ``exclusive=True``. Non-path URLs (sockets, CAN)
-    and paths that do not exist are not locked (opening them reports the error).
-
-    Raises:
-        PortBusyError: another process holds the lock.
-    """
-    kind, target, _ = url_kind(url)
-    if kind != "serial" or not target.startswith("/") or not os.path.exists(target):
-        return None
-    try:
-        fd = os.open(target, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
-    except OSError:
-        return None  # let the real open report it
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        os.close(fd)
-        raise PortBusyError(f"port {target} is busy (another aacmm process uses it)") from None
-    except OSError:
-        os.close(fd)
-        return None
-    return fd
-
-
 def check_version(client: Client) -> DeviceInfo:
     """Read the device info and check the protocol version.
 
@@ -173,24 +143,22 @@ def check_version(client: Client) -> DeviceInfo:
 
 @dataclass
 class Device:
-    """An open, checked connection: the client, the device info, the port lock."""
+    """An open, checked connection: the URL, the client and the device info.
+
+    A serial port is held exclusively by the client's transport for as long
+    as the connection is open (:class:`aacmm.transport.SerialTransport`).
+    """
 
     url: str
     client: Client
     info: DeviceInfo
-    lock_fd: int | None = None
     _closed: bool = field(default=False, repr=False)
 
     def close(self) -> None:
         if self._closed:
             return
         self._closed = True
-        try:
-            self.client.close()
-        finally:
-            if self.lock_fd is not None:
-                os.close(self.lock_fd)
-                self.lock_fd = None
+        self.client.close()
 
     def __enter__(self) -> Device:
         return self
@@ -200,7 +168,7 @@ class Device:
 
 
 def open_device(url: str, timeout: float, retries: int) -> Device:
-    """Lock (serial paths), connect and check the protocol version.
+    """Connect (a serial port exclusively) and check the protocol version.
 
     Raises:
         PortBusyError, InitError, VersionMismatchError, DeviceTimeoutError,
@@ -214,21 +182,13 @@ def open_device(url: str, timeout: float, retries: int) -> Device:
         raise UsageError(str(exc)) from None
     if retries < 0:
         raise UsageError(f"--retries must be >= 0, got {retries}")
-    own_fd = lock_serial_port(url)
-    try:
-        client = connect(url, timeout=timeout, retries=retries)
-    except BaseException:
-        if own_fd is not None:
-            os.close(own_fd)
-        raise
+    client = connect(url, timeout=timeout, retries=retries)
     try:
         info = check_version(client)
     except BaseException:
         client.close()
-        if own_fd is not None:
-            os.close(own_fd)
         raise
-    return Device(url, client, info, own_fd)
+    return Device(url, client, info)
 
 
 def device_from_args(args: argparse.Namespace) -> Device:

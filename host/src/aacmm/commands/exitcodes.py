@@ -14,6 +14,7 @@ from aacmm.errors import (
     DeviceTimeoutError,
     InitError,
     OperationError,
+    PortBusyError,
 )
 
 OK: Final = 0
@@ -45,12 +46,26 @@ NAMES: Final[dict[int, str]] = {
 }
 
 
+__all__ = [
+    "DEVICE",
+    "INTERRUPTED",
+    "LINK_LOST",
+    "NAMES",
+    "OK",
+    "PORT",
+    "TIMEOUT",
+    "USAGE",
+    "VERSION",
+    "LinkLostError",
+    "PortBusyError",
+    "UsageError",
+    "VersionMismatchError",
+    "exit_code",
+]
+
+
 class UsageError(AacmmError, ValueError):
     """Bad arguments or a bad input file (exit status 2)."""
-
-
-class PortBusyError(InitError):
-    """Another process holds the port (exit status 3)."""
 
 
 class VersionMismatchError(InitError):

@@ -7,10 +7,18 @@ URL handlers (``socket://host:port``, ``rfc2217://host:port``, ``loop://``,
 resynchronising :class:`~aacmm.protocol.Deframer`; each good frame is decoded
 and handed to the sink, bad ones are counted and reported and reception goes
 on at the next delimiter.
+
+The port is opened exclusively (pyserial's ``exclusive=True``: ``flock``
+``LOCK_EX | LOCK_NB`` on a device path), so a second client -- another
+process or another connection in this one, through the API or the CLI alike
+-- gets :class:`~aacmm.errors.PortBusyError` at once instead of stealing the
+first one's frames. The lock goes with the port when it is closed (or the
+process ends, even by ``kill -9``).
 """
 
 from __future__ import annotations
 
+import errno
 import select
 import socket
 import threading
@@ -20,7 +28,13 @@ from typing import Any
 import serial
 from serial.urlhandler import protocol_socket
 
-from aacmm.errors import DeviceTimeoutError, FrameError, InitError, OperationError
+from aacmm.errors import (
+    DeviceTimeoutError,
+    FrameError,
+    InitError,
+    OperationError,
+    PortBusyError,
+)
 from aacmm.protocol import Deframer, decode_message, encode_frame
 from aacmm.transport.base import Transport
 
@@ -39,6 +53,7 @@ class SerialTransport(Transport):
             :class:`~aacmm.errors.DeviceTimeoutError`.
 
     Raises:
+        PortBusyError: another process or connection has the port open.
         InitError: the port cannot be opened or configured.
         ValueError: empty URL or non-positive baud rate.
     """
@@ -61,9 +76,17 @@ class SerialTransport(Transport):
         self._stop = threading.Event()
         try:
             self._port: Any = serial.serial_for_url(
-                url, baudrate=baudrate, timeout=_READ_POLL_S, write_timeout=write_timeout
+                url,
+                baudrate=baudrate,
+                timeout=_READ_POLL_S,
+                write_timeout=write_timeout,
+                exclusive=True,
             )
         except (serial.SerialException, OSError, ValueError) as exc:
+            if getattr(exc, "errno", None) in (errno.EWOULDBLOCK, errno.EAGAIN):
+                raise PortBusyError(
+                    f"serial port {url} is busy: another process or connection has it open"
+                ) from None
             raise InitError(f"cannot open serial port {url}: {exc}") from exc
         sock = getattr(self._port, "_socket", None)
         self._socket: socket.socket | None = (
