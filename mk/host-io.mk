@@ -5,6 +5,7 @@
 #   test-host-io   tests/host/test_fileio.py, tests/host/test_cli_files.py, ruff, mypy --strict
 
 HOST_IO_PY_FILES := host/src/aacmm/fileio.py tests/host/test_fileio.py tests/host/test_cli_files.py \
+                    tests/host/clihelp.py \
                     tests/host/test_port_lock.py
 
 .PHONY: test-host-io

@@ -11,56 +11,22 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 import tomllib
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from aacmm.commands import exitcodes
-from aacmm.commands.sim import SimProcess, find_simulator
-from aacmm.errors import AacmmError
+from aacmm.commands.sim import SimProcess
+from clihelp import one_error_line, run, sim_fixture
 
 pytestmark = pytest.mark.timeout(120)
+sim = sim_fixture("--seed", "5")
 
-AACMM = Path(sys.executable).with_name("aacmm")
 NOWHERE = "serial:///nonexistent/aacmm-port"
-
-
-def run(
-    *args: str, timeout: float = 60, cwd: Path | None = None
-) -> subprocess.CompletedProcess[str]:
-    env = {k: v for k, v in os.environ.items() if k != "AACMM_PORT"}
-    return subprocess.run(
-        [str(AACMM), *args], capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd
-    )
-
-
-def one_error_line(p: subprocess.CompletedProcess[str], code: int, *words: str) -> str:
-    """Exit status ``code`` and exactly one line on stderr naming ``words``."""
-    assert p.returncode == code, (p.returncode, p.stdout, p.stderr)
-    lines = p.stderr.strip().splitlines()
-    assert len(lines) == 1, p.stderr
-    assert lines[0].startswith("aacmm "), lines
-    for w in words:
-        assert w.lower() in lines[0].lower(), (w, lines[0])
-    return lines[0]
 
 
 def no_temp_files(directory: Path) -> bool:
     return not [p for p in directory.iterdir() if p.name.endswith(".tmp")]
-
-
-@pytest.fixture(scope="module")
-def sim() -> Iterator[SimProcess]:
-    try:
-        find_simulator()
-    except AacmmError as exc:
-        pytest.fail(f"{exc} (make test-host-io builds it)")
-    with SimProcess(["--serial", "pty", "--quiet", "--seed", "5"]) as s:
-        yield s
 
 
 # ------------------------------------------------------------------ outputs (15.9)

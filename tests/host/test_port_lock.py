@@ -22,13 +22,13 @@ from pathlib import Path
 import pytest
 from aacmm.client import connect
 from aacmm.commands import exitcodes
-from aacmm.commands.sim import SimProcess, find_simulator
-from aacmm.errors import AacmmError, InitError, PortBusyError
+from aacmm.commands.sim import SimProcess
+from aacmm.errors import InitError, PortBusyError
 from aacmm.transport import SerialTransport
+from clihelp import AACMM, cli_env, sim_fixture
 
 pytestmark = pytest.mark.timeout(120)
-
-AACMM = Path(sys.executable).with_name("aacmm")
+sim = sim_fixture("--seed", "7")
 
 
 @pytest.fixture
@@ -70,20 +70,10 @@ def test_lock_is_refused_to_another_process(pty_path: str) -> None:
         holder.close()
 
 
-@pytest.fixture(scope="module")
-def sim() -> Iterator[SimProcess]:
-    try:
-        find_simulator()
-    except AacmmError as exc:
-        pytest.fail(f"{exc} (make test-host-io builds it)")
-    with SimProcess(["--serial", "pty", "--quiet", "--seed", "7"]) as s:
-        yield s
-
-
 def test_script_connecting_while_log_runs_fails_clearly(sim: SimProcess, tmp_path: Path) -> None:
     """The issue's repro: the script is refused; the logger loses nothing."""
     out = tmp_path / "run.csv"
-    env = {k: v for k, v in os.environ.items() if k != "AACMM_PORT"}
+    env = cli_env()
     proc = subprocess.Popen(
         [str(AACMM), "log", str(out), "--port", sim.url, "-r", "500", "-d", "3"],
         stdout=subprocess.PIPE,
