@@ -1,0 +1,69 @@
+"""Arm calibration: identify the structural parameters from probed artefacts.
+
+A pure library (arrays and dataclasses in, results out; nothing printed):
+
+* :mod:`~aacmm.calibration.observations` -- poses and constraints (seats,
+  calibrated lengths, reference points, spheres, planes);
+* :mod:`~aacmm.calibration.problem` -- residuals and the analytic Jacobian
+  (C core) with the nuisance unknowns eliminated;
+* :mod:`~aacmm.calibration.identifiability` -- rank, singular values,
+  observability indices, named null-space directions;
+* :mod:`~aacmm.calibration.solve` -- :func:`calibrate`: Levenberg-Marquardt in
+  the identifiable subspace, covariance, chi-square check, outliers.
+
+The method and the figures are in docs/calibration.md.
+"""
+
+from aacmm.calibration.identifiability import (
+    Identifiability,
+    NullDirection,
+    analyse,
+)
+from aacmm.calibration.observations import (
+    Cone,
+    LengthSet,
+    ObservationError,
+    Observations,
+    Plane,
+    ReferencePoints,
+    Sphere,
+    combine,
+)
+from aacmm.calibration.problem import CalibrationError, Evaluation, Problem
+from aacmm.calibration.solve import (
+    CalibrationResult,
+    ChiSquare,
+    Outlier,
+    Progress,
+    Suspect,
+    calibrate,
+    find_outliers,
+    parse_names,
+    predicted_covariance,
+)
+
+__all__ = [
+    "CalibrationError",
+    "CalibrationResult",
+    "ChiSquare",
+    "Cone",
+    "Evaluation",
+    "Identifiability",
+    "LengthSet",
+    "NullDirection",
+    "ObservationError",
+    "Observations",
+    "Outlier",
+    "Plane",
+    "Problem",
+    "Progress",
+    "ReferencePoints",
+    "Sphere",
+    "Suspect",
+    "analyse",
+    "calibrate",
+    "combine",
+    "find_outliers",
+    "parse_names",
+    "predicted_covariance",
+]

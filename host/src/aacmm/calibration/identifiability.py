@@ -1,0 +1,344 @@
+"""Which parameters (and combinations) the data can identify.
+
+The SVD of the column-scaled, whitened, nuisance-projected Jacobian decides it
+(:func:`analyse`). Each column is divided by the parameter's whole effect on
+the probe point (the norm of its unprojected, whitened point-Jacobian column),
+so a singular value is the fraction of a direction's effect on the tip that
+survives in the residuals: near 1 for a well-observed direction, 0 for one the
+nuisance unknowns absorb completely (rotating the arm about axis 1 moves every
+tip point, but no seat, length or sphere notices).
+
+Rank is judged with a tolerance scaled to the residuals. A symmetry of the
+data (that rotation about axis 1, say) leaves the residuals unchanged only
+where they are zero; elsewhere it turns the residual vectors, which gives it a
+spurious singular value of about ||r|| / ||p|| (residuals over the tip's lever
+from the base: ~1e-3 with the nominal parameters' 1.5 mm open cones, ~1e-6
+after calibration). The tolerance is ``kappa`` times that, with a floor of
+1e-10 for rounding; identifiable directions of a usable data set sit far above
+(~0.1 for 3 cones and 30 lengths on the paper's arm).
+
+Null-space directions are named by comparing them with the symmetries the
+model is known to have: rotation about and shift along axis 1 (theta1 offset,
+d1), the split of the tip vector between theta6 offset, alpha6, d6, a6 and l
+(only the tip's position in the flange frame reaches the probe point: 3
+combinations of 5), and global scale (every length multiplied by one factor).
+Anything else is reported by its largest parameter components.
+
+Observability indices (Borm and Menq; Driels and Pathre; Nahvi and Hollerbach
+1996) are computed over the identifiable singular values.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from aacmm.calibration.problem import Evaluation
+from aacmm.core import PARAM_NAMES, FloatArray, Params
+
+#: Parameters the 'fix' strategy prefers to hold when they are unobservable
+#: (the convention of published AACMM calibrations, and the tip's angles).
+PREFERRED_HELD: tuple[str, ...] = ("theta1", "d1", "theta6", "alpha6")
+TIP_PARAMS: tuple[str, ...] = ("theta6", "alpha6", "d6", "a6", "l")
+DEFAULT_KAPPA = 10.0
+RANK_FLOOR = 1e-10
+_IN_NULL = 0.02  # a candidate symmetry lies in the null space if <2 % of it sticks out
+_COMPONENT_MIN = 0.1
+
+
+@dataclass(frozen=True)
+class NullDirection:
+    """One unobservable direction, named.
+
+    ``kind``: ``theta1``, ``d1``, ``tip``, ``scale`` or ``other``;
+    ``components``: (parameter name, weight) with |weight| >= 0.1 in scaled
+    units (the direction has unit norm there), largest first; ``vector``
+    (25,): the direction in parameter units (rad, mm); ``meaning``: what it
+    does to the arm; ``remedy``: which data would make it observable.
+    """
+
+    kind: str
+    components: tuple[tuple[str, float], ...]
+    vector: FloatArray
+    meaning: str
+    remedy: str
+
+    def describe(self) -> str:
+        comps = ", ".join(f"{n} {w:+.2f}" for n, w in self.components)
+        return f"{comps}: {self.meaning}; {self.remedy}"
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """The identifiability of the parameters in ``names`` from one data set.
+
+    ``singular_values``: descending, of the column-scaled Jacobian;
+    ``tolerance``: the rank threshold used; ``rank``: how many exceed it;
+    ``scale`` (len(names),): RMS effect of each parameter on the tip point (mm
+    per rad or mm per mm), the column scaling; ``basis`` (len(names), rank)
+    and ``null_basis`` (len(names), n - rank): orthonormal identifiable and
+    unobservable directions in scaled coordinates; ``null``: the named
+    unobservable directions; ``held``: parameters the 'fix' strategy holds at
+    their start values so that the rest are identifiable; ``rows``: residual
+    rows; ``residual_ratio``: ||r|| / ||p|| (whitened), the scale of the
+    tolerance.
+    """
+
+    names: tuple[str, ...]
+    columns: tuple[int, ...]
+    scale: FloatArray
+    singular_values: FloatArray
+    tolerance: float
+    rank: int
+    basis: FloatArray
+    null_basis: FloatArray
+    null: tuple[NullDirection, ...]
+    held: tuple[str, ...]
+    rows: int
+    residual_ratio: float
+
+    @property
+    def n(self) -> int:
+        return len(self.names)
+
+    @property
+    def identifiable_values(self) -> FloatArray:
+        return self.singular_values[: self.rank]
+
+    @property
+    def condition_number(self) -> float:
+        """s_max / s_min over the identifiable singular values (inf if rank 0)."""
+        s = self.identifiable_values
+        return float(s[0] / s[-1]) if s.size else math.inf
+
+    @property
+    def inverse_condition(self) -> float:
+        """s_min / s_max (Driels and Pathre)."""
+        s = self.identifiable_values
+        return float(s[-1] / s[0]) if s.size else 0.0
+
+    @property
+    def min_singular_value(self) -> float:
+        s = self.identifiable_values
+        return float(s[-1]) if s.size else 0.0
+
+    @property
+    def o1(self) -> float:
+        """(product of the identifiable singular values)^(1/L) / sqrt(m) (Borm and Menq)."""
+        s = self.identifiable_values
+        if not s.size:
+            return 0.0
+        return float(np.exp(np.mean(np.log(s))) / math.sqrt(max(self.rows, 1)))
+
+    @property
+    def noise_amplification(self) -> float:
+        """s_min^2 / s_max (Nahvi and Hollerbach 1996)."""
+        s = self.identifiable_values
+        return float(s[-1] ** 2 / s[0]) if s.size else 0.0
+
+    @property
+    def gap(self) -> float:
+        """s_rank / s_(rank+1): how cleanly the spectrum splits (inf if full rank)."""
+        s = self.singular_values
+        if self.rank == 0 or self.rank >= s.size:
+            return math.inf
+        return float(s[self.rank - 1] / max(s[self.rank], 1e-300))
+
+
+def _symmetries(params: Params) -> list[tuple[str, list[FloatArray]]]:
+    """Known exact symmetries of point data at ``params`` (parameter units, 25 each)."""
+    v = params.to_vector()
+    k = {n: i for i, n in enumerate(PARAM_NAMES)}
+    out: list[tuple[str, list[FloatArray]]] = []
+    for name in ("theta1", "d1"):
+        e = np.zeros(25)
+        e[k[name]] = 1.0
+        out.append((name, [e]))
+    # tip vector in the flange frame: Rz(theta6) (a6, -l sin alpha6, d6 + l cos alpha6)
+    th, al, d6, a6, ll = (v[k[n]] for n in TIP_PARAMS)
+    ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
+    u = np.array([a6, -ll * sa, d6 + ll * ca])
+    rz = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
+    drz = np.array([[-st, -ct, 0.0], [ct, -st, 0.0], [0.0, 0.0, 0.0]])
+    g = np.column_stack(
+        [
+            drz @ u,
+            rz @ np.array([0.0, -ll * ca, -ll * sa]),
+            rz @ np.array([0.0, 0.0, 1.0]),
+            rz @ np.array([1.0, 0.0, 0.0]),
+            rz @ np.array([0.0, -sa, ca]),
+        ]
+    )
+    _, _, vt = np.linalg.svd(g)
+    tip = []
+    for row in vt[3:]:
+        e = np.zeros(25)
+        e[[k[n] for n in TIP_PARAMS]] = row
+        tip.append(e)
+    out.append(("tip", tip))
+    scale = np.zeros(25)
+    scale[12:] = v[12:]
+    out.append(("scale", [scale]))
+    return out
+
+
+_MEANING = {
+    "theta1": (
+        "rotation of the whole arm about joint axis 1 (z0): no seat, length, sphere or plane "
+        "notices it",
+        "observable only from reference points in the arm's base frame (a known base datum)",
+    ),
+    "d1": (
+        "shift of the whole arm along joint axis 1 (z0)",
+        "observable only from reference points in the arm's base frame (a known base datum)",
+    ),
+    "tip": (
+        "splits the tip vector between theta6 offset, alpha6, d6, a6 and l without moving the "
+        "probe point: only the tip's position in the flange frame (3 combinations) is observable",
+        "no probing data can observe it (held by convention)",
+    ),
+    "scale": (
+        "global scale: every length (d, a, l) multiplied by one factor; seats and planes close "
+        "at any scale",
+        "add a calibrated length (ball bar, gauge), a calibrated sphere, or reference points",
+    ),
+    "other": (
+        "not a symmetry of the model: the poses do not excite it",
+        "add articulations that move these joints more (wider joint ranges, more seats or "
+        "lengths at other places in the workspace)",
+    ),
+}
+
+
+def _components(vec_scaled: FloatArray, names: Sequence[str]) -> tuple[tuple[str, float], ...]:
+    order = np.argsort(-np.abs(vec_scaled))
+    big = vec_scaled[order[0]]
+    sign = 1.0 if big >= 0 else -1.0
+    return tuple(
+        (names[i], float(sign * vec_scaled[i]))
+        for i in order
+        if abs(vec_scaled[i]) >= _COMPONENT_MIN
+    )
+
+
+def _name_null(
+    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: Params
+) -> tuple[NullDirection, ...]:
+    """Named directions spanning the null space (scaled coords, columns = ``columns``).
+
+    A known symmetry is reported as itself (pure theta1, every length for
+    scale, ...) when it lies in the null space and is independent of those
+    already named; what is left is reported as orthonormal 'other' directions.
+    """
+    names = [PARAM_NAMES[c] for c in columns]
+    cols = list(columns)
+    k = null.shape[1]
+    found: list[tuple[str, FloatArray]] = []
+    accepted = np.zeros((len(cols), 0))
+    for kind, vecs in _symmetries(params):
+        for v in vecs:
+            if accepted.shape[1] == k:
+                break
+            s = v[cols] * scale
+            nrm = np.linalg.norm(s)
+            if nrm < 1e-12 * max(1.0, float(np.linalg.norm(v[cols]))):
+                continue  # the symmetry does not involve these parameters
+            s = s / nrm
+            if np.linalg.norm(s - null @ (null.T @ s)) > _IN_NULL:
+                continue
+            if accepted.shape[1]:
+                q, _ = np.linalg.qr(accepted)
+                if np.linalg.norm(s - q @ (q.T @ s)) < 0.1:
+                    continue  # a combination of directions already named
+            found.append((kind, s))
+            accepted = np.column_stack([accepted, s])
+    if accepted.shape[1] < k:
+        # the rest of the null space, orthogonal to the named directions
+        q, _ = np.linalg.qr(accepted) if accepted.shape[1] else (np.zeros((len(cols), 0)), None)
+        rest = null - q @ (q.T @ null)
+        u = np.linalg.svd(rest, full_matrices=False)[0]
+        for j in range(k - accepted.shape[1]):
+            found.append(("other", u[:, j]))
+    out = []
+    for kind, s in found:
+        vec = np.zeros(25)
+        vec[cols] = s / scale
+        meaning, remedy = _MEANING[kind]
+        out.append(NullDirection(kind, _components(s, names), vec, meaning, remedy))
+    return tuple(out)
+
+
+def _held(null: FloatArray, names: Sequence[str]) -> tuple[str, ...]:
+    """Parameters to hold so that the rest are identifiable (``null``: scaled basis)."""
+    k = null.shape[1]
+    if k == 0:
+        return ()
+    lev = np.linalg.norm(null, axis=1)
+    order = [names.index(n) for n in PREFERRED_HELD if n in names]
+    order += [i for i in np.argsort(-lev, kind="stable") if i not in order]
+    chosen: list[int] = []
+    for i in order:
+        if len(chosen) == k:
+            break
+        trial = [*chosen, i]
+        smin = np.linalg.svd(null[trial], compute_uv=False)[-1]
+        if smin > 0.1 * max(lev[i], 1e-300) and smin > 1e-6:
+            chosen = trial
+    if len(chosen) < k:  # fall back: pivoted selection by leverage alone
+        chosen = [int(i) for i in np.argsort(-lev, kind="stable")[:k]]
+    return tuple(names[i] for i in sorted(chosen))
+
+
+def analyse(
+    ev: Evaluation,
+    columns: Sequence[int] | None = None,
+    kappa: float = DEFAULT_KAPPA,
+) -> Identifiability:
+    """Identifiability of the parameters ``columns`` (default all 25) at ``ev``.
+
+    Raises ValueError for an empty or bad column list.
+    """
+    cols = tuple(range(25)) if columns is None else tuple(int(c) for c in columns)
+    if not cols or min(cols) < 0 or max(cols) >= 25 or len(set(cols)) != len(cols):
+        raise ValueError("columns must be distinct parameter indices 0..24")
+    names = tuple(PARAM_NAMES[c] for c in cols)
+    raw = np.sqrt(ev.raw_norm2[list(cols)])
+    if np.any(raw <= 0):
+        dead = [n for n, r in zip(names, raw, strict=True) if r <= 0]
+        raise ValueError(f"no probe point depends on {', '.join(dead)}")
+    a = ev.jac[:, list(cols)] / raw
+    m = a.shape[0]
+    if m > 4 * a.shape[1]:
+        a = np.asarray(np.linalg.qr(a, mode="r"))  # same singular values, small SVD
+    _, s, vt = np.linalg.svd(a, full_matrices=True)
+    s_full = np.zeros(len(cols))
+    s_full[: s.size] = s
+    v = vt.T
+    # ||r|| over the tip's whitened lever from the base origin
+    sig = ev.pose_sigma
+    w = np.where(sig > 0, 1.0 / np.where(sig > 0, sig, 1.0) ** 2, 0.0)
+    lever = float(np.sqrt(np.sum(w * np.einsum("na,na->n", ev.points, ev.points))))
+    ratio = float(np.linalg.norm(ev.r) / lever) if lever > 0 else 0.0
+    smax = float(s_full[0]) if s_full.size else 0.0
+    tol = max(RANK_FLOOR * smax, kappa * ratio)
+    rank = int(np.sum(s_full > tol))
+    basis, null = v[:, :rank], v[:, rank:]
+    scale = raw / math.sqrt(float(w.sum()))
+    named = _name_null(null, scale, cols, ev.params)
+    return Identifiability(
+        names,
+        cols,
+        scale,
+        s_full,
+        tol,
+        rank,
+        basis,
+        null,
+        named,
+        _held(null, list(names)),
+        m,
+        ratio,
+    )

@@ -1,0 +1,368 @@
+"""What a calibration is fitted to: probed poses and the constraints between them.
+
+An :class:`Observations` holds a table of poses (joint readings in rad, the
+probing standard uncertainty of each, and a label: the plan step and the point
+index it came from) and a list of constraints on them:
+
+* :class:`Cone` -- point constraint: every pose of the group puts the tip on
+  one unknown point (a kinematic seat probed from many articulations);
+* :class:`LengthSet` -- a calibrated length (ball bar, gauge) measured at one
+  or more positions; each position has an end A and an end B, each the mean
+  of one or more poses;
+* :class:`ReferencePoints` -- poses whose tip coordinates are known from
+  another instrument (laser tracker, CMM), with an unknown 6-DOF registration
+  of the arm's base (or a base frame known to coincide with the instrument's);
+* :class:`Sphere` -- tip centres at a known (or fitted) radius from an unknown
+  centre;
+* :class:`Plane` -- tip centres on an unknown plane.
+
+Every unknown of a constraint (a seat, a sphere centre, a registration) is a
+nuisance parameter: the solver eliminates it exactly, so only the 25 arm
+parameters remain (see :mod:`aacmm.calibration.problem`).
+
+Errors: :class:`ObservationError` (a ValueError) names the constraint and
+what is wrong (too few poses, NaN, an index out of range, ...).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from aacmm.core import JOINTS, FloatArray
+from aacmm.errors import AacmmError
+
+IntArray = npt.NDArray[np.intp]
+
+
+class ObservationError(AacmmError, ValueError):
+    """The observations cannot be analysed (bad values, too few poses, bad indices)."""
+
+
+def _indices(name: str, values: npt.ArrayLike) -> IntArray:
+    a = np.asarray(values)
+    if a.ndim != 1:
+        raise ObservationError(f"{name}: pose indices must be a flat list")
+    if a.size and not np.issubdtype(a.dtype, np.integer):
+        raise ObservationError(f"{name}: pose indices must be integers")
+    return a.astype(np.intp)
+
+
+def _finite_positive(name: str, what: str, v: float, allow_zero: bool = True) -> float:
+    f = float(v)
+    if math.isnan(f) or f < 0 or (f == 0 and not allow_zero):
+        raise ObservationError(f"{name}: {what} must be {'>= 0' if allow_zero else '> 0'}, got {v}")
+    return f
+
+
+@dataclass(frozen=True)
+class _PoseGroup:
+    """A named group of poses (base of the single-group constraints)."""
+
+    name: str
+    poses: IntArray
+    MIN_POSES: ClassVar[int] = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "poses", _indices(self.name, self.poses))
+
+    @property
+    def min_poses(self) -> int:
+        return self.MIN_POSES
+
+
+@dataclass(frozen=True)
+class Cone(_PoseGroup):
+    """All ``poses`` put the tip on one unknown point (3 nuisance unknowns)."""
+
+    MIN_POSES: ClassVar[int] = 2
+
+
+@dataclass(frozen=True)
+class LengthSet:
+    """One calibrated length measured at ``len(ends_a)`` positions.
+
+    ``ends_a[i]`` and ``ends_b[i]`` are the poses probed at the two ends of
+    position ``i``; an end is located by the mean of its poses' tip points.
+    ``u_length_mm`` is the standard uncertainty of the calibrated value, common
+    to all positions (0: exact; otherwise the true length is a nuisance unknown
+    with that prior).
+    """
+
+    name: str
+    length_mm: float
+    ends_a: tuple[IntArray, ...]
+    ends_b: tuple[IntArray, ...]
+    u_length_mm: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.length_mm) and self.length_mm > 0):
+            raise ObservationError(
+                f"{self.name}: length must be finite and > 0, got {self.length_mm}"
+            )
+        if len(self.ends_a) != len(self.ends_b):
+            raise ObservationError(f"{self.name}: every position needs an end A and an end B")
+        a = tuple(_indices(self.name, e) for e in self.ends_a)
+        b = tuple(_indices(self.name, e) for e in self.ends_b)
+        for i, (ea, eb) in enumerate(zip(a, b, strict=True)):
+            if ea.size == 0 or eb.size == 0:
+                raise ObservationError(f"{self.name}: position {i} has an end without points")
+        object.__setattr__(self, "ends_a", a)
+        object.__setattr__(self, "ends_b", b)
+        u = _finite_positive(self.name, "the length uncertainty", self.u_length_mm)
+        if math.isinf(u):
+            raise ObservationError(f"{self.name}: the length uncertainty must be finite")
+        object.__setattr__(self, "u_length_mm", u)
+
+    @property
+    def poses(self) -> IntArray:
+        return np.concatenate([*self.ends_a, *self.ends_b]) if self.ends_a else np.empty(0, np.intp)
+
+
+@dataclass(frozen=True)
+class ReferencePoints:
+    """Poses whose tip coordinates ``xyz_mm`` (n, 3) are known in an instrument frame.
+
+    ``u_mm``: standard uncertainty per axis of the known coordinates.
+    ``base_known``: the coordinates are in the arm's base frame (no
+    registration); otherwise a rigid 6-DOF registration is estimated (6
+    nuisance unknowns, at least 3 points).
+    """
+
+    name: str
+    poses: IntArray
+    xyz_mm: FloatArray
+    u_mm: float = 0.0
+    base_known: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "poses", _indices(self.name, self.poses))
+        x = np.asarray(self.xyz_mm, dtype=np.float64)
+        if x.shape != (self.poses.size, 3):
+            raise ObservationError(
+                f"{self.name}: {self.poses.size} poses need {self.poses.size} x 3 coordinates, "
+                f"got shape {x.shape}"
+            )
+        if not np.all(np.isfinite(x)):
+            raise ObservationError(f"{self.name}: reference coordinates must be finite")
+        object.__setattr__(self, "xyz_mm", x)
+        u = _finite_positive(self.name, "the reference uncertainty", self.u_mm)
+        object.__setattr__(self, "u_mm", u)
+
+    @property
+    def min_poses(self) -> int:
+        return 1 if self.base_known else 3
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """Tip centres at ``radius_mm`` from an unknown centre.
+
+    ``radius_mm`` is the radius of the tip-centre sphere (sphere radius plus
+    the probe ball's for outside probing); ``u_radius_mm`` its standard
+    uncertainty (0: exact; ``inf`` or ``radius_mm=None``: fitted freely).
+    """
+
+    name: str
+    poses: IntArray
+    radius_mm: float | None = None
+    u_radius_mm: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "poses", _indices(self.name, self.poses))
+        if self.radius_mm is not None and not (
+            math.isfinite(self.radius_mm) and self.radius_mm > 0
+        ):
+            raise ObservationError(
+                f"{self.name}: radius must be finite and > 0, got {self.radius_mm}"
+            )
+        u = _finite_positive(self.name, "the radius uncertainty", self.u_radius_mm)
+        object.__setattr__(self, "u_radius_mm", u)
+
+    @property
+    def free_radius(self) -> bool:
+        return self.radius_mm is None or math.isinf(self.u_radius_mm)
+
+    @property
+    def min_poses(self) -> int:
+        return 5 if self.free_radius else 4
+
+
+@dataclass(frozen=True)
+class Plane(_PoseGroup):
+    """Tip centres on one unknown plane (normal and offset: 3 nuisance unknowns)."""
+
+    MIN_POSES: ClassVar[int] = 4
+
+
+Constraint = Cone | LengthSet | ReferencePoints | Sphere | Plane
+
+
+@dataclass(frozen=True)
+class Observations:
+    """Poses and constraints for a calibration.
+
+    ``theta_rad`` (n, 6): joint readings (the model adds the theta offsets).
+    ``sigma_mm`` (n,): probing standard uncertainty per axis of each pose's
+    tip point. ``step`` and ``index`` (n,): where each pose came from (plan
+    step number and point index within the step), for reports and outliers.
+    ``step_names``: a name per step number (optional).
+    """
+
+    theta_rad: FloatArray
+    sigma_mm: FloatArray
+    constraints: tuple[Constraint, ...]
+    step: IntArray = field(default_factory=lambda: np.empty(0, np.intp))
+    index: IntArray = field(default_factory=lambda: np.empty(0, np.intp))
+    step_names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        th = np.ascontiguousarray(self.theta_rad, dtype=np.float64)
+        if th.ndim != 2 or th.shape[1] != JOINTS:
+            raise ObservationError(f"joint readings must have shape (n, {JOINTS}), got {th.shape}")
+        n = th.shape[0]
+        sig = np.asarray(self.sigma_mm, dtype=np.float64)
+        sig = np.full(n, float(sig)) if sig.ndim == 0 else sig
+        if sig.shape != (n,):
+            raise ObservationError(
+                f"sigma_mm needs one value per pose ({n}), got shape {sig.shape}"
+            )
+        object.__setattr__(self, "theta_rad", th)
+        object.__setattr__(self, "sigma_mm", sig)
+        step = np.asarray(self.step, dtype=np.intp) if len(self.step) else np.zeros(n, np.intp)
+        index = np.asarray(self.index, dtype=np.intp) if len(self.index) else np.arange(n)
+        if step.shape != (n,) or index.shape != (n,):
+            raise ObservationError("step and index need one value per pose")
+        object.__setattr__(self, "step", step)
+        object.__setattr__(self, "index", index)
+        object.__setattr__(self, "constraints", tuple(self.constraints))
+
+    @property
+    def n_poses(self) -> int:
+        return int(self.theta_rad.shape[0])
+
+    def label(self, pose: int) -> str:
+        """``step 3 (cone-A) point 7`` for a pose index."""
+        s = int(self.step[pose])
+        name = f" ({self.step_names[s]})" if 0 <= s < len(self.step_names) else ""
+        return f"step {s}{name} point {int(self.index[pose])}"
+
+    def validate(self) -> None:
+        """Check everything a solve relies on; raise :class:`ObservationError` if not.
+
+        Finite joint readings (|q| <= 1024 rad) and uncertainties (> 0) for
+        every pose a constraint uses, indices in range, enough poses per
+        constraint, at least one constraint.
+        """
+        if not self.constraints:
+            raise ObservationError("no observations: nothing to calibrate against")
+        n = self.n_poses
+        used = np.zeros(n, dtype=bool)
+        for c in self.constraints:
+            idx = c.poses
+            if idx.size and (idx.min() < 0 or idx.max() >= n):
+                raise ObservationError(f"{c.name}: pose index out of range 0..{n - 1}")
+            if isinstance(c, LengthSet):
+                if not c.ends_a:
+                    raise ObservationError(f"{c.name}: no positions measured")
+            elif idx.size < c.min_poses:
+                kind = type(c).__name__.lower()
+                raise ObservationError(
+                    f"{c.name}: a {kind} needs at least {c.min_poses} points, got {idx.size}"
+                )
+            used[idx] = True
+        bad = used & ~np.all(np.isfinite(self.theta_rad), axis=1)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ObservationError(f"{self.label(i)}: joint reading is not a finite number")
+        big = used & (np.abs(np.nan_to_num(self.theta_rad)).max(axis=1) > 1024.0)
+        if big.any():
+            i = int(np.flatnonzero(big)[0])
+            raise ObservationError(f"{self.label(i)}: joint reading beyond +-1024 rad")
+        sig = self.sigma_mm
+        bad = used & ~(np.isfinite(sig) & (sig > 0))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ObservationError(
+                f"{self.label(i)}: probing uncertainty must be finite and > 0, got {sig[i]}"
+            )
+
+    def without_poses(self, drop: Sequence[int] | IntArray) -> Observations:
+        """The same observations with some poses left out of every constraint.
+
+        Constraints left with too few poses are dropped (a length position
+        loses the end that lost its points).
+        """
+        gone = np.zeros(self.n_poses, dtype=bool)
+        gone[np.asarray(drop, dtype=np.intp)] = True
+        kept: list[Constraint] = []
+        for c in self.constraints:
+            if isinstance(c, LengthSet):
+                pa, pb = [], []
+                for ea, eb in zip(c.ends_a, c.ends_b, strict=True):
+                    ka, kb = ea[~gone[ea]], eb[~gone[eb]]
+                    if ka.size and kb.size:
+                        pa.append(ka)
+                        pb.append(kb)
+                if pa:
+                    kept.append(replace(c, ends_a=tuple(pa), ends_b=tuple(pb)))
+                continue
+            keep = ~gone[c.poses]
+            if keep.sum() < c.min_poses:
+                continue
+            if isinstance(c, ReferencePoints):
+                kept.append(replace(c, poses=c.poses[keep], xyz_mm=c.xyz_mm[keep]))
+            else:
+                kept.append(replace(c, poses=c.poses[keep]))
+        return replace(self, constraints=tuple(kept))
+
+    def subset(self, constraints: Sequence[Constraint]) -> Observations:
+        """The same pose table with only ``constraints``."""
+        return replace(self, constraints=tuple(constraints))
+
+
+def combine(parts: Sequence[Observations]) -> Observations:
+    """Several observation sets as one (poses appended, indices shifted).
+
+    Step numbers are kept per part but offset so that they stay distinct.
+    """
+    if not parts:
+        raise ObservationError("no observations to combine")
+    thetas, sigmas, steps, idx, names = [], [], [], [], []
+    cons: list[Constraint] = []
+    off = 0
+    step_off = 0
+    for part in parts:
+        thetas.append(part.theta_rad)
+        sigmas.append(part.sigma_mm)
+        steps.append(part.step + step_off)
+        idx.append(part.index)
+        nsteps = max(len(part.step_names), int(part.step.max()) + 1 if part.n_poses else 0)
+        names += list(part.step_names) + [""] * (nsteps - len(part.step_names))
+        for c in part.constraints:
+            cons.append(_shift(c, off))
+        off += part.n_poses
+        step_off += nsteps
+    return Observations(
+        np.concatenate(thetas),
+        np.concatenate(sigmas),
+        tuple(cons),
+        np.concatenate(steps),
+        np.concatenate(idx),
+        tuple(names),
+    )
+
+
+def _shift(c: Constraint, off: int) -> Constraint:
+    if isinstance(c, LengthSet):
+        return replace(
+            c,
+            ends_a=tuple(e + off for e in c.ends_a),
+            ends_b=tuple(e + off for e in c.ends_b),
+        )
+    return replace(c, poses=c.poses + off)

@@ -1,0 +1,26 @@
+# Calibration (issue 12): aacmm.calibration (identification engine, identifiability,
+# covariance, validation, probe calibration), its tests against synthetic truths,
+# lint, and the benchmark. BLAS runs on one thread: the engine's matrices are tall
+# and thin, where OpenBLAS threads only contend on a shared machine (docs/calibration.md).
+
+CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
+                  tests/host/calib_synth.py bench/bench_calibration.py
+CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+
+.PHONY: test-calibration test-calibration-lint bench-calibration
+
+test-calibration:
+	$(CALIB_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
+	    tests/host/test_calibration.py
+	@$(MAKE) --no-print-directory test-calibration-lint
+
+test-calibration-lint:
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(CALIB_PY_FILES)
+	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CALIB_PY_FILES)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CALIB_PY_FILES)
+
+TEST_SUITES += test-calibration
+
+bench-calibration:
+	@$(CALIB_ENV) $(PYTHON) bench/bench_calibration.py
+BENCH_TARGETS += bench-calibration
