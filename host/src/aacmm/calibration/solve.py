@@ -147,9 +147,10 @@ class ChiSquare:
         )
         if self.suspects:
             s = self.suspects[0]
+            share = min(100.0, 100 * s.chi2_drop / max(s.excess, 1e-300))
             text += (
                 f"; the residuals look like a {s.name} error of {s.amplitude * 1e6:.1f} urad "
-                f"(explains {min(100.0, 100 * s.chi2_drop / max(s.excess, 1e-300)):.0f} % of the excess)"
+                f"(explains {share:.0f} % of the excess)"
             )
         return text
 
