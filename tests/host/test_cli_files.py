@@ -73,3 +73,60 @@ def test_timeout_out_of_range(
 def test_timeout_at_the_maximum_works(sim: SimProcess) -> None:
     p = run("info", "--timeout", "3600", "--port", sim.url)
     assert p.returncode == 0, p.stderr
+
+
+# ------------------------------------------------------------------ deep nesting (15.2)
+
+DEEP_TOML = "l_mm = " + "[" * 1200 + "]" * 1200 + "\n"  # the issue's 1,200 levels
+DEEP_JSON = "[" * 100_000  # the issue's 100,000 brackets
+
+
+def small_log(directory: Path) -> Path:
+    """A log CSV as `aacmm log` writes it (three samples)."""
+    from aacmm.commands.log import COLUMNS
+
+    rows = [",".join(COLUMNS)]
+    for i in range(3):
+        counts = [str((i + 1) * 1000 * (j + 1)) for j in range(6)]
+        rows.append(
+            ",".join([str(i), str(1000 * i), f"{1.7e9 + i:.6f}", *counts, "1.0", "2.0", "3.0", "1"])
+        )
+    path = directory / "run.csv"
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        ("deep.toml", DEEP_TOML),
+        ("deep.json", DEEP_JSON),
+        ("inline.toml", "a = " + "{b = " * 1200 + "1" + "}" * 1200),
+    ],
+)
+def test_params_set_deeply_nested_file(tmp_path: Path, name: str, text: str) -> None:
+    """RecursionError traceback, exit 1, before; --check reads the file the same way."""
+    path = tmp_path / name
+    path.write_text(text)
+    for extra in (["--check"], ["--port", NOWHERE]):  # refused before any port is opened
+        p = run("params", "set", str(path), *extra)
+        one_error_line(p, exitcodes.USAGE, name, "nested too deeply")
+
+
+def test_uncertainty_deeply_nested_spec(tmp_path: Path) -> None:
+    path = tmp_path / "spec.toml"
+    path.write_text("[nominal]\nl_mm = " + "[" * 1200 + "]" * 1200 + "\n")
+    p = run("uncertainty", str(path), "--trials", "100")
+    one_error_line(p, exitcodes.USAGE, "spec.toml", "nested too deeply")
+
+
+@pytest.mark.parametrize("command", [["summary"], ["mc", "--log"]])
+def test_log_readers_deeply_nested_sidecar(tmp_path: Path, command: list[str]) -> None:
+    log = small_log(tmp_path)
+    sidecar = log.with_name(log.name + ".json")
+    sidecar.write_text(DEEP_JSON)
+    p = run(*command, str(log))
+    one_error_line(p, exitcodes.USAGE, "run.csv.json", "nested too deeply")
+    sidecar.write_text('{"status": "complete"}')  # the same log with a sane sidecar works
+    p = run(*command, str(log))
+    assert p.returncode == 0, p.stderr

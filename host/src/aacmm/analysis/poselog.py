@@ -33,7 +33,6 @@ name and line in the message.
 from __future__ import annotations
 
 import csv
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,6 +41,7 @@ import numpy as np
 
 from aacmm.core import JOINTS, EncoderConfig, FloatArray, KinematicsError, Params, counts_to_angles
 from aacmm.errors import AacmmError
+from aacmm.fileio import InputFileError, load_json
 
 COUNT_COLUMNS: tuple[str, ...] = tuple(f"count{i}" for i in range(1, JOINTS + 1))
 COUNT_ALIASES: tuple[str, ...] = tuple(f"c{i}" for i in range(1, JOINTS + 1))
@@ -72,10 +72,10 @@ def _sidecar(path: Path) -> Path | None:
 
 
 def _read_sidecar(path: Path) -> tuple[EncoderConfig, Params | None]:
-    try:
-        meta: Any = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise PoseLogError(f"{path}: cannot read sidecar: {e}") from e
+    try:  # bounded nesting: a hostile sidecar is one clear error
+        meta: Any = load_json(path)
+    except InputFileError as e:
+        raise PoseLogError(f"sidecar {e}") from None
     if not isinstance(meta, dict):
         raise PoseLogError(f"{path}: sidecar must be a JSON object")
     enc = EncoderConfig()

@@ -31,7 +31,6 @@ from __future__ import annotations
 import math
 import os
 import time
-import tomllib
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -54,6 +53,7 @@ from aacmm.core import (
     perturbed_points,
 )
 from aacmm.errors import AacmmError
+from aacmm.fileio import InputFileError, load_toml, loads_toml
 
 ANGLE_UNITS: dict[str, float] = {
     "rad": 1.0,
@@ -282,16 +282,14 @@ def load_spec(path: str | Path) -> UncertaintySpec:
     Raises SpecError if the file cannot be read, is not TOML, or is invalid.
     """
     p = Path(path)
-    try:
+    try:  # bounded nesting: a hostile file is one clear error, not a RecursionError
         if isinstance(path, str) and path == EXAMPLE_SPEC:
             src = resources.files("aacmm").joinpath("data", "example_uncertainty.toml")
-            doc = tomllib.loads(src.read_text(encoding="utf-8"))
+            doc = loads_toml(src.read_text(encoding="utf-8"), str(p))
         else:
-            doc = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as e:
-        raise SpecError(f"{p}: cannot read: {e}") from e
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"{p}: not valid TOML: {e}") from e
+            doc = load_toml(p)
+    except InputFileError as e:
+        raise SpecError(str(e)) from None
     try:
         return parse_spec(doc)
     except SpecError as e:

@@ -57,6 +57,7 @@ from aacmm.commands.exitcodes import (
     VersionMismatchError,
 )
 from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
+from aacmm.fileio import load_json
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
@@ -916,10 +917,9 @@ def summarize_file(path: Path) -> dict[str, Any]:
     meta: dict[str, Any] = {}
     side = sidecar_path(path)
     if side.is_file():
-        with contextlib.suppress(OSError, ValueError):
-            loaded = json.loads(side.read_text(encoding="utf-8"))
-            if isinstance(loaded, dict):
-                meta = loaded
+        loaded = load_json(side)  # InputFileError (exit 2): unreadable, bad, nested too deeply
+        if isinstance(loaded, dict):
+            meta = loaded
     elapsed = (last - first) if first is not None and last is not None else 0.0
     return {
         "file": str(path),
