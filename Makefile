@@ -11,22 +11,30 @@ include $(filter-out mk/00-common.mk,$(sort $(wildcard mk/*.mk)))
 
 .PHONY: help setup test bench firmware demo clean check-format
 
+# `make help` prints every "#> NAME  TEXT" line of this file and of mk/*.mk
+# (scripts/make-help.sh): a new target gets one there, and test-tooling checks
+# that every phony target is listed.
+#> demo          the main job: build, run, print results (does all set-up)
+#> test          every test suite (does all set-up); one line per suite, logs in build/test-logs/
+#> bench         benchmarks, one JSON object per line on stdout
+#> firmware      cross builds for the ARM targets
+#> setup         Debian packages and the Python venv only
+#> clean         remove build outputs
+#> check-format  Python as `ruff format` writes it; LF, no trailing blanks or tabs in the sources
+#> help          this list
 help:
-	@echo "aacmm make targets:"
-	@echo "  make demo      the main job: build, run, print results (does all set-up)"
-	@echo "  make test      every test suite (does all set-up); ends with a pass/fail line"
-	@echo "  make bench     benchmarks, one JSON object per line on stdout"
-	@echo "  make firmware  cross builds for the ARM targets"
-	@echo "  make setup     Debian packages and the Python venv only"
-	@echo "  make clean     remove build outputs"
-	@echo "test suites: $(TEST_SUITES)"
+	@sh scripts/make-help.sh "$(TEST_SUITES)" "$(BENCH_TARGETS)" "$(FIRMWARE_TARGETS)" \
+	    "$(DEMO_STEPS)" Makefile $(filter-out mk/00-common.mk,$(sort $(wildcard mk/*.mk)))
 
 setup:
 	@sh scripts/setup.sh
 
 # Suites run one after another; a failing suite does not hide the others.
-test: setup
-	@sh scripts/run-suites.sh $(TEST_SUITES)
+# Each suite's output goes to build/test-logs/<suite>.log; the terminal gets
+# one line per suite (name, result, seconds) and, for a failure, the log's
+# tail (scripts/run-suites.sh; TEST_VERBOSE=1 streams everything).
+test:
+	@sh scripts/run-suites.sh --prepare setup $(TEST_SUITES)
 
 bench: setup $(BENCH_TARGETS)
 
@@ -34,3 +42,7 @@ firmware: $(FIRMWARE_TARGETS)
 
 clean:
 	rm -rf $(BUILD)
+
+check-format:
+	@test -x $(VENV)/bin/ruff || $(MAKE) --no-print-directory setup
+	@sh scripts/check-format.sh $(VENV)/bin/ruff host/pyproject.toml

@@ -145,6 +145,7 @@ test-boards-loopback: $(BOARD_FW_ELFS) | setup
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(BOARD_PY_FILES)
 	$(VENV)/bin/mypy --config-file host/pyproject.toml host/src/aacmm/boards.py
 
+#> run-<board>          a board's device image under QEMU, printing the URL: run-mps2-an386, run-microbit
 # Start a board's device image and print the URL to connect to (Ctrl-C stops).
 run-mps2-an386 run-microbit: run-%: $(BOARD_OUT)/%/fw.elf | setup
 	$(PYTHON) -m aacmm.boards $*

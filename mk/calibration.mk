@@ -14,6 +14,7 @@ test-calibration:
 	    tests/host/test_calibration.py
 	@$(MAKE) --no-print-directory test-calibration-lint
 
+#> test-calibration-lint  ruff, ruff format, mypy on the calibration code (part of test-calibration)
 test-calibration-lint:
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(CALIB_PY_FILES)
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CALIB_PY_FILES)

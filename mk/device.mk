@@ -45,6 +45,7 @@ $(BUILD)/sim$(DEV_SUFFIX)/aacmm-sim-clang: $(DEV_ALL_SRCS) $(POSIX_SRCS) $(DEV_H
 	clang $(CSTD) $(WARN) $(HOST_OPT) $(DEV_KIN_FLAGS) $(DEV_INC) -Ifirmware/ports/posix \
 	    $(DEV_ALL_SRCS) $(POSIX_SRCS) -lm -o $@
 
+#> sim                  the POSIX device simulator build/sim/aacmm-sim (DEVICE_KIN=q: fixed-point build)
 .PHONY: sim
 sim: $(SIM_BIN)
 

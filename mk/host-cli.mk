@@ -17,6 +17,7 @@ test-cli: sim $(BUILD)/boards/mps2-an386/fw.elf
 	$(CLI_PYTEST) tests/host/test_cli.py
 	@$(MAKE) --no-print-directory test-cli-lint
 
+#> test-cli-lint        ruff, ruff format, mypy --strict on the CLI (part of test-cli)
 test-cli-lint:
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(CLI_PY_FILES)
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CLI_PY_FILES)

@@ -60,6 +60,8 @@ test-protocol-fuzz: $(BUILD)/protocol/fuzz_protocol
 	$< -max_total_time=$(PROTO_FUZZ_TEST_TIME) -max_len=1200 -timeout=10 -print_final_stats=1 \
 	    $(BUILD)/protocol/fuzz-work tests/protocol/corpus
 
+#> fuzz                 longer fuzzing of every harness (FUZZ_TIME=s, default 600); crashes in build/
+#> fuzz-protocol        the protocol harness alone (part of fuzz)
 # Longer fuzzing: `make fuzz FUZZ_TIME=3600`. Crashes land in build/protocol/.
 # (`fuzz` only depends on fuzz-protocol so other fragments can add their harnesses.)
 fuzz: fuzz-protocol
@@ -68,6 +70,7 @@ fuzz-protocol: $(BUILD)/protocol/fuzz_protocol
 	$< -max_total_time=$(FUZZ_TIME) -max_len=1200 -timeout=10 -print_final_stats=1 \
 	    -artifact_prefix=$(BUILD)/protocol/ $(BUILD)/protocol/fuzz-corpus tests/protocol/corpus
 
+#> protocol-shim        the test-only C codec library the Python interop tests load
 protocol-shim: $(BUILD)/protocol/libaacmm_proto_shim.so
 
 test-protocol-py: $(BUILD)/protocol/libaacmm_proto_shim.so
@@ -77,6 +80,7 @@ test-protocol-py: $(BUILD)/protocol/libaacmm_proto_shim.so
 	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(PROTO_PY_FILES)
 	$(VENV)/bin/mypy $(PROTO_PY_FILES)
 
+#> test-protocol        the protocol suites together (gcc, clang, san, py, fuzz)
 test-protocol: test-protocol-gcc test-protocol-clang test-protocol-san test-protocol-py test-protocol-fuzz
 
 TEST_SUITES += test-protocol-gcc test-protocol-clang test-protocol-san test-protocol-py \

@@ -19,11 +19,13 @@ test-vcan:
 	@rc=0; $(MAKE) --no-print-directory test-vcan-suite || rc=1; \
 	$(MAKE) --no-print-directory test-vcan-runner || rc=1; exit $$rc
 
+#> test-vcan-suite      the SocketCAN tests of every area in one vcan session (part of test-vcan)
 # The vcan test session (smoke tests + whatever VCAN_TESTS gained).
 test-vcan-suite:
 	@test -x $(PYTHON) || { echo "test-vcan: no $(PYTHON); run 'make setup' first" >&2; exit 1; }
 	$(VCAN_RUN) $(VCAN_PYTEST) $(VCAN_TESTS)
 
+#> test-vcan-runner     the vcan runner's own tests on the host (part of test-vcan)
 # The runner's own tests on the host: exit status, output, timeout, Ctrl-C.
 test-vcan-runner:
 	@test -x $(PYTHON) || { echo "test-vcan: no $(PYTHON); run 'make setup' first" >&2; exit 1; }

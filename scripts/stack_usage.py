@@ -41,8 +41,9 @@ def load(paths: list[Path]) -> tuple[dict[str, tuple[int | None, bool]], dict[st
     return frames, calls
 
 
-def worst(entry: str, frames: dict[str, tuple[int | None, bool]], calls: dict[str, set[str]]
-          ) -> tuple[int, list[str], set[str], bool]:
+def worst(
+    entry: str, frames: dict[str, tuple[int | None, bool]], calls: dict[str, set[str]]
+) -> tuple[int, list[str], set[str], bool]:
     """(bytes, path, externals reached, exact) for the deepest path from entry."""
     externals: set[str] = set()
     exact = True
@@ -94,8 +95,17 @@ def main(argv: list[str]) -> int:
             status = 1
             continue
         total, path, externals, exact = worst(entry, frames, calls)
-        print(json.dumps({"entry": entry, "worst_stack_bytes": total, "path": path,
-                          "external_calls": sorted(externals), "exact": exact}))
+        print(
+            json.dumps(
+                {
+                    "entry": entry,
+                    "worst_stack_bytes": total,
+                    "path": path,
+                    "external_calls": sorted(externals),
+                    "exact": exact,
+                }
+            )
+        )
     return status
 
 

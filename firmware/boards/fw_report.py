@@ -48,8 +48,9 @@ def _stack_module():  # type: ignore[no-untyped-def]
 
 
 def sections(elf: str) -> dict[str, int]:
-    out = subprocess.run(["arm-none-eabi-size", "-A", elf], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        ["arm-none-eabi-size", "-A", elf], capture_output=True, text=True, check=True
+    ).stdout
     sizes: dict[str, int] = {}
     for line in out.splitlines():
         m = re.match(r"^(\.\S+)\s+(\d+)\s+\d+", line)
@@ -79,12 +80,16 @@ def main(argv: list[str]) -> int:
         return total, path, ext
 
     main_b, main_path, main_ext = depth("main")
+
     def short(f: str) -> str:
         return f.split(":")[-1]
 
     pf = {short(f): depth(f)[0] for f in frames if short(f).startswith("pf_")}
-    isr_names = [f for f in frames if short(f).endswith("_Handler") and short(f) not in
-                 ("Reset_Handler", "default_handler")]
+    isr_names = [
+        f
+        for f in frames
+        if short(f).endswith("_Handler") and short(f) not in ("Reset_Handler", "default_handler")
+    ]
     isr = {f: depth(f)[0] for f in isr_names}
     # Exception entry pushes 8 words, plus 18 FPU words when the interrupted
     # code used the FPU (lazy stacking reserves the space).
@@ -94,22 +99,45 @@ def main(argv: list[str]) -> int:
     isr_max = max(isr.values(), default=0)
     total = main_b + pf_max + isr_max + exc_frame + LIB_ALLOWANCE
     ok = total <= reserve and flash <= flash_max and ram <= ram_max
-    print(f"  {Path(elf).name}: text {text} data {data} bss {bss} noinit {noinit}: "
-          f"flash {flash} of {flash_max} ({100 * flash / flash_max:.1f}%), "
-          f"RAM {ram} of {ram_max} ({100 * ram / ram_max:.1f}%, incl. {reserve} B stack)")
-    print(f"  worst-case stack of the device loop: {total} B of {reserve} B reserved "
-          f"(main {main_b} [{' > '.join(main_path[:4])} ...] + platform call {pf_max} "
-          f"+ interrupt {isr_max} + exception frame {exc_frame} + library allowance "
-          f"{LIB_ALLOWANCE})")
-    print(json.dumps({"firmware": "boards", "board": board, "image": Path(elf).name,
-                      "text": text, "data": data, "bss": bss, "noinit": noinit,
-                      "flash_bytes": flash, "flash_max": flash_max, "ram_bytes": ram,
-                      "ram_max": ram_max, "stack_reserved": reserve,
-                      "stack_worst_bytes": total, "stack_main_static": main_b,
-                      "stack_platform_call": pf_max, "stack_interrupt": isr_max,
-                      "stack_exception_frame": exc_frame, "stack_library_allowance":
-                      LIB_ALLOWANCE, "platform_calls": pf, "main_path": main_path,
-                      "external_calls": sorted(main_ext), "fits": ok}))
+    print(
+        f"  {Path(elf).name}: text {text} data {data} bss {bss} noinit {noinit}: "
+        f"flash {flash} of {flash_max} ({100 * flash / flash_max:.1f}%), "
+        f"RAM {ram} of {ram_max} ({100 * ram / ram_max:.1f}%, incl. {reserve} B stack)"
+    )
+    print(
+        f"  worst-case stack of the device loop: {total} B of {reserve} B reserved "
+        f"(main {main_b} [{' > '.join(main_path[:4])} ...] + platform call {pf_max} "
+        f"+ interrupt {isr_max} + exception frame {exc_frame} + library allowance "
+        f"{LIB_ALLOWANCE})"
+    )
+    print(
+        json.dumps(
+            {
+                "firmware": "boards",
+                "board": board,
+                "image": Path(elf).name,
+                "text": text,
+                "data": data,
+                "bss": bss,
+                "noinit": noinit,
+                "flash_bytes": flash,
+                "flash_max": flash_max,
+                "ram_bytes": ram,
+                "ram_max": ram_max,
+                "stack_reserved": reserve,
+                "stack_worst_bytes": total,
+                "stack_main_static": main_b,
+                "stack_platform_call": pf_max,
+                "stack_interrupt": isr_max,
+                "stack_exception_frame": exc_frame,
+                "stack_library_allowance": LIB_ALLOWANCE,
+                "platform_calls": pf,
+                "main_path": main_path,
+                "external_calls": sorted(main_ext),
+                "fits": ok,
+            }
+        )
+    )
     if not ok:
         print(f"fw_report: {board}: does not fit", file=sys.stderr)
     return 0 if ok else 1

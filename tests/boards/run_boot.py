@@ -59,8 +59,9 @@ def check(elf: Path) -> None:
             first_bad = next(
                 (i for i, (a, b) in enumerate(zip(got, data, strict=False)) if a != b), len(got)
             )
-            assert got == data, f"echo: {len(got)} of {len(data)} bytes, first difference at " \
-                f"{first_bad}"
+            assert got == data, (
+                f"echo: {len(got)} of {len(data)} bytes, first difference at {first_bad}"
+            )
             print(f"{board}: echoed {len(data)} bytes intact ({len(data) / dt / 1000:.1f} kB/s)")
         finally:
             port.close()

@@ -150,9 +150,13 @@ def test_golden_vectors_via_compute(board: tuple[str, str], client: Client) -> N
         worst_p = max(worst_p, ep)
         worst_j = max(worst_j, float(np.max(ej)))
         worst_j_beyond_wire = max(worst_j_beyond_wire, float(np.max(ej - half_ulp)))
-    figures = {"poses": 40, "point_max_mm": worst_p, "jacobian_max": worst_j,
-               "jacobian_max_beyond_float32_wire": worst_j_beyond_wire,
-               "path": "fixed" if fixed else "float"}
+    figures = {
+        "poses": 40,
+        "point_max_mm": worst_p,
+        "jacobian_max": worst_j,
+        "jacobian_max_beyond_float32_wire": worst_j_beyond_wire,
+        "path": "fixed" if fixed else "float",
+    }
     _record(board[0], "golden_compute", figures)
     print(board[0], figures)
     if fixed:
@@ -167,8 +171,9 @@ def test_golden_vectors_via_compute(board: tuple[str, str], client: Client) -> N
 
 
 @pytest.mark.parametrize(("rate", "jacobian", "n"), [(200, False, 600), (100, True, 150)])
-def test_stream_no_lost_samples(board: tuple[str, str], client: Client, rate: int,
-                                jacobian: bool, n: int) -> None:
+def test_stream_no_lost_samples(
+    board: tuple[str, str], client: Client, rate: int, jacobian: bool, n: int
+) -> None:
     seqs: list[int] = []
     stamps: list[int] = []
     with client.stream(rate, jacobian=jacobian) as samples:
@@ -184,10 +189,18 @@ def test_stream_no_lost_samples(board: tuple[str, str], client: Client, rate: in
     diffs = np.array([(b - a) & 0xFFFFFFFF for a, b in itertools.pairwise(seqs)])
     span_s = (stamps[-1] - stamps[0]) * 1e-6
     dev_rate = (len(seqs) - 1) / span_s
-    _record(board[0], f"stream_{rate}hz{'_jacobian' if jacobian else ''}",
-            {"samples": len(seqs), "device_span_s": round(span_s, 4),
-             "rate_hz_device_clock": round(dev_rate, 3), "lost": st.lost,
-             "duplicates": st.duplicates, "overruns": st.overruns})
+    _record(
+        board[0],
+        f"stream_{rate}hz{'_jacobian' if jacobian else ''}",
+        {
+            "samples": len(seqs),
+            "device_span_s": round(span_s, 4),
+            "rate_hz_device_clock": round(dev_rate, 3),
+            "lost": st.lost,
+            "duplicates": st.duplicates,
+            "overruns": st.overruns,
+        },
+    )
     assert np.all(diffs == 1), f"sequence gaps at {np.nonzero(diffs != 1)[0][:10]}"
     assert (st.lost, st.duplicates, st.overruns, st.dropped) == (0, 0, 0, 0)
     assert abs(dev_rate - rate) < 0.01 * rate

@@ -51,10 +51,10 @@ class Board:
 
 
 BOARDS: dict[str, Board] = {
-    "mps2-an386": Board("mps2-an386", "mps2-an386", "Cortex-M4F", "f32", 4 << 20, 4 << 20,
-                        25_000_000),
-    "microbit": Board("microbit", "microbit", "Cortex-M0", "q", 256 << 10, 16 << 10,
-                      16_000_000),
+    "mps2-an386": Board(
+        "mps2-an386", "mps2-an386", "Cortex-M4F", "f32", 4 << 20, 4 << 20, 25_000_000
+    ),
+    "microbit": Board("microbit", "microbit", "Cortex-M0", "q", 256 << 10, 16 << 10, 16_000_000),
 }
 
 _WAITING = re.compile(r"waiting for connection on: disconnected:tcp:([0-9.]+):(\d+)")
@@ -85,12 +85,29 @@ def default_image(board: str, image: str = "fw") -> Path:
     return repo_root() / "build" / "boards" / board / f"{image}.elf"
 
 
-def qemu_argv(board: str, elf: str | os.PathLike[str], serial: str = "null",
-              semihosting: bool = False, qemu: str = QEMU) -> list[str]:
+def qemu_argv(
+    board: str,
+    elf: str | os.PathLike[str],
+    serial: str = "null",
+    semihosting: bool = False,
+    qemu: str = QEMU,
+) -> list[str]:
     """The QEMU command line for ``elf`` on ``board`` with the UART on ``serial``."""
     b = _board(board)
-    argv = [qemu, "-M", b.machine, "-nographic", "-monitor", "none", "-icount", "shift=0",
-            "-kernel", str(elf), "-serial", serial]
+    argv = [
+        qemu,
+        "-M",
+        b.machine,
+        "-nographic",
+        "-monitor",
+        "none",
+        "-icount",
+        "shift=0",
+        "-kernel",
+        str(elf),
+        "-serial",
+        serial,
+    ]
     if semihosting:
         argv += ["-semihosting-config", "enable=on,target=native"]
     return argv
@@ -103,9 +120,14 @@ def _check_tools(qemu: str, elf: Path) -> None:
         raise FileNotFoundError(f"{elf} not found (make firmware-boards)")
 
 
-def start_board(board: str, elf: str | os.PathLike[str] | None = None, *,
-                qemu: str = QEMU, timeout: float = 10.0,
-                log: list[str] | None = None) -> tuple[subprocess.Popen[bytes], str]:
+def start_board(
+    board: str,
+    elf: str | os.PathLike[str] | None = None,
+    *,
+    qemu: str = QEMU,
+    timeout: float = 10.0,
+    log: list[str] | None = None,
+) -> tuple[subprocess.Popen[bytes], str]:
     """Start ``elf`` (default: the board's device image) under QEMU.
 
     Returns the process and the pyserial URL of the board's UART
@@ -120,8 +142,9 @@ def start_board(board: str, elf: str | os.PathLike[str] | None = None, *,
     path = Path(elf) if elf is not None else default_image(board)
     _check_tools(qemu, path)
     argv = qemu_argv(board, path, "tcp:127.0.0.1:0,server=on,wait=on,nodelay=on", qemu=qemu)
-    proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
     assert proc.stderr is not None
     found: list[str] = []
     lines: list[str] = log if log is not None else []
@@ -162,8 +185,9 @@ def stop_board(proc: subprocess.Popen[bytes], timeout: float = 5.0) -> None:
             proc.wait()
 
 
-def run_semihosted(board: str, elf: str | os.PathLike[str], *, qemu: str = QEMU,
-                   timeout: float = 60.0) -> tuple[int, str]:
+def run_semihosted(
+    board: str, elf: str | os.PathLike[str], *, qemu: str = QEMU, timeout: float = 60.0
+) -> tuple[int, str]:
     """Run a semihosting image to its exit: ``(exit status, its output)``.
 
     The exit status is the image's (``exit(n)`` through semihosting); a run
@@ -173,8 +197,9 @@ def run_semihosted(board: str, elf: str | os.PathLike[str], *, qemu: str = QEMU,
     _check_tools(qemu, path)
     argv = qemu_argv(board, path, "null", semihosting=True, qemu=qemu)
     try:
-        r = subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout,
-                           check=False)
+        r = subprocess.run(
+            argv, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout, check=False
+        )
     except subprocess.TimeoutExpired as exc:
         out = (exc.stdout or b"").decode(errors="replace")
         return -1, out + f"\n(killed after {timeout} s)\n"
@@ -187,8 +212,9 @@ def main(argv: list[str] | None = None) -> int:
     import signal
     import sys
 
-    ap = argparse.ArgumentParser(prog="python -m aacmm.boards",
-                                 description="Run a board's device image under QEMU.")
+    ap = argparse.ArgumentParser(
+        prog="python -m aacmm.boards", description="Run a board's device image under QEMU."
+    )
     ap.add_argument("board", choices=sorted(BOARDS))
     ap.add_argument("elf", nargs="?", help="image (default build/boards/BOARD/fw.elf)")
     args = ap.parse_args(argv)
@@ -197,8 +223,11 @@ def main(argv: list[str] | None = None) -> int:
     except (OSError, RuntimeError, ValueError) as exc:
         print(f"aacmm.boards: {exc}", file=sys.stderr)
         return 1
-    print(f"{args.board}: {url}  (the board starts when a client connects, e.g. "
-          f"aacmm info --port {url}; Ctrl-C stops it)", flush=True)
+    print(
+        f"{args.board}: {url}  (the board starts when a client connects, e.g. "
+        f"aacmm info --port {url}; Ctrl-C stops it)",
+        flush=True,
+    )
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))  # stop QEMU on kill too
     try:
         return proc.wait()
