@@ -15,6 +15,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "aacmm.commands.device",
     "aacmm.commands.log",
     "aacmm.commands.mc",
+    "aacmm.commands.plan",
     "aacmm.commands.sim",
     "aacmm.commands.uncertainty",
 )

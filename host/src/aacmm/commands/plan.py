@@ -1,0 +1,118 @@
+"""``aacmm plan list|show|check|example``: the shipped plans, and checking plan files.
+
+Plan schema: docs/plans.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from aacmm.commands.exitcodes import OK, UsageError
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "plan",
+        help="list the shipped measurement plans, show or check a plan file",
+        description="Measurement plans (docs/plans.md): list the shipped plans, show a "
+        "plan's steps and points, check a plan file, or copy a shipped plan to edit.",
+    )
+    ps = p.add_subparsers(dest="plan_command", metavar="ACTION", required=True)
+    ps.add_parser("list", help="the shipped plans").set_defaults(func=cmd_list)
+    show = ps.add_parser("show", help="steps, artefacts and every point of a plan")
+    show.add_argument("plan", metavar="PLAN", help="a plan file or a shipped plan's name")
+    show.add_argument("--points", action="store_true", help="also list every point")
+    show.add_argument("--json", action="store_true", help="print JSON")
+    show.set_defaults(func=cmd_show)
+    check = ps.add_parser("check", help="validate a plan file (exit 2 with the reason if bad)")
+    check.add_argument("plan", metavar="PLAN", help="a plan file or a shipped plan's name")
+    check.set_defaults(func=cmd_check)
+    ex = ps.add_parser("example", help="write a shipped plan to a file, to edit")
+    ex.add_argument("name", help="the shipped plan")
+    ex.add_argument("-o", "--output", required=True, metavar="FILE", help="the file to write")
+    ex.add_argument("-f", "--force", action="store_true", help="overwrite an existing file")
+    ex.set_defaults(func=cmd_example)
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    from aacmm.plans import load_plan, shipped_plans
+
+    for name in shipped_plans():
+        plan = load_plan(name)
+        print(f"{name:24s} {len(plan.steps):2d} steps {len(plan.slots):4d} points  {plan.title}")
+    return OK
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from aacmm.plans import load_plan
+
+    plan = load_plan(args.plan)
+    if args.json:
+        d: dict[str, Any] = plan.summary()
+        if args.points:
+            d["slots"] = [
+                {
+                    "index": s.index,
+                    "step_id": s.step_id,
+                    "position_index": s.position_index,
+                    "end": s.end,
+                    "articulation_index": s.articulation_index,
+                    "point_index": s.point_index,
+                    "target_mm": None if s.target is None else list(s.target.tip_mm),
+                    "text": s.text,
+                }
+                for s in plan.slots
+            ]
+        print(json.dumps(d, indent=2))
+        return OK
+    print(f"plan {plan.name}: {plan.title} ({len(plan.slots)} points, sha256 {plan.sha256[:12]})")
+    print(f"probe ball {plan.probe.ball_diameter_mm:g} mm")
+    for a in plan.artefacts.values():
+        extra = ""
+        for key in ("diameter_mm", "length_mm"):
+            if hasattr(a, key):
+                extra = f" {key.removesuffix('_mm')} {getattr(a, key):g} mm"
+        ref = " (calibrated reference)" if a.location_reference else ""
+        loc = "" if a.location_mm is None else f" at {list(a.location_mm)}{ref}"
+        print(f"  artefact {a.id}: {a.type}{extra}{loc}")
+    for st in plan.steps:
+        print(
+            f"  step {st.index + 1} {st.id}: {st.procedure} on {st.artefact or '-'}, "
+            f"{st.points} points" + (f" ({st.preset})" if st.preset else "")
+        )
+        if args.points:
+            for s in plan.step_slots(st.index):
+                print(f"    {s.index:4d}  {s.text}")
+    return OK
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from aacmm.plans import load_plan
+
+    plan = load_plan(args.plan)
+    print(f"{plan.name}: ok, {len(plan.steps)} steps, {len(plan.slots)} points")
+    return OK
+
+
+def cmd_example(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from aacmm.plans import shipped_plan_path, shipped_plans
+
+    try:
+        src = shipped_plan_path(args.name)
+    except KeyError:
+        raise UsageError(
+            f"no shipped plan {args.name!r} (shipped: {', '.join(shipped_plans())})"
+        ) from None
+    out = Path(args.output)
+    if out.exists() and not args.force:
+        raise UsageError(f"{out} exists (use --force to overwrite)")
+    from aacmm.records.files import write_atomic
+
+    write_atomic(out, src.read_bytes())
+    print(f"wrote {out}", file=sys.stdout)
+    return OK

@@ -1,0 +1,111 @@
+"""Recorded rows of encoder counts, each with the parameter set it was taken with.
+
+:class:`Recorded` is what logs and sessions have in common: the six raw
+counts per row, the CRC of the parameter set in force per row, and the sets
+themselves. It turns counts into joint angles with *each row's own* encoder
+configuration and recomputes points with each row's own kinematic
+parameters (or with parameters the caller gives, e.g. a calibration's), on
+the double-precision C core (:mod:`aacmm.core`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from aacmm.core import JOINTS, FloatArray, KinematicsError, Model, Params, counts_to_angles
+from aacmm.records.files import RecordError, crc_hex
+from aacmm.records.paramsets import ParamSetRecord
+
+UIntArray = npt.NDArray[np.uint64]
+U32Array = npt.NDArray[np.uint32]
+
+
+@dataclass(frozen=True, eq=False)
+class Recorded:
+    """Rows of counts with their parameter sets.
+
+    ``counts``: (n, 6) raw encoder readings; ``param_crc32``: (n,) the CRC of
+    the set in force for each row, a key of ``param_sets``.
+    """
+
+    path: Path
+    counts: UIntArray
+    param_crc32: U32Array
+    param_sets: dict[int, ParamSetRecord]
+
+    def __len__(self) -> int:
+        return int(self.counts.shape[0])
+
+    def param_set_of(self, row: int) -> ParamSetRecord:
+        """The parameter set in force for one row."""
+        return self.param_sets[int(self.param_crc32[row])]
+
+    def set_changes(self) -> list[tuple[int, int]]:
+        """``(row, crc)`` at the first row and wherever the set in force changes."""
+        out: list[tuple[int, int]] = []
+        last = None
+        for i, c in enumerate(self.param_crc32.tolist()):
+            if c != last:
+                out.append((i, c))
+                last = c
+        return out
+
+    def _groups(self) -> list[tuple[ParamSetRecord, npt.NDArray[np.intp]]]:
+        return [
+            (self.param_sets[int(c)], np.flatnonzero(self.param_crc32 == c))
+            for c in np.unique(self.param_crc32)
+        ]
+
+    def angles_rad(self) -> FloatArray:
+        """Joint angles (n, 6) from the counts, each row with its own encoder configuration.
+
+        Raises:
+            RecordError: a reading the row's encoder configuration rejects
+                (at or beyond its counts per revolution).
+        """
+        out = np.empty((len(self), JOINTS), dtype=np.float64)
+        for ps, rows in self._groups():
+            try:
+                out[rows] = counts_to_angles(self.counts[rows], ps.encoders)
+            except KinematicsError as exc:
+                bad = int(rows[exc.index or 0])
+                raise RecordError(
+                    f"{self.path}: row {bad + 1}: {exc} (reading beyond the counts per "
+                    f"revolution of parameter set {ps.crc_hex}?)"
+                ) from None
+        return out
+
+    def points_mm(self, params: Params | None = None) -> FloatArray:
+        """Probe points (n, 3) recomputed from the counts in double precision.
+
+        Each row uses the kinematic parameters of its own set in force, or
+        ``params`` for every row if given (e.g. a calibrated set); the encoder
+        configuration is always the row's own.
+        """
+        theta = self.angles_rad()
+        out = np.empty((len(self), 3), dtype=np.float64)
+        for ps, rows in self._groups():
+            out[rows] = Model(params if params is not None else ps.params).points(theta[rows])
+        return out
+
+    def single_params(self, what: str) -> Params:
+        """The kinematic parameters, if every row has the same (encoders may differ).
+
+        Raises:
+            RecordError: the rows were taken with different kinematic parameters;
+                ``what`` names the consumer in the message.
+        """
+        changes = self.set_changes()
+        first = self.param_sets[changes[0][1]].params if changes else Params()
+        for row, crc in changes[1:]:
+            if self.param_sets[crc].params != first:
+                raise RecordError(
+                    f"{self.path}: the parameter set changes at row {row + 1} "
+                    f"({crc_hex(changes[0][1])} -> {crc_hex(crc)}) and {what} uses one set: "
+                    "analyse the parts separately"
+                )
+        return first

@@ -1,0 +1,21 @@
+# Plans, recorded data and guided capture (issue 11 items 1, 2, 5; 15.1, 15.5):
+# aacmm.plans (TOML plans, presets, slots), aacmm.records (sessions, logs,
+# parameter set per row), aacmm capture; their tests and lint.
+#   test-capture   plans (bad plans: file, line, field), sessions (undo, resume
+#                  after a cut row, per-row parameter sets), ruff, mypy --strict
+
+CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
+                    tests/host/test_plans.py tests/host/test_records.py
+CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
+
+.PHONY: test-capture test-capture-lint
+test-capture:
+	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py
+	@$(MAKE) --no-print-directory test-capture-lint
+
+test-capture-lint:
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(CAPTURE_PY_FILES)
+	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CAPTURE_PY_FILES)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CAPTURE_PY_FILES)
+
+TEST_SUITES += test-capture
