@@ -356,3 +356,26 @@ def test_spiral_and_ring_patterns() -> None:
     assert np.allclose(r[1:] @ [0, 1, 0], math.cos(math.radians(60)))
     offs, n = presets.plane_grid(9, (0, 0, 1), (90.0, 60.0))
     assert np.allclose(offs @ n, 0) and np.allclose(offs.mean(axis=0), 0)
+
+
+def test_plan_cli(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    aacmm = str(Path(sys.executable).with_name("aacmm"))
+    bad = write(tmp_path, GOOD.replace("length_mm = 500.0", "length_mm = -5"))
+    r = subprocess.run([aacmm, "plan", "check", str(bad)], capture_output=True, text=True)
+    assert r.returncode == 2 and r.stdout == ""
+    line = line_no(GOOD, "length_mm = 500.0")
+    assert r.stderr == (
+        f"aacmm plan: error: {bad}:{line}: artefacts.bar.length_mm: must be positive, got -5\n"
+    )
+    r = subprocess.run([aacmm, "plan", "list"], capture_output=True, text=True)
+    assert r.returncode == 0 and "iso10360-12" in r.stdout
+    out = tmp_path / "mine.toml"
+    r = subprocess.run([aacmm, "plan", "example", "iso10360-12", "-o", str(out)], text=True)
+    assert r.returncode == 0 and load_plan(out).sha256 == load_plan("iso10360-12").sha256
+    r = subprocess.run(
+        [aacmm, "plan", "example", "iso10360-12", "-o", str(out)], capture_output=True, text=True
+    )
+    assert r.returncode == 2 and "exists" in r.stderr

@@ -58,6 +58,7 @@ from aacmm.commands.exitcodes import (
 )
 from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
 from aacmm.fileio import load_json
+from aacmm.records.files import RowFile
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
@@ -215,61 +216,18 @@ def _row(s: Sample, host_time: float, extra: tuple[int, ...] = ()) -> str:
     return ",".join(parts) + "\n"
 
 
-class RowFile:
-    """A CSV file written in whole rows with the log's flush policy (see the module doc)."""
+def open_rows(path: Path, columns: tuple[str, ...], force: bool) -> RowFile:
+    """A :class:`aacmm.records.files.RowFile` with the log's flush policy.
 
-    def __init__(
-        self, path: Path, columns: tuple[str, ...], force: bool, interval: float, rows: int
-    ) -> None:
-        self.path = path
-        self.interval = interval
-        self.max_rows = rows
-        self.rows = 0
-        self._buf: list[str] = []
-        self._last_flush = time.monotonic()
-        flags = os.O_WRONLY | os.O_CREAT | (os.O_TRUNC if force else os.O_EXCL)
-        try:
-            self._fd: int | None = os.open(path, flags, 0o644)
-        except FileExistsError:
-            raise UsageError(f"{path} exists (use --force to overwrite)") from None
-        except OSError as exc:
-            raise UsageError(f"cannot create {path}: {exc.strerror}") from None
-        self._write((",".join(columns) + "\n").encode())
-
-    def _write(self, data: bytes) -> None:
-        assert self._fd is not None
-        view = memoryview(data)
-        while view:
-            n = os.write(self._fd, view)
-            view = view[n:]
-
-    def add(self, line: str) -> None:
-        self._buf.append(line)
-        self.rows += 1
-        if len(self._buf) >= self.max_rows:
-            self.flush()
-
-    def maybe_flush(self, now: float) -> None:
-        if self._buf and now - self._last_flush >= self.interval:
-            self.flush()
-
-    def flush(self) -> None:
-        self._last_flush = time.monotonic()
-        if self._buf and self._fd is not None:
-            data = "".join(self._buf).encode()
-            self._buf.clear()
-            self._write(data)  # one write of whole rows
-
-    def close(self) -> None:
-        if self._fd is None:
-            return
-        try:
-            self.flush()
-            with contextlib.suppress(OSError):
-                os.fsync(self._fd)
-        finally:
-            os.close(self._fd)
-            self._fd = None
+    Raises:
+        UsageError: the file exists (without ``force``) or cannot be created.
+    """
+    try:
+        return RowFile(path, columns, force, FLUSH_INTERVAL_S, FLUSH_ROWS)
+    except FileExistsError:
+        raise UsageError(f"{path} exists (use --force to overwrite)") from None
+    except OSError as exc:
+        raise UsageError(f"cannot create {path}: {exc.strerror}") from None
 
 
 class RawCanRecorder:
@@ -562,9 +520,7 @@ class Logger:
             if self.trig_path is None:
                 continue
             if self.trig_rows is None:
-                self.trig_rows = RowFile(
-                    self.trig_path, TRIGGER_COLUMNS, True, FLUSH_INTERVAL_S, FLUSH_ROWS
-                )
+                self.trig_rows = open_rows(self.trig_path, TRIGGER_COLUMNS, True)
             self.trig_rows.add(_row(trig.sample, host_time, (trig.button, int(trig.pressed))))
             self.s.triggers += 1
 
@@ -764,7 +720,7 @@ class Logger:
             self.param_crc = dev.info.param_crc32
             self.start_wall = time.time()
             self.t0 = time.monotonic()
-            self.rows = RowFile(self.csv_path, COLUMNS, a.force, FLUSH_INTERVAL_S, FLUSH_ROWS)
+            self.rows = open_rows(self.csv_path, COLUMNS, a.force)
             self.meta = self.base_meta(dev, ps, self.param_crc)
             self.write_meta("running")
             self.dev = dev

@@ -10,6 +10,7 @@ import json
 import sys
 from typing import Any
 
+from aacmm.commands.common import add_force_option
 from aacmm.commands.exitcodes import OK, UsageError
 
 
@@ -33,7 +34,7 @@ def register(sub: Any) -> None:
     ex = ps.add_parser("example", help="write a shipped plan to a file, to edit")
     ex.add_argument("name", help="the shipped plan")
     ex.add_argument("-o", "--output", required=True, metavar="FILE", help="the file to write")
-    ex.add_argument("-f", "--force", action="store_true", help="overwrite an existing file")
+    add_force_option(ex)
     ex.set_defaults(func=cmd_example)
 
 
@@ -108,11 +109,9 @@ def cmd_example(args: argparse.Namespace) -> int:
         raise UsageError(
             f"no shipped plan {args.name!r} (shipped: {', '.join(shipped_plans())})"
         ) from None
-    out = Path(args.output)
-    if out.exists() and not args.force:
-        raise UsageError(f"{out} exists (use --force to overwrite)")
-    from aacmm.records.files import write_atomic
+    from aacmm.commands.common import check_outputs, write_output
 
-    write_atomic(out, src.read_bytes())
+    (out,) = check_outputs([Path(args.output)], args.force)
+    write_output(out, src.read_bytes(), force=args.force)
     print(f"wrote {out}", file=sys.stdout)
     return OK

@@ -5,13 +5,13 @@ from __future__ import annotations
 import hashlib
 import math
 import re
-import tomllib
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
 from aacmm.errors import AacmmError
+from aacmm.fileio import InputFileError, loads_toml
 from aacmm.plans._locate import format_path, key_lines, line_of
 from aacmm.plans._slots import PRESET_ISO, make_slots
 from aacmm.plans.model import (
@@ -463,15 +463,14 @@ def loads_plan(text: str, name: str = "<plan>", path: Path | None = None) -> Pla
         PlanError: bad TOML (with the parser's line) or a schema violation
             (``name:LINE: FIELD: problem``).
     """
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
+    try:  # bounded nesting (aacmm.fileio): a hostile file is one clear line
+        doc = loads_toml(text, name)
+    except InputFileError as exc:
+        msg = str(exc).removeprefix(f"{name}: ")
         m = _AT_LINE.search(msg)
         line = int(m.group(1)) if m else None
-        raise PlanError(name, line, "", f"bad TOML: {_AT_LINE.sub('', msg)}") from None
-    except RecursionError:
-        raise PlanError(name, None, "", "bad TOML: nested too deeply") from None
+        msg = _AT_LINE.sub("", msg).replace("not valid TOML", "bad TOML")
+        raise PlanError(name, line, "", msg) from None
     c = _Ctx(name, text)
     root: KeyPath = ()
     c.keys(

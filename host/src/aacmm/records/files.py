@@ -22,9 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from aacmm.errors import AacmmError
-
-#: The largest sidecar accepted (a sidecar is a few kB; a plan inside adds a few more).
-MAX_JSON_BYTES = 16 << 20
+from aacmm.fileio import InputFileError, load_json, write_output
 
 
 class RecordError(AacmmError, ValueError):
@@ -64,24 +62,9 @@ def fsync_dir(path: Path) -> None:
 
 
 def write_atomic(path: Path, data: bytes) -> None:
-    """Replace ``path`` with ``data`` durably: a temporary file in the same
-    directory (created exclusively, never following a planted link), fsync,
-    rename over ``path``, fsync the directory."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with contextlib.suppress(FileNotFoundError):
-        os.unlink(tmp)  # our own leftover from a killed run with the same pid
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
-    try:
-        _write_all(fd, data)
-        os.fsync(fd)
-    except BaseException:
-        os.close(fd)
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    os.close(fd)
-    os.replace(tmp, path)
-    fsync_dir(path.parent)
+    """Replace ``path`` with ``data`` atomically and durably (:func:`aacmm.fileio.write_output`:
+    a temporary file in the same directory, fsync, rename, fsync of the directory)."""
+    write_output(path, data, force=True)
 
 
 def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
@@ -90,24 +73,16 @@ def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
 
 
 def read_json(path: Path, what: str = "sidecar") -> dict[str, Any]:
-    """A JSON object from a file, refusing huge, deeply nested or non-object content.
+    """A JSON object from a file, refusing huge, deeply nested or non-object content
+    (:func:`aacmm.fileio.load_json`).
 
     Raises:
         RecordError: unreadable, too large, bad JSON, nested too deeply, not an object.
     """
     try:
-        with open(path, "rb") as f:
-            data = f.read(MAX_JSON_BYTES + 1)
-    except OSError as exc:
-        raise RecordError(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
-    if len(data) > MAX_JSON_BYTES:
-        raise RecordError(f"{path}: {what} larger than {MAX_JSON_BYTES >> 20} MiB")
-    try:
-        obj = json.loads(data.decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise RecordError(f"{path}: {what} is not valid JSON: {exc}") from None
-    except RecursionError:
-        raise RecordError(f"{path}: {what} is nested too deeply") from None
+        obj = load_json(path)
+    except InputFileError as exc:
+        raise RecordError(f"{what} {exc}") from None
     if not isinstance(obj, dict):
         raise RecordError(f"{path}: {what} must be a JSON object")
     return obj
