@@ -125,17 +125,51 @@ class ParamUncertainty:
 
 @dataclass(frozen=True)
 class UncertaintySpec:
-    """Nominal arm, one :class:`ParamUncertainty` per parameter (25), and poses (k, 6) rad."""
+    """Nominal arm, one :class:`ParamUncertainty` per parameter (25), and poses (k, 6) rad.
+
+    ``covariance`` (25, 25; rad, mm), optional: correlated normal parameters
+    (a calibration's result, :meth:`from_covariance`) instead of independent
+    ones; the items then carry the standard uncertainties sqrt(diag).
+    """
 
     params: Params
     items: tuple[ParamUncertainty, ...]
     poses_rad: FloatArray = field(default_factory=lambda: np.empty((0, JOINTS)))
+    covariance: FloatArray | None = None
 
     def __post_init__(self) -> None:
         if tuple(i.name for i in self.items) != PARAM_NAMES:
             raise ValueError("items must list the 25 parameters in PARAM_NAMES order")
         p = np.asarray(self.poses_rad, dtype=np.float64).reshape(-1, JOINTS)
         object.__setattr__(self, "poses_rad", p)
+        if self.covariance is not None:
+            c = np.asarray(self.covariance, dtype=np.float64)
+            if c.shape != (JAC_COLS, JAC_COLS) or not np.all(np.isfinite(c)):
+                raise ValueError("covariance must be a finite 25 x 25 matrix")
+            if not np.allclose(c, c.T, rtol=1e-9, atol=1e-300):
+                raise ValueError("covariance must be symmetric")
+            if np.linalg.eigvalsh(c)[0] < -1e-9 * max(float(np.abs(c).max()), 1e-300):
+                raise ValueError("covariance must be positive semi-definite")
+            object.__setattr__(self, "covariance", c)
+
+    @classmethod
+    def from_covariance(
+        cls, covariance: FloatArray, params: Params, poses_rad: FloatArray | None = None
+    ) -> UncertaintySpec:
+        """Spec of correlated normal parameters with covariance (25, 25) about ``params``."""
+        u = np.sqrt(np.clip(np.diag(np.asarray(covariance, dtype=np.float64)), 0.0, None))
+        return cls(
+            params,
+            tuple(ParamUncertainty(n, float(u[k])) for k, n in enumerate(PARAM_NAMES)),
+            np.empty((0, JOINTS)) if poses_rad is None else poses_rad,
+            covariance,
+        )
+
+    def covariance_matrix(self) -> FloatArray:
+        """The (25, 25) covariance: the given one, or diag(u^2) for independent parameters."""
+        if self.covariance is not None:
+            return self.covariance
+        return np.diag(self.u_vector() ** 2)
 
     @classmethod
     def from_u(
@@ -335,6 +369,8 @@ class BudgetEntry:
     ``u``: its standard uncertainty (rad or mm); ``sensitivity``: RMS over
     poses of ||J[:, k]|| (mm per rad or mm per mm); ``contribution_mm``:
     sqrt of its mean variance contribution; ``share``: fraction of the total.
+    With correlated parameters a contribution (J Sigma J^T split by parameter)
+    can be negative: its sign is kept on ``contribution_mm`` and ``share``.
     """
 
     name: str
@@ -389,6 +425,10 @@ def _delta(u: FloatArray, ndig: int) -> FloatArray:
 def draw_deltas(spec: UncertaintySpec, trials: int, seed: int) -> FloatArray:
     """Parameter deviations (trials, 25) drawn from the spec's distributions."""
     rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed)))
+    if spec.covariance is not None:  # correlated normal: x = L z with L L^T = covariance
+        lam, vec = np.linalg.eigh(spec.covariance)
+        root = vec * np.sqrt(np.clip(lam, 0.0, None))
+        return np.asarray(rng.standard_normal((trials, JAC_COLS)) @ root.T)
     out = np.zeros((trials, JAC_COLS))
     for k, item in enumerate(spec.items):
         if item.u > 0:
@@ -436,8 +476,11 @@ def propagate(
     u = spec.u_vector()
     model = Model(spec.params)
     p_nom, jac = model.points_jacobians(poses)
-    contrib_all = (jac**2 * u**2).sum(axis=1)  # (n, 25): sum over axes
-    var_lin = (jac**2 * u**2).sum(axis=2)  # (n, 3)
+    # J Sigma J^T split by parameter: J_ak (Sigma J^T)_ka, which is J_ak^2 u_k^2 for
+    # independent parameters and sums to the variance with correlations too
+    split = jac * (jac @ spec.covariance_matrix())  # (n, 3, 25)
+    contrib_all = split.sum(axis=1)  # (n, 25): sum over axes
+    var_lin = split.sum(axis=2)  # (n, 3)
     deltas = draw_deltas(spec, trials, seed)
     parts = np.array_split(np.arange(trials), nt)
     results: list[PoseResult] = []
@@ -493,7 +536,7 @@ def propagate(
                 PARAM_UNITS[k],
                 float(u[k]),
                 float(sens[k]),
-                float(math.sqrt(mean_contrib[k])),
+                float(math.copysign(math.sqrt(abs(mean_contrib[k])), mean_contrib[k])),
                 float(mean_contrib[k] / total) if total > 0 else 0.0,
             )
             for k, n in enumerate(PARAM_NAMES)
