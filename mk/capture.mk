@@ -5,14 +5,17 @@
 #                  after a cut row, per-row parameter sets), ruff, mypy --strict
 
 CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
-                    tests/host/test_plans.py tests/host/test_records.py
+                    host/src/aacmm/commands/capture.py host/src/aacmm/commands/plan.py \
+                    tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py
 CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-capture test-capture-lint
-test-capture:
-	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py
+#> test-capture         plans, sessions, aacmm capture against the simulator
+test-capture: sim
+	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py
 	@$(MAKE) --no-print-directory test-capture-lint
 
+#> test-capture-lint    ruff, ruff format, mypy --strict on plans, records, capture (part of test-capture)
 test-capture-lint:
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(CAPTURE_PY_FILES)
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CAPTURE_PY_FILES)

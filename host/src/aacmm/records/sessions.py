@@ -8,6 +8,7 @@
                      configuration), status, runs (capture, resume, ...)
       points.csv     the accepted points, one row per point in plan order, labelled
       events.csv     the journal: every button event, undo and run, append-only
+      progress.json  the slot expected next (replaced atomically after every change)
 
 :class:`SessionWriter` makes and extends sessions (``aacmm capture`` uses it;
 tests may feed it synthetic samples); :func:`read_session` reads one into a
@@ -49,6 +50,8 @@ SESSION_FORMAT = "aacmm-session-1"
 SIDECAR = "session.json"
 POINTS_CSV = "points.csv"
 EVENTS_CSV = "events.csv"
+PROGRESS = "progress.json"
+PROGRESS_FORMAT = "aacmm-progress-1"
 COUNT_COLUMNS: tuple[str, ...] = tuple(f"count{i}" for i in range(1, 7))
 LABEL_COLUMNS: tuple[str, ...] = (
     "slot",
@@ -226,6 +229,7 @@ class SessionWriter:
             ps = ParamSetRecord.from_json(d, f"{folder / SIDECAR}: param_sets[{i}]")
             self._sets[ps.crc32] = ps
         self.current: ParamSetRecord | None = None
+        self.undos = 0
         self._points = DurableAppender(folder / POINTS_CSV, POINT_COLUMNS, create=not lines)
         self._events = DurableAppender(
             folder / EVENTS_CSV, EVENT_COLUMNS, create=not (folder / EVENTS_CSV).exists()
@@ -352,6 +356,23 @@ class SessionWriter:
         self.meta["status"] = "running"
         self._event("run", detail=kind)
         self.write_meta()
+        self.write_progress()
+
+    def write_progress(self) -> None:
+        """Replace ``progress.json`` atomically: the slot capture expects next (what a
+        simulated operator following the session reads; docs/plans.md)."""
+        write_json_atomic(
+            self.folder / PROGRESS,
+            {
+                "format": PROGRESS_FORMAT,
+                "plan_sha256": self.plan.sha256,
+                "next_slot": self.accepted,
+                "points": self.accepted,
+                "complete": self.next_slot is None,
+                "undos": self.undos,
+                "status": self.meta.get("status", "running"),
+            },
+        )
 
     def write_meta(self) -> None:
         self.meta["updated"] = utc_iso(time.time())
@@ -376,6 +397,7 @@ class SessionWriter:
         line = ",".join(_label_fields(slot) + fields) + "\n"
         self._points.append(line)
         self._lines.append(line)
+        self.write_progress()
         return slot
 
     def undo(self, host_time: float | None = None) -> Slot | None:
@@ -387,6 +409,8 @@ class SessionWriter:
         self._event("undo", slot=slot.index, host_time=host_time)
         self._lines.pop()
         self._points.rewrite(self._lines)
+        self.undos += 1
+        self.write_progress()
         return slot
 
     def ignored(
@@ -425,6 +449,7 @@ class SessionWriter:
         self.meta["status"] = status
         self._event("end", detail=f"{status} {reason}".strip())
         self.write_meta()
+        self.write_progress()
         self._points.close()
         self._events.close()
 

@@ -1,0 +1,335 @@
+"""``aacmm capture PLAN -o SESSION``: guided capture of a measurement plan.
+
+The operator is prompted for every point of the plan in order ("step 3/4,
+ball bar bar500, position 4 of 10: probe end A"); each press of the front
+button (0) records the latched sample with its labels, the second button (1)
+undoes the last point, and on a terminal the key ``u`` does the same (``q``
+stops). Every point is durable before it is acknowledged (``recorded k/N``),
+so Ctrl-C, SIGTERM or kill -9 lose nothing acknowledged; ``--resume``
+continues a session. Session format: docs/plans.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import queue
+import select
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aacmm.commands.common import add_connection_options, info_dict, is_tty, print_err
+from aacmm.commands.exitcodes import INTERRUPTED, OK, LinkLostError, UsageError
+from aacmm.commands.log import StopFlag
+
+if TYPE_CHECKING:
+    from aacmm.client import SampleStream
+    from aacmm.commands.common import Device
+    from aacmm.plans import Plan, Slot
+    from aacmm.protocol import Trigger
+    from aacmm.records import ParamSetRecord, SessionWriter
+
+#: Rate of the stream capture keeps open while it listens (a live link, and the
+#: simulated operator's sign that capture is ready).
+LISTEN_RATE_HZ = 20
+POINT_VALID = 0x0001
+BUTTON_CAPTURE = 0
+BUTTON_UNDO = 1
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "capture",
+        help="guided capture of a measurement plan into a session folder",
+        description="Prompt for every point of PLAN (a plan file or a shipped plan's name) "
+        "and record each press of the probe button with its labels into the session folder "
+        "SESSION. Button 1 (or the key u on a terminal) undoes the last point; Ctrl-C keeps "
+        "everything; --resume continues.",
+    )
+    add_connection_options(p)
+    p.add_argument("plan", metavar="PLAN", help="plan file or shipped plan name (docs/plans.md)")
+    p.add_argument("-o", "--output", required=True, metavar="SESSION", help="session folder")
+    p.add_argument("--resume", action="store_true", help="continue the session in SESSION")
+    p.add_argument(
+        "--stall",
+        type=float,
+        default=3.0,
+        metavar="S",
+        help="no sample for S seconds means the link is lost (default 3)",
+    )
+    p.add_argument("--no-keys", action="store_true", help="do not read keys from the terminal")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only acknowledgements")
+    p.set_defaults(func=cmd_capture)
+
+
+def say(text: str) -> None:
+    print(text, flush=True)
+
+
+class Capture:
+    """One ``aacmm capture`` run against a device."""
+
+    def __init__(self, args: argparse.Namespace, plan: Plan) -> None:
+        self.args = args
+        self.plan = plan
+        self.folder = Path(args.output)
+        self.events: queue.Queue[tuple[float, Trigger]] = queue.Queue()
+        self.writer: SessionWriter | None = None
+        self.dev: Device | None = None
+        self.keys = False
+        self._tty_state: Any = None
+        self.stop_reason: str | None = None
+
+    # ---------------------------------------------------------- set-up
+
+    def open_session(self, dev: Device, ps: ParamSetRecord) -> SessionWriter:
+        from aacmm.records import SessionWriter
+
+        if self.args.resume:
+            w = SessionWriter.resume(self.folder, self.plan)
+        else:
+            w = SessionWriter.create(
+                self.folder,
+                self.plan,
+                device=info_dict(dev.info),
+                port=dev.url,
+                transport=dev.client.transport.description,
+            )
+        if w.set_param_set(ps) and self.args.resume and len(w.param_sets) > 1:
+            print_err("capture", f"note: the device's parameter set is now {ps.crc_hex}")
+        w.begin_run(
+            "resume" if self.args.resume else "capture",
+            port=dev.url,
+            serial_number=dev.info.serial_number,
+            param_crc32=ps.crc_hex,
+        )
+        return w
+
+    def _on_trigger(self, trig: Trigger) -> None:  # reader thread
+        self.events.put((time.time(), trig))
+
+    def start_keys(self) -> None:
+        if self.args.no_keys or not is_tty(sys.stdin):
+            return
+        import termios
+        import tty
+
+        with contextlib.suppress(termios.error, OSError):
+            fd = sys.stdin.fileno()
+            self._tty_state = termios.tcgetattr(fd)
+            tty.setcbreak(fd)
+            self.keys = True
+
+    def stop_keys(self) -> None:
+        if self._tty_state is not None:
+            import termios
+
+            with contextlib.suppress(termios.error, OSError):
+                termios.tcsetattr(sys.stdin.fileno(), termios.TCSADRAIN, self._tty_state)
+            self._tty_state = None
+
+    def read_key(self) -> str | None:
+        if not self.keys:
+            return None
+        ready, _, _ = select.select([sys.stdin], [], [], 0)
+        if not ready:
+            return None
+        data = os.read(sys.stdin.fileno(), 1)
+        return data.decode("ascii", "replace").lower() if data else None
+
+    # ---------------------------------------------------------- the run
+
+    def drop_stale(self, w: SessionWriter) -> None:
+        """Forget button events that arrived before the stream started: they were
+        pressed before capture was listening (a link delivers events in order, so
+        every event queued before the start acknowledgement is older)."""
+        stale = 0
+        while True:
+            try:
+                host_time, trig = self.events.get_nowait()
+            except queue.Empty:
+                break
+            if trig.pressed:
+                stale += 1
+                w.ignored(
+                    trig.sample, host_time, trig.button, True, "pressed before capture listened"
+                )
+        if stale:
+            print_err("capture", f"ignored {stale} button presses from before the start")
+
+    def prompt(self, slot: Slot) -> None:
+        if self.args.quiet:
+            return
+        n = len(self.plan.slots)
+        if slot.point_index == 0 and slot.position_index in (None, 0):
+            st = self.plan.steps[slot.step_index]
+            if st.note:
+                say(f"step {st.index + 1}/{len(self.plan.steps)} {st.id}: {st.note}")
+        keys = " (u: undo, q: stop)" if self.keys else ""
+        say(f"[{slot.index + 1}/{n}] {slot.text}{keys}")
+
+    def check_params(self, dev: Device, w: SessionWriter) -> None:
+        """Before a point is taken: the set in force must be the one recorded."""
+        from aacmm.records import ParamSetRecord
+
+        crc = dev.client.info().param_crc32
+        if w.current is not None and crc == w.current.crc32:
+            return
+        ps = ParamSetRecord.from_device(dev.client.get_params())
+        w.set_param_set(ps)
+        print_err("capture", f"warning: the device's parameter set changed to {ps.crc_hex}")
+
+    def press(self, dev: Device, w: SessionWriter, host_time: float, trig: Trigger) -> None:
+        n = len(self.plan.slots)
+        if trig.button == BUTTON_UNDO:
+            self.undo(w, host_time)
+            return
+        if trig.button != BUTTON_CAPTURE:
+            w.ignored(trig.sample, host_time, trig.button, True, f"button {trig.button}")
+            return
+        if not trig.sample.status & POINT_VALID:
+            w.ignored(trig.sample, host_time, trig.button, True, "point not valid")
+            say(f"  point not valid (flags 0x{trig.sample.status:04x}): press again")
+            return
+        self.check_params(dev, w)
+        slot = w.record(trig.sample, host_time, trig.button)
+        x, y, z = trig.sample.point_mm
+        say(f"  recorded {slot.index + 1}/{n}: x {x:.4f} y {y:.4f} z {z:.4f} mm")
+
+    def undo(self, w: SessionWriter, host_time: float | None) -> None:
+        slot = w.undo(host_time)
+        if slot is None:
+            say("  nothing to undo")
+        else:
+            say(f"  undone {slot.index + 1}/{len(self.plan.slots)}: {slot.text}")
+
+    def loop(self, dev: Device, w: SessionWriter, stream: SampleStream, stop: StopFlag) -> str:
+        """Take presses until the plan is complete or a stop; return the end status."""
+        from aacmm.errors import DeviceTimeoutError, OperationError
+
+        last_sample = time.monotonic()
+        shown: int | None = None
+        while True:
+            slot = w.next_slot
+            if slot is None:
+                return "complete"
+            if shown != slot.index:
+                self.prompt(slot)
+                shown = slot.index
+            if stop.set:
+                self.stop_reason = "SIGTERM" if stop.signal == signal.SIGTERM else "SIGINT"
+                return "interrupted"
+            try:
+                host_time, trig = self.events.get(timeout=0.05)
+            except queue.Empty:
+                pass
+            else:
+                if trig.pressed:
+                    self.press(dev, w, host_time, trig)
+                    shown = None if w.next_slot is None or w.next_slot.index != shown else shown
+                continue
+            key = self.read_key()
+            if key == "u":
+                self.undo(w, None)
+                shown = None
+            elif key == "q":
+                self.stop_reason = "key q"
+                return "interrupted"
+            try:
+                while True:
+                    stream.get(timeout=0.0)
+                    last_sample = time.monotonic()
+            except DeviceTimeoutError:
+                pass
+            except (StopIteration, OperationError) as exc:
+                raise LinkLostError(f"link lost: {exc}") from None
+            if time.monotonic() - last_sample > self.args.stall:
+                raise LinkLostError(f"no sample for {self.args.stall:g} s")
+
+    def run(self) -> int:
+        from aacmm.commands.common import device_from_args
+        from aacmm.records import ParamSetRecord
+
+        stop = StopFlag()
+        dev = device_from_args(self.args)
+        status, reason, code = "error", "error", 1
+        w: SessionWriter | None = None
+        try:
+            ps = ParamSetRecord.from_device(dev.client.get_params())
+            if ps.crc32 != dev.info.param_crc32:
+                print_err(
+                    "capture",
+                    f"warning: the device reports parameter CRC 0x{dev.info.param_crc32:08x}, "
+                    f"its parameter set hashes to {ps.crc_hex}",
+                )
+            w = self.open_session(dev, ps)
+            if w.next_slot is None:
+                say(f"session {self.folder} is complete ({w.accepted} points)")
+                status, reason, code = "complete", "already complete", OK
+                return OK
+            if not self.args.quiet:
+                what = "resumed" if self.args.resume else "new session"
+                say(
+                    f"plan {self.plan.name}: {self.plan.title} ({len(self.plan.slots)} points) "
+                    f"-> {self.folder} ({what}, {w.accepted} points so far)"
+                )
+                say(f"device serial {dev.info.serial_number}, parameters {ps.crc_hex}")
+            dev.client.add_trigger_callback(self._on_trigger)
+            stop.install()
+            self.start_keys()
+            stream = dev.client.stream(LISTEN_RATE_HZ, timeout=self.args.stall)
+            self.drop_stale(w)
+            try:
+                status = self.loop(dev, w, stream, stop)
+            finally:
+                with contextlib.suppress(Exception):
+                    stream.stop()
+            if status == "complete":
+                reason, code = "complete", OK
+                say(f"complete: {w.accepted} points in {self.folder}")
+            else:
+                reason = self.stop_reason or "stopped"
+                code = INTERRUPTED
+            return code
+        except LinkLostError as exc:
+            status, reason = "link_lost", str(exc)
+            raise
+        except KeyboardInterrupt:
+            status, reason = "interrupted", "SIGINT"
+            raise
+        finally:
+            self.stop_keys()
+            stop.restore()
+            dev.close()
+            if w is not None:
+                w.close(status, reason)
+                if status != "complete":
+                    print_err(
+                        "capture",
+                        f"{w.accepted} of {len(self.plan.slots)} points kept in {self.folder}; "
+                        "continue with --resume",
+                    )
+
+
+def cmd_capture(args: argparse.Namespace) -> int:
+    from aacmm.plans import load_plan
+
+    if not (args.stall > 0 and args.stall <= 3600):
+        raise UsageError("--stall must be in (0, 3600] seconds")
+    plan = load_plan(args.plan)
+    folder = Path(args.output)
+    if args.resume:
+        from aacmm.records import read_session, session_exists
+
+        if not session_exists(folder):
+            raise UsageError(f"{folder}: no session to resume (no session.json)")
+        read_session(folder)  # refuse a damaged session before touching the device
+    elif folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+        raise UsageError(f"{folder} exists: use --resume to continue it, or another folder")
+    elif not folder.resolve().parent.is_dir():
+        raise UsageError(f"directory {folder.resolve().parent} does not exist")
+    return Capture(args, plan).run()

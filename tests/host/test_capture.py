@@ -1,0 +1,205 @@
+"""``aacmm capture`` against the real simulator over a pty: a full plan, kill -9 and
+--resume, undo, Ctrl-C, a parameter change between runs, bad input."""
+
+from __future__ import annotations
+
+import os
+import pty
+import signal
+import subprocess
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from aacmm.commands.sim import SimProcess
+from aacmm.plans import load_plan
+from aacmm.records import read_session
+from clihelp import AACMM, cli_env, one_error_line, run
+
+pytestmark = pytest.mark.timeout(120)
+
+PLAN = "probe-calibration"  # 30 cone points
+
+
+@pytest.fixture(name="sim")
+def _sim() -> Iterator[SimProcess]:
+    """A fresh simulator pressing the button every 0.1 s (each test its own device)."""
+    with SimProcess(["--serial", "pty", "--quiet", "--button-every", "0.1"]) as s:
+        yield s
+
+
+class Capture:
+    """``aacmm capture`` as a subprocess, its stdout collected line by line."""
+
+    def __init__(self, *args: str, stdin: int | None = None) -> None:
+        self.proc = subprocess.Popen(
+            [str(AACMM), "capture", *args],
+            stdin=stdin if stdin is not None else subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=cli_env(),
+        )
+        self.lines: list[str] = []
+        self.err: list[str] = []
+        self._cond = threading.Condition()
+        self._threads = [
+            threading.Thread(target=self._read, daemon=True),
+            threading.Thread(target=self._read_err, daemon=True),
+        ]
+        for t in self._threads:
+            t.start()
+
+    def _read_err(self) -> None:
+        assert self.proc.stderr is not None
+        self.err.extend(self.proc.stderr)
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            with self._cond:
+                self.lines.append(line.rstrip("\n"))
+                self._cond.notify_all()
+
+    def wait_for(self, text: str, timeout: float = 30.0) -> None:
+        end = time.monotonic() + timeout
+        with self._cond:
+            while not any(text in line for line in self.lines):
+                left = end - time.monotonic()
+                assert left > 0 and self.proc.poll() is None, (text, self.lines[-5:])
+                self._cond.wait(left)
+
+    def acknowledged(self) -> int:
+        with self._cond:
+            return sum(1 for line in self.lines if line.lstrip().startswith("recorded "))
+
+    def finish(self, timeout: float = 60) -> tuple[int, str]:
+        code = self.proc.wait(timeout)
+        for t in self._threads:
+            t.join(5)
+        return code, "".join(self.err)
+
+
+def check_session(folder: Path, n: int) -> None:
+    """n points, in plan order, each recomputed from its counts = the device's point."""
+    s = read_session(folder)
+    plan = load_plan(PLAN)
+    assert len(s) == n
+    assert [p.slot for p in s.points] == list(range(n))
+    assert [p.articulation_index for p in s.points] == [
+        sl.articulation_index for sl in plan.slots[:n]
+    ]
+    # device (float build, 0.1 um output) vs double-precision recompute from the raw counts
+    assert np.abs(s.points_mm() - s.device_points_mm).max() < 2e-3
+    seqs = [p.device_time_us for p in s.points]
+    assert seqs == sorted(seqs)
+
+
+def test_full_plan(sim: SimProcess, tmp_path: Path) -> None:
+    out = tmp_path / "s1"
+    cap = Capture(PLAN, "-o", str(out), "--port", sim.url)
+    code, err = cap.finish()
+    assert code == 0, err
+    assert cap.lines[-1] == f"complete: 30 points in {out}"
+    assert cap.acknowledged() == 30
+    assert "[1/30] step 1/1, cone seat, articulation 1 of 30: seat the probe" in cap.lines
+    check_session(out, 30)
+    s = read_session(out)
+    assert s.status == "complete" and s.complete
+    assert s.device is not None and s.device["serial_number"] == 1
+    progress = (out / "progress.json").read_text()
+    assert '"next_slot": 30' in progress and '"complete": true' in progress
+
+
+def test_kill9_then_resume_loses_no_acknowledged_point(sim: SimProcess, tmp_path: Path) -> None:
+    out = tmp_path / "s"
+    cap = Capture(PLAN, "-o", str(out), "--port", sim.url)
+    cap.wait_for("recorded 8/30")
+    time.sleep(0.27)  # somewhere between two presses, or inside one
+    acked = cap.acknowledged()
+    cap.proc.kill()
+    cap.finish()
+    s = read_session(out)
+    # every acknowledged point is there; at most one more (durable, not yet printed)
+    assert acked <= len(s) <= acked + 1
+    assert s.status == "running"  # what a killed capture leaves
+    cap = Capture(PLAN, "-o", str(out), "--port", sim.url, "--resume")
+    code, err = cap.finish()
+    assert code == 0, err
+    assert f"(resumed, {len(s)} points so far)" in cap.lines[0]
+    check_session(out, 30)
+    runs = read_session(out).meta["runs"]
+    assert [r["kind"] for r in runs] == ["capture", "resume"]
+    assert runs[1]["first_slot"] == len(s)
+
+
+def test_undo_key_and_ctrl_c(sim: SimProcess, tmp_path: Path) -> None:
+    out = tmp_path / "s"
+    master, slave = pty.openpty()
+    try:
+        cap = Capture(PLAN, "-o", str(out), "--port", sim.url, stdin=slave)
+        cap.wait_for("recorded 5/30")
+        os.write(master, b"u")
+        cap.wait_for("  undone ")
+        cap.wait_for("recorded 9/30")
+        cap.proc.send_signal(signal.SIGINT)
+        code, err = cap.finish()
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert code == 130, err
+    assert "continue with --resume" in err
+    undone = [line for line in cap.lines if line.startswith("  undone ")]
+    assert len(undone) == 1
+    s = read_session(out)
+    assert s.status == "interrupted"
+    assert len(s) == cap.acknowledged() - 1  # one acknowledged point was undone
+    check_session(out, len(s))
+    events = (out / "events.csv").read_text().splitlines()
+    assert sum(1 for e in events if ",undo," in e) == 1
+
+
+def test_parameter_set_changes_between_runs(sim: SimProcess, tmp_path: Path) -> None:
+    """15.5: a session resumed on a device with another set records both, per row."""
+    out = tmp_path / "s"
+    cap = Capture(PLAN, "-o", str(out), "--port", sim.url)
+    cap.wait_for("recorded 4/30")
+    cap.proc.send_signal(signal.SIGTERM)
+    assert cap.finish()[0] == 130
+    n1 = len(read_session(out))
+    params = tmp_path / "p.toml"
+    assert run("params", "get", "-o", str(params), "--port", sim.url).returncode == 0
+    text = params.read_text().replace("l_mm = 183.5", "l_mm = 150.0")
+    params.write_text(text)
+    assert run("params", "set", str(params), "--port", sim.url).returncode == 0
+    cap = Capture(PLAN, "-o", str(out), "--port", sim.url, "--resume")
+    assert cap.finish()[0] == 0
+    s = read_session(out)
+    crcs = [p.param_set.crc32 for p in s.points]
+    assert (
+        len(set(crcs)) == 2 and crcs[:n1] == [crcs[0]] * n1 and crcs[n1:] == [crcs[-1]] * (30 - n1)
+    )
+    assert s.param_sets[crcs[-1]].params.l_mm == 150.0
+    # each row recomputed with its own set agrees with the device; the first set would not
+    check_session(out, 30)
+    with pytest.raises(ValueError, match="parameter set changes at row"):
+        s.single_params("a one-set analysis")
+
+
+def test_bad_input(sim: SimProcess, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('format = "aacmm-plan-1"\n[[steps]]\nprocedure = "cone"\nartefact = "x"\n')
+    p = run("capture", str(bad), "-o", str(tmp_path / "s"), "--port", sim.url)
+    one_error_line(p, 2, "bad.toml:4: steps[0].artefact: unknown artefact 'x'")
+    assert not (tmp_path / "s").exists()
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "x").write_text("")
+    p = run("capture", PLAN, "-o", str(tmp_path / "full"), "--port", sim.url)
+    one_error_line(p, 2, "exists", "--resume")
+    p = run("capture", PLAN, "-o", str(tmp_path / "none"), "--resume", "--port", sim.url)
+    one_error_line(p, 2, "no session to resume")
+    p = run("capture", "iso10360-12", "-o", str(tmp_path / "full"), "--resume", "--port", sim.url)
+    one_error_line(p, 2)
