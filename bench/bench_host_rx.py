@@ -58,7 +58,11 @@ class CountingSink:
 
 
 def sample_body(seq: int, jacobian: bool) -> bytes:
-    jac = tuple((i % 17) * 0.25 - 2.0 for i in range(75)) if jacobian else None
+    jac = (
+        tuple(tuple(((25 * r + c) % 17) * 0.25 - 2.0 for c in range(25)) for r in range(3))
+        if jacobian
+        else None
+    )
     s = Sample(
         seq=seq,
         timestamp_us=1_000_000 + 1000 * seq,

@@ -74,8 +74,11 @@ def fake_point(counts: tuple[int, ...]) -> tuple[int, int, int]:
     return (counts[0] % 100000, -(counts[1] % 100000), counts[2] % 7 - 3)
 
 
-def fake_jacobian(counts: tuple[int, ...]) -> tuple[float, ...]:
-    return tuple(float((i * 7 + counts[0]) % 13) - 6.0 for i in range(75))
+def fake_jacobian(counts: tuple[int, ...]) -> tuple[tuple[float, ...], ...]:
+    """3 rows of 25 values (the codec's Jacobian shape)."""
+    return tuple(
+        tuple(float(((25 * r + c) * 7 + counts[0]) % 13) - 6.0 for c in range(25)) for r in range(3)
+    )
 
 
 @dataclass

@@ -72,8 +72,7 @@ def numpy_point_jacobian(p: ParamSet, counts: Sequence[int]) -> tuple[FloatArray
 def core_point_jacobian(p: ParamSet, counts: Sequence[int]) -> tuple[FloatArray, FloatArray]:
     from aacmm import core
 
-    params = core.Params(p.theta_offset_rad, p.alpha_rad, p.d_mm, p.a_mm, p.l_mm)
-    enc = core.EncoderConfig(p.counts_per_rev, p.zero_offset_counts, p.direction)
+    params, enc = p.to_core()
     theta = core.counts_to_angles(np.array([counts], dtype=np.int64), enc)[0]
     point, jac = core.Model(params).point_jacobian(theta)
     return point, jac

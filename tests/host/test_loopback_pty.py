@@ -105,6 +105,37 @@ def test_params_roundtrip(client: Client) -> None:
     assert client.measure().status & SampleStatus.PARAMS_DEFAULT
 
 
+def test_param_set_to_core_reproduces_the_device(client: Client) -> None:
+    """#14.9: ``ParamSet.to_core()`` gives the ``aacmm.core`` Params and
+    EncoderConfig with which the host recomputes what the device computes,
+    encoder configuration included (resolution, zero offset, direction)."""
+    from aacmm import core
+
+    ps = replace(
+        modified(client.get_params()),
+        counts_per_rev=(1 << 20, 1 << 18, 14400, 1 << 20, 1 << 16, 1 << 32),
+        zero_offset_counts=(1000, 5, 77, 0, 60000, 123),
+        direction=(1, -1, 1, -1, 1, 1),
+    )
+    client.set_params(ps)
+    params, enc = ps.to_core()
+    assert isinstance(params, core.Params) and isinstance(enc, core.EncoderConfig)
+    assert ParamSet.from_core(params, enc) == ps
+    model = core.Model(params)
+    rng = random.Random(5)
+    for _ in range(20):
+        counts = [rng.randrange(c) for c in ps.counts_per_rev]
+        r = client.compute(counts, jacobian=True)
+        theta = core.counts_to_angles(np.array([counts], dtype=np.int64), enc)[0]
+        point, jac = model.point_jacobian(theta)
+        assert np.max(np.abs(np.array(r.point_mm) - point)) < FLOAT_PATH_BOUND_MM
+        assert np.asarray(r.jacobian).shape == jac.shape == (3, 25)
+        assert np.allclose(np.asarray(r.jacobian), jac, rtol=1e-4, atol=1e-3)
+        # and the independent numpy chain, read straight from the ParamSet fields
+        ref_p, _ = hostref.numpy_point_jacobian(ps, counts)
+        assert np.max(np.abs(ref_p - point)) < 1e-9
+
+
 def test_device_refuses_bad_params(client: Client) -> None:
     p = client.get_params()
     with pytest.raises(DeviceError) as ei:
@@ -132,7 +163,8 @@ def test_measure_and_compute_against_host_reference(client: Client) -> None:
     ref_p, ref_j = hostref.point_jacobian(params, s.counts)
     assert np.max(np.abs(np.array(s.point_mm) - ref_p)) < FLOAT_PATH_BOUND_MM
     assert s.jacobian is not None
-    jac = np.array(s.jacobian).reshape(3, 25)
+    jac = np.asarray(s.jacobian)  # the codec gives the core's shape, (3, 25)
+    assert jac.shape == ref_j.shape == (3, 25)
     assert np.allclose(jac, ref_j, rtol=1e-4, atol=1e-3)
 
     rng = random.Random(11)
@@ -144,7 +176,8 @@ def test_measure_and_compute_against_host_reference(client: Client) -> None:
         ref_p, ref_j = hostref.point_jacobian(params, counts)
         worst = max(worst, float(np.max(np.abs(np.array(r.point_mm) - ref_p))))
         if r.jacobian is not None:
-            assert np.allclose(np.array(r.jacobian).reshape(3, 25), ref_j, rtol=1e-4, atol=1e-3)
+            assert np.asarray(r.jacobian).shape == ref_j.shape
+            assert np.allclose(np.asarray(r.jacobian), ref_j, rtol=1e-4, atol=1e-3)
     assert worst < FLOAT_PATH_BOUND_MM
     _record("compute_max_error_mm", worst)
     _record("host_reference", "aacmm.core (cffi)" if hostref.have_core() else "numpy")
@@ -164,7 +197,7 @@ def test_stream_start_stop_and_jacobian_content(client: Client) -> None:
         assert samples.accepted is not None
         assert samples.accepted.rate_hz == 100 and samples.accepted.jacobian
         got = [next(samples) for _ in range(20)]
-    assert all(s.jacobian is not None and len(s.jacobian) == 75 for s in got)
+    assert all(s.jacobian is not None and np.shape(s.jacobian) == (3, 25) for s in got)
     assert samples.stats.lost == samples.stats.duplicates == 0
     # stopped: nothing more arrives
     before = client.stats.unsolicited_samples

@@ -94,7 +94,7 @@ def test_ping_over_isotp_on_socketcan() -> None:
             assert messages.decode_message(reply) == Message(MsgType.PING_RSP, seq, Ping(token))
         # a long body too: the parameter-set response size, both ways through FC/CF
         long_body = messages.encode_message(
-            Message(MsgType.SAMPLE_EVT, 9, Sample(1, 2, (3,) * 6, (4, 5, 6), 7, (0.5,) * 75))
+            Message(MsgType.SAMPLE_EVT, 9, Sample(1, 2, (3,) * 6, (4, 5, 6), 7, ((0.5,) * 25,) * 3))
         )
         stack.send(long_body)  # the device ignores it (not a ping) but must reassemble it
         stack.send(messages.encode_message(Message(MsgType.PING_REQ, 77, Ping(77))))

@@ -69,6 +69,12 @@ PARAMS = ParamSet(
     direction=(1, -1, 1, -1, 1, -1),
 )
 
+
+def rows3x25(flat: tuple[float, ...]) -> tuple[tuple[float, ...], ...]:
+    """The codec's Jacobian shape (3 rows of 25) from the 75 wire values."""
+    return tuple(flat[25 * r : 25 * (r + 1)] for r in range(3))
+
+
 SAMPLE_A = Sample(
     seq=0xFFFFFFFE,
     timestamp_us=0x0123456789ABCDEF,
@@ -83,7 +89,7 @@ SAMPLE_J = Sample(
     counts=(100, 200, 300, 400, 500, 600),
     point_100nm=(0, 1, -2147483648),
     status=0x00000001,
-    jacobian=(*((i - 37) * 0.25 for i in range(74)), 3.0 * 2.0**-20),
+    jacobian=rows3x25((*((i - 37) * 0.25 for i in range(74)), 3.0 * 2.0**-20)),
 )
 
 DIAG = Diagnostics(
@@ -116,7 +122,7 @@ DIAG = Diagnostics(
 COMPUTE_RSP = ComputeResult(
     status=1,
     point_mm=(1234.5678901234567, -0.0001, 2200.0),
-    jacobian=tuple(i * 0.5 for i in range(75)),
+    jacobian=rows3x25(tuple(i * 0.5 for i in range(75))),
 )
 
 

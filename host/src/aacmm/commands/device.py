@@ -30,7 +30,7 @@ from aacmm.errors import DeviceError
 
 if TYPE_CHECKING:
     from aacmm.client import Client
-    from aacmm.protocol import ComputeResult, ParamSet, Sample
+    from aacmm.protocol import ComputeResult, Jacobian, ParamSet, Sample
 
 JAC_ROWS = 3
 JAC_COLS = 25
@@ -133,16 +133,16 @@ def _print_json(data: Any) -> None:
     print(json.dumps(data, indent=2))
 
 
-def _jacobian_text(jac: tuple[float, ...]) -> str:
+def _jacobian_text(jac: Jacobian) -> str:
     lines = ["jacobian (mm per parameter unit; rows x, y, z):"]
     for c in range(JAC_COLS):
-        vals = "  ".join(f"{jac[r * JAC_COLS + c]:+.6e}" for r in range(JAC_ROWS))
+        vals = "  ".join(f"{jac[r][c]:+.6e}" for r in range(JAC_ROWS))
         lines.append(f"  {PARAM_COLUMN_NAMES[c]:<7} {vals}")
     return "\n".join(lines)
 
 
-def _jacobian_rows(jac: tuple[float, ...]) -> list[list[float]]:
-    return [list(jac[r * JAC_COLS : (r + 1) * JAC_COLS]) for r in range(JAC_ROWS)]
+def _jacobian_rows(jac: Jacobian) -> list[list[float]]:
+    return [list(row) for row in jac]
 
 
 # ---------------------------------------------------------------- info

@@ -19,18 +19,28 @@ import math
 import struct
 from dataclasses import dataclass
 from enum import IntEnum, IntFlag
-from typing import Final, TypeAlias
+from typing import TYPE_CHECKING, Final, TypeAlias
 
 from aacmm.errors import DeviceError, FrameError
 from aacmm.protocol.framing import crc32, encode_frame
 from aacmm.protocol.status import Status, status_name
 
+if TYPE_CHECKING:
+    from aacmm.core import EncoderConfig, Params
+
 PROTOCOL_VERSION: Final = 1
 HEADER_BYTES: Final = 3
 MAX_BODY: Final = 512
 JOINTS: Final = 6
+JAC_ROWS: Final = 3
+JAC_COLS: Final = 25
 JAC_SIZE: Final = 75
-"""3x25 row-major; columns theta1..6, alpha1..6, d1..6, a1..6, l."""
+"""3x25 row-major on the wire; columns theta1..6, alpha1..6, d1..6, a1..6, l."""
+
+Jacobian = tuple[tuple[float, ...], ...]
+"""A Jacobian as the codec gives it: 3 rows (x, y, z) of 25 values (mm per
+parameter unit, columns as :data:`aacmm.core.PARAM_NAMES`), the shape
+``aacmm.core`` uses: ``np.asarray(sample.jacobian)`` is a (3, 25) array."""
 POINT_UNIT_MM: Final = 1e-4
 """Wire unit of the sample point: int32 counts of 1e-4 mm (100 nm)."""
 STREAM_RATE_MIN_HZ: Final = 1
@@ -236,6 +246,39 @@ class ParamSet:
     zero_offset_counts: tuple[int, ...]
     direction: tuple[int, ...]
 
+    def to_core(self) -> tuple[Params, EncoderConfig]:
+        """The set as :class:`aacmm.core.Params` and :class:`aacmm.core.EncoderConfig`,
+        ready for ``Model(params)`` and ``counts_to_angles(counts, encoders)``::
+
+            params, encoders = arm.get_params().to_core()
+            point, jac = Model(params).point_jacobian(counts_to_angles([counts], encoders)[0])
+        """
+        from aacmm.core import EncoderConfig, Params
+
+        return (
+            Params(self.theta_offset_rad, self.alpha_rad, self.d_mm, self.a_mm, self.l_mm),
+            EncoderConfig(self.counts_per_rev, self.zero_offset_counts, self.direction),
+        )
+
+    @classmethod
+    def from_core(cls, params: Params, encoders: EncoderConfig | None = None) -> ParamSet:
+        """The device's set for ``params`` and ``encoders`` (default: 2^32 counts per
+        revolution, no offset, direction +1): the inverse of :meth:`to_core`.
+        The codec checks the ranges when it is sent."""
+        from aacmm.core import EncoderConfig
+
+        enc = encoders if encoders is not None else EncoderConfig()
+        return cls(
+            params.theta_offset_rad,
+            params.alpha_rad,
+            params.d_mm,
+            params.a_mm,
+            params.l_mm,
+            enc.counts_per_rev,
+            enc.zero_offset_counts,
+            enc.direction,
+        )
+
 
 @dataclass(frozen=True)
 class ParamCrc:
@@ -256,7 +299,8 @@ class Sample:
     """MEASURE_RSP / SAMPLE_EVT (53 bytes, 353 with the Jacobian).
 
     ``point_100nm`` is the probe point in units of 1e-4 mm (see :attr:`point_mm`);
-    ``jacobian`` holds 75 float32 values (3x25 row-major) or is ``None``.
+    ``jacobian`` is a :data:`Jacobian` (3 rows of 25 float32 values: shape
+    (3, 25) as in :mod:`aacmm.core`) or ``None``.
     """
 
     seq: int
@@ -264,7 +308,7 @@ class Sample:
     counts: tuple[int, ...]
     point_100nm: tuple[int, ...]
     status: int
-    jacobian: tuple[float, ...] | None = None
+    jacobian: Jacobian | None = None
 
     @property
     def point_mm(self) -> tuple[float, float, float]:
@@ -283,11 +327,12 @@ class ComputeRequest:
 
 @dataclass(frozen=True)
 class ComputeResult:
-    """COMPUTE_RSP: the device's point in mm (float64) and optional Jacobian."""
+    """COMPUTE_RSP: the device's point in mm (float64) and optional
+    :data:`Jacobian` (3 rows of 25)."""
 
     status: int
     point_mm: tuple[float, ...]
-    jacobian: tuple[float, ...] | None = None
+    jacobian: Jacobian | None = None
 
 
 @dataclass(frozen=True)
@@ -458,12 +503,29 @@ def _check_flag(name: str, value: bool) -> None:
         raise ValueError(f"{name} must be a bool")
 
 
-def _enc_jacobian(jac: tuple[float, ...] | None) -> bytes:
+def _jacobian_flat(jac: object) -> tuple[float, ...]:
+    """The 75 values of a 3 x 25 Jacobian (rows x, y, z), row-major."""
+    try:
+        rows = [tuple(r) for r in jac]  # type: ignore[attr-defined]
+    except TypeError:
+        rows = []
+    if len(rows) != JAC_ROWS or any(len(r) != JAC_COLS for r in rows):
+        raise ValueError(f"jacobian must be {JAC_ROWS} rows of {JAC_COLS} values (x, y, z)")
+    return tuple(v for r in rows for v in r)
+
+
+def _dec_jacobian(b: bytes, offset: int) -> Jacobian:
+    flat = _finite(_JAC.unpack_from(b, offset))
+    return tuple(flat[r * JAC_COLS : (r + 1) * JAC_COLS] for r in range(JAC_ROWS))
+
+
+def _enc_jacobian(jac: Jacobian | None) -> bytes:
     if jac is None:
         return b""
-    _check_floats("jacobian", jac, JAC_SIZE, f32=True)
+    flat = _jacobian_flat(jac)
+    _check_floats("jacobian", flat, JAC_SIZE, f32=True)
     try:
-        return _JAC.pack(*jac)
+        return _JAC.pack(*flat)
     except OverflowError:  # rounding up past FLT_MAX
         raise ValueError("jacobian value does not fit a float32") from None
 
@@ -717,7 +779,7 @@ def _dec_sample(b: bytes) -> Sample:
         counts=tuple(f[2:8]),
         point_100nm=tuple(f[8:11]),
         status=f[11],
-        jacobian=_finite(_JAC.unpack_from(b, SAMPLE_BASE_BYTES)) if jac else None,
+        jacobian=_dec_jacobian(b, SAMPLE_BASE_BYTES) if jac else None,
     )
 
 
@@ -829,7 +891,7 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
         return ComputeResult(
             status=f[0],
             point_mm=point,
-            jacobian=_finite(_JAC.unpack_from(b, COMPUTE_RSP_BASE_BYTES)) if jac else None,
+            jacobian=_dec_jacobian(b, COMPUTE_RSP_BASE_BYTES) if jac else None,
         )
     if t == MsgType.DIAG_RSP:
         return _dec_diag(b)
