@@ -37,9 +37,11 @@ BOARD_DEFS_microbit += -DBOARD_UART_RX_BYTES=256u -DBOARD_UART_TX_BYTES=256u \
                        -DBOARD_SERIAL_TXQ_BYTES=2048u
 # The device application with its kinematics backend (as mk/device.mk).
 BOARD_DEVICE_SRCS := firmware/src/device/device.c firmware/src/device/param_store.c \
-                     firmware/src/sim/sim_motion.c $(sort $(wildcard firmware/src/protocol/*.c)) \
+                     firmware/src/sim/sim_motion.c firmware/src/sim/sim_encoder.c \
+                     $(sort $(wildcard firmware/src/protocol/*.c)) \
                      firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c \
-                     firmware/src/kinematics_f64.c $(BOARD_COMMON)/device_main.c
+                     firmware/src/kinematics_f64.c firmware/src/encoder_frame.c \
+                     $(BOARD_COMMON)/device_main.c
 BOARD_DEVKIN_mps2-an386 := firmware/src/device/device_kin_f32.c
 BOARD_DEVKIN_microbit   := firmware/src/device/device_kin_q.c $(BOARD_KIN_Q) \
                            firmware/src/kinematics_q_convert.c

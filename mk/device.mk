@@ -7,7 +7,7 @@
 # wildcard keeps this fragment independent of its variable names).
 DEV_PROTO_SRCS := $(sort $(wildcard firmware/src/protocol/*.c))
 DEV_CORE_SRCS  := firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c \
-                  firmware/src/kinematics_f64.c
+                  firmware/src/kinematics_f64.c firmware/src/encoder_frame.c
 
 # Kinematics backend of the device: f32 (float core, default) or q (the
 # fixed-point core, -DAACMM_DEVICE_KIN_FIXED), e.g. `make sim DEVICE_KIN=q`.
@@ -21,7 +21,7 @@ DEV_KIN_FLAGS := $(if $(filter q,$(DEVICE_KIN)),-DAACMM_DEVICE_KIN_FIXED)
 DEV_SUFFIX    := $(if $(filter q,$(DEVICE_KIN)),-q)
 
 DEVICE_SRCS := firmware/src/device/device.c firmware/src/device/param_store.c $(DEV_KIN_SRCS)
-SIM_SRCS    := firmware/src/sim/sim_motion.c
+SIM_SRCS    := firmware/src/sim/sim_motion.c firmware/src/sim/sim_encoder.c
 POSIX_SRCS  := firmware/ports/posix/sim_main.c firmware/ports/posix/posix_port.c
 
 DEV_ALL_SRCS := $(DEVICE_SRCS) $(SIM_SRCS) $(DEV_CORE_SRCS) $(DEV_PROTO_SRCS)
@@ -97,7 +97,7 @@ TEST_SUITES += test-device-gcc test-device-clang test-device-san test-device-q t
 # Cortex-M4F (float core) and Cortex-M0+ with the ARM toolchain, warning-free,
 # without POSIX or stdio.
 DEV_ARM_DIR := $(BUILD)/arm-m4f/device
-DEV_ARM_SRCS := $(DEVICE_SRCS) $(SIM_SRCS)
+DEV_ARM_SRCS := $(DEVICE_SRCS) $(SIM_SRCS) firmware/src/encoder_frame.c
 DEV_M4F_OBJS := $(patsubst firmware/src/%.c,$(DEV_ARM_DIR)/%.o,$(DEV_ARM_SRCS))
 DEV_M0_DIR := $(BUILD)/arm-m0/device
 DEV_M0_OBJS := $(patsubst firmware/src/%.c,$(DEV_M0_DIR)/%.o,$(DEV_ARM_SRCS))

@@ -32,10 +32,12 @@ $(BUILD)/protocol/test_protocol_gcc_san: $(PROTO_TEST_DEPS) | $(BUILD)
 	gcc $(CSTD) $(WARN) $(SAN_FLAGS) -I$(FW_INC) $(PROTO_TEST_FLAGS) $(PROTO_SRCS) $(PROTO_TEST_SRCS) $(CMOCKA_LIBS) -o $@
 
 # libFuzzer harness over the deframer, the message decoder and the ISO-TP receiver.
-$(BUILD)/protocol/fuzz_protocol: $(PROTO_SRCS) $(PROTO_HDRS) tests/protocol/fuzz_protocol.c | $(BUILD)
+# Mode 4 of the harness is the absolute-encoder frame decoder (mk/encoder.mk).
+$(BUILD)/protocol/fuzz_protocol: $(PROTO_SRCS) $(PROTO_HDRS) tests/protocol/fuzz_protocol.c \
+                                 firmware/src/encoder_frame.c firmware/include/aacmm/encoder_frame.h | $(BUILD)
 	@mkdir -p $(@D)
 	clang $(CSTD) $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-	    -I$(FW_INC) $(PROTO_SRCS) tests/protocol/fuzz_protocol.c -o $@
+	    -I$(FW_INC) $(PROTO_SRCS) firmware/src/encoder_frame.c tests/protocol/fuzz_protocol.c -o $@
 
 # Test-only shared library the pytest interop tests load with ctypes.
 $(BUILD)/protocol/libaacmm_proto_shim.so: $(PROTO_SRCS) $(PROTO_HDRS) tests/protocol/proto_shim.c | $(BUILD)

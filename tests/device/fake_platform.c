@@ -76,6 +76,17 @@ static aacmm_status_t f_read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
     return AACMM_OK;
 }
 
+static aacmm_status_t f_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS])
+{
+    fake_t *f = ctx;
+    f->encoder_reads++;
+    if (f->encoder_status != AACMM_OK) {
+        return f->encoder_status;
+    }
+    memcpy(frames, f->frames, sizeof f->frames);
+    return AACMM_OK;
+}
+
 static aacmm_status_t f_read_button(void *ctx, uint8_t *pressed)
 {
     *pressed = ((fake_t *)ctx)->button;
@@ -107,9 +118,45 @@ static aacmm_status_t f_storage_write(void *ctx, uint32_t offset, const uint8_t 
         if (f->write_budget > 0) {
             f->write_budget--;
         }
-        f->storage[offset + i] = data[i];
+        if (f->flash) {
+            f->storage[offset + i] &= data[i]; /* programming only clears bits */
+        } else {
+            f->storage[offset + i] = data[i];
+        }
     }
     return AACMM_OK;
+}
+
+static aacmm_status_t f_storage_erase(void *ctx, uint32_t offset, size_t len)
+{
+    fake_t *f = ctx;
+    size_t i;
+    if ((size_t)offset + len > sizeof f->storage) {
+        return AACMM_ERR_IO;
+    }
+    f->storage_erases++;
+    for (i = 0; i < len; i++) {
+        if (f->write_budget == 0) {
+            return AACMM_ERR_IO; /* power cut in the middle of the erase */
+        }
+        if (f->write_budget > 0) {
+            f->write_budget--;
+        }
+        f->storage[offset + i] = 0xFFu;
+    }
+    return AACMM_OK;
+}
+
+void fake_use_frames(fake_t *f, aacmm_platform_t *pf)
+{
+    (void)f;
+    pf->read_encoder_frames = f_read_encoder_frames;
+}
+
+void fake_use_flash(fake_t *f, aacmm_platform_t *pf)
+{
+    f->flash = 1;
+    pf->storage_erase = f_storage_erase;
 }
 
 void fake_init(fake_t *f)

@@ -35,6 +35,7 @@ typedef struct {
     int can_busy;      /* can_send answers AACMM_ERR_BUSY */
     /* encoders and button */
     uint32_t counts[AACMM_JOINTS];
+    aacmm_enc_frame_t frames[AACMM_JOINTS]; /* read_encoder_frames (fake_use_frames) */
     aacmm_status_t encoder_status;
     unsigned encoder_reads;
     uint8_t button;
@@ -43,6 +44,10 @@ typedef struct {
     long write_budget; /* bytes still written before the "power cut"; < 0 = unlimited */
     int read_error;
     unsigned storage_writes;
+    /* flash (fake_use_flash): writes only clear bits, storage_erase sets a
+     * slot to 0xFF byte by byte; the same write_budget counts erased bytes */
+    int flash;
+    unsigned storage_erases;
 } fake_t;
 
 /* Clean state: time 1 s, everything empty, storage erased (0xFF),
@@ -51,5 +56,11 @@ void fake_init(fake_t *f);
 
 /* The platform table: links as asked. */
 void fake_platform(fake_t *f, aacmm_platform_t *pf, int serial, int can, int storage, int button);
+
+/* Joints as frames: pf->read_encoder_frames returns f->frames. */
+void fake_use_frames(fake_t *f, aacmm_platform_t *pf);
+
+/* Storage behaves as NOR flash with an erase function (see fake_t.flash). */
+void fake_use_flash(fake_t *f, aacmm_platform_t *pf);
 
 #endif

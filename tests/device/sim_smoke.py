@@ -184,6 +184,9 @@ def test_arguments(sim: str, tmp: str) -> None:
         ["--serial", "pty", "--cpr", "4096", "--encoder-bits", "12"],
         ["--serial", "pty", "--bogus"],
         ["--serial", "pty", "--button-every", "x"],
+        ["--serial", "pty", "--encoder", "endat"],
+        ["--serial", "pty", "--encoder", "counts", "--encoder-faults", "3"],
+        ["--serial", "pty", "--encoder-faults", "-1"],
         ["--serial", "pty", "--motion", "replay:" + os.path.join(tmp, "missing.txt")],
     ]
     for args in bad:
@@ -317,6 +320,54 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
     }
 
 
+DIAG = 0x0B
+JOINT_FAULTS = 0x3F00
+
+
+def test_encoder_faults(sim: str) -> dict[str, int]:
+    """Corrupted encoder frames (one in 9) are counted per joint and never give a point."""
+    p, path = start(
+        sim, "--motion", "static", "--encoder", "ssi-gray", "--encoder-bits", "20",
+        "--encoder-faults", "9",
+    )  # fmt: skip
+    link = Link(path)
+    faulty_readings = 0
+    point_from_bad_frame = 0
+    good_counts: set[tuple[int, ...]] = set()
+    n = 60
+    for _ in range(n):
+        rsp = link.request(MEASURE, b"\x00")
+        if rsp is None or rsp[1] != MEASURE | 0x80:
+            check(False, "MEASURE answered")
+            break
+        counts = struct.unpack_from("<6I", rsp, 3 + 12)
+        status = struct.unpack_from("<I", rsp, 3 + 48)[0]
+        bad = status & JOINT_FAULTS
+        if bad:
+            faulty_readings += bin(bad).count("1")
+            point_from_bad_frame += status & 0x1 != 0 or status & 0x2 == 0
+        else:
+            good_counts.add(counts)
+    check(point_from_bad_frame == 0, "no sample with a faulty joint has a point")
+    check(len(good_counts) == 1, f"the clean samples of a static arm agree ({len(good_counts)})")
+    rsp = link.request(DIAG)
+    ok = rsp is not None and rsp[1] == DIAG | 0x80 and len(rsp) == 3 + 125
+    check(ok, "DIAG answered (125-byte payload)")
+    joint_faults = 0
+    if ok:
+        assert rsp is not None
+        joints = [struct.unpack_from("<BBBII", rsp, 3 + 59 + 11 * j) for j in range(6)]
+        joint_faults = sum(j[3] for j in joints)
+        check(all(j[0] == 3 and j[1] == 20 for j in joints), "DIAG: six SSI Gray 20-bit joints")
+        check(
+            joint_faults == faulty_readings == n * 6 // 9,
+            f"DIAG: {joint_faults} joint faults = {faulty_readings} flagged = one frame in 9",
+        )
+    link.close()
+    check(stop(p) == 0, "SIGTERM: exit 0")
+    return {"encoder_faults": joint_faults}
+
+
 def main() -> int:
     sim = sys.argv[1] if len(sys.argv) > 1 else "build/sim/aacmm-sim"
     seconds = 3.0
@@ -327,6 +378,7 @@ def main() -> int:
         test_arguments(sim, tmp)
         stats = test_session(sim, tmp, seconds, content)
         stats["jacobian"] = content
+        stats.update(test_encoder_faults(sim))
     print(json.dumps({"sim_stream": stats}))
     if failures:
         print(f"sim smoke: {len(failures)} failed", file=sys.stderr)

@@ -1533,6 +1533,273 @@ static uint32_t count_dist(uint32_t a, uint32_t b, uint64_t cpr)
     return (uint32_t)(d > cpr / 2u ? cpr - d : d);
 }
 
+/* ------------------------------------------------------------------------ */
+/* encoder frames: the simulated encoders' frames through the device decoder  */
+/* ------------------------------------------------------------------------ */
+
+static const uint8_t IFACES[3] = {AACMM_ENC_BISS_C, AACMM_ENC_SSI_BINARY, AACMM_ENC_SSI_GRAY};
+
+/* Every interface, widths 1..32, many positions and Ack variants: the slave's
+ * frame decodes to the position it was given. */
+static void test_enc_frames_round_trip(void **state)
+{
+    uint32_t x = 99u;
+    int t;
+    unsigned bits;
+    (void)state;
+    for (t = 0; t < 3; t++) {
+        for (bits = 1u; bits <= 32u; bits++) {
+            aacmm_enc_joint_config_t c = {IFACES[t], (uint8_t)bits};
+            uint32_t mask = bits == 32u ? 0xFFFFFFFFu : (1u << bits) - 1u;
+            int k;
+            for (k = 0; k < 40; k++) {
+                aacmm_enc_frame_t f;
+                uint32_t pos;
+                uint32_t got = 12345u;
+                uint8_t warn = 9u;
+                x = x * 1664525u + 1013904223u;
+                pos = (k == 0) ? 0u : (k == 1) ? mask : (x & mask);
+                aacmm_sim_encoder_frame(&c, pos, AACMM_SIM_ENC_OK, x >> 7, &f);
+                assert_int_equal(f.n_bits, aacmm_enc_clocks(&c));
+                assert_int_equal(aacmm_enc_decode(&c, &f, &got, &warn), AACMM_ENC_FAULT_NONE);
+                assert_int_equal(got, pos);
+                assert_int_equal(warn, 0u);
+            }
+        }
+    }
+}
+
+/* Every injected fault gives its fault, with position 0, for every Ack
+ * variant; a warning keeps the position. */
+static void test_enc_frames_faults(void **state)
+{
+    static const struct {
+        uint8_t inject;
+        uint8_t biss;
+        uint8_t ssi;
+    } cases[] = {
+        {AACMM_SIM_ENC_BIT_FLIP, AACMM_ENC_FAULT_CRC, AACMM_ENC_FAULT_NONE},
+        {AACMM_SIM_ENC_ERROR_BIT, AACMM_ENC_FAULT_ERROR_BIT, AACMM_ENC_FAULT_NONE},
+        {AACMM_SIM_ENC_STUCK_LOW, AACMM_ENC_FAULT_STUCK_LOW, AACMM_ENC_FAULT_STUCK_LOW},
+        {AACMM_SIM_ENC_STUCK_HIGH, AACMM_ENC_FAULT_STUCK_HIGH, AACMM_ENC_FAULT_STUCK_HIGH},
+        {AACMM_SIM_ENC_NO_ANSWER, AACMM_ENC_FAULT_TIMEOUT, AACMM_ENC_FAULT_TIMEOUT},
+        {AACMM_SIM_ENC_NO_START, AACMM_ENC_FAULT_TIMEOUT, AACMM_ENC_FAULT_NONE},
+        {AACMM_SIM_ENC_FRAMING, AACMM_ENC_FAULT_NONE, AACMM_ENC_FAULT_FRAMING},
+    };
+    size_t i;
+    uint32_t variant;
+    int t;
+    (void)state;
+    for (t = 0; t < 3; t++) {
+        aacmm_enc_joint_config_t c = {IFACES[t], 20u};
+        for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+            uint8_t want = t == 0 ? cases[i].biss : cases[i].ssi;
+            for (variant = 0u; variant < 400u; variant++) {
+                aacmm_enc_frame_t f;
+                uint32_t got = 7u;
+                uint8_t warn = 7u;
+                uint32_t pos = (variant * 2654435761u) & 0xFFFFFu;
+                aacmm_sim_encoder_frame(&c, pos, cases[i].inject, variant, &f);
+                assert_int_equal(aacmm_enc_decode(&c, &f, &got, &warn), want);
+                assert_int_equal(got, want == AACMM_ENC_FAULT_NONE ? pos : 0u);
+            }
+        }
+        /* a short frame is a fault (timeout, or a stuck line if what was
+         * captured happens to be all ones) */
+        for (variant = 0u; variant < 400u; variant++) {
+            aacmm_enc_frame_t f;
+            uint32_t got = 7u;
+            uint8_t warn = 0u;
+            uint8_t fault;
+            aacmm_sim_encoder_frame(&c, variant * 977u & 0xFFFFFu, AACMM_SIM_ENC_SHORT, variant,
+                                    &f);
+            fault = aacmm_enc_decode(&c, &f, &got, &warn);
+            assert_true(fault == AACMM_ENC_FAULT_TIMEOUT || fault == AACMM_ENC_FAULT_STUCK_HIGH);
+            assert_int_equal(got, 0u);
+        }
+    }
+    {
+        aacmm_enc_joint_config_t c = {AACMM_ENC_BISS_C, 26u};
+        aacmm_enc_frame_t f;
+        uint32_t got = 0u;
+        uint8_t warn = 0u;
+        aacmm_sim_encoder_frame(&c, 0x2ABCDEFu, AACMM_SIM_ENC_WARNING, 5u, &f);
+        assert_int_equal(aacmm_enc_decode(&c, &f, &got, &warn), AACMM_ENC_FAULT_NONE);
+        assert_int_equal(got, 0x2ABCDEFu);
+        assert_int_equal(warn, 1u);
+        /* bad configurations and arguments */
+        c.bits = 0u;
+        assert_int_equal(aacmm_enc_decode(&c, &f, &got, &warn), AACMM_ENC_FAULT_FRAMING);
+        assert_int_equal(aacmm_enc_clocks(&c), 0u);
+        c.bits = 33u;
+        assert_int_equal(aacmm_enc_config_validate(&c), AACMM_ERR_RANGE);
+        c.bits = 8u;
+        c.interface = AACMM_ENC_COUNTS;
+        assert_int_equal(aacmm_enc_config_validate(&c), AACMM_ERR_RANGE);
+        assert_int_equal(aacmm_enc_config_validate(NULL), AACMM_ERR_NULL);
+        assert_int_equal(aacmm_enc_decode(NULL, &f, &got, &warn), AACMM_ENC_FAULT_FRAMING);
+        c.interface = AACMM_ENC_BISS_C;
+        assert_int_equal(aacmm_enc_decode(&c, NULL, &got, &warn), AACMM_ENC_FAULT_FRAMING);
+        assert_int_equal(aacmm_enc_decode(&c, &f, NULL, &warn), AACMM_ENC_FAULT_FRAMING);
+        /* n_bits beyond the buffer is clamped, never read past it */
+        memset(&f, 0x55, sizeof f);
+        f.n_bits = 255u;
+        (void)aacmm_enc_decode(&c, &f, &got, &warn);
+    }
+    /* The CRC-6 against its definition: remainder of data * x^6 mod x^6+x+1. */
+    assert_int_equal(aacmm_biss_crc6(0u, 34u), 0u);
+    assert_int_equal(aacmm_biss_crc6(1u, 1u), 0x03u); /* x^6 mod p = x + 1 */
+    assert_int_equal(aacmm_biss_crc6(2u, 2u), 0x06u); /* x^7 mod p = x^2 + x */
+    assert_int_equal(aacmm_gray_to_binary(0x80000000u), 0xFFFFFFFFu);
+    assert_int_equal(aacmm_gray_to_binary(0x3u), 0x2u);
+    assert_int_equal(aacmm_sim_bits_for_cpr(2u), 1u);
+    assert_int_equal(aacmm_sim_bits_for_cpr(1000u), 10u);
+    assert_int_equal(aacmm_sim_bits_for_cpr(1024u), 10u);
+    assert_int_equal(aacmm_sim_bits_for_cpr(UINT64_C(1) << 32), 32u);
+}
+
+/* Through the device: frames decoded per joint configuration, every fault
+ * counted per joint with its kind, never a point from a bad frame. */
+static void test_device_decodes_frames(void **state)
+{
+    aacmm_sim_encoders_t enc;
+    aacmm_sim_encoders_config_t ec;
+    uint32_t counts[AACMM_JOINTS] = {0x01000000u, 0x40000000u, 0x7FFFFF00u, 5u, 0xFFFFFFFFu, 0u};
+    uint32_t faults = 0u;
+    uint32_t points = 0u;
+    uint32_t seen_warnings = 0u;
+    unsigned k;
+    int j;
+    (void)state;
+    memset(&ec, 0, sizeof ec);
+    for (j = 0; j < AACMM_JOINTS; j++) {
+        ec.joint[j].interface = j < 2 ? AACMM_ENC_BISS_C : (j < 4 ? AACMM_ENC_SSI_BINARY
+                                                                   : AACMM_ENC_SSI_GRAY);
+        ec.joint[j].bits = 32u;
+    }
+    ec.fault_every = 13u;
+    ec.seed = 4u;
+    assert_int_equal(aacmm_sim_encoders_init(&enc, &ec), AACMM_OK);
+    setup_links(1, 0, 0, 0, 0);
+    fake_use_frames(&F, &PF);
+    /* an invalid joint configuration is refused */
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
+    for (j = 0; j < AACMM_JOINTS; j++) {
+        CFG.encoders[j] = ec.joint[j];
+    }
+    boot();
+    for (k = 0; k < 300u; k++) {
+        uint32_t bad;
+        assert_int_equal(aacmm_sim_encoders_frames(&enc, counts, F.frames), AACMM_OK);
+        send_simple(AACMM_MSG_MEASURE_REQ, (uint8_t)k);
+        expect_response(AACMM_MSG_MEASURE_RSP, (uint8_t)k);
+        bad = M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS;
+        if (bad != 0u) {
+            faults++;
+            assert_int_equal(M.u.sample.status & AACMM_SAMPLE_POINT_VALID, 0u);
+            assert_true((M.u.sample.status & AACMM_SAMPLE_ENCODER_FAULT) != 0u);
+            for (j = 0; j < AACMM_JOINTS; j++) {
+                if ((bad & AACMM_SAMPLE_JOINT_FAULT(j)) != 0u) {
+                    assert_int_equal(M.u.sample.counts[j], 0u);
+                } else {
+                    assert_int_equal(M.u.sample.counts[j], counts[j]);
+                }
+            }
+        } else {
+            points++;
+            assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) != 0u);
+            assert_memory_equal(M.u.sample.counts, counts, sizeof counts);
+        }
+        if ((M.u.sample.status & AACMM_SAMPLE_ENCODER_WARNING) != 0u) {
+            seen_warnings++;
+        }
+    }
+    /* One frame in 13 of 1800 was corrupted; warnings are not faults. */
+    diag(1);
+    {
+        uint32_t injected_faults = 0u;
+        uint32_t sum = 0u;
+        for (k = 1u; k < AACMM_SIM_ENC_KINDS; k++) {
+            if (k != AACMM_SIM_ENC_WARNING) {
+                injected_faults += enc.injected[k];
+            }
+        }
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            sum += M.u.diag.joints[j].faults;
+            assert_int_equal(M.u.diag.joints[j].interface, ec.joint[j].interface);
+            assert_int_equal(M.u.diag.joints[j].bits, 32u);
+            assert_true(M.u.diag.joints[j].faults > 0u);
+        }
+        assert_int_equal(injected_faults + enc.injected[AACMM_SIM_ENC_WARNING], 1800u / 13u);
+        assert_int_equal(sum, injected_faults);
+        assert_int_equal(M.u.diag.joints[0].warnings + M.u.diag.joints[1].warnings,
+                         enc.injected[AACMM_SIM_ENC_WARNING]);
+        assert_int_equal(seen_warnings, enc.injected[AACMM_SIM_ENC_WARNING]);
+        assert_int_equal(M.u.diag.encoder_faults, faults);
+        assert_int_equal(faults + points, 300u);
+        assert_true(points > 100u);
+    }
+    /* A read failure is a READ fault on every joint. */
+    F.encoder_status = AACMM_ERR_IO;
+    send_simple(AACMM_MSG_MEASURE_REQ, 1);
+    expect_response(AACMM_MSG_MEASURE_RSP, 1);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT_FAULTS);
+    diag(2);
+    assert_int_equal(M.u.diag.joints[3].last_fault, AACMM_ENC_FAULT_READ);
+    /* A count the sim cannot send in the configured width is refused. */
+    ec.joint[0].bits = 8u;
+    assert_int_equal(aacmm_sim_encoders_init(&enc, &ec), AACMM_OK);
+    counts[0] = 256u;
+    assert_int_equal(aacmm_sim_encoders_frames(&enc, counts, F.frames), AACMM_ERR_RANGE);
+    ec.joint[2].interface = AACMM_ENC_COUNTS;
+    assert_int_equal(aacmm_sim_encoders_init(&enc, &ec), AACMM_ERR_RANGE);
+}
+
+/* Flash: a power cut at every byte of the erase + write sequence leaves the
+ * old set or the new one, never a mixed one. */
+static void test_power_cut_flash_erase_and_write(void **state)
+{
+    aacmm_param_set_t old_set;
+    aacmm_param_set_t new_set;
+    uint8_t rec[AACMM_STORE_RECORD_BYTES];
+    uint8_t before[AACMM_STORE_BYTES];
+    long cut;
+    long total = (long)AACMM_STORE_SLOT_BYTES + (long)AACMM_STORE_RECORD_BYTES;
+    unsigned olds = 0u;
+    (void)state;
+    setup_links(1, 0, 1, 0, 0);
+    fake_use_flash(&F, &PF);
+    other_set(&old_set, 111.0);
+    other_set(&new_set, 222.0);
+    assert_int_equal(aacmm_store_save(&PF, &old_set, NULL, rec), AACMM_OK);
+    assert_int_equal(aacmm_store_save(&PF, &old_set, NULL, rec), AACMM_OK); /* both slots */
+    assert_int_equal(F.storage_erases, 2u);
+    memcpy(before, F.storage, sizeof before);
+    for (cut = 0; cut <= total; cut++) {
+        aacmm_status_t st;
+        memcpy(F.storage, before, sizeof before);
+        F.write_budget = cut;
+        st = aacmm_store_save(&PF, &new_set, NULL, rec);
+        F.write_budget = -1;
+        assert_int_equal(st == AACMM_OK, cut == total);
+        setup_links(1, 0, 1, 0, 1);
+        fake_use_flash(&F, &PF);
+        boot();
+        assert_int_equal(D.storage_state, AACMM_STORAGE_OK);
+        if (D.active_crc32 == set_crc(&old_set)) {
+            olds++;
+        } else {
+            assert_int_equal(D.active_crc32, set_crc(&new_set));
+        }
+        if (cut > 0 && cut < (long)AACMM_STORE_SLOT_BYTES) {
+            /* cut inside the erase: that slot is neither record */
+            assert_true(D.store.slot_state[0] != AACMM_SLOT_OLDER &&
+                        D.store.slot_state[0] != AACMM_SLOT_NEWEST);
+        }
+    }
+    assert_int_equal(olds, (unsigned)total);
+}
+
 static void test_sim_init_errors(void **state)
 {
     aacmm_sim_t s;
@@ -1829,6 +2096,10 @@ int main(void)
         cmocka_unit_test_setup(test_can_jacobian_stream_over_isotp, setup_default),
         cmocka_unit_test_setup(test_encoder_io_fault, setup_default),
         cmocka_unit_test_setup(test_serial_io_errors_counted, setup_default),
+        cmocka_unit_test(test_enc_frames_round_trip),
+        cmocka_unit_test(test_enc_frames_faults),
+        cmocka_unit_test(test_device_decodes_frames),
+        cmocka_unit_test(test_power_cut_flash_erase_and_write),
         cmocka_unit_test(test_sim_init_errors),
         cmocka_unit_test(test_sim_static_repeatable),
         cmocka_unit_test(test_sim_angle_to_counts),

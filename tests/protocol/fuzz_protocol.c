@@ -1,17 +1,21 @@
 /*
  * libFuzzer harness over every decoder that sees untrusted bytes:
  *
- *   byte 0 % 4 == 0  serial deframer fed in chunks, then the message decoder
+ *   byte 0 % 5 == 0  serial deframer fed in chunks, then the message decoder
  *                    on every delivered body
  *                 1  message decoder on the raw input as a body
  *                 2  ISO-TP endpoint fed a sequence of CAN frames (receiver
  *                    and the sender's flow-control handling), then the
  *                    message decoder on every reassembled message
  *                 3  COBS decoder into an exact-size buffer
+ *                 4  absolute-encoder frame decoder (aacmm/encoder_frame.h):
+ *                    [interface][bits][n_bits][up to 12 line bytes]
  *
  * Beyond "no crash, no sanitizer report" it checks properties: a decoded
  * message re-encodes to exactly the same bytes (the codec is canonical), a
- * delivered frame body has a legal length, counters only grow.
+ * delivered frame body has a legal length, counters only grow; an accepted
+ * encoder frame gives a position below 2^bits, and every single flipped
+ * sample inside an accepted BiSS-C frame's CRC-covered bits or CRC is caught.
  *
  * Build: clang -fsanitize=fuzzer,address,undefined (see mk/protocol.mk).
  */
@@ -21,6 +25,7 @@
 #include <string.h>
 
 #include "aacmm/cobs.h"
+#include "aacmm/encoder_frame.h"
 #include "aacmm/frame.h"
 #include "aacmm/isotp.h"
 #include "aacmm/proto.h"
@@ -169,16 +174,69 @@ static void fuzz_cobs(const uint8_t *data, size_t size)
     free(out);
 }
 
+static unsigned enc_sample(const aacmm_enc_frame_t *f, unsigned k)
+{
+    return (unsigned)(f->line[k / 8u] >> (7u - k % 8u)) & 1u;
+}
+
+static void fuzz_encoder(const uint8_t *data, size_t size)
+{
+    aacmm_enc_joint_config_t cfg;
+    aacmm_enc_frame_t f;
+    uint32_t pos = 0u;
+    uint8_t warn = 0u;
+    uint8_t fault;
+    size_t n;
+    if (size < 3u) {
+        return;
+    }
+    cfg.interface = data[0];
+    cfg.bits = data[1];
+    memset(&f, 0, sizeof f);
+    f.n_bits = data[2];
+    n = size - 3u < sizeof f.line ? size - 3u : sizeof f.line;
+    memcpy(f.line, data + 3, n);
+    fault = aacmm_enc_decode(&cfg, &f, &pos, &warn);
+    CHECK(fault <= AACMM_ENC_FAULT_MAX && warn <= 1u);
+    if (fault != AACMM_ENC_FAULT_NONE) {
+        CHECK(pos == 0u && warn == 0u);
+        return;
+    }
+    CHECK(aacmm_enc_config_validate(&cfg) == AACMM_OK);
+    CHECK(cfg.bits == 32u || pos < (UINT32_C(1) << cfg.bits));
+    if (cfg.interface == AACMM_ENC_BISS_C) {
+        unsigned k = 0u;
+        unsigned first;
+        unsigned i;
+        unsigned nb = f.n_bits > AACMM_ENC_FRAME_MAX_BITS ? AACMM_ENC_FRAME_MAX_BITS : f.n_bits;
+        while (k < nb && enc_sample(&f, k) == 1u) {
+            k++;
+        }
+        while (k < nb && enc_sample(&f, k) == 0u) {
+            k++;
+        }
+        first = k + 2u; /* the frame stays in place when these flip */
+        for (i = first; i < first + cfg.bits + 2u + AACMM_BISS_CRC_BITS; i++) {
+            aacmm_enc_frame_t g = f;
+            uint32_t p2 = 0u;
+            uint8_t w2 = 0u;
+            g.line[i / 8u] ^= (uint8_t)(0x80u >> (i % 8u));
+            CHECK(aacmm_enc_decode(&cfg, &g, &p2, &w2) == AACMM_ENC_FAULT_CRC);
+        }
+    }
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     if (size == 0) {
         return 0;
     }
-    switch (data[0] & 3u) {
+    switch (data[0] % 5u) {
     case 0: fuzz_deframer(data + 1, size - 1); break;
     case 1: fuzz_body(data + 1, size - 1); break;
     case 2: fuzz_isotp(data + 1, size - 1); break;
-    default: fuzz_cobs(data + 1, size - 1); break;
+    case 3: fuzz_cobs(data + 1, size - 1); break;
+    default: fuzz_encoder(data + 1, size - 1); break;
     }
     return 0;
 }

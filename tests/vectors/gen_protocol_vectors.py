@@ -416,7 +416,8 @@ def corpus() -> dict[str, bytes]:
     """Seed inputs of the libFuzzer harness (tests/protocol/fuzz_protocol.c).
 
     The first byte selects the harness mode: 0 deframer (then a chunk-size
-    byte), 1 message body, 2 ISO-TP frame records, 3 COBS.
+    byte), 1 message body, 2 ISO-TP frame records, 3 COBS (4, encoder frames: seeds from
+    tests/host/test_encoder_frames.py).
     """
     seeds: dict[str, bytes] = {}
     wires = b""

@@ -7,9 +7,11 @@
  *   time_us         board_time_us (SysTick on mps2, TIMER0 on the micro:bit)
  *   serial link     the board's interrupt-driven UART rings
  *   CAN link        none
- *   encoders        the simulated arm shared with the POSIX simulator
- *                   (firmware/src/sim: smooth random walk, 2^32 counts/turn),
- *                   sampled at the board's clock
+ *   encoders        BiSS-C frames (32-bit position) from the simulated
+ *                   encoders, carrying the simulated arm shared with the
+ *                   POSIX simulator (firmware/src/sim: smooth random walk,
+ *                   2^32 counts/turn) at the board's clock; the device
+ *                   decodes them (BOARD_ENC_FAULT_EVERY corrupts some)
  *   button          the simulated arm's (off unless BOARD_BUTTON_PERIOD_US)
  *   storage         AACMM_STORE_BYTES of RAM in .noinit: survives a warm
  *                   reset, reads as erased flash (0xFF) after power-up
@@ -39,9 +41,14 @@
 #define BOARD_SIM_SEED 1u
 #endif
 
+#ifndef BOARD_ENC_FAULT_EVERY
+#define BOARD_ENC_FAULT_EVERY 0u
+#endif
+
 static aacmm_device_t dev;
 static uint8_t serial_txq[BOARD_SERIAL_TXQ_BYTES];
 static aacmm_sim_t sim;
+static aacmm_sim_encoders_t encoders;
 
 /* Parameter storage: RAM that start-up code does not clear. */
 #define STORAGE_GUARD 0x53544F52u /* "STOR" */
@@ -69,10 +76,18 @@ static aacmm_status_t pf_serial_write(void *ctx, const uint8_t *data, size_t len
     return AACMM_OK;
 }
 
-static aacmm_status_t pf_read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
+/* The joints: the simulated arm's counts go out of the simulated BiSS-C
+ * encoders frame by frame, clock by clock, and the device decodes them as it
+ * would a real encoder's frames. */
+static aacmm_status_t pf_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS])
 {
+    uint32_t counts[AACMM_JOINTS];
     (void)ctx;
-    return aacmm_sim_read(&sim, board_time_us(), counts);
+    if (aacmm_sim_read(&sim, board_time_us(), counts) != AACMM_OK ||
+        aacmm_sim_encoders_frames(&encoders, counts, frames) != AACMM_OK) {
+        return AACMM_ERR_IO;
+    }
+    return AACMM_OK;
 }
 
 static aacmm_status_t pf_read_button(void *ctx, uint8_t *pressed)
@@ -117,6 +132,8 @@ int main(void)
     aacmm_platform_t pf;
     aacmm_device_config_t dc;
     aacmm_sim_config_t sc;
+    aacmm_sim_encoders_config_t ec;
+    int j;
 
     board_init();
     if (storage_guard != STORAGE_GUARD) {
@@ -133,12 +150,22 @@ int main(void)
     if (aacmm_sim_init(&sim, &sc) != AACMM_OK) {
         fail();
     }
+    memset(&ec, 0, sizeof ec);
+    for (j = 0; j < AACMM_JOINTS; j++) {
+        ec.joint[j].interface = (uint8_t)AACMM_ENC_BISS_C;
+        ec.joint[j].bits = 32u;
+    }
+    ec.fault_every = BOARD_ENC_FAULT_EVERY;
+    ec.seed = BOARD_SIM_SEED;
+    if (aacmm_sim_encoders_init(&encoders, &ec) != AACMM_OK) {
+        fail();
+    }
 
     memset(&pf, 0, sizeof pf);
     pf.time_us = pf_time_us;
     pf.serial_read = pf_serial_read;
     pf.serial_write = pf_serial_write;
-    pf.read_encoders = pf_read_encoders;
+    pf.read_encoder_frames = pf_read_encoder_frames;
     pf.read_button = pf_read_button;
     pf.storage_read = pf_storage_read;
     pf.storage_write = pf_storage_write;
@@ -152,6 +179,9 @@ int main(void)
     dc.defaults = NULL; /* the paper's arm, 2^32-count encoders: as the simulated arm */
     dc.serial_txq = serial_txq;
     dc.serial_txq_bytes = sizeof serial_txq;
+    for (j = 0; j < AACMM_JOINTS; j++) {
+        dc.encoders[j] = ec.joint[j];
+    }
     if (aacmm_device_init(&dev, &dc, &pf) != AACMM_OK) {
         fail();
     }

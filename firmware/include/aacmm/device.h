@@ -80,6 +80,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "aacmm/encoder_frame.h"
 #include "aacmm/frame.h"
 #include "aacmm/isotp.h"
 #include "aacmm/kinematics.h"
@@ -139,6 +140,10 @@ typedef struct {
     uint32_t fault_pc;                 /* AACMM_RESET_FAULT: where the fault happened */
     uint32_t boot_count;               /* starts since power-up; 0 = not counted */
     uint16_t watchdog_ms;              /* the watchdog the port feeds; 0 = none */
+    /* Each joint's encoder interface and position bits, used when the
+     * platform provides read_encoder_frames (then every joint must be a
+     * valid frame interface, aacmm_enc_config_validate). */
+    aacmm_enc_joint_config_t encoders[AACMM_JOINTS];
 } aacmm_device_config_t;
 
 /* What the two record slots held when last read (aacmm_store_load,
@@ -253,6 +258,8 @@ typedef struct {
     uint32_t fault_pc;
     uint32_t boot_count;
     aacmm_device_joint_t joints[AACMM_JOINTS];
+    aacmm_enc_joint_config_t encoders[AACMM_JOINTS];
+    aacmm_enc_frame_t frames[AACMM_JOINTS]; /* scratch of read_encoder_frames */
     uint32_t measure_seq;
     uint32_t max_catch_up;
     aacmm_device_counters_t counters;
@@ -272,9 +279,10 @@ typedef struct {
  * Set up *dev: copy the platform table and config, load the parameter set
  * from storage (newest valid record, else the defaults; see above), prepare
  * the kinematics model and the links. No output is produced.
- * Returns AACMM_ERR_NULL (NULL argument, missing time_us or read_encoders,
- * serial functions without a serial_txq), AACMM_ERR_RANGE (node id, no link
- * at all, serial_txq_bytes too small, invalid defaults), AACMM_ERR_BUFFER
+ * Returns AACMM_ERR_NULL (NULL argument, missing time_us or both encoder
+ * functions, serial functions without a serial_txq), AACMM_ERR_RANGE (node
+ * id, no link at all, serial_txq_bytes too small, invalid defaults, an
+ * invalid joint configuration with read_encoder_frames), AACMM_ERR_BUFFER
  * never, else AACMM_OK -- also when storage is empty or corrupt (that is
  * reported in device info and the counters, not as an error).
  * Cost: two storage reads of AACMM_STORE_RECORD_BYTES, two CRCs, one model set-up.

@@ -27,6 +27,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "aacmm/encoder_frame.h"
 #include "aacmm/kinematics.h"
 #include "aacmm/proto.h"
 #include "aacmm/proto_can.h"
@@ -59,10 +60,20 @@ typedef struct {
     aacmm_status_t (*can_send)(void *ctx, const aacmm_can_frame_t *frame);
     aacmm_status_t (*can_receive)(void *ctx, aacmm_can_frame_t *frame, int *got);
 
-    /* The six raw encoder readings, each < the joint's counts per revolution.
-     * On error the device flags the sample AACMM_SAMPLE_ENCODER_FAULT.
-     * Required. */
+    /* The joints, one of two ways (at least one is required; frames win when
+     * both are set):
+     * read_encoders: the six raw readings as counts (a port that decodes
+     * its encoders itself, or quadrature counters). A reading at or above the
+     * joint's counts per revolution is a fault of that joint.
+     * read_encoder_frames: the six frames as the port's encoder interfaces
+     * sampled them (aacmm/encoder_frame.h; one frame per joint, n_bits 0 for
+     * a joint that did not answer), decoded by the device with the joint
+     * configuration of aacmm_device_config_t.encoders: BiSS-C CRC, error and
+     * warning bits, SSI framing, stuck lines and timeouts are checked there.
+     * Either way a failed call (AACMM_ERR_IO) is a READ fault of every joint,
+     * and a sample with a faulty joint has no point (ENCODER_FAULT). */
     aacmm_status_t (*read_encoders)(void *ctx, uint32_t counts[AACMM_JOINTS]);
+    aacmm_status_t (*read_encoder_frames)(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS]);
 
     /* The probe button: *pressed = 1 while held, else 0. Optional. */
     aacmm_status_t (*read_button)(void *ctx, uint8_t *pressed);

@@ -440,10 +440,29 @@ static uint64_t time_us(void *ctx)
     return posix_time_us();
 }
 
+aacmm_status_t posix_joint_counts(posix_port_t *port, uint64_t t_us,
+                                  uint32_t counts[AACMM_JOINTS])
+{
+    return aacmm_sim_read(&port->sim, t_us, counts);
+}
+
 static aacmm_status_t read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
 {
     posix_port_t *p = ctx;
-    return aacmm_sim_read(&p->sim, posix_time_us() - p->t0_us, counts);
+    return posix_joint_counts(p, posix_time_us() - p->t0_us, counts);
+}
+
+/* The encoder interfaces: each joint's count goes out as a frame, clock by
+ * clock, from the simulated encoder (with the corruption asked for). */
+static aacmm_status_t read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS])
+{
+    posix_port_t *p = ctx;
+    uint32_t counts[AACMM_JOINTS];
+    if (posix_joint_counts(p, posix_time_us() - p->t0_us, counts) != AACMM_OK ||
+        aacmm_sim_encoders_frames(&p->enc, counts, frames) != AACMM_OK) {
+        return AACMM_ERR_IO;
+    }
+    return AACMM_OK;
 }
 
 static aacmm_status_t read_button(void *ctx, uint8_t *pressed)
@@ -467,6 +486,9 @@ void posix_platform(posix_port_t *port, aacmm_platform_t *pf)
         pf->can_receive = can_receive;
     }
     pf->read_encoders = read_encoders;
+    if (port->use_frames) {
+        pf->read_encoder_frames = read_encoder_frames;
+    }
     pf->read_button = read_button;
     pf->storage_read = storage_read;
     pf->storage_write = storage_write;

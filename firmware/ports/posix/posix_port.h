@@ -26,7 +26,15 @@ typedef struct {
     uint8_t storage[AACMM_STORE_BYTES];
     uint64_t t0_us; /* simulation time origin */
     aacmm_sim_t sim;
+    int use_frames;           /* joints as BiSS-C/SSI frames (else counts) */
+    aacmm_sim_encoders_t enc; /* the simulated encoders behind the frames */
 } posix_port_t;
+
+/* The six joint readings at time t_us since the start, in counts: the one
+ * place the simulated arm's joints come from. The encoder callback turns them
+ * into frames (use_frames) that the device decodes. */
+aacmm_status_t posix_joint_counts(posix_port_t *port, uint64_t t_us,
+                                  uint32_t counts[AACMM_JOINTS]);
 
 /* CLOCK_MONOTONIC in us. */
 uint64_t posix_time_us(void);

@@ -39,6 +39,7 @@ static void usage(FILE *f)
     fputs("usage: aacmm-sim [--serial pty|PATH] [--can IFACE] [--node N] [--storage FILE]\n"
           "                 [--motion sweep|walk|static|replay:FILE] [--seed N]\n"
           "                 [--noise-counts N] [--encoder-bits B | --cpr N]\n"
+          "                 [--encoder biss|ssi|ssi-gray|counts] [--encoder-faults N]\n"
           "                 [--button-every SECONDS] [--serial-number N] [--quiet]\n"
           "At least one of --serial and --can. See docs/simulator.md.\n",
           f);
@@ -84,6 +85,8 @@ typedef struct {
     int have_cpr;
     uint64_t button_us;
     uint64_t serial_number;
+    uint8_t encoder; /* AACMM_ENC_* */
+    uint64_t encoder_faults;
     int quiet;
 } options_t;
 
@@ -95,6 +98,7 @@ static int parse_args(int argc, char **argv, options_t *o)
     o->motion = AACMM_SIM_WALK;
     o->cpr = UINT64_C(1) << 32;
     o->serial_number = 1u;
+    o->encoder = (uint8_t)AACMM_ENC_BISS_C;
     for (i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = NULL;
@@ -185,6 +189,22 @@ static int parse_args(int argc, char **argv, options_t *o)
                 return usage_error("--button-every: '%s' is not a time 0.001..86400 s", v);
             }
             o->button_us = (uint64_t)(s * 1e6 + 0.5);
+        } else if (strcmp(name, "--encoder") == 0) {
+            if (strcmp(v, "biss") == 0) {
+                o->encoder = (uint8_t)AACMM_ENC_BISS_C;
+            } else if (strcmp(v, "ssi") == 0) {
+                o->encoder = (uint8_t)AACMM_ENC_SSI_BINARY;
+            } else if (strcmp(v, "ssi-gray") == 0) {
+                o->encoder = (uint8_t)AACMM_ENC_SSI_GRAY;
+            } else if (strcmp(v, "counts") == 0) {
+                o->encoder = (uint8_t)AACMM_ENC_COUNTS;
+            } else {
+                return usage_error("--encoder: '%s' is not biss, ssi, ssi-gray or counts", v);
+            }
+        } else if (strcmp(name, "--encoder-faults") == 0) {
+            if (parse_u64(v, 0u, UINT32_MAX, &o->encoder_faults) != 0) {
+                return usage_error("--encoder-faults: '%s' is not a number 0..4294967295", v);
+            }
         } else if (strcmp(name, "--serial-number") == 0) {
             if (parse_u64(v, 0u, UINT32_MAX, &o->serial_number) != 0) {
                 return usage_error("--serial-number: '%s' is not a number 0..4294967295", v);
@@ -198,6 +218,9 @@ static int parse_args(int argc, char **argv, options_t *o)
     }
     if (o->serial == NULL && o->can == NULL) {
         return usage_error("%s", "at least one of --serial and --can is required");
+    }
+    if (o->encoder == AACMM_ENC_COUNTS && o->encoder_faults != 0u) {
+        return usage_error("%s", "--encoder-faults needs frames (--encoder biss, ssi or ssi-gray)");
     }
     return SIM_EXIT_OK;
 }
@@ -294,6 +317,21 @@ int main(int argc, char **argv)
         fprintf(stderr, "aacmm-sim: bad simulation settings\n");
         return SIM_EXIT_USAGE;
     }
+    if (o.encoder != AACMM_ENC_COUNTS) {
+        aacmm_sim_encoders_config_t ec;
+        memset(&ec, 0, sizeof ec);
+        for (i = 0; i < AACMM_JOINTS; i++) {
+            ec.joint[i].interface = o.encoder;
+            ec.joint[i].bits = aacmm_sim_bits_for_cpr(o.cpr);
+        }
+        ec.fault_every = (uint32_t)o.encoder_faults;
+        ec.seed = (uint32_t)o.seed;
+        if (aacmm_sim_encoders_init(&port.enc, &ec) != AACMM_OK) {
+            fprintf(stderr, "aacmm-sim: bad encoder settings\n");
+            return SIM_EXIT_USAGE;
+        }
+        port.use_frames = 1;
+    }
 
     if (posix_storage_load(&port, err, sizeof err) != 0) {
         fprintf(stderr, "aacmm-sim: %s\n", err);
@@ -330,6 +368,9 @@ int main(int argc, char **argv)
     dc.max_catch_up = 1000u; /* a loaded host may deschedule us for a while: up to 1 s at 1 kHz */
     dc.reset_cause = (uint8_t)AACMM_RESET_POWER_ON; /* a process start is a power-up */
     dc.boot_count = 1u;
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        dc.encoders[i] = port.enc.cfg.joint[i];
+    }
     port.t0_us = posix_time_us();
     posix_platform(&port, &pf);
     st = aacmm_device_init(&dev, &dc, &pf);

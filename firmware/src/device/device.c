@@ -117,12 +117,19 @@ static void joint_fault(aacmm_device_t *dev, int j, uint8_t kind)
 }
 
 /* Read the six joints into counts[]; returns the AACMM_SAMPLE_JOINT*_FAULT
- * and ENCODER_WARNING bits. A faulty joint's count is 0 and counted. */
+ * and ENCODER_WARNING bits. A faulty joint's count is 0 (a reading beyond
+ * the resolution keeps its raw value) and counted. */
 static uint32_t read_joints(aacmm_device_t *dev, uint32_t counts[AACMM_JOINTS])
 {
     uint32_t flags = 0u;
     int i;
-    if (dev->pf.read_encoders(dev->pf.ctx, counts) != AACMM_OK) {
+    aacmm_status_t st;
+    if (dev->pf.read_encoder_frames != NULL) {
+        st = dev->pf.read_encoder_frames(dev->pf.ctx, dev->frames);
+    } else {
+        st = dev->pf.read_encoders(dev->pf.ctx, counts);
+    }
+    if (st != AACMM_OK) {
         for (i = 0; i < AACMM_JOINTS; i++) {
             counts[i] = 0u;
             joint_fault(dev, i, (uint8_t)AACMM_ENC_FAULT_READ);
@@ -131,6 +138,20 @@ static uint32_t read_joints(aacmm_device_t *dev, uint32_t counts[AACMM_JOINTS])
         return flags;
     }
     for (i = 0; i < AACMM_JOINTS; i++) {
+        if (dev->pf.read_encoder_frames != NULL) {
+            uint8_t warning = 0u;
+            uint8_t fault = aacmm_enc_decode(&dev->encoders[i], &dev->frames[i], &counts[i],
+                                             &warning);
+            if (fault != (uint8_t)AACMM_ENC_FAULT_NONE) {
+                joint_fault(dev, i, fault);
+                flags |= AACMM_SAMPLE_JOINT_FAULT(i);
+                continue;
+            }
+            if (warning != 0u) {
+                dev->joints[i].warnings++;
+                flags |= AACMM_SAMPLE_ENCODER_WARNING;
+            }
+        }
         if ((uint64_t)counts[i] >= dev->active.enc.counts_per_rev[i]) { /* raw count kept */
             joint_fault(dev, i, (uint8_t)AACMM_ENC_FAULT_RANGE);
             flags |= AACMM_SAMPLE_JOINT_FAULT(i);
@@ -791,8 +812,16 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     int has_serial;
     int has_can;
     if (dev == NULL || config == NULL || platform == NULL || platform->time_us == NULL ||
-        platform->read_encoders == NULL) {
+        (platform->read_encoders == NULL && platform->read_encoder_frames == NULL)) {
         return AACMM_ERR_NULL;
+    }
+    if (platform->read_encoder_frames != NULL) {
+        int j;
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            if (aacmm_enc_config_validate(&config->encoders[j]) != AACMM_OK) {
+                return AACMM_ERR_RANGE;
+            }
+        }
     }
     has_serial = platform->serial_read != NULL && platform->serial_write != NULL;
     has_can = platform->can_send != NULL && platform->can_receive != NULL;
@@ -821,6 +850,14 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     dev->fault_pc = config->fault_pc;
     dev->boot_count = config->boot_count;
     dev->watchdog_ms = config->watchdog_ms;
+    if (platform->read_encoder_frames != NULL) {
+        int j;
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            dev->encoders[j] = config->encoders[j];
+            dev->joints[j].interface = config->encoders[j].interface;
+            dev->joints[j].bits = config->encoders[j].bits;
+        }
+    }
     if (dev->pf.storage_kind > AACMM_STORAGE_KIND_MAX) {
         dev->pf.storage_kind = (uint8_t)AACMM_STORAGE_KIND_NONE;
     }

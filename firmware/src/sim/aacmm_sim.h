@@ -37,6 +37,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "aacmm/encoder_frame.h"
 #include "aacmm/kinematics.h"
 #include "aacmm/status.h"
 
@@ -108,6 +109,69 @@ uint8_t aacmm_sim_button(const aacmm_sim_t *sim, uint64_t t_us);
  * it never does (no button period). Lets a port wake exactly at the edges.
  * O(1). */
 uint64_t aacmm_sim_next_button_edge_us(const aacmm_sim_t *sim, uint64_t t_us);
+
+/* ---- simulated encoders: counts to frames, bit by bit ------------------
+ *
+ * The encoder end of each joint's data line (aacmm/encoder_frame.h): a
+ * BiSS-C or SSI slave that shifts the position out one clock at a time, as
+ * the encoder's own logic does (the BiSS CRC computed in a 6-bit shift
+ * register as the bits go out), sampled by a master that gives
+ * aacmm_enc_clocks() clocks. Optionally one frame in fault_every is
+ * corrupted, cycling through the faults the interface can show; a port
+ * (the simulator, the boards) hands the frames to the device, which decodes
+ * them exactly as it would a real encoder's. */
+
+/* Faults the simulated encoders inject. */
+typedef enum {
+    AACMM_SIM_ENC_OK = 0,
+    AACMM_SIM_ENC_BIT_FLIP = 1,   /* one position/nE/nW bit inverted on the line (BiSS: CRC fault) */
+    AACMM_SIM_ENC_ERROR_BIT = 2,  /* BiSS nE = 0 with a matching CRC */
+    AACMM_SIM_ENC_WARNING = 3,    /* BiSS nW = 0 with a matching CRC: position still valid */
+    AACMM_SIM_ENC_STUCK_LOW = 4,  /* every sample 0 */
+    AACMM_SIM_ENC_STUCK_HIGH = 5, /* every sample 1 (no encoder) */
+    AACMM_SIM_ENC_NO_ANSWER = 6,  /* the interface reports no answer (n_bits 0) */
+    AACMM_SIM_ENC_NO_START = 7,   /* BiSS: the Ack never ends */
+    AACMM_SIM_ENC_SHORT = 8,      /* the frame stops before its end */
+    AACMM_SIM_ENC_FRAMING = 9,    /* SSI: the line is high after the LSB */
+    AACMM_SIM_ENC_KINDS = 10
+} aacmm_sim_enc_fault_t;
+
+typedef struct {
+    aacmm_enc_joint_config_t joint[AACMM_JOINTS]; /* every joint a frame interface */
+    uint32_t fault_every; /* corrupt one frame in fault_every (counted over all joints); 0 = never */
+    uint32_t seed;        /* which bit flips, Ack lengths */
+} aacmm_sim_encoders_config_t;
+
+typedef struct {
+    aacmm_sim_encoders_config_t cfg;
+    uint32_t rng;
+    uint32_t frames;                            /* frames produced (wraps) */
+    uint32_t next_kind;                         /* rotation through the interface's faults */
+    uint32_t injected[AACMM_SIM_ENC_KINDS];     /* frames produced per kind (index 0: clean) */
+} aacmm_sim_encoders_t;
+
+/* Check *cfg (valid frame interfaces on all joints) and set up *enc.
+ * AACMM_ERR_NULL, AACMM_ERR_RANGE, else AACMM_OK. O(1). */
+aacmm_status_t aacmm_sim_encoders_init(aacmm_sim_encoders_t *enc,
+                                       const aacmm_sim_encoders_config_t *cfg);
+
+/* The six frames for the six positions (each < 2^bits of its joint, else
+ * AACMM_ERR_RANGE and no frames), with the configured corruption.
+ * AACMM_ERR_NULL, AACMM_ERR_RANGE or AACMM_OK. Cost: O(total clocks). */
+aacmm_status_t aacmm_sim_encoders_frames(aacmm_sim_encoders_t *enc,
+                                         const uint32_t counts[AACMM_JOINTS],
+                                         aacmm_enc_frame_t frames[AACMM_JOINTS]);
+
+/* One frame of *cfg carrying position (masked to cfg->bits), with fault
+ * inject (aacmm_sim_enc_fault_t); variant picks the Ack length (BiSS) and
+ * the flipped bit. Built clock by clock from the slave's line level. A
+ * fault the interface cannot show (BiSS-only or SSI-only) is ignored.
+ * O(clocks). */
+void aacmm_sim_encoder_frame(const aacmm_enc_joint_config_t *cfg, uint32_t position,
+                             uint8_t inject, uint32_t variant, aacmm_enc_frame_t *out);
+
+/* Smallest number of position bits that holds counts 0 .. cpr-1 (1..32). */
+uint8_t aacmm_sim_bits_for_cpr(uint64_t cpr);
 
 #ifdef __cplusplus
 }
