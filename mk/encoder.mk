@@ -15,6 +15,7 @@ $(ENC_LIB): $(ENC_LIB_SRCS) firmware/include/aacmm/encoder_frame.h firmware/incl
 	gcc $(CSTD) $(WARN) -O2 -fPIC -shared -I$(FW_INC) -Ifirmware/src/sim $(ENC_LIB_SRCS) -o $@
 
 .PHONY: encoder-lib test-encoder-frames
+#> encoder-lib          the test-only encoder-frame library the Python frame tests load
 encoder-lib: $(ENC_LIB)
 
 test-encoder-frames: $(ENC_LIB) | setup
