@@ -22,13 +22,14 @@ DEV_SUFFIX    := $(if $(filter q,$(DEVICE_KIN)),-q)
 
 DEVICE_SRCS := firmware/src/device/device.c firmware/src/device/param_store.c $(DEV_KIN_SRCS)
 SIM_SRCS    := firmware/src/sim/sim_motion.c firmware/src/sim/sim_encoder.c
-POSIX_SRCS  := firmware/ports/posix/sim_main.c firmware/ports/posix/posix_port.c
+POSIX_SRCS  := firmware/ports/posix/sim_main.c firmware/ports/posix/posix_port.c \
+               firmware/ports/posix/sim_control.c
 
 DEV_ALL_SRCS := $(DEVICE_SRCS) $(SIM_SRCS) $(DEV_CORE_SRCS) $(DEV_PROTO_SRCS)
 DEV_HDRS := $(wildcard firmware/include/aacmm/*.h) $(wildcard firmware/src/*.h) \
             $(wildcard firmware/src/device/*.h) \
             firmware/src/device/device_kin.h firmware/src/sim/aacmm_sim.h \
-            firmware/ports/posix/posix_port.h
+            firmware/ports/posix/posix_port.h firmware/ports/posix/sim_control.h
 DEV_INC  := -I$(FW_INC) -Ifirmware/src/device -Ifirmware/src/sim
 
 # ---- the simulator -------------------------------------------------------

@@ -87,7 +87,7 @@ static aacmm_status_t f_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[
     return AACMM_OK;
 }
 
-static aacmm_status_t f_read_button(void *ctx, uint8_t *pressed)
+static aacmm_status_t f_read_buttons(void *ctx, uint8_t *pressed)
 {
     *pressed = ((fake_t *)ctx)->button;
     return AACMM_OK;
@@ -184,7 +184,7 @@ void fake_platform(fake_t *f, aacmm_platform_t *pf, int serial, int can, int sto
     }
     pf->read_encoders = f_read_encoders;
     if (button) {
-        pf->read_button = f_read_button;
+        pf->read_buttons = f_read_buttons;
     }
     if (storage) {
         pf->storage_read = f_storage_read;

@@ -38,7 +38,7 @@ typedef struct {
     aacmm_enc_frame_t frames[AACMM_JOINTS]; /* read_encoder_frames (fake_use_frames) */
     aacmm_status_t encoder_status;
     unsigned encoder_reads;
-    uint8_t button;
+    uint8_t button; /* button levels, bit i = button i held */
     /* storage */
     uint8_t storage[AACMM_STORE_BYTES];
     long write_budget; /* bytes still written before the "power cut"; < 0 = unlimited */

@@ -1196,8 +1196,10 @@ static void test_button_events(void **state)
     assert_int_equal(M.u.trigger.sample.timestamp_us, F.now_us);
     assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN) != 0u);
     assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_POINT_VALID) != 0u);
+    assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_EVENT) != 0u);
+    assert_int_equal(M.u.trigger.sample.seq, 0u); /* no stream yet: its next seq is 0 */
     assert_false(next_msg());
-    /* CAN: the latched sample as six sample frames (seq 0), then the trigger frame. */
+    /* CAN: the sample as six sample frames (seq 0), then the trigger frame. */
     assert_int_equal(F.can_tx_len, can_before + 7u);
     assert_int_equal(F.can_tx[can_before].id, AACMM_CAN_ID_SAMPLE_HEADER + 3u);
     assert_int_equal(F.can_tx[can_before].data[0], 0);
@@ -1207,6 +1209,8 @@ static void test_button_events(void **state)
     assert_int_equal(F.can_tx[can_before + 6u].data[0], 0); /* seq */
     assert_int_equal(F.can_tx[can_before + 6u].data[4], 0); /* button */
     assert_int_equal(F.can_tx[can_before + 6u].data[5], 1); /* pressed */
+    assert_int_equal(F.can_tx[can_before + 5u].data[4] & AACMM_SAMPLE_TRIGGER_EVENT,
+                     AACMM_SAMPLE_TRIGGER_EVENT); /* Status, low byte */
     /* Held: no more events. */
     advance(1000u);
     aacmm_device_poll(&D);
@@ -1219,7 +1223,7 @@ static void test_button_events(void **state)
     assert_int_equal(M.u.trigger.pressed, 0);
     assert_int_equal(M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN, 0u);
     assert_int_equal(F.can_tx[F.can_tx_len - 1u].id, AACMM_CAN_ID_TRIGGER + 3u);
-    assert_int_equal(F.can_tx[F.can_tx_len - 1u].data[0], 1); /* the next seq */
+    assert_int_equal(F.can_tx[F.can_tx_len - 1u].data[0], 0); /* still no stream sample */
     assert_int_equal(F.can_tx[F.can_tx_len - 1u].data[5], 0);
     assert_int_equal(aacmm_device_counters(&D)->button_edges, 2u);
 }
@@ -1243,14 +1247,105 @@ static void test_button_during_stream(void **state)
     aacmm_device_poll(&D);
     assert_true(next_msg());
     assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
-    assert_int_equal(M.u.trigger.sample.seq, 10u); /* the last stream sample sent */
+    assert_int_equal(M.u.trigger.sample.seq, 11u); /* the next stream sample's */
     assert_int_equal(M.u.trigger.sample.content, AACMM_CONTENT_JACOBIAN);
+    assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_EVENT) != 0u);
     advance(700u);
     aacmm_device_poll(&D);
     assert_true(next_msg());
     assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
     assert_int_equal(M.u.sample.seq, 11u);
     assert_true((M.u.sample.status & AACMM_SAMPLE_TRIGGER_DOWN) != 0u);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_TRIGGER_EVENT, 0u);
+}
+
+/* The second button (undo): its own index on both links, edges of both
+ * buttons in one poll in button order, TRIGGER_DOWN only for button 0. */
+static void test_two_buttons(void **state)
+{
+    size_t can_before;
+    (void)state;
+    F.button = 2u; /* undo pressed */
+    advance(1000u);
+    can_before = F.can_tx_len;
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    assert_int_equal(M.u.trigger.button, AACMM_BUTTON_UNDO);
+    assert_int_equal(M.u.trigger.pressed, 1);
+    assert_int_equal(M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN, 0u);
+    assert_false(next_msg());
+    assert_int_equal(F.can_tx_len, can_before + 7u);
+    assert_int_equal(F.can_tx[can_before + 6u].id, AACMM_CAN_ID_TRIGGER + 3u);
+    assert_int_equal(F.can_tx[can_before + 6u].data[4], AACMM_BUTTON_UNDO);
+    /* Both change at once: capture pressed, undo released, in button order. */
+    F.button = 1u;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.u.trigger.button, AACMM_BUTTON_CAPTURE);
+    assert_int_equal(M.u.trigger.pressed, 1);
+    assert_true((M.u.trigger.sample.status & AACMM_SAMPLE_TRIGGER_DOWN) != 0u);
+    assert_true(next_msg());
+    assert_int_equal(M.u.trigger.button, AACMM_BUTTON_UNDO);
+    assert_int_equal(M.u.trigger.pressed, 0);
+    assert_false(next_msg());
+    /* Bits beyond the buttons the device knows are ignored. */
+    F.button = (uint8_t)(1u | 0xF0u);
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_false(next_msg());
+    assert_int_equal(aacmm_device_counters(&D)->button_edges, 3u);
+}
+
+/* A button held at start-up is not an edge. */
+static void test_button_held_at_boot(void **state)
+{
+    (void)state;
+    setup_links(1, 0, 0, 1, 0);
+    F.button = 3u;
+    boot();
+    aacmm_device_poll(&D);
+    assert_false(next_msg());
+    F.button = 1u;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.u.trigger.button, AACMM_BUTTON_UNDO);
+    assert_int_equal(M.u.trigger.pressed, 0);
+}
+
+/* Stream info: starts count every STREAM_START (restarts too), next_seq is
+ * the trigger's seq. */
+static void test_stream_info(void **state)
+{
+    aacmm_device_stream_info_t si;
+    int k;
+    (void)state;
+    assert_int_equal(aacmm_device_stream_info(NULL, AACMM_LINK_SERIAL, &si), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_device_stream_info(&D, 2u, &si), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_device_stream_info(&D, AACMM_LINK_SERIAL, &si), AACMM_OK);
+    assert_int_equal(si.active, 0);
+    assert_int_equal(si.starts, 0u);
+    start_stream(200, 0);
+    assert_int_equal(aacmm_device_stream_info(&D, AACMM_LINK_SERIAL, &si), AACMM_OK);
+    assert_int_equal(si.active, 1);
+    assert_int_equal(si.rate_hz, 200);
+    assert_int_equal(si.starts, 1u);
+    for (k = 0; k < 10; k++) {
+        advance(5000u);
+        aacmm_device_poll(&D);
+    }
+    assert_int_equal(aacmm_device_stream_info(&D, AACMM_LINK_SERIAL, &si), AACMM_OK);
+    assert_int_equal(si.next_seq, 11u);
+    while (next_msg()) {
+    }
+    start_stream(100, 0);
+    assert_int_equal(aacmm_device_stream_info(&D, AACMM_LINK_SERIAL, &si), AACMM_OK);
+    assert_int_equal(si.starts, 2u);
+    assert_int_equal(aacmm_device_stream_info(&D, AACMM_LINK_CAN, &si), AACMM_OK);
+    assert_int_equal(si.starts, 0u);
+    assert_int_equal(si.active, 0);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -1408,8 +1503,9 @@ static void test_can_stream_and_both_links(void **state)
         serial_samples++;
     }
     assert_int_equal(serial_samples, 101u);
-    /* CAN: groups of six frames in order, Seq counting up without gaps
-     * (the two trigger samples take their own numbers). */
+    /* CAN: groups of six frames in order; the stream's Seq counts up without
+     * gaps, and the two trigger samples (status TRIGGER_EVENT) carry the
+     * number of the stream sample that follows them. */
     for (i = 0; i < F.can_tx_len; i++) {
         const aacmm_can_frame_t *f = &F.can_tx[i];
         if (f->id == AACMM_CAN_ID_SAMPLE_HEADER + 3u) {
@@ -1417,6 +1513,10 @@ static void test_can_stream_and_both_links(void **state)
                            ((uint32_t)f->data[2] << 16) | ((uint32_t)f->data[3] << 24);
             assert_true(i + 5u < F.can_tx_len);
             assert_int_equal(seq, can_samples);
+            if ((F.can_tx[i + 5].data[4] & AACMM_SAMPLE_TRIGGER_EVENT) != 0u) {
+                assert_int_equal(F.can_tx[i + 6].id, AACMM_CAN_ID_TRIGGER + 3u);
+                continue; /* not a stream sample: the next one has the same seq */
+            }
             assert_int_equal(F.can_tx[i + 1].id, AACMM_CAN_ID_COUNTS_12 + 3u);
             assert_int_equal(F.can_tx[i + 2].id, AACMM_CAN_ID_COUNTS_34 + 3u);
             assert_int_equal(F.can_tx[i + 3].id, AACMM_CAN_ID_COUNTS_56 + 3u);
@@ -1426,7 +1526,7 @@ static void test_can_stream_and_both_links(void **state)
             can_samples++;
         }
     }
-    assert_int_equal(can_samples, 53u);
+    assert_int_equal(can_samples, 51u); /* 100 ms at 500 Hz, no numbers used by triggers */
     {
         int triggers = 0;
         for (i = 0; i < F.can_tx_len; i++) {
@@ -2091,6 +2191,9 @@ int main(void)
         cmocka_unit_test(test_store_generation_wraps),
         cmocka_unit_test_setup(test_button_events, setup_default),
         cmocka_unit_test_setup(test_button_during_stream, setup_default),
+        cmocka_unit_test_setup(test_two_buttons, setup_default),
+        cmocka_unit_test_setup(test_button_held_at_boot, setup_default),
+        cmocka_unit_test_setup(test_stream_info, setup_default),
         cmocka_unit_test_setup(test_can_requests, setup_default),
         cmocka_unit_test_setup(test_can_stream_and_both_links, setup_default),
         cmocka_unit_test_setup(test_can_jacobian_stream_over_isotp, setup_default),

@@ -90,9 +90,10 @@ static aacmm_status_t pf_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames
     return AACMM_OK;
 }
 
-static aacmm_status_t pf_read_button(void *ctx, uint8_t *pressed)
+static aacmm_status_t pf_read_buttons(void *ctx, uint8_t *pressed)
 {
     (void)ctx;
+    /* One button on the boards: the capture button (bit 0). */
     *pressed = aacmm_sim_button(&sim, board_time_us());
     return AACMM_OK;
 }
@@ -166,7 +167,7 @@ int main(void)
     pf.serial_read = pf_serial_read;
     pf.serial_write = pf_serial_write;
     pf.read_encoder_frames = pf_read_encoder_frames;
-    pf.read_button = pf_read_button;
+    pf.read_buttons = pf_read_buttons;
     pf.storage_read = pf_storage_read;
     pf.storage_write = pf_storage_write;
     pf.storage_bytes = AACMM_STORE_BYTES;

@@ -35,13 +35,16 @@
  * the loss is counted (aacmm_device_counters_t). MEASURE_RSP samples are
  * numbered by a device-wide measurement counter.
  *
- * Probe button. Each edge is reported on every link with a sample taken at
- * the edge. Serial: a TRIGGER_EVT whose sample carries the seq of the last
- * stream sample sent before the edge (the link's next seq if none was sent
- * since STREAM_START) and the stream's Jacobian if it has one. CAN (as
- * docs/protocol.md 4.1): the latched sample goes out as six sample frames
- * with the link's next stream seq (which it uses up, so the stream numbering
- * stays gap-free), followed by the trigger frame carrying that seq.
+ * Buttons. Two buttons (AACMM_BUTTON_CAPTURE = 0, AACMM_BUTTON_UNDO = 1,
+ * read through the platform's read_buttons). Each edge of each button is
+ * reported on every link with a sample read at the edge (docs/protocol.md
+ * 2.7, one rule for both links): the sample carries AACMM_SAMPLE_TRIGGER_EVENT
+ * and, as seq, the number the link's stream gives its next sample (so a
+ * trigger lies between stream samples seq - 1 and seq and never uses up a
+ * stream number). Serial: a TRIGGER_EVT, with the stream's Jacobian if it has
+ * one. CAN (docs/protocol.md 4.1): the sample as six sample frames, then the
+ * trigger frame naming its seq. Edges of several buttons seen in one poll are
+ * reported in button order.
  *
  * Timestamps are the platform's time_us at the encoder reading.
  *
@@ -181,7 +184,7 @@ typedef struct {
     uint32_t can_io_errors;     /* can_send / can_receive failures */
     uint32_t can_frames_dropped; /* CAN frames not queued (device CAN queue full) */
     uint32_t can_rsp_dropped;   /* ISO-TP responses lost (previous one still sending) */
-    uint32_t button_edges;      /* probe-button presses + releases seen */
+    uint32_t button_edges;      /* button presses + releases seen (all buttons) */
 } aacmm_device_counters_t;
 
 /* ---- private state below: read only through the functions ------------- */
@@ -200,6 +203,7 @@ typedef struct {
     uint8_t overrun;     /* set AACMM_SAMPLE_OVERRUN on the next sample sent */
     uint8_t sent_any;    /* a sample went out since STREAM_START */
     uint16_t rate_hz;
+    uint32_t starts;     /* STREAM_START requests accepted on the link (wraps) */
     uint32_t seq;        /* seq of the next sample */
     uint32_t last_seq;   /* seq of the last sample sent */
     uint64_t start_us;   /* time of sample 0 */
@@ -246,7 +250,7 @@ typedef struct {
     uint8_t param_source;  /* AACMM_PARAM_SOURCE_* */
     uint8_t storage_state; /* AACMM_STORAGE_* */
     uint8_t storage_ok;    /* platform storage usable */
-    uint8_t button;        /* last button state */
+    uint8_t buttons;       /* last button levels, bit i = button i held */
     uint8_t event_seq;     /* header seq of device events */
     uint8_t have_stored;   /* a valid record exists; stored_crc32 is its set's CRC */
     uint32_t stored_crc32;
@@ -326,6 +330,23 @@ size_t aacmm_device_serial_pending(const aacmm_device_t *dev);
 /* CAN frames waiting in the device CAN queue (wait for the bus to take
  * frames while > 0). O(1). */
 size_t aacmm_device_can_pending(const aacmm_device_t *dev);
+
+/* A link's stream as the device runs it (for ports and tools that watch the
+ * device, e.g. the simulator's control channel). */
+typedef struct {
+    uint8_t active;   /* streaming now */
+    uint8_t content;  /* AACMM_CONTENT_* of the running (or last) stream */
+    uint16_t rate_hz; /* granted rate of the running (or last) stream */
+    uint32_t starts;  /* STREAM_START requests accepted on this link since init (wraps):
+                         a change means the host (re)started the stream */
+    uint32_t next_seq; /* seq of the next stream sample (also a trigger's seq) */
+} aacmm_device_stream_info_t;
+
+/* Fill *info for link AACMM_LINK_SERIAL or AACMM_LINK_CAN (all zero for a
+ * link the platform lacks). AACMM_ERR_NULL, AACMM_ERR_RANGE (unknown link) or
+ * AACMM_OK. O(1). */
+aacmm_status_t aacmm_device_stream_info(const aacmm_device_t *dev, unsigned link,
+                                        aacmm_device_stream_info_t *info);
 
 /* The device's counters (pointer into *dev, valid as long as it). O(1). */
 const aacmm_device_counters_t *aacmm_device_counters(const aacmm_device_t *dev);

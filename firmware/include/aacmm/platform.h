@@ -17,7 +17,7 @@
  * Optional groups: set both functions of a group to NULL when the board does
  * not have it. Serial (serial_read + serial_write) and CAN (can_send +
  * can_receive) are the two links; at least one must be present. Without a
- * button the device emits no trigger events. Without storage (or with
+ * button function the device emits no trigger events. Without storage (or with
  * storage_bytes < AACMM_STORE_BYTES) the device runs on its defaults and
  * answers SAVE_PARAMS with AACMM_ERR_UNSUPPORTED.
  */
@@ -75,8 +75,12 @@ typedef struct {
     aacmm_status_t (*read_encoders)(void *ctx, uint32_t counts[AACMM_JOINTS]);
     aacmm_status_t (*read_encoder_frames)(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS]);
 
-    /* The probe button: *pressed = 1 while held, else 0. Optional. */
-    aacmm_status_t (*read_button)(void *ctx, uint8_t *pressed);
+    /* The buttons' levels: bit i of *pressed is 1 while button i is held
+     * (bit AACMM_BUTTON_CAPTURE = 0: the probe button that takes a point; bit
+     * AACMM_BUTTON_UNDO = 1: the second button; aacmm/proto.h). A board with
+     * one button reports bit 0 only; bits from AACMM_BUTTONS up are ignored.
+     * Optional. */
+    aacmm_status_t (*read_buttons)(void *ctx, uint8_t *pressed);
 
     /* Non-volatile storage of storage_bytes bytes addressed from 0 (an EEPROM
      * or a flash sector pair behind the port). A read of never-written bytes

@@ -85,7 +85,7 @@ typedef enum {
 /* Sample status flags (u32; unknown bits are passed through, not rejected). */
 #define AACMM_SAMPLE_POINT_VALID 0x0001u    /* point (and Jacobian) computed */
 #define AACMM_SAMPLE_ENCODER_FAULT 0x0002u  /* an encoder read failed */
-#define AACMM_SAMPLE_TRIGGER_DOWN 0x0004u   /* probe button held at sample time */
+#define AACMM_SAMPLE_TRIGGER_DOWN 0x0004u   /* capture button (0) held at sample time */
 #define AACMM_SAMPLE_PARAMS_DEFAULT 0x0008u /* running on built-in default parameters */
 #define AACMM_SAMPLE_POINT_CLIPPED 0x0010u  /* point outside the int32 range; clamped */
 #define AACMM_SAMPLE_OVERRUN 0x0020u        /* samples were dropped before this one */
@@ -99,6 +99,13 @@ typedef enum {
 #define AACMM_SAMPLE_JOINT6_FAULT 0x2000u
 #define AACMM_SAMPLE_JOINT_FAULT(j) (AACMM_SAMPLE_JOINT1_FAULT << (j)) /* j = 0..5 */
 #define AACMM_SAMPLE_JOINT_FAULTS 0x3F00u /* any joint */
+#define AACMM_SAMPLE_TRIGGER_EVENT 0x0080u /* read at a button edge: the sample of a trigger
+                                              event, never a stream sample (docs/protocol.md 2.7) */
+
+/* Buttons: the index carried by TRIGGER_EVT and the CAN trigger frame. */
+#define AACMM_BUTTON_CAPTURE 0u /* the probe (front) button: take a point */
+#define AACMM_BUTTON_UNDO 1u    /* the second button: undo the last point */
+#define AACMM_BUTTONS 2u        /* buttons a device reports */
 
 /* Device info build_flags. */
 #define AACMM_BUILD_KIN_FIXED 0x0001u  /* fixed-point kinematics (else floating point) */
@@ -246,9 +253,10 @@ typedef struct {
 } aacmm_msg_stream_t;
 
 typedef struct {
-    uint8_t button;        /* 0 = probe button; others device-defined */
+    uint8_t button;        /* AACMM_BUTTON_CAPTURE (0) or AACMM_BUTTON_UNDO (1) */
     uint8_t pressed;       /* 1 press, 0 release */
-    aacmm_sample_t sample; /* the sample latched at the edge */
+    aacmm_sample_t sample; /* read at the edge; seq = the link's next stream seq,
+                              status has AACMM_SAMPLE_TRIGGER_EVENT */
 } aacmm_msg_trigger_t;
 
 /* One joint's encoder input in DIAG_RSP. */

@@ -10,6 +10,7 @@
 
 #include "aacmm/device.h"
 #include "aacmm_sim.h"
+#include "sim_control.h"
 
 /* Exit codes of aacmm-sim. */
 #define SIM_EXIT_OK 0
@@ -28,6 +29,7 @@ typedef struct {
     aacmm_sim_t sim;
     int use_frames;           /* joints as BiSS-C/SSI frames (else counts) */
     aacmm_sim_encoders_t enc; /* the simulated encoders behind the frames */
+    sim_control_t control; /* control.fd >= 0: encoders and buttons come from it */
 } posix_port_t;
 
 /* The six joint readings at time t_us since the start, in counts: the one
@@ -52,10 +54,13 @@ int posix_can_open(posix_port_t *port, const char *iface, uint32_t rx_id, char *
  * Returns 0, or -1 with a message. */
 int posix_storage_load(posix_port_t *port, char *err, size_t err_cap);
 
-/* Parse a replay file: one pose per line, six unsigned decimal counts
- * separated by blanks or commas, '#' starts a comment. Every count must be
- * < cpr. On success *poses (malloc'd, n*6 counts) and *n are set and 0 is
- * returned; else -1 with "FILE:LINE: problem" in err. */
+/* Parse a replay file: either one pose per line, six unsigned decimal counts
+ * separated by blanks or commas, '#' starts a comment; or a CSV whose first
+ * line is a header naming count1..count6 (an aacmm log or trigger file: the
+ * other columns are ignored, rows whose flags column has ENCODER_FAULT are
+ * skipped). Every count must be < cpr. On success *poses (malloc'd, n*6
+ * counts) and *n are set and 0 is returned; else -1 with "FILE:LINE:
+ * problem" in err. */
 int posix_replay_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t *n, char *err,
                       size_t err_cap);
 

@@ -40,7 +40,8 @@ static void usage(FILE *f)
           "                 [--motion sweep|walk|static|replay:FILE] [--seed N]\n"
           "                 [--noise-counts N] [--encoder-bits B | --cpr N]\n"
           "                 [--encoder biss|ssi|ssi-gray|counts] [--encoder-faults N]\n"
-          "                 [--button-every SECONDS] [--serial-number N] [--quiet]\n"
+          "                 [--button-every SECONDS] [--control FD] [--serial-number N]\n"
+          "                 [--quiet]\n"
           "At least one of --serial and --can. See docs/simulator.md.\n",
           f);
 }
@@ -84,6 +85,8 @@ typedef struct {
     int have_bits;
     int have_cpr;
     uint64_t button_us;
+    const char *control;
+    int have_motion;
     uint64_t serial_number;
     uint8_t encoder; /* AACMM_ENC_* */
     uint64_t encoder_faults;
@@ -160,6 +163,7 @@ static int parse_args(int argc, char **argv, options_t *o)
             } else {
                 return usage_error("--motion: '%s' is not sweep, walk, static or replay:FILE", v);
             }
+            o->have_motion = 1;
         } else if (strcmp(name, "--seed") == 0) {
             if (parse_u64(v, 0u, UINT32_MAX, &o->seed) != 0) {
                 return usage_error("--seed: '%s' is not a number 0..4294967295", v);
@@ -205,6 +209,11 @@ static int parse_args(int argc, char **argv, options_t *o)
             if (parse_u64(v, 0u, UINT32_MAX, &o->encoder_faults) != 0) {
                 return usage_error("--encoder-faults: '%s' is not a number 0..4294967295", v);
             }
+        } else if (strcmp(name, "--control") == 0) {
+            if (v[0] == '\0') {
+                return usage_error("%s needs a value", name);
+            }
+            o->control = v;
         } else if (strcmp(name, "--serial-number") == 0) {
             if (parse_u64(v, 0u, UINT32_MAX, &o->serial_number) != 0) {
                 return usage_error("--serial-number: '%s' is not a number 0..4294967295", v);
@@ -215,6 +224,10 @@ static int parse_args(int argc, char **argv, options_t *o)
     }
     if (o->have_bits && o->have_cpr) {
         return usage_error("%s", "--encoder-bits and --cpr are mutually exclusive");
+    }
+    if (o->control != NULL && (o->have_motion || o->noise != 0u || o->button_us != 0u)) {
+        return usage_error("%s", "--control drives the encoders and buttons: no --motion, "
+                                 "--noise-counts or --button-every with it");
     }
     if (o->serial == NULL && o->can == NULL) {
         return usage_error("%s", "at least one of --serial and --can is required");
@@ -337,6 +350,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "aacmm-sim: %s\n", err);
         return SIM_EXIT_USAGE;
     }
+    port.control.fd = -1;
+    if (o.control != NULL && sim_control_open(&port.control, o.control, o.cpr, err, sizeof err) != 0) {
+        fprintf(stderr, "aacmm-sim: %s\n", err);
+        return SIM_EXIT_USAGE;
+    }
 
     /* Links. */
     if (o.serial != NULL && posix_serial_open(&port, o.serial, err, sizeof err) != 0) {
@@ -396,13 +414,18 @@ int main(int argc, char **argv)
     fflush(stdout);
 
     while (!stop_signal) {
-        struct pollfd fds[2];
+        struct pollfd fds[3];
         nfds_t nfds = 0;
         uint64_t now;
         uint64_t deadline;
         uint64_t wait_us;
         struct timespec ts;
+        sim_control_input(&port.control);
+        if (port.control.eof) {
+            break; /* the controlling program went away: end as on SIGTERM */
+        }
         aacmm_device_poll(&dev);
+        sim_control_after_poll(&port.control, &dev);
         if (stop_signal) {
             break;
         }
@@ -439,6 +462,18 @@ int main(int argc, char **argv)
                 }
             }
         }
+        if (port.control.fd >= 0) {
+            fds[nfds].fd = port.control.fd;
+            fds[nfds].events = port.control.barrier ? 0 : POLLIN;
+            if (port.control.out_len > 0u) {
+                fds[nfds].events |= POLLOUT;
+            }
+            fds[nfds].revents = 0;
+            nfds++;
+            if (sim_control_has_work(&port.control)) {
+                deadline = 0u; /* commands wait behind a barrier: poll again now */
+            }
+        }
         now = posix_time_us();
         wait_us = deadline > now ? deadline - now : 0u;
         ts.tv_sec = (time_t)(wait_us / 1000000u);
@@ -448,6 +483,9 @@ int main(int argc, char **argv)
             break;
         }
         for (i = 0; i < (int)nfds; i++) {
+            if (fds[i].fd == port.control.fd && (fds[i].revents & POLLOUT) != 0) {
+                sim_control_flush(&port.control);
+            }
             if (fds[i].fd == port.serial_fd &&
                 (fds[i].revents & (POLLERR | POLLHUP | POLLNVAL)) != 0) {
                 /* A tty that hung up or went away (USB unplugged): no spinning. */
@@ -476,6 +514,7 @@ int main(int argc, char **argv)
         print_counters();
     }
     posix_close(&port);
+    sim_control_close(&port.control);
     free(replay);
     return SIM_EXIT_OK;
 }

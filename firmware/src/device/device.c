@@ -104,9 +104,9 @@ static void activate(aacmm_device_t *dev, const aacmm_param_set_t *set,
 /* samples                                                                   */
 /* ------------------------------------------------------------------------ */
 
-static uint8_t button_state(const aacmm_device_t *dev)
+static uint8_t capture_held(const aacmm_device_t *dev)
 {
-    return dev->button;
+    return (uint8_t)((dev->buttons >> AACMM_BUTTON_CAPTURE) & 1u);
 }
 
 /* Count a fault of joint j. */
@@ -195,7 +195,7 @@ static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
             }
         }
     }
-    if (button_state(dev) != 0u) {
+    if (capture_held(dev) != 0u) {
         s->status |= AACMM_SAMPLE_TRIGGER_DOWN;
     }
     if (dev->param_source == AACMM_PARAM_SOURCE_DEFAULTS) {
@@ -295,6 +295,7 @@ static void stream_start(aacmm_device_t *dev, aacmm_device_stream_t *s, uint16_t
                          uint8_t content)
 {
     s->active = 1u;
+    s->starts++;
     s->rate_hz = rate_hz;
     s->content = content;
     s->overrun = 0u;
@@ -734,21 +735,22 @@ static void stream_service(aacmm_device_t *dev, unsigned link, aacmm_device_stre
     s->next_us = stream_deadline(s, s->index);
 }
 
-/* A button edge: one trigger event per link. */
-static void button_edge(aacmm_device_t *dev, uint8_t pressed)
+/* An edge of button `button`: one trigger event per link, its sample read
+ * now, numbered with the link's next stream seq (docs/protocol.md 2.7). */
+static void button_edge(aacmm_device_t *dev, uint8_t button, uint8_t pressed)
 {
     aacmm_msg_t *m = &dev->msg_out;
     aacmm_device_stream_t *ss = &dev->serial.stream;
-    aacmm_device_stream_t *cs = &dev->can.stream;
     uint8_t content = (dev->serial.present && ss->active) ? ss->content : 0u;
     dev->counters.button_edges++;
     m->type = (uint8_t)AACMM_MSG_TRIGGER_EVT;
-    m->u.trigger.button = 0u;
+    m->u.trigger.button = button;
     m->u.trigger.pressed = pressed;
     take_sample(dev, content, &m->u.trigger.sample);
+    m->u.trigger.sample.status |= AACMM_SAMPLE_TRIGGER_EVENT;
     if (dev->serial.present) {
         m->seq = dev->event_seq;
-        m->u.trigger.sample.seq = ss->sent_any ? ss->last_seq : ss->seq;
+        m->u.trigger.sample.seq = ss->seq;
         if (serial_send_droppable(dev, m)) {
             dev->event_seq++;
             dev->counters.events_sent++;
@@ -757,45 +759,49 @@ static void button_edge(aacmm_device_t *dev, uint8_t pressed)
         }
     }
     if (dev->can.present) {
-        /* The latched sample as sample frames with the stream's next seq,
-         * then the trigger frame naming it. */
+        /* The sample as sample frames, then the trigger frame naming it. */
         aacmm_device_can_t *c = &dev->can;
         aacmm_can_frame_t f;
         aacmm_sample_t *smp = &m->u.trigger.sample;
-        smp->seq = cs->seq;
+        smp->seq = c->stream.seq;
         smp->content = 0u;
-        if (cs->overrun) {
-            smp->status |= AACMM_SAMPLE_OVERRUN;
-        }
         if (canq_free(c) < AACMM_CAN_SAMPLE_FRAMES + 1u) {
             can_flush(dev);
         }
         if (canq_free(c) >= AACMM_CAN_SAMPLE_FRAMES + 1u && can_queue_sample(dev, smp) &&
-            aacmm_can_trigger_encode(smp->seq, 0u, pressed, c->node_id, &f) == AACMM_OK) {
+            aacmm_can_trigger_encode(smp->seq, button, pressed, c->node_id, &f) == AACMM_OK) {
             canq_put(c, &f);
-            cs->overrun = 0u;
             dev->counters.events_sent++;
         } else {
-            cs->overrun = 1u;
             dev->counters.events_dropped++;
         }
-        cs->seq++; /* used up either way: a lost trigger sample shows as a gap */
     }
+}
+
+static uint8_t read_buttons(aacmm_device_t *dev, uint8_t *levels)
+{
+    uint8_t pressed = 0u;
+    if (dev->pf.read_buttons == NULL ||
+        dev->pf.read_buttons(dev->pf.ctx, &pressed) != AACMM_OK) {
+        return 0u;
+    }
+    *levels = (uint8_t)(pressed & ((1u << AACMM_BUTTONS) - 1u));
+    return 1u;
 }
 
 static void button_service(aacmm_device_t *dev)
 {
-    uint8_t pressed = 0u;
-    if (dev->pf.read_button == NULL) {
+    uint8_t levels = 0u;
+    uint8_t b;
+    if (!read_buttons(dev, &levels)) {
         return;
     }
-    if (dev->pf.read_button(dev->pf.ctx, &pressed) != AACMM_OK) {
-        return;
-    }
-    pressed = pressed != 0u ? 1u : 0u;
-    if (pressed != dev->button) {
-        dev->button = pressed;
-        button_edge(dev, pressed);
+    for (b = 0u; b < AACMM_BUTTONS; b++) {
+        uint8_t bit = (uint8_t)(1u << b);
+        if ((levels & bit) != (dev->buttons & bit)) {
+            dev->buttons = (uint8_t)(dev->buttons ^ bit);
+            button_edge(dev, b, (levels & bit) != 0u ? 1u : 0u);
+        }
     }
 }
 
@@ -932,13 +938,8 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
         dev->can.node_id = config->can_node_id;
     }
 
-    /* Button: the state at start-up is not an edge. */
-    if (dev->pf.read_button != NULL) {
-        uint8_t pressed = 0u;
-        if (dev->pf.read_button(dev->pf.ctx, &pressed) == AACMM_OK) {
-            dev->button = pressed != 0u ? 1u : 0u;
-        }
-    }
+    /* Buttons: the levels at start-up are not edges. */
+    (void)read_buttons(dev, &dev->buttons);
     return AACMM_OK;
 }
 
@@ -1026,6 +1027,28 @@ size_t aacmm_device_serial_pending(const aacmm_device_t *dev)
 size_t aacmm_device_can_pending(const aacmm_device_t *dev)
 {
     return dev == NULL ? 0u : dev->can.q_len;
+}
+
+aacmm_status_t aacmm_device_stream_info(const aacmm_device_t *dev, unsigned link,
+                                        aacmm_device_stream_info_t *info)
+{
+    const aacmm_device_stream_t *s;
+    if (dev == NULL || info == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if (link == AACMM_LINK_SERIAL) {
+        s = &dev->serial.stream;
+    } else if (link == AACMM_LINK_CAN) {
+        s = &dev->can.stream;
+    } else {
+        return AACMM_ERR_RANGE;
+    }
+    info->active = s->active;
+    info->content = s->content;
+    info->rate_hz = s->rate_hz;
+    info->starts = s->starts;
+    info->next_seq = s->seq;
+    return AACMM_OK;
 }
 
 const aacmm_device_counters_t *aacmm_device_counters(const aacmm_device_t *dev)

@@ -21,6 +21,7 @@ from aacmm.protocol.framing import Deframer, crc32, decode_frame, encode_frame
 from aacmm.protocol.messages import (
     PROTOCOL_VERSION,
     BuildFlags,
+    Button,
     ComputeRequest,
     ComputeResult,
     Content,
@@ -61,6 +62,7 @@ from aacmm.protocol.status import Status, status_name
 __all__ = [
     "PROTOCOL_VERSION",
     "BuildFlags",
+    "Button",
     "CanFrame",
     "ComputeRequest",
     "ComputeResult",

@@ -98,12 +98,22 @@ class SampleStatus(IntFlag):
     POINT_CLIPPED = 0x0010
     OVERRUN = 0x0020
     ENCODER_WARNING = 0x0040
+    #: read at a button edge: the sample of a trigger event, never a stream
+    #: sample (its seq is the link's next stream seq; docs/protocol.md 2.7)
+    TRIGGER_EVENT = 0x0080
     JOINT1_FAULT = 0x0100
     JOINT2_FAULT = 0x0200
     JOINT3_FAULT = 0x0400
     JOINT4_FAULT = 0x0800
     JOINT5_FAULT = 0x1000
     JOINT6_FAULT = 0x2000
+
+
+class Button(IntEnum):
+    """The button index of a trigger event (TRIGGER_EVT, CAN trigger frame)."""
+
+    CAPTURE = 0  #: the probe (front) button: take a point
+    UNDO = 1  #: the second button: undo the last point
 
 
 class BuildFlags(IntFlag):
@@ -345,7 +355,11 @@ class Stream:
 
 @dataclass(frozen=True)
 class Trigger:
-    """TRIGGER_EVT: probe button edge and the sample latched at it."""
+    """TRIGGER_EVT: a button edge (``button``: :class:`Button`) and the sample read at it.
+
+    The sample carries :attr:`SampleStatus.TRIGGER_EVENT` and, as ``seq``, the
+    number of the link's next stream sample (docs/protocol.md 2.7).
+    """
 
     button: int
     pressed: bool

@@ -31,7 +31,7 @@ import isotp
 import isotp.tpsock
 
 from aacmm.errors import DeviceTimeoutError, FrameError, InitError, OperationError
-from aacmm.protocol import Message, MsgType, Sample, Trigger, decode_message
+from aacmm.protocol import Message, MsgType, Sample, SampleStatus, Trigger, decode_message
 from aacmm.protocol.can import (
     ID_ISOTP_RESPONSE,
     ID_POINT_Z,
@@ -74,7 +74,11 @@ class SampleFrameDecoder:
     Decodes with :mod:`struct` (the layout of ``proto_can.h``), independently
     of the DBC, and is fast enough for 1 kHz streams. A sample whose frames
     are missing, out of order or whose SeqTag does not match its header is
-    dropped and counted in :attr:`incomplete`.
+    dropped and counted in :attr:`incomplete`. A sample flagged
+    ``TRIGGER_EVENT`` is the sample of the trigger frame that follows it
+    (docs/protocol.md 2.7): it becomes that TRIGGER_EVT, never a SAMPLE_EVT.
+    A trigger frame naming no such sample takes the stream sample with its
+    seq, as devices before that rule sent it.
     """
 
     def __init__(self, node_id: int) -> None:
@@ -87,6 +91,7 @@ class SampleFrameDecoder:
         self._ts_high = 0
         self._ts_last = -1
         self._recent: OrderedDict[int, Sample] = OrderedDict()
+        self._edge: OrderedDict[int, Sample] = OrderedDict()  # trigger samples by seq
         self._pending: list[tuple[int, int, bool, int]] = []  # seq, button, pressed, age
 
     def _timestamp(self, low: int) -> int:
@@ -141,13 +146,23 @@ class SampleFrameDecoder:
             point_100nm=(x, y, z),
             status=status,
         )
+        if status & SampleStatus.TRIGGER_EVENT:
+            self._edge[seq] = sample
+            if len(self._edge) > _RECENT_SAMPLES:
+                self._edge.popitem(last=False)
+            return self._match_pending(seq, None)
         self._recent[seq] = sample
         if len(self._recent) > _RECENT_SAMPLES:
             self._recent.popitem(last=False)
-        out = [Message(MsgType.SAMPLE_EVT, seq & 0xFF, sample)]
+        return self._match_pending(seq, Message(MsgType.SAMPLE_EVT, seq & 0xFF, sample))
+
+    def _match_pending(self, seq: int, first: Message | None) -> list[Message]:
+        """Trigger frames that waited for sample ``seq`` (after ``first``, if any)."""
+        out = [] if first is None else [first]
         still: list[tuple[int, int, bool, int]] = []
         for t_seq, button, pressed, age in self._pending:
-            if t_seq == seq:
+            sample = self._take(t_seq) if t_seq == seq else None
+            if sample is not None:
                 trig = Trigger(button, pressed, sample)
                 out.append(Message(MsgType.TRIGGER_EVT, seq & 0xFF, trig))
             elif age + 1 < _TRIGGER_WAIT_SAMPLES:
@@ -157,12 +172,17 @@ class SampleFrameDecoder:
         self._pending = still
         return out
 
+    def _take(self, seq: int) -> Sample | None:
+        """The trigger sample numbered ``seq`` (used once), else the stream sample."""
+        sample = self._edge.pop(seq, None)
+        return sample if sample is not None else self._recent.get(seq)
+
     def _trigger(self, data: bytes) -> list[Message]:
         seq, button, pressed, _reserved = _TRIG.unpack(data)
         if pressed > 1:
             self.bad_frames += 1
             return []
-        sample = self._recent.get(seq)
+        sample = self._take(seq)
         if sample is None:
             self._pending.append((seq, button, bool(pressed), 0))
             return []
