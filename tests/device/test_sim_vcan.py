@@ -5,7 +5,8 @@ VCAN_TESTS; it skips elsewhere). Standard library sockets only, with a tiny
 ISO-TP client of its own, so it checks the simulator independently of the
 host package: a PING and an INFO (multi-frame response, flow control from
 us) over ISO-TP, a periodic-frame stream with gap-free sequence numbers, the
-probe-button trigger frame after the latched sample's frames, exit codes.
+probe-button trigger frame after its sample's frames (TRIGGER_EVENT, not a
+stream sample), exit codes.
 The full client tests live with the host package.
 """
 
@@ -160,7 +161,11 @@ def test_requests_stream_and_trigger(sim: subprocess.Popen[str]) -> None:
                 0x140 + NODE,
                 0x150 + NODE,
             ]
-            seqs.append(struct.unpack_from("<I", data)[0])
+            status = struct.unpack_from("<H", frames[i + 5][1], 4)[0]
+            if status & 0x40:  # TRIGGER_EVENT: a trigger's sample, not a stream sample
+                assert i + 6 >= len(frames) or frames[i + 6][0] == 0x160 + NODE
+            else:
+                seqs.append(struct.unpack_from("<I", data)[0])
         elif can_id == 0x160 + NODE:
             seq, button, pressed = struct.unpack_from("<IBB", data)
             assert frames[i - 6][0] == 0x100 + NODE
@@ -169,6 +174,8 @@ def test_requests_stream_and_trigger(sim: subprocess.Popen[str]) -> None:
     assert len(seqs) > 300
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "lost or repeated sample"
     assert len(triggers) >= 4 and {t[2] for t in triggers} == {0, 1}
+    # docs/protocol.md 2.6: a trigger names the stream sample that follows it
+    assert all(t[0] in seqs for t in triggers[:-1])
 
 
 def test_exit_codes() -> None:

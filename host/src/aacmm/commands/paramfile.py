@@ -16,7 +16,9 @@ A file holds the eight fields of a device parameter set (docs/protocol.md
 or split as in a log sidecar: a ``params`` table (the five kinematic keys)
 and an ``encoders`` table (the three encoder keys). A log's ``.csv.json``
 sidecar (``"format": "aacmm-log-1"``) can be loaded as it is: only its
-``params`` and ``encoders`` are read. The optional keys ``format`` and
+``params`` and ``encoders`` are read; so can a simulator truth file
+(``"format": "aacmm-truth-1"``, docs/simulator.md): only its eight parameter
+keys are read (its error tables are not parameters). The optional keys ``format`` and
 ``param_crc32`` are ignored on reading; any other key is an error. The format is chosen by the
 suffix: ``.toml`` or ``.json``.
 
@@ -90,6 +92,8 @@ def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
     fmt = data.get("format")
     if isinstance(fmt, str) and fmt.startswith("aacmm-log"):  # a log sidecar: its set only
         data = {k: data[k] for k in ("params", "encoders") if k in data}
+    elif isinstance(fmt, str) and fmt.startswith("aacmm-truth"):  # a simulator truth file:
+        data = {k: v for k, v in data.items() if k in ALL_KEYS}  # its set, not its error tables
     flat: dict[str, Any] = {}
     for key, value in data.items():
         if key in ("params", "encoders") and isinstance(value, dict):

@@ -83,6 +83,8 @@ class SimProcess:
         link: make ``link`` a symlink to the simulator's pty, so the port keeps
             one name across restarts (replaced atomically, removed on stop).
         stderr: where the simulator's stderr goes (default: inherited).
+        pass_fds: descriptors the simulator inherits (e.g. the end of a
+            control channel given as ``--control FD``).
 
     Raises:
         SimulatorError: binary missing, or it ended or stayed silent before ``ready``.
@@ -95,6 +97,7 @@ class SimProcess:
         link: str | Path | None = None,
         stderr: int | IO[Any] | None = None,
         binary: Path | None = None,
+        pass_fds: Sequence[int] = (),
     ) -> None:
         self.binary = binary or find_simulator()
         self.args = list(args)
@@ -109,6 +112,7 @@ class SimProcess:
             stdin=subprocess.DEVNULL,
             text=True,
             bufsize=1,
+            pass_fds=tuple(pass_fds),
         )
         try:
             self._wait_ready()

@@ -1,0 +1,30 @@
+# The simulated arm with a truth of its own and the simulated operator
+# (issue 11 items 3-4), the simulator's control channel, the second button and
+# the trigger-sample rule (issue 14 item 5), replay of aacmm logs (item 6).
+# See docs/simulator.md.
+#   test-sim-control   aacmm-sim --control against the host client over a pty:
+#                      counts/buttons/barriers/stream events, the trigger rule
+#                      on serial, both buttons, replay of an `aacmm log` CSV;
+#                      ruff, mypy --strict on aacmm.simulation and these tests
+# The CAN half of the trigger rule runs in the shared vcan session.
+
+SIMULATION_PY_FILES := host/src/aacmm/simulation tests/sim
+SIMULATION_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300 \
+                       -c host/pyproject.toml --rootdir=.
+
+.PHONY: test-sim-control test-simulation-lint
+test-sim-control: export AACMM_SIM = $(abspath $(SIM_BIN))
+test-sim-control: sim
+	$(SIMULATION_PYTEST) tests/sim/test_sim_control.py
+	@$(MAKE) --no-print-directory test-simulation-lint
+
+test-simulation-lint:
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(SIMULATION_PY_FILES)
+	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(SIMULATION_PY_FILES)
+	MYPYPATH=tests/sim $(VENV)/bin/mypy --config-file host/pyproject.toml host/src/aacmm/simulation \
+	    $(wildcard tests/sim/*.py)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml tests/sim/vcan
+
+TEST_SUITES += test-sim-control
+
+VCAN_TESTS += tests/sim/vcan

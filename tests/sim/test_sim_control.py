@@ -1,0 +1,186 @@
+"""The simulator's control channel, the second button and the trigger-sample
+rule over the serial link, and replay of aacmm's own logs (issue 14 items 5
+and 6), against the real ``aacmm-sim`` binary and the host client.
+
+- counts and buttons set on the channel are what the device reads and reports;
+  a button edge carries the counts set before it (barrier semantics);
+- the channel reports stream start, restart and stop; refuses bad lines with
+  an ``error`` line and goes on; its end of file ends the simulator (exit 0);
+- a trigger's sample is read at the edge, flagged TRIGGER_EVENT, numbered with
+  the stream's next seq, and takes no stream number (docs/protocol.md 2.6);
+  button 1 (undo) reports index 1;
+- ``--motion replay:`` takes a CSV written by ``aacmm log`` (header row) and
+  replays its counts in order, skipping rows flagged ENCODER_FAULT.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from aacmm.client import connect
+from aacmm.commands.sim import SimProcess, SimulatorUsageError
+from aacmm.protocol import Button, SampleStatus
+from aacmm.simulation.control import ControlChannel, ControlError
+from simctl import ControlledSim
+
+pytestmark = pytest.mark.timeout(120)
+AACMM = Path(sys.executable).with_name("aacmm")
+COUNTS = (1 << 30, 3 << 29, 5, 1 << 31, 123456789, 4000000000)
+
+
+def test_counts_and_buttons_reach_the_device(controlled: ControlledSim) -> None:
+    chan = controlled.chan
+    with connect(controlled.url, timeout=2.0) as c:
+        chan.set_counts(COUNTS)
+        chan.sync()
+        assert c.measure().counts == COUNTS
+        # a press carries the counts set before it, even when new counts follow at once
+        chan.set_counts((1, 2, 3, 4, 5, 6))
+        chan.send_raw("buttons 1")  # a barrier, without waiting
+        chan.set_counts((7, 8, 9, 10, 11, 12))
+        chan.send_raw("buttons 2")
+        chan.sync()
+        down = c.wait_trigger(timeout=2.0)
+        assert (down.button, down.pressed) == (Button.CAPTURE, True)
+        assert down.sample.counts == (1, 2, 3, 4, 5, 6)
+        assert down.sample.status & SampleStatus.TRIGGER_EVENT
+        assert down.sample.status & SampleStatus.TRIGGER_DOWN
+        # mask 1 -> 2: button 0 released and button 1 pressed, in button order
+        up = c.wait_trigger(timeout=2.0)
+        undo = c.wait_trigger(timeout=2.0)
+        assert (up.button, up.pressed) == (Button.CAPTURE, False)
+        assert (undo.button, undo.pressed) == (Button.UNDO, True)
+        assert up.sample.counts == undo.sample.counts == (7, 8, 9, 10, 11, 12)
+        assert not undo.sample.status & SampleStatus.TRIGGER_DOWN  # only the capture button
+        chan.release(Button.UNDO)
+        assert c.wait_trigger(timeout=2.0).pressed is False
+        assert c.drain_triggers() == []
+
+
+def test_stream_events_and_trigger_rule(controlled: ControlledSim) -> None:
+    chan = controlled.chan
+    chan.set_counts(COUNTS)
+    assert chan.streams()["serial"].active is False
+    with connect(controlled.url, timeout=2.0) as c:
+        with c.stream(200) as samples:
+            assert chan.wait_stream(True, timeout=5.0)
+            assert chan.streams()["serial"].rate_hz == 200
+            got = [next(samples) for _ in range(20)]
+            for _ in range(3):
+                chan.press(Button.CAPTURE)
+                chan.release(Button.CAPTURE)
+                got += [next(samples) for _ in range(10)]
+            triggers = c.drain_triggers()
+        assert chan.wait_stream(False, timeout=5.0)
+        starts = chan.starts()
+        with c.stream(50) as samples:  # a restart is reported again
+            next(samples)
+            assert chan.wait_stream(after_starts=starts, timeout=5.0)
+    seqs = [s.seq for s in got]
+    assert seqs == list(range(len(seqs))), "the stream lost or repeated a number"
+    assert not any(s.status & SampleStatus.TRIGGER_EVENT for s in got)
+    assert len(triggers) == 6
+    by_seq = {s.seq: s for s in got}
+    for t in triggers:
+        s = t.sample
+        assert s.status & SampleStatus.TRIGGER_EVENT
+        # between stream samples seq - 1 and seq (docs/protocol.md 2.6)
+        assert by_seq[s.seq].timestamp_us >= s.timestamp_us
+        if s.seq > 0:
+            assert by_seq[s.seq - 1].timestamp_us <= s.timestamp_us
+    assert {t.pressed for t in triggers} == {True, False}
+
+
+def test_bad_lines_are_refused_and_the_channel_goes_on(controlled: ControlledSim) -> None:
+    chan = controlled.chan
+    for line in (
+        "counts 1 2 3",
+        f"counts 1 2 3 4 5 {1 << 32}",
+        "counts 1 2 3 4 5 x",
+        "buttons 4",
+        "fly away",
+        "sync",
+        "x" * 300,
+    ):
+        chan.send_raw(line)
+        with pytest.raises(ControlError, match="refused"):
+            chan.sync()
+    chan.set_counts(COUNTS)
+    chan.sync()
+    with connect(controlled.url, timeout=2.0) as c:
+        assert c.measure().counts == COUNTS
+
+
+def test_control_option_errors() -> None:
+    a, b = socket.socketpair()
+    try:
+        with pytest.raises(SimulatorUsageError):
+            SimProcess(["--serial", "pty", "--control", str(b.fileno()), "--motion", "static"],
+                       pass_fds=[b.fileno()])  # fmt: skip
+        with pytest.raises(SimulatorUsageError):
+            SimProcess(["--serial", "pty", "--control", "77"])  # not open
+        with pytest.raises(SimulatorUsageError):
+            SimProcess(["--serial", "pty", "--control", "x"])
+    finally:
+        a.close()
+        b.close()
+
+
+def _aacmm(*args: str) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "AACMM_PORT"}
+    return subprocess.run([str(AACMM), *args], capture_output=True, text=True, timeout=60, env=env)
+
+
+def test_replay_reads_an_aacmm_log(tmp_path: Path) -> None:
+    log = tmp_path / "run.csv"
+    with SimProcess(["--serial", "pty", "--quiet", "--motion", "walk", "--seed", "3"]) as sim:
+        r = _aacmm("log", str(log), "--port", sim.url, "-n", "30", "-r", "200", "-q")
+        assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader(log.open()))
+    assert len(rows) == 30
+    # a row of a faulty reading is skipped on replay
+    text = log.read_text().splitlines()
+    fault = text[1].split(",")
+    fault[-1] = str(int(fault[-1]) | int(SampleStatus.ENCODER_FAULT))
+    text.insert(2, ",".join(fault))
+    log.write_text("\n".join(text) + "\n")
+    want = [tuple(int(r[f"count{i}"]) for i in range(1, 7)) for r in rows]
+    with SimProcess(["--serial", "pty", "--quiet", "--motion", f"replay:{log}"]) as sim:
+        with connect(sim.url, timeout=2.0) as c:
+            got = [c.measure().counts for _ in range(len(want) + 2)]
+    assert got == want + want[:2]  # in order, looping at the end
+
+
+def test_replay_csv_errors(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.csv"
+    for text, msg in (
+        ("seq,count1,count2\n1,2,3\n", "no column count3"),
+        ("count1,count2,count3,count4,count5,count6\n1,2,3,4,5\n", ":2:"),
+        ("count1,count2,count3,count4,count5,count6\n1,2,3,4,5,-6\n", "count6"),
+    ):
+        bad.write_text(text)
+        r = subprocess.run(
+            [os.environ["AACMM_SIM"], "--serial", "pty", "--motion", f"replay:{bad}"],
+            capture_output=True, text=True, timeout=20,
+        )  # fmt: skip
+        assert r.returncode == 2 and msg in r.stderr, r.stderr
+        assert r.stderr.count("\n") == 1
+
+
+def test_simulator_ends_when_control_peer_dies_quickly() -> None:
+    """The operator killed: its end of the channel closes, the simulator follows."""
+    chan, fd = ControlChannel.pair()
+    sim = SimProcess(["--serial", "pty", "--quiet", "--control", str(fd)], pass_fds=[fd])
+    chan.child_started()
+    t0 = time.monotonic()
+    chan.close()
+    assert sim.proc.wait(timeout=10) == 0
+    assert time.monotonic() - t0 < 5
+    sim.stop()
