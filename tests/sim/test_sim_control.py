@@ -78,13 +78,14 @@ def test_stream_events_and_trigger_rule(controlled: ControlledSim) -> None:
                 chan.release(Button.CAPTURE)
                 got += [next(samples) for _ in range(10)]
             triggers = c.drain_triggers()
+            diag = f"stream {samples.stats}, client {c.stats}"
         assert chan.wait_stream(False, timeout=5.0)
         starts = chan.starts()
         with c.stream(50) as samples:  # a restart is reported again
             next(samples)
             assert chan.wait_stream(after_starts=starts, timeout=5.0)
     seqs = [s.seq for s in got]
-    assert seqs == list(range(len(seqs))), "the stream lost or repeated a number"
+    assert seqs == list(range(len(seqs))), f"the stream lost or repeated a number: {diag}"
     assert not any(s.status & SampleStatus.TRIGGER_EVENT for s in got)
     assert len(triggers) == 6
     by_seq = {s.seq: s for s in got}
