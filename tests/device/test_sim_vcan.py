@@ -162,7 +162,7 @@ def test_requests_stream_and_trigger(sim: subprocess.Popen[str]) -> None:
                 0x150 + NODE,
             ]
             status = struct.unpack_from("<H", frames[i + 5][1], 4)[0]
-            if status & 0x40:  # TRIGGER_EVENT: a trigger's sample, not a stream sample
+            if status & 0x80:  # TRIGGER_EVENT: a trigger's sample, not a stream sample
                 assert i + 6 >= len(frames) or frames[i + 6][0] == 0x160 + NODE
             else:
                 seqs.append(struct.unpack_from("<I", data)[0])
