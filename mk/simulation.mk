@@ -6,17 +6,22 @@
 #                      counts/buttons/barriers/stream events, the trigger rule
 #                      on serial, both buttons, replay of an `aacmm log` CSV;
 #                      ruff, mypy --strict on aacmm.simulation and these tests
+#   test-simulation    the truth model and its file, random truths, the encoder
+#                      model against the core, IK to 1e-9 mm, articulation spread
 # The CAN half of the trigger rule runs in the shared vcan session.
 
 SIMULATION_PY_FILES := host/src/aacmm/simulation tests/sim
 SIMULATION_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300 \
                        -c host/pyproject.toml --rootdir=.
 
-.PHONY: test-sim-control test-simulation-lint
+.PHONY: test-sim-control test-simulation test-simulation-lint
 test-sim-control: export AACMM_SIM = $(abspath $(SIM_BIN))
 test-sim-control: sim
 	$(SIMULATION_PYTEST) tests/sim/test_sim_control.py
 	@$(MAKE) --no-print-directory test-simulation-lint
+
+test-simulation:
+	$(SIMULATION_PYTEST) tests/sim/test_truth_ik.py
 
 test-simulation-lint:
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(SIMULATION_PY_FILES)
@@ -25,6 +30,6 @@ test-simulation-lint:
 	    $(wildcard tests/sim/*.py)
 	$(VENV)/bin/mypy --config-file host/pyproject.toml tests/sim/vcan
 
-TEST_SUITES += test-sim-control
+TEST_SUITES += test-sim-control test-simulation
 
 VCAN_TESTS += tests/sim/vcan

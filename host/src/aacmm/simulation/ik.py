@@ -7,7 +7,7 @@ the two models' theta columns; the theta columns of the core's 3x25 Jacobian
 are the positional joint Jacobian. No other kinematics code is involved.
 
 :func:`solve` moves the tip onto a target by damped least squares
-(Levenberg-Marquardt steps via the SVD) with a soft stylus direction and a
+(Levenberg-Marquardt steps) with a soft stylus direction and a
 preferred posture in the null space, then polishes the position alone with
 undamped minimum-norm Gauss-Newton steps until the tip is within
 ``tol_mm`` (1e-9 mm by default) of the target.
@@ -128,14 +128,13 @@ class Solution:
 
 
 def _dls(a: FloatArray, b: FloatArray, damping: float) -> tuple[FloatArray, FloatArray]:
-    """Damped least-squares step and the row-space projector of ``a``."""
-    u, s, vt = np.linalg.svd(a, full_matrices=False)
-    f = s / (s * s + damping * damping)
-    step: FloatArray = vt.T @ (f * (u.T @ b))
-    keep = s > 1e-9 * max(float(s[0]), 1e-300)
-    v = vt[keep].T
-    proj: FloatArray = v @ v.T
-    return step, proj
+    """Damped least-squares step ``A^T (A A^T + d^2 I)^-1 b`` and the damped
+    null-space projector ``I - A^T (A A^T + d^2 I)^-1 A`` (``damping`` > 0)."""
+    m = a @ a.T + damping * damping * np.eye(a.shape[0])
+    x = np.linalg.solve(m, np.column_stack([b, a]))
+    step: FloatArray = a.T @ x[:, 0]
+    null: FloatArray = np.eye(a.shape[1]) - a.T @ x[:, 1:]
+    return step, null
 
 
 def solve(
@@ -146,7 +145,7 @@ def solve(
     stylus: npt.ArrayLike | None = None,
     stylus_weight_mm: float = 300.0,
     posture: npt.ArrayLike | None = None,
-    posture_gain: float = 0.3,
+    posture_gain: float = 0.5,
     limits: JointLimits = ARM_LIMITS,
     tol_mm: float = 1e-9,
     max_iter: int = 200,
@@ -180,14 +179,14 @@ def solve(
             b = np.concatenate([rp, stylus_weight_mm * (want - u)])
         else:
             a, b = jp, rp
-        damping = 1.0 if err > 1e-3 else 1e-3
-        step, proj = _dls(a, b, damping)
-        step += (np.eye(JOINTS) - proj) @ (posture_gain * wrap(pref - th))
+        damping = min(1.0, max(err, 1e-3))  # mm: strong far away, small on target
+        step, null = _dls(a, b, damping)
+        step += null @ (posture_gain * wrap(pref - th))
         big = float(np.max(np.abs(step)))
         if big > max_step_rad:
             step *= max_step_rad / big
         th = th + step
-        if err < 1e-6 and big < 1e-9:
+        if err < 1e-6 and big < 1e-4:
             break
     # Phase 2: the position alone, minimum-norm Gauss-Newton to tol_mm.
     for _ in range(50):
