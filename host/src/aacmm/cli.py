@@ -13,6 +13,7 @@ from aacmm import __version__
 # light; import heavy modules inside the command functions.
 COMMAND_MODULES: tuple[str, ...] = (
     "aacmm.commands.capture",
+    "aacmm.commands.dbc",
     "aacmm.commands.device",
     "aacmm.commands.log",
     "aacmm.commands.mc",

@@ -4,11 +4,19 @@ Identifiers are a base plus the node id (0..15). Plain samples go out as six
 8-byte frames described by ``aacmm/data/aacmm.dbc``; every other message is a
 protocol message body carried by ISO-TP (``can-isotp``) on 0x600+n (host to
 device) and 0x680+n (device to host).
+
+``aacmm.dbc`` is the one source of the frame layout, written for node 0;
+:func:`dbc_text` derives the DBC of any node from it (every identifier plus
+the node id), which is what CAN tools need to decode a real bus: the package
+ships them as ``aacmm/data/dbc/aacmm-node<N>.dbc`` and ``aacmm dbc --node N``
+writes one.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+from functools import cache
 from importlib import resources
 from typing import Any, Final
 
@@ -51,21 +59,61 @@ def _check_node(node_id: int) -> None:
 
 
 def dbc_path() -> str:
-    """File system path of the packaged DBC file."""
+    """File system path of the packaged DBC file (the source, node 0 identifiers)."""
     return str(resources.files("aacmm").joinpath("data/aacmm.dbc"))
 
 
-_DB: cantools.database.can.Database | None = None
+def node_dbc_path(node_id: int) -> str:
+    """File system path of the packaged DBC of CAN node ``node_id`` (0..15).
+
+    Raises:
+        ValueError: bad node id.
+    """
+    _check_node(node_id)
+    return str(resources.files("aacmm").joinpath(f"data/dbc/aacmm-node{node_id}.dbc"))
 
 
-def load_dbc() -> cantools.database.can.Database:
-    """The packaged DBC (node 0 ids) loaded with ``cantools`` (cached)."""
-    global _DB
-    if _DB is None:
-        db = cantools.database.load_file(dbc_path())
-        assert isinstance(db, cantools.database.can.Database)
-        _DB = db
-    return _DB
+# Lines of a DBC that name a frame id: messages, their comments (and their
+# signals'), value tables, attributes, transmitters, multiplexing.
+_ID_LINE = re.compile(
+    r'^(BO_ |CM_ BO_ |CM_ SG_ |VAL_ |BO_TX_BU_ |SG_MUL_VAL_ |BA_ "[^"]*" (?:BO_|SG_) )(\d+)',
+    re.MULTILINE,
+)
+_NODE0_NOTE: Final = "Identifiers are for CAN node 0; node n (0..15) adds n to every identifier."
+
+
+@cache
+def dbc_text(node_id: int = 0) -> str:
+    """The DBC text for CAN node ``node_id``: ``aacmm.dbc`` with every frame id
+    plus the node id (the database comment names the node).
+
+    Raises:
+        ValueError: bad node id.
+    """
+    _check_node(node_id)
+    with open(dbc_path(), encoding="utf-8") as f:
+        text = f.read()
+    if _NODE0_NOTE not in text:
+        raise ValueError("aacmm.dbc lost its node-0 note; update dbc_text")
+    text = _ID_LINE.sub(lambda m: f"{m.group(1)}{int(m.group(2)) + node_id}", text)
+    return text.replace(
+        _NODE0_NOTE,
+        f"Identifiers are for CAN node {node_id} (the node-0 identifiers plus {node_id}; "
+        "'aacmm dbc --node N' writes the DBC of node N).",
+    )
+
+
+@cache
+def load_dbc(node_id: int = 0) -> cantools.database.can.Database:
+    """The DBC of CAN node ``node_id`` (default 0: the base identifiers) loaded
+    with ``cantools`` (cached).
+
+    Raises:
+        ValueError: bad node id.
+    """
+    db = cantools.database.load_string(dbc_text(node_id), database_format="dbc")
+    assert isinstance(db, cantools.database.can.Database)
+    return db
 
 
 def _decode_raw(frame_id: int, data: bytes) -> dict[str, int]:
