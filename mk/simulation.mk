@@ -23,6 +23,7 @@ test-sim-control: sim
 test-simulation:
 	$(SIMULATION_PYTEST) tests/sim/test_truth_ik.py
 
+#> test-simulation-lint  ruff, ruff format, mypy on the simulation code (part of test-sim-control)
 test-simulation-lint:
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(SIMULATION_PY_FILES)
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(SIMULATION_PY_FILES)
