@@ -130,3 +130,40 @@ def test_log_readers_deeply_nested_sidecar(tmp_path: Path, command: list[str]) -
     sidecar.write_text('{"status": "complete"}')  # the same log with a sane sidecar works
     p = run(*command, str(log))
     assert p.returncode == 0, p.stderr
+
+
+# ------------------------------------------------------------------ analysis outputs (15.9)
+
+
+def test_mc_outputs_follow_the_rule(tmp_path: Path) -> None:
+    """Before: mc --csv/--json/--png replaced existing files silently."""
+    outs = {s: tmp_path / f"mc.{s}" for s in ("csv", "json", "png")}
+    for path in outs.values():
+        path.write_text("mine")
+    for suffix, path in outs.items():
+        p = run("mc", "-n", "100000000", "--seed", "1", f"--{suffix}", str(path))
+        one_error_line(p, exitcodes.USAGE, str(path), "exists", "--force")
+        assert p.stdout == ""  # refused before any work (10^8 poses take long)
+        assert path.read_text() == "mine"
+    args = [a for s, path in outs.items() for a in (f"--{s}", str(path))]
+    p = run("mc", "-n", "2000", "--seed", "1", "-q", *args, "--force")
+    assert p.returncode == 0, p.stderr
+    assert outs["csv"].read_text().startswith("axis,parameter")
+    assert json.loads(outs["json"].read_text())["n"] == 2000
+    assert outs["png"].read_bytes()[:4] == b"\x89PNG"
+    assert no_temp_files(tmp_path) and not list(tmp_path.glob(".*"))
+    p = run("mc", "-n", "10", "--csv", str(tmp_path / "a.csv"), "--json", str(tmp_path / "a.csv"))
+    one_error_line(p, exitcodes.USAGE, "twice")
+
+
+def test_uncertainty_json_follows_the_rule(tmp_path: Path) -> None:
+    out = tmp_path / "u.json"
+    out.write_text("mine")
+    p = run("uncertainty", "example", "--trials", "1000", "--workspace", "2", "--json", str(out))
+    one_error_line(p, exitcodes.USAGE, "u.json", "exists", "--force")
+    assert p.stdout == "" and out.read_text() == "mine"
+    p = run(
+        "uncertainty", "example", "--trials", "1000", "--workspace", "2", "--json", str(out), "-f"
+    )
+    assert p.returncode == 0, p.stderr
+    assert isinstance(json.loads(out.read_text()), dict)

@@ -25,6 +25,7 @@ from aacmm.fileio import (
     OutputExistsError,
     OutputFileError,
     atomic_output,
+    atomic_path,
     check_outputs,
     load_json,
     load_structured,
@@ -158,6 +159,28 @@ def test_csv_json_and_figure(tmp_path: Path) -> None:
     assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert b"<svg" in (tmp_path / "f.svg").read_bytes()[:500]
     assert leftovers(tmp_path) == []
+
+
+def test_atomic_path_for_writers_that_open_by_name(tmp_path: Path) -> None:
+    target = tmp_path / "fig.png"
+    with atomic_path(target) as tmp:
+        assert tmp.parent == tmp_path and tmp.name.endswith(".png") and tmp != target
+        assert not target.exists()
+        tmp.write_bytes(b"\x89PNG")  # e.g. Figure.savefig(tmp), can.Logger(tmp)
+    assert target.read_bytes() == b"\x89PNG"
+    with pytest.raises(OutputExistsError):  # the same rule
+        with atomic_path(target):
+            pass
+    with pytest.raises(ValueError, match="writer"), atomic_path(target, force=True) as tmp:
+        tmp.write_bytes(b"half")
+        raise ValueError("writer failed")
+    assert target.read_bytes() == b"\x89PNG"
+    other = tmp_path / "race.csv"
+    with pytest.raises(OutputExistsError), atomic_path(other) as tmp:
+        tmp.write_text("mine")
+        other.write_text("theirs")
+    assert other.read_text() == "theirs"
+    assert leftovers(tmp_path) == [] and not list(tmp_path.glob(".*.tmp.*"))
 
 
 def test_bad_targets(tmp_path: Path) -> None:

@@ -16,7 +16,10 @@ even a file created during the write is not replaced.
 - :func:`atomic_output`: a context manager yielding the temporary file
   (text or binary), for ``csv.writer``, ``json.dump``, ``f.write``;
 - :func:`write_output`: one call for a ``str`` or ``bytes``;
-- :func:`save_figure`: a matplotlib figure, format by the suffix.
+- :func:`save_figure`: a matplotlib figure, format by the suffix;
+- :func:`atomic_path`: a temporary *path* (same suffix) for writers that
+  insist on a file name (``Figure.savefig(path)``, python-can's ``Logger``,
+  a library's ``write_csv(result, path)``).
 
 **Input: bounded nesting.** :func:`load_toml`, :func:`load_json` and
 :func:`load_structured` (by suffix) read a file and refuse, with one line,
@@ -49,6 +52,7 @@ __all__ = [
     "OutputExistsError",
     "OutputFileError",
     "atomic_output",
+    "atomic_path",
     "check_outputs",
     "load_json",
     "load_structured",
@@ -202,17 +206,16 @@ def atomic_output(
     return _atomic_output(Path(path), force, binary, encoding, newline)
 
 
-@contextlib.contextmanager
-def _atomic_output(
-    p: Path, force: bool, binary: bool, encoding: str, newline: str | None
-) -> Iterator[IO[Any]]:
+def _temp_beside(p: Path, force: bool, suffix: str) -> tuple[int, str]:
+    """Check the target and create the temporary file beside it (exclusively,
+    with the target's future permissions). Returns the open fd and the path."""
     if p.is_dir():
         raise OutputFileError(f"{p} is a directory")
     if not force and os.path.lexists(p):
         raise OutputExistsError(_exists_message(p))
     directory = p.parent
     try:
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{p.name}.", suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{p.name}.", suffix=suffix)
     except FileNotFoundError:
         raise OutputFileError(f"{p}: directory {directory.resolve()} does not exist") from None
     except OSError as exc:
@@ -223,6 +226,19 @@ def _atomic_output(
         except OSError:
             mode = None
         os.fchmod(fd, mode if mode is not None else 0o666 & ~_umask())
+    except BaseException:
+        os.close(fd)
+        os.unlink(tmp)
+        raise
+    return fd, tmp
+
+
+@contextlib.contextmanager
+def _atomic_output(
+    p: Path, force: bool, binary: bool, encoding: str, newline: str | None
+) -> Iterator[IO[Any]]:
+    fd, tmp = _temp_beside(p, force, ".tmp")
+    try:
         if binary:
             f: IO[Any] = os.fdopen(fd, "wb")
         else:
@@ -236,7 +252,36 @@ def _atomic_output(
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
-    _fsync_dir(directory)
+    _fsync_dir(p.parent)
+
+
+@contextlib.contextmanager
+def atomic_path(path: PathLike, *, force: bool = False) -> Iterator[Path]:
+    """Like :func:`atomic_output`, but yields the temporary file's *path* for a
+    writer that opens the file itself. The temporary name ends in the target's
+    suffix (``.mc.png.k2j4x.tmp.png``), so writers that choose a format by the
+    suffix choose the same one. When the block ends normally the file is
+    fsynced and renamed to ``path``; if it raises, it is removed.
+
+    Raises: as :func:`atomic_output` (also ``OSError`` if the writer removed the file).
+    """
+    p = Path(path)
+    fd, tmp = _temp_beside(p, force, f".tmp{p.suffix}")
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        # the writer opened the file by name (perhaps replaced it): fsync by name
+        fd = os.open(tmp, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        _commit(tmp, p, force)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    _fsync_dir(p.parent)
 
 
 def write_output(path: PathLike, data: str | bytes, *, force: bool = False) -> None:

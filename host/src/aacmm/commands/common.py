@@ -3,7 +3,8 @@
 helpers.
 
 Output files: every file a command writes goes through :func:`atomic_output`,
-:func:`write_output` or :func:`save_figure` (from :mod:`aacmm.fileio`):
+:func:`write_output`, :func:`save_figure` or :func:`atomic_path` (from
+:mod:`aacmm.fileio`):
 refused if it exists unless ``--force`` (:func:`add_force_option`), written
 to a temporary file in the same directory, fsynced and renamed. Call
 :func:`check_outputs` with all of a command's outputs before its work starts,
@@ -28,6 +29,7 @@ from aacmm.commands.exitcodes import UsageError, VersionMismatchError
 from aacmm.fileio import OutputExistsError as OutputExistsError
 from aacmm.fileio import OutputFileError as OutputFileError
 from aacmm.fileio import atomic_output as atomic_output
+from aacmm.fileio import atomic_path as atomic_path
 from aacmm.fileio import check_outputs as check_outputs
 from aacmm.fileio import save_figure as save_figure
 from aacmm.fileio import write_output as write_output

@@ -13,7 +13,7 @@ import argparse
 import math
 from typing import Any
 
-from aacmm.commands.common import print_err
+from aacmm.commands.common import add_force_option, atomic_path, check_outputs, print_err
 from aacmm.commands.exitcodes import USAGE
 
 
@@ -103,6 +103,7 @@ def register(sub: Any) -> None:
     mc.add_argument("--csv", metavar="PATH", help="write all 75 coefficients as CSV")
     mc.add_argument("--json", metavar="PATH", help="write the result as JSON")
     mc.add_argument("--png", metavar="PATH", help="write a figure of the coefficients (PNG)")
+    add_force_option(mc)
     mc.add_argument("-q", "--quiet", action="store_true", help="no terminal table")
     mc.add_argument(
         "--progress",
@@ -132,6 +133,7 @@ def run_mc(args: argparse.Namespace) -> int:
     from aacmm.errors import AacmmError
 
     try:
+        check_outputs([args.csv, args.json, args.png], args.force)  # before the work
         if args.log is not None:
             if args.adaptive or args.range or args.normal or args.seed is not None:
                 raise ValueError(
@@ -172,12 +174,12 @@ def run_mc(args: argparse.Namespace) -> int:
             )
         if not args.quiet:
             print(mc.format_report(res))
-        if args.csv:
-            mc.write_csv(res, args.csv)
-        if args.json:
-            mc.write_json(res, args.json)
-        if args.png:
-            mc.write_png(res, args.png)
+        # each output: temporary file beside it, fsync, rename (refused if it exists)
+        for path, write in ((args.csv, mc.write_csv), (args.json, mc.write_json),
+                            (args.png, mc.write_png)):  # fmt: skip
+            if path:
+                with atomic_path(path, force=args.force) as tmp:
+                    write(res, tmp)
     except (AacmmError, ValueError, OSError) as e:
         print_err("mc", f"error: {e}")
         return USAGE

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from aacmm.commands.common import print_err
+from aacmm.commands.common import add_force_option, check_outputs, print_err, write_output
 from aacmm.commands.exitcodes import USAGE
 
 
@@ -54,6 +54,7 @@ def register(sub: Any) -> None:
     un.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
     un.add_argument("--top", type=int, default=10, help="budget rows to print (10)")
     un.add_argument("--json", metavar="PATH", help="write the result as JSON")
+    add_force_option(un)
     un.set_defaults(func=run_uncertainty)
 
 
@@ -61,7 +62,6 @@ def run_uncertainty(args: argparse.Namespace) -> int:
     """``aacmm uncertainty``: returns the exit status."""
     import json
     from dataclasses import replace
-    from pathlib import Path
 
     import numpy as np
 
@@ -69,6 +69,7 @@ def run_uncertainty(args: argparse.Namespace) -> int:
     from aacmm.errors import AacmmError
 
     try:
+        check_outputs([args.json], args.force)  # before the work
         spec = unc.load_spec(args.spec)
         if args.pose:
             extra = []
@@ -90,9 +91,8 @@ def run_uncertainty(args: argparse.Namespace) -> int:
         )
         print(unc.format_report(res, top=args.top))
         if args.json:
-            Path(args.json).write_text(
-                json.dumps(unc.to_json(res), indent=2) + "\n", encoding="utf-8"
-            )
+            text = json.dumps(unc.to_json(res), indent=2) + "\n"
+            write_output(args.json, text, force=args.force)
     except (AacmmError, ValueError, OSError) as e:
         print_err("uncertainty", f"error: {e}")
         return USAGE
