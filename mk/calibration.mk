@@ -4,7 +4,8 @@
 # and thin, where OpenBLAS threads only contend on a shared machine (docs/calibration.md).
 
 CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
-                  tests/host/test_calibration_report.py \
+                  tests/host/test_calibration_report.py tests/host/test_calibration_cli.py \
+                  host/src/aacmm/commands/calibrate.py \
                   tests/host/calib_synth.py bench/bench_calibration.py
 CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
@@ -12,7 +13,8 @@ CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 test-calibration:
 	$(CALIB_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
-	    tests/host/test_calibration.py tests/host/test_calibration_report.py
+	    tests/host/test_calibration.py tests/host/test_calibration_report.py \
+	    tests/host/test_calibration_cli.py
 	@$(MAKE) --no-print-directory test-calibration-lint
 
 #> test-calibration-lint  ruff, ruff format, mypy on the calibration code (part of test-calibration)

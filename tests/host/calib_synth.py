@@ -175,3 +175,88 @@ def synthetic(
         )
     )
     return Synthetic(t, qs, centres, qa, qb, lens)
+
+
+def ball_bar_poses(
+    model: Model,
+    rng: np.random.Generator,
+    n: int,
+    length_mm: float,
+    radius_mm: float,
+    per_end: int = 5,
+    noise_mm: float = 0.0,
+) -> tuple[list[FloatArray], list[FloatArray]]:
+    """``n`` positions of a bar with balls at its ends: per end, ``per_end`` tip centres on
+    the ball (radius ``radius_mm`` = ball + probe radius) around the bar's outward axis."""
+    qa, qb, _ = bar_poses(model, rng, n, length_mm, length_mm)
+    a, b = model.points(qa), model.points(qb)
+    u = (b - a) / length_mm
+    ends_a: list[FloatArray] = []
+    ends_b: list[FloatArray] = []
+    for k in range(n):
+        for sign, centre, q, out in ((-1.0, a[k], qa[k], ends_a), (1.0, b[k], qb[k], ends_b)):
+            axis = sign * u[k]  # pointing out of the bar
+            # the plans' pattern: one point on the axis, the others on a ring 60 deg from it
+            t1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+            t1 /= np.linalg.norm(t1)
+            t2 = np.cross(axis, t1)
+            az = 2 * math.pi * np.arange(per_end - 1) / (per_end - 1)
+            ring = np.cos(math.pi / 3) * axis + np.sin(math.pi / 3) * (
+                np.cos(az)[:, None] * t1 + np.sin(az)[:, None] * t2
+            )
+            d = np.vstack([axis, ring])
+            targets = centre + radius_mm * d + rng.normal(0.0, noise_mm, (per_end, 3))
+            out.append(reach(model, targets, np.tile(q, (per_end, 1)), rng, 0.1))
+    return ends_a, ends_b
+
+
+def plan_session(
+    folder: object,
+    plan_name: str,
+    truth: Params,
+    seed: int,
+    noise_mm: float = 0.0,
+    in_force: object = None,
+    limit: int | None = None,
+) -> None:
+    """A capture session of a shipped plan, measured by the arm ``truth``.
+
+    Every slot's nominal target (plus probing noise) is reached by inverse
+    kinematics on the truth from a random articulation; the counts are the
+    exact angles rounded to 2^32 counts per revolution. The device computed
+    its points with ``in_force`` (a ParamSetRecord; default Table 1).
+    ``limit``: record only the first points (an interrupted session).
+    """
+    from pathlib import Path
+
+    from aacmm.core import EncoderConfig
+    from aacmm.plans import load_plan
+    from aacmm.protocol import Sample
+    from aacmm.records import ParamSetRecord, SessionWriter
+
+    plan = load_plan(plan_name)
+    rng = np.random.default_rng(seed)
+    ps = in_force or ParamSetRecord.from_device(
+        ParamSetRecord(0, Params(), EncoderConfig()).to_device()
+    )
+    assert isinstance(ps, ParamSetRecord)
+    slots = plan.slots[:limit] if limit is not None else plan.slots
+    targets = np.array([s.target.tip_mm for s in slots if s.target is not None], dtype=float)
+    assert targets.shape[0] == len(slots), "every slot needs a nominal target"
+    targets = targets + rng.normal(0.0, noise_mm, targets.shape)
+    model = Model(truth)
+    start = random_poses(rng, len(slots), (0.3, 1.4), (0.6, 1.8))
+    q = reach(model, targets, start, rng, 0.5, tries=20)
+    two32 = float(1 << 32)
+    counts = np.mod(np.rint(q / (2 * math.pi) * two32), two32).astype(np.uint64)
+    w = SessionWriter.create(Path(str(folder)), plan, device={"serial_number": 1}, port="sim")
+    w.begin_run("capture")
+    w.set_param_set(ps)
+    dev = Model(ps.params)
+    from aacmm.core import counts_to_angles
+
+    pts = dev.points(counts_to_angles(counts, ps.encoders))
+    for i in range(len(slots)):
+        c = tuple(int(v) for v in counts[i])
+        w.record(Sample(i, 1000 * i, c, tuple(round(float(v) * 1e4) for v in pts[i]), 1), 0.0)
+    w.close("complete" if limit is None else "interrupted", "test")

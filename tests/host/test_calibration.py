@@ -34,7 +34,15 @@ from aacmm.calibration.observations import Constraint
 from aacmm.calibration.probe import SpreadError, calibrate_probe
 from aacmm.calibration.validation import compare, kfold, measure
 from aacmm.core import PARAM_NAMES, EncoderConfig, Model, Params, counts_to_angles
-from calib_synth import Synthetic, bar_poses, cone_poses, perturbed_truth, solve_ik, synthetic
+from calib_synth import (
+    Synthetic,
+    ball_bar_poses,
+    bar_poses,
+    cone_poses,
+    perturbed_truth,
+    solve_ik,
+    synthetic,
+)
 
 pytestmark = pytest.mark.timeout(300)
 K = {n: i for i, n in enumerate(PARAM_NAMES)}
@@ -517,3 +525,36 @@ def test_degenerate_length_is_an_error() -> None:
     obs = obs_of(th, (Cone("c", idx(0, 1, 2, 3)), LengthSet("bar", 500.0, (idx(4),), (idx(4),))))
     with pytest.raises(CalibrationError, match="both ends at one point"):
         calibrate(obs)
+
+
+def test_ball_ended_lengths() -> None:
+    s = synthetic(23, n_lengths=0)
+    m = Model(s.truth)
+    rho = 12.7 / 2 + 3.0
+    ea, eb = ball_bar_poses(m, np.random.default_rng(24), 12, 750.0, rho)
+    obs = observations(s, lengths=False)
+    n0 = obs.n_poses
+    th = [obs.theta_rad]
+    ia: list[npt.NDArray[np.intp]] = []
+    ib: list[npt.NDArray[np.intp]] = []
+    off = n0
+    for qa, qb in zip(ea, eb, strict=True):
+        th += [qa, qb]
+        ia.append(rng_idx(off, off + len(qa)))
+        ib.append(rng_idx(off + len(qa), off + len(qa) + len(qb)))
+        off += len(qa) + len(qb)
+    bar = LengthSet("bar750", 750.0, tuple(ia), tuple(ib), end_radius_mm=rho)
+    full = obs_of(np.vstack(th), (*obs.constraints, bar))
+    res = calibrate(full)
+    assert res.identifiability.rank == 21  # the bar's length fixes the scale
+    assert np.max(np.abs(combos(res.params) - combos(s.truth))) <= 1e-9
+    met = measure(full, s.truth)
+    assert np.max(np.abs(met.length_errors)) < 1e-9
+    assert np.max(np.abs(measure(full, Params()).length_errors)) > 0.05
+    # an uncertain ball bar: its true length becomes a nuisance with a prior
+    bar_u = LengthSet("bar750", 750.0, tuple(ia), tuple(ib), 0.002, rho)
+    res_u = calibrate(obs_of(np.vstack(th), (*obs.constraints, bar_u)))
+    assert res_u.identifiability.rank == 21
+    assert np.max(np.abs(combos(res_u.params) - combos(s.truth))) <= 1e-8
+    with pytest.raises(ObservationError, match="at least 4 points"):
+        LengthSet("b", 750.0, (ia[0][:3],), (ib[0],), end_radius_mm=rho)

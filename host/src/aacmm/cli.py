@@ -12,6 +12,7 @@ from aacmm import __version__
 # it adds sets ``func`` (args -> exit status). Keep their top-level imports
 # light; import heavy modules inside the command functions.
 COMMAND_MODULES: tuple[str, ...] = (
+    "aacmm.commands.calibrate",
     "aacmm.commands.capture",
     "aacmm.commands.dbc",
     "aacmm.commands.device",

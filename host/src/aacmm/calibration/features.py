@@ -14,8 +14,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
-from aacmm.calibration.observations import ObservationError, Plane, ReferencePoints, Sphere
+from aacmm.calibration.observations import (
+    LengthSet,
+    ObservationError,
+    Plane,
+    ReferencePoints,
+    Sphere,
+)
 from aacmm.core import FloatArray
 from aacmm.errors import AacmmError
 
@@ -144,6 +151,10 @@ def sphere_block(
             rad += float(step[3])
         if np.linalg.norm(step) <= 1e-14 * (1.0 + abs(rad)):
             break
+    else:
+        raise CalibrationError(
+            f"{c.name}: the sphere fit does not converge (too few or badly spread points)"
+        )
     e, jc, nrm = rows(centre, rad)
     nu = {"centre_mm": centre, "radius_mm": np.array(rad)}
     new_state = np.array([*centre, rad])
@@ -176,6 +187,130 @@ def plane_block(c: Plane, s: FloatArray, pts: FloatArray, pj: FloatArray | None)
     jc = np.column_stack([q @ t1, q @ t2, -np.ones(idx.size)]) * sq[:, None]
     jred, h = project(jp, jc)
     return BlockResult(e, jred, h, nu)
+
+
+def fit_ball(p: FloatArray, radius: float, name: str) -> FloatArray:
+    """Centre (3,) of a ball of known ``radius`` through points ``p`` (Gauss-Newton)."""
+    c = _algebraic_sphere(p, name)[:3]
+    for _ in range(100):
+        v = p - c
+        dist = np.linalg.norm(v, axis=1)
+        if np.any(dist <= 0):
+            raise CalibrationError(f"{name}: a point lies at the ball's centre")
+        jc = -v / dist[:, None]
+        step = np.linalg.lstsq(jc, radius - dist, rcond=None)[0]
+        c = c + step
+        if np.linalg.norm(step) <= 1e-14 * (1.0 + radius):
+            break
+    return c
+
+
+def ballbar_order(c: LengthSet) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """Poses of a ball-ended length set in row order (end A then B, by position), positions."""
+    pairs = list(zip(c.ends_a, c.ends_b, strict=True))
+    idx = np.concatenate([np.concatenate([a, b]) for a, b in pairs]).astype(np.intp)
+    pos = np.concatenate([np.full(a.size + b.size, k) for k, (a, b) in enumerate(pairs)])
+    return idx, pos.astype(np.intp)
+
+
+def ballbar_rows(c: LengthSet) -> int:
+    """Rows of a ball-ended length set: one per point, plus the length prior if any."""
+    return int(sum(a.size + b.size for a, b in zip(c.ends_a, c.ends_b, strict=True))) + (
+        1 if c.u_length_mm > 0 else 0
+    )
+
+
+def ballbar_block(
+    c: LengthSet, s: FloatArray, pts: FloatArray, pj: FloatArray | None, state: FloatArray | None
+) -> tuple[BlockResult, FloatArray]:
+    """A length between ball ends: tip centres at ``end_radius_mm`` from two centres a length apart.
+
+    Nuisance per position: the centre of end A and the direction to end B
+    (5 unknowns; end B = A + length * direction), and the true length when
+    it is uncertain (with its prior row). ``s``: per point sigma in row order
+    (end A then end B, position by position). ``state`` (6 P + 1,): centres A,
+    directions, length from the previous evaluation.
+    """
+    rho = float(c.end_radius_mm or 0.0)
+    npos = len(c.ends_a)
+    prior = c.u_length_mm > 0
+    idx, pos = ballbar_order(c)
+    pairs = zip(c.ends_a, c.ends_b, strict=True)
+    is_b = np.concatenate([np.r_[np.zeros(a.size, bool), np.ones(b.size, bool)] for a, b in pairs])
+    p = pts[idx]
+    sq = 1.0 / s
+    if state is None:
+        ca = np.array([fit_ball(pts[a], rho, c.name) for a in c.ends_a])
+        cb = np.array([fit_ball(pts[b], rho, c.name) for b in c.ends_b])
+        d = cb - ca
+        u = d / np.linalg.norm(d, axis=1, keepdims=True)
+        lam = float(c.length_mm)
+    else:
+        ca = state[: 3 * npos].reshape(npos, 3).copy()
+        u = state[3 * npos : 6 * npos].reshape(npos, 3).copy()
+        lam = float(state[-1])
+    nz = 5 * npos + (1 if prior else 0)
+
+    def tangents(u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        helper = np.where(np.abs(u[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+        t1 = np.cross(u, helper)
+        t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+        return t1, np.cross(u, t1)
+
+    def rows(
+        ca: FloatArray, u: FloatArray, lam: float
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        centre = ca[pos] + np.where(is_b[:, None], lam * u[pos], 0.0)
+        v = p - centre
+        dist = np.linalg.norm(v, axis=1)
+        if np.any(dist <= 0):
+            raise CalibrationError(f"{c.name}: a point lies at a ball end's centre")
+        nrm = v / dist[:, None]
+        e = (dist - rho) * sq
+        t1, t2 = tangents(u)
+        jc = np.zeros((idx.size + (1 if prior else 0), nz))
+        r = np.arange(idx.size)
+        for a in range(3):
+            jc[r, 5 * pos + a] = -nrm[:, a] * sq
+        bsel = is_b
+        jc[r[bsel], 5 * pos[bsel] + 3] = (
+            -lam * np.einsum("ka,ka->k", nrm[bsel], t1[pos[bsel]]) * sq[bsel]
+        )
+        jc[r[bsel], 5 * pos[bsel] + 4] = (
+            -lam * np.einsum("ka,ka->k", nrm[bsel], t2[pos[bsel]]) * sq[bsel]
+        )
+        if prior:
+            jc[r[bsel], -1] = -np.einsum("ka,ka->k", nrm[bsel], u[pos[bsel]]) * sq[bsel]
+            e = np.append(e, (lam - c.length_mm) / c.u_length_mm)
+            jc[-1, -1] = 1.0 / c.u_length_mm
+        return e, jc, nrm
+
+    for _ in range(100):
+        e, jc, _n = rows(ca, u, lam)
+        step = np.linalg.lstsq(jc, -e, rcond=None)[0]
+        dp = step[: 5 * npos].reshape(npos, 5)
+        t1, t2 = tangents(u)
+        ca = ca + dp[:, :3]
+        u = u + dp[:, 3:4] * t1 + dp[:, 4:5] * t2
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        if prior:
+            lam += float(step[-1])
+        if np.linalg.norm(step) <= 1e-14 * (1.0 + lam):
+            break
+    else:
+        raise CalibrationError(
+            f"{c.name}: the fit of the ball ends does not converge (too few or badly spread points)"
+        )
+    e, jc, nrm = rows(ca, u, lam)
+    nu = {"end_a_mm": ca, "direction": u, "length_mm": np.array(lam)}
+    new_state = np.concatenate([ca.reshape(-1), u.reshape(-1), [lam]])
+    if pj is None:
+        return BlockResult(e, None, None, nu), new_state
+    jp = np.einsum("ka,kac->kc", nrm, pj[idx]) * sq[:, None]
+    if prior:
+        jp = np.vstack([jp, np.zeros(pj.shape[2])])
+    jred, h = project(jp, jc)
+    return BlockResult(e, jred, h, nu), new_state
 
 
 def _algebraic_sphere(p: FloatArray, name: str) -> FloatArray:

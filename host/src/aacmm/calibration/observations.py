@@ -88,10 +88,13 @@ class LengthSet:
     """One calibrated length measured at ``len(ends_a)`` positions.
 
     ``ends_a[i]`` and ``ends_b[i]`` are the poses probed at the two ends of
-    position ``i``; an end is located by the mean of its poses' tip points.
-    ``u_length_mm`` is the standard uncertainty of the calibrated value, common
-    to all positions (0: exact; otherwise the true length is a nuisance unknown
-    with that prior).
+    position ``i``. With seats at the ends (``end_radius_mm`` None) an end is
+    located by the mean of its poses' tip points; with balls at the ends it
+    is the centre of the ball the tip centres lie on (radius
+    ``end_radius_mm``: ball radius plus probe radius, at least 4 points an
+    end). ``u_length_mm`` is the standard uncertainty of the calibrated value,
+    common to all positions (0: exact; otherwise the true length is a nuisance
+    unknown with that prior).
     """
 
     name: str
@@ -99,6 +102,7 @@ class LengthSet:
     ends_a: tuple[IntArray, ...]
     ends_b: tuple[IntArray, ...]
     u_length_mm: float = 0.0
+    end_radius_mm: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.length_mm) and self.length_mm > 0):
@@ -118,6 +122,20 @@ class LengthSet:
         if math.isinf(u):
             raise ObservationError(f"{self.name}: the length uncertainty must be finite")
         object.__setattr__(self, "u_length_mm", u)
+        if self.end_radius_mm is not None:
+            r = float(self.end_radius_mm)
+            if not (math.isfinite(r) and r > 0):
+                raise ObservationError(f"{self.name}: the end ball radius must be > 0, got {r}")
+            for i, (ea, eb) in enumerate(zip(a, b, strict=True)):
+                if min(ea.size, eb.size) < 4:
+                    raise ObservationError(
+                        f"{self.name}: position {i}: a ball end needs at least 4 points"
+                    )
+
+    @property
+    def ball_ends(self) -> bool:
+        """The ends are balls (probed on their surface), not seats."""
+        return self.end_radius_mm is not None
 
     @property
     def poses(self) -> IntArray:

@@ -33,6 +33,9 @@ import scipy.sparse as sp
 from aacmm.calibration.features import (
     BlockResult,
     CalibrationError,
+    ballbar_block,
+    ballbar_order,
+    ballbar_rows,
     plane_block,
     reference_block,
     reference_sigma,
@@ -56,6 +59,7 @@ KIND_LENGTH = "length"
 KIND_REFERENCE = "reference"
 KIND_SPHERE = "sphere"
 KIND_PLANE = "plane"
+KIND_BALL_END = "ball end"
 IntArray = npt.NDArray[np.intp]
 
 
@@ -111,7 +115,7 @@ class _Other:
     """A reference, sphere or plane constraint and where its rows go."""
 
     ci: int
-    c: ReferencePoints | Sphere | Plane
+    c: ReferencePoints | Sphere | Plane | LengthSet
     rows: slice
     sigma: FloatArray  # per point
 
@@ -182,7 +186,11 @@ class Problem:
         self.n_nuisance += 3 * len(cones)
 
         # lengths: sparse averaging matrices for the two ends of every position
-        self.len_sets = [(i, c) for i, c in enumerate(obs.constraints) if isinstance(c, LengthSet)]
+        self.len_sets = [
+            (i, c)
+            for i, c in enumerate(obs.constraints)
+            if isinstance(c, LengthSet) and not c.ball_ends
+        ]
         ra: list[int] = []
         ca: list[int] = []
         va: list[float] = []
@@ -253,37 +261,48 @@ class Problem:
         u_pos.append(np.array(pos, dtype=np.intp))
         nu += k
 
-        # references, spheres, planes: one block each
+        # references, spheres, planes, ball-ended lengths: one block each
         self.others: list[_Other] = []
         kinds = {ReferencePoints: KIND_REFERENCE, Sphere: KIND_SPHERE, Plane: KIND_PLANE}
         for i, c in enumerate(obs.constraints):
-            if not isinstance(c, (ReferencePoints, Sphere, Plane)):
-                continue
-            npts = c.poses.size
-            if isinstance(c, ReferencePoints):
-                s = reference_sigma(c, obs.sigma_mm)
-                rows, sig, un = 3 * npts, np.repeat(s, 3), np.repeat(nu + np.arange(npts), 3)
-                self.n_nuisance += 0 if c.base_known else 6
-            else:
-                s = obs.sigma_mm[c.poses]
-                rows, sig, un = npts, s, nu + np.arange(npts)
-                if isinstance(c, Sphere):
-                    rows = sphere_rows(c)
-                    if rows > npts:  # the radius prior's row
-                        sig, un = np.append(s, c.u_radius_mm), np.append(un, -1)
-                    self.n_nuisance += 4 if (c.free_radius or c.u_radius_mm > 0) else 3
+            if isinstance(c, LengthSet) and c.ball_ends:
+                idx, pos_of = ballbar_order(c)
+                s = obs.sigma_mm[idx]
+                rows, npts = ballbar_rows(c), idx.size
+                sig, un = s, nu + np.arange(npts)
+                if rows > npts:  # the length prior's row
+                    sig, un = np.append(s, c.u_length_mm), np.append(un, -1)
+                self.n_nuisance += 5 * len(c.ends_a) + (1 if c.u_length_mm > 0 else 0)
+                kind, u_poses, u_position = KIND_BALL_END, idx, pos_of
+            elif isinstance(c, (ReferencePoints, Sphere, Plane)):
+                npts = c.poses.size
+                kind, u_poses, u_position = kinds[type(c)], c.poses, np.full(npts, -1)
+                if isinstance(c, ReferencePoints):
+                    s = reference_sigma(c, obs.sigma_mm)
+                    rows, sig, un = 3 * npts, np.repeat(s, 3), np.repeat(nu + np.arange(npts), 3)
+                    self.n_nuisance += 0 if c.base_known else 6
                 else:
-                    self.n_nuisance += 3
+                    s = obs.sigma_mm[c.poses]
+                    rows, sig, un = npts, s, nu + np.arange(npts)
+                    if isinstance(c, Sphere):
+                        rows = sphere_rows(c)
+                        if rows > npts:  # the radius prior's row
+                            sig, un = np.append(s, c.u_radius_mm), np.append(un, -1)
+                        self.n_nuisance += 4 if (c.free_radius or c.u_radius_mm > 0) else 3
+                    else:
+                        self.n_nuisance += 3
+            else:
+                continue
             self.others.append(_Other(i, c, slice(m, m + rows), s))
             m += rows
             sig_rows.append(sig)
             unit_rows.append(un)
             h_rows.append(np.zeros(rows))  # filled per evaluation
             u_con.append(np.full(npts, i, dtype=np.intp))
-            u_kind.append(kinds[type(c)])
+            u_kind.append(kind)
             u_kind_n.append(npts)
-            u_pose.append(c.poses)
-            u_pos.append(np.full(npts, -1, dtype=np.intp))
+            u_pose.append(u_poses)
+            u_pos.append(u_position.astype(np.intp))
             nu += npts
 
         self.m = m
@@ -397,6 +416,10 @@ class Problem:
                 b = reference_block(c, o.sigma, pts, pj)
             elif isinstance(c, Sphere):
                 b, self._sphere_state[o.ci] = sphere_block(
+                    c, o.sigma, pts, pj, self._sphere_state.get(o.ci)
+                )
+            elif isinstance(c, LengthSet):
+                b, self._sphere_state[o.ci] = ballbar_block(
                     c, o.sigma, pts, pj, self._sphere_state.get(o.ci)
                 )
             else:

@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from aacmm.calibration.features import fit_ball
 from aacmm.calibration.observations import (
     Cone,
     Constraint,
@@ -112,8 +113,12 @@ def measure(obs: Observations, params: Params) -> Metrics:
             cspat.append(float(np.max((p.max(axis=0) - p.min(axis=0)) / 2)))
         elif isinstance(c, LengthSet):
             for ea, eb in zip(c.ends_a, c.ends_b, strict=True):
-                dist = np.linalg.norm(pts[ea].mean(axis=0) - pts[eb].mean(axis=0))
-                lens.append(float(dist - c.length_mm))
+                if c.end_radius_mm is not None:  # ball ends: their fitted centres
+                    end_a = fit_ball(pts[ea], c.end_radius_mm, c.name)
+                    end_b = fit_ball(pts[eb], c.end_radius_mm, c.name)
+                else:  # seats: the mean tip point of each end
+                    end_a, end_b = pts[ea].mean(axis=0), pts[eb].mean(axis=0)
+                lens.append(float(np.linalg.norm(end_a - end_b) - c.length_mm))
         elif isinstance(c, Sphere):
             nu = ev.nuisance[i]
             r = np.linalg.norm(pts[c.poses] - nu["centre_mm"], axis=1)
@@ -197,7 +202,7 @@ def _split_units(obs: Observations) -> list[Constraint]:
     for c in obs.constraints:
         if isinstance(c, LengthSet) and len(c.ends_a) > 1:
             for i, (ea, eb) in enumerate(zip(c.ends_a, c.ends_b, strict=True)):
-                out.append(LengthSet(f"{c.name}#{i}", c.length_mm, (ea,), (eb,), c.u_length_mm))
+                out.append(replace(c, name=f"{c.name}#{i}", ends_a=(ea,), ends_b=(eb,)))
         else:
             out.append(c)
     return out

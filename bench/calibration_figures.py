@@ -1,0 +1,168 @@
+"""The figures of docs/calibration.md, recomputed: ``.venv/bin/python bench/calibration_figures.py``.
+
+Synthetic data from the tests' generator (tests/host/calib_synth.py: exact
+inverse kinematics on a truth arm perturbed by +-0.5 mm / +-0.05 deg);
+prints one JSON object per figure. ``--runs N`` sets the number of seeded
+runs of the statistical study (default 200, about a minute on one core).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "host"))
+
+import numpy as np
+from aacmm.calibration import Problem, analyse, calibrate, predicted_covariance
+from aacmm.core import PARAM_NAMES, Model, Params
+from calib_synth import bar_poses, synthetic
+from test_calibration import SIGMA, SINGLES, combo_cov, combos, observations
+
+
+def emit(**kv: object) -> None:
+    print(json.dumps(kv), flush=True)
+
+
+def spectra() -> None:
+    s = synthetic(1)
+    for name, obs in (
+        ("cones+lengths", observations(s)),
+        ("cones", observations(s, lengths=False)),
+    ):
+        res = calibrate(obs)
+        idn = res.identifiability
+        start = Problem(obs).evaluate(Params())
+        emit(
+            figure="identifiability",
+            data=name,
+            rank=idn.rank,
+            singular_values=[float(f"{v:.3g}") for v in idn.singular_values],
+            null=[d.kind for d in idn.null],
+            held=list(res.held),
+            condition_number=round(idn.condition_number, 2),
+            o1=float(f"{idn.o1:.3g}"),
+            noise_amplification=float(f"{idn.noise_amplification:.3g}"),
+            rank_at_start_without_residual_tolerance=analyse(start, kappa=0.0).rank,
+            spurious_at_start=float(f"{analyse(start, kappa=0.0).singular_values[idn.rank]:.3g}"),
+            rank_at_start_residual_tolerance=analyse(start).rank,
+        )
+
+
+def predicted() -> None:
+    s = synthetic(17)
+    obs = observations(s)
+    cov, idn = predicted_covariance(obs, s.truth)
+    sd = np.sqrt(np.diag(cov))
+    lengths = list(range(12, 25))
+    rng = np.random.default_rng(3)
+    qa, qb, _ = bar_poses(Model(s.truth), rng, 200)
+    m = Model(s.truth)
+    pa, ja = m.points_jacobians(qa)
+    pb, jb = m.points_jacobians(qb)
+    u = (pa - pb) / np.linalg.norm(pa - pb, axis=1, keepdims=True)
+    g = np.einsum("ka,kac->kc", u, ja - jb)
+    ul = np.sqrt(np.einsum("kc,cd,kd->k", g, cov, g))
+    emit(
+        figure="predicted precision",
+        data="3 cones x 25 + 30 lengths 0.5-1 m, 5 um",
+        rank=idn.rank,
+        worst_length_parameter_sd_um=round(float(sd[lengths].max()) * 1e3, 2),
+        worst_length_parameter=PARAM_NAMES[lengths[int(np.argmax(sd[lengths]))]],
+        worst_angle_sd_arcsec=round(float(sd[:12].max()) / (math.pi / 648000), 2),
+        length_error_sd_um_mean=round(float(ul.mean()) * 1e3, 2),
+        length_error_sd_um_max=round(float(ul.max()) * 1e3, 2),
+    )
+
+
+def exact() -> None:
+    for strategy in ("fix", "min-norm"):
+        s = synthetic(3)
+        res = calibrate(observations(s), strategy=strategy)
+        emit(
+            figure="noise-free recovery",
+            strategy=strategy,
+            max_error_identifiable=float(
+                f"{np.abs(combos(res.params) - combos(s.truth)).max():.2g}"
+            ),
+        )
+
+
+def study(runs: int) -> None:
+    inside = np.zeros(len(SINGLES) + 3)
+    rms_true, noisy, ratio = [], [], []
+    for seed in range(runs):
+        s = synthetic(1000 + seed, noise_mm=SIGMA)
+        res = calibrate(observations(s))
+        e = combos(res.params) - combos(s.truth)
+        sd = np.sqrt(np.diag(combo_cov(res.params, res.covariance)))
+        inside += np.abs(e) <= 3 * sd
+        ratio.append(res.chi_square.ratio)
+        rng = np.random.default_rng(5000 + seed)
+        mt, mc = Model(s.truth), Model(res.params)
+        qa, qb, lens = bar_poses(mt, rng, 40)
+        lc = np.linalg.norm(mc.points(qa) - mc.points(qb), axis=1)
+        rms_true.append(float(np.sqrt(np.mean((lc - lens) ** 2))))
+        qa, qb, lens = bar_poses(mt, rng, 40, noise_mm=SIGMA)
+        lc = np.linalg.norm(mc.points(qa) - mc.points(qb), axis=1)
+        noisy.append(lc - lens)
+    pooled = float(np.sqrt(np.mean(np.concatenate(noisy) ** 2)))
+    emit(
+        figure="seeded study",
+        runs=runs,
+        within_3_sigma_min=round(float((inside / runs).min()), 3),
+        within_3_sigma_mean=round(float((inside / runs).mean()), 4),
+        held_out_rms_vs_truth_um_median=round(float(np.median(rms_true)) * 1e3, 2),
+        held_out_rms_vs_truth_um_max=round(float(max(rms_true)) * 1e3, 2),
+        noisy_held_out_rms_um=round(pooled * 1e3, 2),
+        noise_floor_um=round(math.sqrt(2) * SIGMA * 1e3, 2),
+        chi2_ratio_median=round(float(np.median(ratio)), 3),
+    )
+
+
+def eccentricity() -> None:
+    e, phi, joint = 40e-6, 0.7, 2
+    for seed in (7, 8, 9):
+        s = synthetic(seed, noise_mm=SIGMA)
+
+        def reading(q: np.ndarray) -> np.ndarray:
+            r = q.copy()
+            for _ in range(4):
+                r[:, joint] = q[:, joint] - e * np.sin(r[:, joint] + phi)
+            return r
+
+        s.cone_q = [reading(q) for q in s.cone_q]
+        s.length_qa, s.length_qb = reading(s.length_qa), reading(s.length_qb)
+        chi = calibrate(observations(s)).chi_square
+        top = chi.suspects[0] if chi.suspects else None
+        emit(
+            figure="unmodelled eccentricity",
+            seed=seed,
+            joint=joint + 1,
+            amplitude_urad=e * 1e6,
+            verdict=chi.verdict,
+            chi2_ratio=round(chi.ratio, 2),
+            p_value=float(f"{chi.p_value:.2g}"),
+            suspect=top.name if top else None,
+            suspect_amplitude_urad=round(top.amplitude * 1e6, 1) if top else None,
+        )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--runs", type=int, default=200)
+    args = ap.parse_args()
+    spectra()
+    predicted()
+    exact()
+    eccentricity()
+    study(args.runs)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,274 @@
+"""Calibration observations from capture sessions (:mod:`aacmm.records`).
+
+Each plan step becomes a constraint (docs/calibration.md, "From sessions"):
+
+* ``cone`` and ``articulation`` on a cone seat -- a point constraint
+  (:class:`Cone`), or reference points when the seat's location is a
+  calibrated reference (``location_reference = true``);
+* ``sphere`` and ``articulation`` on a sphere -- a :class:`Sphere` of the
+  tip-centre radius D/2 + r (r: the probe ball's radius), its diameter's
+  standard uncertainty as the radius prior;
+* ``length`` on a ball bar or gauge -- a :class:`LengthSet` with the
+  calibrated length and its standard uncertainty (common to all positions);
+  cone ends are one point each; sphere ends are the fitted ball centres;
+* ``plane`` -- a :class:`Plane`;
+* ``points`` -- not used (free points constrain nothing).
+
+Joint angles come from the counts with each row's own encoder configuration;
+the start of the fit is the kinematic parameter set in force. Every session
+of one calibration (and every validation session) must have been taken with
+one encoder configuration, and the calibration sessions with one parameter
+set: the counts of another configuration mean other angles, and a fit must
+start from the set its data were taken with. Anything else is refused with
+one line naming the session.
+
+Errors: :class:`SessionDataError` (a ValueError: exit status 2 in the CLI).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aacmm.calibration.observations import (
+    Cone,
+    Constraint,
+    LengthSet,
+    ObservationError,
+    Observations,
+    Plane,
+    ReferencePoints,
+    Sphere,
+    combine,
+)
+from aacmm.core import EncoderConfig, Params
+from aacmm.plans import model as pm
+from aacmm.records import ParamSetRecord, RecordError, Session, read_session
+
+DEFAULT_SIGMA_MM = 0.005
+
+
+class SessionDataError(ObservationError):
+    """A session cannot be calibrated from (empty, too few points, another parameter set)."""
+
+
+@dataclass(frozen=True)
+class SessionSource:
+    """Where observations came from: one session and what it contributed."""
+
+    path: str
+    plan: str
+    plan_sha256: str
+    status: str
+    points: int
+    param_set: ParamSetRecord
+    used_steps: tuple[str, ...]
+    unused_steps: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class SessionData:
+    """Observations from one or more sessions, their start parameters and provenance."""
+
+    observations: Observations
+    start: Params
+    param_set: ParamSetRecord
+    sources: tuple[SessionSource, ...]
+
+    @property
+    def encoders(self) -> EncoderConfig:
+        return self.param_set.encoders
+
+
+def _std(art: pm.Artefact, expanded: float | None) -> float:
+    u = art.standard_uncertainty(expanded)
+    return 0.0 if u is None else float(u)
+
+
+def _step_constraints(
+    session: Session, step: pm.Step, rows: np.ndarray, base_known: bool
+) -> list[Constraint]:
+    """The constraints of one step (row indices into the session's points)."""
+    plan = session.plan
+    art = plan.artefact_of(step)
+    name = f"{step.id}"
+    where = f"{session.path}: step '{step.id}' ({step.procedure})"
+    r_probe = plan.probe.ball_radius_mm
+    if step.procedure in ("cone", "articulation") and isinstance(art, pm.ConeSeat):
+        if rows.size < 2 and not (art.location_reference and base_known):
+            raise SessionDataError(
+                f"{where} has {rows.size} point: a seat needs at least 2 articulations"
+            )
+        if art.location_reference and art.location_mm is not None:
+            xyz = np.tile(np.asarray(art.location_mm, dtype=np.float64), (rows.size, 1))
+            u = _std(art, art.location_uncertainty_mm)
+            return [ReferencePoints(name, rows, xyz, u, base_known)]
+        return [Cone(name, rows)]
+    if step.procedure in ("sphere", "articulation") and isinstance(art, pm.Sphere):
+        radius = art.radius_mm + r_probe
+        u_r = _std(art, art.diameter_uncertainty_mm) / 2.0
+        sph = Sphere(name, rows, radius, u_r)
+        if rows.size < sph.min_poses:
+            raise SessionDataError(
+                f"{where} has {rows.size} points: a sphere needs at least {sph.min_poses}"
+            )
+        return [sph]
+    if step.procedure == "length" and isinstance(art, pm.LengthStandard):
+        ends_a, ends_b = [], []
+        by_pos: dict[int, dict[str, list[int]]] = {}
+        for r in rows.tolist():
+            p = session.points[r]
+            if p.position_index is None or p.end not in ("A", "B"):
+                raise SessionDataError(f"{where}: row {r + 1} has no length position/end label")
+            by_pos.setdefault(p.position_index, {"A": [], "B": []})[p.end].append(r)
+        for k in sorted(by_pos):
+            a, b = by_pos[k]["A"], by_pos[k]["B"]
+            if a and b:
+                ends_a.append(np.array(a, dtype=np.intp))
+                ends_b.append(np.array(b, dtype=np.intp))
+        if not ends_a:
+            raise SessionDataError(f"{where}: no position has both ends probed")
+        end_radius = None
+        if art.ends == "sphere":
+            end_radius = (art.end_diameter_mm or 0.0) / 2.0 + r_probe
+        return [
+            LengthSet(
+                name,
+                art.length_mm,
+                tuple(ends_a),
+                tuple(ends_b),
+                _std(art, art.length_uncertainty_mm),
+                end_radius,
+            )
+        ]
+    if step.procedure == "plane" and isinstance(art, pm.Plane):
+        if rows.size < Plane.MIN_POSES:
+            raise SessionDataError(f"{where} has {rows.size} points: a plane needs at least 4")
+        return [Plane(name, rows)]
+    return []
+
+
+def session_observations(
+    session: Session, sigma_mm: float = DEFAULT_SIGMA_MM, base_known: bool = False
+) -> tuple[Observations, list[str], list[str]]:
+    """The observations of one session, and the step ids used and not used.
+
+    Raises SessionDataError (empty session, too few points in a step),
+    RecordError (a reading beyond the encoder's resolution).
+    """
+    if len(session) == 0:
+        raise SessionDataError(f"{session.path}: the session has no points")
+    theta = session.angles_rad()
+    cons: list[Constraint] = []
+    used: list[str] = []
+    unused: list[str] = []
+    for step in session.plan.steps:
+        rows = session.rows_of(step.index).astype(np.intp)
+        if rows.size == 0:
+            continue
+        got = _step_constraints(session, step, rows, base_known)
+        (used if got else unused).append(step.id)
+        cons += got
+    if not cons:
+        raise SessionDataError(
+            f"{session.path}: no step gives a calibration constraint (seats, spheres, lengths "
+            "or planes)"
+        )
+    obs = Observations(
+        theta,
+        np.full(len(session), float(sigma_mm)),
+        tuple(cons),
+        session.step_index.astype(np.intp),
+        session.point_index.astype(np.intp),
+        tuple(s.id for s in session.plan.steps),
+    )
+    return obs, used, unused
+
+
+def _same_set(ref: ParamSetRecord, ref_path: str, ps: ParamSetRecord, path: str) -> None:
+    if ps.encoders != ref.encoders:
+        raise SessionDataError(
+            f"{path}: taken with another encoder configuration than {ref_path} "
+            f"(parameter set {ps.crc_hex} vs {ref.crc_hex}): its counts mean other angles"
+        )
+    if ps.params != ref.params:
+        raise SessionDataError(
+            f"{path}: taken with parameter set {ps.crc_hex}, {ref_path} with {ref.crc_hex}: "
+            "calibrate sessions taken with one parameter set (the start of the fit)"
+        )
+
+
+def _session_set(session: Session) -> ParamSetRecord:
+    """The one parameter set of a session (kinematics and encoders), or an error."""
+    crcs = np.unique(session.param_crc32)
+    first = session.param_set_of(0)
+    for c in crcs.tolist():
+        ps = session.param_sets[int(c)]
+        if ps.encoders != first.encoders:
+            raise SessionDataError(
+                f"{session.path}: the encoder configuration changes within the session "
+                f"({first.crc_hex} -> {ps.crc_hex}): analyse the parts separately"
+            )
+    try:
+        session.single_params("calibration")
+    except RecordError as e:
+        raise SessionDataError(str(e)) from None
+    return first
+
+
+def load_sessions(
+    paths: Sequence[str | Path],
+    sigma_mm: float = DEFAULT_SIGMA_MM,
+    base_known: bool = False,
+    like: ParamSetRecord | None = None,
+    any_params: bool = False,
+) -> SessionData:
+    """Read sessions and turn them into one set of observations.
+
+    ``like``: the encoder configuration (and, unless ``any_params``, the
+    kinematic set) the sessions must have been taken with; default: the
+    first session's. ``any_params``: accept other kinematic sets (held-out
+    validation data taken after a calibration).
+
+    Raises SessionDataError, RecordError (unreadable or damaged session).
+    """
+    if not paths:
+        raise SessionDataError("no session given")
+    if not (sigma_mm > 0 and np.isfinite(sigma_mm)):
+        raise ValueError(f"the probing uncertainty must be > 0, got {sigma_mm}")
+    parts: list[Observations] = []
+    sources: list[SessionSource] = []
+    ref = like
+    ref_path = "the calibration sessions"
+    for p in paths:
+        s = read_session(p)
+        if len(s) == 0:
+            raise SessionDataError(f"{s.path}: the session has no points")
+        ps = _session_set(s)
+        if ref is None:
+            ref, ref_path = ps, str(s.path)
+        elif any_params:
+            if ps.encoders != ref.encoders:
+                _same_set(ref, ref_path, ps, str(s.path))
+        else:
+            _same_set(ref, ref_path, ps, str(s.path))
+        obs, used, unused = session_observations(s, sigma_mm, base_known)
+        parts.append(obs)
+        sources.append(
+            SessionSource(
+                str(s.path),
+                s.plan.name,
+                s.plan.sha256,
+                s.status,
+                len(s),
+                ps,
+                tuple(used),
+                tuple(unused),
+            )
+        )
+    assert ref is not None
+    obs = parts[0] if len(parts) == 1 else combine(parts)
+    return SessionData(obs, ref.params, ref, tuple(sources))

@@ -1,0 +1,470 @@
+"""``aacmm calibrate``: identify the arm's parameters from capture sessions.
+
+The computation lives in :mod:`aacmm.calibration`; this module reads the
+sessions, prints the identifiability report, the solver's progress and the
+results, and writes the parameter file (which ``aacmm params set`` loads),
+its provenance sidecar and, with ``--report DIR``, the text and JSON reports
+and the figures. Bad data (an empty session, a seat with one point, a
+session taken with another parameter set or encoder configuration, a damaged
+session) end in one line on stderr and exit status 2. docs/calibration.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from aacmm.commands.common import add_force_option, print_err
+
+CMD = "calibrate"
+
+
+def register(sub: Any) -> None:
+    """Add ``calibrate`` to an argparse subparsers object."""
+    p = sub.add_parser(
+        "calibrate",
+        help="identify the arm's parameters from capture sessions (seats, lengths, spheres)",
+        description="Calibrate the arm's 25 structural parameters from capture sessions: "
+        "identifiability (SVD, named unobservable directions), weighted Levenberg-Marquardt "
+        "in the identifiable subspace, covariance, chi-square check, outliers, before/after "
+        "figures; writes a parameter file for `aacmm params set` and its provenance.",
+    )
+    p.add_argument("sessions", nargs="+", metavar="SESSION", help="capture session folders")
+    p.add_argument(
+        "-o", "--output", required=True, metavar="PARAMS.toml", help="calibrated parameter file"
+    )
+    p.add_argument(
+        "--probe",
+        action="store_true",
+        help="probe (tip) calibration: only theta6, alpha6, d6, a6 and l free (pivot on seats)",
+    )
+    which = p.add_mutually_exclusive_group()
+    which.add_argument(
+        "--free",
+        action="append",
+        metavar="NAMES",
+        help="estimate only these parameters (names or groups theta, alpha, d, a, tip; "
+        "comma lists, repeatable)",
+    )
+    which.add_argument(
+        "--fix",
+        action="append",
+        metavar="NAMES",
+        help="hold these parameters at their values in force (names or groups)",
+    )
+    p.add_argument(
+        "--sigma-um",
+        type=float,
+        default=5.0,
+        metavar="UM",
+        help="probing standard uncertainty per axis of one point, um (default 5)",
+    )
+    p.add_argument(
+        "--strategy",
+        choices=("fix", "min-norm"),
+        default="fix",
+        help="unobservable directions: hold parameters at their start values (fix, default) "
+        "or take the minimum-norm change",
+    )
+    p.add_argument(
+        "--reject", action="store_true", help="exclude outliers and solve again (else report)"
+    )
+    p.add_argument(
+        "--validate",
+        action="append",
+        default=[],
+        metavar="SESSION",
+        help="held-out session: before/after figures on data the fit did not see; repeatable",
+    )
+    p.add_argument(
+        "--kfold", type=int, metavar="K", help="k-fold cross-validation on the sessions (K >= 2)"
+    )
+    p.add_argument(
+        "--base-frame",
+        action="store_true",
+        help="reference locations in the plan are in the arm's base frame (no registration)",
+    )
+    p.add_argument(
+        "--min-spread-deg",
+        type=float,
+        default=10.0,
+        metavar="DEG",
+        help="--probe: least RMS orientation spread of the worst tip direction (default 10)",
+    )
+    p.add_argument(
+        "--report", metavar="DIR", help="write report.txt, report.json and figures (PNG) here"
+    )
+    p.add_argument(
+        "--workspace",
+        type=int,
+        default=100,
+        metavar="N",
+        help="random poses for the propagated point uncertainty (default 100; 0: none)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="no solver progress on stderr")
+    add_force_option(p)
+    p.set_defaults(func=run_calibrate)
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    from aacmm.commands.exitcodes import UsageError
+
+    if not (args.sigma_um > 0 and args.sigma_um < 1e6):
+        raise UsageError(f"--sigma-um must be a positive number of um, got {args.sigma_um}")
+    if args.kfold is not None and args.kfold < 2:
+        raise UsageError(f"--kfold needs K >= 2, got {args.kfold}")
+    if args.workspace < 0:
+        raise UsageError(f"--workspace must be >= 0, got {args.workspace}")
+    if args.probe and (args.free or args.fix):
+        raise UsageError("--probe sets the free parameters itself: drop --free/--fix")
+    if not args.output.lower().endswith(".toml"):
+        raise UsageError(f"{args.output}: the parameter file must be a .toml file")
+
+
+def provenance_path(output: str) -> Path:
+    """The provenance sidecar of a parameter file: ``params.toml`` -> ``params.provenance.json``."""
+    p = Path(output)
+    return p.with_name(p.stem + ".provenance.json")
+
+
+def run_calibrate(args: argparse.Namespace) -> int:
+    """``aacmm calibrate``: returns the exit status."""
+    # The engine's matrices are tall and thin: OpenBLAS threads only contend
+    # (docs/calibration.md). Must be set before numpy loads OpenBLAS.
+    if "numpy" not in sys.modules:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    _check_args(args)
+    from aacmm.calibration.sessions import load_sessions
+
+    sigma = args.sigma_um / 1000.0
+    data = load_sessions(args.sessions, sigma, args.base_frame)
+    held_out = (
+        load_sessions(args.validate, sigma, args.base_frame, like=data.param_set, any_params=True)
+        if args.validate
+        else None
+    )
+    outputs = _outputs(args, data.observations.step_names)
+    from aacmm.fileio import check_outputs
+
+    check_outputs(outputs, args.force)
+    return _calibrate(args, data, held_out)
+
+
+def _outputs(args: argparse.Namespace, step_names: tuple[str, ...]) -> list[Path]:
+    out = [Path(args.output), provenance_path(args.output)]
+    if args.report:
+        d = Path(args.report)
+        if d.exists() and not d.is_dir():
+            from aacmm.commands.exitcodes import UsageError
+
+            raise UsageError(f"--report {d}: not a directory")
+        d.mkdir(parents=True, exist_ok=True)
+        names = ["report.txt", "report.json", "spectrum.png", "correlation.png", "convergence.png"]
+        if args.workspace:
+            names.append("uncertainty.png")
+        names += [_step_png(i, n) for i, n in enumerate(step_names)]
+        out += [d / n for n in names]
+    return out
+
+
+def _step_png(step: int, name: str) -> str:
+    safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
+    return f"residuals-step{step:02d}{'-' + safe if safe else ''}.png"
+
+
+def _progress(args: argparse.Namespace) -> Any:
+    if args.quiet:
+        return None
+
+    last: dict[str, float] = {"stage": 0.0, "chi2": float("inf")}
+
+    def show(p: Any) -> None:
+        # only progress worth a line: a new stage, or chi^2 down by more than 1e-6
+        if p.stage == last["stage"] and not p.chi2 < last["chi2"] * (1 - 1e-6):
+            return
+        last["stage"], last["chi2"] = p.stage, p.chi2
+        print_err(
+            CMD,
+            f"stage {p.stage}, evaluation {p.nfev}: chi^2 {p.chi2:.6g}, "
+            f"rms residual {p.rms_mm * 1e3:.2f} um ({p.free} free)",
+        )
+
+    return show
+
+
+def _summary(data: Any) -> str:
+    from collections import Counter
+
+    obs = data.observations
+    kinds = Counter(type(c).__name__ for c in obs.constraints)
+    lines = [f"Calibration data ({obs.n_poses} points):"]
+    for s in data.sources:
+        unused = f"; not used: {', '.join(s.unused_steps)}" if s.unused_steps else ""
+        lines.append(
+            f"  {s.path}: plan {s.plan}, {s.points} points, {s.status}, parameter set "
+            f"{s.param_set.crc_hex}{unused}"
+        )
+    lines.append(
+        "  constraints: "
+        + ", ".join(f"{n} {k.lower()}" for k, n in sorted(kinds.items()))
+        + f"; probing uncertainty {obs.sigma_mm[0] * 1e3:g} um per axis"
+    )
+    return "\n".join(lines)
+
+
+def _calibrate(args: argparse.Namespace, data: Any, held_out: Any) -> int:
+    from aacmm.calibration import Problem, analyse, parse_names, report
+    from aacmm.calibration.identifiability import TIP_PARAMS
+    from aacmm.calibration.validation import compare, kfold
+    from aacmm.core import PARAM_NAMES
+
+    obs = data.observations
+    print(_summary(data))
+    free = TIP_PARAMS if args.probe else (tuple(args.free) if args.free else None)
+    fix = tuple(args.fix or ())
+    names = parse_names(free) if free is not None else PARAM_NAMES
+    cand = [PARAM_NAMES.index(n) for n in names if n not in set(parse_names(fix))]
+    if not cand:
+        from aacmm.commands.exitcodes import UsageError
+
+        raise UsageError("no parameter left free to calibrate")
+    ident0 = analyse(Problem(obs).evaluate(data.start), cand)
+    print()
+    print(report.format_identifiability(ident0, "Identifiability at the parameters in force"))
+    print()
+    probe = None
+    if args.probe:
+        from aacmm.calibration.probe import calibrate_probe
+
+        probe = calibrate_probe(
+            obs,
+            data.start,
+            min_spread_deg=args.min_spread_deg,
+            reject=args.reject,
+            progress=_progress(args),
+        )
+        res = probe.result
+    else:
+        from aacmm.calibration import calibrate
+
+        res = calibrate(
+            obs,
+            data.start,
+            free=free,
+            fix=fix,
+            strategy=args.strategy,
+            reject=args.reject,
+            progress=_progress(args),
+        )
+    cmp_ = compare(res.observations, res.start, res.params)
+    print(report.format_result(res, cmp_))
+    if probe is not None:
+        print(_probe_text(probe))
+    val = None
+    if held_out is not None:
+        val = compare(held_out.observations, res.start, res.params)
+        print()
+        print(report.format_comparison(val, "Held-out sessions (not used by the fit)"))
+    kf = None
+    if args.kfold:
+        kf = kfold(
+            obs,
+            data.start,
+            k=args.kfold,
+            free=free,
+            fix=fix,
+            strategy=args.strategy,
+        )
+        print()
+        print(
+            report.format_comparison(
+                kf.pooled, f"{args.kfold}-fold cross-validation (held-out folds)"
+            )
+        )
+    ures = None
+    if args.workspace:
+        ures = report.point_uncertainty(res, workspace=args.workspace)
+        u3 = sorted(p.u3_lin for p in ures.workspace)
+        print()
+        print(
+            f"Probe-point uncertainty from the calibration alone ({args.workspace} workspace "
+            f"poses, k = 1): median {u3[len(u3) // 2] * 1e3:.2f} um, max {u3[-1] * 1e3:.2f} um "
+            "(held parameters excluded: they move the whole arm, not distances)"
+        )
+    _write(args, data, held_out, res, cmp_, val, kf, ures, probe)
+    if not res.chi_square.consistent:
+        print_err(CMD, f"warning: {res.chi_square.describe()}")
+    return 0
+
+
+def _probe_text(pr: Any) -> str:
+    import numpy as np
+
+    sd = np.sqrt(np.diag(pr.tip_cov))
+    t0 = ", ".join(f"{v:.4f}" for v in pr.tip_before)
+    t1 = ", ".join(f"{v:.4f}" for v in pr.tip_after)
+    return "\n".join(
+        [
+            "",
+            "Probe:",
+            f"  tip in the flange frame: ({t0}) -> ({t1}) mm, u = "
+            + ", ".join(f"{v * 1e3:.2f}" for v in sd)
+            + " um",
+            f"  orientation spread {pr.spread_deg:.1f} deg (worst tip direction)",
+            f"  RMS pivot error {pr.pivot_rms_before_mm * 1e3:.1f} -> "
+            f"{pr.pivot_rms_mm * 1e3:.1f} um (max {pr.pivot_max_mm * 1e3:.1f} um)",
+        ]
+    )
+
+
+def _param_file_text(data: Any, res: Any, args: argparse.Namespace) -> str:
+    from aacmm.commands.paramfile import dump_param_set, param_set_dict, param_set_from_mapping
+    from aacmm.protocol import ParamSet
+
+    p, e = res.params, data.encoders
+    ps = ParamSet(
+        p.theta_offset_rad,
+        p.alpha_rad,
+        p.d_mm,
+        p.a_mm,
+        p.l_mm,
+        e.counts_per_rev,
+        e.zero_offset_counts,
+        e.direction,
+    )
+    param_set_from_mapping(param_set_dict(ps), args.output)  # the loader's own checks
+    head = (
+        f"# calibrated by aacmm calibrate from {', '.join(s.path for s in data.sources)}\n"
+        f"# provenance (sessions, residuals, covariance): {provenance_path(args.output).name}\n"
+    )
+    return head + dump_param_set(ps, "toml")
+
+
+def _write(
+    args: argparse.Namespace,
+    data: Any,
+    held_out: Any,
+    res: Any,
+    cmp_: Any,
+    val: Any,
+    kf: Any,
+    ures: Any,
+    probe: Any,
+) -> None:
+    import datetime as dt
+    import json
+
+    from aacmm import __version__
+    from aacmm.analysis import uncertainty as unc
+    from aacmm.calibration import report
+    from aacmm.fileio import write_output
+
+    text = _param_file_text(data, res, args)
+    prov: dict[str, Any] = {
+        "format": "aacmm-calibration-1",
+        "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "aacmm_version": __version__,
+        "command": ["aacmm", *sys.argv[1:]] if sys.argv and "calibrate" in sys.argv else None,
+        "parameter_file": Path(args.output).name,
+        "sessions": [_source_json(s) for s in data.sources],
+        "validation_sessions": [_source_json(s) for s in held_out.sources] if held_out else [],
+        "start_param_set": data.param_set.to_json(),
+        "probing_sigma_mm": args.sigma_um / 1000.0,
+        "settings": {
+            "probe": args.probe,
+            "free": args.free,
+            "fix": args.fix,
+            "strategy": args.strategy,
+            "reject": args.reject,
+            "base_frame": args.base_frame,
+        },
+        "result": report.to_json(res, cmp_),
+    }
+    if val is not None:
+        prov["validation"] = _cmp_json(val)
+    if kf is not None:
+        prov["kfold"] = {"k": kf.k, "pooled": _cmp_json(kf.pooled)}
+    if probe is not None:
+        prov["probe"] = {
+            "tip_before_mm": probe.tip_before.tolist(),
+            "tip_after_mm": probe.tip_after.tolist(),
+            "tip_covariance_mm2": probe.tip_cov.tolist(),
+            "orientation_spread_deg": probe.spread_deg,
+            "pivot_rms_before_mm": probe.pivot_rms_before_mm,
+            "pivot_rms_mm": probe.pivot_rms_mm,
+            "pivot_max_mm": probe.pivot_max_mm,
+        }
+    if ures is not None:
+        prov["point_uncertainty"] = unc.to_json(ures)
+    write_output(args.output, text, force=args.force)
+    write_output(provenance_path(args.output), json.dumps(prov, indent=1) + "\n", force=args.force)
+    print()
+    print(f"wrote {args.output} (load it with: aacmm params set {args.output} --save)")
+    print(f"wrote {provenance_path(args.output)}")
+    if args.report:
+        _write_report(args, res, cmp_, val, kf, ures, probe, prov)
+
+
+def _cmp_json(cmp_: Any) -> list[dict[str, Any]]:
+    import math
+
+    return [
+        {"figure": n, "before": b, "after": a, "factor": f if math.isfinite(f) else None}
+        for n, b, a, f in cmp_.rows()
+    ]
+
+
+def _source_json(s: Any) -> dict[str, Any]:
+    return {
+        "path": s.path,
+        "plan": s.plan,
+        "plan_sha256": s.plan_sha256,
+        "status": s.status,
+        "points": s.points,
+        "param_crc32": s.param_set.crc_hex,
+        "used_steps": list(s.used_steps),
+        "unused_steps": list(s.unused_steps),
+    }
+
+
+def _write_report(
+    args: argparse.Namespace,
+    res: Any,
+    cmp_: Any,
+    val: Any,
+    kf: Any,
+    ures: Any,
+    probe: Any,
+    prov: dict[str, Any],
+) -> None:
+    import json
+
+    from aacmm.calibration import plots, report
+    from aacmm.fileio import save_figure, write_output
+
+    d = Path(args.report)
+    parts = [report.format_result(res, cmp_)]
+    if probe is not None:
+        parts.append(_probe_text(probe))
+    if val is not None:
+        parts.append(report.format_comparison(val, "Held-out sessions (not used by the fit)"))
+    if kf is not None:
+        parts.append(report.format_comparison(kf.pooled, f"{kf.k}-fold cross-validation"))
+    write_output(d / "report.txt", "\n\n".join(parts) + "\n", force=args.force)
+    write_output(d / "report.json", json.dumps(prov, indent=1) + "\n", force=args.force)
+    figs = {
+        "spectrum.png": plots.spectrum_figure(res.identifiability),
+        "correlation.png": plots.correlation_figure(res),
+        "convergence.png": plots.convergence_figure(res),
+    }
+    if ures is not None:
+        figs["uncertainty.png"] = plots.uncertainty_figure(ures)
+    names = res.observations.step_names
+    for step, fig in plots.residual_figures(res).items():
+        figs[_step_png(step, names[step] if step < len(names) else "")] = fig
+    for name, fig in figs.items():
+        save_figure(fig, d / name, force=args.force, dpi=110)
+    print(f"wrote {len(figs) + 2} report files to {d}/")
