@@ -1,4 +1,6 @@
-"""The figures of docs/calibration.md, recomputed: ``.venv/bin/python bench/calibration_figures.py``.
+"""The figures of docs/calibration.md, recomputed.
+
+Run: ``.venv/bin/python bench/calibration_figures.py``.
 
 Synthetic data from the tests' generator (tests/host/calib_synth.py: exact
 inverse kinematics on a truth arm perturbed by +-0.5 mm / +-0.05 deg);
@@ -22,7 +24,7 @@ import numpy as np
 from aacmm.calibration import Problem, analyse, calibrate, predicted_covariance
 from aacmm.core import PARAM_NAMES, Model, Params
 from calib_synth import bar_poses, synthetic
-from test_calibration import SIGMA, SINGLES, combo_cov, combos, observations
+from test_calibration import SIGMA, combos, observations, seeded_study
 
 
 def emit(**kv: object) -> None:
@@ -94,34 +96,18 @@ def exact() -> None:
 
 
 def study(runs: int) -> None:
-    inside = np.zeros(len(SINGLES) + 3)
-    rms_true, noisy, ratio = [], [], []
-    for seed in range(runs):
-        s = synthetic(1000 + seed, noise_mm=SIGMA)
-        res = calibrate(observations(s))
-        e = combos(res.params) - combos(s.truth)
-        sd = np.sqrt(np.diag(combo_cov(res.params, res.covariance)))
-        inside += np.abs(e) <= 3 * sd
-        ratio.append(res.chi_square.ratio)
-        rng = np.random.default_rng(5000 + seed)
-        mt, mc = Model(s.truth), Model(res.params)
-        qa, qb, lens = bar_poses(mt, rng, 40)
-        lc = np.linalg.norm(mc.points(qa) - mc.points(qb), axis=1)
-        rms_true.append(float(np.sqrt(np.mean((lc - lens) ** 2))))
-        qa, qb, lens = bar_poses(mt, rng, 40, noise_mm=SIGMA)
-        lc = np.linalg.norm(mc.points(qa) - mc.points(qb), axis=1)
-        noisy.append(lc - lens)
-    pooled = float(np.sqrt(np.mean(np.concatenate(noisy) ** 2)))
+    st = seeded_study(runs)
+    pooled = float(np.sqrt(np.mean(st.noisy_errors_mm**2)))
     emit(
         figure="seeded study",
         runs=runs,
-        within_3_sigma_min=round(float((inside / runs).min()), 3),
-        within_3_sigma_mean=round(float((inside / runs).mean()), 4),
-        held_out_rms_vs_truth_um_median=round(float(np.median(rms_true)) * 1e3, 2),
-        held_out_rms_vs_truth_um_max=round(float(max(rms_true)) * 1e3, 2),
+        within_3_sigma_min=round(float(st.within_3_sigma.min()), 3),
+        within_3_sigma_mean=round(float(st.within_3_sigma.mean()), 4),
+        held_out_rms_vs_truth_um_median=round(float(np.median(st.rms_vs_truth_mm)) * 1e3, 2),
+        held_out_rms_vs_truth_um_max=round(float(st.rms_vs_truth_mm.max()) * 1e3, 2),
         noisy_held_out_rms_um=round(pooled * 1e3, 2),
         noise_floor_um=round(math.sqrt(2) * SIGMA * 1e3, 2),
-        chi2_ratio_median=round(float(np.median(ratio)), 3),
+        chi2_ratio_median=round(float(np.median(st.chi2_ratio)), 3),
     )
 
 

@@ -6,7 +6,7 @@
 CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
                   tests/host/test_calibration_report.py tests/host/test_calibration_cli.py \
                   host/src/aacmm/commands/calibrate.py \
-                  tests/host/calib_synth.py bench/bench_calibration.py
+                  tests/host/calib_synth.py bench/bench_calibration.py bench/calibration_figures.py
 CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 .PHONY: test-calibration test-calibration-lint bench-calibration

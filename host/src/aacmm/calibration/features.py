@@ -107,6 +107,26 @@ def reference_block(
     return BlockResult(e, jred, h, nu)
 
 
+def _radial(
+    e: FloatArray,
+    jc: FloatArray,
+    nrm: FloatArray,
+    pj: FloatArray | None,
+    idx: npt.NDArray[np.intp],
+    sq: FloatArray,
+    prior: bool,
+    nu: dict[str, FloatArray],
+) -> BlockResult:
+    """A block of radial residuals (distance from a fitted centre along ``nrm``)."""
+    if pj is None:
+        return BlockResult(e, None, None, nu)
+    jp = np.einsum("ka,kac->kc", nrm, pj[idx]) * sq[:, None]
+    if prior:  # the prior row does not depend on the arm
+        jp = np.vstack([jp, np.zeros(pj.shape[2])])
+    jred, h = project(jp, jc)
+    return BlockResult(e, jred, h, nu)
+
+
 def sphere_rows(c: Sphere) -> int:
     """Residual rows of a sphere block: one per point, plus the radius prior if any."""
     return c.poses.size + (1 if (not c.free_radius and c.u_radius_mm > 0) else 0)
@@ -157,14 +177,7 @@ def sphere_block(
         )
     e, jc, nrm = rows(centre, rad)
     nu = {"centre_mm": centre, "radius_mm": np.array(rad)}
-    new_state = np.array([*centre, rad])
-    if pj is None:
-        return BlockResult(e, None, None, nu), new_state
-    jp = np.einsum("ka,kac->kc", nrm, pj[idx]) * sq[:, None]
-    if prior:
-        jp = np.vstack([jp, np.zeros(pj.shape[2])])
-    jred, h = project(jp, jc)
-    return BlockResult(e, jred, h, nu), new_state
+    return _radial(e, jc, nrm, pj, idx, sq, prior, nu), np.array([*centre, rad])
 
 
 def plane_block(c: Plane, s: FloatArray, pts: FloatArray, pj: FloatArray | None) -> BlockResult:
@@ -304,13 +317,7 @@ def ballbar_block(
     e, jc, nrm = rows(ca, u, lam)
     nu = {"end_a_mm": ca, "direction": u, "length_mm": np.array(lam)}
     new_state = np.concatenate([ca.reshape(-1), u.reshape(-1), [lam]])
-    if pj is None:
-        return BlockResult(e, None, None, nu), new_state
-    jp = np.einsum("ka,kac->kc", nrm, pj[idx]) * sq[:, None]
-    if prior:
-        jp = np.vstack([jp, np.zeros(pj.shape[2])])
-    jred, h = project(jp, jc)
-    return BlockResult(e, jred, h, nu), new_state
+    return _radial(e, jc, nrm, pj, idx, sq, prior, nu), new_state
 
 
 def _algebraic_sphere(p: FloatArray, name: str) -> FloatArray:

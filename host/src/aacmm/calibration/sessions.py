@@ -219,6 +219,13 @@ def _session_set(session: Session) -> ParamSetRecord:
     return first
 
 
+def _plan_name(s: Session) -> str:
+    """The plan's name as the session records it (a shipped plan's name, or the file's stem)."""
+    meta = s.meta.get("plan")
+    name = meta.get("name") if isinstance(meta, dict) else None
+    return Path(name).stem if isinstance(name, str) and name else s.plan.title
+
+
 def load_sessions(
     paths: Sequence[str | Path],
     sigma_mm: float = DEFAULT_SIGMA_MM,
@@ -260,7 +267,7 @@ def load_sessions(
         sources.append(
             SessionSource(
                 str(s.path),
-                s.plan.name,
+                _plan_name(s),
                 s.plan.sha256,
                 s.status,
                 len(s),

@@ -207,9 +207,16 @@ def _summary(data: Any) -> str:
             f"  {s.path}: plan {s.plan}, {s.points} points, {s.status}, parameter set "
             f"{s.param_set.crc_hex}{unused}"
         )
+    label = {
+        "Cone": "seats",
+        "LengthSet": "calibrated lengths",
+        "ReferencePoints": "reference sets",
+        "Sphere": "spheres",
+        "Plane": "planes",
+    }
     lines.append(
         "  constraints: "
-        + ", ".join(f"{n} {k.lower()}" for k, n in sorted(kinds.items()))
+        + ", ".join(f"{n} {label.get(k, k)}" for k, n in sorted(kinds.items()))
         + f"; probing uncertainty {obs.sigma_mm[0] * 1e3:g} um per axis"
     )
     return "\n".join(lines)
@@ -322,19 +329,9 @@ def _probe_text(pr: Any) -> str:
 
 def _param_file_text(data: Any, res: Any, args: argparse.Namespace) -> str:
     from aacmm.commands.paramfile import dump_param_set, param_set_dict, param_set_from_mapping
-    from aacmm.protocol import ParamSet
+    from aacmm.records import ParamSetRecord
 
-    p, e = res.params, data.encoders
-    ps = ParamSet(
-        p.theta_offset_rad,
-        p.alpha_rad,
-        p.d_mm,
-        p.a_mm,
-        p.l_mm,
-        e.counts_per_rev,
-        e.zero_offset_counts,
-        e.direction,
-    )
+    ps = ParamSetRecord(0, res.params, data.encoders).to_device()
     param_set_from_mapping(param_set_dict(ps), args.output)  # the loader's own checks
     head = (
         f"# calibrated by aacmm calibrate from {', '.join(s.path for s in data.sources)}\n"
