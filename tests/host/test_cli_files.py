@@ -11,6 +11,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
@@ -167,3 +169,17 @@ def test_uncertainty_json_follows_the_rule(tmp_path: Path) -> None:
     )
     assert p.returncode == 0, p.stderr
     assert isinstance(json.loads(out.read_text()), dict)
+
+
+def test_demo_refuses_a_folder_in_use(tmp_path: Path) -> None:
+    """The demo's outputs follow the rule too: a non-empty --out is refused at once."""
+    (tmp_path / "params.toml").write_text("mine")
+    p = subprocess.run(
+        [sys.executable, "-m", "aacmm.commands.demo", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert p.returncode == exitcodes.USAGE, p
+    assert p.stderr.strip() == f"demo: {tmp_path} is not empty: give a new --out folder"
+    assert [f.name for f in tmp_path.iterdir()] == ["params.toml"]

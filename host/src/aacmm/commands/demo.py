@@ -24,6 +24,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from aacmm.commands.common import write_output
 from aacmm.commands.sim import SimProcess, repo_root
 
 
@@ -47,7 +48,7 @@ def step(
     if text.strip():
         print(text.rstrip(), flush=True)
     if log_name:
-        (out / log_name).write_text(p.stdout)
+        write_output(out / log_name, p.stdout)
     if p.returncode != 0:
         print(f"demo: step failed (exit status {p.returncode}): {shown}", file=sys.stderr)
         raise SystemExit(p.returncode)
@@ -63,6 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     root = repo_root() or Path.cwd()
     stamp = dt.datetime.now(dt.UTC).strftime("%Y%m%d-%H%M%S")
     out = (a.out or root / "out" / f"demo-{stamp}").resolve()
+    if out.is_dir() and any(out.iterdir()):  # every output is refused if it exists
+        print(f"demo: {out} is not empty: give a new --out folder", file=sys.stderr)
+        return 2
     out.mkdir(parents=True, exist_ok=True)
     print(f"demo: outputs go to {out}", flush=True)
 
@@ -83,10 +87,14 @@ def main(argv: list[str] | None = None) -> int:
                 "log.txt",
             )
     step("summary", ["summary", "session.csv"], out, "summary.txt")
-    with open(out / "summary.json", "w") as f:
-        subprocess.run(
-            [*_aacmm(), "summary", "session.csv", "--json"], cwd=out, stdout=f, check=True
-        )
+    summary_json = subprocess.run(
+        [*_aacmm(), "summary", "session.csv", "--json"],
+        cwd=out,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    write_output(out / "summary.json", summary_json)
     step(
         "Monte Carlo over the logged poses",
         ["mc", "--log", "session.csv", "--json", "mc_log.json", "--csv", "mc_log.csv"],
