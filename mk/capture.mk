@@ -2,17 +2,23 @@
 # aacmm.plans (TOML plans, presets, slots), aacmm.records (sessions, logs,
 # parameter set per row), aacmm capture; their tests and lint.
 #   test-capture   plans (bad plans: file, line, field), sessions (undo, resume
-#                  after a cut row, per-row parameter sets), ruff, mypy --strict
+#                  after a cut row, per-row parameter sets), aacmm capture against
+#                  the simulator (kill -9 + resume, undo, Ctrl-C), logs through
+#                  aacmm.records (15.1 repro, 15.5 reconnect to another set, 14.2
+#                  lost samples, 14.7 rate while connected, --from-log); lint
 
 CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
                     host/src/aacmm/commands/capture.py host/src/aacmm/commands/plan.py \
-                    tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py
+                    host/src/aacmm/analysis/poselog.py \
+                    tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
+                    tests/host/test_logs.py
 CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-capture test-capture-lint
 #> test-capture         plans, sessions, aacmm capture against the simulator
 test-capture: sim
-	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py
+	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
+	    tests/host/test_logs.py
 	@$(MAKE) --no-print-directory test-capture-lint
 
 #> test-capture-lint    ruff, ruff format, mypy --strict on plans, records, capture (part of test-capture)

@@ -632,6 +632,15 @@ class Client:
         with self._lock:
             if self._stream is not None:
                 raise OperationError("a stream is already open on this client")
+        # A new stream holds only its own samples (#15.1): the device may still be
+        # streaming for a client that went away (a logger killed with -9). Stop that
+        # stream first; the link delivers in order, so once the stop is answered
+        # every sample of the old stream has been received (and counted as
+        # unsolicited), and every sample after the new stream is registered is its own.
+        self.request(MsgType.STREAM_STOP_REQ)
+        with self._lock:
+            if self._stream is not None:
+                raise OperationError("a stream is already open on this client")
             self._stream = stream
         try:
             rsp = self.request(MsgType.STREAM_START_REQ, Stream(rate_hz, jacobian))

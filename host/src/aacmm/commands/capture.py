@@ -6,7 +6,9 @@ button (0) records the latched sample with its labels, the second button (1)
 undoes the last point, and on a terminal the key ``u`` does the same (``q``
 stops). Every point is durable before it is acknowledged (``recorded k/N``),
 so Ctrl-C, SIGTERM or kill -9 lose nothing acknowledged; ``--resume``
-continues a session. Session format: docs/plans.md.
+continues a session; ``--from-log`` labels the presses recorded in an
+``aacmm log`` trigger file in plan order instead of reading a device.
+Session format: docs/plans.md.
 """
 
 from __future__ import annotations
@@ -48,12 +50,17 @@ def register(sub: Any) -> None:
         description="Prompt for every point of PLAN (a plan file or a shipped plan's name) "
         "and record each press of the probe button with its labels into the session folder "
         "SESSION. Button 1 (or the key u on a terminal) undoes the last point; Ctrl-C keeps "
-        "everything; --resume continues.",
+        "everything; --resume continues; --from-log labels the presses of an existing log.",
     )
     add_connection_options(p)
     p.add_argument("plan", metavar="PLAN", help="plan file or shipped plan name (docs/plans.md)")
     p.add_argument("-o", "--output", required=True, metavar="SESSION", help="session folder")
     p.add_argument("--resume", action="store_true", help="continue the session in SESSION")
+    p.add_argument(
+        "--from-log",
+        metavar="LOG.csv",
+        help="no device: label the button presses of an 'aacmm log' run in plan order",
+    )
     p.add_argument(
         "--stall",
         type=float,
@@ -322,6 +329,8 @@ def cmd_capture(args: argparse.Namespace) -> int:
         raise UsageError("--stall must be in (0, 3600] seconds")
     plan = load_plan(args.plan)
     folder = Path(args.output)
+    if args.from_log is not None and not Path(args.from_log).is_file():
+        raise UsageError(f"--from-log {args.from_log}: no such file")
     if args.resume:
         from aacmm.records import read_session, session_exists
 
@@ -332,4 +341,56 @@ def cmd_capture(args: argparse.Namespace) -> int:
         raise UsageError(f"{folder} exists: use --resume to continue it, or another folder")
     elif not folder.resolve().parent.is_dir():
         raise UsageError(f"directory {folder.resolve().parent} does not exist")
+    if args.from_log is not None:
+        return label_log(args, plan)
     return Capture(args, plan).run()
+
+
+def label_log(args: argparse.Namespace, plan: Plan) -> int:
+    """``--from-log``: the presses of a log's trigger file, in order, as the plan's points
+    (button 0 presses record, button 1 presses undo, releases are ignored)."""
+    from aacmm.records import SessionWriter
+    from aacmm.records.logs import read_log, read_triggers
+
+    log = read_log(args.from_log)
+    if log.format is None:
+        raise UsageError(f"{args.from_log}: not an aacmm log (no aacmm sidecar)")
+    triggers = read_triggers(log)
+    folder = Path(args.output)
+    if args.resume:
+        w = SessionWriter.resume(folder, plan)
+    else:
+        w = SessionWriter.create(
+            folder,
+            plan,
+            source="from-log",
+            device=log.meta.get("device"),
+            port=log.meta.get("port"),
+            transport=log.meta.get("transport"),
+        )
+    w.begin_run("from-log", log=str(log.path))
+    extra = 0
+    for t in triggers:
+        if not t.pressed:
+            continue
+        if t.button == BUTTON_UNDO:
+            w.undo(t.host_time)
+        elif t.button != BUTTON_CAPTURE:
+            w.ignored(t.sample, t.host_time, t.button, True, f"button {t.button}")
+        elif w.next_slot is None:
+            extra += 1
+            w.ignored(t.sample, t.host_time, t.button, True, "plan already complete")
+        elif not t.sample.status & POINT_VALID:
+            w.ignored(t.sample, t.host_time, t.button, True, "point not valid")
+        else:
+            w.set_param_set(t.param_set)
+            w.record(t.sample, t.host_time, t.button)
+    status = "complete" if w.next_slot is None else "interrupted"
+    w.close(status, f"from log {log.path.name}")
+    n = len(plan.slots)
+    say(f"labelled {log.path}: {w.accepted} of {n} points -> {folder} ({status})")
+    if extra:
+        print_err("capture", f"{extra} presses after the plan was complete were ignored")
+    if status != "complete":
+        print_err("capture", f"the log ends {n - w.accepted} points short; continue with --resume")
+    return OK

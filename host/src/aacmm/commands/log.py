@@ -23,11 +23,8 @@ from __future__ import annotations
 import argparse
 import collections
 import contextlib
-import csv
-import datetime as dt
 import json
 import math
-import os
 import platform
 import signal
 import sys
@@ -57,37 +54,29 @@ from aacmm.commands.exitcodes import (
     VersionMismatchError,
 )
 from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
-from aacmm.fileio import load_json
-from aacmm.records.files import RowFile
+from aacmm.records.files import RowFile, utc_iso, write_json_atomic
+from aacmm.records.logs import (
+    LOG_COLUMNS,
+    LOG_FORMAT,
+    LOG_UNITS,
+    TRIGGER_COLUMNS,
+    default_triggers_path,
+    log_summary,
+    param_set_entry,
+    read_log,
+    sample_row,
+    sidecar_path,
+)
+from aacmm.records.paramsets import ParamSetRecord
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
     from aacmm.commands.common import Device
-    from aacmm.protocol import ParamSet, Sample, Trigger
+    from aacmm.protocol import Sample, Trigger
 
-FORMAT = "aacmm-log-1"
-COUNT_COLUMNS = tuple(f"count{i}" for i in range(1, 7))
-COLUMNS = ("seq", "device_time_us", "host_time", *COUNT_COLUMNS, "x_mm", "y_mm", "z_mm", "flags")
-TRIGGER_COLUMNS = (
-    "seq",
-    "device_time_us",
-    "host_time",
-    "button",
-    "pressed",
-    *COUNT_COLUMNS,
-    "x_mm",
-    "y_mm",
-    "z_mm",
-    "flags",
-)
-UNITS = {
-    "seq": "device sample counter (u32, wraps)",
-    "device_time_us": "us, device clock",
-    "host_time": "s since the Unix epoch (UTC), host clock when the logger took the sample",
-    "count1..count6": "encoder counts (u32)",
-    "x_mm,y_mm,z_mm": "mm (resolution 0.0001 mm)",
-    "flags": "sample status bits (docs/protocol.md 2.4)",
-}
+FORMAT = LOG_FORMAT
+COLUMNS = LOG_COLUMNS
+UNITS = LOG_UNITS
 FLUSH_INTERVAL_S = 0.25
 FLUSH_ROWS = 256
 DEFAULT_RATE_HZ = 100
@@ -163,57 +152,6 @@ def register(sub: Any) -> None:
 
 
 # ---------------------------------------------------------------- small helpers
-
-
-def utc_iso(t: float) -> str:
-    return dt.datetime.fromtimestamp(t, dt.UTC).isoformat(timespec="microseconds")
-
-
-def sidecar_path(csv_path: Path) -> Path:
-    return csv_path.with_name(csv_path.name + ".json")
-
-
-def default_triggers_path(csv_path: Path) -> Path:
-    stem = csv_path.name[: -len(csv_path.suffix)] if csv_path.suffix else csv_path.name
-    return csv_path.with_name(stem + ".triggers.csv")
-
-
-def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
-    """Write JSON to ``path`` through a temporary file, fsync and rename."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w", encoding="utf-8") as f:
-        json.dump(data, f, indent=2)
-        f.write("\n")
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-
-
-def params_meta(ps: ParamSet) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The sidecar's ``params`` (keys of :class:`aacmm.core.Params`) and ``encoders``."""
-    return (
-        {
-            "theta_offset_rad": list(ps.theta_offset_rad),
-            "alpha_rad": list(ps.alpha_rad),
-            "d_mm": list(ps.d_mm),
-            "a_mm": list(ps.a_mm),
-            "l_mm": ps.l_mm,
-        },
-        {
-            "counts_per_rev": list(ps.counts_per_rev),
-            "zero_offset_counts": list(ps.zero_offset_counts),
-            "direction": list(ps.direction),
-        },
-    )
-
-
-def _row(s: Sample, host_time: float, extra: tuple[int, ...] = ()) -> str:
-    x, y, z = s.point_100nm
-    parts = [str(s.seq), str(s.timestamp_us), f"{host_time:.6f}"]
-    parts += [str(v) for v in extra]
-    parts += [str(c) for c in s.counts]
-    parts += [fmt_point(x), fmt_point(y), fmt_point(z), str(s.status)]
-    return ",".join(parts) + "\n"
 
 
 def open_rows(path: Path, columns: tuple[str, ...], force: bool) -> RowFile:
@@ -351,6 +289,28 @@ class Session:
     last_seq: int | None = None
     extent: Extent = field(default_factory=Extent)
     gaps: list[dict[str, Any]] = field(default_factory=list)
+    # time connected (sum over the stretches between reconnect gaps) and the
+    # sample intervals in it: the rate while connected
+    seg_first: float | None = None
+    seg_rows: int = 0
+    connected_s: float = 0.0
+    intervals: int = 0
+
+    def end_segment(self) -> None:
+        """Close the current connected stretch (at a gap and at the end)."""
+        if self.seg_first is not None and self.last_host is not None:
+            self.connected_s += self.last_host - self.seg_first
+            self.intervals += self.seg_rows - 1
+        self.seg_first, self.seg_rows = None, 0
+
+    def rate_hz(self) -> float | None:
+        """Samples per second while connected (gaps excluded)."""
+        open_s = 0.0
+        open_iv = 0
+        if self.seg_first is not None and self.last_host is not None:
+            open_s, open_iv = self.last_host - self.seg_first, self.seg_rows - 1
+        t = self.connected_s + open_s
+        return (self.intervals + open_iv) / t if t > 0 else None
 
 
 class StopFlag:
@@ -407,9 +367,12 @@ class Logger:
         self.t0 = 0.0
         self.start_wall = 0.0
         self.param_crc = 0
+        self.crc_text = ""  # the param_crc32 column of the rows being written
+        self.param_sets: dict[int, ParamSetRecord] = {}
         self.trig_queue: collections.deque[tuple[float, Trigger]] = collections.deque()
         self.status = StatusLine(args.count, enabled=not args.quiet)
         self.granted_rate: int | None = None
+        self.lost_error: str | None = None
 
     # ---------------------------------------------------------- set-up
 
@@ -438,8 +401,7 @@ class Logger:
         dev.client.add_trigger_callback(self._on_trigger)
         return dev
 
-    def base_meta(self, dev: Device, ps: ParamSet, crc: int) -> dict[str, Any]:
-        params, encoders = params_meta(ps)
+    def base_meta(self, dev: Device, ps: ParamSetRecord) -> dict[str, Any]:
         a = self.args
         return {
             "format": FORMAT,
@@ -453,10 +415,13 @@ class Logger:
             "port": self.url,
             "transport": dev.client.transport.description,
             "device": info_dict(dev.info),
-            "param_crc32": crc,
-            "param_crc32_hex": f"0x{crc:08x}",
-            "params": params,
-            "encoders": encoders,
+            # the first set (what `aacmm params set run.csv.json` restores) ...
+            "param_crc32": ps.crc32,
+            "param_crc32_hex": ps.crc_hex,
+            "params": ps.params_json(),
+            "encoders": ps.encoders_json(),
+            # ... and every set in force, each from the row where it began
+            "param_sets": [],
             "rate_hz_requested": a.rate,
             "rate_hz": None,
             "limits": {"duration_s": a.duration, "count": a.count},
@@ -493,6 +458,7 @@ class Logger:
         m["first_sample_host_time"] = s.first_host
         m["last_sample_host_time"] = s.last_host
         m["extent_mm"] = s.extent.as_dict()
+        m["rate_hz_connected"] = s.rate_hz()
         if end_reason is not None:
             now = time.time()
             m["end_time"] = utc_iso(now)
@@ -500,15 +466,29 @@ class Logger:
             m["end_reason"] = end_reason
         write_json_atomic(self.sidecar, m)
 
+    def use_param_set(self, ps: ParamSetRecord) -> None:
+        """Rows from now on are taken with ``ps``; a set new to this log is added to the
+        sidecar's ``param_sets`` (written by the caller's next :meth:`write_meta`)."""
+        self.param_crc = ps.crc32
+        self.crc_text = ps.crc_hex
+        if ps.crc32 not in self.param_sets:
+            self.param_sets[ps.crc32] = ps
+            self.meta["param_sets"].append(
+                param_set_entry(ps, self.s.samples, utc_iso(time.time()))
+            )
+
     # ---------------------------------------------------------- writing
 
     def take(self, sample: Sample, host_time: float) -> None:
         s = self.s
         assert self.rows is not None
-        self.rows.add(_row(sample, host_time))
+        self.rows.add(sample_row(sample, host_time, self.crc_text))
         s.samples += 1
         if s.first_host is None:
             s.first_host = host_time
+        if s.seg_first is None:
+            s.seg_first = host_time
+        s.seg_rows += 1
         s.last_host = host_time
         s.last_seq = sample.seq
         if sample.status & POINT_VALID:
@@ -521,7 +501,8 @@ class Logger:
                 continue
             if self.trig_rows is None:
                 self.trig_rows = open_rows(self.trig_path, TRIGGER_COLUMNS, True)
-            self.trig_rows.add(_row(trig.sample, host_time, (trig.button, int(trig.pressed))))
+            extra = (trig.button, int(trig.pressed))
+            self.trig_rows.add(sample_row(trig.sample, host_time, self.crc_text, extra))
             self.s.triggers += 1
 
     def account(self, stream: SampleStream) -> None:
@@ -641,6 +622,7 @@ class Logger:
             "reason": str(err),
         }
         self.s.gaps.append(gap)
+        self.s.end_segment()
         self.write_meta("running")
         if not a.quiet:
             self.status.note("link lost, reconnecting")
@@ -661,6 +643,11 @@ class Logger:
             attempts += 1
             try:
                 dev = self.connect()
+                try:
+                    ps = ParamSetRecord.from_device(dev.client.get_params())
+                except BaseException:
+                    self.drop(dev)
+                    raise
             except VersionMismatchError:
                 raise
             except (InitError, DeviceTimeoutError, OperationError) as exc:
@@ -674,14 +661,16 @@ class Logger:
         gap["end_time"] = utc_iso(now)
         gap["duration_s"] = round(time.monotonic() - t_lost, 3)
         gap["attempts"] = attempts
-        gap["param_crc32"] = dev.info.param_crc32
-        if dev.info.param_crc32 != self.param_crc:
+        gap["param_crc32"] = ps.crc32
+        if ps.crc32 != self.param_crc:
             gap["params_changed"] = True
             print_err(
                 "log",
-                f"warning: the device's parameter set changed (crc "
-                f"0x{dev.info.param_crc32:08x}, was 0x{self.param_crc:08x})",
+                f"warning: the device's parameter set changed (crc {ps.crc_hex}, was "
+                f"0x{self.param_crc:08x}); rows from {self.s.samples + 1} on use it "
+                "(sidecar param_sets)",
             )
+        self.use_param_set(ps)
         gap.pop("last_error", None)
         self.s.reconnects += 1
         self.write_meta("running")
@@ -703,7 +692,10 @@ class Logger:
             self.raw = RawCanRecorder(raw_path, kind, channel, node, a.force)
         self.stop.install()
         try:
-            return self._run()
+            code = self._run()
+            if self.lost_error is not None:
+                raise OperationError(self.lost_error)
+            return code
         finally:
             self.stop.restore()
             self.status.close()
@@ -716,12 +708,18 @@ class Logger:
         end_status, end_reason = "error", "error"
         error: BaseException | None = None
         try:
-            ps = dev.client.get_params()
-            self.param_crc = dev.info.param_crc32
+            ps = ParamSetRecord.from_device(dev.client.get_params())
+            if ps.crc32 != dev.info.param_crc32:
+                print_err(
+                    "log",
+                    f"warning: the device reports parameter CRC 0x{dev.info.param_crc32:08x}, "
+                    f"its parameter set hashes to {ps.crc_hex}",
+                )
             self.start_wall = time.time()
             self.t0 = time.monotonic()
             self.rows = open_rows(self.csv_path, COLUMNS, a.force)
-            self.meta = self.base_meta(dev, ps, self.param_crc)
+            self.meta = self.base_meta(dev, ps)
+            self.use_param_set(ps)
             self.write_meta("running")
             self.dev = dev
             while True:
@@ -748,9 +746,25 @@ class Logger:
                 open_ended = a.count is None and a.duration is None
                 end_status = "complete" if open_ended else "interrupted"
                 end_reason = sig
-                return OK if open_ended else INTERRUPTED
-            end_status, end_reason = "complete", reason
-            return OK
+                code = OK if open_ended else INTERRUPTED
+            else:
+                end_status, end_reason, code = "complete", reason, OK
+            if end_status == "complete":
+                # a run that lost samples, or bridged gaps, is not complete (#14.2)
+                lost = self.s.lost + self.s.dropped
+                why = []
+                if lost:
+                    why.append(f"{lost} samples lost")
+                    self.lost_error = (
+                        f"{lost} samples lost ({self.s.lost} in sequence gaps, "
+                        f"{self.s.dropped} dropped on the host); the log is kept, status incomplete"
+                    )
+                if self.s.gaps:
+                    why.append(f"{len(self.s.gaps)} reconnect gaps")
+                if why:
+                    end_status = "incomplete"
+                    end_reason = f"{end_reason}; " + ", ".join(why)
+            return code
         except LinkLostError as exc:
             end_status, end_reason = "link_lost", str(exc)
             error = exc
@@ -782,7 +796,8 @@ class Logger:
         summary = {
             "samples": s.samples,
             "duration_s": elapsed,
-            "rate_hz": (s.samples - 1) / elapsed if elapsed > 0 else None,
+            "rate_hz": s.rate_hz(),
+            "gap_s": [g.get("duration_s") for g in s.gaps],
             "lost_samples": s.lost + s.dropped,
             "triggers": s.triggers,
             "reconnects": s.reconnects,
@@ -793,12 +808,18 @@ class Logger:
             files.append(self.trig_rows.path)
         if self.raw is not None:
             files.append(self.raw.path)
-        out = sys.stdout if error is None else sys.stderr
+        out = sys.stdout if error is None and self.lost_error is None else sys.stderr
         print(format_summary(summary, files), file=out, flush=True)
 
 
 def format_summary(d: dict[str, Any], files: list[Path] | None = None) -> str:
+    """The summary lines; the rate is taken over the time connected, and each
+    reconnect gap is listed with its length (#14.7)."""
     rate = f"{d['rate_hz']:.1f} Hz" if d.get("rate_hz") else "- Hz"
+    gaps = d.get("gap_s") or []
+    if gaps:
+        each = ", ".join("?" if g is None else f"{g:.1f} s" for g in gaps)
+        rate += f" while connected; {len(gaps)} gap{'s' if len(gaps) > 1 else ''}: {each}"
     lines = [
         f"samples {d['samples']} in {d['duration_s']:.2f} s ({rate}), "
         f"lost {d['lost_samples']}, triggers {d['triggers']}, reconnects {d['reconnects']}"
@@ -840,54 +861,13 @@ def cmd_log(args: argparse.Namespace) -> int:
 
 
 def summarize_file(path: Path) -> dict[str, Any]:
-    """Samples, duration, rate, lost samples and extent of a log (sidecar optional).
+    """Samples, duration, rate while connected, gaps, lost samples and extent of a log
+    (:func:`aacmm.records.logs.log_summary`; works on a log cut short by kill -9).
 
     Raises:
-        UsageError: unreadable file or not a log.
+        RecordError (exit 2): unreadable file or sidecar, not a log, a bad row.
     """
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"{path}: cannot read: {exc}") from None
-    reader = csv.reader(text.splitlines())
-    header = next(reader, None)
-    if header is None or not all(c in header for c in ("host_time", "x_mm", "flags")):
-        raise UsageError(f"{path}: not an aacmm log (header {header})")
-    ih, ix, iflags = header.index("host_time"), header.index("x_mm"), header.index("flags")
-    ext = Extent()
-    n, first, last = 0, None, None
-    for lineno, row in enumerate(reader, start=2):
-        if not row:
-            continue
-        try:
-            t = float(row[ih])
-            flags = int(row[iflags])
-            pt = tuple(round(float(row[ix + i]) * 10000) for i in range(3))
-        except (ValueError, IndexError):
-            raise UsageError(f"{path}:{lineno}: bad row") from None
-        n += 1
-        first = t if first is None else first
-        last = t
-        if flags & POINT_VALID:
-            ext.add(pt)
-    meta: dict[str, Any] = {}
-    side = sidecar_path(path)
-    if side.is_file():
-        loaded = load_json(side)  # InputFileError (exit 2): unreadable, bad, nested too deeply
-        if isinstance(loaded, dict):
-            meta = loaded
-    elapsed = (last - first) if first is not None and last is not None else 0.0
-    return {
-        "file": str(path),
-        "status": meta.get("status", "unknown"),
-        "samples": n,
-        "duration_s": elapsed,
-        "rate_hz": (n - 1) / elapsed if elapsed > 0 else None,
-        "lost_samples": meta.get("lost_samples", 0),
-        "triggers": meta.get("triggers", 0),
-        "reconnects": meta.get("reconnects", 0),
-        "extent_mm": ext.as_dict(),
-    }
+    return log_summary(read_log(path))
 
 
 def cmd_summary(args: argparse.Namespace) -> int:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import datetime as dt
 import json
 import os
 import time
@@ -30,6 +31,11 @@ class RecordError(AacmmError, ValueError):
 
     The message is one line naming the file (and the line where it applies).
     """
+
+
+def utc_iso(t: float) -> str:
+    """Unix time as ISO 8601 UTC with microseconds."""
+    return dt.datetime.fromtimestamp(t, dt.UTC).isoformat(timespec="microseconds")
 
 
 def fmt_point(v: int) -> str:
@@ -220,7 +226,9 @@ class CsvTable:
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError as exc:
-            raise RecordError(f"{path}: {what} is not UTF-8 text ({exc.reason})") from None
+            raise RecordError(
+                f"{path}: cannot read {what}: not UTF-8 text ({exc.reason})"
+            ) from None
         self.cut_short = bool(text) and not text.endswith("\n")
         lines = text.split("\n")
         if self.cut_short:

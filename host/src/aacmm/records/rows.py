@@ -40,6 +40,10 @@ class Recorded:
     def __len__(self) -> int:
         return int(self.counts.shape[0])
 
+    def where(self, row: int) -> str:
+        """``FILE: row N`` for messages (files with line numbers say ``FILE:LINE``)."""
+        return f"{self.path}: row {row + 1}"
+
     def param_set_of(self, row: int) -> ParamSetRecord:
         """The parameter set in force for one row."""
         return self.param_sets[int(self.param_crc32[row])]
@@ -74,7 +78,7 @@ class Recorded:
             except KinematicsError as exc:
                 bad = int(rows[exc.index or 0])
                 raise RecordError(
-                    f"{self.path}: row {bad + 1}: {exc} (reading beyond the counts per "
+                    f"{self.where(bad)}: {exc} (reading beyond the counts per "
                     f"revolution of parameter set {ps.crc_hex}?)"
                 ) from None
         return out

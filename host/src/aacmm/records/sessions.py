@@ -20,7 +20,6 @@ atomically.
 
 from __future__ import annotations
 
-import datetime as dt
 import platform
 import time
 from dataclasses import dataclass
@@ -41,6 +40,7 @@ from aacmm.records.files import (
     fmt_point,
     read_json,
     truncate_partial_line,
+    utc_iso,
     write_json_atomic,
 )
 from aacmm.records.paramsets import ParamSetRecord
@@ -103,10 +103,6 @@ UNITS: dict[str, str] = {
     "param_crc32": "CRC of the parameter set in force (session.json param_sets)",
 }
 STATUSES: tuple[str, ...] = ("running", "complete", "interrupted", "link_lost", "error")
-
-
-def utc_iso(t: float) -> str:
-    return dt.datetime.fromtimestamp(t, dt.UTC).isoformat(timespec="microseconds")
 
 
 def _opt(v: int | None) -> str:

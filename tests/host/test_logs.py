@@ -1,0 +1,157 @@
+"""Logs through aacmm.records against the real simulator: a new stream holds only its own
+samples (#15.1), the parameter set in force per row across a reconnect (#15.5), a logger
+that lost samples does not call its run complete (#14.2), the rate while connected and the
+gaps (#14.7), and ``capture --from-log``."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from aacmm.commands.sim import SimProcess
+from aacmm.plans import load_plan
+from aacmm.records import read_session
+from aacmm.records.logs import LOG_COLUMNS, read_log, read_triggers
+from clihelp import AACMM, cli_env, one_error_line, run
+
+pytestmark = pytest.mark.timeout(180)
+
+
+def start(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [str(AACMM), *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=cli_env(),
+    )
+
+
+def wait_rows(csv: Path, n: int, timeout: float = 20.0) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if csv.exists() and csv.read_text().count("\n") > n:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{csv}: fewer than {n} rows after {timeout} s")
+
+
+def test_new_stream_holds_only_its_own_samples(tmp_path: Path) -> None:
+    """#15.1 repro: kill -9 a 1 kHz logger, start another on the same port: its rows are
+    its own stream's, seq 0, 1, 2, ... and exactly --count of them."""
+    with SimProcess(["--serial", "pty", "--quiet"]) as sim:
+        for i in range(5):
+            old = start("log", str(tmp_path / f"old{i}.csv"), "-r", "1000", "-q", "-p", sim.url)
+            wait_rows(tmp_path / f"old{i}.csv", 300)
+            old.send_signal(signal.SIGKILL)
+            old.communicate()
+            new = tmp_path / f"new{i}.csv"
+            p = run("log", str(new), "-r", "1000", "-n", "2000", "-q", "-p", sim.url)
+            assert p.returncode == 0, p.stderr
+            log = read_log(new)
+            seq = log.column("seq", "int")
+            assert seq.tolist() == list(range(2000)), (i, seq[:5].tolist())
+            assert json.loads((tmp_path / f"new{i}.csv.json").read_text())["status"] == "complete"
+
+
+def test_log_format_and_reader(tmp_path: Path) -> None:
+    with SimProcess(["--serial", "pty", "--quiet", "--button-every", "0.1"]) as sim:
+        out = tmp_path / "run.csv"
+        p = run("log", str(out), "-r", "200", "-d", "2.6", "-p", sim.url)
+        assert p.returncode == 0, p.stderr
+    header = out.read_text().splitlines()[0].split(",")
+    assert tuple(header) == LOG_COLUMNS
+    log = read_log(out)
+    meta = log.meta
+    assert meta["format"] == "aacmm-log-2" and meta["status"] == "complete"
+    assert [d["first_row"] for d in meta["param_sets"]] == [0]
+    assert len(log.param_sets) == 1 and log.set_changes() == [(0, meta["param_crc32"])]
+    dev = np.column_stack([log.column(c) for c in ("x_mm", "y_mm", "z_mm")])
+    assert np.abs(log.points_mm() - dev).max() < 2e-3
+    # the trigger file joins the sample file on seq and names the same set
+    trig = read_triggers(log)
+    assert trig and all(t.param_set.crc32 == meta["param_crc32"] for t in trig)
+    # --from-log labels the presses in plan order
+    s_dir = tmp_path / "s"
+    p = run("capture", "probe-calibration", "-o", str(s_dir), "--from-log", str(out))
+    assert p.returncode == 0, p.stderr
+    presses = [t for t in trig if t.pressed and t.button == 0]
+    s = read_session(s_dir)
+    n = min(30, len(presses))
+    assert len(s) == n and s.meta["source"] == "from-log"
+    assert [p.counts for p in s.points] == [t.sample.counts for t in presses[:n]]
+    assert [p.slot for p in s.points] == [
+        sl.index for sl in load_plan("probe-calibration").slots[:n]
+    ]
+    if n < 30:
+        assert "continue with --resume" in p.stderr and s.status == "interrupted"
+
+
+def test_lost_samples_make_the_run_incomplete(tmp_path: Path) -> None:
+    """#14.2: the simulator frozen for 1.6 s at 1 kHz skips what it cannot catch up (> 1000
+    samples): the
+    logger counts the gap, says so, exits 1, and the sidecar says incomplete."""
+    with SimProcess(["--serial", "pty", "--quiet"]) as sim:
+        out = tmp_path / "run.csv"
+        log = start("log", str(out), "-r", "1000", "-d", "4", "--stall", "3", "-p", sim.url)
+        wait_rows(out, 100)
+        sim.proc.send_signal(signal.SIGSTOP)
+        time.sleep(1.6)
+        sim.proc.send_signal(signal.SIGCONT)
+        _, err = log.communicate(timeout=30)
+    assert log.returncode == 1, err
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith("aacmm log: error: ") and "samples lost" in lines[-1]
+    meta = json.loads((tmp_path / "run.csv.json").read_text())
+    assert meta["status"] == "incomplete" and meta["lost_samples"] > 0
+    assert "samples lost" in meta["end_reason"]
+    s = run("summary", str(out))
+    assert s.returncode == 0 and "(incomplete)" in s.stdout
+
+
+def test_reconnect_to_another_parameter_set(tmp_path: Path) -> None:
+    """#15.5 and #14.7: a reconnect to a device with another set; every row is converted
+    with its own set; mc --log (one set) refuses clearly; the summary gives the gap and
+    the rate while connected."""
+    store = tmp_path / "other.bin"
+    params = tmp_path / "p.toml"
+    with SimProcess(["--serial", "pty", "--quiet", "--storage", str(store)]) as sim:
+        assert run("params", "get", "-o", str(params), "-p", sim.url).returncode == 0
+        params.write_text(params.read_text().replace("l_mm = 183.5", "l_mm = 150.0"))
+        assert run("params", "set", str(params), "--save", "-p", sim.url).returncode == 0
+    link = tmp_path / "arm"
+    out = tmp_path / "run.csv"
+    first = SimProcess(["--serial", "pty", "--quiet"], link=link)
+    try:
+        url = f"serial://{link}"
+        logger = start("log", str(out), "-r", "100", "-d", "6", "--reconnect", "-p", url)
+        wait_rows(out, 80)
+    finally:
+        first.stop()
+    time.sleep(1.0)
+    with SimProcess(["--serial", "pty", "--quiet", "--storage", str(store)], link=link):
+        stdout, err = logger.communicate(timeout=30)
+    assert logger.returncode == 0, err
+    assert "parameter set changed" in err
+    log = read_log(out)
+    changes = log.set_changes()
+    assert len(changes) == 2 and changes[1][0] == log.gaps[0]["after_row"]
+    dev = np.column_stack([log.column(c) for c in ("x_mm", "y_mm", "z_mm")])
+    assert np.abs(log.points_mm() - dev).max() < 2e-3  # each row with its own set
+    assert log.param_sets[changes[1][1]].params.l_mm == 150.0
+    meta = log.meta
+    assert meta["status"] == "incomplete" and "reconnect gaps" in meta["end_reason"]
+    # the rate while connected is the stream's, not samples over the wall time
+    assert "Hz while connected; 1 gap: " in stdout
+    s = run("summary", str(out), "--json")
+    d = json.loads(s.stdout)
+    assert d["gaps"] == 1 and 95 < d["rate_hz"] < 105
+    assert d["samples"] / d["duration_s"] < 90  # what the old summary reported
+    assert len(d["param_sets"]) == 2
+    p = run("mc", "--log", str(out), "-q")
+    one_error_line(p, 2, "parameter set changes at row", "mc --log")
