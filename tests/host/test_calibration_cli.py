@@ -248,3 +248,24 @@ def test_bad_arguments(session: Path, tmp_path: Path, capsys: pytest.CaptureFixt
     code, _, err = run([str(session), "-o", str(tmp_path / "x.json")], capsys)
     assert code == 2 and ".toml" in _one_line(err)
     assert math.isfinite(Model().point(np.zeros(6))[2])
+
+
+def test_observations_from_a_plan_design() -> None:
+    """A design (a plan and poses, no data): the same mapping as for a session."""
+    from aacmm.calibration import predicted_covariance
+    from aacmm.calibration.sessions import SessionDataError, observations_from_plan
+    from calib_synth import random_poses, reach
+
+    plan = load_plan("kinematic-calibration")
+    rng = np.random.default_rng(7)
+    targets = np.array([s.target.tip_mm for s in plan.slots if s.target is not None])
+    q = reach(Model(), targets, random_poses(rng, len(targets), (0.3, 1.4), (0.6, 1.8)), rng, 0.5)
+    obs, used, unused = observations_from_plan(plan, q, SIGMA)
+    assert used == ["cone1", "cone2", "cone3", "bar500", "bar750", "bar1000"] and unused == []
+    kinds = sorted(type(c).__name__ for c in obs.constraints)
+    assert kinds == ["Cone"] * 3 + ["LengthSet"] * 3
+    cov, ident = predicted_covariance(obs)
+    assert ident.rank == 21 and set(ident.held) == {"theta1", "d1", "theta6", "alpha6"}
+    assert 0.0005 < np.sqrt(np.diag(cov))[12:].max() < 0.01
+    with pytest.raises(SessionDataError, match="a seat needs at least 2"):
+        observations_from_plan(plan, q[:1])

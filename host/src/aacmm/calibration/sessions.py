@@ -30,8 +30,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from aacmm.calibration.observations import (
     Cone,
@@ -49,6 +51,7 @@ from aacmm.plans import model as pm
 from aacmm.records import ParamSetRecord, RecordError, Session, read_session
 
 DEFAULT_SIGMA_MM = 0.005
+IntArray = npt.NDArray[np.intp]
 
 
 class SessionDataError(ObservationError):
@@ -88,14 +91,31 @@ def _std(art: pm.Artefact, expanded: float | None) -> float:
     return 0.0 if u is None else float(u)
 
 
+class Label(Protocol):
+    """What the mapping reads of a point's labels (a session's point or a plan's slot)."""
+
+    @property
+    def step_index(self) -> int: ...
+    @property
+    def point_index(self) -> int: ...
+    @property
+    def position_index(self) -> int | None: ...
+    @property
+    def end(self) -> str | None: ...
+
+
 def _step_constraints(
-    session: Session, step: pm.Step, rows: np.ndarray, base_known: bool
+    plan: pm.Plan,
+    labels: Sequence[Label],
+    step: pm.Step,
+    rows: IntArray,
+    base_known: bool,
+    where: str,
 ) -> list[Constraint]:
-    """The constraints of one step (row indices into the session's points)."""
-    plan = session.plan
+    """The constraints of one step (``rows``: indices into ``labels``, the pose table)."""
     art = plan.artefact_of(step)
     name = f"{step.id}"
-    where = f"{session.path}: step '{step.id}' ({step.procedure})"
+    where = f"{where}: step '{step.id}' ({step.procedure})"
     r_probe = plan.probe.ball_radius_mm
     if step.procedure in ("cone", "articulation") and isinstance(art, pm.ConeSeat):
         if rows.size < 2 and not (art.location_reference and base_known):
@@ -120,10 +140,10 @@ def _step_constraints(
         ends_a, ends_b = [], []
         by_pos: dict[int, dict[str, list[int]]] = {}
         for r in rows.tolist():
-            p = session.points[r]
-            if p.position_index is None or p.end not in ("A", "B"):
+            lab = labels[r]
+            if lab.position_index is None or lab.end not in ("A", "B"):
                 raise SessionDataError(f"{where}: row {r + 1} has no length position/end label")
-            by_pos.setdefault(p.position_index, {"A": [], "B": []})[p.end].append(r)
+            by_pos.setdefault(lab.position_index, {"A": [], "B": []})[lab.end].append(r)
         for k in sorted(by_pos):
             a, b = by_pos[k]["A"], by_pos[k]["B"]
             if a and b:
@@ -151,6 +171,58 @@ def _step_constraints(
     return []
 
 
+def observations_from_plan(
+    plan: pm.Plan,
+    theta_rad: npt.ArrayLike,
+    sigma_mm: float = DEFAULT_SIGMA_MM,
+    base_known: bool = False,
+    labels: Sequence[Label] | None = None,
+    where: str = "",
+) -> tuple[Observations, list[str], list[str]]:
+    """Observations of a plan's points: the mapping of the module doc, step by step.
+
+    ``theta_rad`` (n, 6): joint readings of the points, row i labelled by
+    ``labels[i]`` (default: the plan's first n slots, in order -- a design
+    whose poses come from a simulated operator, or a session's rows). Returns
+    the observations and the ids of the steps used and not used (free points).
+
+    Raises SessionDataError (no point, too few points in a step, no step that
+    constrains anything), ObservationError (bad joint readings).
+    """
+    theta = np.asarray(theta_rad, dtype=np.float64)
+    n = theta.shape[0] if theta.ndim == 2 else 0
+    where = where or f"plan {plan.title}"
+    if n == 0:
+        raise SessionDataError(f"{where}: no points")
+    labs: Sequence[Label] = labels if labels is not None else plan.slots[:n]
+    if len(labs) != n:
+        raise SessionDataError(f"{where}: {n} poses for {len(labs)} labelled points")
+    step_of = np.array([lab.step_index for lab in labs], dtype=np.intp)
+    cons: list[Constraint] = []
+    used: list[str] = []
+    unused: list[str] = []
+    for step in plan.steps:
+        rows = np.flatnonzero(step_of == step.index).astype(np.intp)
+        if rows.size == 0:
+            continue
+        got = _step_constraints(plan, labs, step, rows, base_known, where)
+        (used if got else unused).append(step.id)
+        cons += got
+    if not cons:
+        raise SessionDataError(
+            f"{where}: no step gives a calibration constraint (seats, spheres, lengths or planes)"
+        )
+    obs = Observations(
+        theta,
+        np.full(n, float(sigma_mm)),
+        tuple(cons),
+        step_of,
+        np.array([lab.point_index for lab in labs], dtype=np.intp),
+        tuple(s.id for s in plan.steps),
+    )
+    return obs, used, unused
+
+
 def session_observations(
     session: Session, sigma_mm: float = DEFAULT_SIGMA_MM, base_known: bool = False
 ) -> tuple[Observations, list[str], list[str]]:
@@ -161,31 +233,14 @@ def session_observations(
     """
     if len(session) == 0:
         raise SessionDataError(f"{session.path}: the session has no points")
-    theta = session.angles_rad()
-    cons: list[Constraint] = []
-    used: list[str] = []
-    unused: list[str] = []
-    for step in session.plan.steps:
-        rows = session.rows_of(step.index).astype(np.intp)
-        if rows.size == 0:
-            continue
-        got = _step_constraints(session, step, rows, base_known)
-        (used if got else unused).append(step.id)
-        cons += got
-    if not cons:
-        raise SessionDataError(
-            f"{session.path}: no step gives a calibration constraint (seats, spheres, lengths "
-            "or planes)"
-        )
-    obs = Observations(
-        theta,
-        np.full(len(session), float(sigma_mm)),
-        tuple(cons),
-        session.step_index.astype(np.intp),
-        session.point_index.astype(np.intp),
-        tuple(s.id for s in session.plan.steps),
+    return observations_from_plan(
+        session.plan,
+        session.angles_rad(),
+        sigma_mm,
+        base_known,
+        session.points,
+        str(session.path),
     )
-    return obs, used, unused
 
 
 def _same_set(ref: ParamSetRecord, ref_path: str, ps: ParamSetRecord, path: str) -> None:
