@@ -190,6 +190,20 @@ def test_bad_targets(tmp_path: Path) -> None:
         write_output(tmp_path / "no" / "such.txt", "x")
 
 
+def test_only_regular_files_are_replaced(tmp_path: Path) -> None:
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    link = tmp_path / "stdout"
+    link.symlink_to("/dev/null")
+    for p in (fifo, link):
+        with pytest.raises(OutputFileError, match="not a regular file"):
+            write_output(p, "x", force=True)
+        with pytest.raises(OutputFileError, match="not a regular file"):
+            check_outputs([p], force=True)
+    assert stat.S_ISFIFO(fifo.lstat().st_mode) and link.is_symlink()
+    assert Path("/dev/null").is_char_device()
+
+
 def test_check_outputs(tmp_path: Path) -> None:
     a, b = tmp_path / "a.csv", tmp_path / "b.json"
     assert check_outputs([a, None, str(b)]) == [a, b]

@@ -37,6 +37,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import stat
 import tempfile
 import tomllib
 from collections.abc import Iterable, Iterator
@@ -91,6 +92,23 @@ def _exists_message(path: Path) -> str:
     return f"{path} exists (use --force to overwrite)"
 
 
+def _check_target(p: Path, force: bool) -> None:
+    """Refuse an existing target unless ``force``; never replace anything but a
+    regular file (a device, a FIFO, a directory, a link to one of them)."""
+    if p.is_dir():
+        raise OutputFileError(f"{p} is a directory")
+    if not os.path.lexists(p):
+        return
+    if not force:
+        raise OutputExistsError(_exists_message(p))
+    try:
+        regular = stat.S_ISREG(os.stat(p).st_mode)
+    except OSError:
+        regular = True  # a dangling link: replacing the link itself is harmless
+    if not regular:
+        raise OutputFileError(f"{p} is not a regular file (not replaced, even with --force)")
+
+
 def check_outputs(paths: Iterable[PathLike | None], force: bool = False) -> list[Path]:
     """Check the output files of a command before it starts its work.
 
@@ -98,8 +116,8 @@ def check_outputs(paths: Iterable[PathLike | None], force: bool = False) -> list
 
     Raises:
         OutputExistsError: a file exists and ``force`` is false.
-        OutputFileError: a path is given twice, names a directory, or its
-            directory does not exist.
+        OutputFileError: a path is given twice, names a directory or another
+            non-regular file (device, FIFO), or its directory does not exist.
     """
     out: list[Path] = []
     seen: dict[Path, Path] = {}
@@ -111,10 +129,7 @@ def check_outputs(paths: Iterable[PathLike | None], force: bool = False) -> list
         if key in seen:
             raise OutputFileError(f"{p} is given twice as an output file")
         seen[key] = p
-        if p.is_dir():
-            raise OutputFileError(f"{p} is a directory")
-        if not force and os.path.lexists(p):
-            raise OutputExistsError(_exists_message(p))
+        _check_target(p, force)
         parent = key.parent
         if not parent.is_dir():
             raise OutputFileError(f"{p}: directory {parent} does not exist")
@@ -209,10 +224,7 @@ def atomic_output(
 def _temp_beside(p: Path, force: bool, suffix: str) -> tuple[int, str]:
     """Check the target and create the temporary file beside it (exclusively,
     with the target's future permissions). Returns the open fd and the path."""
-    if p.is_dir():
-        raise OutputFileError(f"{p} is a directory")
-    if not force and os.path.lexists(p):
-        raise OutputExistsError(_exists_message(p))
+    _check_target(p, force)
     directory = p.parent
     try:
         fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{p.name}.", suffix=suffix)
