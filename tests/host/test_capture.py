@@ -203,3 +203,50 @@ def test_bad_input(sim: SimProcess, tmp_path: Path) -> None:
     one_error_line(p, 2, "no session to resume")
     p = run("capture", "iso10360-12", "-o", str(tmp_path / "full"), "--resume", "--port", sim.url)
     one_error_line(p, 2)
+
+
+def test_operator_on_the_control_channel(tmp_path: Path) -> None:
+    """The device's encoders set through the simulator's control channel: each press
+    carries known counts, so every recorded point is checked against what was pressed
+    (none lost, none mislabelled); button 1 undoes, and a press made while capture is
+    not yet listening is not taken."""
+    from aacmm.simulation.control import ControlChannel
+
+    chan, child_fd = ControlChannel.pair()
+    with SimProcess(
+        ["--serial", "pty", "--quiet", "--control", str(child_fd)], pass_fds=[child_fd]
+    ) as sim:
+        chan.child_started()
+        chan.hello()
+        rng = np.random.default_rng(11)
+        poses = [tuple(int(c) for c in rng.integers(0, 1 << 32, 6)) for _ in range(40)]
+
+        def press(counts: tuple[int, ...], button: int = 0) -> None:
+            chan.set_counts(counts)
+            chan.press(button)
+            chan.release(button)
+
+        press(poses[39])  # nobody listening yet: must not become a point
+        out = tmp_path / "s"
+        cap = Capture(PLAN, "-o", str(out), "--port", sim.url)
+        assert chan.wait_stream(True, timeout=30), cap.lines
+        taken: list[tuple[int, ...]] = []
+        for k in range(33):
+            press(poses[k])
+            taken.append(poses[k])
+            cap.wait_for(f"recorded {len(taken)}/30")
+            if k in (4, 20):  # undo the point just taken
+                press(poses[38], button=1)
+                cap.wait_for(f"undone {len(taken)}/30")
+                taken.pop()
+            if len(taken) == 30:
+                break
+        code, err = cap.finish()
+        chan.close()
+    assert code == 0, err
+    s = read_session(out)
+    assert [p.counts for p in s.points] == taken
+    check_session(out, 30)
+    events = (out / "events.csv").read_text()
+    assert events.count(",undo,") == 2
+    assert poses[39] not in [p.counts for p in s.points]  # pressed before capture listened

@@ -39,8 +39,8 @@ if TYPE_CHECKING:
 #: simulated operator's sign that capture is ready).
 LISTEN_RATE_HZ = 20
 POINT_VALID = 0x0001
-BUTTON_CAPTURE = 0
-BUTTON_UNDO = 1
+BUTTON_CAPTURE = 0  # aacmm.protocol.Button.CAPTURE
+BUTTON_UNDO = 1  # aacmm.protocol.Button.UNDO
 
 
 def register(sub: Any) -> None:
@@ -151,9 +151,8 @@ class Capture:
     # ---------------------------------------------------------- the run
 
     def drop_stale(self, w: SessionWriter) -> None:
-        """Forget button events that arrived before the stream started: they were
-        pressed before capture was listening (a link delivers events in order, so
-        every event queued before the start acknowledgement is older)."""
+        """Forget (and journal) button events received so far: they were pressed
+        before capture was listening."""
         stale = 0
         while True:
             try:
@@ -288,8 +287,12 @@ class Capture:
             dev.client.add_trigger_callback(self._on_trigger)
             stop.install()
             self.start_keys()
-            stream = dev.client.stream(LISTEN_RATE_HZ, timeout=self.args.stall)
+            # A ping is a barrier: the link delivers in order, so every button event
+            # received before its answer was pressed before capture was listening (for
+            # example events a device queued while no host read it).
+            dev.client.ping()
             self.drop_stale(w)
+            stream = dev.client.stream(LISTEN_RATE_HZ, timeout=self.args.stall)
             try:
                 status = self.loop(dev, w, stream, stop)
             finally:

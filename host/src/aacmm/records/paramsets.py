@@ -39,11 +39,8 @@ class ParamSetRecord:
     @classmethod
     def from_device(cls, ps: ParamSet) -> ParamSetRecord:
         """From a device's GET_PARAMS answer (CRC computed as the device does)."""
-        return cls(
-            param_set_crc32(ps),
-            Params(ps.theta_offset_rad, ps.alpha_rad, ps.d_mm, ps.a_mm, ps.l_mm),
-            EncoderConfig(ps.counts_per_rev, ps.zero_offset_counts, ps.direction),
-        )
+        params, encoders = ps.to_core()
+        return cls(param_set_crc32(ps), params, encoders)
 
     def to_device(self) -> ParamSet:
         p, e = self.params, self.encoders
