@@ -328,6 +328,11 @@ class _Solver:
             max_nfev=max_nfev,
             x_scale=1.0,
         )
+        if res.status == 0:  # evaluation limit: say so rather than pass it off as a solution
+            raise CalibrationError(
+                f"the solver did not converge in {max_nfev} evaluations (stage {self.stage}): "
+                "check the data (outliers, wrong artefact values) or the start parameters"
+            )
         return np.asarray(res.x), str(res.message)
 
 
@@ -413,7 +418,7 @@ def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> 
         )
     out.sort(key=lambda s: -s.chi2_drop)
     # worth naming only if it explains a clear part of the excess
-    return tuple(s for s in out if s.chi2_drop > max(0.2 * excess, 25.0))
+    return tuple(s for s in out if s.chi2_drop > max(0.5 * excess, 25.0))
 
 
 def find_outliers(
