@@ -21,6 +21,7 @@
 #include <net/if.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 
 uint64_t posix_time_us(void)
 {
@@ -225,13 +226,38 @@ static aacmm_status_t can_receive(void *ctx, aacmm_can_frame_t *frame, int *got)
 
 /* ---- storage ----------------------------------------------------------- */
 
-int posix_storage_load(posix_port_t *port, char *err, size_t err_cap)
+/* PATH.tmp, the temporary file of a save. 0, or -1 when it does not fit. */
+static int tmp_path(const char *path, char *tmp, size_t cap)
+{
+    int n = snprintf(tmp, cap, "%s.tmp", path);
+    return (n < 0 || (size_t)n >= cap) ? -1 : 0;
+}
+
+int posix_storage_load(posix_port_t *port, int quiet, char *err, size_t err_cap)
 {
     FILE *f;
     size_t n;
+    char tmp[PATH_MAX];
+    struct stat st;
     memset(port->storage, 0xFF, sizeof port->storage);
+    port->storage_file_bytes = -1;
     if (port->storage_path == NULL) {
         return 0;
+    }
+    if (tmp_path(port->storage_path, tmp, sizeof tmp) != 0) {
+        snprintf(err, err_cap, "storage file name too long: %s", port->storage_path);
+        return -1;
+    }
+    /* A save that was cut leaves its temporary file: never reuse it. */
+    if (lstat(tmp, &st) == 0) {
+        if (unlink(tmp) != 0) {
+            snprintf(err, err_cap, "cannot remove the stale %s: %s", tmp, strerror(errno));
+            return -1;
+        }
+        if (!quiet) {
+            fprintf(stderr, "aacmm-sim: storage %s: removed the stale %s (a save was cut)\n",
+                    port->storage_path, tmp);
+        }
     }
     f = fopen(port->storage_path, "rb");
     if (f == NULL) {
@@ -242,6 +268,12 @@ int posix_storage_load(posix_port_t *port, char *err, size_t err_cap)
                  strerror(errno));
         return -1;
     }
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        snprintf(err, err_cap, "storage file %s is not a regular file", port->storage_path);
+        fclose(f);
+        return -1;
+    }
+    port->storage_file_bytes = (long long)st.st_size;
     n = fread(port->storage, 1, sizeof port->storage, f);
     if (ferror(f)) {
         snprintf(err, err_cap, "cannot read storage file %s: %s", port->storage_path,
@@ -254,6 +286,81 @@ int posix_storage_load(posix_port_t *port, char *err, size_t err_cap)
     return 0;
 }
 
+static const char *slot_text(uint8_t state)
+{
+    switch (state) {
+    case AACMM_SLOT_ERASED: return "erased";
+    case AACMM_SLOT_NEWEST: return "newest record";
+    case AACMM_SLOT_OLDER: return "older record, the fallback";
+    case AACMM_SLOT_BAD_CRC: return "rejected: CRC mismatch (a cut save or damage)";
+    case AACMM_SLOT_BAD_CONTENTS: return "rejected: parameters out of range";
+    case AACMM_SLOT_VERSION: return "rejected: record of another format version";
+    case AACMM_SLOT_BAD_LENGTH: return "rejected: wrong payload length";
+    case AACMM_SLOT_INCOMPLETE: return "rejected: incomplete record (a save cut after it began)";
+    case AACMM_SLOT_UNRECOGNISED: return "rejected: not a record (unrecognised data)";
+    default: return "unreadable";
+    }
+}
+
+void posix_storage_report(const posix_port_t *port, const aacmm_msg_diag_t *diag,
+                          char *out, size_t cap)
+{
+    size_t len = 0;
+    int newest = -1;
+    int k;
+#define ADD(...)                                                                                   \
+    do {                                                                                           \
+        if (len < cap) {                                                                           \
+            int w_ = snprintf(out + len, cap - len, __VA_ARGS__);                                  \
+            len += w_ > 0 ? (size_t)w_ : 0u;                                                       \
+        }                                                                                          \
+    } while (0)
+    if (cap == 0u) {
+        return;
+    }
+    out[0] = '\0';
+    if (port->storage_path == NULL) {
+        ADD("storage: none given (--storage FILE): a saved set lives in RAM until exit");
+        return;
+    }
+    ADD("storage %s: ", port->storage_path);
+    if (port->storage_file_bytes < 0) {
+        ADD("no file yet (the first save creates it); running on defaults");
+        return;
+    }
+    if (port->storage_file_bytes != (long long)AACMM_STORE_BYTES) {
+        ADD("%lld bytes, expected %u (%s); ", port->storage_file_bytes, AACMM_STORE_BYTES,
+            port->storage_file_bytes < (long long)AACMM_STORE_BYTES
+                ? "the rest reads as erased"
+                : "the rest is ignored");
+    }
+    for (k = 0; k < 2; k++) {
+        if (diag->slot_state[k] == AACMM_SLOT_NEWEST) {
+            newest = k;
+        }
+    }
+    if (newest >= 0) {
+        int other = 1 - newest;
+        uint8_t os = diag->slot_state[other];
+        ADD("loaded slot %d (generation %lu); slot %d: %s", newest,
+            (unsigned long)diag->slot_generation[newest], other, slot_text(os));
+        if (os == AACMM_SLOT_OLDER || os == AACMM_SLOT_BAD_CRC ||
+            os == AACMM_SLOT_BAD_CONTENTS || os == AACMM_SLOT_BAD_LENGTH) {
+            uint32_t d = diag->slot_generation[other] - diag->slot_generation[newest];
+            ADD(" (generation %lu)", (unsigned long)diag->slot_generation[other]);
+            if (os != AACMM_SLOT_OLDER && d != 0u && d < 0x80000000u) {
+                ADD(": it was newer, so the set in use may be older than the last save");
+            }
+        }
+        return;
+    }
+    for (k = 0; k < 2; k++) {
+        ADD("slot %d: %s; ", k, slot_text(diag->slot_state[k]));
+    }
+    ADD("no valid record, running on defaults");
+#undef ADD
+}
+
 static aacmm_status_t storage_read(void *ctx, uint32_t offset, uint8_t *buf, size_t len)
 {
     posix_port_t *p = ctx;
@@ -264,18 +371,62 @@ static aacmm_status_t storage_read(void *ctx, uint32_t offset, uint8_t *buf, siz
     return AACMM_OK;
 }
 
-/* Write the whole image to PATH.tmp, fsync, rename over PATH: the file is
- * always either the old or the new image. */
+/* fsync the directory holding path, so a rename in it is durable. */
+static int sync_dir_of(const char *path)
+{
+    char dir[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    int fd;
+    int rc;
+    if (slash == NULL) {
+        snprintf(dir, sizeof dir, ".");
+    } else if (slash == path) {
+        snprintf(dir, sizeof dir, "/");
+    } else if ((size_t)(slash - path) < sizeof dir) {
+        memcpy(dir, path, (size_t)(slash - path));
+        dir[slash - path] = '\0';
+    } else {
+        return -1;
+    }
+    fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0) {
+        return -1;
+    }
+    rc = fsync(fd);
+    close(fd);
+    return rc;
+}
+
+/* Create PATH.tmp afresh: never follow a link planted there, never write
+ * into a file someone else opened. One stale or planted entry is removed
+ * (the link itself, not its target) and creation retried once. */
+static int open_tmp(const char *path, const char *tmp)
+{
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0 && errno == EEXIST) {
+        fprintf(stderr, "aacmm-sim: storage %s: removed %s found in the way of a save\n", path,
+                tmp);
+        if (unlink(tmp) != 0) {
+            return -1;
+        }
+        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    }
+    return fd;
+}
+
+/* Write the whole image to a fresh PATH.tmp, fsync it, rename it over PATH,
+ * fsync the directory: the file is always either the old or the new image,
+ * and the new one survives a power cut once the save has answered. */
 static int storage_commit(const posix_port_t *p)
 {
     char tmp[PATH_MAX];
     const uint8_t *b = p->storage;
     size_t left = sizeof p->storage;
     int fd;
-    if (snprintf(tmp, sizeof tmp, "%s.tmp", p->storage_path) >= (int)sizeof tmp) {
+    if (tmp_path(p->storage_path, tmp, sizeof tmp) != 0) {
         return -1;
     }
-    fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    fd = open_tmp(p->storage_path, tmp);
     if (fd < 0) {
         return -1;
     }
@@ -300,7 +451,7 @@ static int storage_commit(const posix_port_t *p)
         unlink(tmp);
         return -1;
     }
-    return 0;
+    return sync_dir_of(p->storage_path);
 }
 
 static aacmm_status_t storage_write(void *ctx, uint32_t offset, const uint8_t *data, size_t len)

@@ -25,6 +25,7 @@ typedef struct {
     int can_busy; /* the socket refused a frame: retry after a short sleep */
     const char *storage_path; /* NULL: RAM only */
     uint8_t storage[AACMM_STORE_BYTES];
+    long long storage_file_bytes; /* size of the file at start-up; -1: no file */
     uint64_t t0_us; /* simulation time origin */
     aacmm_sim_t sim;
     int use_frames;           /* joints as BiSS-C/SSI frames (else counts) */
@@ -50,9 +51,16 @@ int posix_serial_open(posix_port_t *port, const char *path, char *err, size_t er
 int posix_can_open(posix_port_t *port, const char *iface, uint32_t rx_id, char *err,
                    size_t err_cap);
 
-/* Load the storage image from port->storage_path (missing file: blank).
- * Returns 0, or -1 with a message. */
-int posix_storage_load(posix_port_t *port, char *err, size_t err_cap);
+/* Load the storage image from port->storage_path (missing file: blank;
+ * a short file reads as erased beyond its end; port->storage_file_bytes
+ * says what was there). A FILE.tmp left by a cut save is removed, with a
+ * line on stderr unless quiet. Returns 0, or -1 with a message. */
+int posix_storage_load(posix_port_t *port, int quiet, char *err, size_t err_cap);
+
+/* One line for stderr: what start-up found in the storage (file size, each
+ * slot, which one was loaded and why the other was not). */
+void posix_storage_report(const posix_port_t *port, const aacmm_msg_diag_t *diag,
+                          char *out, size_t cap);
 
 /* Parse a replay file: either one pose per line, six unsigned decimal counts
  * separated by blanks or commas, '#' starts a comment; or a CSV whose first

@@ -251,20 +251,6 @@ static void print_counters(void)
             c->storage_errors, c->storage_bad_records, c->serial_io_errors, c->can_io_errors);
 }
 
-static const char *storage_state_name(uint8_t s)
-{
-    switch (s) {
-    case AACMM_STORAGE_OK:
-        return "record loaded";
-    case AACMM_STORAGE_EMPTY:
-        return "no record, running on defaults";
-    case AACMM_STORAGE_CORRUPT:
-        return "corrupt record, running on defaults";
-    default:
-        return "record of another version, running on defaults";
-    }
-}
-
 int main(int argc, char **argv)
 {
     options_t o;
@@ -346,7 +332,7 @@ int main(int argc, char **argv)
         port.use_frames = 1;
     }
 
-    if (posix_storage_load(&port, err, sizeof err) != 0) {
+    if (posix_storage_load(&port, o.quiet, err, sizeof err) != 0) {
         fprintf(stderr, "aacmm-sim: %s\n", err);
         return SIM_EXIT_USAGE;
     }
@@ -397,9 +383,12 @@ int main(int argc, char **argv)
         posix_close(&port);
         return SIM_EXIT_USAGE;
     }
-    if (!o.quiet && o.storage != NULL) {
-        fprintf(stderr, "aacmm-sim: storage %s: %s\n", o.storage,
-                storage_state_name(dev.storage_state));
+    if (!o.quiet) {
+        aacmm_msg_diag_t diag;
+        char line[1024];
+        (void)aacmm_device_diag(&dev, &diag);
+        posix_storage_report(&port, &diag, line, sizeof line);
+        fprintf(stderr, "aacmm-sim: %s\n", line);
     }
 
     if (port.serial_fd >= 0) {
