@@ -33,12 +33,17 @@ DEV_HDRS := $(wildcard firmware/include/aacmm/*.h) $(wildcard firmware/src/*.h) 
 DEV_INC  := -I$(FW_INC) -Ifirmware/src/device -Ifirmware/src/sim
 
 # ---- the simulator -------------------------------------------------------
-SIM_BIN := $(BUILD)/sim$(DEV_SUFFIX)/aacmm-sim
+# SAN=1: the same simulator with AddressSanitizer + UndefinedBehaviorSanitizer
+# (clang, aborts on the first report), in build/sim-san/ (build/sim-q-san/
+# with DEVICE_KIN=q); every target that runs $(SIM_BIN) then uses it.
+SAN     ?= 0
+SIM_SAN := $(filter 1,$(SAN))
+SIM_BIN := $(BUILD)/sim$(DEV_SUFFIX)$(if $(SIM_SAN),-san)/aacmm-sim
 
 $(SIM_BIN): $(DEV_ALL_SRCS) $(POSIX_SRCS) $(DEV_HDRS) | $(BUILD)
 	@mkdir -p $(@D)
-	gcc $(CSTD) $(WARN) $(HOST_OPT) $(DEV_KIN_FLAGS) $(DEV_INC) -Ifirmware/ports/posix \
-	    $(DEV_ALL_SRCS) $(POSIX_SRCS) -lm -o $@
+	$(if $(SIM_SAN),clang,gcc) $(CSTD) $(WARN) $(if $(SIM_SAN),$(SAN_FLAGS),$(HOST_OPT)) \
+	    $(DEV_KIN_FLAGS) $(DEV_INC) -Ifirmware/ports/posix $(DEV_ALL_SRCS) $(POSIX_SRCS) -lm -o $@
 
 # The same with clang, only to keep the port warning-free there too.
 $(BUILD)/sim$(DEV_SUFFIX)/aacmm-sim-clang: $(DEV_ALL_SRCS) $(POSIX_SRCS) $(DEV_HDRS) | $(BUILD)
@@ -46,7 +51,7 @@ $(BUILD)/sim$(DEV_SUFFIX)/aacmm-sim-clang: $(DEV_ALL_SRCS) $(POSIX_SRCS) $(DEV_H
 	clang $(CSTD) $(WARN) $(HOST_OPT) $(DEV_KIN_FLAGS) $(DEV_INC) -Ifirmware/ports/posix \
 	    $(DEV_ALL_SRCS) $(POSIX_SRCS) -lm -o $@
 
-#> sim                  the POSIX device simulator build/sim/aacmm-sim (DEVICE_KIN=q: fixed-point build)
+#> sim                  the POSIX device simulator build/sim/aacmm-sim (DEVICE_KIN=q: fixed-point build; SAN=1: ASan+UBSan build)
 .PHONY: sim
 sim: $(SIM_BIN)
 

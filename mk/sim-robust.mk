@@ -1,17 +1,28 @@
 # The simulator under hostile conditions (issue 15, items 7, 8 and 10):
-#   test-sim-storage  the storage file: start-up report for every state, stale
-#                     FILE.tmp, planted symlink, fsync of file and directory
-#                     (tests/host/test_sim_storage.py, strace)
+#   tests/host/test_sim_storage.py  the storage file: start-up report for every
+#       state, stale FILE.tmp, planted symlink, fsync of file and directory (strace)
+#   tests/host/test_sim_latency.py  a request after a host stall is answered
+#       behind the frame in progress, not the queue of stale samples
+#   tests/host/test_sim_hostile.py  the ASan+UBSan builds (make sim SAN=1, both
+#       kinematics backends) fed hostile link input and hostile storage files
 
-SIM_ROBUST_PY := tests/host/test_sim_storage.py
+SIM_ROBUST_PY := tests/host/test_sim_storage.py tests/host/test_sim_latency.py \
+                 tests/host/test_sim_hostile.py
 SIM_ROBUST_PYTEST := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300
 
-.PHONY: test-sim-storage
-test-sim-storage: export AACMM_SIM = $(abspath $(SIM_BIN))
-test-sim-storage: sim | setup
+.PHONY: test-sim-robust sim-san
+#> sim-san              the ASan+UBSan simulators of both backends (build/sim-san, build/sim-q-san)
+sim-san:
+	@$(MAKE) --no-print-directory sim SAN=1 DEVICE_KIN=f32
+	@$(MAKE) --no-print-directory sim SAN=1 DEVICE_KIN=q
+
+test-sim-robust: export AACMM_SIM = $(abspath $(SIM_BIN))
+test-sim-robust: export AACMM_SIM_SAN = $(abspath $(BUILD)/sim-san/aacmm-sim)
+test-sim-robust: export AACMM_SIM_SAN_Q = $(abspath $(BUILD)/sim-q-san/aacmm-sim)
+test-sim-robust: sim sim-san | setup
 	cd tests/host && ../../$(SIM_ROBUST_PYTEST) $(notdir $(SIM_ROBUST_PY))
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(SIM_ROBUST_PY)
 	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(SIM_ROBUST_PY)
 	$(VENV)/bin/mypy --config-file host/pyproject.toml $(SIM_ROBUST_PY)
 
-TEST_SUITES += test-sim-storage
+TEST_SUITES += test-sim-robust

@@ -713,6 +713,96 @@ static void test_stream_output_full(void **state)
     assert_int_equal(n + aacmm_device_counters(&D)->samples_dropped, 1003u);
 }
 
+/* #15.8: after the host stalled, a request is answered behind at most the
+ * frame in progress, not behind the queued samples. */
+static void test_response_not_behind_queued_samples(void **state)
+{
+    aacmm_msg_t m;
+    size_t mark;
+    size_t before_rsp = 0u;
+    int found = 0;
+    int k;
+    (void)state;
+    start_stream(1000, AACMM_CONTENT_JACOBIAN);
+    while (next_msg()) {
+    }
+    F.tx_limit = 0; /* the host stalls for 1 s */
+    for (k = 0; k < 1000; k++) {
+        advance(1000u);
+        aacmm_device_poll(&D);
+    }
+    assert_true(aacmm_device_serial_pending(&D) > 32u * 1024u); /* a full queue waits */
+    mark = F.tx_len;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_PING_REQ;
+    m.seq = 77;
+    m.u.ping.token = 0xABCDu;
+    send_msg(&m);
+    F.tx_limit = 600u; /* the host reads again, a frame or so per write */
+    for (k = 0; k < 3 && !found; k++) {
+        advance(1000u);
+        aacmm_device_poll(&D);
+        while (next_msg()) {
+            if (M.type == AACMM_MSG_PING_RSP) {
+                assert_int_equal(M.seq, 77);
+                found = 1;
+                break;
+            }
+            if (host_pos > mark) {
+                before_rsp = host_pos - mark;
+            }
+        }
+    }
+    assert_true(found);
+    /* only the frame that was in progress went out before the answer */
+    assert_true(before_rsp <= AACMM_FRAME_MAX_WIRE);
+    assert_int_equal(host_rx.stats.crc_errors + host_rx.stats.cobs_errors, 0u);
+}
+
+/* #15.8: samples that waited longer than max_sample_age in the queue are
+ * dropped (counted), the first sample after them carries OVERRUN, and
+ * nothing older than the bound reaches the host. */
+static void test_stale_samples_dropped(void **state)
+{
+    uint32_t last = 0;
+    uint32_t n = 0;
+    int overrun_after_gap = 0;
+    const aacmm_device_counters_t *c;
+    int k;
+    (void)state;
+    CFG.max_sample_age_ms = 100u;
+    boot();
+    start_stream(1000, AACMM_CONTENT_JACOBIAN);
+    assert_true(next_msg()); /* sample 0, sent before the stall */
+    assert_int_equal(M.u.sample.seq, 0u);
+    n = 1u;
+    F.tx_limit = 0;
+    for (k = 0; k < 500; k++) {
+        advance(1000u);
+        aacmm_device_poll(&D);
+    }
+    F.tx_limit = (size_t)-1;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    while (next_msg()) {
+        assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+        /* nothing that waited longer than 100 ms (plus this poll's 1 ms) */
+        assert_true(F.now_us - M.u.sample.timestamp_us <= 101000u);
+        if (n > 0 && M.u.sample.seq != last + 1u) {
+            assert_true((M.u.sample.status & AACMM_SAMPLE_OVERRUN) != 0u);
+            overrun_after_gap = 1;
+        }
+        last = M.u.sample.seq;
+        n++;
+    }
+    c = aacmm_device_counters(&D);
+    assert_true(overrun_after_gap || n == 1u);
+    assert_true(c->samples_stale > 0u);
+    assert_int_equal(last, 501u);
+    assert_int_equal(n + c->samples_dropped, 502u);
+    assert_int_equal(host_rx.stats.crc_errors + host_rx.stats.cobs_errors, 0u);
+}
+
 /* ------------------------------------------------------------------------ */
 /* storage                                                                   */
 /* ------------------------------------------------------------------------ */
@@ -2180,6 +2270,8 @@ int main(void)
         cmocka_unit_test_setup(test_stream_odd_rate_and_jitter, setup_default),
         cmocka_unit_test_setup(test_stream_catch_up_and_stall, setup_default),
         cmocka_unit_test_setup(test_stream_output_full, setup_default),
+        cmocka_unit_test_setup(test_response_not_behind_queued_samples, setup_default),
+        cmocka_unit_test_setup(test_stale_samples_dropped, setup_default),
         cmocka_unit_test_setup(test_save_and_reload, setup_default),
         cmocka_unit_test(test_store_alternates_slots),
         cmocka_unit_test(test_power_cut_at_every_byte),

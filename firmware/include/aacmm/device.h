@@ -48,10 +48,14 @@
  *
  * Timestamps are the platform's time_us at the encoder reading.
  *
- * Output. Serial output goes through a caller-owned byte queue. Requests are
- * only taken from the link when the queue has room for the largest frame, so
- * a response is never dropped; a stream sample or an event is dropped (and
- * counted) when queuing it would eat into that reserve. CAN output goes
+ * Output. Serial output goes through a caller-owned byte queue of sample and
+ * event bodies, framed one at a time into the device's frame buffer (the
+ * stage) as the driver takes bytes. A request is only taken from the link
+ * when the stage is empty and its response is framed straight into it, so a
+ * response is never dropped and never waits behind queued samples (at most
+ * behind the frame in progress). A stream sample or an event is dropped (and
+ * counted) when it does not fit the queue; a stream sample that waited
+ * longer than max_sample_age_ms is dropped instead of sent. CAN output goes
  * through a queue of AACMM_DEVICE_CAN_QUEUE frames; the six frames of a
  * sample are queued together or not at all.
  *
@@ -115,6 +119,7 @@ extern "C" {
 #define AACMM_DEVICE_CAN_QUEUE 64u      /* CAN frames queued in the device */
 #define AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ 100u /* CAN streams with Jacobian (ISO-TP) */
 #define AACMM_DEVICE_MAX_CATCH_UP 64u   /* stream periods caught up after a stall */
+#define AACMM_DEVICE_MAX_SAMPLE_AGE_MS 1000u /* serial samples older are dropped, not sent */
 #define AACMM_DEVICE_IDLE_POLL_US 5000u /* longest sleep (button polling) */
 #define AACMM_DEVICE_SERIAL_RX_CHUNK 128u
 #define AACMM_DEVICE_SERIAL_RX_BYTES_PER_POLL (8u * AACMM_DEVICE_SERIAL_RX_CHUNK)
@@ -137,6 +142,9 @@ typedef struct {
     uint32_t max_catch_up;             /* stream periods sent late after a stall
                                           before samples are skipped; 0 = default
                                           AACMM_DEVICE_MAX_CATCH_UP */
+    uint32_t max_sample_age_ms;        /* a serial stream sample that waited longer
+                                          in the output queue is dropped (counted,
+                                          OVERRUN); 0 = AACMM_DEVICE_MAX_SAMPLE_AGE_MS */
     /* Start-up facts the port knows, reported in DIAG_RSP as given. */
     uint8_t reset_cause;               /* AACMM_RESET_* (0 = unknown) */
     uint32_t reset_raw;                /* the board's reset-reason register, 0 if none */
@@ -175,6 +183,7 @@ typedef struct {
     uint32_t samples_sent;      /* stream samples queued for output */
     uint32_t samples_dropped;   /* stream samples lost: output queue full */
     uint32_t samples_late;      /* stream samples skipped: device fell behind */
+    uint32_t samples_stale;     /* of samples_dropped: waited too long in the serial queue */
     uint32_t events_sent;       /* trigger events queued (per link) */
     uint32_t events_dropped;    /* trigger events lost: output queue full */
     uint32_t encoder_faults;    /* encoder reads that failed or gave counts >= cpr */
@@ -214,10 +223,15 @@ typedef struct {
 typedef struct {
     uint8_t present;
     aacmm_deframer_t deframer;
-    uint8_t *txq;
+    uint8_t *txq;    /* queued sample/event bodies, each behind a 6-byte header */
     size_t txq_cap;
     size_t txq_head; /* index of the oldest byte */
     size_t txq_len;
+    size_t stage_len; /* the frame in progress, in the device's wire buffer */
+    size_t stage_pos; /* bytes of it handed to the driver */
+    uint8_t stale_overrun; /* stale samples dropped: flag the next one sent */
+    uint8_t stage_sample;  /* the stage holds a stream sample ... */
+    uint32_t stage_t_ms;   /* ... queued at this time */
     uint8_t rx[AACMM_DEVICE_SERIAL_RX_CHUNK];
     size_t rx_pos;
     size_t rx_len;
@@ -266,6 +280,7 @@ typedef struct {
     aacmm_enc_frame_t frames[AACMM_JOINTS]; /* scratch of read_encoder_frames */
     uint32_t measure_seq;
     uint32_t max_catch_up;
+    uint32_t max_sample_age_ms;
     aacmm_device_counters_t counters;
     aacmm_device_serial_t serial;
     aacmm_device_can_t can;
@@ -326,6 +341,12 @@ uint64_t aacmm_device_next_deadline_us(const aacmm_device_t *dev);
 /* Bytes waiting in the serial output queue (the port should wait for the
  * serial line to be writable while this is > 0). O(1). */
 size_t aacmm_device_serial_pending(const aacmm_device_t *dev);
+
+/* 1 when the device will read received serial bytes at its next poll, 0
+ * while the frame in progress waits for the driver (a request is only taken
+ * when its answer can go out next): a port that sleeps on its serial line
+ * should then wait for it to become writable, not readable. O(1). */
+int aacmm_device_serial_wants_input(const aacmm_device_t *dev);
 
 /* CAN frames waiting in the device CAN queue (wait for the bus to take
  * frames while > 0). O(1). */

@@ -243,10 +243,12 @@ static void print_counters(void)
     const aacmm_device_counters_t *c = aacmm_device_counters(&dev);
     const aacmm_deframer_stats_t *d = aacmm_device_serial_stats(&dev);
     fprintf(stderr,
-            "aacmm-sim: stopped: requests %u, errors %u, samples sent %u, dropped %u, late %u, "
+            "aacmm-sim: stopped: requests %u, errors %u, samples sent %u, dropped %u (stale %u), "
+            "late %u, "
             "events %u (dropped %u), serial frames ok %u, crc errors %u, cobs errors %u, "
             "storage errors %u, bad records %u, io errors %u/%u\n",
-            c->requests, c->error_responses, c->samples_sent, c->samples_dropped, c->samples_late,
+            c->requests, c->error_responses, c->samples_sent, c->samples_dropped, c->samples_stale,
+            c->samples_late,
             c->events_sent, c->events_dropped, d->frames_ok, d->crc_errors, d->cobs_errors,
             c->storage_errors, c->storage_bad_records, c->serial_io_errors, c->can_io_errors);
 }
@@ -430,7 +432,9 @@ int main(int argc, char **argv)
         }
         if (port.serial_fd >= 0) {
             fds[nfds].fd = port.serial_fd;
-            fds[nfds].events = POLLIN;
+            /* Input only when the device will read it: a request that waits
+             * for the line must not wake us in a busy loop. */
+            fds[nfds].events = aacmm_device_serial_wants_input(&dev) ? POLLIN : 0;
             if (aacmm_device_serial_pending(&dev) > 0u) {
                 fds[nfds].events |= POLLOUT;
             }
@@ -470,6 +474,16 @@ int main(int argc, char **argv)
         if (ppoll(fds, nfds, &ts, &waitmask) < 0 && errno != EINTR) {
             fprintf(stderr, "aacmm-sim: poll failed: %s\n", strerror(errno));
             break;
+        }
+        {
+            /* ppoll returning ready descriptors leaves a signal pending
+             * (the mask is restored first): look for one. */
+            sigset_t pend;
+            if (sigpending(&pend) == 0 &&
+                (sigismember(&pend, SIGINT) == 1 || sigismember(&pend, SIGTERM) == 1 ||
+                 sigismember(&pend, SIGHUP) == 1)) {
+                stop_signal = 1;
+            }
         }
         for (i = 0; i < (int)nfds; i++) {
             if (fds[i].fd == port.control.fd && (fds[i].revents & POLLOUT) != 0) {

@@ -27,12 +27,19 @@ static uint32_t now_ms32(uint64_t t_us)
     return (uint32_t)((t_us / 1000u) & 0xFFFFFFFFu);
 }
 
+/* The serial output queue holds message bodies of samples and events, each
+ * behind a header: u16 body length, u32 time queued (ms, wraps). They are
+ * framed one at a time into dev->wire (the "stage") when the driver can
+ * take them; a response is framed into the stage directly, so it waits for at
+ * most the frame in progress, never for the queue. */
+#define TXQ_HDR 6u
+
 static size_t txq_free(const aacmm_device_serial_t *s)
 {
     return s->txq_cap - s->txq_len;
 }
 
-/* Append n bytes (the caller checked the room). */
+/* Append n bytes at the tail (the caller checked the room). */
 static void txq_put(aacmm_device_serial_t *s, const uint8_t *data, size_t n)
 {
     size_t tail = s->txq_head + s->txq_len;
@@ -48,6 +55,32 @@ static void txq_put(aacmm_device_serial_t *s, const uint8_t *data, size_t n)
         }
     }
     s->txq_len += n;
+}
+
+/* Copy n bytes from the head into out (NULL: discard) and remove them. */
+static void txq_take(aacmm_device_serial_t *s, uint8_t *out, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        if (out != NULL) {
+            out[i] = s->txq[s->txq_head];
+        }
+        s->txq_head++;
+        if (s->txq_head == s->txq_cap) {
+            s->txq_head = 0;
+        }
+    }
+    s->txq_len -= n;
+    if (s->txq_len == 0u) {
+        s->txq_head = 0u;
+    }
+}
+
+/* The byte at offset k from the head. */
+static uint8_t txq_peek(const aacmm_device_serial_t *s, size_t k)
+{
+    size_t i = s->txq_head + k;
+    return s->txq[i >= s->txq_cap ? i - s->txq_cap : i];
 }
 
 static size_t canq_free(const aacmm_device_can_t *c)
@@ -446,63 +479,138 @@ static size_t frame_msg(aacmm_device_t *dev, const aacmm_msg_t *msg)
     return n;
 }
 
-static void serial_flush(aacmm_device_t *dev)
+/* Hand the stage (the frame in progress) to the driver. Returns 1 when it
+ * is empty afterwards. */
+static int serial_stage_drain(aacmm_device_t *dev)
 {
     aacmm_device_serial_t *s = &dev->serial;
-    while (s->txq_len > 0u) {
-        size_t chunk = s->txq_cap - s->txq_head;
+    if (s->stage_sample && s->stage_pos == 0u && s->stage_len > 0u &&
+        (uint32_t)(now_ms32(now_us(dev)) - s->stage_t_ms) > dev->max_sample_age_ms) {
+        /* staged but not started, and stale by now */
+        s->stage_len = 0u;
+        s->stage_sample = 0u;
+        dev->counters.samples_dropped++;
+        dev->counters.samples_stale++;
+        s->stale_overrun = 1u;
+    }
+    while (s->stage_pos < s->stage_len) {
+        size_t chunk = s->stage_len - s->stage_pos;
         size_t done = 0u;
-        if (chunk > s->txq_len) {
-            chunk = s->txq_len;
-        }
-        if (dev->pf.serial_write(dev->pf.ctx, s->txq + s->txq_head, chunk, &done) != AACMM_OK) {
+        if (dev->pf.serial_write(dev->pf.ctx, dev->wire + s->stage_pos, chunk, &done) !=
+            AACMM_OK) {
             dev->counters.serial_io_errors++;
-            return;
+            return 0;
         }
         if (done > chunk) {
             done = chunk;
         }
-        s->txq_head += done;
-        if (s->txq_head == s->txq_cap) {
-            s->txq_head = 0u;
-        }
-        s->txq_len -= done;
+        s->stage_pos += done;
         if (done < chunk) {
-            return; /* driver full */
+            return 0; /* driver full */
         }
     }
-    s->txq_head = 0u;
+    s->stage_pos = 0u;
+    s->stage_len = 0u;
+    return 1;
 }
 
-/* Queue a framed message that must not be dropped (a response: the room was
- * reserved before the request was taken). */
+/* Move the next queued body into the stage: samples that waited longer than
+ * max_sample_age are dropped on the way (counted; the next sample framed
+ * carries OVERRUN). Returns 1 if the stage got a frame. */
+static int serial_stage_next(aacmm_device_t *dev)
+{
+    aacmm_device_serial_t *s = &dev->serial;
+    uint32_t now_ms = now_ms32(now_us(dev));
+    while (s->txq_len >= TXQ_HDR) {
+        size_t n = (size_t)txq_peek(s, 0) | ((size_t)txq_peek(s, 1) << 8);
+        uint32_t t = (uint32_t)txq_peek(s, 2) | ((uint32_t)txq_peek(s, 3) << 8) |
+                     ((uint32_t)txq_peek(s, 4) << 16) | ((uint32_t)txq_peek(s, 5) << 24);
+        uint8_t type = txq_peek(s, TXQ_HDR + 1u);
+        size_t wl = 0u;
+        txq_take(s, NULL, TXQ_HDR);
+        if (type == (uint8_t)AACMM_MSG_SAMPLE_EVT && (uint32_t)(now_ms - t) > dev->max_sample_age_ms) {
+            txq_take(s, NULL, n); /* stale: the host would get it too late */
+            dev->counters.samples_dropped++;
+            dev->counters.samples_stale++;
+            s->stale_overrun = 1u;
+            continue;
+        }
+        txq_take(s, dev->body, n);
+        if (type == (uint8_t)AACMM_MSG_SAMPLE_EVT && s->stale_overrun) {
+            /* status: u32 at sample offset 48, OVERRUN in its low byte */
+            dev->body[AACMM_PROTO_HEADER_BYTES + 48u] |= (uint8_t)AACMM_SAMPLE_OVERRUN;
+            s->stale_overrun = 0u;
+        }
+        if (aacmm_frame_encode(dev->body, n, dev->wire, sizeof dev->wire, &wl) != AACMM_OK) {
+            continue; /* cannot happen: the body was encoded by us */
+        }
+        s->stage_len = wl;
+        s->stage_pos = 0u;
+        s->stage_sample = (uint8_t)(type == (uint8_t)AACMM_MSG_SAMPLE_EVT);
+        s->stage_t_ms = t;
+        return 1;
+    }
+    return 0;
+}
+
+/* Send what the driver takes: the frame in progress, then queued bodies. */
+static void serial_flush(aacmm_device_t *dev)
+{
+    while (serial_stage_drain(dev)) {
+        if (!serial_stage_next(dev)) {
+            return;
+        }
+    }
+}
+
+/* Frame a response into the empty stage and send it (the caller made sure
+ * the stage was empty before taking the request). */
 static void serial_send_response(aacmm_device_t *dev, const aacmm_msg_t *msg)
 {
-    size_t n = frame_msg(dev, msg);
-    if (n == 0u || n > txq_free(&dev->serial)) {
-        return; /* cannot happen: encodable responses, reserved room */
+    size_t n;
+    if (dev->serial.stage_len != 0u) {
+        return; /* cannot happen: requests are taken only with an empty stage */
     }
-    txq_put(&dev->serial, dev->wire, n);
+    n = frame_msg(dev, msg);
+    if (n == 0u) {
+        return; /* cannot happen: responses are encodable */
+    }
+    dev->serial.stage_len = n;
+    dev->serial.stage_pos = 0u;
+    dev->serial.stage_sample = 0u;
     if (msg->type == (uint8_t)AACMM_MSG_ERROR_RSP) {
         dev->counters.error_responses++;
     }
+    (void)serial_stage_drain(dev);
 }
 
-/* Queue a droppable message (sample or event), keeping the response reserve.
- * Returns 1 if queued. */
+/* Queue a droppable message (sample or event). Returns 1 if queued. */
 static int serial_send_droppable(aacmm_device_t *dev, const aacmm_msg_t *msg)
 {
-    size_t n = frame_msg(dev, msg);
-    if (n == 0u) {
-        return 0;
-    }
-    if (txq_free(&dev->serial) < n + AACMM_FRAME_MAX_WIRE) {
+    aacmm_device_serial_t *s = &dev->serial;
+    uint8_t content = msg->type == (uint8_t)AACMM_MSG_TRIGGER_EVT ? msg->u.trigger.sample.content
+                                                                   : msg->u.sample.content;
+    size_t need = AACMM_PROTO_HEADER_BYTES + aacmm_msg_payload_len(msg->type, content);
+    size_t n = 0u;
+    uint8_t hdr[TXQ_HDR];
+    uint32_t t = now_ms32(now_us(dev));
+    if (txq_free(s) < TXQ_HDR + need) {
         serial_flush(dev); /* make room if the driver can take bytes now */
-        if (txq_free(&dev->serial) < n + AACMM_FRAME_MAX_WIRE) {
+        if (txq_free(s) < TXQ_HDR + need) {
             return 0;
         }
     }
-    txq_put(&dev->serial, dev->wire, n);
+    if (aacmm_msg_encode(msg, dev->body, sizeof dev->body, &n) != AACMM_OK || n != need) {
+        return 0;
+    }
+    hdr[0] = (uint8_t)(n & 0xFFu);
+    hdr[1] = (uint8_t)(n >> 8);
+    hdr[2] = (uint8_t)(t & 0xFFu);
+    hdr[3] = (uint8_t)((t >> 8) & 0xFFu);
+    hdr[4] = (uint8_t)((t >> 16) & 0xFFu);
+    hdr[5] = (uint8_t)(t >> 24);
+    txq_put(s, hdr, TXQ_HDR);
+    txq_put(s, dev->body, n);
     return 1;
 }
 
@@ -515,11 +623,8 @@ static void serial_receive(aacmm_device_t *dev)
     for (;;) {
         const uint8_t *body = NULL;
         size_t body_len = 0u;
-        if (txq_free(s) < AACMM_FRAME_MAX_WIRE) {
-            serial_flush(dev);
-            if (txq_free(s) < AACMM_FRAME_MAX_WIRE) {
-                return; /* no room for a response: leave the request waiting */
-            }
+        if (!serial_stage_drain(dev)) {
+            return; /* the frame in progress is not out yet: the request waits */
         }
         if (s->rx_pos == s->rx_len) {
             size_t got = 0u;
@@ -848,6 +953,8 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     dev->pf = *platform;
     dev->serial_number = config->serial_number;
     dev->max_catch_up = config->max_catch_up != 0u ? config->max_catch_up : AACMM_DEVICE_MAX_CATCH_UP;
+    dev->max_sample_age_ms = config->max_sample_age_ms != 0u ? config->max_sample_age_ms
+                                                             : AACMM_DEVICE_MAX_SAMPLE_AGE_MS;
     dev->store.newest = 0xFFu;
     dev->start_us = platform->time_us(platform->ctx);
     dev->reset_cause = config->reset_cause <= AACMM_RESET_CAUSE_MAX ? config->reset_cause
@@ -949,8 +1056,7 @@ aacmm_status_t aacmm_device_poll(aacmm_device_t *dev)
         return AACMM_ERR_NULL;
     }
     if (dev->serial.present) {
-        serial_flush(dev);
-        serial_receive(dev);
+        serial_receive(dev); /* responses first: they only wait for the frame in progress */
     }
     if (dev->can.present) {
         can_flush(dev);
@@ -999,8 +1105,8 @@ uint64_t aacmm_device_next_deadline_us(const aacmm_device_t *dev)
         if (s->stream.active && s->stream.next_us < d) {
             d = s->stream.next_us;
         }
-        /* Received bytes left over (poll budget) and room to answer: now. */
-        if (s->rx_pos < s->rx_len && txq_free(s) >= AACMM_FRAME_MAX_WIRE) {
+        /* Received bytes left over (poll budget) and the stage free to answer: now. */
+        if (s->rx_pos < s->rx_len && s->stage_len == 0u) {
             d = t;
         }
     }
@@ -1021,7 +1127,12 @@ uint64_t aacmm_device_next_deadline_us(const aacmm_device_t *dev)
 
 size_t aacmm_device_serial_pending(const aacmm_device_t *dev)
 {
-    return dev == NULL ? 0u : dev->serial.txq_len;
+    return dev == NULL ? 0u : dev->serial.txq_len + (dev->serial.stage_len - dev->serial.stage_pos);
+}
+
+int aacmm_device_serial_wants_input(const aacmm_device_t *dev)
+{
+    return dev != NULL && dev->serial.present && dev->serial.stage_len == 0u;
 }
 
 size_t aacmm_device_can_pending(const aacmm_device_t *dev)

@@ -1,0 +1,239 @@
+"""Hostile input against the sanitizer builds of the simulator (#15.10).
+
+`make sim SAN=1` (and `SAN=1 DEVICE_KIN=q`) builds aacmm-sim with
+AddressSanitizer and UndefinedBehaviorSanitizer, aborting on the first
+report. Both kinematics backends get, over their serial link: random bytes,
+torn and oversize frames, frames with a good CRC around random bodies (every
+message type, every length), mutated valid requests, requests with extreme
+but encodable values (parameter sets at and beyond the limits, counts at the
+edges, every stream rate), a stalled host while streaming with the Jacobian,
+and corrupted encoder frames on every joint; and hostile storage files at
+start-up (random, truncated, oversized, a record with a good CRC around
+garbage). Every run must end with exit status 0 on SIGTERM and nothing from
+a sanitizer on stderr, and the device must still answer afterwards.
+
+The binaries come from $AACMM_SIM_SAN and $AACMM_SIM_SAN_Q (mk/sim-robust.mk).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import select
+import struct
+import time
+import tty
+import zlib
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from aacmm.protocol import (
+    Deframer,
+    Message,
+    MsgType,
+    Ping,
+    decode_message,
+    encode_frame,
+    frame_message,
+)
+from simproc import Sim
+
+pytestmark = pytest.mark.timeout(300)
+
+ROOT = Path(__file__).resolve().parents[2]
+BINARIES = {
+    "f32": os.environ.get("AACMM_SIM_SAN", str(ROOT / "build" / "sim-san" / "aacmm-sim")),
+    "q": os.environ.get("AACMM_SIM_SAN_Q", str(ROOT / "build" / "sim-q-san" / "aacmm-sim")),
+}
+SANITIZER_WORDS = ("AddressSanitizer", "LeakSanitizer", "runtime error", "UndefinedBehavior")
+
+
+class Link:
+    def __init__(self, path: str) -> None:
+        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        tty.setraw(self.fd)
+        self.deframer = Deframer()
+
+    def send(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            try:
+                n = os.write(self.fd, view)
+            except BlockingIOError:
+                self.drain(0.01)
+                continue
+            view = view[n:]
+
+    def drain(self, seconds: float) -> int:
+        """Read and decode whatever arrives for `seconds`; return the bodies seen."""
+        end = time.monotonic() + seconds
+        bodies = 0
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                return bodies
+            if select.select([self.fd], [], [], left)[0]:
+                try:
+                    data = os.read(self.fd, 65536)
+                except BlockingIOError:
+                    continue
+                for body in self.deframer.feed(data):
+                    decode_message(body)  # everything the device sends decodes
+                    bodies += 1
+
+    def ping(self, token: int) -> bool:
+        self.send(frame_message(Message(MsgType.PING_REQ, token & 0xFF, Ping(token))))
+        end = time.monotonic() + 10.0
+        while time.monotonic() < end:
+            if select.select([self.fd], [], [], 0.5)[0]:
+                try:
+                    data = os.read(self.fd, 65536)
+                except BlockingIOError:
+                    continue
+                for body in self.deframer.feed(data):
+                    msg = decode_message(body)
+                    if msg.type == MsgType.PING_RSP and msg.payload == Ping(token):
+                        return True
+        return False
+
+    def close(self) -> None:
+        os.close(self.fd)
+
+
+VALID_BODIES = [
+    bytes([1, 0x01, 1]) + struct.pack("<I", 99),  # ping
+    bytes([1, 0x07, 2, 1]),  # measure with the Jacobian
+    bytes([1, 0x08, 3, 0]) + struct.pack("<6I", 1, 2, 3, 4, 5, 6),  # compute
+    bytes([1, 0x09, 4]) + struct.pack("<HB", 100, 0),  # stream start
+    bytes([1, 0x0B, 5]),  # diagnostics
+]
+
+
+def framed(body: bytes) -> bytes:
+    """Any body (up to 512 bytes) in a serial frame with a good CRC."""
+    return encode_frame(body)
+
+
+def hostile_frames(rng: random.Random) -> Iterator[bytes]:
+    types = list(range(256))
+    for _ in range(3000):
+        kind = rng.randrange(8)
+        if kind == 0:  # random bytes, zeros included: torn frames, garbage
+            yield rng.randbytes(rng.randrange(1, 700))
+        elif kind == 1:  # a good CRC around a random body of any type and length
+            t = rng.choice(types)
+            body = bytes([1, t, rng.randrange(256)]) + rng.randbytes(rng.randrange(0, 509))
+            yield framed(body)
+        elif kind == 2:  # the right length for a request type, random payload
+            t = rng.randrange(1, 0x0C)
+            n = {1: 4, 4: 278, 7: 1, 8: 25, 9: 3}.get(t, 0)
+            yield framed(bytes([1, t, rng.randrange(256)]) + rng.randbytes(n))
+        elif kind == 3:  # parameter sets with extreme values, some beyond the limits
+            vals = [rng.choice([0.0, -0.0, 6.283185307179586, 1e4, -1e4, 1e300, 5e-324, 7.0])
+                    for _ in range(25)]  # fmt: skip
+            cpr = [rng.choice([2, 3, 1 << 32, (1 << 32) - 1, 1, 0]) for _ in range(6)]
+            zero = [rng.choice([0, 1, (1 << 32) - 1]) for _ in range(6)]
+            dirs = [rng.choice([1, -1, 0, 2]) for _ in range(6)]
+            payload = struct.pack("<25d6Q6I6b", *vals, *cpr, *zero, *dirs)
+            yield framed(bytes([1, 0x04, rng.randrange(256)]) + payload)
+        elif kind == 4:  # compute with edge counts, with and without the Jacobian
+            counts = [rng.choice([0, 1, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF]) for _ in range(6)]
+            body = bytes([1, 0x08, 1, rng.randrange(2)]) + struct.pack("<6I", *counts)
+            yield framed(body)
+        elif kind == 5:  # stream start at any rate (0 and > 1000 refused)
+            rate = rng.choice([0, 1, 7, 999, 1000, 1001, 65535])
+            yield framed(bytes([1, 0x09, 2]) + struct.pack("<HB", rate, rng.randrange(3)))
+        elif kind == 6:  # a valid request with one byte mutated, CRC recomputed
+            base = bytearray(rng.choice(VALID_BODIES))
+            base[rng.randrange(len(base))] = rng.randrange(256)
+            yield framed(bytes(base))
+        else:  # oversize: a frame longer than any body, no zero inside
+            yield b"\x00" + bytes(rng.randrange(1, 256) for _ in range(rng.randrange(520, 1500)))
+
+
+def check_clean_exit(sim: Sim) -> None:
+    code = sim.stop()
+    text = "\n".join(sim.stderr_lines)
+    assert code == 0, f"exit {code}:\n{text[-3000:]}"
+    for word in SANITIZER_WORDS:
+        assert word not in text, text[-3000:]
+
+
+@pytest.fixture(params=sorted(BINARIES))
+def sim_bin(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    path = BINARIES[request.param]
+    assert Path(path).is_file(), f"{path} missing (make sim SAN=1)"
+    monkeypatch.setenv("ASAN_OPTIONS", "detect_leaks=1:abort_on_error=1")
+    monkeypatch.setenv("UBSAN_OPTIONS", "print_stacktrace=1:halt_on_error=1")
+    import simproc
+
+    monkeypatch.setattr(simproc, "SIM_BIN", Path(path))
+    return path
+
+
+def test_hostile_link_input(sim_bin: str, tmp_path: Path) -> None:
+    rng = random.Random(15)
+    store = tmp_path / "arm.bin"
+    with Sim(
+        "--serial", "pty", "--storage", str(store), "--encoder-faults", "3",
+        "--button-every", "0.05", "--noise-counts", "1000",
+    ) as sim:  # fmt: skip
+        assert sim.serial_path is not None
+        link = Link(sim.serial_path)
+        sent = 0
+        for chunk in hostile_frames(rng):
+            link.send(chunk)
+            sent += len(chunk)
+            if rng.random() < 0.05:
+                link.drain(0.01)
+        link.drain(0.5)
+        # a Jacobian stream with the host stalled, then hostile input again
+        link.send(framed(bytes([1, 0x09, 9]) + struct.pack("<HB", 1000, 1)))
+        time.sleep(1.2)
+        for chunk in hostile_frames(random.Random(16)):
+            link.send(chunk)
+        link.send(framed(bytes([1, 0x0A, 10])))  # stop the stream
+        link.send(framed(bytes([1, 0x05, 11])))  # save whatever set is active
+        link.drain(1.0)
+        assert link.ping(0x1234ABCD), "the device stopped answering"
+        link.close()
+        check_clean_exit(sim)
+    assert sent > 600_000
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"",
+        b"AACM",
+        b"\x00" * 1024,
+        b"random",
+        b"huge",
+        b"good-crc",
+    ],
+    ids=["empty", "magic-only", "zeros", "random", "huge", "good-crc-garbage"],
+)
+def test_hostile_storage_files(sim_bin: str, tmp_path: Path, content: bytes) -> None:
+    store = tmp_path / "arm.bin"
+    rng = random.Random(len(content))
+    if content == b"random":
+        content = rng.randbytes(1024)
+    elif content == b"huge":
+        content = rng.randbytes(3 * 1024 * 1024)
+    elif content == b"good-crc":
+        rec = bytearray(rng.randbytes(512))
+        rec[0:12] = b"AACM" + struct.pack("<HHI", 1, 278, 5)
+        struct.pack_into("<I", rec, 290, zlib.crc32(bytes(rec[:290])))
+        content = bytes(rec) * 2
+    store.write_bytes(content)
+    (tmp_path / "arm.bin.tmp").write_bytes(rng.randbytes(100))  # a stale temp file
+    with Sim("--serial", "pty", "--storage", str(store)) as sim:
+        assert sim.serial_path is not None
+        link = Link(sim.serial_path)
+        assert link.ping(7)
+        link.send(framed(bytes([1, 0x05, 1])))  # save over it
+        link.drain(0.3)
+        link.close()
+        check_clean_exit(sim)
+    assert store.stat().st_size == 1024
