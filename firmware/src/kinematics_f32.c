@@ -33,16 +33,8 @@ static inline float pow2_f32(int e)
     return f;
 }
 
-/* pi/2 = PIO2_1 + PIO2_2 + PIO2_3, the first two with 12 significant bits. */
-#define ROUND_MAGIC 0x1.8p23f
-#define TWO_OVER_PI 0.636619772f
-#define PIO2_1 0x1.92p+0f
-#define PIO2_2 0x1.fb4p-12f
-#define PIO2_3 0x1.4442d2p-24f
-
-/* Taylor series on |r| <= pi/4: truncation error < 2e-9 relative. */
-#define SIN_POLY(z) (-1.0f / 6.0f + (z) * (1.0f / 120.0f + (z) * (-1.0f / 5040.0f + (z) * (1.0f / 362880.0f))))
-#define COS_POLY(z)                                                                                \
-    (1.0f / 24.0f + (z) * (-1.0f / 720.0f + (z) * (1.0f / 40320.0f + (z) * (-1.0f / 3628800.0f))))
+#include "sincos_f32.h"
 
 #include "kinematics_impl.h"
+
+#include "template_end.h"

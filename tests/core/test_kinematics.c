@@ -5,6 +5,12 @@
  *
  * Measured maxima are printed as "measured: ..." lines so the docs can quote
  * them; every bound asserted here is stated in docs/kinematics.md.
+ *
+ * The accuracy tests run once per batch kernel this CPU can run (aacmm/simd.h:
+ * scalar, vec128, avx2, avx512): their point and Jacobian calls go through
+ * the kernel under test (k_point_f64 and friends below). A last group checks
+ * the batch kernels against the scalar one over 10^6 poses and their batch
+ * semantics (tails, the stop at the first bad pose, *done).
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -15,7 +21,9 @@
 
 #include <cmocka.h>
 
+#include "aacmm/analysis.h"
 #include "aacmm/kinematics.h"
+#include "aacmm/simd.h"
 #include "reference.h"
 
 #define PI 3.14159265358979323846
@@ -28,6 +36,42 @@
 #define BOUND_FD_LENGTH 1e-8            /* same, length columns (the point is affine in them) */
 #define BOUND_F32_POINT_MM 1e-3         /* f32 vs f64 point, per coordinate */
 #define BOUND_F32_JAC 2e-3              /* f32 vs f64 Jacobian, per entry */
+
+/* Agreement of every batch kernel with the scalar one (docs/kinematics.md). */
+#define BOUND_SIMD_POINT_MM 1e-12     /* per coordinate, absolute */
+#define BOUND_SIMD_JAC 1e-12          /* per entry, relative to max(1, |entry|) */
+#define BOUND_SIMD_F32 1e-3          /* f32 lanes vs f32 scalar, absolute (mm, mm/rad, mm/mm) */
+
+/* The kernel the accuracy tests run on (set by main for each group run). */
+static aacmm_kernel_t kernel = AACMM_KERNEL_SCALAR;
+
+/* One pose through the kernel under test: the per-pose core for the scalar
+ * kernel, a batch of one (lanes filled with copies) for the others. */
+static aacmm_status_t k_point_f64(const aacmm_model_f64_t *m, const double th[6], double p[3])
+{
+    if (kernel == AACMM_KERNEL_SCALAR) {
+        return aacmm_point_f64(m, th, p);
+    }
+    return aacmm_simd_batch_angles_f64(kernel, m, 1u, th, p, NULL, NULL);
+}
+
+static aacmm_status_t k_point_jacobian_f64(const aacmm_model_f64_t *m, const double th[6],
+                                           double p[3], double J[AACMM_JAC_SIZE])
+{
+    if (kernel == AACMM_KERNEL_SCALAR) {
+        return aacmm_point_jacobian_f64(m, th, p, J);
+    }
+    return aacmm_simd_batch_angles_f64(kernel, m, 1u, th, p, J, NULL);
+}
+
+static aacmm_status_t k_point_jacobian_f32(const aacmm_model_f32_t *m, const float th[6],
+                                           float p[3], float J[AACMM_JAC_SIZE])
+{
+    if (kernel == AACMM_KERNEL_SCALAR) {
+        return aacmm_point_jacobian_f32(m, th, p, J);
+    }
+    return aacmm_simd_batch_angles_f32(kernel, m, 1u, th, p, J, NULL);
+}
 
 static void random_pose(test_rng_t *g, double th[6])
 {
@@ -81,7 +125,7 @@ static void test_point_matches_reference(void **state)
             long double q[25], pref[3];
             int r;
             random_pose(&g, th);
-            assert_int_equal(aacmm_point_f64(&m, th, p), AACMM_OK);
+            assert_int_equal(k_point_f64(&m, th, p), AACMM_OK);
             ref_params(&pr, th, q);
             ref_point(q, pref);
             for (r = 0; r < 3; r++) {
@@ -107,8 +151,8 @@ static void test_point_jacobian_same_point(void **state)
     for (k = 0; k < 1000; k++) {
         double th[6], p1[3], p2[3], J[AACMM_JAC_SIZE];
         random_pose(&g, th);
-        assert_int_equal(aacmm_point_f64(&m, th, p1), AACMM_OK);
-        assert_int_equal(aacmm_point_jacobian_f64(&m, th, p2, J), AACMM_OK);
+        assert_int_equal(k_point_f64(&m, th, p1), AACMM_OK);
+        assert_int_equal(k_point_jacobian_f64(&m, th, p2, J), AACMM_OK);
         assert_memory_equal(p1, p2, sizeof p1);
     }
 }
@@ -131,7 +175,7 @@ static void test_jacobian_vs_central_differences(void **state)
     for (k = 0; k < 10000; k++) {
         double th[6], p[3], J[AACMM_JAC_SIZE];
         random_pose(&g, th);
-        assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+        assert_int_equal(k_point_jacobian_f64(&m, th, p, J), AACMM_OK);
         for (c = 0; c < AACMM_JAC_COLS; c++) {
             aacmm_params_f64_t pp = pr, pm = pr;
             double thp[6], thm[6], fp[3], fm[3];
@@ -158,8 +202,8 @@ static void test_jacobian_vs_central_differences(void **state)
             }
             assert_int_equal(aacmm_model_init_f64(&mp, &pp), AACMM_OK);
             assert_int_equal(aacmm_model_init_f64(&mm, &pm), AACMM_OK);
-            assert_int_equal(aacmm_point_f64(&mp, thp, fp), AACMM_OK);
-            assert_int_equal(aacmm_point_f64(&mm, thm, fm), AACMM_OK);
+            assert_int_equal(k_point_f64(&mp, thp, fp), AACMM_OK);
+            assert_int_equal(k_point_f64(&mm, thm, fm), AACMM_OK);
             for (r = 0; r < 3; r++) {
                 double fd = (fp[r] - fm[r]) / (2.0 * h);
                 double e = fabs(fd - J[r * AACMM_JAC_COLS + c]);
@@ -195,7 +239,7 @@ static void test_jacobian_vs_reference_differences(void **state)
         double th[6], p[3], J[AACMM_JAC_SIZE];
         long double q[25];
         random_pose(&g, th);
-        assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+        assert_int_equal(k_point_jacobian_f64(&m, th, p, J), AACMM_OK);
         ref_params(&pr, th, q);
         for (c = 0; c < AACMM_JAC_COLS; c++) {
             /* five-point stencil: truncation ~ h^4 |p^(5)| / 30, negligible
@@ -246,7 +290,7 @@ static void test_paper_identities(void **state)
         for (k = 0; k < 10000; k++) {
             double th[6], p[3], J[AACMM_JAC_SIZE];
             random_pose(&g, th);
-            assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+            assert_int_equal(k_point_jacobian_f64(&m, th, p, J), AACMM_OK);
             for (c = AACMM_COL_D(0); c <= AACMM_COL_L; c++) {
                 double nx = J[c], ny = J[AACMM_JAC_COLS + c], nz = J[2 * AACMM_JAC_COLS + c];
                 double e = fabs(sqrt(nx * nx + ny * ny + nz * nz) - 1.0);
@@ -297,7 +341,7 @@ static void test_zero_pose_by_hand(void **state)
     int i, r;
     (void)state;
     default_model(&m);
-    assert_int_equal(aacmm_point_jacobian_f64(&m, th, p, J), AACMM_OK);
+    assert_int_equal(k_point_jacobian_f64(&m, th, p, J), AACMM_OK);
     for (r = 0; r < 3; r++) {
         assert_true(fabs(p[r] - p_expect[r]) < 1e-9);
         for (i = 0; i < 6; i++) {
@@ -340,8 +384,8 @@ static void test_f32_vs_f64(void **state)
             thf[i] = (float)rng_uniform(&g, -PI, PI);
             thd[i] = (double)thf[i];
         }
-        assert_int_equal(aacmm_point_jacobian_f64(&md, thd, p64, J64), AACMM_OK);
-        assert_int_equal(aacmm_point_jacobian_f32(&mf, thf, p32, J32), AACMM_OK);
+        assert_int_equal(k_point_jacobian_f64(&md, thd, p64, J64), AACMM_OK);
+        assert_int_equal(k_point_jacobian_f32(&mf, thf, p32, J32), AACMM_OK);
         for (r = 0; r < 3; r++) {
             double e = fabs((double)p32[r] - p64[r]);
             if (e > worst_p) {
@@ -826,9 +870,226 @@ static void test_status_strings(void **state)
     assert_string_equal(aacmm_status_str(AACMM_STATUS_MIN_), "unknown status");
 }
 
+/* ------------------------------------------------------------------------ */
+/* Batch kernels across SIMD lanes (aacmm/simd.h)                            */
+/* ------------------------------------------------------------------------ */
+
+/* Largest |a - b| / max(1, |b|) over n values (relative for |b| >= 1). */
+static double rel_diff(const double *a, const double *b, size_t n)
+{
+    double worst = 0.0;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        double e = fabs(a[i] - b[i]) / fmax(1.0, fabs(b[i]));
+        if (e > worst) {
+            worst = e;
+        }
+    }
+    return worst;
+}
+
+static double abs_diff_f32(const float *a, const float *b, size_t n)
+{
+    double worst = 0.0;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        double e = fabs((double)a[i] - (double)b[i]);
+        if (e > worst) {
+            worst = e;
+        }
+    }
+    return worst;
+}
+
+/* Every available kernel against the scalar one over 10^6 random poses, in
+ * batches of 1000 (full groups and tails): points within 1e-12 mm, Jacobian
+ * entries within 1e-12 relative; single precision within 1e-3 (the f32 bound
+ * against f64); the fused |J| sums within 1e-12 relative of the scalar sums.
+ * Built as in mk/core.mk (no FMA contraction), the lanes round every
+ * operation as the scalar core does, so points and Jacobians are in fact
+ * equal bit for bit: asserted too. */
+static void test_simd_agrees_with_scalar(void **state)
+{
+    enum { B = 1000, BATCHES = 1000 };
+    static double th[B * 6], p0[B * 3], p1[B * 3], j0[B * AACMM_JAC_SIZE], j1[B * AACMM_JAC_SIZE];
+    static float thf[B * 6], pf0[B * 3], pf1[B * 3], jf0[B * AACMM_JAC_SIZE],
+        jf1[B * AACMM_JAC_SIZE];
+    aacmm_params_f64_t pr;
+    aacmm_params_f32_t pf;
+    aacmm_model_f64_t m;
+    aacmm_model_f32_t mf;
+    int k;
+    (void)state;
+    perturbed_params(&pr);
+    assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
+    aacmm_params_default_f32(&pf);
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
+    for (k = 1; k < AACMM_KERNEL_COUNT; k++) {
+        const aacmm_kernel_t kk = (aacmm_kernel_t)k;
+        test_rng_t g = {UINT64_C(0x5EED) + (uint64_t)k};
+        double worst_p = 0.0, worst_j = 0.0, worst_f = 0.0, worst_s = 0.0;
+        double s0[AACMM_JAC_SIZE] = {0}, q0[AACMM_JAC_SIZE] = {0};
+        double s1[AACMM_JAC_SIZE] = {0}, q1[AACMM_JAC_SIZE] = {0};
+        int b, i;
+        if (!aacmm_kernel_available(kk)) {
+            printf("kernel %s: not available on this CPU\n", aacmm_kernel_name(kk));
+            continue;
+        }
+        for (b = 0; b < BATCHES; b++) {
+            size_t done = 0u;
+            for (i = 0; i < B * 6; i++) {
+                th[i] = rng_uniform(&g, -PI, PI);
+                thf[i] = (float)th[i];
+            }
+            assert_int_equal(aacmm_batch_angles_f64(&m, B, th, p0, j0, NULL), AACMM_OK);
+            assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, B, th, p1, j1, &done), AACMM_OK);
+            assert_int_equal((int)done, B);
+            for (i = 0; i < B * 3; i++) {
+                worst_p = fmax(worst_p, fabs(p1[i] - p0[i]));
+            }
+            worst_j = fmax(worst_j, rel_diff(j1, j0, B * AACMM_JAC_SIZE));
+            if (b % 10 == 0) {
+                assert_int_equal(aacmm_batch_angles_f32(&mf, B, thf, pf0, jf0, NULL), AACMM_OK);
+                assert_int_equal(aacmm_simd_batch_angles_f32(kk, &mf, B, thf, pf1, jf1, NULL),
+                                 AACMM_OK);
+                worst_f = fmax(worst_f, abs_diff_f32(pf1, pf0, B * 3));
+                worst_f = fmax(worst_f, abs_diff_f32(jf1, jf0, B * AACMM_JAC_SIZE));
+                /* points only: the same points as with the Jacobian */
+                assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, B, th, p0, NULL, NULL),
+                                 AACMM_OK);
+                assert_memory_equal(p0, p1, sizeof p0);
+                assert_int_equal(aacmm_abs_jacobian_sums_f64(&m, B, th, s0, q0, NULL), AACMM_OK);
+                assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, B, th, s1, q1, NULL),
+                                 AACMM_OK);
+            }
+        }
+        for (i = 0; i < AACMM_JAC_SIZE; i++) {
+            worst_s = fmax(worst_s, fabs(s1[i] - s0[i]) / fmax(1.0, s0[i]));
+            worst_s = fmax(worst_s, fabs(q1[i] - q0[i]) / fmax(1.0, q0[i]));
+        }
+        printf("measured: kernel %s vs scalar, 10^6 poses: point max %.3g mm, Jacobian max %.3g "
+               "(relative to max(1, |entry|)); f32 max %.3g (10^5 poses); |J| sums max %.3g (relative)\n",
+               aacmm_kernel_name(kk), worst_p, worst_j, worst_f, worst_s);
+        assert_true(worst_p <= BOUND_SIMD_POINT_MM);
+        assert_true(worst_j <= BOUND_SIMD_JAC);
+        assert_true(worst_f <= BOUND_SIMD_F32);
+        assert_true(worst_p <= 0.0 && worst_j <= 0.0 && worst_f <= 0.0); /* bit for bit */
+        assert_true(worst_s <= 1e-12);
+    }
+}
+
+/* Batch semantics of every kernel: a pose's result does not depend on its
+ * lane or its neighbours (bitwise, whatever the batch size and offset), the
+ * first bad pose stops the batch with *done = the poses before it (written,
+ * and summed), n = 0, NULL arguments, and a kernel this build or CPU cannot
+ * run. */
+static void test_simd_batch_semantics(void **state)
+{
+    enum { N = 50 };
+    static double th[N * 6], P[N * 3], J[N * AACMM_JAC_SIZE], P2[N * 3], J2[N * AACMM_JAC_SIZE];
+    static float thf[N * 6], Pf[N * 3], Jf[N * AACMM_JAC_SIZE], Pf2[N * 3],
+        Jf2[N * AACMM_JAC_SIZE];
+    aacmm_model_f64_t m;
+    aacmm_model_f32_t mf;
+    aacmm_params_f32_t pf;
+    test_rng_t g = {31u};
+    int k, i;
+    (void)state;
+    default_model(&m);
+    aacmm_params_default_f32(&pf);
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
+    for (i = 0; i < N * 6; i++) {
+        th[i] = rng_uniform(&g, -PI, PI);
+        thf[i] = (float)th[i];
+    }
+    assert_int_equal(aacmm_kernel_available(AACMM_KERNEL_SCALAR), 1);
+    assert_int_equal(aacmm_kernel_available((aacmm_kernel_t)7), 0);
+    assert_int_equal(aacmm_simd_batch_angles_f64((aacmm_kernel_t)7, &m, N, th, P, J, NULL),
+                     AACMM_ERR_UNSUPPORTED);
+    assert_string_equal(aacmm_kernel_name((aacmm_kernel_t)7), "unknown");
+    assert_int_equal((int)aacmm_kernel_lanes((aacmm_kernel_t)7, 0), 0);
+    assert_true(aacmm_kernel_available(aacmm_kernel_best()));
+    for (k = 0; k < AACMM_KERNEL_COUNT; k++) {
+        const aacmm_kernel_t kk = (aacmm_kernel_t)k;
+        const int lanes = (int)aacmm_kernel_lanes(kk, 0);
+        size_t done = 99u;
+        int n, off;
+        double s[AACMM_JAC_SIZE] = {0}, q[AACMM_JAC_SIZE] = {0};
+        double s17[AACMM_JAC_SIZE] = {0}, q17[AACMM_JAC_SIZE] = {0};
+        if (!aacmm_kernel_available(kk)) {
+            assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, N, th, P, J, NULL),
+                             AACMM_ERR_UNSUPPORTED);
+            continue;
+        }
+        assert_int_equal((int)aacmm_kernel_lanes(kk, 1), k == 0 ? 1 : 2 * lanes);
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, N, th, P, J, &done), AACMM_OK);
+        assert_int_equal((int)done, N);
+        assert_int_equal(aacmm_simd_batch_angles_f32(kk, &mf, N, thf, Pf, Jf, &done), AACMM_OK);
+        for (off = 0; off < 3; off++) {
+            for (n = 0; n + off <= N; n += (n < 20 ? 1 : 7)) {
+                assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, (size_t)n, th + 6 * off, P2,
+                                                             J2, &done),
+                                 AACMM_OK);
+                assert_int_equal((int)done, n);
+                assert_memory_equal(P2, P + 3 * off, sizeof(double) * 3u * (size_t)n);
+                assert_memory_equal(J2, J + AACMM_JAC_SIZE * off,
+                                    sizeof(double) * AACMM_JAC_SIZE * (size_t)n);
+                assert_int_equal(aacmm_simd_batch_angles_f32(kk, &mf, (size_t)n, thf + 6 * off,
+                                                             Pf2, Jf2, NULL),
+                                 AACMM_OK);
+                assert_memory_equal(Pf2, Pf + 3 * off, sizeof(float) * 3u * (size_t)n);
+                assert_memory_equal(Jf2, Jf + AACMM_JAC_SIZE * off,
+                                    sizeof(float) * AACMM_JAC_SIZE * (size_t)n);
+            }
+        }
+        /* the first bad pose stops the batch; the poses before it are written */
+        th[6 * 17 + 2] = (double)NAN;
+        memset(P2, 0, sizeof P2);
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, N, th, P2, J2, &done),
+                         AACMM_ERR_NOT_FINITE);
+        assert_int_equal((int)done, 17);
+        assert_memory_equal(P2, P, sizeof(double) * 3u * 17u);
+        assert_memory_equal(J2, J, sizeof(double) * AACMM_JAC_SIZE * 17u);
+        assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, N, th, s, q, &done),
+                         AACMM_ERR_NOT_FINITE);
+        assert_int_equal((int)done, 17);
+        assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, 17u, th, s17, q17, &done),
+                         AACMM_OK);
+        assert_memory_equal(s, s17, sizeof s);
+        assert_memory_equal(q, q17, sizeof q);
+        th[6 * 17 + 2] = 1024.5;
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, N, th, P2, NULL, &done),
+                         AACMM_ERR_RANGE);
+        assert_int_equal((int)done, 17);
+        thf[6 * 3] = -INFINITY;
+        assert_int_equal(aacmm_simd_batch_angles_f32(kk, &mf, N, thf, Pf2, Jf2, &done),
+                         AACMM_ERR_NOT_FINITE);
+        assert_int_equal((int)done, 3);
+        thf[6 * 3] = (float)th[6 * 3];
+        th[6 * 17 + 2] = -1024.0; /* the limit itself is accepted */
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, N, th, P2, NULL, &done), AACMM_OK);
+        th[6 * 17 + 2] = (double)thf[6 * 17 + 2];
+        /* n = 0 and NULL arguments */
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, 0, NULL, NULL, NULL, &done),
+                         AACMM_OK);
+        assert_int_equal((int)done, 0);
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, NULL, 1, th, P, NULL, NULL),
+                         AACMM_ERR_NULL);
+        assert_int_equal(aacmm_simd_batch_angles_f32(kk, &mf, 1, NULL, Pf, NULL, NULL),
+                         AACMM_ERR_NULL);
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, 1, th, NULL, J, NULL),
+                         AACMM_ERR_NULL);
+        assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, 1, th, NULL, q, NULL),
+                         AACMM_ERR_NULL);
+        assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, 0, NULL, s, q, &done), AACMM_OK);
+        assert_int_equal((int)done, 0);
+    }
+}
+
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
+    /* Accuracy tests: once per kernel (through k_point_f64 and friends). */
+    const struct CMUnitTest accuracy[] = {
         cmocka_unit_test(test_point_matches_reference),
         cmocka_unit_test(test_point_jacobian_same_point),
         cmocka_unit_test(test_jacobian_vs_central_differences),
@@ -836,6 +1097,8 @@ int main(void)
         cmocka_unit_test(test_paper_identities),
         cmocka_unit_test(test_zero_pose_by_hand),
         cmocka_unit_test(test_f32_vs_f64),
+    };
+    const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sincos_accuracy),
         cmocka_unit_test(test_encoder_edge_table),
         cmocka_unit_test(test_encoder_angles_exact),
@@ -845,6 +1108,22 @@ int main(void)
         cmocka_unit_test(test_bad_angles_and_nulls),
         cmocka_unit_test(test_batches),
         cmocka_unit_test(test_status_strings),
+        cmocka_unit_test(test_simd_agrees_with_scalar),
+        cmocka_unit_test(test_simd_batch_semantics),
     };
-    return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
+    int failed = 0, k;
+    for (k = 0; k < AACMM_KERNEL_COUNT; k++) {
+        char name[64];
+        kernel = (aacmm_kernel_t)k;
+        if (!aacmm_kernel_available(kernel)) {
+            printf("kernel %s: not available on this CPU (its accuracy tests cannot run here)\n",
+                   aacmm_kernel_name(kernel));
+            continue;
+        }
+        snprintf(name, sizeof name, "kinematics accuracy, kernel %s", aacmm_kernel_name(kernel));
+        failed += cmocka_run_group_tests_name(name, accuracy, NULL, NULL);
+    }
+    kernel = AACMM_KERNEL_SCALAR;
+    failed += cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
+    return failed;
 }

@@ -7,7 +7,6 @@ the host analysis runs exactly the code the arm runs (double-precision build).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from cffi import FFI
@@ -21,7 +20,11 @@ SOURCES = [
     FW_SRC / "status.c",
     FW_SRC / "encoder.c",
     FW_SRC / "kinematics_f64.c",
+    FW_SRC / "kinematics_f32.c",
     FW_SRC / "analysis.c",
+    FW_SRC / "simd" / "simd_dispatch.c",
+    FW_SRC / "simd" / "simd_f64.c",
+    FW_SRC / "simd" / "simd_f32.c",
 ]
 
 CDEF = """
@@ -43,6 +46,20 @@ typedef struct {
     double sin_alpha[6];
     double cos_alpha[6];
 } aacmm_model_f64_t;
+
+typedef struct {
+    float theta_offset_rad[6];
+    float alpha_rad[6];
+    float d_mm[6];
+    float a_mm[6];
+    float l_mm;
+} aacmm_params_f32_t;
+
+typedef struct {
+    aacmm_params_f32_t params;
+    float sin_alpha[6];
+    float cos_alpha[6];
+} aacmm_model_f32_t;
 
 typedef struct {
     uint64_t counts_per_rev[6];
@@ -74,6 +91,30 @@ aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_
 aacmm_status_t aacmm_perturbed_points_f64(const aacmm_params_f64_t *nominal, size_t n_trials,
                                           const double *delta, size_t n_poses,
                                           const double *theta_rad, double *p_mm, size_t *done);
+aacmm_status_t aacmm_model_init_f32(aacmm_model_f32_t *model, const aacmm_params_f32_t *params);
+
+typedef enum {
+    AACMM_KERNEL_SCALAR, AACMM_KERNEL_VEC128, AACMM_KERNEL_AVX2, AACMM_KERNEL_AVX512
+} aacmm_kernel_t;
+int aacmm_kernel_available(aacmm_kernel_t kernel);
+aacmm_kernel_t aacmm_kernel_best(void);
+const char *aacmm_kernel_name(aacmm_kernel_t kernel);
+unsigned aacmm_kernel_lanes(aacmm_kernel_t kernel, int single);
+aacmm_status_t aacmm_simd_batch_angles_f64(aacmm_kernel_t kernel, const aacmm_model_f64_t *model,
+                                           size_t n, const double *theta_rad, double *p_mm,
+                                           double *jac, size_t *done);
+aacmm_status_t aacmm_simd_batch_angles_f32(aacmm_kernel_t kernel, const aacmm_model_f32_t *model,
+                                           size_t n, const float *theta_rad, float *p_mm,
+                                           float *jac, size_t *done);
+aacmm_status_t aacmm_simd_abs_jacobian_sums_f64(aacmm_kernel_t kernel,
+                                                const aacmm_model_f64_t *model, size_t n,
+                                                const double *theta_rad, double abs_sum[75],
+                                                double sq_sum[75], size_t *done);
+aacmm_status_t aacmm_simd_perturbed_points_f64(aacmm_kernel_t kernel,
+                                               const aacmm_params_f64_t *nominal,
+                                               size_t n_trials, const double *delta,
+                                               size_t n_poses, const double *theta_rad,
+                                               double *p_mm, size_t *done);
 aacmm_status_t aacmm_counts_to_angles_f64(const aacmm_encoder_config_t *encoders, size_t n,
                                           const uint32_t *reading_counts, double *theta_rad,
                                           size_t *done);
@@ -83,33 +124,22 @@ ffibuilder = FFI()
 ffibuilder.cdef(CDEF)
 
 
-def _host_arch_flags() -> list[str]:
-    """FMA/AVX2 (x86-64-v3) when the build machine has them, as mk/00-common.mk.
-
-    The extension runs where it is built (editable install); set
-    AACMM_PORTABLE_BUILD=1 to build for baseline x86-64 instead.
-    """
-    if os.environ.get("AACMM_PORTABLE_BUILD"):
-        return []
-    try:
-        flags = Path("/proc/cpuinfo").read_text(encoding="ascii", errors="replace").split()
-    except OSError:
-        return []
-    if "fma" in flags and "avx2" in flags:
-        return ["-march=x86-64-v3", "-ffp-contract=fast"]
-    return []
-
-
 # One translation unit (a "unity build") that includes the firmware sources:
 # no object files land outside the build directory, and the compiler may
 # inline the core's per-pose function into the analysis loops.
-UNITY = "".join(f'#include "{p.name}"\n' for p in SOURCES)
+#
+# No -march: the extension runs on any CPU of its architecture (x86-64
+# baseline, arm64). The wide batch kernels (AVX2, AVX-512) are compiled under
+# target attributes inside firmware/src/simd and chosen at run time
+# (aacmm/simd.h). No FMA contraction: the kernels then give the scalar
+# kernel's results bit for bit.
+UNITY = "".join(f'#include "{p.relative_to(FW_SRC).as_posix()}"\n' for p in SOURCES)
 ffibuilder.set_source(
     "aacmm._core",
     UNITY,
     include_dirs=[str(FW_INC), str(FW_SRC)],
     depends=[str(p) for p in SOURCES],
-    extra_compile_args=["-std=c99", "-O3", "-fno-math-errno", *_host_arch_flags()],
+    extra_compile_args=["-std=c99", "-O3", "-fno-math-errno", "-ffp-contract=off"],
     libraries=["m"],
 )
 

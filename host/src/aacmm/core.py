@@ -17,10 +17,17 @@ Main names:
   :meth:`Model.abs_jacobian_sums`.
 * :func:`counts_to_angles`, :func:`perturbed_points`.
 * :data:`PARAM_NAMES` -- the 25 parameter names in Jacobian column order.
+* :func:`kernel`, :func:`set_kernel`, :func:`available_kernels` -- the batch
+  kernel across SIMD lanes the batch methods run on (``aacmm/simd.h``):
+  chosen at import as the widest one this CPU runs, or forced with the
+  environment variable ``AACMM_KERNEL`` (``scalar``, ``vec128``, ``avx2``,
+  ``avx512`` or ``auto``).
 
 Errors: invalid arguments raise :class:`ValueError`; an error reported by the
 C core raises :class:`KinematicsError` (a ``ValueError``) carrying the C
-status code and, for batches, the index of the first bad pose.
+status code and, for batches, the index of the first bad pose. Importing the
+module raises ValueError if ``AACMM_KERNEL`` names an unknown kernel or one
+this CPU cannot run.
 
 All functions are thread-safe; batch calls release the GIL while in C.
 """
@@ -28,6 +35,7 @@ All functions are thread-safe; batch calls release the GIL while in C.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -39,10 +47,12 @@ from aacmm._core import ffi, lib
 
 __all__ = [
     "AXES",
+    "ENV_KERNEL",
     "JAC_COLS",
     "JAC_ROWS",
     "JOINTS",
     "JOINT_ANGLE_MAX_RAD",
+    "KERNELS",
     "LENGTH_MAX_MM",
     "PARAM_ANGLE_MAX_RAD",
     "PARAM_GROUPS",
@@ -53,8 +63,11 @@ __all__ = [
     "KinematicsError",
     "Model",
     "Params",
+    "available_kernels",
     "counts_to_angles",
+    "kernel",
     "perturbed_points",
+    "set_kernel",
     "status_str",
 ]
 
@@ -106,6 +119,56 @@ def _check(status: int, what: str, index: int | None = None) -> None:
     if status != 0:
         where = "" if index is None else f" at index {index}"
         raise KinematicsError(f"{what}: {status_str(status)}{where}", status, index)
+
+
+#: The batch kernels, in ``aacmm_kernel_t`` order (aacmm/simd.h).
+KERNELS: tuple[str, ...] = ("scalar", "vec128", "avx2", "avx512")
+#: Environment variable that forces a kernel (``auto`` or one of :data:`KERNELS`).
+ENV_KERNEL = "AACMM_KERNEL"
+
+
+def available_kernels() -> tuple[str, ...]:
+    """The kernels this build and this CPU can run, narrowest first."""
+    return tuple(k for i, k in enumerate(KERNELS) if lib.aacmm_kernel_available(i))
+
+
+def _kernel_index(name: str) -> int:
+    if name == "auto":
+        return int(lib.aacmm_kernel_best())
+    if name not in KERNELS:
+        raise ValueError(f"unknown batch kernel {name!r} (auto, {', '.join(KERNELS)})")
+    i = KERNELS.index(name)
+    if not lib.aacmm_kernel_available(i):
+        raise ValueError(
+            f"batch kernel {name!r} cannot run on this CPU "
+            f"(available: {', '.join(available_kernels())})"
+        )
+    return i
+
+
+_kernel = 0
+
+
+def set_kernel(name: str = "auto") -> str:
+    """Run the batch methods on kernel ``name`` (``auto``: the widest available).
+
+    Process-wide; returns the kernel's name. Raises ValueError for an unknown
+    kernel or one this CPU cannot run.
+    """
+    global _kernel
+    _kernel = _kernel_index(name)
+    return KERNELS[_kernel]
+
+
+def kernel() -> str:
+    """The name of the kernel the batch methods run on."""
+    return KERNELS[_kernel]
+
+
+try:
+    set_kernel(os.environ.get(ENV_KERNEL, "").strip() or "auto")
+except ValueError as _e:
+    raise ValueError(f"{ENV_KERNEL}: {_e}") from None
 
 
 def _six(name: str, values: Sequence[float]) -> tuple[float, ...]:
@@ -166,6 +229,16 @@ class Params:
         c.l_mm = self.l_mm
         return c
 
+    def to_c32(self) -> Any:
+        """A freshly allocated ``aacmm_params_f32_t *`` (values rounded to float)."""
+        c = ffi.new("aacmm_params_f32_t *")
+        c.theta_offset_rad = list(self.theta_offset_rad)
+        c.alpha_rad = list(self.alpha_rad)
+        c.d_mm = list(self.d_mm)
+        c.a_mm = list(self.a_mm)
+        c.l_mm = self.l_mm
+        return c
+
     def validate(self) -> None:
         """Check the ranges with the core's own validator.
 
@@ -216,8 +289,8 @@ class EncoderConfig:
         return c
 
 
-def _poses(theta_rad: npt.ArrayLike) -> FloatArray:
-    a = np.ascontiguousarray(theta_rad, dtype=np.float64)
+def _poses(theta_rad: npt.ArrayLike, dtype: type = np.float64) -> Any:
+    a: npt.NDArray[Any] = np.ascontiguousarray(theta_rad, dtype=dtype)
     if a.ndim == 1 and a.size == JOINTS:
         a = a.reshape(1, JOINTS)
     if a.ndim != 2 or a.shape[1] != JOINTS:
@@ -229,6 +302,20 @@ def _dptr(a: FloatArray) -> Any:
     return ffi.cast("double *", ffi.from_buffer(a))
 
 
+def _fptr(a: npt.NDArray[np.float32]) -> Any:
+    return ffi.cast("float *", ffi.from_buffer(a))
+
+
+def _precision(dtype: npt.DTypeLike) -> bool:
+    """True for single precision; ValueError unless float64 or float32."""
+    d = np.dtype(dtype)
+    if d == np.float64:
+        return False
+    if d == np.float32:
+        return True
+    raise ValueError(f"dtype must be float64 or float32, got {d}")
+
+
 @dataclass(frozen=True)
 class Model:
     """A prepared kinematic model (``aacmm_model_f64_t``) for one parameter set.
@@ -236,21 +323,35 @@ class Model:
     Raises KinematicsError (a ValueError) if the parameters are invalid.
     Joint angles are readings in rad (the model adds the theta offsets); every
     batch method takes an ``(n, 6)`` array (a single ``(6,)`` pose is
-    accepted as ``n = 1``).
+    accepted as ``n = 1``) and runs on the batch kernel :func:`kernel`.
+    ``dtype=np.float32`` runs the single-precision core (parameters rounded
+    to float; the Cortex-M4F's arithmetic) and returns float32 arrays.
     """
 
     params: Params = field(default_factory=Params)
     _c: Any = field(init=False, repr=False, compare=False)
+    _c32: list[Any] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         c = ffi.new("aacmm_model_f64_t *")
         _check(lib.aacmm_model_init_f64(c, self.params.to_c()), "invalid parameters")
         object.__setattr__(self, "_c", c)
+        object.__setattr__(self, "_c32", [])
 
     @property
     def c_model(self) -> Any:
         """The underlying ``aacmm_model_f64_t *`` (for other cffi callers)."""
         return self._c
+
+    def _model32(self) -> Any:
+        if not self._c32:  # built on first use; a race builds it twice, harmlessly
+            c = ffi.new("aacmm_model_f32_t *")
+            _check(
+                lib.aacmm_model_init_f32(c, self.params.to_c32()),
+                "invalid parameters (single precision)",
+            )
+            self._c32.append(c)
+        return self._c32[0]
 
     def point(self, theta_rad: Sequence[float] | FloatArray) -> FloatArray:
         """Probe point (3,) in mm for one pose."""
@@ -264,27 +365,44 @@ class Model:
         p, j = self.points_jacobians(theta_rad)
         return p[0], j[0]
 
-    def points(self, theta_rad: npt.ArrayLike) -> FloatArray:
+    def points(
+        self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike = np.float64
+    ) -> npt.NDArray[Any]:
         """Probe points (n, 3) in mm. Raises KinematicsError for a bad pose."""
-        th = _poses(theta_rad)
-        n = th.shape[0]
-        p = np.empty((n, 3), dtype=np.float64)
-        done = ffi.new("size_t *")
-        st = lib.aacmm_batch_angles_f64(self._c, n, _dptr(th), _dptr(p), ffi.NULL, done)
-        _check(st, "invalid joint angles", int(done[0]) if st else None)
+        p: npt.NDArray[Any] = self._batch(theta_rad, dtype, jacobian=False)[0]
         return p
 
-    def points_jacobians(self, theta_rad: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    def points_jacobians(
+        self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike = np.float64
+    ) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
         """Probe points (n, 3) and Jacobians (n, 3, 25), columns as :data:`PARAM_NAMES`.
 
         Raises KinematicsError for a bad pose.
         """
-        th = _poses(theta_rad)
+        p, j = self._batch(theta_rad, dtype, jacobian=True)
+        return p, j
+
+    def _batch(self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike, jacobian: bool) -> Any:
+        single = _precision(dtype)
+        th = _poses(theta_rad, np.float32 if single else np.float64)
         n = th.shape[0]
-        p = np.empty((n, 3), dtype=np.float64)
-        j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=np.float64)
+        p = np.empty((n, 3), dtype=th.dtype)
+        j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=th.dtype) if jacobian else None
         done = ffi.new("size_t *")
-        st = lib.aacmm_batch_angles_f64(self._c, n, _dptr(th), _dptr(p), _dptr(j), done)
+        if single:
+            st = lib.aacmm_simd_batch_angles_f32(
+                _kernel,
+                self._model32(),
+                n,
+                _fptr(th),
+                _fptr(p),
+                ffi.NULL if j is None else _fptr(j),
+                done,
+            )
+        else:
+            st = lib.aacmm_simd_batch_angles_f64(
+                _kernel, self._c, n, _dptr(th), _dptr(p), ffi.NULL if j is None else _dptr(j), done
+            )
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return p, j
 
@@ -293,36 +411,27 @@ class Model:
     ) -> tuple[FloatArray, FloatArray]:
         """Points (n, 3) and Jacobians (n, 3, 25) from raw readings (n, 6).
 
-        The core's ``aacmm_batch_counts_f64`` (counts -> angles -> point), as
-        the firmware computes it; ``encoders`` defaults to 2^32 counts/rev,
-        offset 0, direction +1. Raises ValueError for readings outside
-        0 .. 2^32-1 or a bad config, KinematicsError (``index`` = pose) for a
-        reading >= counts_per_rev.
+        Counts -> angles with the core's converter (as the firmware), then the
+        batch kernel; ``encoders`` defaults to 2^32 counts/rev, offset 0,
+        direction +1. Raises ValueError for readings outside 0 .. 2^32-1 or a
+        bad config, KinematicsError (``index`` = pose) for a reading >=
+        counts_per_rev.
         """
-        c = _counts(counts)
-        enc = (encoders or EncoderConfig()).to_c()
-        n = c.shape[0]
-        p = np.empty((n, 3), dtype=np.float64)
-        j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=np.float64)
-        done = ffi.new("size_t *")
-        st = lib.aacmm_batch_counts_f64(
-            self._c, enc, n, ffi.cast("uint32_t *", ffi.from_buffer(c)), _dptr(p), _dptr(j), done
-        )
-        _check(st, "invalid encoder reading", int(done[0]) if st else None)
+        p, j = self.points_jacobians(counts_to_angles(counts, encoders))
         return p, j
 
     def abs_jacobian_sums(self, theta_rad: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Sums over the poses of |J| and of J^2, each (3, 25).
 
-        The fused C loop (``aacmm_abs_jacobian_sums_f64``): no Jacobian is
-        stored. Raises KinematicsError for a bad pose.
+        The fused C loop on the batch kernel (``aacmm_simd_abs_jacobian_sums_f64``):
+        no Jacobian is stored. Raises KinematicsError for a bad pose.
         """
         th = _poses(theta_rad)
         s = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
         q = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
         done = ffi.new("size_t *")
-        st = lib.aacmm_abs_jacobian_sums_f64(
-            self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
+        st = lib.aacmm_simd_abs_jacobian_sums_f64(
+            _kernel, self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
         )
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return s, q
@@ -360,7 +469,8 @@ def perturbed_points(nominal: Params, delta: npt.ArrayLike, theta_rad: npt.Array
     """Probe points (T, n, 3) of arms with parameters ``nominal + delta[t]``.
 
     ``delta`` is (T, 25) in Jacobian column order (rad and mm); one model is
-    built per trial and evaluated at every pose of ``theta_rad`` (n, 6).
+    built per trial and evaluated at every pose of ``theta_rad`` (n, 6) on the
+    batch kernel (as :meth:`Model.points`).
     Raises ValueError for bad shapes and KinematicsError (``index`` = trial)
     if a perturbed parameter set or a pose is invalid.
     """
@@ -370,8 +480,8 @@ def perturbed_points(nominal: Params, delta: npt.ArrayLike, theta_rad: npt.Array
     th = _poses(theta_rad)
     out = np.empty((d.shape[0], th.shape[0], 3), dtype=np.float64)
     done = ffi.new("size_t *")
-    st = lib.aacmm_perturbed_points_f64(
-        nominal.to_c(), d.shape[0], _dptr(d), th.shape[0], _dptr(th), _dptr(out), done
+    st = lib.aacmm_simd_perturbed_points_f64(
+        _kernel, nominal.to_c(), d.shape[0], _dptr(d), th.shape[0], _dptr(th), _dptr(out), done
     )
     _check(st, "perturbed model invalid", int(done[0]) if st else None)
     return out

@@ -1,0 +1,368 @@
+/*
+ * The batch kernel across SIMD lanes, written once for every vector width and
+ * both precisions (GNU C vector extensions: the compiler emits SSE2, AVX2,
+ * AVX-512 or NEON code from this one source, as the including file's target
+ * allows).
+ *
+ * Included by simd_f64.c and simd_f32.c once per instruction set, after they
+ * define:
+ *   REAL, LIT(x), TYPE(name)   as for kinematics_impl.h
+ *   VR      a vector of W REAL (vector_size(W * sizeof(REAL)))
+ *   VU      a vector of W unsigned integers as wide as REAL
+ *   W       the number of lanes
+ *   SIGN_BIT  the sign bit of REAL as a VU lane value
+ *   VK(name)  name suffixed with the instruction set and the precision
+ * and the sine/cosine constants (sincos_f64.h / sincos_f32.h).
+ *
+ * Each lane holds one pose; the arithmetic of a lane is the per-pose core's
+ * (kinematics_impl.h: the same reduction, polynomials, chain and cross
+ * products in the same order), so a lane differs from the scalar result only
+ * where the compiler fuses a multiply and an add (FMA) differently.
+ */
+
+typedef struct {
+    VR x, y, z;
+} VK(v3);
+
+/* a u + b v, lane by lane */
+static inline VK(v3) VK(lin2)(VR a, VK(v3) u, VR b, VK(v3) v)
+{
+    VK(v3) r;
+    r.x = a * u.x + b * v.x;
+    r.y = a * u.y + b * v.y;
+    r.z = a * u.z + b * v.z;
+    return r;
+}
+
+static inline VR VK(splat)(REAL s)
+{
+    VR v = {LIT(0.0)};
+    return v + s;
+}
+
+/*
+ * Sine and cosine of every lane: the per-pose sincos_inline with the table
+ * lookups replaced by selects. k = round(x 2/pi) is read from the low bits of
+ * x 2/pi + 1.5 2^(p-1) (the rounding constant puts the integer there), so no
+ * float-to-integer conversion is needed; the quadrant's swap and sign flips
+ * are bit operations (a sign flip by XOR equals the core's multiplication by
+ * -1 exactly).
+ */
+static inline void VK(sincos)(VR x, VR *s, VR *c)
+{
+    const VR kr = x * TWO_OVER_PI + ROUND_MAGIC;
+    const VU q = (VU)kr;
+    const VR kf = kr - ROUND_MAGIC;
+    const VR r = ((x - kf * PIO2_1) - kf * PIO2_2) - kf * PIO2_3;
+    const VR z = r * r;
+    const VR sr = r + r * z * SIN_POLY(z);
+    const VR cr = LIT(1.0) - (LIT(0.5) * z - z * z * COS_POLY(z));
+    const VU one = q - q + 1u;
+    const VU swap = (q - q) - (q & one); /* all ones in odd quadrants */
+    VU si = ((VU)sr & ~swap) | ((VU)cr & swap);
+    VU ci = ((VU)cr & ~swap) | ((VU)sr & swap);
+    si ^= ((q >> 1) & one) * SIGN_BIT;
+    ci ^= (((q + one) >> 1) & one) * SIGN_BIT;
+    *s = (VR)si;
+    *c = (VR)ci;
+}
+
+/*
+ * One pass down the chain for W poses (the per-pose chain of
+ * kinematics_impl.h, lane by lane): the point into *p and, if jac is not
+ * NULL, the 75 Jacobian entries into jac[r * 25 + c] (row-major, as the
+ * per-pose core; each entry a vector over the lanes).
+ */
+static inline void VK(chain)(const TYPE(aacmm_model) *model, const VR th[AACMM_JOINTS], VK(v3) *p,
+                             VR *jac)
+{
+    const VR zero = VK(splat)(LIT(0.0));
+    const VR one = VK(splat)(LIT(1.0));
+    VK(v3) X = {one, zero, zero};
+    VK(v3) Y = {zero, one, zero};
+    VK(v3) Z = {zero, zero, one};
+    VK(v3) O = {zero, zero, zero};
+    VK(v3) zprev[AACMM_JOINTS], oprev[AACMM_JOINTS], xs[AACMM_JOINTS], os[AACMM_JOINTS];
+    VK(v3) P;
+    int i;
+
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        const VR sa = VK(splat)(model->sin_alpha[i]);
+        const VR ca = VK(splat)(model->cos_alpha[i]);
+        VR s, c;
+        VK(v3) u, step;
+        VK(sincos)(th[i] + model->params.theta_offset_rad[i], &s, &c);
+        zprev[i] = Z;
+        oprev[i] = O;
+        u = VK(lin2)(-s, X, c, Y);
+        X = VK(lin2)(c, X, s, Y);
+        Y = VK(lin2)(ca, u, sa, Z);
+        Z = VK(lin2)(-sa, u, ca, Z);
+        step = VK(lin2)(VK(splat)(model->params.d_mm[i]), zprev[i],
+                        VK(splat)(model->params.a_mm[i]), X);
+        O.x += step.x;
+        O.y += step.y;
+        O.z += step.z;
+        xs[i] = X;
+        os[i] = O;
+    }
+    P = VK(lin2)(one, O, VK(splat)(model->params.l_mm), Z);
+    *p = P;
+    if (jac == NULL) {
+        return;
+    }
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        const VK(v3) zp = zprev[i];
+        const VK(v3) xi = xs[i];
+        VK(v3) v, w;
+        v.x = P.x - oprev[i].x;
+        v.y = P.y - oprev[i].y;
+        v.z = P.z - oprev[i].z;
+        w.x = P.x - os[i].x;
+        w.y = P.y - os[i].y;
+        w.z = P.z - os[i].z;
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.y * v.z - zp.z * v.y;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.z * v.x - zp.x * v.z;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.x * v.y - zp.y * v.x;
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.y * w.z - xi.z * w.y;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.z * w.x - xi.x * w.z;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.x * w.y - xi.y * w.x;
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.x;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.y;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.z;
+        jac[0 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.x;
+        jac[1 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.y;
+        jac[2 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.z;
+    }
+    jac[0 * AACMM_JAC_COLS + AACMM_COL_L] = Z.x;
+    jac[1 * AACMM_JAC_COLS + AACMM_COL_L] = Z.y;
+    jac[2 * AACMM_JAC_COLS + AACMM_COL_L] = Z.z;
+}
+
+/* AACMM_OK if every angle of the pose is finite and within the limit, else
+ * the reason (the per-pose core's check_angles). */
+static inline aacmm_status_t VK(check_pose)(const REAL *th)
+{
+    const REAL lim = (REAL)AACMM_JOINT_ANGLE_MAX_RAD;
+    int i;
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        const REAL x = th[i];
+        if (!(x <= lim && x >= -lim)) {
+            return isnan(x) || isinf(x) ? AACMM_ERR_NOT_FINITE : AACMM_ERR_RANGE;
+        }
+    }
+    return AACMM_OK;
+}
+
+/* Number of leading valid poses among th[0 .. m-1] (m if all are), and the
+ * status of the first invalid one in *st. */
+static inline size_t VK(valid_prefix)(const REAL *th, size_t m, aacmm_status_t *st)
+{
+    size_t l;
+    for (l = 0; l < m; l++) {
+        *st = VK(check_pose)(th + l * AACMM_JOINTS);
+        if (*st != AACMM_OK) {
+            return l;
+        }
+    }
+    *st = AACMM_OK;
+    return m;
+}
+
+/* The joint angles of W poses th[0 .. W*6-1] as six lane vectors. */
+static inline void VK(load)(const REAL *th, VR out[AACMM_JOINTS])
+{
+    int i, l;
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        for (l = 0; l < W; l++) {
+            out[i][l] = th[l * AACMM_JOINTS + i];
+        }
+    }
+}
+
+/* The same for m <= W poses: lanes past m repeat the last pose, so they
+ * compute something harmless. */
+static inline void VK(load_part)(const REAL *th, size_t m, VR out[AACMM_JOINTS])
+{
+    REAL buf[W * AACMM_JOINTS];
+    size_t l;
+    for (l = 0; l < (size_t)W; l++) {
+        memcpy(buf + l * AACMM_JOINTS, th + (l < m ? l : m - 1u) * AACMM_JOINTS,
+               AACMM_JOINTS * sizeof(REAL));
+    }
+    VK(load)(buf, out);
+}
+
+#ifdef ZIPLO
+/* Transposes the W x W matrix whose rows are v[0 .. W-1], in place:
+ * log2(W) rounds of interleaving v[i] with v[i + W/2] (a perfect shuffle),
+ * which the compiler maps to the instruction set's unpack/permute
+ * instructions. */
+static inline void VK(transpose)(VR v[W])
+{
+    VR t[W];
+    int s, i;
+    for (s = 1; s < W; s *= 2) {
+        for (i = 0; i < W / 2; i++) {
+            t[2 * i] = ZIPLO(v[i], v[i + W / 2]);
+            t[2 * i + 1] = ZIPHI(v[i], v[i + W / 2]);
+        }
+        for (i = 0; i < W; i++) {
+            v[i] = t[i];
+        }
+    }
+}
+#endif
+
+/* Jacobian entries J[e] (one vector per entry, a lane per pose) to m <= W
+ * poses' row-major Jacobians. Blocks of W entries are transposed in
+ * registers, so each pose gets W consecutive entries in one vector store, and
+ * the stores go pose after pose (one sequential write stream: measured
+ * faster than W interleaved ones); the last 75 mod W entries go lane by
+ * lane. */
+static inline void VK(store_jacobians)(const VR J[AACMM_JAC_SIZE], size_t m, REAL *jac)
+{
+    size_t l;
+    int e;
+#ifdef ZIPLO
+    enum { BLOCKS = AACMM_JAC_SIZE / W };
+    VR T[BLOCKS][W];
+    int b;
+    for (b = 0; b < BLOCKS; b++) {
+        int i;
+        for (i = 0; i < W; i++) {
+            T[b][i] = J[b * W + i];
+        }
+        VK(transpose)(T[b]);
+    }
+    for (l = 0; l < m; l++) {
+        REAL *dst = jac + l * AACMM_JAC_SIZE;
+        for (b = 0; b < BLOCKS; b++) {
+            memcpy(dst + b * W, &T[b][l], sizeof T[b][l]);
+        }
+        for (e = BLOCKS * W; e < AACMM_JAC_SIZE; e++) {
+            dst[e] = J[e][l];
+        }
+    }
+#else
+    for (l = 0; l < m; l++) {
+        for (e = 0; e < AACMM_JAC_SIZE; e++) {
+            jac[l * AACMM_JAC_SIZE + (size_t)e] = J[e][l];
+        }
+    }
+#endif
+}
+
+/* Points (and Jacobians) of m <= W valid poses into their slots. */
+static inline void VK(group)(const TYPE(aacmm_model) *model, const REAL *th, size_t m, REAL *p_mm,
+                             REAL *jac)
+{
+    VR t[AACMM_JOINTS];
+    VK(v3) P;
+    size_t l;
+    if (m == (size_t)W) {
+        VK(load)(th, t);
+    } else {
+        VK(load_part)(th, m, t);
+    }
+    if (jac == NULL) {
+        VK(chain)(model, t, &P, NULL);
+    } else {
+        VR J[AACMM_JAC_SIZE];
+        VK(chain)(model, t, &P, J);
+        VK(store_jacobians)(J, m, jac);
+    }
+    for (l = 0; l < m; l++) {
+        p_mm[l * 3u + 0u] = P.x[l];
+        p_mm[l * 3u + 1u] = P.y[l];
+        p_mm[l * 3u + 2u] = P.z[l];
+    }
+}
+
+/* aacmm_simd_batch_angles_* for this instruction set (arguments checked by
+ * the caller). */
+static aacmm_status_t VK(batch_angles)(const TYPE(aacmm_model) *model, size_t n,
+                                       const REAL *theta_rad, REAL *p_mm, REAL *jac, size_t *done)
+{
+    size_t k = 0;
+    while (k < n) {
+        const REAL *th = theta_rad + k * AACMM_JOINTS;
+        const size_t want = (n - k < (size_t)W) ? n - k : (size_t)W;
+        aacmm_status_t st;
+        const size_t m = VK(valid_prefix)(th, want, &st);
+        if (m > 0u) {
+            VK(group)(model, th, m, p_mm + k * 3u, jac == NULL ? NULL : jac + k * AACMM_JAC_SIZE);
+            k += m;
+            if (done != NULL) {
+                *done = k;
+            }
+        }
+        if (st != AACMM_OK) {
+            return st;
+        }
+    }
+    return AACMM_OK;
+}
+
+#ifdef SIMD_ABS_SUMS
+/* aacmm_simd_abs_jacobian_sums_f64 for this instruction set (arguments
+ * checked by the caller): per-lane sums of |J| and J^2 over the poses, added
+ * up lane by lane at the end; lanes past the last pose of a group are masked
+ * out. */
+static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
+                                   const REAL *theta_rad, REAL abs_sum[AACMM_JAC_SIZE],
+                                   REAL sq_sum[AACMM_JAC_SIZE], size_t *done)
+{
+    VR sa[AACMM_JAC_SIZE], sq[AACMM_JAC_SIZE];
+    const VR zero = VK(splat)(LIT(0.0));
+    const VU no_sign = ~((VU)zero | SIGN_BIT);
+    aacmm_status_t st = AACMM_OK;
+    size_t k = 0, l;
+    int e;
+    for (e = 0; e < AACMM_JAC_SIZE; e++) {
+        sa[e] = zero;
+        sq[e] = zero;
+    }
+    while (k < n) {
+        const REAL *th = theta_rad + k * AACMM_JOINTS;
+        const size_t want = (n - k < (size_t)W) ? n - k : (size_t)W;
+        const size_t m = VK(valid_prefix)(th, want, &st);
+        if (m > 0u) {
+            VR t[AACMM_JOINTS], J[AACMM_JAC_SIZE];
+            VK(v3) P;
+            VU keep = no_sign;
+            if (m == (size_t)W) {
+                VK(load)(th, t);
+            } else {
+                VK(load_part)(th, m, t);
+            }
+            VK(chain)(model, t, &P, J);
+            for (l = m; l < (size_t)W; l++) {
+                keep[l] = 0u;
+            }
+            for (e = 0; e < AACMM_JAC_SIZE; e++) {
+                const VR a = (VR)((VU)J[e] & keep);
+                sa[e] += a;
+                sq[e] += a * a;
+            }
+            k += m;
+        }
+        if (st != AACMM_OK) {
+            break;
+        }
+    }
+    for (e = 0; e < AACMM_JAC_SIZE; e++) {
+        REAL s = LIT(0.0), q = LIT(0.0);
+        for (l = 0; l < (size_t)W; l++) {
+            s += sa[e][l];
+            q += sq[e][l];
+        }
+        abs_sum[e] += s;
+        sq_sum[e] += q;
+    }
+    if (done != NULL) {
+        *done = k;
+    }
+    return st;
+}
+#endif /* SIMD_ABS_SUMS */

@@ -1,0 +1,225 @@
+/*
+ * Instantiates the batch kernel (simd_impl.h) for every instruction set of
+ * this build and defines the public entry points of one precision, which
+ * dispatch on the caller's aacmm_kernel_t.
+ *
+ * Included by simd_f64.c and simd_f32.c after they define REAL, LIT(x),
+ * TYPE(name), UREAL (the unsigned integer as wide as REAL), SIGN_BIT, PSFX(name)
+ * (name##_f64 or name##_f32), LANES_16B, LANES_32B, LANES_64B (lanes of a
+ * 16-, 32- and 64-byte vector, as plain numbers), the sine/cosine constants
+ * and, for double, SIMD_ABS_SUMS.
+ *
+ * The AVX2 and AVX-512 instances are compiled under target attributes
+ * (GCC: #pragma GCC target; clang: #pragma clang attribute), so the object
+ * runs on the architecture's baseline and the wide kernels are only called
+ * after aacmm_kernel_available() has seen the CPU support them.
+ */
+
+#if SIMD_VECTOR_EXT
+
+/* Interleave (zip) index lists for __builtin_shufflevector, by lane count:
+ * ZIPLO(a, b) = a0 b0 a1 b1 ..., ZIPHI(a, b) = the second halves. */
+#define ZIPLO_2 0, 2
+#define ZIPHI_2 1, 3
+#define ZIPLO_4 0, 4, 1, 5
+#define ZIPHI_4 2, 6, 3, 7
+#define ZIPLO_8 0, 8, 1, 9, 2, 10, 3, 11
+#define ZIPHI_8 4, 12, 5, 13, 6, 14, 7, 15
+#define ZIPLO_16 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23
+#define ZIPHI_16 8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31
+#define ZIP_IDX_(name, n) name##_##n
+#define ZIP_IDX(name, n) ZIP_IDX_(name, n)
+#if SIMD_SHUFFLE
+#define ZIPLO(a, b) __builtin_shufflevector(a, b, ZIP_IDX(ZIPLO, LANES))
+#define ZIPHI(a, b) __builtin_shufflevector(a, b, ZIP_IDX(ZIPHI, LANES))
+#endif
+
+/* ---- 128-bit: SSE2 on x86-64, NEON on arm64 ---- */
+typedef REAL PSFX(vr_vec128) __attribute__((vector_size(16)));
+typedef UREAL PSFX(vu_vec128) __attribute__((vector_size(16)));
+#define VR PSFX(vr_vec128)
+#define VU PSFX(vu_vec128)
+#define LANES LANES_16B
+#define W LANES
+#define VK(name) PSFX(name##_vec128)
+#include "simd_impl.h"
+#undef VR
+#undef VU
+#undef W
+#undef LANES
+#undef VK
+
+#endif /* SIMD_VECTOR_EXT */
+
+#if SIMD_X86
+
+/* ---- 256-bit AVX2 + FMA ---- */
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2,fma"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2,fma")
+#endif
+typedef REAL PSFX(vr_avx2) __attribute__((vector_size(32)));
+typedef UREAL PSFX(vu_avx2) __attribute__((vector_size(32)));
+#define VR PSFX(vr_avx2)
+#define VU PSFX(vu_avx2)
+#define LANES LANES_32B
+#define W LANES
+#define VK(name) PSFX(name##_avx2)
+#include "simd_impl.h"
+#undef VR
+#undef VU
+#undef W
+#undef LANES
+#undef VK
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+/* ---- 512-bit AVX-512F ---- */
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f,avx2,fma"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx2,fma")
+#endif
+typedef REAL PSFX(vr_avx512) __attribute__((vector_size(64)));
+typedef UREAL PSFX(vu_avx512) __attribute__((vector_size(64)));
+#define VR PSFX(vr_avx512)
+#define VU PSFX(vu_avx512)
+#define LANES LANES_64B
+#define W LANES
+#define VK(name) PSFX(name##_avx512)
+#include "simd_impl.h"
+#undef VR
+#undef VU
+#undef W
+#undef LANES
+#undef VK
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+#endif /* SIMD_X86 */
+
+/* ---- public entry points: dispatch on the caller's kernel ---- */
+
+aacmm_status_t PSFX(aacmm_simd_batch_angles)(aacmm_kernel_t kernel, const TYPE(aacmm_model) *model,
+                                             size_t n, const REAL *theta_rad, REAL *p_mm,
+                                             REAL *jac, size_t *done)
+{
+    if (done != NULL) {
+        *done = 0u;
+    }
+    if (model == NULL || (n > 0u && (theta_rad == NULL || p_mm == NULL))) {
+        return AACMM_ERR_NULL;
+    }
+    if (!aacmm_kernel_available(kernel)) {
+        return AACMM_ERR_UNSUPPORTED;
+    }
+    switch (kernel) {
+#if SIMD_VECTOR_EXT
+    case AACMM_KERNEL_VEC128:
+        return PSFX(batch_angles_vec128)(model, n, theta_rad, p_mm, jac, done);
+#endif
+#if SIMD_X86
+    case AACMM_KERNEL_AVX2:
+        return PSFX(batch_angles_avx2)(model, n, theta_rad, p_mm, jac, done);
+    case AACMM_KERNEL_AVX512:
+        return PSFX(batch_angles_avx512)(model, n, theta_rad, p_mm, jac, done);
+#endif
+    case AACMM_KERNEL_SCALAR:
+    default:
+        return PSFX(aacmm_batch_angles)(model, n, theta_rad, p_mm, jac, done);
+    }
+}
+
+#ifdef SIMD_ABS_SUMS
+aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums)(aacmm_kernel_t kernel,
+                                                  const TYPE(aacmm_model) *model, size_t n,
+                                                  const REAL *theta_rad,
+                                                  REAL abs_sum[AACMM_JAC_SIZE],
+                                                  REAL sq_sum[AACMM_JAC_SIZE], size_t *done)
+{
+    if (done != NULL) {
+        *done = 0u;
+    }
+    if (model == NULL || abs_sum == NULL || sq_sum == NULL || (n > 0u && theta_rad == NULL)) {
+        return AACMM_ERR_NULL;
+    }
+    if (!aacmm_kernel_available(kernel)) {
+        return AACMM_ERR_UNSUPPORTED;
+    }
+    switch (kernel) {
+#if SIMD_VECTOR_EXT
+    case AACMM_KERNEL_VEC128:
+        return PSFX(abs_sums_vec128)(model, n, theta_rad, abs_sum, sq_sum, done);
+#endif
+#if SIMD_X86
+    case AACMM_KERNEL_AVX2:
+        return PSFX(abs_sums_avx2)(model, n, theta_rad, abs_sum, sq_sum, done);
+    case AACMM_KERNEL_AVX512:
+        return PSFX(abs_sums_avx512)(model, n, theta_rad, abs_sum, sq_sum, done);
+#endif
+    case AACMM_KERNEL_SCALAR:
+    default:
+        return PSFX(aacmm_abs_jacobian_sums)(model, n, theta_rad, abs_sum, sq_sum, done);
+    }
+}
+
+aacmm_status_t PSFX(aacmm_simd_perturbed_points)(aacmm_kernel_t kernel,
+                                                 const TYPE(aacmm_params) *nominal,
+                                                 size_t n_trials, const REAL *delta,
+                                                 size_t n_poses, const REAL *theta_rad,
+                                                 REAL *p_mm, size_t *done)
+{
+    size_t t;
+    if (done != NULL) {
+        *done = 0u;
+    }
+    if (nominal == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    if (n_trials > 0u && (delta == NULL || (n_poses > 0u && (theta_rad == NULL || p_mm == NULL)))) {
+        return AACMM_ERR_NULL;
+    }
+    if (!aacmm_kernel_available(kernel)) {
+        return AACMM_ERR_UNSUPPORTED;
+    }
+    if (kernel == AACMM_KERNEL_SCALAR) {
+        return PSFX(aacmm_perturbed_points)(nominal, n_trials, delta, n_poses, theta_rad, p_mm,
+                                            done);
+    }
+    for (t = 0; t < n_trials; t++) {
+        const REAL *dt = delta + t * AACMM_N_PARAMS;
+        TYPE(aacmm_params) prm = *nominal;
+        TYPE(aacmm_model) model;
+        aacmm_status_t st;
+        int i;
+        for (i = 0; i < AACMM_JOINTS; i++) {
+            prm.theta_offset_rad[i] += dt[AACMM_COL_THETA(i)];
+            prm.alpha_rad[i] += dt[AACMM_COL_ALPHA(i)];
+            prm.d_mm[i] += dt[AACMM_COL_D(i)];
+            prm.a_mm[i] += dt[AACMM_COL_A(i)];
+        }
+        prm.l_mm += dt[AACMM_COL_L];
+        st = PSFX(aacmm_model_init)(&model, &prm);
+        if (st == AACMM_OK) {
+            st = PSFX(aacmm_simd_batch_angles)(kernel, &model, n_poses, theta_rad,
+                                               p_mm + t * n_poses * 3u, NULL, NULL);
+        }
+        if (st != AACMM_OK) {
+            return st;
+        }
+        if (done != NULL) {
+            *done = t + 1u;
+        }
+    }
+    return AACMM_OK;
+}
+#endif /* SIMD_ABS_SUMS */

@@ -1,0 +1,155 @@
+"""The batch kernels across SIMD lanes, as the Python package runs them.
+
+Issue 17: every kernel this CPU runs agrees with the scalar one over 10^6
+poses (the extension is built without FMA contraction, so bit for bit; the
+issue's bound is 1e-12 mm); ``AACMM_KERNEL`` forces a kernel (``make test``
+runs the core suite on the scalar one); the extension needs nothing beyond
+the x86-64 baseline outside the kernels chosen at run time.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import re
+import shutil
+import subprocess
+import sys
+from collections import defaultdict
+
+import aacmm._core
+import numpy as np
+import pytest
+from aacmm import core
+from aacmm.core import Model, Params, perturbed_points
+
+pytestmark = pytest.mark.timeout(120)
+OTHER_KERNELS = [k for k in core.available_kernels() if k != "scalar"]
+
+
+@pytest.fixture
+def restore_kernel() -> object:
+    before = core.kernel()
+    yield
+    core.set_kernel(before)
+
+
+def test_kernel_selection(restore_kernel: object) -> None:
+    assert core.available_kernels()[0] == "scalar"
+    assert core.set_kernel("scalar") == "scalar" and core.kernel() == "scalar"
+    assert core.set_kernel("auto") == core.available_kernels()[-1]
+    with pytest.raises(ValueError, match="unknown batch kernel 'sse9'"):
+        core.set_kernel("sse9")
+    missing = [k for k in core.KERNELS if k not in core.available_kernels()]
+    for k in missing:
+        with pytest.raises(ValueError, match="cannot run on this CPU"):
+            core.set_kernel(k)
+
+
+@pytest.mark.skipif(not OTHER_KERNELS, reason="no batch kernel beyond the scalar one here")
+@pytest.mark.parametrize("name", OTHER_KERNELS)
+def test_kernel_equals_scalar_over_1e6_poses(name: str, restore_kernel: object) -> None:
+    rng = np.random.default_rng(17)
+    prm = Params.from_vector(Params().to_vector() + rng.normal(0.0, 1e-3, 25))
+    model = Model(prm)
+    worst_p = worst_j = 0.0
+    for _ in range(10):
+        th = rng.uniform(-math.pi, math.pi, (100_000, 6))
+        core.set_kernel("scalar")
+        p0, j0 = model.points_jacobians(th)
+        s0, q0 = model.abs_jacobian_sums(th)
+        core.set_kernel(name)
+        p1, j1 = model.points_jacobians(th)
+        s1, q1 = model.abs_jacobian_sums(th)
+        worst_p = max(worst_p, float(np.max(np.abs(p1 - p0))))
+        worst_j = max(worst_j, float(np.max(np.abs(j1 - j0))))
+        # the sums add up lane by lane: another order of n additions of positive
+        # terms, each order within n eps of the exact sum
+        tol = 2 * th.shape[0] * np.finfo(np.float64).eps
+        assert np.all(np.abs(s1 - s0) <= tol * s0) and np.all(np.abs(q1 - q0) <= tol * q0)
+    print(f"measured: {name} vs scalar, 10^6 poses: point {worst_p:.3g} mm, Jacobian {worst_j:.3g}")
+    assert worst_p <= 1e-12  # the issue's bound ...
+    assert worst_p == 0.0 and worst_j == 0.0  # ... and in fact bit for bit
+    # single precision and the perturbed models of the uncertainty Monte Carlo
+    th = rng.uniform(-math.pi, math.pi, (20_000, 6))
+    delta = rng.normal(0.0, 1e-4, (64, 25))
+    core.set_kernel("scalar")
+    pf0, jf0 = model.points_jacobians(th, dtype=np.float32)
+    pp0 = perturbed_points(prm, delta, th[:37])
+    core.set_kernel(name)
+    pf1, jf1 = model.points_jacobians(th, dtype=np.float32)
+    assert pf1.dtype == np.float32 and jf1.shape == (20_000, 3, 25)
+    assert np.array_equal(pf1, pf0) and np.array_equal(jf1, jf0)
+    assert np.array_equal(perturbed_points(prm, delta, th[:37]), pp0)
+
+
+def test_float32_close_to_float64() -> None:
+    th = np.random.default_rng(5).uniform(-math.pi, math.pi, (10_000, 6))
+    p64, j64 = Model().points_jacobians(th)
+    p32, j32 = Model().points_jacobians(th, dtype=np.float32)
+    assert np.max(np.abs(p32 - p64)) < 1e-3 and np.max(np.abs(j32 - j64)) < 2e-3
+    with pytest.raises(ValueError, match="float64 or float32"):
+        Model().points(th, dtype=np.int32)
+
+
+def _run(code: str, kernel: str) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, core.ENV_KERNEL: kernel}
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env
+    )
+
+
+def test_environment_variable_forces_a_kernel() -> None:
+    out = _run("import aacmm.core as c; print(c.kernel())", "scalar")
+    assert out.returncode == 0 and out.stdout.strip() == "scalar", out.stderr
+    out = _run("import aacmm.core as c; print(c.kernel())", "auto")
+    assert out.stdout.strip() == core.available_kernels()[-1]
+    out = _run("import aacmm.core", "avx9")
+    assert out.returncode != 0 and "AACMM_KERNEL: unknown batch kernel 'avx9'" in out.stderr
+    # the command line says it in one line, exit status 2
+    env = {**os.environ, core.ENV_KERNEL: "avx9"}
+    cli = subprocess.run(
+        [sys.executable, "-m", "aacmm.cli", "mc", "-n", "10"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+    assert cli.returncode == 2
+    assert cli.stderr.strip().splitlines() == [
+        "aacmm mc: error: AACMM_KERNEL: unknown batch kernel 'avx9' "
+        "(auto, scalar, vec128, avx2, avx512)"
+    ]
+
+
+_VECTOR_INSN = re.compile(r"%[xyz]mm(1[6-9]|2\d|3[01])|%[yz]mm|\tv[a-z]")
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64", reason="x86-64 instruction check")
+def test_extension_needs_only_baseline_x86_64_outside_the_wide_kernels() -> None:
+    """VEX/EVEX (AVX and later) instructions appear only in the AVX2/AVX-512
+    kernels, which run after the CPU check: the rest of the extension, the
+    scalar fallback included, runs on any x86-64 (no -march in the build)."""
+    objdump = shutil.which("objdump")
+    assert objdump, "objdump (binutils) is needed for this check"
+    so = aacmm._core.__file__
+    assert so is not None
+    text = subprocess.run(
+        [objdump, "-d", "--no-show-raw-insn", so],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    ).stdout
+    per_function: dict[str, int] = defaultdict(int)
+    fn = "?"
+    for line in text.splitlines():
+        m = re.match(r"^[0-9a-f]+ <(.+)>:$", line)
+        if m:
+            fn = m.group(1)
+        elif _VECTOR_INSN.search(line):
+            per_function[fn] += 1
+    wide = {f for f in per_function if "_avx2_" in f or "_avx512_" in f}
+    assert wide, "no AVX2/AVX-512 kernel found in the extension"
+    assert set(per_function) == wide, sorted(set(per_function) - wide)
