@@ -25,14 +25,15 @@ ValueError) if a pose is rejected by the core.
 
 from __future__ import annotations
 
+import collections
 import csv
+import itertools
 import json
 import math
 import os
-import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import resources
@@ -312,31 +313,12 @@ def _threads(threads: int | None) -> int:
     return threads
 
 
-class _Progress:
-    """A tqdm bar on stderr, or nothing."""
-
-    def __init__(self, enabled: bool, total: int | None, desc: str) -> None:
-        self._bar: Any = None
-        if enabled:
-            from tqdm import tqdm
-
-            self._bar = tqdm(
-                total=total, desc=desc, unit="pose", unit_scale=True, file=sys.stderr, leave=False
-            )
-
-    def update(self, n: int) -> None:
-        if self._bar is not None:
-            self._bar.update(n)
-
-    def close(self) -> None:
-        if self._bar is not None:
-            self._bar.close()
+#: A progress callback: called with the number of poses just accumulated.
+Progress = Callable[[int], None]
 
 
-def _want_progress(progress: bool | None, n: int) -> bool:
-    if progress is None:
-        return n >= 2_000_000 and sys.stderr.isatty()
-    return progress
+def _no_progress(n: int) -> None:
+    pass
 
 
 @contextmanager
@@ -348,13 +330,24 @@ def _pool(threads: int) -> Iterator[ThreadPoolExecutor | None]:
             yield ex
 
 
+#: Tasks in flight per thread: enough to keep every thread busy, few enough
+#: that memory does not grow with n (each task holds one chunk of poses).
+_IN_FLIGHT_PER_THREAD = 2
+
+
 def _accumulate(
     model: Model,
-    tasks: Sequence[Callable[[], FloatArray]],
+    tasks: Iterable[Callable[[], FloatArray]],
     pool: ThreadPoolExecutor | None,
-    bar: _Progress,
+    progress: Progress,
+    threads: int = 1,
 ) -> tuple[FloatArray, FloatArray, int]:
-    """Run each task (it returns poses), sum |J| and J^2 in task order."""
+    """Run each task (it returns poses), sum |J| and J^2 in task order.
+
+    Tasks are drawn from the iterable as they are needed, at most
+    ``2 * threads`` in flight, so memory does not depend on their number. On
+    an exception (Ctrl-C included) the tasks not started are cancelled.
+    """
 
     def one(task: Callable[[], FloatArray]) -> tuple[FloatArray, FloatArray, int]:
         th = task()
@@ -364,23 +357,44 @@ def _accumulate(
     s_tot = np.zeros((JAC_ROWS, JAC_COLS))
     q_tot = np.zeros((JAC_ROWS, JAC_COLS))
     n_tot = 0
-    results = map(one, tasks) if pool is None else pool.map(one, tasks)
-    for s, q, n in results:  # in task order: the sum does not depend on threads
+
+    def add(s: FloatArray, q: FloatArray, n: int) -> None:
+        nonlocal s_tot, q_tot, n_tot
         s_tot += s
         q_tot += q
         n_tot += n
-        bar.update(n)
+        progress(n)
+
+    it = iter(tasks)
+    if pool is None:
+        for task in it:
+            add(*one(task))
+        return s_tot, q_tot, n_tot
+    pending: collections.deque[Future[tuple[FloatArray, FloatArray, int]]] = collections.deque()
+    try:
+        for task in itertools.islice(it, _IN_FLIGHT_PER_THREAD * threads):
+            pending.append(pool.submit(one, task))
+        while pending:
+            add(*pending.popleft().result())  # in task order: the sum does not depend on threads
+            task = next(it, None)
+            if task is not None:
+                pending.append(pool.submit(one, task))
+    finally:
+        for f in pending:
+            f.cancel()
     return s_tot, q_tot, n_tot
 
 
 def _chunk_tasks(
     entropy: int, run: int, n: int, joints: tuple[JointDistribution, ...]
-) -> list[Callable[[], FloatArray]]:
+) -> Iterator[Callable[[], FloatArray]]:
+    """The chunks of a run of n poses, one task each, made as they are asked for."""
+
     def make(k: int) -> Callable[[], FloatArray]:
         m = min(CHUNK, n - k * CHUNK)
         return lambda: draw_chunk(entropy, run, k, m, joints)
 
-    return [make(k) for k in range(-(-n // CHUNK))]
+    return (make(k) for k in range(-(-n // CHUNK)))
 
 
 def _stats(s: FloatArray, q: FloatArray, n: int) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -414,7 +428,7 @@ def error_transfer_coefficients(
     seed: int | None = None,
     params: Params | None = None,
     threads: int | None = None,
-    progress: bool | None = None,
+    progress: Progress | None = None,
 ) -> CoefficientResult:
     """Mean |J| over ``n`` random poses (the paper's Monte Carlo study).
 
@@ -422,7 +436,9 @@ def error_transfer_coefficients(
     [-pi, pi)); ``seed``: non-negative integer (``None``: a fresh one, recorded
     in the result); ``params``: the arm (default: paper Table 1); ``threads``:
     worker threads (default: all cores; the result does not depend on it);
-    ``progress``: tqdm bar on stderr (default: only for n >= 2e6 on a tty).
+    ``progress``: called with the number of poses of each finished chunk.
+    Memory does not grow with n: chunks of :data:`CHUNK` poses are drawn as
+    the threads need them.
 
     Raises ValueError for n <= 0 or any bad argument.
     """
@@ -432,13 +448,10 @@ def error_transfer_coefficients(
     nt = _threads(threads)
     model = Model(params or Params())
     t0 = time.perf_counter()
-    bar = _Progress(_want_progress(progress, n), n, "mc")
     tasks = _chunk_tasks(e, 0, n, js)
-    try:
-        with _pool(min(nt, len(tasks))) as pool:  # no pool for a single chunk
-            s, q, got = _accumulate(model, tasks, pool, bar)
-    finally:
-        bar.close()
+    workers = min(nt, -(-n // CHUNK))
+    with _pool(workers) as pool:  # no pool for a single chunk
+        s, q, got = _accumulate(model, tasks, pool, progress or _no_progress, workers)
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s, q, got)
     dev, dz, checked = _checks(model, draw_chunk(e, 0, 0, min(n, CHECK_POSES, CHUNK), js))
@@ -482,7 +495,7 @@ def error_transfer_coefficients_adaptive(
     seed: int | None = None,
     params: Params | None = None,
     threads: int | None = None,
-    progress: bool | None = None,
+    progress: Progress | None = None,
 ) -> CoefficientResult:
     """Adaptive Monte Carlo, JCGM 101 (GUM Supplement 1) section 7.9.
 
@@ -493,6 +506,7 @@ def error_transfer_coefficients_adaptive(
     entries) if given, else the 7.9.2 rule for ``ndig`` significant digits
     (:func:`jcgm_tolerance`). Entries whose average is 0 must have zero
     spread. Stops at ``max_trials`` with ``converged = False``.
+    ``progress`` is called with the poses of each finished run.
 
     Raises ValueError for a bad tolerance, ndig, block or max_trials.
     """
@@ -517,47 +531,43 @@ def error_transfer_coefficients_adaptive(
     n_tot = 0
     converged = False
     delta = np.zeros((JAC_ROWS, JAC_COLS))
-    bar = _Progress(progress if progress is not None else sys.stderr.isatty(), None, "mc adaptive")
-    no_bar = _Progress(False, None, "")
+    report = progress or _no_progress
 
     def run_sums(h: int) -> tuple[FloatArray, FloatArray, int]:
-        return _accumulate(model, _chunk_tasks(e, h, block, js), None, no_bar)
+        return _accumulate(model, _chunk_tasks(e, h, block, js), None, _no_progress)
 
     # Runs go to the threads `nt` at a time, each run whole on one thread, and
     # are examined in order: the stopping run, and so the result, is the same
     # as with one thread (runs computed past it are discarded).
     max_runs = max(1, max_trials // block)
-    try:
-        with _pool(min(nt, max_runs)) as pool:
-            h_next = 0
-            while not converged and h_next < max_runs:
-                batch = list(range(h_next, min(h_next + nt, max_runs)))
-                h_next = batch[-1] + 1
-                results = map(run_sums, batch) if pool is None else pool.map(run_sums, batch)
-                for s, q, got in results:
-                    bar.update(got)
-                    runs += 1
-                    y = s / got
-                    # Welford: mean and sum of squared deviations of the run means
-                    d = y - ybar
-                    ybar += d / runs
-                    m2 += d * (y - ybar)
-                    s_tot += s
-                    q_tot += q
-                    n_tot += got
-                    if runs < 2:
-                        continue
-                    sy = np.sqrt(m2 / (runs - 1) / runs)
-                    if tolerance is not None:
-                        delta = np.full_like(ybar, tolerance)
-                    else:
-                        assert ndig is not None
-                        delta = jcgm_tolerance(ybar, ndig)
-                    if bool(np.all(2.0 * sy <= delta)):
-                        converged = True
-                        break
-    finally:
-        bar.close()
+    with _pool(min(nt, max_runs)) as pool:
+        h_next = 0
+        while not converged and h_next < max_runs:
+            batch = list(range(h_next, min(h_next + nt, max_runs)))
+            h_next = batch[-1] + 1
+            results = map(run_sums, batch) if pool is None else pool.map(run_sums, batch)
+            for s, q, got in results:
+                report(got)
+                runs += 1
+                y = s / got
+                # Welford: mean and sum of squared deviations of the run means
+                d = y - ybar
+                ybar += d / runs
+                m2 += d * (y - ybar)
+                s_tot += s
+                q_tot += q
+                n_tot += got
+                if runs < 2:
+                    continue
+                sy = np.sqrt(m2 / (runs - 1) / runs)
+                if tolerance is not None:
+                    delta = np.full_like(ybar, tolerance)
+                else:
+                    assert ndig is not None
+                    delta = jcgm_tolerance(ybar, ndig)
+                if bool(np.all(2.0 * sy <= delta)):
+                    converged = True
+                    break
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s_tot, q_tot, n_tot)
     dev, dz, checked = _checks(model, draw_chunk(e, 0, 0, min(block, CHECK_POSES, CHUNK), js))
@@ -585,7 +595,7 @@ def coefficients_over_poses(
     params: Params | None = None,
     threads: int | None = None,
     source: str = "poses",
-    progress: bool | None = None,
+    progress: Progress | None = None,
 ) -> CoefficientResult:
     """Mean |J| over given poses (n, 6) in rad, e.g. from a measurement log.
 
@@ -605,13 +615,10 @@ def coefficients_over_poses(
     def make(k: int) -> Callable[[], FloatArray]:
         return lambda: th[k * CHUNK : (k + 1) * CHUNK]
 
-    bar = _Progress(_want_progress(progress, n), n, "mc")
-    tasks = [make(k) for k in range(-(-n // CHUNK))]
-    try:
-        with _pool(min(nt, len(tasks))) as pool:
-            s, q, got = _accumulate(model, tasks, pool, bar)
-    finally:
-        bar.close()
+    tasks = (make(k) for k in range(-(-n // CHUNK)))
+    workers = min(nt, -(-n // CHUNK))
+    with _pool(workers) as pool:
+        s, q, got = _accumulate(model, tasks, pool, progress or _no_progress, workers)
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s, q, got)
     dev, dz, checked = _checks(model, th)
