@@ -1,13 +1,16 @@
 """Benchmarks of the Monte Carlo analysis; one JSON object per line on stdout.
 
 * analysis.abs_sums: the coefficient accumulation alone (fused C loop over
-  point + Jacobian + |J| and J^2 sums, aacmm_abs_jacobian_sums_f64) on
-  pre-drawn poses, 1 thread and all threads (Python thread pool, GIL released).
+  point + Jacobian + |J| and J^2 sums, aacmm_simd_abs_jacobian_sums_f64) on
+  pre-drawn poses, on the scalar kernel and on the widest one this CPU runs,
+  1 thread and all threads (Python thread pool, GIL released); ns per pose
+  per thread = wall x threads / poses.
 * analysis.mc: error_transfer_coefficients end to end (random poses drawn
   with numpy, accumulation, thread pool, the Eq. 11-13 check on 4096 poses),
   N = 10^6 and N = 10^4 (the paper's whole study).
-* analysis.cli_mc_1e4: `aacmm mc -n 10000` as a process, Python start-up
-  included (wall and CPU time).
+* analysis.cli_mc_1e4, analysis.cli_mc_1e7: `aacmm mc -n 10000` and
+  `aacmm mc -n 10000000` as a process on all cores, Python start-up included
+  (wall and CPU time; issue 17's target: 10^7 under 1 s wall on 2 cores).
 * analysis.uncertainty: Monte Carlo propagation, trials x poses per second.
 
 Each figure is the best of several repeats. Wall-clock rates depend on what
@@ -27,6 +30,7 @@ from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from aacmm import core
 from aacmm.analysis import mc
 from aacmm.analysis import uncertainty as unc
 from aacmm.core import Model
@@ -53,23 +57,30 @@ def main() -> None:
     n = 1 << 20
     theta = mc.draw_poses(n, seed=1)
     chunks = np.array_split(theta, 64)
-    for threads in sorted({1, ncpu}):
-        with ThreadPoolExecutor(threads) as ex:
+    kernels = sorted({"scalar", core.available_kernels()[-1]}, key=core.KERNELS.index)
+    for kern in kernels:
+        core.set_kernel(kern)
+        for threads in sorted({1, ncpu}):
+            with ThreadPoolExecutor(threads) as ex:
 
-            def run(pool: ThreadPoolExecutor = ex) -> None:
-                list(pool.map(model.abs_jacobian_sums, chunks))
+                def run(pool: ThreadPoolExecutor = ex) -> None:
+                    list(pool.map(model.abs_jacobian_sums, chunks))
 
-            t, cpu = best_of(run)
-        emit(
-            bench="analysis.abs_sums",
-            what="fused C |J| accumulation (point+Jacobian+sums)",
-            poses=n,
-            threads=threads,
-            ns_per_pose=round(t / n * 1e9, 2),
-            poses_per_s=round(n / t),
-            cpu_ns_per_pose=round(cpu / n * 1e9, 2),
-            poses_per_cpu_s=round(n / cpu),
-        )
+                t, cpu = best_of(run)
+            emit(
+                bench="analysis.abs_sums",
+                what="fused C |J| accumulation (point+Jacobian+sums)",
+                kernel=kern,
+                poses=n,
+                threads=threads,
+                ns_per_pose=round(t / n * 1e9, 2),
+                ns_per_pose_per_thread=round(t * threads / n * 1e9, 2),
+                target_ns_per_pose_per_thread=25.0,
+                poses_per_s=round(n / t),
+                cpu_ns_per_pose=round(cpu / n * 1e9, 2),
+                poses_per_cpu_s=round(n / cpu),
+            )
+    core.set_kernel("auto")
     for n_mc, reps in ((1_000_000, 3), (10_000, 20)):
         for threads in sorted({1, ncpu}):
             acc = float("inf")
@@ -91,26 +102,30 @@ def main() -> None:
                 cpu_ms=round(cpu * 1e3, 3),
                 poses_per_cpu_s=round(n_mc / cpu),
             )
-    best_wall = best_cpu = float("inf")
-    for _ in range(3):
-        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        t0 = time.perf_counter()
-        subprocess.run(
-            [sys.executable, "-m", "aacmm.cli", "mc", "-n", "10000", "--seed", "1"],
-            check=True,
-            stdout=subprocess.DEVNULL,
+    for n_cli, target in ((10_000, None), (10_000_000, 1.0)):
+        best_wall = best_cpu = float("inf")
+        for _ in range(3):
+            r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t0 = time.perf_counter()
+            subprocess.run(
+                [sys.executable, "-m", "aacmm.cli", "mc", "-n", str(n_cli), "--seed", "1"],
+                check=True,
+                stdout=subprocess.DEVNULL,
+            )
+            wall = time.perf_counter() - t0
+            r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            best_wall = min(best_wall, wall)
+            best_cpu = min(best_cpu, r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime)
+        extra = {} if target is None else {"target_wall_s": target}
+        emit(
+            bench=f"analysis.cli_mc_1e{len(str(n_cli)) - 1}",
+            what=f"aacmm mc -n {n_cli}, Python start-up included",
+            kernel=core.kernel(),
+            threads=ncpu,
+            wall_s=round(best_wall, 3),
+            cpu_s=round(best_cpu, 3),
+            **extra,
         )
-        wall = time.perf_counter() - t0
-        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        best_wall = min(best_wall, wall)
-        best_cpu = min(best_cpu, r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime)
-    emit(
-        bench="analysis.cli_mc_1e4",
-        what="aacmm mc -n 10000, Python start-up included",
-        wall_s=round(best_wall, 3),
-        cpu_s=round(best_cpu, 3),
-        target_s=1.0,
-    )
     spec = unc.UncertaintySpec.from_u(
         {"theta": 1e-5, "alpha": 1e-5, "d": 0.005, "a": 0.005, "l": 0.005}
     )

@@ -105,7 +105,7 @@ def test_environment_variable_forces_a_kernel() -> None:
     assert out.returncode == 0 and out.stdout.strip() == "scalar", out.stderr
     out = _run("import aacmm.core as c; print(c.kernel())", "auto")
     assert out.stdout.strip() == core.available_kernels()[-1]
-    out = _run("import aacmm.core", "avx9")
+    out = _run("import aacmm.core as c; c.Model().points([0.0] * 6)", "avx9")
     assert out.returncode != 0 and "AACMM_KERNEL: unknown batch kernel 'avx9'" in out.stderr
     # the command line says it in one line, exit status 2
     env = {**os.environ, core.ENV_KERNEL: "avx9"}

@@ -19,14 +19,14 @@ Main names:
 * :data:`PARAM_NAMES` -- the 25 parameter names in Jacobian column order.
 * :func:`kernel`, :func:`set_kernel`, :func:`available_kernels` -- the batch
   kernel across SIMD lanes the batch methods run on (``aacmm/simd.h``):
-  chosen at import as the widest one this CPU runs, or forced with the
-  environment variable ``AACMM_KERNEL`` (``scalar``, ``vec128``, ``avx2``,
+  on first use the widest one this CPU runs, or the one the environment
+  variable ``AACMM_KERNEL`` names (``scalar``, ``vec128``, ``avx2``,
   ``avx512`` or ``auto``).
 
 Errors: invalid arguments raise :class:`ValueError`; an error reported by the
 C core raises :class:`KinematicsError` (a ``ValueError``) carrying the C
-status code and, for batches, the index of the first bad pose. Importing the
-module raises ValueError if ``AACMM_KERNEL`` names an unknown kernel or one
+status code and, for batches, the index of the first bad pose. A batch
+method raises ValueError if ``AACMM_KERNEL`` names an unknown kernel or one
 this CPU cannot run.
 
 All functions are thread-safe; batch calls release the GIL while in C.
@@ -146,7 +146,7 @@ def _kernel_index(name: str) -> int:
     return i
 
 
-_kernel = 0
+_kernel: int | None = None
 
 
 def set_kernel(name: str = "auto") -> str:
@@ -160,15 +160,28 @@ def set_kernel(name: str = "auto") -> str:
     return KERNELS[_kernel]
 
 
+def _current_kernel() -> int:
+    """The kernel in force: on first use, ``$AACMM_KERNEL`` (default ``auto``).
+
+    Raises ValueError if the variable names an unknown kernel or one this CPU
+    cannot run (on every use, until :func:`set_kernel` is called).
+    """
+    global _kernel
+    if _kernel is None:
+        name = os.environ.get(ENV_KERNEL, "").strip() or "auto"
+        try:
+            _kernel = _kernel_index(name)
+        except ValueError as e:
+            raise ValueError(f"{ENV_KERNEL}: {e}") from None
+    return _kernel
+
+
 def kernel() -> str:
-    """The name of the kernel the batch methods run on."""
-    return KERNELS[_kernel]
+    """The name of the kernel the batch methods run on.
 
-
-try:
-    set_kernel(os.environ.get(ENV_KERNEL, "").strip() or "auto")
-except ValueError as _e:
-    raise ValueError(f"{ENV_KERNEL}: {_e}") from None
+    Raises ValueError if ``$AACMM_KERNEL`` is invalid (see :func:`set_kernel`).
+    """
+    return KERNELS[_current_kernel()]
 
 
 def _six(name: str, values: Sequence[float]) -> tuple[float, ...]:
@@ -391,7 +404,7 @@ class Model:
         done = ffi.new("size_t *")
         if single:
             st = lib.aacmm_simd_batch_angles_f32(
-                _kernel,
+                _current_kernel(),
                 self._model32(),
                 n,
                 _fptr(th),
@@ -401,7 +414,13 @@ class Model:
             )
         else:
             st = lib.aacmm_simd_batch_angles_f64(
-                _kernel, self._c, n, _dptr(th), _dptr(p), ffi.NULL if j is None else _dptr(j), done
+                _current_kernel(),
+                self._c,
+                n,
+                _dptr(th),
+                _dptr(p),
+                ffi.NULL if j is None else _dptr(j),
+                done,
             )
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return p, j
@@ -431,7 +450,7 @@ class Model:
         q = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
         done = ffi.new("size_t *")
         st = lib.aacmm_simd_abs_jacobian_sums_f64(
-            _kernel, self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
+            _current_kernel(), self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
         )
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return s, q
@@ -481,7 +500,14 @@ def perturbed_points(nominal: Params, delta: npt.ArrayLike, theta_rad: npt.Array
     out = np.empty((d.shape[0], th.shape[0], 3), dtype=np.float64)
     done = ffi.new("size_t *")
     st = lib.aacmm_simd_perturbed_points_f64(
-        _kernel, nominal.to_c(), d.shape[0], _dptr(d), th.shape[0], _dptr(th), _dptr(out), done
+        _current_kernel(),
+        nominal.to_c(),
+        d.shape[0],
+        _dptr(d),
+        th.shape[0],
+        _dptr(th),
+        _dptr(out),
+        done,
     )
     _check(st, "perturbed model invalid", int(done[0]) if st else None)
     return out

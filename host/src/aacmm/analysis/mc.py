@@ -15,8 +15,9 @@ so a result depends on the seed only, never on the number of threads.
 Main entry points: :func:`error_transfer_coefficients` (fixed N),
 :func:`error_transfer_coefficients_adaptive` (JCGM 101 section 7.9),
 :func:`coefficients_over_poses` (logged poses), :func:`compare_with_paper`,
-and the report writers :func:`format_report`, :func:`write_csv`,
-:func:`to_json`, :func:`write_png`.
+and the reports :func:`format_report` (text), :func:`csv_text`,
+:func:`to_json` and :func:`figure` (a matplotlib Figure); the command
+``aacmm mc`` (:mod:`aacmm.commands.mc`) writes them to files.
 
 Errors: ValueError for bad arguments (N <= 0, bad distributions, bad
 tolerances, bad thread counts); :class:`aacmm.core.KinematicsError` (a
@@ -27,17 +28,17 @@ from __future__ import annotations
 
 import collections
 import csv
+import io
 import itertools
-import json
 import math
 import os
+import textwrap
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import resources
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -305,11 +306,15 @@ def max_rel_deviation(result: CoefficientResult) -> tuple[float, PaperComparison
 # --------------------------------------------------------------------------
 
 
+#: Most worker threads accepted (each keeps two chunks of poses in flight).
+MAX_THREADS = 256
+
+
 def _threads(threads: int | None) -> int:
     if threads is None:
         return max(1, min(os.cpu_count() or 1, 64))
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-        raise ValueError(f"threads must be a positive integer, got {threads!r}")
+    if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= MAX_THREADS:
+        raise ValueError(f"threads must be an integer in 1..{MAX_THREADS}, got {threads!r}")
     return threads
 
 
@@ -372,13 +377,13 @@ def _accumulate(
         return s_tot, q_tot, n_tot
     pending: collections.deque[Future[tuple[FloatArray, FloatArray, int]]] = collections.deque()
     try:
-        for task in itertools.islice(it, _IN_FLIGHT_PER_THREAD * threads):
-            pending.append(pool.submit(one, task))
+        for first in itertools.islice(it, _IN_FLIGHT_PER_THREAD * threads):
+            pending.append(pool.submit(one, first))
         while pending:
             add(*pending.popleft().result())  # in task order: the sum does not depend on threads
-            task = next(it, None)
-            if task is not None:
-                pending.append(pool.submit(one, task))
+            following = next(it, None)
+            if following is not None:
+                pending.append(pool.submit(one, following))
     finally:
         for f in pending:
             f.cancel()
@@ -674,31 +679,32 @@ def format_report(result: CoefficientResult) -> str:
     return "\n".join(lines)
 
 
-def write_csv(result: CoefficientResult, path: str | Path) -> None:
-    """All 75 coefficients, one row per (axis, parameter), with the paper's value."""
+def csv_text(result: CoefficientResult) -> str:
+    """All 75 coefficients as CSV text, one row per (axis, parameter), with the paper's value."""
     paper = paper_table2()
-    with open(path, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["axis", "parameter", "unit", "mean_abs", "std", "sem", "paper", "rel_dev"])
-        for r, axis in enumerate(AXES):
-            for k, name in enumerate(PARAM_NAMES):
-                pv: float | None = None
-                if k < 12:
-                    col = (3 if k < 6 else 0) + r
-                    pv = float(paper[k % 6, col])
-                rel = "" if pv is None or pv == 0.0 else f"{(result.mean_abs[r, k] - pv) / pv:.6g}"
-                w.writerow(
-                    [
-                        axis,
-                        name,
-                        f"mm/{PARAM_UNITS[k]}",
-                        f"{result.mean_abs[r, k]:.10g}",
-                        f"{result.std_abs[r, k]:.6g}",
-                        f"{result.sem[r, k]:.6g}",
-                        "" if pv is None else f"{pv:g}",
-                        rel,
-                    ]
-                )
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow(["axis", "parameter", "unit", "mean_abs", "std", "sem", "paper", "rel_dev"])
+    for r, axis in enumerate(AXES):
+        for k, name in enumerate(PARAM_NAMES):
+            pv: float | None = None
+            if k < 12:
+                col = (3 if k < 6 else 0) + r
+                pv = float(paper[k % 6, col])
+            rel = "" if pv is None or pv == 0.0 else f"{(result.mean_abs[r, k] - pv) / pv:.6g}"
+            w.writerow(
+                [
+                    axis,
+                    name,
+                    f"mm/{PARAM_UNITS[k]}",
+                    f"{result.mean_abs[r, k]:.10g}",
+                    f"{result.std_abs[r, k]:.6g}",
+                    f"{result.sem[r, k]:.6g}",
+                    "" if pv is None else f"{pv:g}",
+                    rel,
+                ]
+            )
+    return buf.getvalue()
 
 
 def to_json(result: CoefficientResult) -> dict[str, Any]:
@@ -755,50 +761,88 @@ def to_json(result: CoefficientResult) -> dict[str, Any]:
     return out
 
 
-def write_json(result: CoefficientResult, path: str | Path) -> None:
-    """:func:`to_json` written to a file."""
-    Path(path).write_text(json.dumps(to_json(result), indent=2) + "\n", encoding="utf-8")
+def joints_title(joints: Sequence[str]) -> str:
+    """The joint distribution in words, joints sharing one grouped:
+    ``all joints uniform[-180, 180) deg`` or
+    ``joint 2 normal(0, 10) deg; joints 1, 3-6 uniform[-180, 180) deg``."""
+    groups: dict[str, list[int]] = {}
+    for i, d in enumerate(joints, start=1):
+        groups.setdefault(d, []).append(i)
+    if len(groups) == 1:
+        return f"all joints {joints[0]}"
+
+    def span(ids: list[int]) -> str:
+        runs: list[list[int]] = []
+        for i in ids:
+            if runs and i == runs[-1][-1] + 1:
+                runs[-1].append(i)
+            else:
+                runs.append([i])
+        return ", ".join(str(r[0]) if len(r) == 1 else f"{r[0]}-{r[-1]}" for r in runs)
+
+    parts = sorted(groups.items(), key=lambda kv: len(kv[1]))
+    return "; ".join(f"joint{'s' if len(ids) > 1 else ''} {span(ids)} {d}" for d, ids in parts)
 
 
-def write_png(result: CoefficientResult, path: str | Path) -> None:
-    """Bar chart of the alpha and theta coefficients per joint and axis, paper as markers."""
-    import matplotlib
+def figure(result: CoefficientResult) -> Any:
+    """A matplotlib Figure: the alpha and theta coefficients per joint and axis.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Bars: mean |coefficient| of this run (q_i = alpha_i left, theta_i
+    right), with error bars of +-1 standard error of the mean (thin black
+    lines, no caps); the paper's Table 2 values as white diamonds with a
+    black edge, so they cannot be mistaken for the error bars. The title
+    names the poses and their distribution. Built without pyplot (no global
+    state; safe from threads); save it with :func:`aacmm.fileio.save_figure`.
+    """
+    from matplotlib.artist import Artist
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     ours, sem, paper = result.table2(), result.table2_sem(), paper_table2()
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    fig = Figure(figsize=(11, 5.0), layout="constrained")
+    axes = fig.subplots(1, 2, sharey=True)
     x = np.arange(1, JOINTS + 1)
     width = 0.26
-    for p, (ax, title) in enumerate(zip(axes, ("alpha_i", "theta_i"), strict=True)):
-        for r, axis in enumerate(AXES):
+    colors = ("tab:blue", "tab:orange", "tab:green")
+    for p, (ax, g) in enumerate(zip(axes, (r"\alpha", r"\theta"), strict=True)):
+        for r in range(len(AXES)):
             c = 3 * p + r
             xs = x + (r - 1) * width
-            ax.bar(
-                xs,
-                ours[:, c],
-                width,
-                yerr=sem[:, c],
-                capsize=2,
-                label=f"d{axis}/d{title.split('_')[0]} (this run)",
-            )
+            ax.bar(xs, ours[:, c], width, color=colors[r])
+            ax.errorbar(xs, ours[:, c], yerr=sem[:, c], fmt="none", ecolor="black", elinewidth=1)
             ax.plot(
                 xs,
                 paper[:, c],
-                "k_",
-                markersize=12,
-                markeredgewidth=2,
-                label="paper Table 2" if r == 0 else None,
+                linestyle="none",
+                marker="D",
+                markersize=5,
+                markerfacecolor="white",
+                markeredgecolor="black",
             )
-        ax.set_title(f"Mean |error transfer coefficient| of {title}")
-        ax.set_xlabel("joint i")
+        ax.set_title(rf"Mean |error transfer coefficient| of ${g}_i$ (mm/rad)")
+        ax.set_xlabel("joint $i$")
         ax.set_xticks(x)
         ax.grid(axis="y", alpha=0.3)
-        ax.legend(fontsize=8)
     axes[0].set_ylabel("mm/rad")
+    handles: list[Artist] = [
+        Patch(color=colors[r], label=rf"$|\partial f_{a} / \partial q_i|$, this run")
+        for r, a in enumerate(AXES)
+    ]
+    handles += [
+        Line2D([], [], color="black", linewidth=1, label=r"error bar: $\pm 1$ standard error"),
+        Line2D(
+            [],
+            [],
+            linestyle="none",
+            marker="D",
+            markerfacecolor="white",
+            markeredgecolor="black",
+            label="paper, Table 2",
+        ),
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncols=5, fontsize=8, frameon=False)
     seed = f", seed {result.seed}" if result.seed is not None else ""
-    fig.suptitle(f"{result.n} poses ({result.source}{seed})", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    title = f"{result.n} poses ({result.source}{seed}); {joints_title(result.joints)}"
+    fig.suptitle("\n".join(textwrap.wrap(title, 150)), fontsize=9)
+    return fig

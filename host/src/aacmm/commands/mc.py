@@ -3,8 +3,10 @@
 The computation lives in :mod:`aacmm.analysis.mc`; this module parses the
 arguments, prints the report and writes the outputs. Heavy imports (numpy,
 the C core, matplotlib) happen only when the command runs, so the other
-commands start fast. User errors (bad arguments, unreadable files) print one
-line ``aacmm mc: error: ...`` on stderr and exit with status 2.
+commands start fast. User errors (bad arguments, unreadable files, an
+existing output file without ``--force``) print one line
+``aacmm mc: error: ...`` on stderr and exit with status 2; Ctrl-C stops a run
+within a chunk's time (``aacmm mc: interrupted``, status 130).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import argparse
 import math
 from typing import Any
 
-from aacmm.commands.common import add_force_option, atomic_path, check_outputs, print_err
+from aacmm.commands.common import add_force_option, print_err
 from aacmm.commands.exitcodes import USAGE
 
 
@@ -103,8 +105,8 @@ def register(sub: Any) -> None:
     mc.add_argument("--csv", metavar="PATH", help="write all 75 coefficients as CSV")
     mc.add_argument("--json", metavar="PATH", help="write the result as JSON")
     mc.add_argument("--png", metavar="PATH", help="write a figure of the coefficients (PNG)")
-    add_force_option(mc)
     mc.add_argument("-q", "--quiet", action="store_true", help="no terminal table")
+    add_force_option(mc)
     mc.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
@@ -127,13 +129,36 @@ def _joints(args: argparse.Namespace) -> Any:
     return js
 
 
+def _progress_bar(enabled: bool | None, total: int | None) -> Any:
+    """A tqdm bar on stderr counting poses (None when off).
+
+    Default: on at a terminal for runs of at least 2*10^6 poses (and for
+    adaptive runs, whose length is not known in advance).
+    """
+    import sys
+
+    from aacmm.commands.common import is_tty
+
+    if enabled is None:
+        enabled = is_tty(sys.stderr) and (total is None or total >= 2_000_000)
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="mc", unit="pose", unit_scale=True, file=sys.stderr, leave=False)
+
+
 def run_mc(args: argparse.Namespace) -> int:
     """``aacmm mc``: returns the exit status."""
+    import json
+
     from aacmm.analysis import mc
     from aacmm.errors import AacmmError
+    from aacmm.fileio import atomic_output, check_outputs, save_figure, write_output
 
+    bar = None
     try:
-        check_outputs([args.csv, args.json, args.png], args.force)  # before the work
+        check_outputs([args.csv, args.json, args.png], args.force)
         if args.log is not None:
             if args.adaptive or args.range or args.normal or args.seed is not None:
                 raise ValueError(
@@ -142,47 +167,58 @@ def run_mc(args: argparse.Namespace) -> int:
             from aacmm.analysis.poselog import read_pose_log
 
             log = read_pose_log(args.log)
+            bar = _progress_bar(args.progress, log.theta_rad.shape[0])
             res = mc.coefficients_over_poses(
                 log.theta_rad,
                 params=log.params,
                 threads=args.threads,
                 source=f"log {args.log}",
-                progress=args.progress,
+                progress=None if bar is None else bar.update,
             )
         elif args.adaptive:
             if args.tol is not None and args.ndig is not None:
                 raise ValueError("give --ndig or --tol, not both")
+            bar = _progress_bar(args.progress, None)
             res = mc.error_transfer_coefficients_adaptive(
-                ndig=None if args.tol is not None else (args.ndig or 2),
+                ndig=None if args.tol is not None else (2 if args.ndig is None else args.ndig),
                 tolerance=args.tol,
                 block=args.block,
                 max_trials=args.max_trials,
                 joints=_joints(args),
                 seed=args.seed,
                 threads=args.threads,
-                progress=args.progress,
+                progress=None if bar is None else bar.update,
             )
         else:
             if args.ndig is not None or args.tol is not None:
                 raise ValueError("--ndig and --tol need --adaptive")
+            joints = _joints(args)
+            bar = _progress_bar(args.progress, args.poses if args.poses > 0 else None)
             res = mc.error_transfer_coefficients(
                 args.poses,
-                joints=_joints(args),
+                joints=joints,
                 seed=args.seed,
                 threads=args.threads,
-                progress=args.progress,
+                progress=None if bar is None else bar.update,
             )
+        if bar is not None:
+            bar.close()
+            bar = None
         if not args.quiet:
             print(mc.format_report(res))
-        # each output: temporary file beside it, fsync, rename (refused if it exists)
-        for path, write in ((args.csv, mc.write_csv), (args.json, mc.write_json),
-                            (args.png, mc.write_png)):  # fmt: skip
-            if path:
-                with atomic_path(path, force=args.force) as tmp:
-                    write(res, tmp)
+        if args.csv:
+            with atomic_output(args.csv, force=args.force, newline="") as f:
+                f.write(mc.csv_text(res))
+        if args.json:
+            write_output(args.json, json.dumps(mc.to_json(res), indent=2) + "\n", force=args.force)
+        if args.png:
+            save_figure(mc.figure(res), args.png, force=args.force, dpi=120)
     except (AacmmError, ValueError, OSError) as e:
         print_err("mc", f"error: {e}")
         return USAGE
+    finally:
+        if bar is not None:
+            bar.close()
     if res.converged is False:
         print_err("mc", "warning: adaptive run did not converge within --max-trials")
         return 1

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from aacmm.commands.common import add_force_option, check_outputs, print_err, write_output
+from aacmm.commands.common import add_force_option, print_err
 from aacmm.commands.exitcodes import USAGE
 
 
@@ -67,9 +67,10 @@ def run_uncertainty(args: argparse.Namespace) -> int:
 
     from aacmm.analysis import uncertainty as unc
     from aacmm.errors import AacmmError
+    from aacmm.fileio import check_outputs, write_output
 
     try:
-        check_outputs([args.json], args.force)  # before the work
+        check_outputs([args.json], args.force)
         spec = unc.load_spec(args.spec)
         if args.pose:
             extra = []
@@ -91,8 +92,7 @@ def run_uncertainty(args: argparse.Namespace) -> int:
         )
         print(unc.format_report(res, top=args.top))
         if args.json:
-            text = json.dumps(unc.to_json(res), indent=2) + "\n"
-            write_output(args.json, text, force=args.force)
+            write_output(args.json, json.dumps(unc.to_json(res), indent=2) + "\n", force=args.force)
     except (AacmmError, ValueError, OSError) as e:
         print_err("uncertainty", f"error: {e}")
         return USAGE
