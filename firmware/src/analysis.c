@@ -46,6 +46,20 @@ aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_
     return st;
 }
 
+void aacmm_params_perturb_f64(const aacmm_params_f64_t *nominal,
+                              const double delta[AACMM_N_PARAMS], aacmm_params_f64_t *out)
+{
+    int i;
+    *out = *nominal;
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        out->theta_offset_rad[i] += delta[AACMM_COL_THETA(i)];
+        out->alpha_rad[i] += delta[AACMM_COL_ALPHA(i)];
+        out->d_mm[i] += delta[AACMM_COL_D(i)];
+        out->a_mm[i] += delta[AACMM_COL_A(i)];
+    }
+    out->l_mm += delta[AACMM_COL_L];
+}
+
 aacmm_status_t aacmm_perturbed_points_f64(const aacmm_params_f64_t *nominal, size_t n_trials,
                                           const double *delta, size_t n_poses,
                                           const double *theta_rad, double *p_mm, size_t *done)
@@ -61,18 +75,10 @@ aacmm_status_t aacmm_perturbed_points_f64(const aacmm_params_f64_t *nominal, siz
         return AACMM_ERR_NULL;
     }
     for (t = 0; t < n_trials; t++) {
-        const double *dt = delta + t * AACMM_N_PARAMS;
-        aacmm_params_f64_t prm = *nominal;
+        aacmm_params_f64_t prm;
         aacmm_model_f64_t model;
         aacmm_status_t st;
-        int i;
-        for (i = 0; i < AACMM_JOINTS; i++) {
-            prm.theta_offset_rad[i] += dt[AACMM_COL_THETA(i)];
-            prm.alpha_rad[i] += dt[AACMM_COL_ALPHA(i)];
-            prm.d_mm[i] += dt[AACMM_COL_D(i)];
-            prm.a_mm[i] += dt[AACMM_COL_A(i)];
-        }
-        prm.l_mm += dt[AACMM_COL_L];
+        aacmm_params_perturb_f64(nominal, delta + t * AACMM_N_PARAMS, &prm);
         st = aacmm_model_init_f64(&model, &prm);
         if (st != AACMM_OK) {
             return st;

@@ -43,6 +43,15 @@ aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_
                                            double sq_sum[AACMM_JAC_SIZE], size_t *done);
 
 /*
+ * *out = *nominal with delta[25] added in the Jacobian column order:
+ * theta_offset_i += delta[i], alpha_i += delta[6 + i], d_i += delta[12 + i],
+ * a_i += delta[18 + i], l += delta[24]. Not validated (aacmm_model_init_f64
+ * does that). Pointers must not be NULL. Cost: 25 additions.
+ */
+void aacmm_params_perturb_f64(const aacmm_params_f64_t *nominal,
+                              const double delta[AACMM_N_PARAMS], aacmm_params_f64_t *out);
+
+/*
  * Probe points of an arm whose parameters are nominal + delta, for n_trials
  * parameter draws and n_poses poses: for trial t the model is built from
  *     theta_offset_i += delta[t*25 + i],  alpha_i += delta[t*25 + 6 + i],

@@ -20,20 +20,6 @@
  * where the compiler fuses a multiply and an add (FMA) differently.
  */
 
-typedef struct {
-    VR x, y, z;
-} VK(v3);
-
-/* a u + b v, lane by lane */
-static inline VK(v3) VK(lin2)(VR a, VK(v3) u, VR b, VK(v3) v)
-{
-    VK(v3) r;
-    r.x = a * u.x + b * v.x;
-    r.y = a * u.y + b * v.y;
-    r.z = a * u.z + b * v.z;
-    return r;
-}
-
 static inline VR VK(splat)(REAL s)
 {
     VR v = {LIT(0.0)};
@@ -67,77 +53,16 @@ static inline void VK(sincos)(VR x, VR *s, VR *c)
     *c = (VR)ci;
 }
 
-/*
- * One pass down the chain for W poses (the per-pose chain of
- * kinematics_impl.h, lane by lane): the point into *p and, if jac is not
- * NULL, the 75 Jacobian entries into jac[r * 25 + c] (row-major, as the
- * per-pose core; each entry a vector over the lanes).
- */
-static inline void VK(chain)(const TYPE(aacmm_model) *model, const VR th[AACMM_JOINTS], VK(v3) *p,
-                             VR *jac)
-{
-    const VR zero = VK(splat)(LIT(0.0));
-    const VR one = VK(splat)(LIT(1.0));
-    VK(v3) X = {one, zero, zero};
-    VK(v3) Y = {zero, one, zero};
-    VK(v3) Z = {zero, zero, one};
-    VK(v3) O = {zero, zero, zero};
-    VK(v3) zprev[AACMM_JOINTS], oprev[AACMM_JOINTS], xs[AACMM_JOINTS], os[AACMM_JOINTS];
-    VK(v3) P;
-    int i;
-
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        const VR sa = VK(splat)(model->sin_alpha[i]);
-        const VR ca = VK(splat)(model->cos_alpha[i]);
-        VR s, c;
-        VK(v3) u, step;
-        VK(sincos)(th[i] + model->params.theta_offset_rad[i], &s, &c);
-        zprev[i] = Z;
-        oprev[i] = O;
-        u = VK(lin2)(-s, X, c, Y);
-        X = VK(lin2)(c, X, s, Y);
-        Y = VK(lin2)(ca, u, sa, Z);
-        Z = VK(lin2)(-sa, u, ca, Z);
-        step = VK(lin2)(VK(splat)(model->params.d_mm[i]), zprev[i],
-                        VK(splat)(model->params.a_mm[i]), X);
-        O.x += step.x;
-        O.y += step.y;
-        O.z += step.z;
-        xs[i] = X;
-        os[i] = O;
-    }
-    P = VK(lin2)(one, O, VK(splat)(model->params.l_mm), Z);
-    *p = P;
-    if (jac == NULL) {
-        return;
-    }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        const VK(v3) zp = zprev[i];
-        const VK(v3) xi = xs[i];
-        VK(v3) v, w;
-        v.x = P.x - oprev[i].x;
-        v.y = P.y - oprev[i].y;
-        v.z = P.z - oprev[i].z;
-        w.x = P.x - os[i].x;
-        w.y = P.y - os[i].y;
-        w.z = P.z - os[i].z;
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.y * v.z - zp.z * v.y;
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.z * v.x - zp.x * v.z;
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(i)] = zp.x * v.y - zp.y * v.x;
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.y * w.z - xi.z * w.y;
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.z * w.x - xi.x * w.z;
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i)] = xi.x * w.y - xi.y * w.x;
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.x;
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.y;
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_D(i)] = zp.z;
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.x;
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.y;
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_A(i)] = xi.z;
-    }
-    jac[0 * AACMM_JAC_COLS + AACMM_COL_L] = Z.x;
-    jac[1 * AACMM_JAC_COLS + AACMM_COL_L] = Z.y;
-    jac[2 * AACMM_JAC_COLS + AACMM_COL_L] = Z.z;
-}
+/* One pass down the chain for W poses: the per-pose chain, lane by lane. */
+#define CH_T VR
+#define CH(name) VK(name)
+#define CH_SPLAT(x) VK(splat)(x)
+#define CH_SINCOS(x, s, c) VK(sincos)(x, s, c)
+#include "../chain_impl.h"
+#undef CH_T
+#undef CH
+#undef CH_SPLAT
+#undef CH_SINCOS
 
 /* AACMM_OK if every angle of the pose is finite and within the limit, else
  * the reason (the per-pose core's check_angles). */
@@ -257,8 +182,7 @@ static inline void VK(store_jacobians)(const VR J[AACMM_JAC_SIZE], size_t m, REA
 static inline void VK(group)(const TYPE(aacmm_model) *model, const REAL *th, size_t m, REAL *p_mm,
                              REAL *jac)
 {
-    VR t[AACMM_JOINTS];
-    VK(v3) P;
+    VR t[AACMM_JOINTS], P[3];
     size_t l;
     if (m == (size_t)W) {
         VK(load)(th, t);
@@ -266,16 +190,16 @@ static inline void VK(group)(const TYPE(aacmm_model) *model, const REAL *th, siz
         VK(load_part)(th, m, t);
     }
     if (jac == NULL) {
-        VK(chain)(model, t, &P, NULL);
+        VK(chain)(model, t, P, NULL);
     } else {
         VR J[AACMM_JAC_SIZE];
-        VK(chain)(model, t, &P, J);
+        VK(chain)(model, t, P, J);
         VK(store_jacobians)(J, m, jac);
     }
     for (l = 0; l < m; l++) {
-        p_mm[l * 3u + 0u] = P.x[l];
-        p_mm[l * 3u + 1u] = P.y[l];
-        p_mm[l * 3u + 2u] = P.z[l];
+        p_mm[l * 3u + 0u] = P[0][l];
+        p_mm[l * 3u + 1u] = P[1][l];
+        p_mm[l * 3u + 2u] = P[2][l];
     }
 }
 
@@ -328,15 +252,14 @@ static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
         const size_t want = (n - k < (size_t)W) ? n - k : (size_t)W;
         const size_t m = VK(valid_prefix)(th, want, &st);
         if (m > 0u) {
-            VR t[AACMM_JOINTS], J[AACMM_JAC_SIZE];
-            VK(v3) P;
+            VR t[AACMM_JOINTS], J[AACMM_JAC_SIZE], P[3];
             VU keep = no_sign;
             if (m == (size_t)W) {
                 VK(load)(th, t);
             } else {
                 VK(load_part)(th, m, t);
             }
-            VK(chain)(model, t, &P, J);
+            VK(chain)(model, t, P, J);
             for (l = m; l < (size_t)W; l++) {
                 keep[l] = 0u;
             }

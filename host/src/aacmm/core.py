@@ -232,9 +232,7 @@ class Params:
         f = [float(x) for x in a]
         return cls(tuple(f[0:6]), tuple(f[6:12]), tuple(f[12:18]), tuple(f[18:24]), f[24])
 
-    def to_c(self) -> Any:
-        """A freshly allocated ``aacmm_params_f64_t *`` holding these values."""
-        c = ffi.new("aacmm_params_f64_t *")
+    def _fill(self, c: Any) -> Any:
         c.theta_offset_rad = list(self.theta_offset_rad)
         c.alpha_rad = list(self.alpha_rad)
         c.d_mm = list(self.d_mm)
@@ -242,15 +240,13 @@ class Params:
         c.l_mm = self.l_mm
         return c
 
+    def to_c(self) -> Any:
+        """A freshly allocated ``aacmm_params_f64_t *`` holding these values."""
+        return self._fill(ffi.new("aacmm_params_f64_t *"))
+
     def to_c32(self) -> Any:
         """A freshly allocated ``aacmm_params_f32_t *`` (values rounded to float)."""
-        c = ffi.new("aacmm_params_f32_t *")
-        c.theta_offset_rad = list(self.theta_offset_rad)
-        c.alpha_rad = list(self.alpha_rad)
-        c.d_mm = list(self.d_mm)
-        c.a_mm = list(self.a_mm)
-        c.l_mm = self.l_mm
-        return c
+        return self._fill(ffi.new("aacmm_params_f32_t *"))
 
     def validate(self) -> None:
         """Check the ranges with the core's own validator.
