@@ -79,6 +79,23 @@
 
 /* ---- public entry points: dispatch on the caller's kernel ---- */
 
+/* Each operation's instance per kernel, indexed by aacmm_kernel_t; NULL
+ * where this build has none (the public function then runs the scalar one,
+ * which only happens for a kernel aacmm_kernel_available() refused). */
+#if SIMD_X86
+#define SIMD_TABLE(op, scalar)                                                                     \
+    { scalar, PSFX(op##_vec128), PSFX(op##_avx2), PSFX(op##_avx512) }
+#elif SIMD_VECTOR_EXT
+#define SIMD_TABLE(op, scalar) { scalar, PSFX(op##_vec128), NULL, NULL }
+#else
+#define SIMD_TABLE(op, scalar) { scalar, NULL, NULL, NULL }
+#endif
+
+typedef aacmm_status_t (*PSFX(batch_angles_fn))(const TYPE(aacmm_model) *, size_t, const REAL *,
+                                                REAL *, REAL *, size_t *);
+static const PSFX(batch_angles_fn) PSFX(batch_angles_table)[AACMM_KERNEL_COUNT] =
+    SIMD_TABLE(batch_angles, PSFX(aacmm_batch_angles));
+
 aacmm_status_t PSFX(aacmm_simd_batch_angles)(aacmm_kernel_t kernel, const TYPE(aacmm_model) *model,
                                              size_t n, const REAL *theta_rad, REAL *p_mm,
                                              REAL *jac, size_t *done)
@@ -89,27 +106,18 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles)(aacmm_kernel_t kernel, const TYPE(a
     if (model == NULL || (n > 0u && (theta_rad == NULL || p_mm == NULL))) {
         return AACMM_ERR_NULL;
     }
-    if (!aacmm_kernel_available(kernel)) {
+    if (!aacmm_kernel_available(kernel) || PSFX(batch_angles_table)[kernel] == NULL) {
         return AACMM_ERR_UNSUPPORTED;
     }
-    switch (kernel) {
-#if SIMD_VECTOR_EXT
-    case AACMM_KERNEL_VEC128:
-        return PSFX(batch_angles_vec128)(model, n, theta_rad, p_mm, jac, done);
-#endif
-#if SIMD_X86
-    case AACMM_KERNEL_AVX2:
-        return PSFX(batch_angles_avx2)(model, n, theta_rad, p_mm, jac, done);
-    case AACMM_KERNEL_AVX512:
-        return PSFX(batch_angles_avx512)(model, n, theta_rad, p_mm, jac, done);
-#endif
-    case AACMM_KERNEL_SCALAR:
-    default:
-        return PSFX(aacmm_batch_angles)(model, n, theta_rad, p_mm, jac, done);
-    }
+    return PSFX(batch_angles_table)[kernel](model, n, theta_rad, p_mm, jac, done);
 }
 
 #ifdef SIMD_ABS_SUMS
+typedef aacmm_status_t (*PSFX(abs_sums_fn))(const TYPE(aacmm_model) *, size_t, const REAL *,
+                                            REAL *, REAL *, size_t *);
+static const PSFX(abs_sums_fn) PSFX(abs_sums_table)[AACMM_KERNEL_COUNT] =
+    SIMD_TABLE(abs_sums, PSFX(aacmm_abs_jacobian_sums));
+
 aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums)(aacmm_kernel_t kernel,
                                                   const TYPE(aacmm_model) *model, size_t n,
                                                   const REAL *theta_rad,
@@ -122,24 +130,10 @@ aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums)(aacmm_kernel_t kernel,
     if (model == NULL || abs_sum == NULL || sq_sum == NULL || (n > 0u && theta_rad == NULL)) {
         return AACMM_ERR_NULL;
     }
-    if (!aacmm_kernel_available(kernel)) {
+    if (!aacmm_kernel_available(kernel) || PSFX(abs_sums_table)[kernel] == NULL) {
         return AACMM_ERR_UNSUPPORTED;
     }
-    switch (kernel) {
-#if SIMD_VECTOR_EXT
-    case AACMM_KERNEL_VEC128:
-        return PSFX(abs_sums_vec128)(model, n, theta_rad, abs_sum, sq_sum, done);
-#endif
-#if SIMD_X86
-    case AACMM_KERNEL_AVX2:
-        return PSFX(abs_sums_avx2)(model, n, theta_rad, abs_sum, sq_sum, done);
-    case AACMM_KERNEL_AVX512:
-        return PSFX(abs_sums_avx512)(model, n, theta_rad, abs_sum, sq_sum, done);
-#endif
-    case AACMM_KERNEL_SCALAR:
-    default:
-        return PSFX(aacmm_abs_jacobian_sums)(model, n, theta_rad, abs_sum, sq_sum, done);
-    }
+    return PSFX(abs_sums_table)[kernel](model, n, theta_rad, abs_sum, sq_sum, done);
 }
 
 aacmm_status_t PSFX(aacmm_simd_perturbed_points)(aacmm_kernel_t kernel,
@@ -185,6 +179,8 @@ aacmm_status_t PSFX(aacmm_simd_perturbed_points)(aacmm_kernel_t kernel,
     return AACMM_OK;
 }
 #endif /* SIMD_ABS_SUMS */
+
+#undef SIMD_TABLE
 
 #if defined(__clang__)
 #pragma float_control(pop)
