@@ -55,24 +55,22 @@ from aacmm.commands.exitcodes import (
 )
 from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
 from aacmm.records.files import RowFile, utc_iso, write_json_atomic
-from aacmm.records.logs import (
+from aacmm.records.schema import (
     LOG_COLUMNS,
     LOG_FORMAT,
     LOG_UNITS,
     TRIGGER_COLUMNS,
     default_triggers_path,
-    log_summary,
     param_set_entry,
-    read_log,
     sample_row,
     sidecar_path,
 )
-from aacmm.records.paramsets import ParamSetRecord
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
     from aacmm.commands.common import Device
     from aacmm.protocol import Sample, Trigger
+    from aacmm.records.paramsets import ParamSetRecord
 
 FORMAT = LOG_FORMAT
 COLUMNS = LOG_COLUMNS
@@ -641,6 +639,8 @@ class Logger:
             if self.stop.set:
                 continue
             attempts += 1
+            from aacmm.records.paramsets import ParamSetRecord
+
             try:
                 dev = self.connect()
                 try:
@@ -703,6 +703,8 @@ class Logger:
                 self.raw.stop()
 
     def _run(self) -> int:
+        from aacmm.records.paramsets import ParamSetRecord
+
         a = self.args
         dev = self.connect()
         end_status, end_reason = "error", "error"
@@ -867,6 +869,8 @@ def summarize_file(path: Path) -> dict[str, Any]:
     Raises:
         RecordError (exit 2): unreadable file or sidecar, not a log, a bad row.
     """
+    from aacmm.records.logs import log_summary, read_log
+
     return log_summary(read_log(path))
 
 

@@ -21,19 +21,50 @@ Main names:
 A pure library: no printing, no argparse.
 """
 
-from aacmm.records.files import RecordError, crc_hex, fmt_point
-from aacmm.records.paramsets import ParamSetRecord
-from aacmm.records.rows import Recorded
-from aacmm.records.sessions import (
-    EVENT_COLUMNS,
-    POINT_COLUMNS,
-    SESSION_FORMAT,
-    CapturedPoint,
-    Session,
-    SessionWriter,
-    read_session,
-    session_exists,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from aacmm.records.files import RecordError as RecordError
+    from aacmm.records.files import crc_hex as crc_hex
+    from aacmm.records.files import fmt_point as fmt_point
+    from aacmm.records.paramsets import ParamSetRecord as ParamSetRecord
+    from aacmm.records.rows import Recorded as Recorded
+    from aacmm.records.sessions import EVENT_COLUMNS as EVENT_COLUMNS
+    from aacmm.records.sessions import POINT_COLUMNS as POINT_COLUMNS
+    from aacmm.records.sessions import SESSION_FORMAT as SESSION_FORMAT
+    from aacmm.records.sessions import CapturedPoint as CapturedPoint
+    from aacmm.records.sessions import Session as Session
+    from aacmm.records.sessions import SessionWriter as SessionWriter
+    from aacmm.records.sessions import read_session as read_session
+    from aacmm.records.sessions import session_exists as session_exists
+
+# Loaded on first use, so that importing a light submodule (aacmm.records.files,
+# .schema) from a command's top level does not pull numpy and the C core in.
+_WHERE = {
+    "RecordError": "files",
+    "crc_hex": "files",
+    "fmt_point": "files",
+    "ParamSetRecord": "paramsets",
+    "Recorded": "rows",
+    "EVENT_COLUMNS": "sessions",
+    "POINT_COLUMNS": "sessions",
+    "SESSION_FORMAT": "sessions",
+    "CapturedPoint": "sessions",
+    "Session": "sessions",
+    "SessionWriter": "sessions",
+    "read_session": "sessions",
+    "session_exists": "sessions",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"aacmm.records.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'aacmm.records' has no attribute {name!r}")
+
 
 __all__ = [
     "EVENT_COLUMNS",

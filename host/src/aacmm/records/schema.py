@@ -1,0 +1,81 @@
+"""The schema of recorded files, without heavy imports (the ``aacmm log`` command
+loads it at start-up): format names, columns, units, file names, row formatting.
+Readers are in :mod:`aacmm.records.logs` and :mod:`aacmm.records.sessions`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aacmm.records.files import fmt_point
+
+if TYPE_CHECKING:
+    from aacmm.protocol import Sample
+    from aacmm.records.paramsets import ParamSetRecord
+
+JOINTS = 6
+LOG_FORMAT = "aacmm-log-2"
+LOG_FORMATS_READ: tuple[str, ...] = ("aacmm-log-1", LOG_FORMAT)
+COUNT_COLUMNS: tuple[str, ...] = tuple(f"count{i}" for i in range(1, JOINTS + 1))
+COUNT_ALIASES: tuple[str, ...] = tuple(f"c{i}" for i in range(1, JOINTS + 1))
+THETA_COLUMNS: tuple[str, ...] = tuple(f"theta{i}" for i in range(1, JOINTS + 1))
+POINT_COLUMNS: tuple[str, ...] = ("x_mm", "y_mm", "z_mm")
+LOG_COLUMNS: tuple[str, ...] = (
+    "seq",
+    "device_time_us",
+    "host_time",
+    *COUNT_COLUMNS,
+    *POINT_COLUMNS,
+    "flags",
+    "param_crc32",
+)
+TRIGGER_COLUMNS: tuple[str, ...] = (
+    "seq",
+    "device_time_us",
+    "host_time",
+    "button",
+    "pressed",
+    *COUNT_COLUMNS,
+    *POINT_COLUMNS,
+    "flags",
+    "param_crc32",
+)
+LOG_UNITS: dict[str, str] = {
+    "seq": "device sample counter (u32, wraps; restarts with each stream)",
+    "device_time_us": "us, device clock",
+    "host_time": "s since the Unix epoch (UTC), host clock when the logger took the sample",
+    "count1..count6": "encoder counts (u32)",
+    "x_mm,y_mm,z_mm": "mm (resolution 0.0001 mm)",
+    "flags": "sample status bits (docs/protocol.md 2.4)",
+    "param_crc32": "CRC of the parameter set in force (sidecar param_sets)",
+    "button,pressed": "triggers file: button index (0 capture, 1 undo), 1 press / 0 release",
+}
+
+
+def sidecar_path(csv_path: Path) -> Path:
+    """``run.csv`` -> ``run.csv.json``."""
+    return csv_path.with_name(csv_path.name + ".json")
+
+
+def default_triggers_path(csv_path: Path) -> Path:
+    """``run.csv`` -> ``run.triggers.csv``."""
+    stem = csv_path.name[: -len(csv_path.suffix)] if csv_path.suffix else csv_path.name
+    return csv_path.with_name(stem + ".triggers.csv")
+
+
+def sample_row(s: Sample, host_time: float, crc: str, extra: tuple[int, ...] = ()) -> str:
+    """One CSV row of a log (``extra``: the trigger file's button and pressed)."""
+    x, y, z = s.point_100nm
+    parts = [str(s.seq), str(s.timestamp_us), f"{host_time:.6f}"]
+    parts += [str(v) for v in extra]
+    parts += [str(c) for c in s.counts]
+    parts += [fmt_point(x), fmt_point(y), fmt_point(z), str(s.status), crc]
+    return ",".join(parts) + "\n"
+
+
+def param_set_entry(ps: ParamSetRecord, first_row: int, when: str) -> dict[str, Any]:
+    """A sidecar ``param_sets`` entry."""
+    d = ps.to_json()
+    d["first_row"] = first_row
+    d["first_seen"] = when
+    return d
