@@ -31,6 +31,9 @@ VERSION: Final = 5
 """The device speaks another protocol version."""
 LINK_LOST: Final = 6
 """The link was lost mid-operation (device gone, port closed, samples stopped)."""
+NOT_MET: Final = 7
+"""The result does not meet the stated requirement (verification verdict FAIL; the
+report is still written)."""
 INTERRUPTED: Final = 130
 """Ctrl-C or SIGTERM before the work was done (data written so far is kept)."""
 
@@ -42,6 +45,7 @@ NAMES: Final[dict[int, str]] = {
     TIMEOUT: "no answer (timeout)",
     VERSION: "protocol version mismatch",
     LINK_LOST: "link lost mid-operation",
+    NOT_MET: "requirement not met (verification FAIL)",
     INTERRUPTED: "interrupted",
 }
 

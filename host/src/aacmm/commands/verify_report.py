@@ -1,0 +1,351 @@
+"""Presentation of a verification report: text, figures and the one-page PDF.
+
+Figures are built on :class:`matplotlib.figure.Figure` directly (no pyplot,
+no global state); the command saves them with the shared output helper.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aacmm import __version__
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from aacmm.verification.report import Report, Result
+
+RULE_TEXT = {
+    "simple": "simple acceptance: a value conforms when it does not exceed the MPE",
+    "iso14253-1": "ISO 14253-1 conformance: a value passes only when it does not exceed MPE - U",
+}
+UM = 1000.0
+
+
+def _mm(v: float | None, signed: bool = False) -> str:
+    if v is None:
+        return "-"
+    return f"{v:+.4f}" if signed else f"{v:.4f}"
+
+
+SIGNED = frozenset({"p_size", "effective_diameter", "e_uni"})
+
+
+def result_rows(rep: Report) -> list[list[str]]:
+    """Table rows: test, value, MPE, U, limit, verdict, where, definition status."""
+    rows = []
+    for r in rep.results:
+        d = r.decision
+        mark = "" if r.definition.status == "public summary" else " *"
+        rows.append(
+            [
+                r.name + mark,
+                _mm(r.value_mm, r.key in SIGNED),
+                _mm(d.mpe),
+                _mm(d.u),
+                _mm(d.limit),
+                d.verdict,
+                r.where,
+            ]
+        )
+    return rows
+
+
+HEADER = ["test", "value mm", "MPE mm", "U mm", "limit mm", "verdict", "where"]
+
+
+def text_report(rep: Report, source: str) -> str:
+    """The plain-text report (what ``aacmm verify`` prints)."""
+    lines = [f"aacmm verify: {source}"]
+    lines.append(f"plan       {rep.plan_name}" + (f" ({rep.plan_title})" if rep.plan_title else ""))
+    lines.append(f"plan hash  sha256 {rep.plan_sha256[:16]}")
+    for k in ("device", "firmware", "params_crc32", "captured"):
+        if k in rep.meta:
+            lines.append(f"{k:<10} {rep.meta[k]}")
+    lines.append(f"probe      ball diameter {rep.probe_diameter_mm:.4f} mm")
+    if rep.temperature_c is not None:
+        lines.append(f"temp.      {rep.temperature_c:g} C")
+    lines.append(f"rule       {rep.decision_rule}: {RULE_TEXT[rep.decision_rule]}")
+    lines.append("")
+    rows = [HEADER, *result_rows(rep)]
+    widths = [max(len(r[i]) for r in rows) for i in range(len(HEADER))]
+    for r in rows:
+        lines.append("  ".join(c.ljust(w) if i in (0, 5, 6) else c.rjust(w)
+                               for i, (c, w) in enumerate(zip(r, widths, strict=True))).rstrip())
+    n_pass = sum(r.decision.passed for r in rep.results)
+    n_fail = sum(r.decision.failed for r in rep.results)
+    n_none = len(rep.results) - n_pass - n_fail
+    lines.append("")
+    lines.append(
+        f"verdict    {rep.verdict} ({len(rep.results)} tests: {n_pass} passed, {n_fail} failed"
+        + (f", {n_none} without MPE)" if n_none else ")")
+    )
+    extra = _detail_lines(rep)
+    if extra:
+        lines += ["", *extra]
+    assumed = [r for r in rep.results if r.definition.status != "public summary"]
+    if assumed:
+        lines.append("")
+        lines.append("* definition assumed, not verified against the standard's text (not public):")
+        for r in assumed:
+            lines.append(f"  {r.name}: {r.definition.definition}")
+    for n in rep.notes:
+        lines.append(f"note: {n}")
+    return "\n".join(lines) + "\n"
+
+
+def _detail_lines(rep: Report) -> list[str]:
+    out = []
+    for s in rep.spheres:
+        t = s.test
+        out.append(
+            f"sphere {s.step_id}: D {t.diameter:.4f} mm (u {2 * t.fit.std['radius']:.4f}), "
+            f"size error {t.size_error:+.4f}, form {t.form:.4f} mm, {t.fit.n_points} points"
+        )
+    for loc in rep.locations:
+        out.append(
+            f"location {loc.step_id}: {len(loc.test.fits)} articulations, "
+            f"L_Dia {loc.test.l_dia:.4f} mm"
+        )
+    for m in rep.lengths:
+        t = m.test
+        out.append(
+            f"length {m.step_id} position {m.position + 1}: {t.length:.4f} mm "
+            f"(calibrated {t.cal_length:.4f}), error {t.error:+.4f} mm, {m.decision.verdict}"
+        )
+    for st in rep.seats:
+        t = st.test
+        hr = " ".join(f"{v:.4f}" for v in t.half_range)
+        out.append(
+            f"seat {st.step_id}: {len(t.deviations)} articulations, 2 sigma {t.two_sigma:.4f}, "
+            f"max {t.max_deviation:.4f}, (max-min)/2 x y z {hr} mm"
+        )
+    for p in rep.planes:
+        out.append(
+            f"plane {p.step_id}: flatness {p.fit.form:.4f} mm (least squares), "
+            f"{p.min_zone.form:.4f} mm (minimum zone)"
+        )
+    return out
+
+
+# ------------------------------------------------------------------ figures
+
+
+def _new(w: float, h: float) -> Figure:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(w, h), layout="constrained")
+
+
+def spat_figure(rep: Report) -> Figure:
+    """SPAT scatter: per seat position (row) the articulations' deviations in three views."""
+    n = len(rep.seats)
+    fig = _new(10.0, 3.2 * n)
+    axes = fig.subplots(n, 3, squeeze=False)
+    views = ((0, 1, "x", "y"), (0, 2, "x", "z"), (1, 2, "y", "z"))
+    for row, st in zip(axes, rep.seats, strict=True):
+        dev = (st.points - st.test.mean) * UM
+        r2 = st.test.two_sigma * UM
+        lim = max(float(np.max(np.abs(dev))), r2) * 1.15 + 1e-3
+        for ax, (i, j, a, b) in zip(row, views, strict=True):
+            ax.scatter(dev[:, i], dev[:, j], s=18, c=np.arange(len(dev)), cmap="viridis")
+            for k, (x, y) in enumerate(zip(dev[:, i], dev[:, j], strict=True)):
+                ax.annotate(str(k + 1), (x, y), fontsize=6, xytext=(2, 2),
+                            textcoords="offset points")
+            t = np.linspace(0, 2 * np.pi, 100)
+            ax.plot(r2 * np.cos(t), r2 * np.sin(t), "k--", lw=0.8, label="2 sigma")
+            ax.set_xlim(-lim, lim)
+            ax.set_ylim(-lim, lim)
+            ax.set_aspect("equal")
+            ax.set_xlabel(f"{a} - mean (um)")
+            ax.set_ylabel(f"{b} - mean (um)")
+            ax.grid(alpha=0.3)
+        row[0].set_title(
+            f"{st.step_id}: 2 sigma {r2:.1f} um, (max-min)/2 {st.test.max_half_range * UM:.1f} um",
+            loc="left", fontsize=9,
+        )
+        row[0].legend(fontsize=7, loc="lower right")
+    fig.suptitle("Single-point articulation (each point one articulation, numbered)")
+    return fig
+
+
+def _e_uni_axes(ax: Axes, rep: Report) -> None:
+    lengths = np.array([m.test.cal_length for m in rep.lengths])
+    errors = np.array([m.test.error for m in rep.lengths]) * UM
+    colors = ["tab:red" if m.decision.failed else "tab:blue" for m in rep.lengths]
+    ax.scatter(lengths, errors, c=colors, s=22, zorder=3)
+    ax.axhline(0.0, color="k", lw=0.6)
+    grid = np.linspace(0.0, 1.1 * float(lengths.max()), 60)
+    res = rep.result("e_uni")
+    e_uni = getattr(rep.mpe, "e_uni", None)
+    if e_uni is not None:
+        line = np.array([e_uni.at(float(x)) for x in grid]) * UM
+        ax.plot(grid, line, "r-", lw=1, label="MPE")
+        ax.plot(grid, -line, "r-", lw=1)
+        if rep.decision_rule == "iso14253-1":
+            u = max(m.decision.u for m in rep.lengths) * UM
+            ax.plot(grid, line - u, "r:", lw=1, label="MPE - U")
+            ax.plot(grid, -(line - u), "r:", lw=1)
+    ax.set_xlim(0.0, float(grid[-1]))
+    ax.set_xlabel("calibrated length (mm)")
+    ax.set_ylabel("length error (um)")
+    ax.set_title(f"E_Uni: worst {res.value_mm * UM:+.1f} um ({res.decision.verdict})",
+                 loc="left", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+
+
+def e_uni_figure(rep: Report) -> Figure:
+    """Length error against length with the MPE lines (the usual E_Uni chart)."""
+    fig = _new(7.0, 4.0)
+    _e_uni_axes(fig.subplots(), rep)
+    return fig
+
+
+def sphere_figure(rep: Report) -> Figure:
+    """Radial residuals of each sphere fit (and each articulation of a location test)."""
+    sets: list[tuple[str, np.ndarray]] = [(s.step_id, s.test.fit.residuals) for s in rep.spheres]
+    for loc in rep.locations:
+        res = np.concatenate([f.residuals for f in loc.test.fits])
+        sets.append((f"{loc.step_id} (articulations in turn)", res))
+    fig = _new(8.0, 2.6 * len(sets))
+    axes = fig.subplots(len(sets), 1, squeeze=False)[:, 0]
+    for ax, (name, r) in zip(axes, sets, strict=True):
+        idx = np.arange(1, len(r) + 1)
+        ax.bar(idx, r * UM, color=np.where(r >= 0, "tab:blue", "tab:orange"))
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xlabel("point")
+        ax.set_ylabel("radial residual (um)")
+        ax.set_title(f"{name}: range {np.ptp(r) * UM:.1f} um", loc="left", fontsize=9)
+        ax.grid(alpha=0.3, axis="y")
+    fig.suptitle("Least-squares sphere residuals")
+    return fig
+
+
+def figures(rep: Report) -> dict[str, Figure]:
+    """The report's figures by file name (only those the session has data for)."""
+    out: dict[str, Figure] = {}
+    if rep.seats:
+        out["spat.png"] = spat_figure(rep)
+    if rep.lengths:
+        out["e_uni.png"] = e_uni_figure(rep)
+    if rep.spheres or rep.locations:
+        out["spheres.png"] = sphere_figure(rep)
+    return out
+
+
+def figure_names(rep: Report) -> list[str]:
+    """The file names :func:`figures` will produce (for checking outputs first)."""
+    names = []
+    if rep.seats:
+        names.append("spat.png")
+    if rep.lengths:
+        names.append("e_uni.png")
+    if rep.spheres or rep.locations:
+        names.append("spheres.png")
+    return names
+
+
+# ------------------------------------------------------------------ one page
+
+
+def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figure:
+    """An A4 page a lab can file: identification, rule, results, verdict, charts, notes."""
+    fig = _new(8.27, 11.69)
+    fig.set_layout_engine(None)
+    when = when or _dt.datetime.now(_dt.UTC)
+    y = 0.955
+
+    def text(s: str, size: float = 8.5, **kw: Any) -> None:
+        nonlocal y
+        fig.text(0.07, y, s, fontsize=size, va="top", family=kw.pop("family", "sans-serif"), **kw)
+        y -= 0.0125 * size / 8.5 + 0.004
+
+    text("Arm performance verification", 16, weight="bold")
+    y -= 0.008
+    text("ISO 10360-12:2016 and ASME B89.4.22-2004 tests, evaluated by aacmm " + __version__)
+    text(f"Session: {source}")
+    text(f"Plan: {rep.plan_name}" + (f" -- {rep.plan_title}" if rep.plan_title else "")
+         + f" (sha256 {rep.plan_sha256[:16]})")
+    meta = ", ".join(f"{k} {rep.meta[k]}" for k in ("device", "firmware", "params_crc32",
+                                                     "captured") if k in rep.meta)
+    if meta:
+        text(meta)
+    tc = f", temperature {rep.temperature_c:g} C" if rep.temperature_c is not None else ""
+    text(f"Probe ball diameter {rep.probe_diameter_mm:.4f} mm{tc}")
+    text(f"Decision rule: {rep.decision_rule} -- {RULE_TEXT[rep.decision_rule]}")
+    text(f"Evaluated {when.strftime('%Y-%m-%d %H:%M UTC')}")
+    y -= 0.01
+    color = {"PASS": "tab:green", "FAIL": "tab:red"}.get(rep.verdict, "tab:gray")
+    text(f"VERDICT: {rep.verdict}", 20, weight="bold", color=color)
+    y -= 0.01
+    rows = result_rows(rep)
+    height = 0.022 * (len(rows) + 1)
+    ax = fig.add_axes((0.05, y - height, 0.9, height))
+    ax.axis("off")
+    table = ax.table(cellText=rows, colLabels=HEADER, loc="upper center", cellLoc="right",
+                     colLoc="center")
+    table.auto_set_font_size(False)
+    table.set_fontsize(7)
+    table.auto_set_column_width(list(range(len(HEADER))))
+    for (r, c), cell in table.get_celld().items():
+        if r > 0 and c in (0, 6):
+            cell.get_text().set_horizontalalignment("left")
+        if r > 0 and cell.get_text().get_text() in ("PASS", "FAIL"):
+            cell.get_text().set_color("tab:green" if cell.get_text().get_text() == "PASS"
+                                      else "tab:red")
+    y -= height + 0.03
+    charts = [k for k in ("e_uni", "spat") if (k == "e_uni" and rep.lengths)
+              or (k == "spat" and rep.seats)]
+    if charts:
+        ch = 0.2
+        for i, k in enumerate(charts):
+            w = 0.86 / len(charts)
+            cax = fig.add_axes((0.09 + i * w, y - ch, w - 0.08, ch))
+            if k == "e_uni":
+                _e_uni_axes(cax, rep)
+            else:
+                _spat_summary_axes(cax, rep)
+        y -= ch + 0.05
+    for line in _detail_lines(rep)[:14]:
+        text(line, 6.5)
+    assumed = [r for r in rep.results if r.definition.status != "public summary"]
+    y -= 0.005
+    text("Definitions. The standards' texts are not public; each result states the definition "
+         "implemented (docs/verification.md).", 6.5)
+    if assumed:
+        text("* assumed, not verified against the standard: "
+             + "; ".join(r.name for r in assumed), 6.5)
+    for n in rep.notes[:4]:
+        text(f"Note: {n}", 6.5)
+    fig.text(0.07, 0.03, "Operator: ____________________    Signature: ____________________    "
+             "Date: ____________", fontsize=8)
+    return fig
+
+
+def _spat_summary_axes(ax: Axes, rep: Report) -> None:
+    names = [s.step_id for s in rep.seats]
+    x = np.arange(len(names))
+    ax.bar(x - 0.2, [s.test.two_sigma * UM for s in rep.seats], 0.4, label="2 sigma")
+    ax.bar(x + 0.2, [s.test.max_half_range * UM for s in rep.seats], 0.4,
+           label="(max-min)/2")
+    for key, style in (("spat_2sigma", "C0--"), ("spat_range", "C1--")):
+        mpe = rep.result(key).decision.mpe
+        if mpe is not None:
+            ax.axhline(mpe * UM, color=style[:2], ls="--", lw=1)
+    ax.set_xticks(x, names, fontsize=7)
+    ax.set_ylabel("um")
+    ax.set_title("single-point articulation (dashed: MPE)", loc="left", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, axis="y")
+
+
+def report_json(rep: Report, source: str) -> dict[str, Any]:
+    d = rep.to_dict()
+    d["source"] = source
+    d["aacmm_version"] = __version__
+    return d
