@@ -3,24 +3,37 @@
 # aacmm verify / fit / export commands.
 #   test-geometry     published (Gander-Golub-Strebel) and self-certifying data for
 #                     every fit, bias over 1,000 noisy caps, minimum zone, bad input
-#   test-verify       the verification quantities and decision rules on synthetic data
+#   test-verify       the verification quantities and decision rules; verify, fit and
+#                     export on synthetic sessions against an independent recomputation
+#                     from the raw counts, the PDF page rasterised (pdftoppm)
 #   test-verify-lint  ruff, ruff format, mypy --strict over the above
 
 VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
-                   tests/host/test_geometry.py tests/host/selfcert.py tests/host/test_verification.py
+                   host/src/aacmm/commands/verify.py host/src/aacmm/commands/verify_report.py \
+                   host/src/aacmm/commands/fit.py host/src/aacmm/commands/measured.py \
+                   tests/host/test_geometry.py tests/host/selfcert.py \
+                   tests/host/test_verification.py tests/host/test_verify_cli.py \
+                   tests/host/verify_sessions.py scripts/verification_figures.py
 VERIFY_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=.
 
-.PHONY: test-geometry test-verify test-verify-lint
+.PHONY: test-geometry test-verify test-verify-lint verification-figures
 
+#> test-geometry        fits vs published and self-certifying data, cap bias, minimum zone
 test-geometry:
 	$(VERIFY_PYTEST) tests/host/test_geometry.py
 
+#> test-verify          verification quantities, rules; verify/fit/export on synthetic sessions
 test-verify:
-	$(VERIFY_PYTEST) tests/host/test_verification.py
+	$(VERIFY_PYTEST) tests/host/test_verification.py tests/host/test_verify_cli.py
 
+#> test-verify-lint     ruff, ruff format, mypy --strict on geometry, verification, their commands
 test-verify-lint:
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(VERIFY_PY_FILES)
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(VERIFY_PY_FILES)
 	$(VENV)/bin/mypy --config-file host/pyproject.toml $(VERIFY_PY_FILES)
+
+#> verification-figures regenerate the figures of docs/verification.md
+verification-figures:
+	$(PYTHON) scripts/verification_figures.py
 
 TEST_SUITES += test-geometry test-verify test-verify-lint

@@ -12,7 +12,7 @@ APT_PACKAGES="make gcc clang libclang-rt-14-dev libcmocka-dev pkg-config \
 python3 python3-venv python3-dev \
 gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi \
 qemu-system-arm qemu-system-x86 linux-image-amd64 busybox-static \
-valgrind socat can-utils iproute2 kmod cpio strace"
+valgrind socat can-utils iproute2 kmod cpio strace poppler-utils"
 
 missing=""
 for p in $APT_PACKAGES; do

@@ -11,9 +11,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
-
 from aacmm.geometry import fit_spheres, kasa_spheres
+from matplotlib.figure import Figure
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "host"))
@@ -31,8 +30,13 @@ def bias_figure(out: Path) -> None:
         bins = np.linspace(min(geo.min(), alg.min()), max(geo.max(), alg.max()), 50)
         for data, name, color in ((geo, "geometric", "tab:blue"), (alg, "algebraic", "tab:red")):
             se = data.std(ddof=1) / np.sqrt(CAPS)
-            ax.hist(data, bins=bins, alpha=0.5, color=color,
-                    label=f"{name}: mean {data.mean():+.1f} um = {data.mean() / se:+.1f} SE")
+            ax.hist(
+                data,
+                bins=bins,
+                alpha=0.5,
+                color=color,
+                label=f"{name}: mean {data.mean():+.1f} um = {data.mean() / se:+.1f} SE",
+            )
             ax.axvline(data.mean(), color=color, lw=1.5)
         ax.axvline(0.0, color="k", lw=0.8)
         ax.set_xlabel("fitted radius - true radius (um)")

@@ -16,11 +16,13 @@ COMMAND_MODULES: tuple[str, ...] = (
     "aacmm.commands.capture",
     "aacmm.commands.dbc",
     "aacmm.commands.device",
+    "aacmm.commands.fit",
     "aacmm.commands.log",
     "aacmm.commands.mc",
     "aacmm.commands.plan",
     "aacmm.commands.sim",
     "aacmm.commands.uncertainty",
+    "aacmm.commands.verify",
 )
 
 

@@ -57,9 +57,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         metavar="MM",
         help="probe ball diameter (default: the session plan's, else 0)",
     )
-    g.add_argument(
-        "--inner", action="store_true", help="sphere/circle/cylinder: a hole or socket"
-    )
+    g.add_argument("--inner", action="store_true", help="sphere/circle/cylinder: a hole or socket")
     g.add_argument(
         "--outward",
         metavar="X,Y,Z",
@@ -222,7 +220,9 @@ def run_fit(args: argparse.Namespace) -> int:
     mz = None
     if args.min_zone:
         mz = g.minimum_zone_plane(pts) if args.feature == "plane" else g.minimum_zone_sphere(pts)
-    sel = "" if len(idx) == len(m.points) else f" (selected of {len(m.points)})"
+    sel = f", step {args.step}" if getattr(args, "step", None) else ""
+    if args.points is not None:
+        sel += f", points {args.points}"
     doc = g.to_dict(fit)
     doc["source"] = str(args.source)
     doc["points"] = [m.names[i] for i in idx]
@@ -251,10 +251,18 @@ def export_text(m: Measured, idx: list[int], fmt: str) -> str:
     """The export file's content for the selected points."""
     buf = io.StringIO()
     if fmt == "xyz":
-        buf.write("# x_mm y_mm z_mm step point position end articulation (labels as in csv)\n")
+        buf.write("# x_mm y_mm z_mm step point position end articulation")
+        buf.write(" (indices from 0, -1: none; end 0 = A, 1 = B)\n")
+        for k, sid in enumerate(m.step_table()):
+            buf.write(f"# step {k} = {sid}\n")
         for i in idx:
-            lab = m.label_values(i)
-            buf.write(" ".join(f"{v:.6f}" for v in m.points[i]) + " " + " ".join(lab) + "\n")
+            nums = m.label_numbers(i)
+            buf.write(
+                " ".join(f"{v:.6f}" for v in m.points[i])
+                + " "
+                + " ".join(str(v) for v in nums)
+                + "\n"
+            )
     elif fmt == "ply":
         buf.write("ply\nformat ascii 1.0\n")
         buf.write(f"comment aacmm export of {m.source.name}: ball centres in mm\n")
@@ -268,15 +276,32 @@ def export_text(m: Measured, idx: list[int], fmt: str) -> str:
         buf.write("end_header\n")
         for i in idx:
             nums = m.label_numbers(i)
-            buf.write(" ".join(f"{v:.6f}" for v in m.points[i]) + " "
-                      + " ".join(str(v) for v in nums) + "\n")
+            buf.write(
+                " ".join(f"{v:.6f}" for v in m.points[i])
+                + " "
+                + " ".join(str(v) for v in nums)
+                + "\n"
+            )
     else:
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow(["index", "label", "step", "procedure", "artefact", "point", "position",
-                    "end", "articulation", "x_mm", "y_mm", "z_mm"])
+        w.writerow(
+            [
+                "index",
+                "label",
+                "step",
+                "procedure",
+                "artefact",
+                "point",
+                "position",
+                "end",
+                "articulation",
+                "x_mm",
+                "y_mm",
+                "z_mm",
+            ]
+        )
         for i in idx:
-            w.writerow([i + 1, m.names[i], *m.csv_labels(i),
-                        *(f"{v:.6f}" for v in m.points[i])])
+            w.writerow([i + 1, m.names[i], *m.csv_labels(i), *(f"{v:.6f}" for v in m.points[i])])
     return buf.getvalue()
 
 

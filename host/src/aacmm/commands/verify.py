@@ -39,6 +39,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "(spat.png, e_uni.png, spheres.png) into DIR (created if missing)",
     )
     p.add_argument("--json", metavar="FILE", help="write the JSON report to FILE ('-': stdout)")
+    p.add_argument(
+        "--partial",
+        action="store_true",
+        help="evaluate an incomplete session (the steps measured so far)",
+    )
     add_force_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
     p.set_defaults(func=run_verify)
@@ -54,8 +59,9 @@ def run_verify(args: argparse.Namespace) -> int:
 
     json_out = None if args.json in (None, "-") else Path(args.json)
     check_outputs([json_out], args.force)
-    m = load_session(Path(args.session))
-    rep = evaluate(m.plan, m.labels, m.points, meta=m.meta)
+    m = load_session(Path(args.session), partial=args.partial)
+    assert m.plan is not None and m.labels is not None
+    rep = evaluate(m.plan, m.labels, m.points, meta=m.meta, name=m.meta.get("plan"))
     source = str(args.session)
     text = vr.text_report(rep, source)
     doc = json.dumps(vr.report_json(rep, source), indent=2) + "\n"
@@ -67,7 +73,9 @@ def run_verify(args: argparse.Namespace) -> int:
         try:
             out.mkdir(exist_ok=True)
         except OSError as exc:
-            raise UsageError(f"--report {out}: cannot create the directory: {exc.strerror}") from None
+            raise UsageError(
+                f"--report {out}: cannot create the directory: {exc.strerror}"
+            ) from None
         names = [REPORT_TEXT, REPORT_JSON, REPORT_PDF, *vr.figure_names(rep)]
         check_outputs([out / n for n in names], args.force)
         write_output(out / REPORT_TEXT, text, force=args.force)

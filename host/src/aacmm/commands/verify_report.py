@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from aacmm.verification.report import Report, Result
+    from aacmm.verification.report import Report
 
 RULE_TEXT = {
     "simple": "simple acceptance: a value conforms when it does not exceed the MPE",
@@ -71,11 +71,15 @@ def text_report(rep: Report, source: str) -> str:
         lines.append(f"temp.      {rep.temperature_c:g} C")
     lines.append(f"rule       {rep.decision_rule}: {RULE_TEXT[rep.decision_rule]}")
     lines.append("")
-    rows = [HEADER, *result_rows(rep)]
-    widths = [max(len(r[i]) for r in rows) for i in range(len(HEADER))]
-    for r in rows:
-        lines.append("  ".join(c.ljust(w) if i in (0, 5, 6) else c.rjust(w)
-                               for i, (c, w) in enumerate(zip(r, widths, strict=True))).rstrip())
+    table = [HEADER, *result_rows(rep)]
+    widths = [max(len(r[i]) for r in table) for i in range(len(HEADER))]
+    for r in table:
+        lines.append(
+            "  ".join(
+                c.ljust(w) if i in (0, 5, 6) else c.rjust(w)
+                for i, (c, w) in enumerate(zip(r, widths, strict=True))
+            ).rstrip()
+        )
     n_pass = sum(r.decision.passed for r in rep.results)
     n_fail = sum(r.decision.failed for r in rep.results)
     n_none = len(rep.results) - n_pass - n_fail
@@ -87,12 +91,12 @@ def text_report(rep: Report, source: str) -> str:
     extra = _detail_lines(rep)
     if extra:
         lines += ["", *extra]
-    assumed = [r for r in rep.results if r.definition.status != "public summary"]
+    assumed = [res for res in rep.results if res.definition.status != "public summary"]
     if assumed:
         lines.append("")
         lines.append("* definition assumed, not verified against the standard's text (not public):")
-        for r in assumed:
-            lines.append(f"  {r.name}: {r.definition.definition}")
+        for res in assumed:
+            lines.append(f"  {res.name}: {res.definition.definition}")
     for n in rep.notes:
         lines.append(f"note: {n}")
     return "\n".join(lines) + "\n"
@@ -112,17 +116,17 @@ def _detail_lines(rep: Report) -> list[str]:
             f"L_Dia {loc.test.l_dia:.4f} mm"
         )
     for m in rep.lengths:
-        t = m.test
+        lt = m.test
         out.append(
-            f"length {m.step_id} position {m.position + 1}: {t.length:.4f} mm "
-            f"(calibrated {t.cal_length:.4f}), error {t.error:+.4f} mm, {m.decision.verdict}"
+            f"length {m.step_id} position {m.position + 1}: {lt.length:.4f} mm "
+            f"(calibrated {lt.cal_length:.4f}), error {lt.error:+.4f} mm, {m.decision.verdict}"
         )
     for st in rep.seats:
-        t = st.test
-        hr = " ".join(f"{v:.4f}" for v in t.half_range)
+        pt = st.test
+        hr = " ".join(f"{v:.4f}" for v in pt.half_range)
         out.append(
-            f"seat {st.step_id}: {len(t.deviations)} articulations, 2 sigma {t.two_sigma:.4f}, "
-            f"max {t.max_deviation:.4f}, (max-min)/2 x y z {hr} mm"
+            f"seat {st.step_id}: {len(pt.deviations)} articulations, 2 sigma {pt.two_sigma:.4f}, "
+            f"max {pt.max_deviation:.4f}, (max-min)/2 x y z {hr} mm"
         )
     for p in rep.planes:
         out.append(
@@ -154,8 +158,9 @@ def spat_figure(rep: Report) -> Figure:
         for ax, (i, j, a, b) in zip(row, views, strict=True):
             ax.scatter(dev[:, i], dev[:, j], s=18, c=np.arange(len(dev)), cmap="viridis")
             for k, (x, y) in enumerate(zip(dev[:, i], dev[:, j], strict=True)):
-                ax.annotate(str(k + 1), (x, y), fontsize=6, xytext=(2, 2),
-                            textcoords="offset points")
+                ax.annotate(
+                    str(k + 1), (x, y), fontsize=6, xytext=(2, 2), textcoords="offset points"
+                )
             t = np.linspace(0, 2 * np.pi, 100)
             ax.plot(r2 * np.cos(t), r2 * np.sin(t), "k--", lw=0.8, label="2 sigma")
             ax.set_xlim(-lim, lim)
@@ -166,7 +171,8 @@ def spat_figure(rep: Report) -> Figure:
             ax.grid(alpha=0.3)
         row[0].set_title(
             f"{st.step_id}: 2 sigma {r2:.1f} um, (max-min)/2 {st.test.max_half_range * UM:.1f} um",
-            loc="left", fontsize=9,
+            loc="left",
+            fontsize=9,
         )
         row[0].legend(fontsize=7, loc="lower right")
     fig.suptitle("Single-point articulation (each point one articulation, numbered)")
@@ -193,8 +199,9 @@ def _e_uni_axes(ax: Axes, rep: Report) -> None:
     ax.set_xlim(0.0, float(grid[-1]))
     ax.set_xlabel("calibrated length (mm)")
     ax.set_ylabel("length error (um)")
-    ax.set_title(f"E_Uni: worst {res.value_mm * UM:+.1f} um ({res.decision.verdict})",
-                 loc="left", fontsize=9)
+    ax.set_title(
+        f"E_Uni: worst {res.value_mm * UM:+.1f} um ({res.decision.verdict})", loc="left", fontsize=9
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
 
@@ -269,10 +276,16 @@ def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figu
     y -= 0.008
     text("ISO 10360-12:2016 and ASME B89.4.22-2004 tests, evaluated by aacmm " + __version__)
     text(f"Session: {source}")
-    text(f"Plan: {rep.plan_name}" + (f" -- {rep.plan_title}" if rep.plan_title else "")
-         + f" (sha256 {rep.plan_sha256[:16]})")
-    meta = ", ".join(f"{k} {rep.meta[k]}" for k in ("device", "firmware", "params_crc32",
-                                                     "captured") if k in rep.meta)
+    text(
+        f"Plan: {rep.plan_name}"
+        + (f" -- {rep.plan_title}" if rep.plan_title else "")
+        + f" (sha256 {rep.plan_sha256[:16]})"
+    )
+    meta = ", ".join(
+        f"{k} {rep.meta[k]}"
+        for k in ("device", "firmware", "params_crc32", "captured")
+        if k in rep.meta
+    )
     if meta:
         text(meta)
     tc = f", temperature {rep.temperature_c:g} C" if rep.temperature_c is not None else ""
@@ -287,8 +300,9 @@ def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figu
     height = 0.022 * (len(rows) + 1)
     ax = fig.add_axes((0.05, y - height, 0.9, height))
     ax.axis("off")
-    table = ax.table(cellText=rows, colLabels=HEADER, loc="upper center", cellLoc="right",
-                     colLoc="center")
+    table = ax.table(
+        cellText=rows, colLabels=HEADER, loc="upper center", cellLoc="right", colLoc="center"
+    )
     table.auto_set_font_size(False)
     table.set_fontsize(7)
     table.auto_set_column_width(list(range(len(HEADER))))
@@ -296,11 +310,15 @@ def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figu
         if r > 0 and c in (0, 6):
             cell.get_text().set_horizontalalignment("left")
         if r > 0 and cell.get_text().get_text() in ("PASS", "FAIL"):
-            cell.get_text().set_color("tab:green" if cell.get_text().get_text() == "PASS"
-                                      else "tab:red")
+            cell.get_text().set_color(
+                "tab:green" if cell.get_text().get_text() == "PASS" else "tab:red"
+            )
     y -= height + 0.03
-    charts = [k for k in ("e_uni", "spat") if (k == "e_uni" and rep.lengths)
-              or (k == "spat" and rep.seats)]
+    charts = [
+        k
+        for k in ("e_uni", "spat")
+        if (k == "e_uni" and rep.lengths) or (k == "spat" and rep.seats)
+    ]
     if charts:
         ch = 0.2
         for i, k in enumerate(charts):
@@ -315,15 +333,24 @@ def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figu
         text(line, 6.5)
     assumed = [r for r in rep.results if r.definition.status != "public summary"]
     y -= 0.005
-    text("Definitions. The standards' texts are not public; each result states the definition "
-         "implemented (docs/verification.md).", 6.5)
+    text(
+        "Definitions. The standards' texts are not public; each result states the definition "
+        "implemented (docs/verification.md).",
+        6.5,
+    )
     if assumed:
-        text("* assumed, not verified against the standard: "
-             + "; ".join(r.name for r in assumed), 6.5)
+        text(
+            "* assumed, not verified against the standard: " + "; ".join(r.name for r in assumed),
+            6.5,
+        )
     for n in rep.notes[:4]:
         text(f"Note: {n}", 6.5)
-    fig.text(0.07, 0.03, "Operator: ____________________    Signature: ____________________    "
-             "Date: ____________", fontsize=8)
+    fig.text(
+        0.07,
+        0.03,
+        "Operator: ____________________    Signature: ____________________    Date: ____________",
+        fontsize=8,
+    )
     return fig
 
 
@@ -331,8 +358,7 @@ def _spat_summary_axes(ax: Axes, rep: Report) -> None:
     names = [s.step_id for s in rep.seats]
     x = np.arange(len(names))
     ax.bar(x - 0.2, [s.test.two_sigma * UM for s in rep.seats], 0.4, label="2 sigma")
-    ax.bar(x + 0.2, [s.test.max_half_range * UM for s in rep.seats], 0.4,
-           label="(max-min)/2")
+    ax.bar(x + 0.2, [s.test.max_half_range * UM for s in rep.seats], 0.4, label="(max-min)/2")
     for key, style in (("spat_2sigma", "C0--"), ("spat_range", "C1--")):
         mpe = rep.result(key).decision.mpe
         if mpe is not None:

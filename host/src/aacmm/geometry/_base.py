@@ -28,6 +28,10 @@ STEP_TOL = 1e-13
 #: Below this relative step a step that no longer shrinks ends the iteration.
 STALL_TOL = 1e-11
 MAX_ITER = 200
+#: Points spread less than this (rms, mm) across a direction a feature needs
+#: are degenerate there: 0.1 um is the arm's point resolution on the link, so
+#: a smaller spread is rounding, not geometry (collinear "plane" points, ...).
+SPREAD_MM = 1e-4
 
 
 class GeometryError(AacmmError, ValueError):
@@ -173,6 +177,14 @@ def frame(w: FloatArray) -> tuple[FloatArray, FloatArray]:
     u = unit(np.cross(e, w))
     v = np.cross(w, u)
     return u, v
+
+
+def spreads(points: FloatArray) -> FloatArray:
+    """Rms spreads (..., 3) of point sets (..., n, 3) along their principal directions,
+    largest first."""
+    q = points - points.mean(axis=-2, keepdims=True)
+    out: FloatArray = np.linalg.svd(q, compute_uv=False) / np.sqrt(points.shape[-2])
+    return out
 
 
 def rank_check(jac: FloatArray, what: str, reason: str) -> None:

@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aacmm.geometry._base import (
+    SPREAD_MM,
     DegenerateGeometryError,
     Fit,
     FloatArray,
@@ -36,6 +37,7 @@ from aacmm.geometry._base import (
     gauss_newton,
     make_fit,
     rank_check,
+    spreads,
     unit,
 )
 from aacmm.geometry.algebraic import kasa_spheres
@@ -144,6 +146,12 @@ def fit_spheres(points: npt.ArrayLike) -> SphereBatch:
     state: State = (start_c, start_r)
     _, jac0 = linearise(state)
     what = "sphere"
+    flat = spreads(q)[:, 2] < SPREAD_MM
+    if np.any(flat):
+        raise DegenerateGeometryError(
+            f"{what}: the points are coplanar (a sphere needs points off one plane)"
+            + (f": set {int(np.argmax(flat))}" if len(flat) > 1 else "")
+        )
     rank_check(jac0, what, "the points are coplanar (a sphere needs points off one plane)")
     scale = np.broadcast_to(1.0 / ext[:, None], (p.shape[0], 4))
     state, res, jac, it = gauss_newton(state, linearise, update, scale, what)
@@ -222,7 +230,7 @@ def fit_circle(
     q = (p - c0)[None]
     ext = extent(p)
     _, s, vt = np.linalg.svd(q[0], full_matrices=False)
-    if s[1] <= 1e-9 * s[0] or s[0] == 0.0:
+    if s[1] / np.sqrt(n) < SPREAD_MM:
         raise DegenerateGeometryError("circle: the points are collinear")
     state = _start(q, vt[2][None])
 

@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aacmm.geometry._base import (
+    SPREAD_MM,
     DegenerateGeometryError,
     Fit,
     FloatArray,
@@ -27,8 +28,6 @@ from aacmm.geometry._base import (
 
 LINE_PARAMS = ("shift_u", "shift_v", "tilt_u", "tilt_v")
 PLANE_PARAMS = ("offset", "tilt_u", "tilt_v")
-#: Singular-value ratio below which points count as collinear (plane) or coincident (line).
-SPAN_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -103,15 +102,18 @@ def fit_line(points: npt.ArrayLike) -> Fit[Line]:
     line at the centroid) and ``tilt_u``, ``tilt_v`` (rad).
 
     Raises:
-        ValueError, TooFewPointsError, DegenerateGeometryError (all points coincide).
+        ValueError, TooFewPointsError, DegenerateGeometryError (all points within
+        :data:`SPREAD_MM` of one point).
     """
     p = as_points(points, 2, "line")
     n = p.shape[0]
     c = p.mean(axis=0)
     q = p - c
     _, s, vt = np.linalg.svd(q, full_matrices=False)
-    if s[0] <= 1e-12 * max(1.0, float(np.max(np.abs(p)))) * np.sqrt(n):
-        raise DegenerateGeometryError("line: all points coincide")
+    if s[0] / np.sqrt(n) < SPREAD_MM:
+        raise DegenerateGeometryError(
+            f"line: all points coincide (spread {s[0] / np.sqrt(n):.2g} mm)"
+        )
     w = canonical_sign(vt[0])
     u, v = frame(w)
     t = q @ w
@@ -151,7 +153,8 @@ def fit_plane(
         ValueError: bad points, a negative radius, a radius without ``outward``
             or an ``outward`` in the plane.
         TooFewPointsError: fewer than 3 points.
-        DegenerateGeometryError: the points are collinear (or coincide).
+        DegenerateGeometryError: the points are collinear (rms spread across the
+            line below :data:`SPREAD_MM`).
     """
     p = as_points(points, 3, "plane")
     if not probe_radius >= 0.0:
@@ -160,9 +163,10 @@ def fit_plane(
     c = p.mean(axis=0)
     q = p - c
     _, s, vt = np.linalg.svd(q, full_matrices=False)
-    if s[1] <= SPAN_TOL * s[0] or s[0] == 0.0:
+    if s[1] / np.sqrt(n) < SPREAD_MM:
         raise DegenerateGeometryError(
-            "plane: the points are collinear (a plane needs two directions)"
+            f"plane: the points are collinear (spread {s[1] / np.sqrt(n):.2g} mm across the "
+            "line; a plane needs two directions)"
         )
     w = vt[2]
     if outward is not None:

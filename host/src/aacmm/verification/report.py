@@ -59,11 +59,16 @@ if TYPE_CHECKING:
 class Label(Protocol):
     """What :func:`evaluate` reads of a point's label (:class:`aacmm.plans.Slot` has it)."""
 
-    step_index: int
-    point_index: int
-    position_index: int | None
-    end: str | None
-    articulation_index: int | None
+    @property
+    def step_index(self) -> int: ...
+    @property
+    def point_index(self) -> int: ...
+    @property
+    def position_index(self) -> int | None: ...
+    @property
+    def end(self) -> str | None: ...
+    @property
+    def articulation_index(self) -> int | None: ...
 
 
 class VerificationError(GeometryError):
@@ -206,25 +211,25 @@ def _steps_dict(rep: Report) -> dict[str, Any]:
             "l_dia_mm": loc.test.l_dia,
         }
     for m in rep.lengths:
-        t = m.test
+        lt = m.test
         out.setdefault(m.step_id, {"kind": "length", "positions": []})["positions"].append(
             {
                 "position": m.position,
-                "length_mm": t.length,
-                "calibrated_mm": t.cal_length,
-                "error_mm": t.error,
-                "end_a_mm": t.end_a.center.tolist(),
-                "end_b_mm": t.end_b.center.tolist(),
-                "ends": t.end_a.method,
+                "length_mm": lt.length,
+                "calibrated_mm": lt.cal_length,
+                "error_mm": lt.error,
+                "end_a_mm": lt.end_a.center.tolist(),
+                "end_b_mm": lt.end_b.center.tolist(),
+                "ends": lt.end_a.method,
                 "mpe_mm": m.mpe_mm,
                 "verdict": m.decision.verdict,
             }
         )
-    for s in rep.seats:
-        t = s.test
-        out[s.step_id] = {
+    for seat in rep.seats:
+        t = seat.test
+        out[seat.step_id] = {
             "kind": "single point",
-            "seat": s.artefact,
+            "seat": seat.artefact,
             "mean_mm": t.mean.tolist(),
             "two_sigma_mm": t.two_sigma,
             "max_deviation_mm": t.max_deviation,
@@ -269,12 +274,12 @@ def _worst(
         for (v, _, mpe, u, w), d in zip(values, decisions, strict=True)
     )
     # ratio > 1 exactly when a value fails, so the worst value carries the verdict
-    return Result(key, name, DEFINITIONS[definition], values[i][0], decisions[i], values[i][4], items)
+    return Result(
+        key, name, DEFINITIONS[definition], values[i][0], decisions[i], values[i][4], items
+    )
 
 
-def _step_points(
-    plan: Plan, labels: Sequence[Label], points: FloatArray
-) -> dict[int, list[int]]:
+def _step_points(plan: Plan, labels: Sequence[Label], points: FloatArray) -> dict[int, list[int]]:
     by_step: dict[int, list[int]] = {}
     for i, lab in enumerate(labels):
         if not 0 <= lab.step_index < len(plan.steps):
@@ -292,12 +297,16 @@ def evaluate(
     labels: Sequence[Label],
     points: npt.ArrayLike,
     meta: dict[str, Any] | None = None,
+    name: str | None = None,
 ) -> Report:
     """Run every test the plan's steps allow on the measured points and judge them.
 
     ``labels[i]`` says which plan step (and point, position, end,
     articulation) ``points[i]`` (mm, the probe ball centre) belongs to.
-    Steps with no points are skipped (and named in the notes).
+    Steps with no points, or not all of theirs, are skipped (and named in the
+    notes). ``meta``
+    (device, parameter set, ...) is carried into the report; ``name`` replaces
+    the plan's name in it.
 
     Raises:
         VerificationError: the plan has no MPE at all, or nothing to evaluate.
@@ -332,6 +341,9 @@ def evaluate(
         if not idx:
             notes.append(f"step {step.id}: no points measured, skipped")
             continue
+        if len(idx) < step.points:
+            notes.append(f"step {step.id}: {len(idx)} of {step.points} points measured, skipped")
+            continue
         art = plan.artefact_of(step)
         p = pts[idx]
         labs = [labels[i] for i in idx]
@@ -357,7 +369,7 @@ def evaluate(
     if not results:
         raise VerificationError(f"plan {plan.name}: no verification test among the measured steps")
     return Report(
-        plan_name=plan.name,
+        plan_name=name or plan.name,
         plan_title=plan.title,
         plan_sha256=plan.sha256,
         decision_rule=rule,
@@ -432,46 +444,88 @@ def _results(
     iso = [s for s in spheres if s.iso]
     if iso:
         size = [
-            (s.test.size_error, abs(s.test.size_error), mpe.p_size_mm,
-             sphere_u(s.step_id, "diameter_uncertainty_mm"), s.step_id)
+            (
+                s.test.size_error,
+                abs(s.test.size_error),
+                mpe.p_size_mm,
+                sphere_u(s.step_id, "diameter_uncertainty_mm"),
+                s.step_id,
+            )
             for s in iso
         ]
-        out.append(_worst("p_size", "P_Size.Sph.1x25::Art:AArm", "P_Size.Sph.1x25::Art:AArm",
-                          size, rule))
+        out.append(
+            _worst("p_size", "P_Size.Sph.1x25::Art:AArm", "P_Size.Sph.1x25::Art:AArm", size, rule)
+        )
         form = [
             (s.test.form, s.test.form, mpe.p_form_mm, sphere_u(s.step_id, "form_mm"), s.step_id)
             for s in iso
         ]
-        out.append(_worst("p_form", "P_Form.Sph.1x25::Art:AArm", "P_Form.Sph.1x25::Art:AArm",
-                          form, rule))
+        out.append(
+            _worst("p_form", "P_Form.Sph.1x25::Art:AArm", "P_Form.Sph.1x25::Art:AArm", form, rule)
+        )
     eff = [s for s in spheres if not s.iso]
     if eff:
         vals = [
-            (s.test.size_error, abs(s.test.size_error), mpe.effective_diameter_mm,
-             sphere_u(s.step_id, "diameter_uncertainty_mm"), s.step_id)
+            (
+                s.test.size_error,
+                abs(s.test.size_error),
+                mpe.effective_diameter_mm,
+                sphere_u(s.step_id, "diameter_uncertainty_mm"),
+                s.step_id,
+            )
             for s in eff
         ]
-        out.append(_worst("effective_diameter", "B89.4.22 effective diameter",
-                          "B89.4.22 effective diameter", vals, rule))
+        out.append(
+            _worst(
+                "effective_diameter",
+                "B89.4.22 effective diameter",
+                "B89.4.22 effective diameter",
+                vals,
+                rule,
+            )
+        )
     if locations:
-        vals = [(loc.test.l_dia, loc.test.l_dia, mpe.l_dia_mm, 0.0, loc.step_id)
-                for loc in locations]
+        vals = [
+            (loc.test.l_dia, loc.test.l_dia, mpe.l_dia_mm, 0.0, loc.step_id) for loc in locations
+        ]
         shapes = {(len(loc.test.fits), loc.test.fits[0].n_points) for loc in locations}
         name = "L_Dia.5x5:Art:AArm" if shapes == {(5, 5)} else "L_Dia (non-standard layout)"
         out.append(_worst("l_dia", name, "L_Dia.5x5:Art:AArm", vals, rule))
     if seats:
-        two = [(s.test.two_sigma, s.test.two_sigma, mpe.spat_2sigma_mm, 0.0, s.step_id)
-               for s in seats]
-        out.append(_worst("spat_2sigma", "B89.4.22 single-point articulation, 2 sigma",
-                          "B89.4.22 single-point articulation", two, rule))
-        rng = [(s.test.max_half_range, s.test.max_half_range, mpe.spat_range_mm, 0.0, s.step_id)
-               for s in seats]
-        out.append(_worst("spat_range", "SPAT (max - min)/2 per axis",
-                          "B89.4.22 single-point articulation", rng, rule))
+        two = [
+            (s.test.two_sigma, s.test.two_sigma, mpe.spat_2sigma_mm, 0.0, s.step_id) for s in seats
+        ]
+        out.append(
+            _worst(
+                "spat_2sigma",
+                "B89.4.22 single-point articulation, 2 sigma",
+                "B89.4.22 single-point articulation",
+                two,
+                rule,
+            )
+        )
+        rng = [
+            (s.test.max_half_range, s.test.max_half_range, mpe.spat_range_mm, 0.0, s.step_id)
+            for s in seats
+        ]
+        out.append(
+            _worst(
+                "spat_range",
+                "SPAT (max - min)/2 per axis",
+                "B89.4.22 single-point articulation",
+                rng,
+                rule,
+            )
+        )
     if lengths:
         vals = [
-            (m.test.error, abs(m.test.error), m.mpe_mm, m.decision.u,
-             _fmt_where(m.step_id, m.position))
+            (
+                m.test.error,
+                abs(m.test.error),
+                m.mpe_mm,
+                m.decision.u,
+                _fmt_where(m.step_id, m.position),
+            )
             for m in lengths
         ]
         out.append(_worst("e_uni", "E_Uni:0:AArm", "E_Uni:0:AArm", vals, rule))
@@ -479,9 +533,23 @@ def _results(
             st = length_statistics([m.test.error for m in lengths])
             u = max(m.decision.u for m in lengths)
             d = decide(st.max_abs, mpe.volumetric_mm, u, rule)
-            items = ({"n": st.n, "max_abs_mm": st.max_abs, "range_mm": st.range,
-                      "two_sigma_mm": st.two_sigma},)
-            out.append(Result("volumetric", "B89.4.22 volumetric performance",
-                              DEFINITIONS["B89.4.22 volumetric performance"], st.max_abs, d,
-                              "all lengths", items))
+            items = (
+                {
+                    "n": st.n,
+                    "max_abs_mm": st.max_abs,
+                    "range_mm": st.range,
+                    "two_sigma_mm": st.two_sigma,
+                },
+            )
+            out.append(
+                Result(
+                    "volumetric",
+                    "B89.4.22 volumetric performance",
+                    DEFINITIONS["B89.4.22 volumetric performance"],
+                    st.max_abs,
+                    d,
+                    "all lengths",
+                    items,
+                )
+            )
     return out

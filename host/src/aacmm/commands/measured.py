@@ -1,0 +1,180 @@
+"""Measured points for the analysis commands (``verify``, ``fit``, ``export``).
+
+Points are always recomputed from the raw counts with the parameter set in
+force for each row (:meth:`aacmm.records.Recorded.points_mm`, the C core in
+double precision), never taken from the device's rounded point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aacmm.commands.exitcodes import UsageError
+
+if TYPE_CHECKING:
+    from aacmm.geometry._base import FloatArray
+    from aacmm.plans import Plan
+    from aacmm.records import CapturedPoint
+
+
+@dataclass(frozen=True)
+class Measured:
+    """Points of a session or a log with their labels.
+
+    ``names[i]`` is a short label (``sphere1#3``, ``length4 p2 A#1``, ``row 17``);
+    ``step_ids[i]`` the plan step (None in a log); ``labels`` the session's
+    captured points (None for a log).
+    """
+
+    source: Path
+    kind: str
+    points: FloatArray
+    names: list[str]
+    step_ids: list[str | None]
+    probe_diameter_mm: float
+    plan: Plan | None = None
+    labels: tuple[CapturedPoint, ...] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def step_table(self) -> list[str]:
+        """The plan's steps as ``id (procedure, artefact)``, by step index."""
+        if self.plan is None:
+            return []
+        return [f"{s.id} ({s.procedure}, {s.artefact or '-'})" for s in self.plan.steps]
+
+    def label_numbers(self, i: int) -> list[int]:
+        """step, point, position, end (0 A, 1 B), articulation; -1 where not applicable."""
+        if self.labels is None:
+            return [-1, i, -1, -1, -1]
+        p = self.labels[i]
+        end = {"A": 0, "B": 1}.get(p.end or "", -1)
+        pos = -1 if p.position_index is None else p.position_index
+        art = -1 if p.articulation_index is None else p.articulation_index
+        return [p.step_index, p.point_index, pos, end, art]
+
+    def csv_labels(self, i: int) -> list[str]:
+        """step id, procedure, artefact, point, position, end, articulation (1-based counts)."""
+        if self.labels is None:
+            return ["", "", "", str(i + 1), "", "", ""]
+        p = self.labels[i]
+        return [
+            p.step_id,
+            p.procedure,
+            p.artefact or "",
+            str(p.point_index + 1),
+            "" if p.position_index is None else str(p.position_index + 1),
+            p.end or "",
+            "" if p.articulation_index is None else str(p.articulation_index + 1),
+        ]
+
+
+def _name(p: CapturedPoint) -> str:
+    parts = [p.step_id]
+    if p.position_index is not None:
+        parts.append(f"p{p.position_index + 1}")
+    if p.end:
+        parts.append(p.end)
+    if p.articulation_index is not None:
+        parts.append(f"a{p.articulation_index + 1}")
+    return " ".join(parts) + f"#{p.point_index + 1}"
+
+
+def _session_meta(s: Any) -> dict[str, Any]:
+    meta: dict[str, Any] = {"status": s.status, "points": f"{len(s.points)} of {len(s.plan.slots)}"}
+    plan_meta = s.meta.get("plan")
+    if isinstance(plan_meta, dict) and isinstance(plan_meta.get("name"), str):
+        meta["plan"] = Path(plan_meta["name"]).name
+    dev = s.device
+    if dev:
+        serial = dev.get("serial_number")
+        fw = dev.get("firmware")
+        if serial is not None:
+            meta["device"] = f"serial {serial}"
+        if fw is not None:
+            meta["firmware"] = str(fw)
+    crcs = sorted({p.param_set.crc_hex for p in s.points})
+    if crcs:
+        meta["params_crc32"] = ", ".join(crcs)
+    runs = s.meta.get("runs") or []
+    if runs and isinstance(runs[0], dict) and "start" in runs[0]:
+        meta["captured"] = str(runs[0]["start"])[:19].replace("T", " ") + " UTC"
+    return meta
+
+
+def load_session(path: Path, partial: bool = False) -> Measured:
+    """A capture session's points (recomputed from counts), labels and plan.
+
+    Raises:
+        UsageError: not a session (a log was given), or an incomplete session
+            without ``partial``.
+        RecordError: a damaged session (one line naming the file and line).
+    """
+    from aacmm.records import read_session, session_exists
+
+    if not session_exists(path):
+        what = "a file, not a session folder" if path.is_file() else "not a session folder"
+        raise UsageError(f"{path}: {what} (verify needs a session written by aacmm capture)")
+    s = read_session(path)
+    if not s.points:
+        raise UsageError(f"{path}: the session has no points")
+    if not s.complete and not partial:
+        raise UsageError(
+            f"{path}: the session is incomplete ({len(s.points)} of {len(s.plan.slots)} points, "
+            f"status {s.status}): finish it with aacmm capture --resume, or use --partial"
+        )
+    return Measured(
+        source=path,
+        kind="session",
+        points=s.points_mm(),
+        names=[_name(p) for p in s.points],
+        step_ids=[p.step_id for p in s.points],
+        probe_diameter_mm=s.plan.probe.ball_diameter_mm,
+        plan=s.plan,
+        labels=s.points,
+        meta=_session_meta(s),
+    )
+
+
+def load_points(path: Path, triggers: bool = False) -> Measured:
+    """Points of a session folder (any status) or of a log CSV (``triggers``: the
+    log's probe-button presses instead of its samples).
+
+    Raises:
+        UsageError: no such file, ``triggers`` with a session, an empty selection.
+        RecordError: a damaged file.
+    """
+    from aacmm.records import session_exists
+
+    if session_exists(path):
+        if triggers:
+            raise UsageError("--triggers applies to a log; a session's points are its captures")
+        return load_session(path, partial=True)
+    if not path.is_file():
+        raise UsageError(f"{path}: no such session folder or log file")
+    from aacmm.records.logs import read_log, read_triggers
+
+    if triggers:
+        t = read_triggers(path)
+        presses = [k for k, tr in enumerate(t.triggers) if tr.pressed and tr.button == 0]
+        if not presses:
+            raise UsageError(f"{t.path}: no capture-button presses in the trigger file")
+        pts = t.points_mm()[presses]
+        names = [f"trigger {k + 1}" for k in range(len(presses))]
+    else:
+        log = read_log(path)
+        pts = log.points_mm()
+        names = [f"row {k + 1}" for k in range(len(log))]
+    if len(pts) == 0:
+        raise UsageError(f"{path}: no points")
+    return Measured(
+        source=path,
+        kind="log",
+        points=np.asarray(pts, dtype=np.float64),
+        names=names,
+        step_ids=[None] * len(pts),
+        probe_diameter_mm=0.0,
+    )

@@ -1,0 +1,420 @@
+"""``aacmm verify``, ``aacmm fit`` and ``aacmm export`` on synthetic sessions.
+
+Sessions are written as ``aacmm capture`` writes them (tests/host/verify_sessions.py:
+counts of a true arm put on each nominal target by inverse kinematics). Every
+figure of the JSON report is checked against an independent recomputation from
+the session's raw counts (numpy DH chain, scipy solvers); the one-page PDF is
+rasterised with pdftoppm and its text read back with pdftotext.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import verify_sessions as vs
+from aacmm.core import Params
+from aacmm.plans import Plan, loads_plan
+from clihelp import one_error_line, run
+
+pytestmark = pytest.mark.timeout(120)
+
+PLAN = """
+format = "aacmm-plan-1"
+title = "Every verification test"
+[probe]
+ball_diameter_mm = 6.0
+[verification]
+decision_rule = "{rule}"
+temperature_c = 20.5
+[mpe]
+{mpe}
+[artefacts.sph]
+type = "sphere"
+diameter_mm = 25.4012
+diameter_uncertainty_mm = 0.0005
+form_mm = 0.0002
+location_mm = [750.0, -200.0, -150.0]
+[artefacts.sph2]
+type = "sphere"
+diameter_mm = 19.9998
+diameter_uncertainty_mm = 0.0004
+location_mm = [800.0, 150.0, -100.0]
+[artefacts.seat1]
+type = "cone"
+location_mm = [700.0, 100.0, -250.0]
+[artefacts.seat2]
+type = "cone"
+location_mm = [950.0, -150.0, 0.0]
+[artefacts.bar]
+type = "ballbar"
+length_mm = 600.0010
+length_uncertainty_mm = 0.0012
+[artefacts.barS]
+type = "ballbar"
+length_mm = 400.0004
+length_uncertainty_mm = 0.0010
+ends = "sphere"
+end_diameter_mm = 22.0
+[artefacts.flat]
+type = "plane"
+location_mm = [800.0, 0.0, -300.0]
+normal = [0.0, 0.0, 1.0]
+size_mm = [120.0, 80.0]
+
+[[steps]]
+id = "probing"
+procedure = "sphere"
+artefact = "sph"
+preset = "iso10360-12"
+[[steps]]
+id = "location"
+procedure = "articulation"
+artefact = "sph"
+preset = "iso10360-12"
+[[steps]]
+id = "effdia"
+procedure = "sphere"
+artefact = "sph2"
+points = 9
+[[steps]]
+id = "spat1"
+procedure = "cone"
+artefact = "seat1"
+articulations = 10
+[[steps]]
+id = "spat2"
+procedure = "cone"
+artefact = "seat2"
+articulations = 8
+[[steps]]
+id = "len"
+procedure = "length"
+artefact = "bar"
+positions = [
+  {{ centre_mm = [800, 0, -150], direction = [1, 0, 0] }},
+  {{ centre_mm = [800, 0, -150], direction = [0, 1, 0] }},
+  {{ centre_mm = [800, 50, -150], direction = [0.3, 0.4, 0.866] }},
+]
+[[steps]]
+id = "lenS"
+procedure = "length"
+artefact = "barS"
+points_per_end = 5
+positions = [
+  {{ centre_mm = [850, -50, -200], direction = [0.6, 0.8, 0] }},
+  {{ centre_mm = [750, 100, -100], direction = [0, 0.6, 0.8] }},
+]
+[[steps]]
+id = "flat"
+procedure = "plane"
+artefact = "flat"
+points = 12
+"""
+
+MPE = """p_size_mm = 0.020
+p_form_mm = 0.030
+l_dia_mm = 0.060
+e_uni = { a_mm = 0.030, k = 50, b_mm = 0.080 }
+effective_diameter_mm = 0.025
+spat_2sigma_mm = 0.030
+spat_range_mm = 0.030
+volumetric_mm = 0.050"""
+
+
+def make_plan(rule: str = "simple", mpe: str = MPE) -> Plan:
+    return loads_plan(PLAN.format(rule=rule, mpe=mpe), "every-test.toml")
+
+
+@pytest.fixture(scope="module")
+def good(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Plan]:
+    plan = make_plan()
+    folder = tmp_path_factory.mktemp("verify") / "good"
+    vs.write_session(folder, plan, np.random.default_rng(7), noise_mm=0.003)
+    return folder, plan
+
+
+def _report(out: Path) -> dict:  # type: ignore[type-arg]
+    return json.loads((out / "report.json").read_text())  # type: ignore[no-any-return]
+
+
+def test_verify_pass_and_independent_figures(good: tuple[Path, Plan], tmp_path: Path) -> None:
+    folder, plan = good
+    out = tmp_path / "rep"
+    p = run("verify", str(folder), "--report", str(out))
+    assert p.returncode == 0, p.stderr
+    assert "verdict    PASS" in p.stdout
+    rep = _report(out)
+    assert rep["verdict"] == "PASS" and rep["decision_rule"] == "simple"
+    ref = vs.recompute(folder, plan)
+    res = {r["key"]: r for r in rep["results"]}
+    steps = rep["steps"]
+    # every figure against the recomputation from raw counts (numpy chain, scipy solvers)
+    assert steps["probing"]["size_error_mm"] == pytest.approx(
+        ref["spheres"]["probing"]["size_error"], abs=1e-7
+    )
+    assert steps["probing"]["form_mm"] == pytest.approx(ref["spheres"]["probing"]["form"], abs=1e-7)
+    assert res["p_size"]["value_mm"] == pytest.approx(
+        ref["spheres"]["probing"]["size_error"], abs=1e-7
+    )
+    assert res["p_form"]["value_mm"] == pytest.approx(ref["spheres"]["probing"]["form"], abs=1e-7)
+    assert res["effective_diameter"]["value_mm"] == pytest.approx(
+        ref["spheres"]["effdia"]["size_error"], abs=1e-7
+    )
+    assert res["l_dia"]["value_mm"] == pytest.approx(ref["l_dia"]["location"], abs=1e-6)
+    two = max(ref["seats"][s]["two_sigma"] for s in ("spat1", "spat2"))
+    half = max(float(np.max(ref["seats"][s]["half_range"])) for s in ("spat1", "spat2"))
+    assert res["spat_2sigma"]["value_mm"] == pytest.approx(two, abs=1e-9)
+    assert res["spat_range"]["value_mm"] == pytest.approx(half, abs=1e-9)
+    errs = ref["lengths"]["len"] + ref["lengths"]["lenS"]
+    worst = max(errs, key=abs)
+    assert res["e_uni"]["value_mm"] == pytest.approx(worst, abs=1e-7)
+    assert [p["error_mm"] for p in steps["len"]["positions"]] == pytest.approx(
+        ref["lengths"]["len"], abs=1e-7
+    )
+    assert res["volumetric"]["value_mm"] == pytest.approx(max(abs(e) for e in errs), abs=1e-7)
+    # the E_Uni MPE is the plan's min(A + L/K, B) at each calibrated length
+    for pos in steps["len"]["positions"]:
+        assert pos["mpe_mm"] == pytest.approx(0.030 + 600.0010 / 50 / 1000)
+    # the figures and the filed page
+    for name in ("report.txt", "report.pdf", "spat.png", "e_uni.png", "spheres.png"):
+        assert (out / name).stat().st_size > 1000, name
+    assert (out / "report.txt").read_text() == p.stdout.split("report written to")[0]
+
+
+def test_report_page_renders(good: tuple[Path, Plan], tmp_path: Path) -> None:
+    folder, _ = good
+    out = tmp_path / "rep"
+    assert run("verify", str(folder), "--report", str(out), "-q").returncode == 0
+    pdf = out / "report.pdf"
+    subprocess.run(["pdftoppm", "-r", "50", "-png", str(pdf), str(tmp_path / "page")], check=True)
+    pages = sorted(tmp_path.glob("page*.png"))
+    assert len(pages) == 1  # one page
+    from matplotlib.image import imread
+
+    img = imread(pages[0])
+    h, w = img.shape[:2]
+    assert abs(h / w - 297 / 210) < 0.01  # A4 portrait
+    dark = float(np.mean(img[..., :3].mean(axis=2) < 0.5))
+    assert 0.005 < dark < 0.3  # text and charts, not blank, not black
+    text = subprocess.run(
+        ["pdftotext", "-layout", str(pdf), "-"], check=True, capture_output=True, text=True
+    ).stdout
+    rep = _report(out)
+    assert "VERDICT: PASS" in text
+    assert "P_Size.Sph.1x25::Art:AArm" in text and "E_Uni:0:AArm" in text
+    p_size = next(r for r in rep["results"] if r["key"] == "p_size")["value_mm"]
+    assert f"{p_size:+.4f}" in text
+    assert "simple acceptance" in text and "every-test.toml" in text
+
+
+def test_verify_fail_exit_7_report_written(tmp_path: Path) -> None:
+    # the true arm differs from the stored parameters: lengths and seats are off
+    plan = make_plan()
+    rng = np.random.default_rng(8)
+    v = Params().to_vector()
+    v[12 + 2] += 0.08  # d3 +80 um
+    v[24] += 0.05  # probe length +50 um
+    v[6 + 4] += 2e-4  # alpha5
+    folder = vs.write_session(tmp_path / "bad", plan, rng, 0.002, truth=Params.from_vector(v))
+    out = tmp_path / "rep"
+    p = run("verify", str(folder), "--report", str(out))
+    assert p.returncode == 7, (p.stdout, p.stderr)
+    assert p.stderr == ""
+    assert "verdict    FAIL" in p.stdout
+    rep = _report(out)
+    assert rep["verdict"] == "FAIL"
+    failed = {r["key"] for r in rep["results"] if r["verdict"] == "FAIL"}
+    assert "spat_2sigma" in failed or "spat_range" in failed or "e_uni" in failed
+    assert (out / "report.pdf").exists() and (out / "e_uni.png").exists()
+    ref = vs.recompute(folder, plan)
+    res = {r["key"]: r for r in rep["results"]}
+    errs = ref["lengths"]["len"] + ref["lengths"]["lenS"]
+    assert res["e_uni"]["value_mm"] == pytest.approx(max(errs, key=abs), abs=1e-7)
+
+
+def test_guard_band_rule(tmp_path: Path) -> None:
+    # a P_Size MPE just above the measured value: passes simple acceptance, fails
+    # ISO 14253-1 (value > MPE - U), and the report says why
+    plan = make_plan()
+    folder = vs.write_session(tmp_path / "s", plan, np.random.default_rng(9), 0.003, upto=25)
+    ref = vs.recompute(folder, plan)
+    size = abs(ref["spheres"]["probing"]["size_error"])
+    mpe_v = round(size + 0.0002, 6)
+    mpe = f"p_size_mm = {mpe_v:.6f}"
+    for rule, code, verdict in (("simple", 0, "PASS"), ("iso14253-1", 7, "FAIL")):
+        f2 = tmp_path / rule
+        shutil.copytree(folder, f2)
+        meta = json.loads((f2 / "session.json").read_text())
+        meta["plan"]["source"] = PLAN.format(rule=rule, mpe=mpe)
+        (f2 / "session.json").write_text(json.dumps(meta))
+        p = run("verify", str(f2), "--partial", "--json", "-")
+        assert p.returncode == code, p.stderr
+        res = next(r for r in json.loads(p.stdout)["results"] if r["key"] == "p_size")
+        assert res["verdict"] == verdict
+        assert res["zone"] == "neither proved (within U of the MPE)"
+        assert res["limit_mm"] == pytest.approx(mpe_v - (rule != "simple") * 0.0005)
+
+
+def test_bad_sessions(good: tuple[Path, Plan], tmp_path: Path) -> None:
+    folder, plan = good
+    # a plan without an MPE
+    nompe = tmp_path / "nompe"
+    shutil.copytree(folder, nompe)
+    meta = json.loads((nompe / "session.json").read_text())
+    meta["plan"]["source"] = PLAN.format(rule="simple", mpe="")
+    (nompe / "session.json").write_text(json.dumps(meta))
+    one_error_line(run("verify", str(nompe)), 2, "no MPE")
+    # incomplete: refused unless --partial
+    part = vs.write_session(
+        tmp_path / "part", plan, np.random.default_rng(10), 0.003, upto=30, status="interrupted"
+    )
+    one_error_line(run("verify", str(part)), 2, "incomplete", "--partial")
+    p = run("verify", str(part), "--partial")
+    assert p.returncode == 0, p.stderr
+    # the probing step is judged; the location step (5 of 25 points) is skipped, said so
+    assert "P_Size" in p.stdout and "L_Dia" not in p.stdout
+    assert "note: step location: 5 of 25 points measured, skipped" in p.stdout
+    early = vs.write_session(
+        tmp_path / "early", plan, np.random.default_rng(11), 0.003, upto=20, status="interrupted"
+    )
+    one_error_line(run("verify", str(early), "--partial"), 2, "no verification test")
+    # not a session, a missing one
+    one_error_line(run("verify", str(tmp_path / "nothing")), 2, "not a session")
+    one_error_line(run("verify", str(folder / "points.csv")), 2, "not a session")
+    # an existing report file is refused without --force, nothing else written
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / "report.pdf").write_text("keep")
+    one_error_line(run("verify", str(folder), "--report", str(out)), 2, "exists", "--force")
+    assert (out / "report.pdf").read_text() == "keep" and not (out / "report.json").exists()
+    assert run("verify", str(folder), "--report", str(out), "-f", "-q").returncode == 0
+
+
+def test_degenerate_sphere_is_one_line(tmp_path: Path) -> None:
+    text = PLAN.format(rule="simple", mpe=MPE).replace(
+        'id = "effdia"\nprocedure = "sphere"\nartefact = "sph2"\npoints = 9',
+        'id = "effdia"\nprocedure = "sphere"\nartefact = "sph2"\npoints = 4\nmax_polar_deg = 1e-6',
+    )
+    plan = loads_plan(text, "degenerate.toml")
+    assert plan.step("effdia").points == 4
+    folder = vs.write_session(tmp_path / "s", plan, np.random.default_rng(13))
+    one_error_line(run("verify", str(folder)), 2, "effdia", "coplanar")
+
+
+def test_collinear_plane_is_one_line(tmp_path: Path) -> None:
+    plan = loads_plan(
+        """format = "aacmm-plan-1"
+[probe]
+ball_diameter_mm = 0
+[mpe]
+p_size_mm = 0.02
+[artefacts.part]
+type = "part"
+[[steps]]
+id = "line"
+procedure = "points"
+artefact = "part"
+targets_mm = [[700, 0, -100], [710, 0, -100], [720, 0, -100], [730, 0, -100]]
+""",
+        "collinear.toml",
+    )
+    folder = vs.write_session(tmp_path / "s", plan, np.random.default_rng(12))
+    one_error_line(run("fit", str(folder), "plane"), 2, "collinear")
+    one_error_line(run("fit", str(folder), "sphere"), 2, "coplanar")
+    one_error_line(run("verify", str(folder)), 2, "no verification test")
+
+
+# ---------------------------------------------------------------- fit and export
+
+
+def test_fit_sphere_and_plane(good: tuple[Path, Plan], tmp_path: Path) -> None:
+    folder, _ = good
+    ref_rows, pts = vs.session_points(folder)
+    p = run("fit", str(folder), "sphere", "--step", "probing", "--json", "-")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    sel = [i for i, r in enumerate(ref_rows) if r["step_id"] == "probing"]
+    c, r, _ = vs.sphere_ls(pts[sel])
+    assert d["feature"]["radius"] == pytest.approx(r - 3.0, abs=1e-8)  # the plan's 6 mm ball
+    assert d["feature"]["center"] == pytest.approx(list(c), abs=1e-8)
+    assert d["n_points"] == 25 and len(d["points"]) == 25
+    # a selection, another ball, text output
+    p = run(
+        "fit",
+        str(folder),
+        "sphere",
+        "--step",
+        "probing",
+        "--points",
+        "1-10,20-",
+        "--probe-diameter",
+        "0",
+        "--min-zone",
+    )
+    assert p.returncode == 0, p.stderr
+    assert "16 points" in p.stdout and "min. zone" in p.stdout and "radius" in p.stdout
+    # a plane probed from above needs the side
+    one_error_line(run("fit", str(folder), "plane", "--step", "flat"), 2, "--outward")
+    csv_out = tmp_path / "res.csv"
+    p = run(
+        "fit",
+        str(folder),
+        "plane",
+        "--step",
+        "flat",
+        "--outward",
+        "0,0,1",
+        "--csv",
+        str(csv_out),
+        "--min-zone",
+    )
+    assert p.returncode == 0, p.stderr
+    flat = pts[[i for i, r in enumerate(ref_rows) if r["step_id"] == "flat"]]
+    assert "step flat" in p.stdout and "min. zone" in p.stdout
+    rows = list(csv.DictReader(csv_out.open()))
+    assert len(rows) == 12
+    res = np.array([float(r["residual_mm"]) for r in rows])
+    # a horizontal plane: the regression z = a x + b y + c, scaled to orthogonal
+    # distances, is the orthogonal fit to second order in its (um/m) tilt
+    a = np.c_[flat[:, :2], np.ones(12)]
+    coef = np.linalg.lstsq(a, flat[:, 2], rcond=None)[0]
+    ref_res = (flat[:, 2] - a @ coef) / np.sqrt(1 + coef[0] ** 2 + coef[1] ** 2)
+    assert np.allclose(res, ref_res, atol=2e-6)  # 6 decimals in the CSV
+    one_error_line(run("fit", str(folder), "sphere", "--step", "nope"), 2, "nope", "probing")
+    one_error_line(run("fit", str(folder), "sphere", "--points", "0-3"), 2, "--points")
+    one_error_line(run("fit", str(folder), "line", "--inner"), 2, "--inner")
+
+
+@pytest.mark.parametrize("fmt", ["xyz", "ply", "csv"])
+def test_export(good: tuple[Path, Plan], tmp_path: Path, fmt: str) -> None:
+    folder, _ = good
+    rows, pts = vs.session_points(folder)
+    out = tmp_path / f"pts.{fmt}"
+    p = run("export", str(folder), "--format", fmt, "-o", str(out))
+    assert p.returncode == 0, p.stderr
+    text = out.read_text()
+    if fmt == "csv":
+        got = list(csv.DictReader(text.splitlines()))
+        assert len(got) == len(rows)
+        xyz = np.array([[float(g[k]) for k in ("x_mm", "y_mm", "z_mm")] for g in got])
+        assert [g["step"] for g in got] == [r["step_id"] for r in rows]
+        assert [g["end"] for g in got] == [r["end"] for r in rows]
+    else:
+        lines = text.splitlines()
+        if fmt == "ply":
+            assert lines[0] == "ply" and f"element vertex {len(rows)}" in lines
+            lines = lines[lines.index("end_header") + 1 :]
+        else:
+            lines = [ln for ln in lines if not ln.startswith("#")]
+        vals = np.array([[float(v) for v in ln.split()] for ln in lines])
+        assert vals.shape == (len(rows), 8)
+        xyz = vals[:, :3]
+        assert list(vals[:, 3].astype(int)) == [int(r["step_index"]) for r in rows]
+    assert np.allclose(xyz, pts, atol=2e-6)  # 6 decimals, from the raw counts
+    one_error_line(run("export", str(folder), "--format", fmt, "-o", str(out)), 2, "exists")
