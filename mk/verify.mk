@@ -23,7 +23,7 @@ test-geometry:
 	$(VERIFY_PYTEST) tests/host/test_geometry.py
 
 #> test-verify          verification quantities, rules; verify/fit/export on synthetic sessions
-test-verify:
+test-verify: sim
 	$(VERIFY_PYTEST) tests/host/test_verification.py tests/host/test_verify_cli.py
 
 #> test-verify-lint     ruff, ruff format, mypy --strict on geometry, verification, their commands

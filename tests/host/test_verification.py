@@ -13,10 +13,10 @@ import math
 import numpy as np
 import pytest
 import selfcert
+import verify_sessions as vs
 from aacmm import verification as v
 from aacmm.geometry import GeometryError, TooFewPointsError
 from aacmm.verification import rules
-from scipy.optimize import minimize
 
 # ---------------------------------------------------------------- decision rules
 
@@ -78,21 +78,6 @@ def test_sphere_size_form_certified() -> None:
 # ---------------------------------------------------------------- articulated location
 
 
-def _enclosing_by_optimisation(p: np.ndarray) -> float:
-    """Smallest enclosing radius by SLSQP (min r s.t. |p_i - c| <= r), another method."""
-    c0 = p.mean(axis=0)
-    r0 = float(np.max(np.linalg.norm(p - c0, axis=1)))
-    cons = {"type": "ineq", "fun": lambda x: x[3] ** 2 - np.sum((p - x[:3]) ** 2, axis=1)}
-    res = minimize(
-        lambda x: x[3],
-        np.r_[c0, r0],
-        constraints=[cons],
-        method="SLSQP",
-        options={"ftol": 1e-14, "maxiter": 500},
-    )
-    return float(res.x[3])
-
-
 def test_smallest_enclosing_sphere() -> None:
     rng = np.random.default_rng(22)
     for n in (1, 2, 3, 4, 5, 8, 20, 60):
@@ -100,7 +85,7 @@ def test_smallest_enclosing_sphere() -> None:
         c, r = v.smallest_enclosing_sphere(p)
         assert np.max(np.linalg.norm(p - c, axis=1)) <= r * (1 + 1e-12) + 1e-12
         if n > 1:
-            assert r == pytest.approx(_enclosing_by_optimisation(p), rel=1e-6)
+            assert r == pytest.approx(vs.enclosing_radius(p), rel=1e-6)
     # degenerate sets: duplicates, collinear, four on one circle
     assert v.smallest_enclosing_sphere(np.tile([1.0, 2.0, 3.0], (5, 1)))[1] == 0.0
     line = np.outer(np.arange(6.0), [1.0, 2.0, 2.0])

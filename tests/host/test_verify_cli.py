@@ -20,7 +20,8 @@ import pytest
 import verify_sessions as vs
 from aacmm.core import Params
 from aacmm.plans import Plan, loads_plan
-from clihelp import one_error_line, run
+from aacmm.commands.sim import SimProcess
+from clihelp import one_error_line, run, sim_fixture
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -418,3 +419,54 @@ def test_export(good: tuple[Path, Plan], tmp_path: Path, fmt: str) -> None:
         assert list(vals[:, 3].astype(int)) == [int(r["step_index"]) for r in rows]
     assert np.allclose(xyz, pts, atol=2e-6)  # 6 decimals, from the raw counts
     one_error_line(run("export", str(folder), "--format", fmt, "-o", str(out)), 2, "exists")
+
+
+# ---------------------------------------------------------------- logs
+
+
+sim = sim_fixture("--motion", "static", "--button-every", "0.15", "--noise-counts", "2000")
+
+
+def test_fit_log_and_its_triggers(sim: SimProcess, tmp_path: Path) -> None:
+    # a real log of the simulator's static pose with encoder noise: the samples
+    # and the button captures scatter around one point
+    out = tmp_path / "run.csv"
+    p = run("log", str(out), "--port", sim.url, "-r", "200", "-d", "1.2")
+    assert p.returncode == 0, p.stderr
+    from aacmm.records.logs import read_log, read_triggers
+
+    log = read_log(out)
+    pts = log.points_mm()
+    p = run("fit", str(out), "point", "--json", "-")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["n_points"] == len(pts)
+    assert d["feature"]["center"] == pytest.approx(list(pts.mean(axis=0)), abs=1e-9)
+    presses = [t for t in read_triggers(log) if t.pressed and t.button == 0]
+    assert len(presses) >= 3
+    p = run("fit", str(out), "point", "--triggers", "--json", "-")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["n_points"] == len(presses)
+    dev = np.array([t.sample.point_mm for t in presses])  # the device's points, 0.1 um
+    assert d["feature"]["center"] == pytest.approx(list(dev.mean(axis=0)), abs=1e-4)
+    one_error_line(run("fit", str(out), "point", "--step", "x"), 2, "no points of step")
+
+
+def test_fit_plain_csv_of_counts(tmp_path: Path) -> None:
+    # a plain CSV of counts (no sidecar): the paper's parameters, said so
+    plan = make_plan()
+    folder = vs.write_session(tmp_path / "s", plan, np.random.default_rng(14), 0.002, upto=25)
+    rows, pts = vs.session_points(folder)
+    plain = tmp_path / "poses.csv"
+    plain.write_text(
+        "count1,count2,count3,count4,count5,count6\n"
+        + "".join(",".join(r[f"count{i}"] for i in range(1, 7)) + "\n" for r in rows)
+    )
+    p = run("fit", str(plain), "sphere", "--probe-diameter", "6")
+    assert p.returncode == 0, p.stderr
+    assert "default parameters" in p.stdout
+    c, r, _ = vs.sphere_ls(pts)
+    assert f"{r - 3.0:.6f}" in p.stdout
+    one_error_line(run("fit", str(plain), "point", "--triggers"), 2, "trigger")
+    one_error_line(run("fit", str(tmp_path / "none.csv"), "point"), 2, "no such")

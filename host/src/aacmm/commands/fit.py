@@ -241,6 +241,8 @@ def run_fit(args: argparse.Namespace) -> int:
         sys.stdout.write(text)
     else:
         sys.stdout.write(fit_text(fit, str(args.source), sel, mz))
+        if "note" in m.meta:
+            print(f"note         {m.meta['note']}")
     return 0
 
 

@@ -155,19 +155,31 @@ def load_points(path: Path, triggers: bool = False) -> Measured:
         return load_session(path, partial=True)
     if not path.is_file():
         raise UsageError(f"{path}: no such session folder or log file")
+    from aacmm.protocol import SampleStatus
+    from aacmm.records import Recorded
     from aacmm.records.logs import read_log, read_triggers
 
+    log = read_log(path)
     if triggers:
-        t = read_triggers(path)
-        presses = [k for k, tr in enumerate(t.triggers) if tr.pressed and tr.button == 0]
+        presses = [t for t in read_triggers(log) if t.pressed and t.button == 0]
         if not presses:
-            raise UsageError(f"{t.path}: no capture-button presses in the trigger file")
-        pts = t.points_mm()[presses]
-        names = [f"trigger {k + 1}" for k in range(len(presses))]
+            raise UsageError(f"{path}: no capture-button presses in the log's trigger file")
+        rec = Recorded(
+            log.path,
+            np.array([t.sample.counts for t in presses], dtype=np.uint64),
+            np.array([t.param_set.crc32 for t in presses], dtype=np.uint32),
+            {t.param_set.crc32: t.param_set for t in presses},
+        )
+        pts = rec.points_mm()
+        names = [f"trigger {k + 1} (line {t.line})" for k, t in enumerate(presses)]
     else:
-        log = read_log(path)
         pts = log.points_mm()
-        names = [f"row {k + 1}" for k in range(len(log))]
+        names = [f"row {k + 1}" for k in range(len(pts))]
+        if "flags" in log.columns and len(pts):
+            valid = (log.column("flags", "int") & int(SampleStatus.POINT_VALID)) != 0
+            pts = pts[valid]
+            names = [n for n, v in zip(names, valid, strict=True) if v]
+    meta = {} if log.params_given else {"note": "no parameter set in the log: default parameters"}
     if len(pts) == 0:
         raise UsageError(f"{path}: no points")
     return Measured(
@@ -177,4 +189,5 @@ def load_points(path: Path, triggers: bool = False) -> Measured:
         names=names,
         step_ids=[None] * len(pts),
         probe_diameter_mm=0.0,
+        meta=meta,
     )

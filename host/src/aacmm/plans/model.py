@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 Vec3 = tuple[float, float, float]
 
@@ -149,6 +149,22 @@ class Target:
     tip_mm: Vec3
     normal: Vec3 | None
     feature_mm: Vec3
+
+
+class PointLabel(Protocol):
+    """What analysis reads of a measured point's labels: a :class:`Slot`, or a
+    session's captured point (:class:`aacmm.records.CapturedPoint`)."""
+
+    @property
+    def step_index(self) -> int: ...
+    @property
+    def point_index(self) -> int: ...
+    @property
+    def position_index(self) -> int | None: ...
+    @property
+    def end(self) -> str | None: ...
+    @property
+    def articulation_index(self) -> int | None: ...
 
 
 @dataclass(frozen=True)

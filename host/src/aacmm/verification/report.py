@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -53,22 +53,7 @@ from aacmm.verification.evaluations import (
 from aacmm.verification.rules import Decision, check_rule, decide, overall
 
 if TYPE_CHECKING:
-    from aacmm.plans import Plan, Step
-
-
-class Label(Protocol):
-    """What :func:`evaluate` reads of a point's label (:class:`aacmm.plans.Slot` has it)."""
-
-    @property
-    def step_index(self) -> int: ...
-    @property
-    def point_index(self) -> int: ...
-    @property
-    def position_index(self) -> int | None: ...
-    @property
-    def end(self) -> str | None: ...
-    @property
-    def articulation_index(self) -> int | None: ...
+    from aacmm.plans import Plan, PointLabel, Step
 
 
 class VerificationError(GeometryError):
@@ -254,13 +239,11 @@ def _fmt_where(step: str, position: int | None = None) -> str:
     return step if position is None else f"{step} position {position + 1}"
 
 
-def _worst(
-    key: str,
-    name: str,
-    definition: str,
-    values: list[tuple[float, float, float | None, float, str]],
-    rule: str,
-) -> Result:
+#: (reported value, magnitude judged, MPE, U, where)
+Value = tuple[float, float, float | None, float, str]
+
+
+def _worst(key: str, name: str, definition: str, values: list[Value], rule: str) -> Result:
     """A result from (reported value, magnitude judged, MPE, U, where) tuples: the worst."""
     decisions = [decide(mag, mpe, u, rule) for _, mag, mpe, u, _ in values]
 
@@ -279,7 +262,9 @@ def _worst(
     )
 
 
-def _step_points(plan: Plan, labels: Sequence[Label], points: FloatArray) -> dict[int, list[int]]:
+def _step_points(
+    plan: Plan, labels: Sequence[PointLabel], points: FloatArray
+) -> dict[int, list[int]]:
     by_step: dict[int, list[int]] = {}
     for i, lab in enumerate(labels):
         if not 0 <= lab.step_index < len(plan.steps):
@@ -294,7 +279,7 @@ def _u(value: float | None) -> float:
 
 def evaluate(
     plan: Plan,
-    labels: Sequence[Label],
+    labels: Sequence[PointLabel],
     points: npt.ArrayLike,
     meta: dict[str, Any] | None = None,
     name: str | None = None,
@@ -388,7 +373,7 @@ def evaluate(
     )
 
 
-def _groups(step: Step, labs: Sequence[Label], p: FloatArray) -> list[FloatArray]:
+def _groups(step: Step, labs: Sequence[PointLabel], p: FloatArray) -> list[FloatArray]:
     groups: dict[int, list[int]] = {}
     for i, lab in enumerate(labs):
         if lab.articulation_index is None:
@@ -400,7 +385,7 @@ def _groups(step: Step, labs: Sequence[Label], p: FloatArray) -> list[FloatArray
 def _lengths(
     step: Step,
     art: Any,
-    labs: Sequence[Label],
+    labs: Sequence[PointLabel],
     p: FloatArray,
     e_uni: Any,
     rule: str,
@@ -441,49 +426,32 @@ def _results(
         art = plan.artefact_of(plan.step(step_id))
         return _u(getattr(art, attr)) if isinstance(art, Sphere) else 0.0
 
-    iso = [s for s in spheres if s.iso]
-    if iso:
-        size = [
+    def sizes(steps: list[SphereStep], mpe_mm: float | None) -> list[Value]:
+        return [
             (
                 s.test.size_error,
                 abs(s.test.size_error),
-                mpe.p_size_mm,
+                mpe_mm,
                 sphere_u(s.step_id, "diameter_uncertainty_mm"),
                 s.step_id,
             )
-            for s in iso
+            for s in steps
         ]
-        out.append(
-            _worst("p_size", "P_Size.Sph.1x25::Art:AArm", "P_Size.Sph.1x25::Art:AArm", size, rule)
-        )
+
+    iso = [s for s in spheres if s.iso]
+    if iso:
+        p_size, p_form = "P_Size.Sph.1x25::Art:AArm", "P_Form.Sph.1x25::Art:AArm"
+        out.append(_worst("p_size", p_size, p_size, sizes(iso, mpe.p_size_mm), rule))
         form = [
             (s.test.form, s.test.form, mpe.p_form_mm, sphere_u(s.step_id, "form_mm"), s.step_id)
             for s in iso
         ]
-        out.append(
-            _worst("p_form", "P_Form.Sph.1x25::Art:AArm", "P_Form.Sph.1x25::Art:AArm", form, rule)
-        )
+        out.append(_worst("p_form", p_form, p_form, form, rule))
     eff = [s for s in spheres if not s.iso]
     if eff:
-        vals = [
-            (
-                s.test.size_error,
-                abs(s.test.size_error),
-                mpe.effective_diameter_mm,
-                sphere_u(s.step_id, "diameter_uncertainty_mm"),
-                s.step_id,
-            )
-            for s in eff
-        ]
-        out.append(
-            _worst(
-                "effective_diameter",
-                "B89.4.22 effective diameter",
-                "B89.4.22 effective diameter",
-                vals,
-                rule,
-            )
-        )
+        name = "B89.4.22 effective diameter"
+        vals = sizes(eff, mpe.effective_diameter_mm)
+        out.append(_worst("effective_diameter", name, name, vals, rule))
     if locations:
         vals = [
             (loc.test.l_dia, loc.test.l_dia, mpe.l_dia_mm, 0.0, loc.step_id) for loc in locations
