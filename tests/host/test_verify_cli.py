@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import verify_sessions as vs
+from aacmm.commands.sim import SimProcess
 from aacmm.core import Params
 from aacmm.plans import Plan, loads_plan
-from aacmm.commands.sim import SimProcess
 from clihelp import one_error_line, run, sim_fixture
 
 pytestmark = pytest.mark.timeout(120)
@@ -466,7 +466,7 @@ def test_fit_plain_csv_of_counts(tmp_path: Path) -> None:
     p = run("fit", str(plain), "sphere", "--probe-diameter", "6")
     assert p.returncode == 0, p.stderr
     assert "default parameters" in p.stdout
-    c, r, _ = vs.sphere_ls(pts)
+    _, r, _ = vs.sphere_ls(pts)
     assert f"{r - 3.0:.6f}" in p.stdout
     one_error_line(run("fit", str(plain), "point", "--triggers"), 2, "trigger")
     one_error_line(run("fit", str(tmp_path / "none.csv"), "point"), 2, "no such")
