@@ -112,6 +112,13 @@ def test_full_plan(sim: SimProcess, tmp_path: Path) -> None:
     assert s.device is not None and s.device["serial_number"] == 1
     progress = (out / "progress.json").read_text()
     assert '"next_slot": 30' in progress and '"complete": true' in progress
+    summary = run("summary", str(out))
+    assert summary.returncode == 0, summary.stderr
+    assert summary.stdout.splitlines()[:2] == [
+        f"session {out} (complete): 30 of 30 points",
+        "plan probe-calibration: Probe calibration (pivot)",
+    ]
+    assert summary.stdout.splitlines()[-1].split() == ["pivot", "cone", "30", "of", "30"]
 
 
 def test_kill9_then_resume_loses_no_acknowledged_point(sim: SimProcess, tmp_path: Path) -> None:

@@ -34,7 +34,9 @@ def run_plan(tmp_path: Path, plan: str, seed: int) -> tuple[Any, dict[str, Any]]
             [str(AACMM), "capture", plan, "-o", str(tmp_path / "s"), "--port", url, "-q"],
             capture_output=True, text=True, env=cli_env(), timeout=280,
         )  # fmt: skip
-        assert cap.returncode == 0, cap.stderr
+        if cap.returncode != 0:
+            sim.kill()
+            raise AssertionError(cap.stderr + sim.communicate()[1])
         _, err = sim.communicate(timeout=60)
         assert sim.returncode == 0, err
     finally:

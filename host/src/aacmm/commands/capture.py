@@ -106,6 +106,14 @@ class Capture:
                 port=dev.url,
                 transport=dev.client.transport.description,
             )
+        if self.args.resume:
+            before = (w.meta.get("device") or {}).get("serial_number")
+            if before is not None and before != dev.info.serial_number:
+                print_err(
+                    "capture",
+                    f"warning: the session began on device serial {before}; this is serial "
+                    f"{dev.info.serial_number} (recorded in the session's runs)",
+                )
         if w.set_param_set(ps) and self.args.resume and len(w.param_sets) > 1:
             print_err("capture", f"note: the device's parameter set is now {ps.crc_hex}")
         w.begin_run(

@@ -140,11 +140,12 @@ def register(sub: Any) -> None:
 
     s = sub.add_parser(
         "summary",
-        help="summarise a log written by 'aacmm log' (samples, rate, lost, extent)",
+        help="summarise a log (samples, rate, lost, extent) or a capture session",
         description="Read FILE.csv and its sidecar and print samples, rate, lost samples "
-        "and the extent of the point cloud. Works on a log cut short by kill -9.",
+        "and the extent of the point cloud; or, for a capture session folder, its plan, "
+        "status and points per step. Works on files cut short by kill -9.",
     )
-    s.add_argument("output", metavar="FILE.csv", help="the log")
+    s.add_argument("output", metavar="FILE.csv|SESSION", help="the log or session folder")
     s.add_argument("--json", action="store_true", help="print JSON")
     s.set_defaults(func=cmd_summary)
 
@@ -874,8 +875,50 @@ def summarize_file(path: Path) -> dict[str, Any]:
     return log_summary(read_log(path))
 
 
+def summarize_session(folder: Path) -> dict[str, Any]:
+    """Plan, status, device, parameter sets and points per step of a capture session."""
+    from aacmm.records import read_session
+
+    s = read_session(folder)
+    steps = []
+    for st in s.plan.steps:
+        steps.append(
+            {"id": st.id, "procedure": st.procedure, "points": len(s.rows_of(st.index)),
+             "of": st.points}
+        )  # fmt: skip
+    dev = s.device or {}
+    return {
+        "session": str(folder),
+        "status": s.status,
+        "plan": s.meta["plan"].get("name", ""),
+        "title": s.plan.title,
+        "points": len(s.points),
+        "of": len(s.plan.slots),
+        "complete": s.complete,
+        "device_serial_number": dev.get("serial_number"),
+        "param_sets": [crc for _, crc in s.set_changes()],
+        "runs": [r.get("kind") for r in s.meta.get("runs", []) if isinstance(r, dict)],
+        "steps": steps,
+        "warnings": list(s.warnings),
+    }
+
+
 def cmd_summary(args: argparse.Namespace) -> int:
-    d = summarize_file(Path(args.output))
+    path = Path(args.output)
+    if path.is_dir():
+        d = summarize_session(path)
+        if args.json:
+            print(json.dumps(d, indent=2))
+            return OK
+        sets = ", ".join(f"0x{c:08x}" for c in d["param_sets"]) or "-"
+        print(f"session {path} ({d['status']}): {d['points']} of {d['of']} points")
+        print(f"plan {d['plan']}: {d['title']}")
+        print(f"device serial {d['device_serial_number']}, parameter sets {sets}")
+        print(f"runs {', '.join(d['runs']) or '-'}")
+        for st in d["steps"]:
+            print(f"  {st['id']:16s} {st['procedure']:12s} {st['points']:4d} of {st['of']}")
+        return OK
+    d = summarize_file(path)
     if args.json:
         print(json.dumps(d, indent=2))
     else:

@@ -21,6 +21,7 @@ This is a pure library: no printing, no argparse.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 
@@ -106,9 +107,10 @@ def load_plan(spec: str | Path) -> Plan:
     if path.exists() or len(path.parts) != 1:
         return read_plan_file(path)
     try:
-        return read_plan_file(shipped_plan_path(str(spec)))
+        path = shipped_plan_path(str(spec))
     except KeyError:
         names = ", ".join(shipped_plans())
         raise PlanError(
             str(spec), None, "", f"no such file, nor a shipped plan (shipped: {names})"
         ) from None
+    return replace(read_plan_file(path), name=path.stem)  # named as the user names it
