@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "aacmm.commands.mc",
     "aacmm.commands.plan",
     "aacmm.commands.sim",
+    "aacmm.commands.tolerance",
     "aacmm.commands.uncertainty",
     "aacmm.commands.verify",
 )

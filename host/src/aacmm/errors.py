@@ -52,3 +52,8 @@ class DeviceError(AacmmError):
         super().__init__(message)
         self.status = status
         self.request_type = request_type
+
+
+class InfeasibleError(AacmmError):
+    """The request is valid but no solution meets it (e.g. a tolerance target
+    tighter than the best parts and encoders allow); exit status 8."""

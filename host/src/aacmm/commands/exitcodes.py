@@ -12,6 +12,7 @@ from aacmm.errors import (
     AacmmError,
     DeviceError,
     DeviceTimeoutError,
+    InfeasibleError,
     InitError,
     OperationError,
     PortBusyError,
@@ -34,6 +35,8 @@ LINK_LOST: Final = 6
 NOT_MET: Final = 7
 """The result does not meet the stated requirement (verification verdict FAIL; the
 report is still written)."""
+INFEASIBLE: Final = 8
+"""The request cannot be met (a tolerance target no allocation reaches)."""
 INTERRUPTED: Final = 130
 """Ctrl-C or SIGTERM before the work was done (data written so far is kept)."""
 
@@ -46,15 +49,18 @@ NAMES: Final[dict[int, str]] = {
     VERSION: "protocol version mismatch",
     LINK_LOST: "link lost mid-operation",
     NOT_MET: "requirement not met (verification FAIL)",
+    INFEASIBLE: "infeasible request",
     INTERRUPTED: "interrupted",
 }
 
 
 __all__ = [
     "DEVICE",
+    "INFEASIBLE",
     "INTERRUPTED",
     "LINK_LOST",
     "NAMES",
+    "NOT_MET",
     "OK",
     "PORT",
     "TIMEOUT",
@@ -86,6 +92,8 @@ def exit_code(exc: BaseException) -> int:
         return INTERRUPTED
     if isinstance(exc, VersionMismatchError):
         return VERSION
+    if isinstance(exc, InfeasibleError):
+        return INFEASIBLE
     if isinstance(exc, InitError):
         return PORT
     if isinstance(exc, DeviceTimeoutError):

@@ -1,0 +1,148 @@
+"""Allocation for a calibrated arm: what calibration removes, what it leaves.
+
+A calibration identifies some parameters from observations (cones, lengths,
+reference points). To first order it sees the parameter error dq through its
+identification Jacobian A (m x 25, rows weighted by 1/noise) and, solving a
+least-squares problem on the identified columns I while the others (F, the
+null space named by parameter) stay at nominal, it corrects
+
+    dq_post = (I - G A) dq + e,     G = [A_I^+ ; 0],   e ~ N(0, C)
+
+where e is the calibration's own error (its post-calibration covariance C).
+The columns of M = I - G A for the identified parameters are zero: their
+manufacturing error is removed whatever it was, so they need no tolerance
+(only the calibration's range). The fixed parameters keep an error, but part
+of it is absorbed by the identified ones (the calibration fits whatever best
+explains the observations): their effective sensitivity at a pose is
+J(p) M[:, F], which can be far smaller than J(p)[:, F], and zero where the
+measurement cannot see them either.
+
+Encoder reading errors vary from reading to reading, so no parameter
+calibration removes them; they keep their full effect.
+
+:class:`CalibrationModel` holds (A, F, C); ``aacmm.calibration`` provides
+them for a calibration design or result.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from aacmm.core import JAC_COLS, PARAM_NAMES, FloatArray, Params
+
+if TYPE_CHECKING:
+    from aacmm.calibration import CalibrationResult, Observations
+
+
+@dataclass(frozen=True)
+class CalibrationModel:
+    """A calibration as the allocation sees it.
+
+    ``jacobian`` (m, 25): identification Jacobian at the nominal parameters,
+    rows weighted by 1/noise, columns in :data:`aacmm.core.PARAM_NAMES`
+    order; ``fixed``: the parameters the calibration does not identify
+    (left at nominal); ``covariance`` (25, 25): the post-calibration
+    covariance of the identified parameters (rad, mm; zero for the fixed
+    ones); ``source``: a description for reports.
+
+    Raises ValueError for wrong shapes, unknown names, a covariance that is
+    not symmetric positive semi-definite, or identified columns that are
+    rank deficient (they would not be identifiable).
+    """
+
+    jacobian: FloatArray
+    fixed: tuple[str, ...]
+    covariance: FloatArray = field(default_factory=lambda: np.zeros((JAC_COLS, JAC_COLS)))
+    source: str = "calibration"
+
+    def __post_init__(self) -> None:
+        a = np.asarray(self.jacobian, dtype=np.float64)
+        if a.ndim != 2 or a.shape[1] != JAC_COLS or not np.all(np.isfinite(a)):
+            raise ValueError(f"the identification Jacobian must be finite (m, {JAC_COLS})")
+        bad = [n for n in self.fixed if n not in PARAM_NAMES]
+        if bad:
+            raise ValueError(f"unknown parameter name(s) {', '.join(bad)}")
+        c = np.asarray(self.covariance, dtype=np.float64)
+        if c.shape != (JAC_COLS, JAC_COLS) or not np.all(np.isfinite(c)):
+            raise ValueError(f"the covariance must be finite ({JAC_COLS}, {JAC_COLS})")
+        if not np.allclose(c, c.T, rtol=1e-9, atol=1e-300):
+            raise ValueError("the covariance must be symmetric")
+        w = np.linalg.eigvalsh(c)
+        if w.size and w.min() < -1e-9 * max(w.max(), 0.0):
+            raise ValueError("the covariance must be positive semi-definite")
+        object.__setattr__(self, "jacobian", a)
+        object.__setattr__(self, "covariance", 0.5 * (c + c.T))
+        object.__setattr__(self, "fixed", tuple(n for n in PARAM_NAMES if n in self.fixed))
+        ident = self.identified_mask
+        if ident.any():
+            ai = a[:, ident]
+            scale = np.linalg.norm(ai, axis=0)
+            if np.any(scale == 0) or np.linalg.matrix_rank(ai / scale) < ai.shape[1]:
+                raise ValueError(
+                    "the identified parameters are not identifiable from this Jacobian "
+                    "(rank deficient): list the null space in fixed"
+                )
+
+    @classmethod
+    def from_observations(
+        cls,
+        obs: Observations,
+        params: Params | None = None,
+        free: tuple[str, ...] | None = None,
+        source: str = "calibration design",
+    ) -> CalibrationModel:
+        """A calibration *design*: the data it will take, no measurement yet.
+
+        The identification Jacobian and the predicted covariance come from
+        :func:`aacmm.calibration.predicted_covariance` at ``params`` (default
+        Table 1); the parameters it holds (unobservable from these data) and
+        those outside ``free`` stay at nominal. Raises ObservationError for
+        unusable observations.
+        """
+        from aacmm.calibration import Problem, predicted_covariance
+
+        p = params or Params()
+        cov, ident = predicted_covariance(obs, p, free)
+        jac = Problem(obs).evaluate(p).jac
+        candidates = set(ident.names)
+        fixed = tuple(n for n in PARAM_NAMES if n in ident.held or n not in candidates)
+        return cls(jac, fixed, cov, source)
+
+    @classmethod
+    def from_result(
+        cls, result: CalibrationResult, source: str = "calibration"
+    ) -> CalibrationModel:
+        """A finished calibration: its Jacobian at the solution, held and fixed
+        parameters and covariance (scaled by chi^2/dof when that exceeds 1)."""
+        fixed = tuple(n for n in PARAM_NAMES if n in result.held or n in result.fixed)
+        return cls(result.after.jac, fixed, result.scaled_covariance, source)
+
+    @property
+    def identified_mask(self) -> npt.NDArray[np.bool_]:
+        """(25,) True for the parameters the calibration identifies."""
+        return np.array([n not in self.fixed for n in PARAM_NAMES])
+
+    @property
+    def identified(self) -> tuple[str, ...]:
+        return tuple(n for n in PARAM_NAMES if n not in self.fixed)
+
+    def error_map(self) -> FloatArray:
+        """M (25, 25): manufacturing error dq -> error left after calibration (M dq).
+
+        Masked least squares on the identified columns (scaled to unit norm
+        for conditioning; the solution does not depend on the scaling).
+        """
+        a = self.jacobian
+        ident = self.identified_mask
+        m = np.eye(JAC_COLS)
+        if ident.any():
+            ai = a[:, ident]
+            scale = np.linalg.norm(ai, axis=0)
+            sol, *_ = np.linalg.lstsq(ai / scale, a, rcond=None)
+            m[ident, :] -= sol / scale[:, None]
+            m[:, ident] = 0.0  # exactly: calibration removes these errors whatever they are
+        return m

@@ -1,0 +1,149 @@
+"""``aacmm tolerance``: the cost-optimal tolerance of every part for a target accuracy.
+
+The computation lives in :mod:`aacmm.analysis.tolerance`; this module parses
+the arguments, prints the report and writes the outputs (refusing existing
+files unless ``--force``). Exit status: 0 (the Monte Carlo check confirms the
+target), 7 (it does not; the report is still written), 8 (no allocation can
+meet the target: one line says what limits it), 2 (a bad spec or argument:
+one line naming the file and field).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from aacmm.commands.common import add_force_option, is_tty
+
+EXAMPLE = "example"
+
+
+def register(sub: Any) -> None:
+    """Add ``tolerance`` to an argparse subparsers object."""
+    p = sub.add_parser(
+        "tolerance",
+        help="cost-optimal tolerances and encoders for a target accuracy",
+        description="Allocate tolerances to the 25 structural parameters and choose an "
+        "encoder per joint so that the probe point (or a length) meets a target accuracy "
+        "at the least cost, then check the allocation by Monte Carlo (docs/tolerance.md).",
+    )
+    p.add_argument(
+        "spec",
+        metavar="SPEC.toml",
+        help=f"tolerance spec (docs/tolerance.md); '{EXAMPLE}' runs the packaged worked "
+        "example on the paper's arm",
+    )
+    p.add_argument(
+        "--trials",
+        type=int,
+        default=100_000,
+        metavar="N",
+        help="arms drawn for the Monte Carlo check (default 100000; 0 = no check)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the Monte Carlo check (0)")
+    p.add_argument(
+        "--check-rows",
+        type=int,
+        default=None,
+        metavar="K",
+        help="check only the K poses (or lengths) with the highest design value "
+        "(default: all of them)",
+    )
+    p.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
+    p.add_argument("--json", metavar="PATH", help="write the result as JSON")
+    p.add_argument("--csv", metavar="PATH", help="write the tolerances and budget as CSV")
+    p.add_argument("--png", metavar="PATH", help="write a figure of the budget (PNG)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only the summary lines")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar of the Monte Carlo check on stderr (default: at a terminal)",
+    )
+    add_force_option(p)
+    p.set_defaults(func=run_tolerance)
+
+
+def _load(name: str) -> Any:
+    from importlib import resources
+
+    from aacmm.analysis import tolerance as tl
+
+    if name == EXAMPLE:
+        from aacmm.fileio import loads_toml
+
+        src = resources.files("aacmm").joinpath("data", "example_tolerance.toml")
+        spec = tl.parse_spec(loads_toml(src.read_text("utf-8"), "example_tolerance.toml"))
+        from dataclasses import replace
+
+        return replace(spec, source="packaged example (the paper's arm)")
+    return tl.load_spec(name)
+
+
+def run_tolerance(args: argparse.Namespace) -> int:
+    """``aacmm tolerance``: returns the exit status (errors raise; aacmm.cli prints them)."""
+    import json
+
+    from aacmm.commands.common import check_outputs, write_output
+    from aacmm.commands.exitcodes import NOT_MET, UsageError
+
+    if args.trials != 0 and args.trials < 100:
+        raise UsageError(f"--trials must be 0 (no check) or >= 100, got {args.trials}")
+    if args.check_rows is not None and args.check_rows < 1:
+        raise UsageError(f"--check-rows must be >= 1, got {args.check_rows}")
+    if args.seed < 0:
+        raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    if args.threads is not None and args.threads < 1:
+        raise UsageError(f"--threads must be >= 1, got {args.threads}")
+    check_outputs([args.json, args.csv, args.png], args.force)
+
+    from aacmm.analysis import tolerance as tl
+
+    spec = _load(args.spec)
+    alloc = tl.allocate(spec)
+    check = None
+    if args.trials:
+        show = args.progress if args.progress is not None else is_tty(sys.stderr)
+        bar: Any = None
+        if show:
+            from tqdm import tqdm
+
+            bar = tqdm(total=100, file=sys.stderr, leave=False, desc="Monte Carlo check")
+
+        def progress(fraction: float) -> None:
+            if bar is not None:
+                bar.n = round(100 * fraction)
+                bar.refresh()
+
+        try:
+            check = tl.monte_carlo_check(
+                alloc,
+                trials=args.trials,
+                seed=args.seed,
+                rows=args.check_rows,
+                threads=args.threads,
+                progress=progress,
+            )
+        finally:
+            if bar is not None:
+                bar.close()
+    text = tl.format_report(alloc, check)
+    if args.quiet:
+        text = "\n".join(tl.summary_lines(alloc, check))
+    print(text, flush=True)
+    if args.json:
+        write_output(
+            args.json, json.dumps(tl.to_json(alloc, check), indent=2) + "\n", force=args.force
+        )
+    if args.csv:
+        write_output(args.csv, tl.to_csv(alloc), force=args.force)
+    if args.png:
+        write_output(args.png, tl.budget_png(alloc), force=args.force)
+    if check is not None and check.verdict == "not met":
+        print(
+            "aacmm tolerance: the Monte Carlo check does not confirm the target (report written)",
+            file=sys.stderr,
+        )
+        return NOT_MET
+    return 0

@@ -1,0 +1,20 @@
+# Tolerance allocation (issue 18): aacmm.analysis.tolerance, `aacmm tolerance`,
+# docs/tolerance.md. The suite checks the allocation against the Lagrange
+# closed form, direct solves and brute force over encoder catalogues, the
+# Monte Carlo check (10^5 arms) against a numpy forward model, the calibrated
+# arm against an explicit least-squares calibration, and the CLI's outputs and
+# exit statuses.
+
+TOLERANCE_PY_FILES := host/src/aacmm/analysis/tolerance host/src/aacmm/commands/tolerance.py \
+                      tests/host/test_tolerance.py
+
+.PHONY: test-tolerance
+#> test-tolerance  tolerance allocation: closed form, encoders, Monte Carlo check, CLI, lint
+test-tolerance:
+	$(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
+	    tests/host/test_tolerance.py
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(TOLERANCE_PY_FILES)
+	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(TOLERANCE_PY_FILES)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml $(TOLERANCE_PY_FILES)
+
+TEST_SUITES += test-tolerance
