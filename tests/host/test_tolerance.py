@@ -161,7 +161,8 @@ def test_limits_satisfy_the_kkt_conditions() -> None:
     c = np.array([4.0] * 6 + [6.0] * 6 + [30.0] * 6 + [20.0] * 6 + [10.0])
     kk = np.array([2.0] * 18 + [3.0] * 6 + [2.0])
     t = a.t
-    lam = kk * c * t ** (-kk - 1) / (2 * s_eff**2 * t)
+    lam = np.full(25, np.nan)
+    lam[:24] = kk[:24] * c[:24] * t[:24] ** (-kk[:24] - 1) / (2 * s_eff[:24] ** 2 * t[:24])
     free = [i for i, n in enumerate(PARAM_NAMES[:24]) if st[n] == "allocated"]
     assert np.ptp(lam[free]) / np.mean(lam[free]) < 1e-8
     lam0 = float(np.mean(lam[free]))
@@ -186,6 +187,7 @@ def _reference_worst(rows: np.ndarray, c: np.ndarray, k: float) -> tuple[float, 
         res = optimize.minimize(
             cost,
             y_start,
+            bounds=[(-40.0, 10.0)] * c.size,
             jac=lambda y: -k * c * np.exp(-k * y),
             method="SLSQP",
             constraints=[

@@ -22,7 +22,8 @@ from typing import Any, Literal
 import numpy as np
 
 from aacmm.analysis.uncertainty import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS, TOLERANCE_FACTOR
-from aacmm.core import JOINTS, PARAM_GROUPS, PARAM_NAMES, PARAM_UNITS, FloatArray, Params
+from aacmm.analysis.uncertainty import _expand as expand_names
+from aacmm.core import JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray, Params
 from aacmm.errors import AacmmError
 
 ARCSEC_RAD = ANGLE_UNITS["arcsec"]
@@ -347,14 +348,11 @@ def _str(t: Mapping[str, Any], key: str, where: str, default: str, allowed: tupl
 
 
 def _expand(key: str) -> tuple[str, ...]:
-    if key in PARAM_NAMES:
-        return (key,)
-    if key in PARAM_GROUPS[:4]:
-        return tuple(f"{key}{i}" for i in range(1, JOINTS + 1))
-    raise SpecError(
-        f"[parameters] {key}: unknown parameter (theta1..6, alpha1..6, d1..6, a1..6, l, "
-        f"or a group theta, alpha, d, a)"
-    )
+    # the same names and groups as the uncertainty spec (one definition)
+    try:
+        return expand_names(key)
+    except ValueError as e:
+        raise SpecError(f"[parameters] {key}: {e}") from e
 
 
 def _param_costs(doc: Mapping[str, Any], au: str, lu: str) -> tuple[ParamCost, ...]:
