@@ -1,34 +1,31 @@
 # The simulated arm with a truth of its own and the simulated operator
 # (issue 11 items 3-4), the simulator's control channel, the second button and
 # the trigger-sample rule (issue 14 item 5), replay of aacmm logs (item 6).
-# See docs/simulator.md.
-#   test-sim-control   aacmm-sim --control against the host client over a pty:
-#                      counts/buttons/barriers/stream events, the trigger rule
-#                      on serial, both buttons, replay of an `aacmm log` CSV;
-#                      ruff, mypy --strict on aacmm.simulation and these tests
-#   test-simulation    the truth model and its file, random truths, the encoder
-#                      model against the core, IK to 1e-9 mm, articulation spread
-# The CAN half of the trigger rule runs in the shared vcan session.
+# See docs/simulator.md. The CAN half of the trigger rule runs in the shared
+# vcan session (tests/sim/vcan).
 
-SIMULATION_PY_FILES := host/src/aacmm/simulation tests/sim
+SIMULATION_PY_FILES := host/src/aacmm/simulation host/src/aacmm/commands/simtruth.py tests/sim
 SIMULATION_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300 \
                        -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-sim-control test-simulation test-simulation-lint
+#> test-sim-control     aacmm-sim --control with the host client: counts, buttons, barriers, stream events, the trigger rule on serial, both buttons, replay of an aacmm log
 test-sim-control: export AACMM_SIM = $(abspath $(SIM_BIN))
 test-sim-control: sim
 	$(SIMULATION_PYTEST) tests/sim/test_sim_control.py
 	@$(MAKE) --no-print-directory test-simulation-lint
 
-test-simulation:
-	$(SIMULATION_PYTEST) tests/sim/test_truth_ik.py
+#> test-simulation      truth model and file, encoder model vs the core, IK to 1 nm, articulation spread; aacmm sim --scenario against aacmm capture (nominal and random truths, mis-probe + undo, kill -9 + resume, rendezvous)
+test-simulation: export AACMM_SIM = $(abspath $(SIM_BIN))
+test-simulation: sim
+	$(SIMULATION_PYTEST) tests/sim/test_truth_ik.py tests/sim/test_scenario.py
 
-#> test-simulation-lint  ruff, ruff format, mypy on the simulation code (part of test-sim-control)
+#> test-simulation-lint ruff, ruff format, mypy --strict on aacmm.simulation and its tests (part of test-sim-control)
 test-simulation-lint:
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(SIMULATION_PY_FILES)
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(SIMULATION_PY_FILES)
 	MYPYPATH=tests/sim $(VENV)/bin/mypy --config-file host/pyproject.toml host/src/aacmm/simulation \
-	    $(wildcard tests/sim/*.py)
+	    host/src/aacmm/commands/simtruth.py $(wildcard tests/sim/*.py)
 	$(VENV)/bin/mypy --config-file host/pyproject.toml tests/sim/vcan
 
 TEST_SUITES += test-sim-control test-simulation

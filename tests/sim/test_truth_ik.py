@@ -192,7 +192,7 @@ def test_articulations_spread() -> None:
     approach = Approach((0.0, 0.0, 1.0), 50.0)
     cands = candidates(arm, target, approach, 50, rng)
     assert len(cands) >= 45
-    chosen = most_different(cands, 25)
+    chosen = [cands[i] for i in most_different([s.theta for s in cands], 25)]
     spread = joint_spread_deg([s.theta for s in chosen])
     assert np.all(spread[[0, 2, 4]] > 180.0)  # the rolls all the way round
     assert np.all(spread[[1, 3, 5]] > 90.0)  # the hinges over much of their range

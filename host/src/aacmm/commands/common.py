@@ -78,14 +78,25 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
 
 
 def port_url(args: argparse.Namespace) -> str:
-    """The device URL from ``--port`` or the environment.
+    """The device URL from ``--port``, the environment, or else the running simulator's.
+
+    Without ``--port`` and ``$AACMM_PORT``, the URL an ``aacmm sim`` of this
+    user publishes (:func:`aacmm.commands.sim.published_url`; waited for while
+    one is starting) is used, and said on stderr.
 
     Raises:
-        UsageError: neither is given, or the URL is malformed.
+        UsageError: none of them, or the URL is malformed.
     """
     url = (args.port or os.environ.get(ENV_PORT, "")).strip()
     if not url:
-        raise UsageError(f"no device given: use --port URL or set {ENV_PORT}")
+        # A running (or starting) `aacmm sim` publishes its URL (docs/cli.md, aacmm sim).
+        from aacmm.commands.sim import published_url
+
+        url = published_url() or ""
+        if not url:
+            raise UsageError(f"no device given: use --port URL or set {ENV_PORT}")
+        cmd = getattr(args, "command", None) or "aacmm"
+        print(f"aacmm {cmd}: using the simulator at {url}", file=sys.stderr, flush=True)
     from aacmm.transport import parse_url
 
     try:

@@ -19,7 +19,9 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType, TracebackType
@@ -73,6 +75,102 @@ def find_simulator() -> Path:
         return Path(found)
     where = f" in {root}" if root is not None else ""
     raise SimulatorError(f"simulator aacmm-sim not found: run 'make sim'{where} or set ${ENV_SIM}")
+
+
+# ---------------------------------------------------------------- rendezvous
+
+RENDEZVOUS_WAIT_S = 15.0
+
+
+def rendezvous_path() -> Path:
+    """Where a running ``aacmm sim`` publishes its URLs (one per line), for the
+    commands of the same login session (``getsid``: the same terminal or
+    script): ``$XDG_RUNTIME_DIR/aacmm-sim-SID.url``, else
+    ``/tmp/aacmm-sim-UID-SID.url``."""
+    sid = os.getsid(0)
+    base = os.environ.get("XDG_RUNTIME_DIR", "")
+    if base and os.path.isdir(base):
+        return Path(base) / f"aacmm-sim-{sid}.url"
+    return Path(tempfile.gettempdir()) / f"aacmm-sim-{os.getuid()}-{sid}.url"
+
+
+def publish_urls(urls: Sequence[str]) -> Path:
+    """Publish this process's simulator URLs (replacing any older file)."""
+    path = rendezvous_path()
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text("".join(f"{u}\n" for u in urls) + f"# pid {os.getpid()}\n", encoding="ascii")
+    os.replace(tmp, path)
+    return path
+
+
+def unpublish_urls() -> None:
+    """Remove the published URLs if they are still this process's."""
+    path = rendezvous_path()
+    with contextlib.suppress(OSError):
+        if _published(path)[1] == os.getpid():
+            path.unlink()
+
+
+def _published(path: Path) -> tuple[list[str], int | None]:
+    try:
+        lines = path.read_text(encoding="ascii").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return [], None
+    urls = [ln.strip() for ln in lines if ln.strip() and not ln.startswith("#")]
+    pid = None
+    for ln in lines:
+        if ln.startswith("# pid ") and ln[6:].strip().isdigit():
+            pid = int(ln[6:].strip())
+    return urls, pid
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _sim_command_running() -> bool:
+    """An ``aacmm sim`` of this user and session runs (perhaps still starting): /proc."""
+    me, uid, sid = os.getpid(), os.getuid(), os.getsid(0)
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return False
+    for name in entries:
+        if not name.isdigit() or int(name) == me:
+            continue
+        try:
+            if os.stat(f"/proc/{name}").st_uid != uid or os.getsid(int(name)) != sid:
+                continue
+            argv = Path(f"/proc/{name}/cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        for i, a in enumerate(argv[:-1]):
+            if (a.endswith(b"aacmm") or a == b"aacmm.cli") and argv[i + 1] == b"sim":
+                return True
+    return False
+
+
+def published_url(wait_s: float = RENDEZVOUS_WAIT_S) -> str | None:
+    """The first URL published by a running ``aacmm sim`` of this session, or None.
+
+    When none is published yet but an ``aacmm sim`` is starting (``aacmm sim
+    ... & aacmm capture ...``), wait up to ``wait_s`` seconds for it.
+    """
+    path = rendezvous_path()
+    deadline = time.monotonic() + wait_s
+    while True:
+        urls, pid = _published(path)
+        if urls and pid is not None and _alive(pid):
+            return urls[0]
+        if time.monotonic() >= deadline or not _sim_command_running():
+            return None
+        time.sleep(0.1)
 
 
 class SimProcess:
@@ -256,6 +354,9 @@ def register(sub: Any) -> None:
         help="also make PATH a symlink to the pty and print serial://PATH "
         "(a stable port name across restarts)",
     )
+    from aacmm.commands import simtruth
+
+    simtruth.add_options(p)
     p.set_defaults(func=cmd_sim)
 
 
@@ -314,6 +415,7 @@ def cmd_board(args: argparse.Namespace) -> int:
     }
     try:
         print(url, flush=True)
+        publish_urls([url])
         print(
             f"aacmm sim: {args.board} under QEMU (pid {proc.pid}); the board starts when a "
             "client connects (one client); Ctrl-C to stop",
@@ -323,12 +425,20 @@ def cmd_board(args: argparse.Namespace) -> int:
         _wait_for_signal(stop, lambda: proc.poll() is None)
     finally:
         boards.stop_board(proc)
+        unpublish_urls()
         for s, h in old.items():
             signal.signal(s, h)
     return OK
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
+    from aacmm.commands import simtruth
+
+    simtruth.check_args(args)
+    if simtruth.wants_truth(args):
+        if args.link is not None and args.serial is None and args.can is not None:
+            raise UsageError("--link needs a serial link (--serial pty)")
+        return simtruth.run(args, sim_args(args))
     if args.board is not None:
         return cmd_board(args)
     if args.link is not None and args.serial is None and args.can is not None:
@@ -346,6 +456,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         try:
             for url in sim.urls:
                 print(url, flush=True)
+            publish_urls(sim.urls)
             print(
                 f"aacmm sim: {sim.binary} running (pid {sim.proc.pid}); Ctrl-C to stop",
                 file=sys.stderr,
@@ -354,6 +465,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             _wait_for_signal(stop, sim.running)
         finally:
             rc = sim.stop()
+            unpublish_urls()
     except AacmmError:
         raise
     finally:

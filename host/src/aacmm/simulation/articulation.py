@@ -114,18 +114,16 @@ def joint_distance(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
     return float(np.linalg.norm(d))
 
 
-def most_different(solutions: Sequence[Solution], count: int) -> list[Solution]:
-    """``count`` of ``solutions`` by farthest-point selection (the first one first)."""
-    if not solutions:
+def most_different(thetas: Sequence[npt.ArrayLike], count: int) -> list[int]:
+    """Indices of ``count`` of ``thetas`` by farthest-point selection (the first one first)."""
+    if len(thetas) == 0:
         return []
-    chosen = [solutions[0]]
-    dist = np.array([joint_distance(s.theta, chosen[0].theta) for s in solutions])
-    while len(chosen) < min(count, len(solutions)):
+    chosen = [0]
+    dist = np.array([joint_distance(q, thetas[0]) for q in thetas])
+    while len(chosen) < min(count, len(thetas)):
         k = int(np.argmax(dist))
-        chosen.append(solutions[k])
-        dist = np.minimum(
-            dist, np.array([joint_distance(s.theta, solutions[k].theta) for s in solutions])
-        )
+        chosen.append(k)
+        dist = np.minimum(dist, np.array([joint_distance(q, thetas[k]) for q in thetas]))
     return chosen
 
 

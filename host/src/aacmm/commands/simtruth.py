@@ -1,0 +1,297 @@
+"""``aacmm sim --truth ... [--scenario PLAN]``: the simulator with an arm of its own.
+
+The device (``aacmm-sim``) keeps computing with its stored parameter set,
+while the host moves the *true* arm through the simulator's control channel:
+the simulated operator performing a plan (``--scenario``), or a random walk
+(``--motion walk``, default) or a still pose (``--motion static``). The truth
+never goes over the link; ``--truth-out`` writes it for tests. See
+docs/simulator.md ("Truth", "Scenarios") and docs/cli.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+from aacmm.commands.exitcodes import OK, UsageError
+from aacmm.errors import AacmmError
+
+STATIC_POSE_RAD = (0.5, 0.6 + math.pi, -0.9, 0.4 + math.pi, 1.2, -0.3 + math.pi)
+
+
+def add_options(p: argparse.ArgumentParser) -> None:
+    """The truth and scenario options of ``aacmm sim``."""
+    g = p.add_argument_group("a true arm and a simulated operator (docs/simulator.md)")
+    g.add_argument(
+        "--truth",
+        metavar="SPEC",
+        help="the arm's true geometry: 'nominal' (the device's built-in set, no errors), "
+        "'random:SEED' (documented perturbation and error sources) or a truth file",
+    )
+    g.add_argument("--truth-out", metavar="FILE", help="write the truth used (TOML)")
+    g.add_argument(
+        "--scenario",
+        metavar="PLAN",
+        help="a simulated operator performs this plan (file or shipped name); "
+        "it waits for a client to stream (aacmm capture)",
+    )
+    g.add_argument("--fast", action="store_true", help="no realistic pace (tests)")
+    g.add_argument(
+        "--follow",
+        metavar="SESSION",
+        help="probe the point the capture session SESSION expects next (its progress.json), "
+        "waiting for each acknowledgement; survives a resumed capture",
+    )
+    g.add_argument(
+        "--misprobe",
+        action="append",
+        default=[],
+        metavar="STEP:POINT:MM[:keep]",
+        help="probe point POINT (1-based) of step STEP (id or 1-based number) MM off target "
+        "first, then undo it with button 1 and probe it properly (':keep': no undo)",
+    )
+    g.add_argument("--report", metavar="FILE", help="write what the operator did (JSON)")
+    g.add_argument(
+        "-f", "--force", action="store_true", help="overwrite --truth-out and --report files"
+    )
+
+
+def wants_truth(args: argparse.Namespace) -> bool:
+    return bool(args.truth or args.scenario)
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """Refuse option combinations that make no sense (UsageError, exit 2)."""
+    if not wants_truth(args):
+        for opt in ("truth_out", "follow", "report"):
+            if getattr(args, opt):
+                raise UsageError(f"--{opt.replace('_', '-')} needs --truth or --scenario")
+        if args.fast or args.misprobe:
+            raise UsageError("--fast and --misprobe need --scenario")
+        return
+    if args.board is not None:
+        raise UsageError("--board runs the board's own firmware: no --truth or --scenario")
+    if args.noise_counts is not None:
+        raise UsageError("with --truth the encoder noise is the truth's ([encoder_noise])")
+    if args.scenario is None:
+        for opt, val in (("--follow", args.follow), ("--report", args.report)):
+            if val:
+                raise UsageError(f"{opt} needs --scenario")
+        if args.fast or args.misprobe:
+            raise UsageError("--fast and --misprobe need --scenario")
+        if args.motion not in (None, "walk", "static"):
+            raise UsageError("with --truth the host moves the arm: --motion walk or static")
+    elif args.motion is not None or args.button_every is not None:
+        raise UsageError("with --scenario the operator moves the arm and presses the buttons")
+
+
+def _sim_cpr(args: argparse.Namespace) -> int | None:
+    if args.cpr is not None:
+        return int(args.cpr)
+    if args.encoder_bits is not None:
+        return 1 << int(args.encoder_bits)
+    return None
+
+
+def parse_misprobes(specs: list[str], plan: Any) -> tuple[Any, ...]:
+    """``--misprobe STEP:POINT:MM[:keep]`` options as :class:`~aacmm.simulation.run.Misprobe`."""
+    from aacmm.simulation.run import Misprobe
+
+    out = []
+    for spec in specs:
+        parts = spec.split(":")
+        if len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "keep"):
+            raise UsageError(f"--misprobe {spec}: expected STEP:POINT:MM or STEP:POINT:MM:keep")
+        step_key: int | str = parts[0]
+        if parts[0].isdigit():
+            step_key = int(parts[0]) - 1
+        try:
+            step = plan.step(step_key)
+        except (KeyError, IndexError):
+            raise UsageError(f"--misprobe {spec}: the plan has no step {parts[0]!r}") from None
+        slots = plan.step_slots(step.index)
+        try:
+            point, mm = int(parts[1]), float(parts[2])
+        except ValueError:
+            raise UsageError(f"--misprobe {spec}: POINT and MM must be numbers") from None
+        if not 1 <= point <= len(slots):
+            raise UsageError(f"--misprobe {spec}: step {step.id} has points 1..{len(slots)}")
+        if not (math.isfinite(mm) and 0 < mm <= 100):
+            raise UsageError(f"--misprobe {spec}: MM must be in (0, 100]")
+        out.append(Misprobe(slots[point - 1].index, mm, len(parts) == 4))
+    return tuple(out)
+
+
+def run(args: argparse.Namespace, sim_args: list[str]) -> int:
+    """The command (see the module doc). ``sim_args``: the simulator's own options."""
+    import numpy as np
+
+    from aacmm.commands.sim import SimProcess, publish_urls, unpublish_urls
+    from aacmm.fileio import check_outputs, write_output
+    from aacmm.simulation.control import ControlChannel
+    from aacmm.simulation.operator import FAST, Operator, Pace, Stopped
+    from aacmm.simulation.truth import parse_truth
+
+    check_args(args)
+    cpr = _sim_cpr(args)
+    truth = parse_truth(args.truth or "nominal", cpr if cpr is not None else 1 << 32)
+    cprs = set(truth.encoders.counts_per_rev)
+    if len(cprs) != 1:
+        cprs_text = list(truth.encoders.counts_per_rev)
+        raise UsageError(f"the simulator has one resolution for all joints, the truth {cprs_text}")
+    if cpr is not None and cprs != {cpr}:
+        raise UsageError(f"the truth has {cprs.pop()} counts per revolution, --cpr says {cpr}")
+    cpr = cprs.pop()
+    plan = None
+    misprobes: tuple[Any, ...] = ()
+    if args.scenario is not None:
+        from aacmm.plans import load_plan
+
+        plan = load_plan(args.scenario)
+        misprobes = parse_misprobes(args.misprobe, plan)
+    check_outputs([args.truth_out, args.report], args.force)
+    if args.truth_out:
+        write_output(args.truth_out, truth.dumps(), force=args.force)
+
+    quiet = bool(args.quiet)
+
+    def say(text: str) -> None:
+        if not quiet:
+            print(f"aacmm sim: {text}", file=sys.stderr, flush=True)
+
+    stop = threading.Event()
+    received: list[int] = []
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        received.append(signum)
+        stop.set()
+
+    base = _without(sim_args, ("--seed", "--motion", "--button-every", "--cpr", "--encoder-bits"))
+    chan, fd = ControlChannel.pair()
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    sim = None
+    failure: list[BaseException] = []
+    runs: list[Any] = []  # the ScenarioRun, once planned
+    died = False
+    try:
+        try:
+            sim = SimProcess(
+                [*base, "--cpr", str(cpr), "--control", str(fd)], link=args.link, pass_fds=[fd]
+            )
+        finally:
+            chan.child_started()
+        chan.hello()
+        for url in sim.urls:
+            print(url, flush=True)
+        publish_urls(sim.urls)
+        origin = truth.origin.get("kind", "file")
+        say(f"{sim.binary} running (pid {sim.proc.pid}) with a {origin} truth; Ctrl-C to stop")
+        rng = np.random.default_rng(args.seed or 0)
+        op = Operator(chan, truth, rng, FAST if args.fast else Pace(), stop=stop)
+
+        def work() -> None:
+            try:
+                if plan is None:
+                    _wander(args, op, stop)
+                    return
+                _perform(args, plan, op, misprobes, say, runs)
+            except Stopped:
+                pass
+            except BaseException as exc:  # handed to the main thread
+                failure.append(exc)
+            finally:
+                stop.set()
+
+        worker = threading.Thread(target=work, name="aacmm-sim-operator", daemon=True)
+        worker.start()
+        while not stop.is_set() and sim.running():
+            stop.wait(0.2)
+        died = not sim.running()
+        stop.set()
+        worker.join(10.0)
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        chan.close()
+        rc = sim.stop() if sim is not None else 0
+        unpublish_urls()
+        if args.report and runs:
+            report = runs[0].report()
+            report["truth"] = truth.origin
+            report["seed"] = args.seed or 0
+            report["fast"] = bool(args.fast)
+            write_output(args.report, json.dumps(report, indent=1) + "\n", force=args.force)
+    if failure:
+        raise failure[0]
+    if died and not received:
+        raise AacmmError(f"the simulator ended by itself (exit status {rc})")
+    return OK
+
+
+def _without(argv: list[str], options: tuple[str, ...]) -> list[str]:
+    out: list[str] = []
+    skip = False
+    for a in argv:
+        if skip:
+            skip = False
+            continue
+        if a in options:
+            skip = True
+            continue
+        out.append(a)
+    return out
+
+
+def _wander(args: argparse.Namespace, op: Any, stop: threading.Event) -> None:
+    from aacmm.simulation.run import Wander
+
+    if args.motion == "static":
+        op.theta = op.limits.canonical(STATIC_POSE_RAD)
+        op.send_pose(op.theta)
+        period = args.button_every
+        while not stop.wait(period if period else 0.5):
+            if period:
+                op.press_and_release(0)
+        return
+    Wander(op, button_every_s=args.button_every).run()
+
+
+def _perform(
+    args: argparse.Namespace,
+    plan: Any,
+    op: Any,
+    misprobes: tuple[Any, ...],
+    say: Any,
+    runs: list[Any],
+) -> None:
+    from aacmm.simulation.run import ScenarioRun
+    from aacmm.simulation.scenario import choreograph
+
+    t0 = time.monotonic()
+    choreo = choreograph(plan, op.arm, op.rng)
+    say(
+        f"plan {plan.name}: {len(choreo.points)} points, articulations planned in "
+        f"{time.monotonic() - t0:.1f} s"
+    )
+    for step_id, spread in choreo.spread_deg.items():
+        say(f"  step {step_id}: joint spread {', '.join(f'{v:.0f}' for v in spread)} deg")
+    run = ScenarioRun(
+        op,
+        choreo,
+        plan.sha256,
+        follow=Path(args.follow) if args.follow else None,
+        misprobes=misprobes,
+        say=say,
+    )
+    runs.append(run)
+    run.run()
+    say(f"done: {len(op.presses)} presses, largest IK error "
+        f"{max((p.ik_error_mm for p in op.presses), default=0.0):.1e} mm")  # fmt: skip
