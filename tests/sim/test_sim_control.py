@@ -148,8 +148,9 @@ def test_replay_reads_an_aacmm_log(tmp_path: Path) -> None:
     assert len(rows) == 30
     # a row of a faulty reading is skipped on replay
     text = log.read_text().splitlines()
+    flags = text[0].split(",").index("flags")
     fault = text[1].split(",")
-    fault[-1] = str(int(fault[-1]) | int(SampleStatus.ENCODER_FAULT))
+    fault[flags] = str(int(fault[flags]) | int(SampleStatus.ENCODER_FAULT))
     text.insert(2, ",".join(fault))
     log.write_text("\n".join(text) + "\n")
     want = [tuple(int(r[f"count{i}"]) for i in range(1, 7)) for r in rows]
