@@ -186,3 +186,31 @@ def test_simulator_ends_when_control_peer_dies_quickly() -> None:
     assert sim.proc.wait(timeout=10) == 0
     assert time.monotonic() - t0 < 5
     sim.stop()
+
+
+def test_log_over_serial_joins_triggers_to_samples(tmp_path: Path) -> None:
+    """docs/protocol.md 2.7 on the serial link, through `aacmm log`: the stream keeps
+    its rate and numbers, and every trigger row joins the first sample row after it."""
+    out = tmp_path / "run.csv"
+    args = ["--serial", "pty", "--quiet", "--button-every", "0.2"]
+    with SimProcess(args) as sim:
+        r = _aacmm("log", str(out), "--port", sim.url, "-r", "100", "-n", "200", "-q")
+        assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader(out.open()))
+    trig = list(csv.DictReader((tmp_path / "run.triggers.csv").open()))
+    seqs = [int(r["seq"]) for r in rows]
+    assert seqs == list(range(seqs[0], seqs[0] + 200))
+    t_us = [int(r["device_time_us"]) for r in rows]
+    assert 199 / ((t_us[-1] - t_us[0]) * 1e-6) == pytest.approx(100.0, rel=0.005)
+    assert len(trig) >= 10
+    by_seq = {int(r["seq"]): int(r["device_time_us"]) for r in rows}
+    joined = 0
+    for t in trig:
+        assert int(t["flags"]) & SampleStatus.TRIGGER_EVENT
+        seq, t_trig = int(t["seq"]), int(t["device_time_us"])
+        if seq in by_seq:
+            assert by_seq[seq] >= t_trig  # the first stream sample after the edge
+            if seq - 1 in by_seq:
+                assert by_seq[seq - 1] <= t_trig
+            joined += 1
+    assert joined >= len(trig) - 1
