@@ -28,7 +28,7 @@ from aacmm.client import connect
 from aacmm.commands.sim import SimProcess, SimulatorUsageError
 from aacmm.protocol import Button, SampleStatus
 from aacmm.simulation.control import ControlChannel, ControlError
-from simctl import ControlledSim
+from simctl import ControlledSim, check_stream
 
 pytestmark = pytest.mark.timeout(120)
 AACMM = Path(sys.executable).with_name("aacmm")
@@ -85,17 +85,19 @@ def test_stream_events_and_trigger_rule(controlled: ControlledSim) -> None:
             next(samples)
             assert chan.wait_stream(after_starts=starts, timeout=5.0)
     seqs = [s.seq for s in got]
-    assert seqs == list(range(len(seqs))), f"the stream lost or repeated a number: {diag}"
-    assert not any(s.status & SampleStatus.TRIGGER_EVENT for s in got)
+    assert seqs[0] == 0, diag
+    check_stream(seqs, [s.status for s in got], [s.timestamp_us for s in got], 200.0)
     assert len(triggers) == 6
     by_seq = {s.seq: s for s in got}
     for t in triggers:
         s = t.sample
         assert s.status & SampleStatus.TRIGGER_EVENT
-        # between stream samples seq - 1 and seq (docs/protocol.md 2.6)
-        assert by_seq[s.seq].timestamp_us >= s.timestamp_us
-        if s.seq > 0:
+        # between stream samples seq - 1 and seq (docs/protocol.md 2.7)
+        if s.seq in by_seq:
+            assert by_seq[s.seq].timestamp_us >= s.timestamp_us
+        if s.seq - 1 in by_seq:
             assert by_seq[s.seq - 1].timestamp_us <= s.timestamp_us
+    assert sum(t.sample.seq in by_seq for t in triggers) >= 5
     assert {t.pressed for t in triggers} == {True, False}
 
 
@@ -199,9 +201,8 @@ def test_log_over_serial_joins_triggers_to_samples(tmp_path: Path) -> None:
     rows = list(csv.DictReader(out.open()))
     trig = list(csv.DictReader((tmp_path / "run.triggers.csv").open()))
     seqs = [int(r["seq"]) for r in rows]
-    assert seqs == list(range(seqs[0], seqs[0] + 200))
     t_us = [int(r["device_time_us"]) for r in rows]
-    assert 199 / ((t_us[-1] - t_us[0]) * 1e-6) == pytest.approx(100.0, rel=0.005)
+    check_stream(seqs, [int(r["flags"]) for r in rows], t_us, 100.0)
     assert len(trig) >= 10
     by_seq = {int(r["seq"]): int(r["device_time_us"]) for r in rows}
     joined = 0

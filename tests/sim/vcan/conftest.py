@@ -1,9 +1,13 @@
-"""The vcan session's ``vcan_iface`` fixture (tests/vcan/conftest.py), reused here."""
+"""The vcan session's ``vcan_iface`` fixture (tests/vcan/conftest.py), reused here;
+the simulation tests' helpers (tests/sim/simctl.py) importable."""
 
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/sim: simctl
 
 _spec = importlib.util.spec_from_file_location(
     "aacmm_vcan_conftest", Path(__file__).resolve().parents[2] / "vcan" / "conftest.py"
