@@ -203,3 +203,19 @@ def test_articulations_spread() -> None:
     first = joint_spread_deg([s.theta for s in cands[:25]])
     assert spread.sum() >= first.sum()
     assert joint_spread_deg(np.zeros((1, 6))).tolist() == [0.0] * 6
+
+
+def test_plan_poses_is_a_pure_function_on_target() -> None:
+    from aacmm.plans import load_plan
+    from aacmm.simulation.scenario import plan_poses
+
+    plan = load_plan("iso10360-12")
+    params = random_truth(5).params
+    a = plan_poses(plan, params, seed=2)
+    assert a.shape == (len(plan.slots), 6)
+    assert np.array_equal(a, plan_poses(plan, params, seed=2))
+    assert not np.array_equal(a, plan_poses(plan, params, seed=3))
+    tips = Model(params).points(a)
+    targets = np.array([s.target.tip_mm for s in plan.slots if s.target is not None])
+    assert np.abs(tips - targets).max() <= 1e-9
+    assert all(ARM_LIMITS.contains(q) for q in a)

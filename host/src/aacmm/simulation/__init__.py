@@ -1,0 +1,22 @@
+"""A simulated arm with a true geometry of its own, and a simulated operator.
+
+The host side of ``aacmm sim --truth`` and ``aacmm sim --scenario``
+(docs/simulator.md): a pure library, no argparse and no printing.
+
+* :mod:`aacmm.simulation.truth` -- :class:`~aacmm.simulation.truth.Truth` (the
+  arm's real geometry and error sources), its file (``aacmm-truth-1``),
+  :func:`~aacmm.simulation.truth.random_truth`, :func:`~aacmm.simulation.truth.parse_truth`;
+* :mod:`aacmm.simulation.ik` -- inverse kinematics on the core (damped least
+  squares on the Jacobian's theta columns), the arm's joint limits;
+* :mod:`aacmm.simulation.articulation` -- articulations spread the way
+  calibration and ISO 10360-12 practice ask;
+* :mod:`aacmm.simulation.scenario` -- a plan's articulations
+  (:func:`~aacmm.simulation.scenario.choreograph`,
+  :func:`~aacmm.simulation.scenario.plan_poses`);
+* :mod:`aacmm.simulation.operator` -- moving the true arm and pressing buttons;
+* :mod:`aacmm.simulation.run` -- performing a plan in step with a capture
+  client, or wandering;
+* :mod:`aacmm.simulation.control` -- the client of ``aacmm-sim --control``.
+
+Analysis code never imports the truth: only tests compare results with it.
+"""

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from aacmm.core import Params
 from aacmm.errors import AacmmError
 from aacmm.plans import Plan, Slot
 from aacmm.simulation.articulation import (
@@ -166,3 +167,16 @@ def choreograph(
         if th:
             spread[step.id] = [round(float(v), 2) for v in joint_spread_deg(th)]
     return Choreography(points, spread)
+
+
+def plan_poses(plan: Plan, params: Params, seed: int = 0) -> FloatArray:
+    """The joint angles (n_slots, 6) in rad the simulated operator probes every
+    slot of ``plan`` with, on an arm of structural parameters ``params``, with no
+    noise: the articulations of ``aacmm sim --scenario PLAN --seed SEED`` on that
+    arm (a pure function of its arguments).
+
+    Raises:
+        ScenarioError: as :func:`choreograph`.
+    """
+    choreo = choreograph(plan, Arm(params), np.random.default_rng(seed))
+    return np.array([p.theta for p in choreo.points])
