@@ -183,3 +183,34 @@ def test_demo_refuses_a_folder_in_use(tmp_path: Path) -> None:
     assert p.returncode == exitcodes.USAGE, p
     assert p.stderr.strip() == f"demo: {tmp_path} is not empty: give a new --out folder"
     assert [f.name for f in tmp_path.iterdir()] == ["params.toml"]
+
+
+# Every command that reads a TOML/JSON file, given a hostile one: {toml} is the
+# issue's 1,200-level TOML, {session} a session folder whose session.json is
+# 100,000 '[' (the plan, session, truth and spec readers of every role).
+READERS = [
+    ["params", "set", "{toml}", "--check"],
+    ["uncertainty", "{toml}"],
+    ["tolerance", "{toml}"],
+    ["plan", "check", "{toml}"],
+    ["capture", "{toml}", "-o", "{tmp}/new-session", "--port", NOWHERE],
+    ["sim", "--truth", "{toml}"],
+    ["calibrate", "{session}", "-o", "{tmp}/p.toml"],
+    ["verify", "{session}"],
+    ["summary", "{session}"],
+    ["export", "{session}", "--format", "csv", "-o", "{tmp}/x.csv"],
+    ["fit", "{session}", "sphere"],
+]
+
+
+@pytest.mark.parametrize("command", READERS, ids=lambda c: " ".join(c[:2]))
+def test_every_reader_refuses_deep_nesting(tmp_path: Path, command: list[str]) -> None:
+    toml = tmp_path / "deep.toml"
+    toml.write_text(DEEP_TOML)
+    session = tmp_path / "session"
+    session.mkdir()
+    (session / "session.json").write_text(DEEP_JSON)
+    args = [a.format(toml=toml, session=session, tmp=tmp_path) for a in command]
+    p = run(*args, timeout=60)
+    one_error_line(p, exitcodes.USAGE, "nested too deeply")
+    assert {f.name for f in tmp_path.iterdir()} == {"deep.toml", "session"}  # nothing written
