@@ -178,3 +178,11 @@ def recompute(folder: Path, plan: Plan) -> dict[str, Any]:
                 errs.append(float(np.linalg.norm(cb - ca)) - art.length_mm)  # type: ignore[union-attr]
             out["lengths"][st.id] = errs
     return out
+
+
+def worst_length_error(rep: dict[str, Any]) -> float:
+    """The E_Uni a report must show: the error with the largest |E| / MPE_E(L) among the
+    lengths of its steps (each with the MPE the plan gives at that length)."""
+    pos = [p for st in rep["steps"].values() if st["kind"] == "length" for p in st["positions"]]
+    best = max(pos, key=lambda p: abs(p["error_mm"]) / (p["mpe_mm"] or 1.0))
+    return float(best["error_mm"])

@@ -70,7 +70,8 @@ DEFINITIONS: dict[str, Definition] = {
             "ISO 10360-12:2016",
             "L - L_cal for each measured calibrated length, L between the two end centres "
             "(a ball end: the least-squares sphere centre of its points; a seat end: the "
-            "mean of its points), compared with MPE_E(L); the largest |error| is reported. "
+            "mean of its points), compared with MPE_E(L); the error with the largest "
+            "|error| / MPE_E(L) is reported (without an MPE: the largest |error|). "
             "The positions and orientations are those of the plan",
             "public summaries of ISO 10360-12; the prescribed positions are taken from the "
             "plan, not checked against the standard",
