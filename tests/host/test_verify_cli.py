@@ -173,6 +173,8 @@ def test_verify_pass_and_independent_figures(good: tuple[Path, Plan], tmp_path: 
     assert res["spat_2sigma"]["value_mm"] == pytest.approx(two, abs=1e-9)
     assert res["spat_range"]["value_mm"] == pytest.approx(half, abs=1e-9)
     errs = ref["lengths"]["len"] + ref["lengths"]["lenS"]
+    got = [p["error_mm"] for s in ("len", "lenS") for p in rep["steps"][s]["positions"]]
+    assert got == pytest.approx(errs, abs=1e-7)
     assert res["e_uni"]["value_mm"] == pytest.approx(vs.worst_length_error(rep), abs=1e-7)
     assert [p["error_mm"] for p in steps["len"]["positions"]] == pytest.approx(
         ref["lengths"]["len"], abs=1e-7
@@ -235,6 +237,8 @@ def test_verify_fail_exit_7_report_written(tmp_path: Path) -> None:
     ref = vs.recompute(folder, plan)
     res = {r["key"]: r for r in rep["results"]}
     errs = ref["lengths"]["len"] + ref["lengths"]["lenS"]
+    got = [p["error_mm"] for s in ("len", "lenS") for p in rep["steps"][s]["positions"]]
+    assert got == pytest.approx(errs, abs=1e-7)
     assert res["e_uni"]["value_mm"] == pytest.approx(vs.worst_length_error(rep), abs=1e-7)
 
 

@@ -21,10 +21,12 @@ plane                  flatness (least squares, minimum zone)     (reported only
 Where a test has several values (two sphere positions, several lengths), the
 worst one is reported and judged: the largest ratio of value to acceptance
 limit (so for E_Uni, whose MPE grows with the length, not necessarily the
-largest error); every value is kept in the result's ``items``. The test uncertainty U (k = 2) is the artefact's stated expanded
-uncertainty: the calibrated diameter's for P_Size and the effective
-diameter, the sphere's stated form for P_Form, the calibrated length's for
-E_Uni and volumetric performance, none (0) for L_Dia and the seat tests.
+largest error); every value is kept in the result's ``items``.
+
+The test uncertainty U (k = 2) is the artefact's stated expanded uncertainty:
+the calibrated diameter's for P_Size and the effective diameter, the
+sphere's stated form for P_Form, the calibrated length's for E_Uni and
+volumetric performance, none (0) for L_Dia and the seat tests.
 """
 
 from __future__ import annotations
