@@ -111,6 +111,54 @@ typedef struct {
 #define MUL(a, b) ((int64_t)(a) * (int64_t)(b))
 #endif
 
+/*
+ * Two formulations of the frame step and the angle columns, chosen by the
+ * multiplier (fixed_sincos.h): with a native 32 x 32 -> 64-bit product (hosts,
+ * ARMv7-M's SMULL) the sums of products are exact in 64 bits and rounded
+ * once; on ARMv6-M (Cortex-M0/M0+, no long multiply; or AACMM_Q_SPLIT_MUL)
+ * every product is rounded on its own in 32-bit arithmetic
+ * (aacmm_fixed_mul_q30, four 16 x 16 MULS), which costs a third of the
+ * instructions of the split 64-bit product. kinematics_q.h gives the bounds
+ * of both; the tests run both (the split one in test-fixed-split and the
+ * sanitizer build).
+ */
+#if AACMM_FIXED_SPLIT_MUL
+
+/* a u + b v for Q30 a, b, u, v: each product rounded half up to Q30, then
+ * summed: within 1 LSB of the exact value. */
+static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
+{
+    vec3_q30 r;
+    const int32_t a32 = (int32_t)a, b32 = (int32_t)b;
+    r.x = (qv_t)aacmm_fixed_mul_q30(a32, (int32_t)u.x) + aacmm_fixed_mul_q30(b32, (int32_t)v.x);
+    r.y = (qv_t)aacmm_fixed_mul_q30(a32, (int32_t)u.y) + aacmm_fixed_mul_q30(b32, (int32_t)v.y);
+    r.z = (qv_t)aacmm_fixed_mul_q30(a32, (int32_t)u.z) + aacmm_fixed_mul_q30(b32, (int32_t)v.z);
+    return r;
+}
+
+/* p - o for the angle columns in Q17 (|p - o| <= 8000 mm: |.| < 2^30, an
+ * operand aacmm_fixed_mul_q30 takes): (p + 2^30 - o) >> 31 rounds half up;
+ * PH_HALF is the 2^30 added to p once. */
+#define PH_HALF ((int64_t)1 << 30)
+#define PO_SHIFT 31
+
+/* Cross product a x b of a Q30 axis and a Q17 vector: each product rounded
+ * half up to Q17, the difference (within 1 LSB of Q17, 7.6e-6, of the exact
+ * value; |a x b| <= |a| |b| < 2^30 + 2^7: no int32 overflow) returned in
+ * Q48, the output format (times 2^31, exact). */
+#define CROSS_Q17(a1, b1, a2, b2)                                                                 \
+    ((int64_t)(aacmm_fixed_mul_q30((int32_t)(a1), (int32_t)(b1)) -                               \
+               aacmm_fixed_mul_q30((int32_t)(a2), (int32_t)(b2))) *                               \
+     ((int64_t)1 << 31))
+static inline void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
+{
+    out[0 * stride] = CROSS_Q17(a.y, b.z, a.z, b.y);
+    out[1 * stride] = CROSS_Q17(a.z, b.x, a.x, b.z);
+    out[2 * stride] = CROSS_Q17(a.x, b.y, a.y, b.x);
+}
+
+#else
+
 /* a u + b v for Q30 a, b, u, v: exact Q60 sum in int64 (|.| < 2^61 for the
  * unit-bounded operands here), rounded half up to Q30. */
 static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
@@ -122,16 +170,10 @@ static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
     return r;
 }
 
-/* (p + 2^29) - o in Q48, shifted down by 30: p - o rounded half up to Q18
- * (|p - o| <= 8000 mm: |result| < 2^31). ph is p + 2^29, formed once. */
-static inline vec3_q30 diff_q18(vec3_q48 ph, vec3_q48 o)
-{
-    vec3_q30 r;
-    r.x = (qv_t)((ph.x - o.x) >> 30);
-    r.y = (qv_t)((ph.y - o.y) >> 30);
-    r.z = (qv_t)((ph.z - o.z) >> 30);
-    return r;
-}
+/* p - o for the angle columns in Q18 (|p - o| <= 8000 mm: |.| < 2^31):
+ * (p + 2^29 - o) >> 30 rounds half up. */
+#define PH_HALF ((int64_t)1 << 29)
+#define PO_SHIFT 30
 
 /* Cross product a x b of a Q30 axis and a Q18 vector: each component is the
  * exact Q48 difference of two products (|.| < 2^62), the output format. */
@@ -140,6 +182,19 @@ static inline void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
     out[0 * stride] = MUL(a.y, b.z) - MUL(a.z, b.y);
     out[1 * stride] = MUL(a.z, b.x) - MUL(a.x, b.z);
     out[2 * stride] = MUL(a.x, b.y) - MUL(a.y, b.x);
+}
+
+#endif
+
+/* (p + PH_HALF) - o, shifted down: p - o rounded half up (to Q17 or Q18, as
+ * above). ph is p + PH_HALF, formed once. */
+static inline vec3_q30 diff_po(vec3_q48 ph, vec3_q48 o)
+{
+    vec3_q30 r;
+    r.x = (qv_t)((ph.x - o.x) >> PO_SHIFT);
+    r.y = (qv_t)((ph.y - o.y) >> PO_SHIFT);
+    r.z = (qv_t)((ph.z - o.z) >> PO_SHIFT);
+    return r;
 }
 
 /* Q30 -> Q48: times 2^18, exact (a multiplication: left shifts of negative
@@ -175,11 +230,11 @@ static inline void chain_q(const aacmm_model_q_t *model, const uint32_t theta_ba
         X.x = c;
         X.y = s;
         X.z = 0;
-        Y.x = (qv_t)AACMM_FIXED_RND(MUL(ca, -s), 30);
-        Y.y = (qv_t)AACMM_FIXED_RND(MUL(ca, c), 30);
+        Y.x = aacmm_fixed_mul_q30((int32_t)ca, (int32_t)-s);
+        Y.y = aacmm_fixed_mul_q30((int32_t)ca, (int32_t)c);
         Y.z = sa;
-        Z.x = (qv_t)AACMM_FIXED_RND(MUL(sa, s), 30);
-        Z.y = (qv_t)AACMM_FIXED_RND(MUL(-sa, c), 30);
+        Z.x = aacmm_fixed_mul_q30((int32_t)sa, (int32_t)s);
+        Z.y = aacmm_fixed_mul_q30((int32_t)-sa, (int32_t)c);
         Z.z = ca;
         /* o_1 = d_1 z_0 + a_1 x_1 */
         O.x = MUL(model->params.a_q18[0], c);
@@ -232,16 +287,16 @@ static inline void chain_q(const aacmm_model_q_t *model, const uint32_t theta_ba
     if (jac == NULL) {
         return;
     }
-    ph.x = p.x + ((int64_t)1 << 29);
-    ph.y = p.y + ((int64_t)1 << 29);
-    ph.z = p.z + ((int64_t)1 << 29);
+    ph.x = p.x + PH_HALF;
+    ph.y = p.y + PH_HALF;
+    ph.z = p.z + PH_HALF;
     /* d p / d theta_1 = z_0 x p = (-p_y, p_x, 0): exact, straight from Q48 */
     jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = -p.y;
     jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = p.x;
     jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = 0;
     UNROLL_JOINTS
     for (i = 0; i < AACMM_JOINTS; i++) {
-        const vec3_q30 w = diff_q18(ph, os[i + 1]); /* p - o_i (1-based i) */
+        const vec3_q30 w = diff_po(ph, os[i + 1]); /* p - o_i (1-based i) */
         /* d p / d alpha_i = x_i x (p - o_i) */
         cross_q48(xs[i], w, jac + AACMM_COL_ALPHA(i), AACMM_JAC_COLS);
         /* d p / d theta_{i+1} = z_i x (p - o_i) */

@@ -224,6 +224,46 @@ static void check_mul(int32_t a, int32_t b)
     }
 }
 
+/* The 32-bit form of aacmm_fixed_mul_q30 (the M0+'s, compiled here) against
+ * (a b + 2^29) >> 30 with the native product, for operands within its range
+ * |a|, |b| <= 2^30 + 2^14. */
+static void check_mul_q30(int32_t a, int32_t b)
+{
+    int32_t want = (int32_t)(((int64_t)a * b + ((int64_t)1 << 29)) >> 30);
+    int32_t got = aacmm_fixed_mul_q30(a, b);
+    if (got != want) {
+        fail_msg("aacmm_fixed_mul_q30(%ld, %ld) = %ld, want %ld", (long)a, (long)b, (long)got,
+                 (long)want);
+    }
+}
+
+static void test_split_multiply_q30(void **state)
+{
+    static const int32_t lim = (1 << 30) + (1 << 14);
+    static const int32_t edge[] = {0,          1,          -1,        32767,      -32768,
+                                   32768,      -32769,     65535,     -65536,     (1 << 29),
+                                   (1 << 30) - 1, (1 << 30), (1 << 30) + 1, -(1 << 30) + 1,
+                                   -(1 << 30), -(1 << 30) - 1, lim,    -lim,       lim - 1,
+                                   -lim + 1,   0x3FFF8000, -0x3FFF8000, 0x3FFF7FFF};
+    test_rng_t g = {4242u};
+    size_t i, j;
+    long k;
+    (void)state;
+    for (i = 0; i < sizeof edge / sizeof edge[0]; i++) {
+        for (j = 0; j < sizeof edge / sizeof edge[0]; j++) {
+            check_mul_q30(edge[i], edge[j]);
+        }
+    }
+    for (k = 0; k < FIXED_TEST_POSES; k++) {
+        uint64_t r = rng_next(&g);
+        /* uniform in [-lim, lim], and smaller magnitudes */
+        int32_t a = (int32_t)((int64_t)(r >> 32) % (2 * (int64_t)lim + 1) - lim);
+        int32_t b = (int32_t)((int64_t)(uint32_t)r % (2 * (int64_t)lim + 1) - lim);
+        check_mul_q30(a, b);
+        check_mul_q30(a >> (r & 31u), b);
+    }
+}
+
 static void test_split_multiply(void **state)
 {
     static const int32_t edge[] = {0,      1,       -1,      2,         -2,        32767,
@@ -962,6 +1002,7 @@ int main(void)
         cmocka_unit_test(test_sincos_accuracy),
         cmocka_unit_test(test_sincos_exact_points),
         cmocka_unit_test(test_split_multiply),
+        cmocka_unit_test(test_split_multiply_q30),
         cmocka_unit_test(test_random_poses_table1),
         cmocka_unit_test(test_random_poses_perturbed),
         cmocka_unit_test(test_vs_long_double_reference),

@@ -27,7 +27,7 @@
  *   structural lengths d, a, l   int32_t   Q18      mm      |x| <= 8000 mm (see below)
  *   positions, probe point       int64_t   Q48      mm      |x| <= 8000 mm (+ tiny)
  *   Jacobian entries (output)    int64_t   Q48      mm/rad, mm/mm  |x| <= 8000
- *   p - o for the cross products int32_t   Q18      mm      |x| <= 8000 mm
+ *   p - o for the cross products int32_t   Q18      mm      |x| <= 8000 mm (Q17 on ARMv6-M)
  *
  * Resolution: BAM 1.46e-9 rad; Q30 9.3e-10; Q18 3.8e-6 mm; Q48 3.6e-15 mm.
  * Axes: each joint step rotates unit vectors with a sine/cosine off by <= 1
@@ -43,6 +43,15 @@
  * the Q39 intermediates inside aacmm_sincos_q (truncated, < 2^-39 each, see
  * there). Widening steps (Q30 -> Q48 for the unit columns, the Q30 x Q18 ->
  * Q48 products) are exact.
+ *
+ * Two formulations, chosen by the multiplier. With a native 32 x 32 -> 64-bit
+ * product (hosts; ARMv7-M's SMULL) sums of products are exact in 64 bits and
+ * rounded once, as written below. On ARMv6-M (Cortex-M0/M0+: no long
+ * multiply; or any build with -DAACMM_Q_SPLIT_MUL) each Q30 x Q30 product of
+ * the frame step and each product of the angle columns is rounded on its own,
+ * in 32-bit arithmetic from four 16 x 16 MULS, and the sine uses 32-bit
+ * products throughout: marked "ARMv6-M" below. Both meet the accuracy bounds
+ * below; the tests run both at full size.
  *
  * Saturate or wrap: binary angles wrap (that is their meaning: adding a theta
  * offset is a uint32 addition mod 2^32). Nothing else saturates or wraps:
@@ -197,10 +206,15 @@ aacmm_status_t aacmm_params_q_to_f64(aacmm_params_f64_t *out, const aacmm_params
  * products summed in one int64 (|sum| <= 2^61) before one round-half-up shift
  * by 39. Truncation of the series: delta^4 / 24 <= 3.7e-12. Each table entry
  * is rounded to nearest (0.5 LSB), so the error is at most about 1 LSB of Q30
- * (9.3e-10); measured maximum in docs/fixed-point.md. Exact at the quarter
- * turns: sin/cos of 0, 0x40000000, 0x80000000, 0xC0000000 are exactly 0 or
- * +-2^30. |*s|, |*c| <= 2^30. Nothing saturates; the angle wraps by nature.
- * Integer only; 8 multiplies 32x32->64. s or c must not be NULL.
+ * (9.3e-10); measured maximum in docs/fixed-point.md. ARMv6-M: delta is
+ * still exact, B and delta^3/6 come from the 16-bit halves of delta (within
+ * 2 and 3 x 2^-39) and each of the four products from three 16 x 16 MULS,
+ * summed in Q38 (within 3 x 2^-38 each) before one round-half-up shift by 8:
+ * at most 0.04 LSB more, so still below 1e-9. Exact at the quarter turns:
+ * sin/cos of 0, 0x40000000, 0x80000000, 0xC0000000 are exactly 0 or +-2^30.
+ * |*s|, |*c| <= 2^30 + 1. Nothing saturates; the angle wraps by nature.
+ * Integer only; 8 multiplies 32x32->64 (ARMv6-M: 21 MULS 32x32->32).
+ * s or c must not be NULL.
  */
 void aacmm_sincos_q(uint32_t angle_bam, int32_t *s, int32_t *c);
 
@@ -224,11 +238,16 @@ void aacmm_sincos_q(uint32_t angle_bam, int32_t *s, int32_t *c);
  *     o_i = o_{i-1} + d z_{i-1} + a x_i   Q18 x Q30 -> Q48, summed exactly in
  *                                         int64 (no rounding at all)
  *     p   = o_6 + l z_6                   exact in Q48 (the output)
+ * ARMv6-M: u, x_i, y_i, z_i are the sums of two products each rounded half
+ * up to Q30 (aacmm_fixed_mul_q30, exact per product, 32-bit arithmetic):
+ * within 1 LSB instead of 1/2.
  * Joint 1 starts from the identity frame; its step skips the zero products
  * (same result). Bounds: Q30 axis components stay within 1 + 2^-25 (see the
  * top), so each Q60 sum is below 2^61.1; |o_i|, |p| are at most the total
  * reach 8000 mm (times 1 + 2^-25) = 2^60.97 in Q48 < 2^63.
- * Cost: 6 aacmm_sincos_q (8 multiplies each) + 154 multiplies 32x32->64.
+ * Cost: 6 aacmm_sincos_q (8 multiplies each) + 154 multiplies 32x32->64
+ * (ARMv6-M: 36 of them, the positions; the frame steps are 114 products of
+ * four MULS each).
  */
 aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
                              int64_t p_q48[3]);
@@ -244,7 +263,10 @@ aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_
  *         (|v| <= 8000 mm, so |v| * 2^18 < 2^31), and each component of the
  *         cross product is the exact int64 difference of two Q30 x Q18 = Q48
  *         products (< 2^62): the output. Rounding error <= 2 x 2^-19 mm/rad,
- *         from v. theta_1 is z_0 x p = (-p_y, p_x, 0) exactly.
+ *         from v. ARMv6-M: v is rounded half up to Q17 (|v| * 2^17 < 2^30)
+ *         and each product to Q17 (aacmm_fixed_mul_q30), so an entry is
+ *         within 2^-18 + 2 x 2^-18 = 1.1e-5 mm/rad of the exact cross product
+ *         of the rounded axes. theta_1 is z_0 x p = (-p_y, p_x, 0) exactly.
  *     d_i: z_{i-1}, a_i: x_i, l: z_6 (mm/mm): the Q30 axes times 2^18 (exact).
  * AACMM_ERR_NULL if any pointer is NULL (nothing written), else AACMM_OK.
  * jac_q48 holds AACMM_JAC_SIZE (75) values. Cost: aacmm_point_q + 66 more
