@@ -94,6 +94,18 @@ static inline int32_t aacmm_fixed_mul_q30(int32_t a, int32_t b)
 /* 65536 / 6 rounded (10922.67): x * this >> 16 is x / 6 (relative error 3e-5). */
 #define AACMM_FIXED_SIXTH_Q16 INT32_C(10923)
 
+/* The nearest of the 1024 table nodes to a binary angle: its sine and
+ * cosine (cos x = sin(x + a quarter turn)) in Q30, and the remainder in BAM,
+ * in [-2^21, 2^21), returned. */
+static inline int32_t aacmm_fixed_sincos_node(uint32_t angle, int32_t *s0, int32_t *c0)
+{
+    const uint32_t shifted = angle + (UINT32_C(1) << 21); /* wraps mod 2^32 */
+    const uint32_t k = shifted >> 22;                     /* 0 .. 1023 */
+    *s0 = aacmm_fixed_sin_table[k];
+    *c0 = aacmm_fixed_sin_table[(k + 256u) & 1023u];
+    return (int32_t)(shifted & UINT32_C(0x3FFFFF)) - ((int32_t)1 << 21);
+}
+
 #if !AACMM_FIXED_SPLIT_MUL
 /*
  * Sine and cosine of a binary angle in Q30 with a native 64-bit product: the
@@ -103,13 +115,8 @@ static inline int32_t aacmm_fixed_mul_q30(int32_t a, int32_t b)
  */
 static inline void aacmm_fixed_sincos(uint32_t angle, int32_t *s_out, int32_t *c_out)
 {
-    /* Nearest node k of 1024 per turn; the remainder in [-2^21, 2^21). */
-    const uint32_t shifted = angle + (UINT32_C(1) << 21); /* wraps mod 2^32 */
-    const uint32_t k = shifted >> 22;                     /* 0 .. 1023 */
-    const int32_t delta = (int32_t)(shifted & UINT32_C(0x3FFFFF)) - ((int32_t)1 << 21);
-    /* The node's sine and cosine (cos x = sin(x + a quarter turn)). */
-    const int32_t s0 = aacmm_fixed_sin_table[k];
-    const int32_t c0 = aacmm_fixed_sin_table[(k + 256u) & 1023u];
+    int32_t s0, c0;
+    const int32_t delta = aacmm_fixed_sincos_node(angle, &s0, &c0);
     /* delta in rad, Q39: |d| <= 2^21 * 804.25 = 1.687e9 < 2^31. The small
      * Q39 intermediates d, t, d6, A, B are truncated (floor): each is off by
      * less than 2^-39 = 1.8e-12, 1/500 of an LSB of the Q30 result. */
@@ -150,13 +157,8 @@ static inline int32_t aacmm_fixed_mul_q38(int32_t x, int32_t y)
  */
 static inline void aacmm_fixed_sincos(uint32_t angle, int32_t *s_out, int32_t *c_out)
 {
-    /* Nearest node k of 1024 per turn; the remainder in [-2^21, 2^21). */
-    const uint32_t shifted = angle + (UINT32_C(1) << 21); /* wraps mod 2^32 */
-    const uint32_t k = shifted >> 22;                     /* 0 .. 1023 */
-    const int32_t delta = (int32_t)(shifted & UINT32_C(0x3FFFFF)) - ((int32_t)1 << 21);
-    /* The node's sine and cosine (cos x = sin(x + a quarter turn)). */
-    const int32_t s0 = aacmm_fixed_sin_table[k];
-    const int32_t c0 = aacmm_fixed_sin_table[(k + 256u) & 1023u];
+    int32_t s0, c0;
+    const int32_t delta = aacmm_fixed_sincos_node(angle, &s0, &c0);
     /* d = floor(delta 2pi_Q28 / 2^21): delta in rad, Q39, exactly, from
      * delta = dh 2^11 + dl (dh in [-2^10, 2^10), dl in 0 .. 2^11-1) and
      * 2pi_Q28 = K1 2^16 + K0; |d| <= 1.687e9, every partial sum < 2^31. */
