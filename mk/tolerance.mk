@@ -6,6 +6,7 @@
 # exit statuses.
 
 TOLERANCE_PY_FILES := host/src/aacmm/analysis/tolerance host/src/aacmm/commands/tolerance.py \
+                      bench/bench_tolerance.py \
                       tests/host/test_tolerance.py
 
 .PHONY: test-tolerance
@@ -18,3 +19,8 @@ test-tolerance:
 	$(VENV)/bin/mypy --config-file host/pyproject.toml $(TOLERANCE_PY_FILES)
 
 TEST_SUITES += test-tolerance
+
+.PHONY: bench-tolerance
+bench-tolerance:
+	@$(PYTHON) bench/bench_tolerance.py
+BENCH_TARGETS += bench-tolerance

@@ -144,20 +144,47 @@ def _single_vec(a: FloatArray, budgets: FloatArray, costs: Costs) -> FloatArray:
         l_min = np.full(nb, np.min(logr - (kf + 2.0) * lhi) - 1.0)
     l_max = np.maximum(l_max, l_min) + 1.0
 
-    def tol_at(lv: FloatArray) -> FloatArray:
+    def tol_at(lv: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """t (N, n) at L = log lambda, and which t are not at a limit."""
         y = (logr[None, :] - lv[:, None]) / (kf + 2.0)[None, :]
-        out: FloatArray = np.exp(np.clip(y, llo[None, :], lhi[None, :]))
-        return out
+        inside = (y > llo[None, :]) & (y < lhi[None, :])
+        return np.exp(np.clip(y, llo[None, :], lhi[None, :])), inside
 
+    # Safeguarded Newton on L, row by row: the row sum g(L) falls monotonically,
+    # dg/dL = -sum over the t not at a limit of 2 a_i t_i^2 / (k_i + 2); a step
+    # leaving the bracket [lo_l, hi_l] (g > b at lo_l, g <= b at hi_l) bisects.
+    # Converged rows leave the iteration.
     lo_l, hi_l = l_min.copy(), l_max.copy()
+    lv = 0.5 * (lo_l + hi_l)
+    w = 2.0 / (kf + 2.0)
+    todo = np.flatnonzero(~(bad | loose))
     for _ in range(200):
-        mid = 0.5 * (lo_l + hi_l)
-        over = (af[None, :] * tol_at(mid) ** 2).sum(axis=1) > b
-        lo_l = np.where(over, mid, lo_l)
-        hi_l = np.where(over, hi_l, mid)
-        if np.all(hi_l - lo_l <= 1e-15 * np.maximum(1.0, np.abs(hi_l))):
+        if todo.size == 0:
             break
-    tf = tol_at(hi_l)  # the feasible side
+        tt, inside = tol_at(lv[todo])
+        at2 = af[None, :] * tt**2
+        g = at2.sum(axis=1) - b[todo]
+        lo_l[todo] = np.where(g > 0, lv[todo], lo_l[todo])
+        hi_l[todo] = np.where(g > 0, hi_l[todo], lv[todo])
+        slope = -(at2 * inside * w[None, :]).sum(axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nxt = lv[todo] - g / slope
+        out = ~np.isfinite(nxt) | (nxt <= lo_l[todo]) | (nxt >= hi_l[todo])
+        nxt = np.where(out, 0.5 * (lo_l[todo] + hi_l[todo]), nxt)
+        moving = np.abs(nxt - lv[todo]) > 1e-15 * np.maximum(1.0, np.abs(lv[todo]))
+        lv[todo] = nxt
+        todo = todo[moving]
+    # the feasible side of the root: a few ulps up from the converged point
+    for _ in range(40):
+        tt, _ = tol_at(lv)
+        over = (af[None, :] * tt**2).sum(axis=1) > b
+        if not over.any():
+            break
+        lv = np.where(over, np.minimum(lv + 4e-16 * np.maximum(1.0, np.abs(lv)), hi_l), lv)
+    tt, _ = tol_at(lv)
+    ok = (af[None, :] * tt**2).sum(axis=1) <= b
+    hi_l = np.where(ok, lv, hi_l)
+    tf, _ = tol_at(hi_l)
     tf[loose] = hif
     t[:, free] = tf
     t[bad] = np.nan
