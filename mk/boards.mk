@@ -3,7 +3,11 @@
 #
 # Per board, under build/boards/<board>/:
 #   fw.elf        the device application (firmware/src/device) on the board:
-#                 UART link, board clock, simulated arm, RAM-backed storage
+#                 UART link, board clock, the simulated arm's joints as BiSS-C
+#                 frames, parameters in flash (micro:bit) or retained RAM
+#                 (mps2-an386), watchdog, reset cause
+#   fw-test.elf   the same with test hooks (cut saves, hang, fault, corrupt
+#                 frames on request: tests/boards/test_board_resets.py)
 #   fw.bin        the same as a raw image from address 0 (for flashing)
 #   fw.hex        the same in Intel hex (micro:bit drag-and-drop, pyOCD, ...)
 #   echo.elf      boot check: banner, UART echo, clock
@@ -78,6 +82,19 @@ $(BOARD_OUT)/$(1)/fw.elf: $$(BOARD_FW_OBJS_$(1)) firmware/boards/$(1)/memory.ld 
 	$(ARM_CC) $(BOARD_FLAGS_$(1)) $(BOARD_LDFLAGS) --specs=nano.specs --specs=nosys.specs \
 	    -Tfirmware/boards/$(1)/memory.ld -Wl,-Map=$$@.map $$(BOARD_FW_OBJS_$(1)) -o $$@
 
+# fw-test.elf: the same image with the test hooks (device_main.c,
+# BOARD_TEST_HOOKS): flash cuts, hang, fault, encoder corruption on request.
+$(BOARD_OUT)/$(1)/devtest/$(BOARD_COMMON)/device_main.o: $(BOARD_COMMON)/device_main.c $(BOARD_HDRS) \
+        $(wildcard firmware/src/device/*.h firmware/src/sim/*.h)
+	@mkdir -p $$(@D)
+	$(ARM_CC) $(BOARD_CFLAGS) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) $(BOARD_DEVFLAGS_$(1)) \
+	    -DBOARD_TEST_HOOKS -c $$< -o $$@
+BOARD_TEST_OBJS_$(1) := $$(filter-out %/common/device_main.o,$$(BOARD_FW_OBJS_$(1))) \
+                        $(BOARD_OUT)/$(1)/devtest/$(BOARD_COMMON)/device_main.o
+$(BOARD_OUT)/$(1)/fw-test.elf: $$(BOARD_TEST_OBJS_$(1)) firmware/boards/$(1)/memory.ld $(BOARD_COMMON)/sections.ld
+	$(ARM_CC) $(BOARD_FLAGS_$(1)) $(BOARD_LDFLAGS) --specs=nano.specs --specs=nosys.specs \
+	    -Tfirmware/boards/$(1)/memory.ld $$(BOARD_TEST_OBJS_$(1)) -o $$@
+
 $(BOARD_OUT)/$(1)/fw.bin: $(BOARD_OUT)/$(1)/fw.elf
 	arm-none-eabi-objcopy -O binary $$< $$@
 $(BOARD_OUT)/$(1)/fw.hex: $(BOARD_OUT)/$(1)/fw.elf
@@ -109,6 +126,7 @@ endef
 $(foreach b,$(BOARDS),$(eval $(call BOARD_RULES,$(b))))
 
 BOARD_FW_ELFS   := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw.elf)
+BOARD_TEST_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw-test.elf)
 BOARD_FW_BINS   := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/fw.bin $(BOARD_OUT)/$(b)/fw.hex)
 BOARD_CANARY_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/selftest-canary.elf)
 BOARD_ECHO_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/echo.elf)
@@ -117,11 +135,12 @@ BOARD_SELF_ELFS := $(foreach b,$(BOARDS),$(BOARD_OUT)/$(b)/selftest.elf)
 # Limits for the size report: flash, RAM, and the stack each linker script
 # reserves (memory.ld).
 BOARD_LIMITS_mps2-an386 := 4096 4194304 4194304
-BOARD_LIMITS_microbit   := 4096 262144 16384
+BOARD_LIMITS_microbit   := 4096 260096 16384  # flash: 254 KiB, the last 2 pages hold the parameters
 
-.PHONY: firmware-boards test-boards-selftest test-boards-boot test-boards-loopback bench-boards \
+.PHONY: firmware-boards test-boards-selftest test-boards-boot test-boards-loopback test-boards-resets \
+        bench-boards \
         run-mps2-an386 run-microbit
-firmware-boards: $(BOARD_FW_ELFS) $(BOARD_FW_BINS) $(BOARD_ECHO_ELFS) $(BOARD_SELF_ELFS)
+firmware-boards: $(BOARD_FW_ELFS) $(BOARD_FW_BINS) $(BOARD_ECHO_ELFS) $(BOARD_SELF_ELFS) $(BOARD_TEST_ELFS)
 	@for b in $(BOARDS); do \
 	  case $$b in mps2-an386) lim="$(BOARD_LIMITS_mps2-an386)";; microbit) lim="$(BOARD_LIMITS_microbit)";; esac; \
 	  echo "board $$b: device image (build/boards/$$b/fw.elf, fw.bin):"; \
@@ -131,7 +150,7 @@ firmware-boards: $(BOARD_FW_ELFS) $(BOARD_FW_BINS) $(BOARD_ECHO_ELFS) $(BOARD_SE
 	done
 FIRMWARE_TARGETS += firmware-boards
 
-TEST_SUITES += test-boards-selftest test-boards-boot test-boards-loopback
+TEST_SUITES += test-boards-selftest test-boards-boot test-boards-loopback test-boards-resets
 test-boards-selftest: $(BOARD_SELF_ELFS) $(BOARD_CANARY_ELFS) | setup
 	$(PYTHON) tests/boards/run_selftest.py $(BOARD_SELF_ELFS)
 	$(PYTHON) tests/boards/run_selftest.py --expect-fail $(BOARD_CANARY_ELFS)
@@ -146,6 +165,16 @@ test-boards-loopback: $(BOARD_FW_ELFS) | setup
 	    test_board_loopback.py
 	$(VENV)/bin/ruff check --config host/pyproject.toml $(BOARD_PY_FILES)
 	$(VENV)/bin/mypy --config-file host/pyproject.toml host/src/aacmm/boards.py
+
+# Resets on each board: parameters across a system reset, 75 cut flash saves
+# (micro:bit), watchdog (mps2-an386), fault, corrupt encoder frames
+# (tests/boards/test_board_resets.py; the fw-test.elf images, QEMU's QMP).
+test-boards-resets: $(BOARD_FW_ELFS) $(BOARD_TEST_ELFS) | setup
+	cd tests/boards && ../../$(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=240 \
+	    test_board_resets.py
+	$(VENV)/bin/ruff check --config host/pyproject.toml tests/boards/test_board_resets.py
+	$(VENV)/bin/ruff format --config host/pyproject.toml --check tests/boards/test_board_resets.py
+	$(VENV)/bin/mypy --config-file host/pyproject.toml tests/boards/test_board_resets.py
 
 #> run-<board>          a board's device image under QEMU, printing the URL: run-mps2-an386, run-microbit
 # Start a board's device image and print the URL to connect to (Ctrl-C stops).

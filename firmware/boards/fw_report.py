@@ -4,8 +4,10 @@
 Usage: fw_report.py BOARD ELF OBJ_DIR STACK_RESERVE_BYTES FLASH_BYTES RAM_BYTES
 
 Size: text/data/bss (arm-none-eabi-size -A), flash = text + data (the .data
-image lives in flash), RAM = data + bss + .noinit (the RAM-backed parameter
-storage) + the reserved stack, each against the board's limits.
+image lives in flash), RAM = data + bss + .noinit (the reset record, and the
+parameter store where it is RAM) + the reserved stack, each against the
+board's limits (on the micro:bit the flash limit is the 254 KiB the image may
+use: its last two pages hold the parameters).
 
 Worst-case stack of the device loop, from GCC's -fcallgraph-info=su call
 graph (scripts/stack_usage.py), as the sum of

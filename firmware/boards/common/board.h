@@ -44,4 +44,50 @@ extern const uint32_t board_tick_hz;
 /* Stop the core until the next interrupt (the main loop's idle). */
 void board_idle(void);
 
+/* ---- reset, watchdog ---- */
+
+/* The board's reset-reason register as it was at start-up (read once by
+ * board_init, then cleared on the chip so the next reset starts afresh);
+ * 0 on a board without one. */
+uint32_t board_reset_register(void);
+
+/* The reset cause (AACMM_RESET_*) a register value says, or
+ * AACMM_RESET_UNKNOWN when it says nothing. */
+uint8_t board_reset_cause(uint32_t reg);
+
+/* Start the watchdog: if the main loop does not call board_watchdog_feed
+ * within timeout_ms, the board resets. Returns the timeout in force (0: the
+ * board has none). Once started it cannot be stopped. */
+uint32_t board_watchdog_start(uint32_t timeout_ms);
+void board_watchdog_feed(void);
+
+/* Called from the watchdog's early-warning interrupt, shortly before the
+ * watchdog resets the board (weak; the default does nothing). */
+void board_watchdog_warning(void);
+
+/* Reset the whole chip now (SYSRESETREQ). */
+void board_system_reset(void) __attribute__((noreturn));
+
+/* ---- parameter storage ---- */
+
+/* AACMM_STORE_BYTES (1 KiB) of storage addressed from 0; bytes 0..511 (slot
+ * 0) and 512..1023 (slot 1) each in a flash page of their own where the
+ * board has flash. board_storage_kind / _flags are AACMM_STORAGE_KIND_* and
+ * AACMM_STORAGE_PERSISTENT. board_storage_erase is NULL-able: boards whose
+ * store needs no erase (RAM) set board_storage_has_erase to 0.
+ * Writes take word-aligned offsets on flash (the record layout is). */
+extern const uint8_t board_storage_kind;
+extern const uint8_t board_storage_flags;
+extern const uint8_t board_storage_has_erase;
+int board_storage_read(uint32_t offset, uint8_t *buf, size_t len);
+int board_storage_write(uint32_t offset, const uint8_t *data, size_t len);
+int board_storage_erase(uint32_t offset, size_t len);
+
+/* Flash test hook (weak; the default returns 0): called before each flash
+ * operation of a save, step 0 = the page erase, 1.. = the words written.
+ * *word is the word about to be written (NULL for the erase); the hook may
+ * change it (bits it sets to 1 stay erased: a partly programmed word). A
+ * non-zero return resets the chip after this operation ("power cut"). */
+int board_flash_hook(uint32_t step, uint32_t *word);
+
 #endif /* AACMM_BOARD_H */

@@ -14,6 +14,7 @@
  */
 #include <stdint.h>
 
+#include "board.h"
 #include "board_startup.h"
 #include "cortexm.h"
 
@@ -39,6 +40,16 @@ void default_handler(void)
     uint32_t ipsr;
     __asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
     board_fault_hook(ipsr & 0x1FFu);
+}
+
+/* SYSRESETREQ: the whole chip resets (board.h). */
+void board_system_reset(void)
+{
+    __asm__ volatile("dsb" ::: "memory");
+    SCB_AIRCR = SCB_AIRCR_SYSRESETREQ;
+    __asm__ volatile("dsb" ::: "memory");
+    for (;;) {
+    }
 }
 
 void Reset_Handler(void)

@@ -265,8 +265,211 @@ void board_idle(void)
     cortexm_irq_restore(primask);
 }
 
+/* ---- reset cause: POWER.RESETREAS ----
+ * Bits: RESETPIN 0, DOG 1, SREQ 2, LOCKUP 3 (and wake-ups from System OFF);
+ * none after a power-on reset. The bits accumulate until written back.
+ * QEMU's microbit does not model it: the register reads 1 whatever happened
+ * (measured), so under QEMU a reset the device image did not record itself
+ * shows as "reset pin". */
+#define POWER_RESETREAS AACMM_REG32(0x40000400u)
+#define RESETREAS_RESETPIN 0x1u
+#define RESETREAS_DOG 0x2u
+#define RESETREAS_SREQ 0x4u
+#define RESETREAS_LOCKUP 0x8u
+
+static uint32_t reset_register;
+
+uint32_t board_reset_register(void)
+{
+    return reset_register;
+}
+
+uint8_t board_reset_cause(uint32_t reg)
+{
+    if (reg & RESETREAS_DOG) {
+        return 3u; /* AACMM_RESET_WATCHDOG */
+    }
+    if (reg & RESETREAS_LOCKUP) {
+        return 5u; /* AACMM_RESET_FAULT */
+    }
+    if (reg & RESETREAS_SREQ) {
+        return 4u; /* AACMM_RESET_SOFTWARE */
+    }
+    if (reg & RESETREAS_RESETPIN) {
+        return 2u; /* AACMM_RESET_PIN */
+    }
+    return 0u; /* AACMM_RESET_UNKNOWN (power-on is told by RAM, see device_main.c) */
+}
+
+/* ---- watchdog: nRF51 WDT on the 32.768 kHz clock ----
+ * Starting it forces the low-frequency RC oscillator on. It runs while the
+ * CPU sleeps and pauses while a debugger halts it; once started it cannot be
+ * stopped or changed until a reset. Its TIMEOUT interrupt (IRQ 16) comes two
+ * 32 kHz cycles before the reset: the early warning. QEMU's microbit does
+ * not model the WDT (measured: its registers read 0 and it never resets);
+ * the image starts and feeds it all the same, for real boards. */
+#define WDT_BASE 0x40010000u
+#define WDT_TASKS_START AACMM_REG32(WDT_BASE + 0x000u)
+#define WDT_EVENTS_TIMEOUT AACMM_REG32(WDT_BASE + 0x100u)
+#define WDT_INTENSET AACMM_REG32(WDT_BASE + 0x304u)
+#define WDT_CRV AACMM_REG32(WDT_BASE + 0x504u)
+#define WDT_RREN AACMM_REG32(WDT_BASE + 0x508u)
+#define WDT_CONFIG AACMM_REG32(WDT_BASE + 0x50Cu)
+#define WDT_RR0 AACMM_REG32(WDT_BASE + 0x600u)
+#define WDT_RELOAD 0x6E524635u
+#define WDT_CONFIG_SLEEP_RUN 0x1u
+#define WDT_IRQ 16u
+
+void board_watchdog_warning(void) __attribute__((weak));
+void board_watchdog_warning(void)
+{
+}
+
+void IRQ16_Handler(void)
+{
+    WDT_EVENTS_TIMEOUT = 0u;
+    board_watchdog_warning();
+}
+
+uint32_t board_watchdog_start(uint32_t timeout_ms)
+{
+    uint64_t crv = (uint64_t)timeout_ms * 32768u / 1000u;
+    if (crv < 16u || crv > 0xFFFFFFFFu) {
+        return 0u;
+    }
+    WDT_CRV = (uint32_t)(crv - 1u);
+    WDT_RREN = 1u; /* reload register 0 only */
+    WDT_CONFIG = WDT_CONFIG_SLEEP_RUN;
+    WDT_INTENSET = 1u; /* TIMEOUT */
+    cortexm_irq_enable(WDT_IRQ);
+    WDT_TASKS_START = 1u;
+    return timeout_ms;
+}
+
+void board_watchdog_feed(void)
+{
+    WDT_RR0 = WDT_RELOAD;
+}
+
+/* ---- parameter storage: two flash pages through the NVMC ----
+ * The last two 1 KiB pages of the 256 KiB flash (memory.ld keeps the image
+ * out of them): slot 0 at 0x3F800, slot 1 at 0x3FC00. A save erases the
+ * target slot's page (NVMC ERASEPAGE), then programs the record a 32-bit
+ * word at a time (CONFIG = WEN); programming can only clear bits. Reads are
+ * plain memory reads. The CPU stalls during each operation (an erase takes
+ * up to about 22 ms on the chip, a word about 46 us; the watchdog keeps
+ * counting). The chip's flash is rated for 20,000 erase cycles per page and
+ * saves alternate between the two pages: 40,000 saves, a lifetime of
+ * calibrations (a save a minute, nonstop, would take four weeks). QEMU
+ * models the NVMC (erase, word writes that only clear bits) and keeps the
+ * flash across a system reset, not across QEMU runs. */
+#define NVMC_READY AACMM_REG32(0x4001E400u)
+#define NVMC_CONFIG AACMM_REG32(0x4001E504u)
+#define NVMC_ERASEPAGE AACMM_REG32(0x4001E508u)
+#define NVMC_REN 0u
+#define NVMC_WEN 1u
+#define NVMC_EEN 2u
+#define STORE_SLOT_BYTES 512u
+#define STORE_PAGE0 0x0003F800u
+#define STORE_PAGE_BYTES 1024u
+
+const uint8_t board_storage_kind = 4u;  /* AACMM_STORAGE_KIND_FLASH */
+const uint8_t board_storage_flags = 1u; /* AACMM_STORAGE_PERSISTENT */
+const uint8_t board_storage_has_erase = 1u;
+
+int board_flash_hook(uint32_t step, uint32_t *word) __attribute__((weak));
+int board_flash_hook(uint32_t step, uint32_t *word)
+{
+    (void)step;
+    (void)word;
+    return 0;
+}
+
+static void nvmc_wait(void)
+{
+    while (NVMC_READY == 0u) {
+    }
+}
+
+/* Enter an NVMC mode (read, write or erase enable) once it is idle. */
+static void nvmc_mode(uint32_t mode)
+{
+    nvmc_wait();
+    NVMC_CONFIG = mode;
+    nvmc_wait();
+}
+
+/* Flash address of storage byte offset, or 0 if out of range. */
+static uint32_t store_address(uint32_t offset, size_t len)
+{
+    uint32_t slot = offset / STORE_SLOT_BYTES;
+    uint32_t inner = offset % STORE_SLOT_BYTES;
+    if (slot > 1u || len > STORE_SLOT_BYTES - inner) {
+        return 0u;
+    }
+    return STORE_PAGE0 + slot * STORE_PAGE_BYTES + inner;
+}
+
+int board_storage_read(uint32_t offset, uint8_t *buf, size_t len)
+{
+    uint32_t a = store_address(offset, len);
+    size_t i;
+    if (a == 0u) {
+        return -1;
+    }
+    for (i = 0; i < len; i++) {
+        buf[i] = *(const volatile uint8_t *)(uintptr_t)(a + i);
+    }
+    return 0;
+}
+
+int board_storage_erase(uint32_t offset, size_t len)
+{
+    uint32_t a = store_address(offset, len);
+    int cut;
+    if (a == 0u) {
+        return -1;
+    }
+    cut = board_flash_hook(0u, NULL);
+    nvmc_mode(NVMC_EEN);
+    NVMC_ERASEPAGE = a & ~(STORE_PAGE_BYTES - 1u);
+    nvmc_mode(NVMC_REN);
+    if (cut) {
+        board_system_reset();
+    }
+    return 0;
+}
+
+int board_storage_write(uint32_t offset, const uint8_t *data, size_t len)
+{
+    uint32_t a = store_address(offset, len);
+    size_t i;
+    if (a == 0u || (a & 3u) != 0u) {
+        return -1;
+    }
+    for (i = 0; i < len; i += 4u) {
+        uint32_t w = 0xFFFFFFFFu; /* a partial last word keeps erased bytes */
+        size_t k;
+        int cut;
+        for (k = 0; k < 4u && i + k < len; k++) {
+            w &= ~((uint32_t)0xFFu << (8u * k));
+            w |= (uint32_t)data[i + k] << (8u * k);
+        }
+        cut = board_flash_hook(1u + (uint32_t)(i / 4u), &w);
+        nvmc_mode(NVMC_WEN);
+        *(volatile uint32_t *)(uintptr_t)(a + i) = w;
+        nvmc_mode(NVMC_REN);
+        if (cut) {
+            board_system_reset();
+        }
+    }
+    return 0;
+}
+
 void board_init(void)
 {
+    reset_register = POWER_RESETREAS;
+    POWER_RESETREAS = reset_register; /* write 1s to clear */
     timer_init();
     wake_timer_init();
     uart_init();

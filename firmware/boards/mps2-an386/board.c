@@ -191,6 +191,124 @@ void board_idle(void)
     cortexm_irq_restore(primask);
 }
 
+/* ---- reset cause ---- */
+/* The AN386 image as QEMU models it has no reset-reason register (the CMSDK
+ * system controller with RSTINFO is not there; measured: reads 0). The
+ * device image records the causes it sees coming itself (device_main.c). */
+uint32_t board_reset_register(void)
+{
+    return 0u;
+}
+
+uint8_t board_reset_cause(uint32_t reg)
+{
+    (void)reg;
+    return 0u; /* AACMM_RESET_UNKNOWN */
+}
+
+/* ---- watchdog: CMSDK APB watchdog at 0x40008000 on WDOGCLK = 25 MHz ----
+ * The counter loads LOAD and counts down; at zero it raises its interrupt
+ * (wired to the NMI on this board) and reloads; at zero again with the
+ * interrupt still set it resets the system. A write to INTCLR clears the
+ * interrupt and reloads the counter: the feed. The NMI is the early warning
+ * (board_watchdog_warning), one timeout before the reset. */
+#define WDOG_BASE 0x40008000u
+#define WDOG_LOAD AACMM_REG32(WDOG_BASE + 0x000u)
+#define WDOG_CTRL AACMM_REG32(WDOG_BASE + 0x008u)
+#define WDOG_INTCLR AACMM_REG32(WDOG_BASE + 0x00Cu)
+#define WDOG_LOCK AACMM_REG32(WDOG_BASE + 0xC00u)
+#define WDOG_UNLOCK_KEY 0x1ACCE551u
+#define WDOG_CTRL_INTEN 0x1u
+#define WDOG_CTRL_RESEN 0x2u
+
+void board_watchdog_warning(void) __attribute__((weak));
+void board_watchdog_warning(void)
+{
+}
+
+void NMI_Handler(void)
+{
+    board_watchdog_warning(); /* the interrupt stays set: the next timeout resets */
+}
+
+uint32_t board_watchdog_start(uint32_t timeout_ms)
+{
+    /* Half the timeout to the warning, half to the reset. */
+    uint32_t half_ms = timeout_ms / 2u;
+    if (half_ms == 0u || half_ms > 0xFFFFFFFFu / (CPU_HZ / 1000u)) {
+        return 0u;
+    }
+    WDOG_LOCK = WDOG_UNLOCK_KEY;
+    WDOG_LOAD = half_ms * (CPU_HZ / 1000u);
+    WDOG_CTRL = WDOG_CTRL_INTEN | WDOG_CTRL_RESEN;
+    WDOG_LOCK = 0u; /* lock the registers again */
+    return half_ms * 2u;
+}
+
+void board_watchdog_feed(void)
+{
+    WDOG_LOCK = WDOG_UNLOCK_KEY;
+    WDOG_INTCLR = 1u;
+    WDOG_LOCK = 0u;
+}
+
+/* ---- parameter storage: RAM kept across resets ----
+ * The MPS2's "flash" is SSRAM loaded from the SD card at power-up; QEMU has
+ * no flash controller for it. The two record slots live in .noinit RAM,
+ * which start-up does not clear: they survive a reset (measured under QEMU:
+ * system reset request and watchdog reset), not a power cycle. */
+const uint8_t board_storage_kind = 2u;  /* AACMM_STORAGE_KIND_RAM_RETAINED */
+const uint8_t board_storage_flags = 0u; /* not persistent */
+const uint8_t board_storage_has_erase = 0u;
+#define STORE_BYTES 1024u
+#define STORE_GUARD 0x53544F52u /* "STOR" */
+__attribute__((section(".noinit"))) static uint8_t store[STORE_BYTES];
+__attribute__((section(".noinit"))) static uint32_t store_guard;
+
+static void store_init(void)
+{
+    if (store_guard != STORE_GUARD) { /* power-up: RAM holds anything */
+        uint32_t i;
+        for (i = 0; i < STORE_BYTES; i++) {
+            store[i] = 0xFFu;
+        }
+        store_guard = STORE_GUARD;
+    }
+}
+
+int board_storage_read(uint32_t offset, uint8_t *buf, size_t len)
+{
+    size_t i;
+    if (offset > STORE_BYTES || len > STORE_BYTES - offset) {
+        return -1;
+    }
+    store_init();
+    for (i = 0; i < len; i++) {
+        buf[i] = store[offset + i];
+    }
+    return 0;
+}
+
+int board_storage_write(uint32_t offset, const uint8_t *data, size_t len)
+{
+    size_t i;
+    if (offset > STORE_BYTES || len > STORE_BYTES - offset) {
+        return -1;
+    }
+    store_init();
+    for (i = 0; i < len; i++) {
+        store[offset + i] = data[i];
+    }
+    return 0;
+}
+
+int board_storage_erase(uint32_t offset, size_t len)
+{
+    (void)offset;
+    (void)len;
+    return -1; /* RAM needs no erase (board_storage_has_erase is 0) */
+}
+
 void board_init(void)
 {
     systick_init();

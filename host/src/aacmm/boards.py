@@ -20,17 +20,21 @@ Main names:
 * :func:`start_board` -- start a board, return ``(process, url)``.
 * :func:`run_semihosted` -- run an image to completion, return its status
   and output.
+* :func:`reset_board` -- a system reset through QEMU's QMP socket.
 * :func:`qemu_argv` -- the command line, for docs and debugging.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
+import socket
 import subprocess
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -127,14 +131,18 @@ def start_board(
     qemu: str = QEMU,
     timeout: float = 10.0,
     log: list[str] | None = None,
+    qmp: str | os.PathLike[str] | None = None,
+    extra: Sequence[str] = (),
 ) -> tuple[subprocess.Popen[bytes], str]:
     """Start ``elf`` (default: the board's device image) under QEMU.
 
     Returns the process and the pyserial URL of the board's UART
     (``socket://127.0.0.1:PORT``). The guest starts when the first client
     connects; connect exactly once (QEMU accepts one client). QEMU's own
-    messages are appended to ``log`` if given. Stop the board with
-    ``process.kill()`` (or :func:`stop_board`).
+    messages are appended to ``log`` if given. ``qmp`` opens QEMU's machine
+    protocol on that Unix socket path (see :func:`reset_board`); ``extra``
+    goes on QEMU's command line as given (tests use ``-device loader,...``).
+    Stop the board with ``process.kill()`` (or :func:`stop_board`).
 
     Raises FileNotFoundError (no QEMU, no image), ValueError (unknown board),
     TimeoutError / RuntimeError (QEMU did not come up).
@@ -142,6 +150,9 @@ def start_board(
     path = Path(elf) if elf is not None else default_image(board)
     _check_tools(qemu, path)
     argv = qemu_argv(board, path, "tcp:127.0.0.1:0,server=on,wait=on,nodelay=on", qemu=qemu)
+    if qmp is not None:
+        argv += ["-qmp", f"unix:{qmp},server=on,wait=off"]
+    argv += list(extra)
     proc = subprocess.Popen(
         argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
     )
@@ -172,6 +183,36 @@ def start_board(
         proc.wait()
         raise RuntimeError(f"QEMU for {board} exited ({proc.returncode}): " + " | ".join(lines))
     return proc, found[0]
+
+
+def reset_board(qmp: str | os.PathLike[str], timeout: float = 5.0) -> None:
+    """Reset a board started with ``qmp=``: QEMU's ``system_reset``, the same
+    system reset request the guest makes with SYSRESETREQ (RAM and flash kept,
+    every device and the CPU reset, the image's ROM contents reloaded).
+
+    Raises OSError (no QEMU there), RuntimeError (QEMU refused).
+    """
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+        s.settimeout(timeout)
+        s.connect(str(qmp))
+        f = s.makefile("rwb")
+
+        def reply() -> dict[str, object]:
+            while True:
+                line = f.readline()
+                if not line:
+                    raise RuntimeError("QMP connection closed")
+                msg = json.loads(line)
+                if "return" in msg or "error" in msg:
+                    return dict(msg)
+
+        json.loads(f.readline())  # greeting
+        for cmd in ("qmp_capabilities", "system_reset"):
+            f.write(json.dumps({"execute": cmd}).encode() + b"\n")
+            f.flush()
+            r = reply()
+            if "error" in r:
+                raise RuntimeError(f"QMP {cmd}: {r['error']}")
 
 
 def stop_board(proc: subprocess.Popen[bytes], timeout: float = 5.0) -> None:
