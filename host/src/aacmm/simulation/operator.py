@@ -50,12 +50,12 @@ class Pace:
 
     fast: bool = False  #: no sleeping: move ends only (tests)
     update_hz: float = 500.0  #: counts sent per second while moving or holding
-    joint_speed_rad_s: float = 1.5  #: peak speed of the fastest joint in a move
-    min_move_s: float = 0.25
+    joint_speed_rad_s: float = 3.5  #: peak speed of the fastest joint in a move
+    min_move_s: float = 0.3
     approach_mm: float = 15.0  #: probe approach: start this far back along the stylus
-    approach_s: float = 0.15
-    dwell_s: float = 0.15  #: still on the target before the press
-    hold_s: float = 0.1  #: button held
+    approach_s: float = 0.12
+    dwell_s: float = 0.12  #: still on the target before the press
+    hold_s: float = 0.08  #: button held
     reaction_s: float = 1.0  #: from "a client listens" to the first move
 
     def move_duration(self, delta: FloatArray) -> float:

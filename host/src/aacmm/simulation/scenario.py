@@ -131,22 +131,22 @@ def choreograph(
                     f"{plan.source}: step {step.id!r}: only {len(found)} of {len(slots)} "
                     "articulations reach the seat within the joint limits"
                 )
-            chosen = most_different(found, len(slots))
-            for slot, k in zip(slots, chosen, strict=True):
-                done(PlannedPoint(slot, _target(plan, slot), found[k]))
+            chosen = _tour([found[k] for k in most_different(found, len(slots))])
+            for slot, k in zip(slots, range(len(chosen)), strict=True):
+                done(PlannedPoint(slot, _target(plan, slot), chosen[k]))
         elif step.procedure == "articulation":
             groups: dict[int, list[Slot]] = {}
             for slot in slots:
                 groups.setdefault(slot.articulation_index or 0, []).append(slot)
             found = fresh(slots[0], 2 * len(groups) + 8)
-            chosen = most_different(found, len(groups))
-            if len(chosen) < len(groups):
+            picked = _tour([found[k] for k in most_different(found, len(groups))])
+            if len(picked) < len(groups):
                 raise ScenarioError(
-                    f"{plan.source}: step {step.id!r}: only {len(chosen)} articulations found"
+                    f"{plan.source}: step {step.id!r}: only {len(picked)} articulations found"
                 )
-            for k, members in zip(chosen, groups.values(), strict=False):
+            for theta, members in zip(picked, groups.values(), strict=False):
                 for slot in members:
-                    done(PlannedPoint(slot, _target(plan, slot), follow(slot, found[k])))
+                    done(PlannedPoint(slot, _target(plan, slot), follow(slot, theta)))
         else:
             prev: FloatArray | None = None
             position: int | None = None
@@ -167,6 +167,19 @@ def choreograph(
         if th:
             spread[step.id] = [round(float(v), 2) for v in joint_spread_deg(th)]
     return Choreography(points, spread)
+
+
+def _tour(thetas: list[FloatArray]) -> list[FloatArray]:
+    """The same articulations in the order a person would take them: each next
+    one the nearest in joint space to the one before (greedy tour)."""
+    if not thetas:
+        return []
+    left = list(thetas[1:])
+    out = [thetas[0]]
+    while left:
+        k = min(range(len(left)), key=lambda i: joint_distance(left[i], out[-1]))
+        out.append(left.pop(k))
+    return out
 
 
 def plan_poses(plan: Plan, params: Params, seed: int = 0) -> FloatArray:
