@@ -11,14 +11,14 @@ CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
                     host/src/aacmm/commands/capture.py host/src/aacmm/commands/plan.py \
                     host/src/aacmm/analysis/poselog.py \
                     tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
-                    tests/host/test_logs.py
+                    tests/host/test_logs.py tests/host/test_capture_scenario.py
 CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-capture test-capture-lint
 #> test-capture         plans, sessions, aacmm capture against the simulator
 test-capture: sim
 	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
-	    tests/host/test_logs.py
+	    tests/host/test_logs.py tests/host/test_capture_scenario.py
 	@$(MAKE) --no-print-directory test-capture-lint
 
 #> test-capture-lint    ruff, ruff format, mypy --strict on plans, records, capture (part of test-capture)

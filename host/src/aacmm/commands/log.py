@@ -59,12 +59,12 @@ from aacmm.records.schema import (
     LOG_COLUMNS,
     LOG_FORMAT,
     LOG_UNITS,
-    TRIGGER_COLUMNS,
     default_triggers_path,
     param_set_entry,
     sample_row,
     sidecar_path,
 )
+from aacmm.records.schema import TRIGGER_COLUMNS as TRIGGER_COLUMNS  # re-exported
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
