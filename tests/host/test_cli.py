@@ -609,7 +609,8 @@ def test_sim_command(tmp_path: Path) -> None:
     _sim_or_skip()
     link = tmp_path / "arm"
     proc = subprocess.Popen(
-        [str(AACMM), "sim", "--link", str(link), "--quiet", "--motion", "static"],
+        [str(AACMM), "sim", "--link", str(link), "--quiet", "--motion", "static"]
+        + ["--encoder", "ssi-gray", "--encoder-bits", "20", "--encoder-faults", "1000000"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -620,6 +621,8 @@ def test_sim_command(tmp_path: Path) -> None:
         assert url == f"serial://{link}"
         p = run("measure", "--json", "--port", url)
         assert p.returncode == 0, p.stderr
+        joints = json.loads(run("info", "--json", "--port", url).stdout)["diagnostics"]["joints"]
+        assert {(j["interface_name"], j["bits"]) for j in joints} == {("ssi_gray", 20)}
         proc.send_signal(signal.SIGINT)
         proc.wait(timeout=10)
     finally:

@@ -337,6 +337,12 @@ def register(sub: Any) -> None:
     g.add_argument("--encoder-bits", type=int, metavar="B", help="encoder resolution in bits")
     g.add_argument("--cpr", type=int, metavar="N", help="encoder counts per revolution")
     p.add_argument(
+        "--encoder",
+        metavar="KIND",
+        help="joints as biss (default), ssi or ssi-gray frames, or counts",
+    )
+    p.add_argument("--encoder-faults", type=int, metavar="N", help="corrupt one encoder frame in N")
+    p.add_argument(
         "--button-every", type=float, metavar="S", help="press/release the probe button every S s"
     )
     p.add_argument("--serial-number", type=int, metavar="N", help="device serial number")
@@ -377,6 +383,8 @@ def sim_args(args: argparse.Namespace) -> list[str]:
         ("--noise-counts", args.noise_counts),
         ("--encoder-bits", args.encoder_bits),
         ("--cpr", args.cpr),
+        ("--encoder", args.encoder),
+        ("--encoder-faults", args.encoder_faults),
         ("--button-every", args.button_every),
         ("--serial-number", args.serial_number),
     ):
