@@ -506,6 +506,35 @@ def test_calibrated_arm_needs_tolerance_only_where_calibration_cannot_reach() ->
     assert al.needs_tolerance == ()
 
 
+def test_calibration_plan_in_the_spec() -> None:
+    # [calibration] plan = the shipped kinematic-calibration plan: the same model
+    # as composing the simulated operator's poses and the calibration's
+    # plan-to-observations mapping by hand
+    from aacmm.calibration.sessions import observations_from_plan
+    from aacmm.plans import load_plan
+    from aacmm.simulation.scenario import plan_poses
+
+    d = doc(
+        target={"value": 60.0},
+        workspace={"random": 30, "seed": 2},
+        calibration={"plan": "kinematic-calibration", "sigma": 5.0, "seed": 3},
+    )
+    spec = tl.parse_spec(d)
+    assert spec.calibration == tl.CalibrationDesign("kinematic-calibration", 0.005, 3)
+    a = tl.allocate(spec)
+    assert a.design.calibration is not None
+    assert "kinematic-calibration" in a.design.calibration.source
+    plan = load_plan("kinematic-calibration")
+    obs, used, _ = observations_from_plan(plan, plan_poses(plan, Params(), 3), 0.005)
+    assert len(used) == len(plan.steps)
+    direct = tl.allocate(spec, calibration=tl.CalibrationModel.from_observations(obs))
+    assert np.allclose(a.t, direct.t, rtol=1e-12)
+    assert set(a.needs_tolerance) == {"theta1", "d1"}
+    assert {"theta6", "alpha6"} <= {p.name for p in a.params if p.status == "no effect"}
+    with pytest.raises(tl.SpecError, match=r"\[calibration\]\.plan"):
+        tl.allocate(replace(spec, calibration=tl.CalibrationDesign("no-such-plan")))
+
+
 # ------------------------------------------------------------------ errors and CLI
 
 
@@ -536,6 +565,10 @@ BAD = [
     ({"workspace": {"random": 0}}, "no poses"),
     ({"workspace": {"log": "missing.csv"}}, "[workspace].log"),
     ({"residual": {"u": -1}}, "[residual].u"),
+    ({"calibration": {"sigma": 5.0}}, "[calibration].plan"),
+    ({"calibration": {"plan": "kinematic-calibration", "free": ["q"]}}, "[calibration].free"),
+    ({"calibration": {"plan": "kinematic-calibration", "sigma": 0}}, "[calibration]"),
+    ({"calibration": {"plan": "kinematic-calibration", "bogus": 1}}, "bogus"),
     ({"length_unit": "inch"}, "length_unit"),
     ({"bogus": 1}, "bogus"),
 ]
@@ -601,8 +634,12 @@ def test_cli_bad_spec_is_exit_2(tmp_path: Path) -> None:
     one_error_line(run("tolerance", str(p)), 2, str(p), "[target].value")
     p.write_text("[target\n")
     one_error_line(run("tolerance", str(p)), 2, str(p), "TOML")
-    one_error_line(run("tolerance", str(tmp_path / "none.toml")), 2, "none.toml")
     one_error_line(run("tolerance", "example", "--trials", "5"), 2, "--trials")
+
+
+def test_unreadable_spec(tmp_path: Path) -> None:
+    with pytest.raises(tl.SpecError, match=r"none\.toml"):
+        tl.load_spec(tmp_path / "none.toml")
 
 
 def test_workspace_from_a_log(tmp_path: Path) -> None:

@@ -38,6 +38,7 @@ from aacmm.analysis.tolerance.report import (
     to_json,
 )
 from aacmm.analysis.tolerance.spec import (
+    CalibrationDesign,
     Encoder,
     ParamCost,
     SpecError,
@@ -51,6 +52,7 @@ from aacmm.analysis.tolerance.spec import (
 __all__ = [
     "STATUSES",
     "Allocation",
+    "CalibrationDesign",
     "CalibrationModel",
     "CheckResult",
     "Design",

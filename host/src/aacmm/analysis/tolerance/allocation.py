@@ -29,7 +29,7 @@ from aacmm.analysis.tolerance.solve import (
     optimise,
     prune,
 )
-from aacmm.analysis.tolerance.spec import ARCSEC_RAD, Encoder, ToleranceSpec
+from aacmm.analysis.tolerance.spec import ARCSEC_RAD, Encoder, SpecError, ToleranceSpec
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray
 from aacmm.errors import InfeasibleError
 
@@ -251,13 +251,19 @@ def _where(design: Design, r: int) -> str:
 def allocate(spec: ToleranceSpec, calibration: CalibrationModel | None = None) -> Allocation:
     """The cost-optimal tolerance of every parameter and encoder of every joint.
 
-    ``calibration``: allocate for a calibrated arm (see calibrated.py).
+    ``calibration``: allocate for a calibrated arm (see calibrated.py);
+    default: the spec's ``[calibration]`` plan, if it has one.
     Raises InfeasibleError (with the best reachable value) if no allocation
     within the limits meets the target; ValueError for an unusable
     workspace (no pair long enough for a length target) or a catalogue with
     too many combinations.
     """
     t0 = time.perf_counter()
+    if calibration is None and spec.calibration is not None:
+        try:
+            calibration = CalibrationModel.from_plan(spec.calibration, spec.params)
+        except ValueError as e:
+            raise SpecError(f"{spec.source}: [calibration].plan: {e}") from e
     design = build_design(spec, calibration)
     terms = _terms(spec, design)
     cands = _candidates(spec)

@@ -35,6 +35,7 @@ import numpy.typing as npt
 from aacmm.core import JAC_COLS, PARAM_NAMES, FloatArray, Params
 
 if TYPE_CHECKING:
+    from aacmm.analysis.tolerance.spec import CalibrationDesign
     from aacmm.calibration import CalibrationResult, Observations
 
 
@@ -111,6 +112,30 @@ class CalibrationModel:
         candidates = set(ident.names)
         fixed = tuple(n for n in PARAM_NAMES if n in ident.held or n not in candidates)
         return cls(jac, fixed, cov, source)
+
+    @classmethod
+    def from_plan(cls, design: CalibrationDesign, params: Params | None = None) -> CalibrationModel:
+        """A calibration *plan* at design time: the simulated operator's
+        articulations for every slot (:func:`aacmm.simulation.scenario.plan_poses`)
+        on the nominal arm, turned into observations as a session of that plan
+        would be (:func:`aacmm.calibration.sessions.observations_from_plan`).
+
+        Raises ValueError (PlanError, ScenarioError, ObservationError) for a
+        missing or unusable plan.
+        """
+        from aacmm.calibration.sessions import observations_from_plan
+        from aacmm.plans import load_plan
+        from aacmm.simulation.scenario import plan_poses
+
+        p = params or Params()
+        plan = load_plan(design.plan)
+        theta = plan_poses(plan, p, design.seed)
+        obs, _, _ = observations_from_plan(plan, theta, design.sigma_mm, design.base_known)
+        src = (
+            f"plan {plan.name or design.plan}: {theta.shape[0]} points, "
+            f"{design.sigma_mm * 1e3:g} um probing, operator seed {design.seed}"
+        )
+        return cls.from_observations(obs, p, design.free, source=src)
 
     @classmethod
     def from_result(

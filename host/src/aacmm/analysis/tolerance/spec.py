@@ -238,6 +238,30 @@ class Workspace:
 
 
 @dataclass(frozen=True)
+class CalibrationDesign:
+    """Allocate for an arm calibrated with ``plan`` (docs/tolerance.md).
+
+    ``plan``: a shipped plan name or a plan file; the simulated operator's
+    articulations for it (``seed``) on the nominal arm, each point with
+    ``sigma_mm`` of probing uncertainty per axis, make the design's
+    observations; ``free``: the parameters the calibration estimates (None:
+    all); ``base_known``: reference points are in the arm's base frame.
+    """
+
+    plan: str
+    sigma_mm: float = 0.005
+    seed: int = 0
+    free: tuple[str, ...] | None = None
+    base_known: bool = False
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.sigma_mm) and self.sigma_mm > 0):
+            raise ValueError(f"sigma must be > 0, got {self.sigma_mm}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}")
+
+
+@dataclass(frozen=True)
 class ToleranceSpec:
     """A whole allocation request (see docs/tolerance.md)."""
 
@@ -249,6 +273,7 @@ class ToleranceSpec:
     residual_u_mm: float = 0.0
     angle_unit: str = "arcsec"
     length_unit: str = "um"
+    calibration: CalibrationDesign | None = None
     source: str = "<spec>"
 
     def __post_init__(self) -> None:
@@ -280,6 +305,7 @@ _TOP = {
     "encoder",
     "nominal",
     "residual",
+    "calibration",
 }
 _TARGET = {
     "quantity",
@@ -302,6 +328,7 @@ _ENCODER = {
     "distribution",
 }
 _RESIDUAL = {"u"}
+_CALIBRATION = {"plan", "sigma", "seed", "free", "base_known"}
 
 
 def _table(doc: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
@@ -560,6 +587,41 @@ def _encoders(doc: Mapping[str, Any]) -> tuple[Encoder, ...]:
     return tuple(out)
 
 
+def _calibration(doc: Mapping[str, Any], lu: str, base: Path | None) -> CalibrationDesign | None:
+    if "calibration" not in doc:
+        return None
+    c = _table(doc, "calibration", "[calibration]")
+    _no_unknown(c, _CALIBRATION, "[calibration]")
+    plan = c.get("plan")
+    if not isinstance(plan, str) or not plan:
+        raise SpecError("[calibration].plan: expected a shipped plan name or a plan file")
+    if base is not None and not Path(plan).is_absolute() and (base / plan).exists():
+        plan = str(base / plan)
+    free = c.get("free")
+    if free is not None:
+        if not isinstance(free, list) or not all(isinstance(x, str) for x in free):
+            raise SpecError("[calibration].free: expected a list of parameter names or groups")
+        from aacmm.calibration import parse_names
+
+        try:
+            free = parse_names(free)
+        except ValueError as e:
+            raise SpecError(f"[calibration].free: {e}") from e
+    known = c.get("base_known", False)
+    if not isinstance(known, bool):
+        raise SpecError("[calibration].base_known: expected true or false")
+    try:
+        return CalibrationDesign(
+            plan,
+            _num(c, "sigma", "[calibration]", 5.0) * LENGTH_UNITS[lu],
+            _int(c, "seed", "[calibration]", 0),
+            free,
+            known,
+        )
+    except ValueError as e:
+        raise SpecError(f"[calibration]: {e}") from e
+
+
 def parse_spec(doc: Mapping[str, Any], base: Path | None = None) -> ToleranceSpec:
     """Build a :class:`ToleranceSpec` from a parsed TOML document.
 
@@ -583,6 +645,7 @@ def parse_spec(doc: Mapping[str, Any], base: Path | None = None) -> ToleranceSpe
     residual = _num(res, "u", "[residual]", 0.0)
     if residual < 0:
         raise SpecError(f"[residual].u: must be >= 0, got {residual}")
+    calibration = _calibration(doc, lu, base)
     try:
         return ToleranceSpec(
             costs,
@@ -593,6 +656,7 @@ def parse_spec(doc: Mapping[str, Any], base: Path | None = None) -> ToleranceSpe
             residual * LENGTH_UNITS[lu],
             au,
             lu,
+            calibration,
         )
     except ValueError as e:
         raise SpecError(f"{e}") from e
