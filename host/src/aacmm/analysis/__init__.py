@@ -1,6 +1,6 @@
 """Error analysis on the kinematics core: a pure library (arrays and
-dataclasses in, results out; no argument parsing, no printing). The ``aacmm mc``
-and ``aacmm uncertainty`` commands live in :mod:`aacmm.commands`.
+dataclasses in, results out; no argument parsing, no printing). The ``aacmm mc``,
+``aacmm uncertainty`` and ``aacmm tolerance`` commands live in :mod:`aacmm.commands`.
 
 * :mod:`aacmm.analysis.mc` -- Monte Carlo error-transfer coefficients (the
   paper's Table 2), fixed-N and adaptive (JCGM 101 7.9), over random or
@@ -8,4 +8,6 @@ and ``aacmm uncertainty`` commands live in :mod:`aacmm.commands`.
 * :mod:`aacmm.analysis.poselog` -- reads poses from ``aacmm log`` CSV files.
 * :mod:`aacmm.analysis.uncertainty` -- probe-point uncertainty from parameter
   uncertainties, by Monte Carlo (JCGM 101) and linear propagation (GUM).
+* :mod:`aacmm.analysis.tolerance` -- the inverse: cost-optimal tolerances and
+  encoders for a target accuracy, calibrated or not, checked by Monte Carlo.
 """

@@ -222,8 +222,9 @@ def _infeasible_message(
         goal += f" + {t.per_metre_mm / scale:g} {unit}/m"
     r = int(np.argmax(u / design.limit_mm))
     msg = (
-        f"target {what} <= {goal} {over} is infeasible: with every tolerance at its "
-        f"process minimum"
+        f"target {what} <= {goal} {over} is infeasible: with every allocated tolerance at "
+        f"its process minimum"
+        + (", the fixed ones as given" if not terms.alloc.all() else "")
         + (" and the most accurate encoder on every joint" if spec.encoders else "")
         + f", the best reachable is {ratio:.3g} x the target "
         f"({u[r] / scale:.4g} {unit} vs {design.limit_mm[r] / scale:.4g} at {_where(design, r)})"

@@ -64,7 +64,7 @@ class Costs:
         return float(np.sum(self.each(t)))
 
     def each(self, t: FloatArray) -> FloatArray:
-        with np.errstate(divide="ignore", over="ignore"):
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
             out: FloatArray = np.where(
                 (self.c == 0) | np.isinf(t), 0.0, self.c / np.asarray(t, dtype=np.float64) ** self.k
             )
