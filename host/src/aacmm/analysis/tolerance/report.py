@@ -444,10 +444,11 @@ def budget_png(a: Allocation) -> bytes:
     ax2.set_xlabel("cost")
     ax2.grid(axis="x", alpha=0.3)
     t = a.spec.target
+    where = _row_name(a, a.governing_row) if t.over == "worst" else "mean over the workspace"
     title = (
         f"{'point U' if t.quantity == 'point' else 'length error'} {t.over}: design "
         f"{a.value_mm / sc:.4g} {unit} for target {t.value_mm / sc:g} {unit}; "
-        f"total cost {a.total_cost:.4g}"
+        f"total cost {a.total_cost:.4g}\nbudget at {where}"
     )
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
