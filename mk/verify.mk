@@ -5,7 +5,10 @@
 #                     every fit, bias over 1,000 noisy caps, minimum zone, bad input
 #   test-verify       the verification quantities and decision rules; verify, fit and
 #                     export on synthetic sessions against an independent recomputation
-#                     from the raw counts, the PDF page rasterised (pdftoppm)
+#                     from the raw counts, the PDF page rasterised (pdftoppm); on the
+#                     simulator (aacmm sim --truth --scenario + aacmm capture): a perfect
+#                     arm within its noise, a random arm failing as its truth predicts,
+#                     the same arm passing after aacmm calibrate
 #   test-verify-lint  ruff, ruff format, mypy --strict over the above
 
 VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
@@ -13,7 +16,8 @@ VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
                    host/src/aacmm/commands/fit.py host/src/aacmm/commands/measured.py \
                    tests/host/test_geometry.py tests/host/selfcert.py \
                    tests/host/test_verification.py tests/host/test_verify_cli.py \
-                   tests/host/verify_sessions.py scripts/verification_figures.py
+                   tests/host/verify_sessions.py tests/host/verify_predict.py \
+                   tests/host/test_verify_sim.py scripts/verification_figures.py
 VERIFY_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-geometry test-verify test-verify-lint verification-figures
@@ -22,9 +26,10 @@ VERIFY_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.
 test-geometry:
 	$(VERIFY_PYTEST) tests/host/test_geometry.py
 
-#> test-verify          verification quantities, rules; verify/fit/export on synthetic sessions
+#> test-verify          verification quantities, rules; verify/fit/export on synthetic and simulator sessions
 test-verify: sim
-	$(VERIFY_PYTEST) tests/host/test_verification.py tests/host/test_verify_cli.py
+	$(VERIFY_PYTEST) tests/host/test_verification.py tests/host/test_verify_cli.py \
+	    tests/host/test_verify_sim.py
 
 #> test-verify-lint     ruff, ruff format, mypy --strict on geometry, verification, their commands
 test-verify-lint:

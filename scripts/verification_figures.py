@@ -1,8 +1,13 @@
 """Regenerate the figures of docs/verification.md (``make verification-figures``).
 
-bias: radius errors of the geometric and the algebraic (Kasa) sphere fits over
-1,000 seeded 60-degree caps (25 points, 25.4 mm sphere) with 5 um and 50 um
-isotropic noise, the data of tests/host/test_geometry.py.
+- bias: radius errors of the geometric and the algebraic (Kasa) sphere fits
+  over 1,000 seeded 60-degree caps (25 points, 25.4 mm sphere) with 5 um and
+  50 um isotropic noise, the data of tests/host/test_geometry.py;
+- sessions: the simulated arm ``random:21`` on the shipped ISO 10360-12 plan
+  plus two seats (tests/host/test_verify_sim.py), verified before and after
+  ``aacmm calibrate`` on a kinematic-calibration session; the figures of both
+  reports and the one-page report of the calibrated arm (pdftoppm). Prints
+  both result tables (about a minute).
 """
 
 from __future__ import annotations
@@ -45,10 +50,50 @@ def bias_figure(out: Path) -> None:
     fig.savefig(out, dpi=100)
 
 
+def session_figures(out: Path) -> None:
+    import shutil
+    import subprocess
+    import tempfile
+
+    import test_verify_sim as t
+    from aacmm.plans import shipped_plan_path
+    from clihelp import run
+
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp)
+        plan = base / "verify-sim.toml"
+        text = shipped_plan_path("iso10360-12").read_text()
+        plan.write_text(text.replace("[mpe]\n", "[mpe]\n" + t.MPE_EXTRA) + t.SEATS)
+        before, _, _ = t.capture(base / "before", plan, "random:21")
+        kin, _, _ = t.capture(base / "kin", "kinematic-calibration", "random:21")
+        cal = base / "cal.toml"
+        assert run("calibrate", str(kin), "-o", str(cal), "-q").returncode == 0
+        after, _, _ = t.capture(base / "after", plan, "random:21", params=cal)
+        for name, session in (("before", before), ("after", after)):
+            rep = base / f"report-{name}"
+            p = run("verify", str(session), "--report", str(rep))
+            print(f"--- {name} calibration (exit {p.returncode})\n{p.stdout}")
+            for fig in ("e_uni", "spat", "spheres"):
+                shutil.copy(rep / f"{fig}.png", out / f"verification-{fig}-{name}.png")
+        subprocess.run(
+            [
+                "pdftoppm",
+                "-r",
+                "60",
+                "-png",
+                "-singlefile",
+                str(base / "report-after" / "report.pdf"),
+                str(out / "verification-report"),
+            ],
+            check=True,
+        )
+
+
 def main() -> int:
     out = ROOT / "docs" / "figures"
     out.mkdir(exist_ok=True)
     bias_figure(out / "verification-bias.png")
+    session_figures(out)
     print(f"figures written to {out}")
     return 0
 

@@ -116,6 +116,20 @@ def sphere_case(rng: np.random.Generator, n: int, radius: float, half_angle_deg:
     )
 
 
+def fixed_sphere_case(
+    rng: np.random.Generator, n: int, radius: float, half_angle_deg: float
+) -> Case:
+    """As :func:`sphere_case` with the radius known (only the centre is fitted)."""
+    free = sphere_case(rng, n, radius, half_angle_deg)
+
+    def res(a: Array, p: Array) -> Array:
+        return (_norm(p - a[:3]) - radius)[:, None]
+
+    return Case(
+        f"fixed {free.name}", free.params[:3].copy(), free.base, free.dirs, res, free.nominal
+    )
+
+
 def plane_case(rng: np.random.Generator, n: int, side: float) -> Case:
     rot, point = _place(rng)
     nrm = rot[:, 2]

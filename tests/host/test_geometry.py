@@ -81,6 +81,8 @@ CASES = [
     ("sphere hemisphere", lambda r: selfcert.sphere_case(r, 25, 12.7, 90.0)),
     ("sphere 60-degree cap", lambda r: selfcert.sphere_case(r, 25, 12.7, 30.0)),
     ("sphere 60-degree cap, 200 points", lambda r: selfcert.sphere_case(r, 200, 25.0, 30.0)),
+    ("fixed-radius sphere, 60-degree cap", lambda r: selfcert.fixed_sphere_case(r, 25, 12.7, 30.0)),
+    ("fixed-radius sphere, 5 points", lambda r: selfcert.fixed_sphere_case(r, 5, 12.7, 60.0)),
     ("plane", lambda r: selfcert.plane_case(r, 30, 150.0)),
     ("line", lambda r: selfcert.line_case(r, 20, 300.0)),
     ("point", lambda r: selfcert.point_case(r, 10)),
@@ -105,6 +107,11 @@ def test_self_certifying(name: str, make, size_mm: float) -> None:  # type: igno
         assert np.max(np.abs(np.asarray(fit.feature.center) - nom["center"])) < TOL_MM
         assert abs(fit.feature.radius - nom["radius"]) < TOL_MM
         _check_residuals(fit, e[:, 0])
+    elif kind == "fixed":
+        ff = g.fit_sphere(pts, radius=float(nom["radius"]))
+        assert np.max(np.abs(np.asarray(ff.feature.center) - nom["center"])) < TOL_MM
+        assert ff.feature.radius == nom["radius"] and ff.dof == len(pts) - 3
+        _check_residuals(ff, e[:, 0])
     elif kind == "plane":
         fp = g.fit_plane(pts)
         n = np.asarray(fp.feature.normal)

@@ -109,6 +109,9 @@ def test_articulated_location_known_centres() -> None:
     assert t.l_dia == pytest.approx(2 * s, abs=1e-9)
     assert np.allclose(t.centers, centres, atol=1e-9)
     assert all(abs(2 * f.feature.radius - 25.4) < 1e-9 for f in t.fits)
+    fixed = v.articulated_location(groups, probe_radius=1.0, cal_diameter=25.4)
+    assert fixed.l_dia == pytest.approx(2 * s, abs=1e-9)
+    assert all(f.dof == 2 for f in fixed.fits)
     with pytest.raises(TooFewPointsError):
         v.articulated_location(groups[:1])
     with pytest.raises(TooFewPointsError):

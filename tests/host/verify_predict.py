@@ -75,16 +75,19 @@ def sphere_bands(
     return _band(size, f"{step_id} size error"), _band(form, f"{step_id} form")
 
 
-def location_band(plan: Plan, step_id: str, sigma: float, rng: np.random.Generator) -> Band:
+def location_band(
+    plan: Plan, step_id: str, sigma: float, rng: np.random.Generator, fixed: bool = False
+) -> Band:
     """Predicted band of L_Dia: the centres of the articulations' 5-point fits scatter
-    as (J^T J)^-1 J^T of their radial noise; the smallest sphere around them."""
+    as (J^T J)^-1 J^T of their radial noise (J = [n, 1], or [n] with the radius held:
+    ``fixed``); the smallest sphere around them."""
     slots = plan.step_slots(step_id)
     n = _directions(plan, step_id)
     groups: dict[int, list[int]] = {}
     for k, s in enumerate(slots):
         assert s.articulation_index is not None
         groups.setdefault(s.articulation_index, []).append(k)
-    maps = [_sphere_linear(n[g])[0][:3] for g in groups.values()]
+    maps = [np.linalg.pinv(n[g]) if fixed else _sphere_linear(n[g])[0][:3] for g in groups.values()]
     out = np.empty(DRAWS)
     for t in range(DRAWS):
         centres = np.array([-(m @ rng.normal(scale=sigma, size=m.shape[1])) for m in maps])

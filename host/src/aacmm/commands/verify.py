@@ -44,6 +44,13 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         action="store_true",
         help="evaluate an incomplete session (the steps measured so far)",
     )
+    p.add_argument(
+        "--l-dia-fit",
+        choices=("free", "fixed"),
+        default="free",
+        help="L_Dia: fit each articulation's sphere with a free radius (default) or with the "
+        "calibrated radius (centre only; less sensitive to probing noise)",
+    )
     add_force_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
     p.set_defaults(func=run_verify)
@@ -61,7 +68,9 @@ def run_verify(args: argparse.Namespace) -> int:
     check_outputs([json_out], args.force)
     m = load_session(Path(args.session), partial=args.partial)
     assert m.plan is not None and m.labels is not None
-    rep = evaluate(m.plan, m.labels, m.points, meta=m.meta, name=m.meta.get("plan"))
+    rep = evaluate(
+        m.plan, m.labels, m.points, meta=m.meta, name=m.meta.get("plan"), l_dia_fit=args.l_dia_fit
+    )
     source = str(args.session)
     text = vr.text_report(rep, source)
     doc = json.dumps(vr.report_json(rep, source), indent=2) + "\n"

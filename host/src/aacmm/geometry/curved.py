@@ -107,11 +107,13 @@ def _surface_radius(r: float, probe_radius: float, inner: bool, what: str) -> fl
 # ------------------------------------------------------------------ sphere
 
 
-def fit_spheres(points: npt.ArrayLike) -> SphereBatch:
+def fit_spheres(points: npt.ArrayLike, radius: npt.ArrayLike | None = None) -> SphereBatch:
     """Geometric least-squares spheres through a batch of point sets (B, n >= 4, 3).
 
     The radii are those of the ball-centre spheres (no probe compensation;
-    see :func:`fit_sphere`).
+    see :func:`fit_sphere`). With ``radius`` (a scalar or (B,), mm, > 0) only
+    the centres are fitted, the radius held at that value (the covariance's
+    radius row and column are then zero).
 
     Raises:
         ValueError: bad shape or non-finite values.
@@ -131,17 +133,25 @@ def fit_spheres(points: npt.ArrayLike) -> SphereBatch:
     ext = np.sqrt(np.max(np.sum(q**2, axis=-1), axis=-1))
     ext = np.maximum(ext, 1e-300)
     start_c, start_r = kasa_spheres(q)
+    fixed = radius is not None
+    if fixed:
+        start_r = np.broadcast_to(np.asarray(radius, dtype=np.float64), start_r.shape).copy()
+        if not np.all(np.isfinite(start_r) & (start_r > 0)):
+            raise ValueError(f"a fixed sphere radius must be > 0 mm, got {radius!r}")
+    npar = 3 if fixed else 4
 
     def linearise(s: State) -> tuple[FloatArray, FloatArray]:
         c, r = s
         d = q - c[:, None, :]
         dist = np.linalg.norm(d, axis=-1)
         res = dist - r[:, None]
-        jac = np.concatenate([-d / dist[..., None], -np.ones((*dist.shape, 1))], axis=-1)
+        jac = -d / dist[..., None]
+        if not fixed:
+            jac = np.concatenate([jac, -np.ones((*dist.shape, 1))], axis=-1)
         return res, jac
 
     def update(s: State, dx: FloatArray) -> State:
-        return s[0] + dx[:, :3], s[1] + dx[:, 3]
+        return s[0] + dx[:, :3], s[1] if fixed else s[1] + dx[:, 3]
 
     state: State = (start_c, start_r)
     _, jac0 = linearise(state)
@@ -153,38 +163,50 @@ def fit_spheres(points: npt.ArrayLike) -> SphereBatch:
             + (f": set {int(np.argmax(flat))}" if len(flat) > 1 else "")
         )
     rank_check(jac0, what, "the points are coplanar (a sphere needs points off one plane)")
-    scale = np.broadcast_to(1.0 / ext[:, None], (p.shape[0], 4))
+    scale = np.broadcast_to(1.0 / ext[:, None], (p.shape[0], npar))
     state, res, jac, it = gauss_newton(state, linearise, update, scale, what)
     rank_check(jac, what, "the points do not determine a sphere")
-    cov, _ = covariance(jac, res)
+    cov_fit, _ = covariance(jac, res)
+    cov = np.zeros((p.shape[0], 4, 4))
+    cov[:, :npar, :npar] = cov_fit
     return SphereBatch(state[0] + c0[:, 0, :], state[1], res, cov, it)
 
 
 def fit_sphere(
-    points: npt.ArrayLike, probe_radius: float = 0.0, inner: bool = False
+    points: npt.ArrayLike,
+    probe_radius: float = 0.0,
+    inner: bool = False,
+    radius: float | None = None,
 ) -> Fit[Sphere]:
     """Geometric least-squares sphere of (n >= 4, 3) points.
 
     ``probe_radius``: the probe ball's radius (mm); the reported radius is the
     fitted ball-centre radius minus it (plus it with ``inner=True``, for a
     concave socket). Residuals: distance from the centre minus the fitted
-    ball-centre radius; ``form`` = their range.
+    ball-centre radius; ``form`` = their range. ``radius``: hold the sphere's
+    (surface) radius at this value and fit the centre only (a calibrated
+    sphere; 3 parameters, ``std["radius"]`` 0).
 
     Raises:
         ValueError, TooFewPointsError, DegenerateGeometryError, ConvergenceError,
         GeometryError (compensated radius <= 0).
     """
     p = as_points(points, 4, "sphere")
-    b = fit_spheres(p[None])
-    radius = _surface_radius(float(b.radii[0]), probe_radius, inner, "sphere")
-    feature = Sphere(_t(b.centers[0]), radius)
+    held = None
+    if radius is not None:
+        if not (np.isfinite(radius) and radius > 0.0):
+            raise ValueError(f"a fixed sphere radius must be > 0 mm, got {radius}")
+        held = radius - probe_radius if inner else radius + probe_radius
+    b = fit_spheres(p[None], held)
+    surface = _surface_radius(float(b.radii[0]), probe_radius, inner, "sphere")
+    feature = Sphere(_t(b.centers[0]), surface)
     return make_fit(
         "sphere",
         feature,
         b.residuals[0],
         b.covariance[0],
         SPHERE_PARAMS,
-        p.shape[0] - 4,
+        p.shape[0] - (4 if radius is None else 3),
         iterations=b.iterations,
         probe_radius=probe_radius,
     )

@@ -66,6 +66,16 @@ DEFINITIONS: dict[str, Definition] = {
             ASSUMED,
         ),
         Definition(
+            "L_Dia.5x5:Art:AArm, fixed radius",
+            "ISO 10360-12:2016",
+            "as L_Dia, but each articulation's sphere is fitted with its radius held at the "
+            "calibrated diameter (centre only): less sensitive to probing noise (aacmm "
+            "verify --l-dia-fit fixed)",
+            "our variant of the articulated location test, for comparison with the free-"
+            "radius reading",
+            ASSUMED,
+        ),
+        Definition(
             "E_Uni:0:AArm",
             "ISO 10360-12:2016",
             "L - L_cal for each measured calibrated length, L between the two end centres "
@@ -198,9 +208,14 @@ class LocationTest:
 
 
 def articulated_location(
-    groups: Sequence[npt.ArrayLike], probe_radius: float = 0.0
+    groups: Sequence[npt.ArrayLike],
+    probe_radius: float = 0.0,
+    cal_diameter: float | None = None,
 ) -> LocationTest:
     """L_Dia from the points of each articulation (k >= 2 groups of >= 4 points).
+
+    Each articulation's sphere has a free radius, or with ``cal_diameter``
+    (mm) its radius held at the calibrated one (centre only).
 
     Raises:
         TooFewPointsError: fewer than 2 articulations or 4 points in one.
@@ -210,7 +225,8 @@ def articulated_location(
         raise TooFewPointsError(
             f"articulated location needs at least 2 articulations, got {len(groups)}"
         )
-    fits = tuple(fit_sphere(g, probe_radius=probe_radius) for g in groups)
+    radius = None if cal_diameter is None else cal_diameter / 2.0
+    fits = tuple(fit_sphere(g, probe_radius=probe_radius, radius=radius) for g in groups)
     centres = np.array([f.feature.center for f in fits])
     c, r = smallest_enclosing_sphere(centres)
     return LocationTest(fits, centres, c, 2.0 * r)

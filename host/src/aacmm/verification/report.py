@@ -59,6 +59,10 @@ if TYPE_CHECKING:
     from aacmm.plans import Plan, PointLabel, Step
 
 
+#: How the articulations' spheres of L_Dia are fitted (see ``evaluate``).
+L_DIA_FITS: tuple[str, ...] = ("free", "fixed")
+
+
 class VerificationError(GeometryError):
     """A session that cannot be verified (no MPE, missing points, degenerate data)."""
 
@@ -286,6 +290,7 @@ def evaluate(
     points: npt.ArrayLike,
     meta: dict[str, Any] | None = None,
     name: str | None = None,
+    l_dia_fit: str = "free",
 ) -> Report:
     """Run every test the plan's steps allow on the measured points and judge them.
 
@@ -294,7 +299,9 @@ def evaluate(
     Steps with no points, or not all of theirs, are skipped (and named in the
     notes). ``meta``
     (device, parameter set, ...) is carried into the report; ``name`` replaces
-    the plan's name in it.
+    the plan's name in it. ``l_dia_fit``: ``"free"`` (each articulation's
+    sphere with a free radius, the default) or ``"fixed"`` (radius held at the
+    calibrated diameter); see :data:`DEFINITIONS`.
 
     Raises:
         VerificationError: the plan has no MPE at all, or nothing to evaluate.
@@ -314,6 +321,8 @@ def evaluate(
             f"plan {plan.name}: no MPE in the plan ([mpe] table): nothing to verify against"
         )
     rule = check_rule(plan.verification.decision_rule)
+    if l_dia_fit not in L_DIA_FITS:
+        raise ValueError(f"l_dia_fit must be one of {', '.join(L_DIA_FITS)}, got {l_dia_fit!r}")
     ball_r = plan.probe.ball_radius_mm
     mpe = plan.mpe
     by_step = _step_points(plan, labels, pts)
@@ -341,7 +350,9 @@ def evaluate(
                 spheres.append(SphereStep(step.id, step.preset is not None, t, p))
             elif step.procedure == "articulation" and isinstance(art, Sphere):
                 groups = _groups(step, labs, p)
-                locations.append(LocationStep(step.id, articulated_location(groups, ball_r)))
+                cal_d = art.diameter_mm if l_dia_fit == "fixed" else None
+                loc = articulated_location(groups, ball_r, cal_d)
+                locations.append(LocationStep(step.id, loc))
             elif step.procedure in ("cone", "articulation") and isinstance(art, ConeSeat):
                 seats.append(SeatStep(step.id, art.id, single_point_articulation(p), p))
             elif step.procedure == "length" and isinstance(art, LengthStandard):
@@ -353,7 +364,7 @@ def evaluate(
         except GeometryError as exc:
             raise type(exc)(f"step {step.id}: {exc}") from None
 
-    results = _results(plan, spheres, locations, lengths, seats, rule)
+    results = _results(plan, spheres, locations, lengths, seats, rule, l_dia_fit)
     if not results:
         raise VerificationError(f"plan {plan.name}: no verification test among the measured steps")
     return Report(
@@ -419,6 +430,7 @@ def _results(
     lengths: list[LengthMeasurement],
     seats: list[SeatStep],
     rule: str,
+    l_dia_fit: str = "free",
 ) -> list[Result]:
     from aacmm.plans import Sphere
 
@@ -461,7 +473,10 @@ def _results(
         ]
         shapes = {(len(loc.test.fits), loc.test.fits[0].n_points) for loc in locations}
         name = "L_Dia.5x5:Art:AArm" if shapes == {(5, 5)} else "L_Dia (non-standard layout)"
-        out.append(_worst("l_dia", name, "L_Dia.5x5:Art:AArm", vals, rule))
+        definition = "L_Dia.5x5:Art:AArm" + (", fixed radius" if l_dia_fit == "fixed" else "")
+        if l_dia_fit == "fixed":
+            name += ", fixed radius"
+        out.append(_worst("l_dia", name, definition, vals, rule))
     if seats:
         two = [
             (s.test.two_sigma, s.test.two_sigma, mpe.spat_2sigma_mm, 0.0, s.step_id) for s in seats
