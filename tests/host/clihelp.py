@@ -42,6 +42,46 @@ def one_error_line(p: subprocess.CompletedProcess[str], code: int, *words: str) 
     return lines[0]
 
 
+def capture_scenario(
+    folder: Path, plan: str | Path, truth: str, params: Path | None = None, timeout: float = 280
+) -> tuple[Path, dict[str, Any], Path]:
+    """A plan captured from the simulated operator, the way a user runs it:
+    ``aacmm sim --scenario PLAN --truth TRUTH --fast`` and ``aacmm capture PLAN``
+    into ``folder/s``; ``params``: a parameter file loaded into the device first.
+
+    Returns the session folder, the simulator's report and the truth file it used.
+    """
+    import json
+    import subprocess
+
+    folder.mkdir(exist_ok=True)
+    link, report, truth_out = folder / "arm", folder / "sim.json", folder / "truth.toml"
+    session = folder / "s"
+    sim = subprocess.Popen(
+        [str(AACMM), "sim", "--scenario", str(plan), "--truth", truth, "--fast",
+         "--truth-out", str(truth_out), "--link", str(link), "--report", str(report)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(),
+    )  # fmt: skip
+    try:
+        assert sim.stdout is not None
+        url = sim.stdout.readline().strip()
+        assert url == f"serial://{link}", sim.communicate(timeout=10)[1]
+        if params is not None:
+            p = run("params", "set", str(params), "--port", url)
+            assert p.returncode == 0, p.stderr
+        cap = run("capture", str(plan), "-o", str(session), "--port", url, "-q", timeout=timeout)
+        if cap.returncode != 0:
+            sim.kill()
+            raise AssertionError(cap.stderr + sim.communicate()[1])
+        _, err = sim.communicate(timeout=60)
+        assert sim.returncode == 0, err
+    finally:
+        if sim.poll() is None:
+            sim.kill()
+            sim.communicate()
+    return session, json.loads(report.read_text()), truth_out
+
+
 def sim_fixture(*args: str) -> Any:
     """A module-scoped ``sim`` fixture: one simulator on a pty (``make sim``
     builds it), with extra simulator options ``args``. Use in a test module as

@@ -5,45 +5,20 @@ with the slot it was made for -- zero lost, zero mislabelled (issue 11)."""
 
 from __future__ import annotations
 
-import json
-import subprocess
 from pathlib import Path
 from typing import Any
 
 import pytest
 from aacmm.plans import load_plan
 from aacmm.records import read_session
-from clihelp import AACMM, cli_env
+from clihelp import capture_scenario
 
 pytestmark = pytest.mark.timeout(300)
 
 
 def run_plan(tmp_path: Path, plan: str, seed: int) -> tuple[Any, dict[str, Any]]:
-    link = tmp_path / "arm"
-    report = tmp_path / "report.json"
-    sim = subprocess.Popen(
-        [str(AACMM), "sim", "--scenario", plan, "--truth", f"random:{seed}", "--fast",
-         "--link", str(link), "--report", str(report)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(),
-    )  # fmt: skip
-    try:
-        assert sim.stdout is not None
-        url = sim.stdout.readline().strip()
-        assert url == f"serial://{link}", sim.communicate(timeout=10)[1]
-        cap = subprocess.run(
-            [str(AACMM), "capture", plan, "-o", str(tmp_path / "s"), "--port", url, "-q"],
-            capture_output=True, text=True, env=cli_env(), timeout=280,
-        )  # fmt: skip
-        if cap.returncode != 0:
-            sim.kill()
-            raise AssertionError(cap.stderr + sim.communicate()[1])
-        _, err = sim.communicate(timeout=60)
-        assert sim.returncode == 0, err
-    finally:
-        if sim.poll() is None:
-            sim.kill()
-            sim.communicate()
-    return read_session(tmp_path / "s"), json.loads(report.read_text())
+    session, report, _ = capture_scenario(tmp_path, plan, f"random:{seed}")
+    return read_session(session), report
 
 
 @pytest.mark.parametrize(("plan", "seed"), [("iso10360-12", 7), ("kinematic-calibration", 8)])

@@ -20,7 +20,6 @@ from the session's raw counts (tests/host/verify_sessions.py).
 from __future__ import annotations
 
 import json
-import subprocess
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -33,7 +32,7 @@ import verify_sessions as vs
 from aacmm.core import Params
 from aacmm.plans import Plan, load_plan, shipped_plan_path
 from aacmm.simulation.truth import ErrorSources, load_truth, nominal_truth
-from clihelp import AACMM, cli_env, run
+from clihelp import capture_scenario, run
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -75,37 +74,8 @@ def plan_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def capture(
     tmp: Path, plan: Path | str, truth: str, params: Path | None = None
 ) -> tuple[Path, dict[str, Any], Path]:
-    """Run the simulated operator on ``plan`` with ``truth`` and capture it.
-
-    ``params``: a parameter file loaded into the device first. Returns the
-    session folder, the simulator's report and the truth file it used.
-    """
-    tmp.mkdir(exist_ok=True)
-    link, report, truth_out = tmp / "arm", tmp / "sim.json", tmp / "truth.toml"
-    session = tmp / "session"
-    sim = subprocess.Popen(
-        [str(AACMM), "sim", "--scenario", str(plan), "--truth", truth, "--fast",
-         "--truth-out", str(truth_out), "--link", str(link), "--report", str(report)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(),
-    )  # fmt: skip
-    try:
-        assert sim.stdout is not None
-        url = sim.stdout.readline().strip()
-        assert url == f"serial://{link}", sim.communicate(timeout=10)[1]
-        if params is not None:
-            p = run("params", "set", str(params), "--port", url)
-            assert p.returncode == 0, p.stderr
-        cap = run("capture", str(plan), "-o", str(session), "--port", url, "-q", timeout=500)
-        if cap.returncode != 0:
-            sim.kill()
-            raise AssertionError(cap.stderr + sim.communicate()[1])
-        _, err = sim.communicate(timeout=60)
-        assert sim.returncode == 0, err
-    finally:
-        if sim.poll() is None:
-            sim.kill()
-            sim.communicate()
-    return session, json.loads(report.read_text()), truth_out
+    """Session, simulator report and truth file of ``plan`` on the simulated ``truth``."""
+    return capture_scenario(tmp, plan, truth, params, timeout=500)
 
 
 def verify_json(session: Path, code: int | None, *extra: str) -> dict[str, Any]:
