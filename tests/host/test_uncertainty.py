@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from aacmm.analysis import uncertainty as unc
-from aacmm.core import PARAM_NAMES, Params
+from aacmm.core import PARAM_NAMES, Params, perturbed_points
 from test_core_oracle import numpy_point_jacobian
 
 pytestmark = pytest.mark.timeout(120)
@@ -262,3 +262,124 @@ def test_cli_bad_inputs(tmp_path: Path, content: str | None, args: list[str], me
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("aacmm uncertainty: error:"), out.stderr
     assert message in lines[0]
+
+
+# ------------------------------------------- issue 15.4 and 14.8 -----------
+
+
+def test_histogram_mode_agrees_with_exact_mode() -> None:
+    """Beyond the memory budget the quantiles come from histograms of the same
+    draws: the moments equal the exact ones, the quantiles are within a bin."""
+    spec = _spec({"theta": 2 * ARCSEC, "alpha": 3 * ARCSEC, "d": 0.005, "l": 0.003})
+    exact = unc.propagate(spec, trials=30_000, workspace=5, seed=7, threads=2)
+    hist = unc.propagate(spec, trials=30_000, workspace=5, seed=7, threads=2, memory_budget=1000)
+    assert exact.quantiles == "exact" and hist.quantiles.startswith("histogram")
+    for e, h in zip(exact.poses, hist.poses, strict=True):
+        assert np.allclose(h.u_mc, e.u_mc, rtol=1e-9, atol=0)
+        assert np.allclose(h.bias_mc, e.bias_mc, rtol=1e-6, atol=1e-15)
+        # a bin is (max - min) / HIST_BINS; max - min < 12 u_mc for these draws
+        width = 12 * e.u_mc.max() / unc.HIST_BINS
+        assert np.all(np.abs(h.ci_mc - e.ci_mc) <= width)
+        assert abs(h.r95_mc - e.r95_mc) <= 12 * e.u3_mc / unc.HIST_BINS
+
+
+def test_result_independent_of_threads_and_the_draws_are_draw_deltas() -> None:
+    spec = _spec({"theta": 2 * ARCSEC, "d": 0.005})
+    one = unc.propagate(spec, trials=20_000, workspace=3, seed=4, threads=1)
+    two = unc.propagate(spec, trials=20_000, workspace=3, seed=4, threads=2)
+    for a, b in zip(one.poses, two.poses, strict=True):
+        assert np.array_equal(a.u_mc, b.u_mc) and np.array_equal(a.ci_mc, b.ci_mc)
+        assert a.r95_mc == b.r95_mc
+    # the Monte Carlo points are perturbed_points of draw_deltas: an independent
+    # numpy evaluation of the statistics on them gives the same numbers
+    pts = perturbed_points(Params(), unc.draw_deltas(spec, 20_000, 4), POSES[:1])[:, 0, :]
+    dev = pts - one.poses[0].point_mm
+    assert np.allclose(one.poses[0].u_mc, dev.std(axis=0, ddof=1), rtol=1e-12)
+    assert np.allclose(one.poses[0].ci_mc.T, np.quantile(dev, [0.025, 0.975], axis=0))
+    assert np.isclose(one.poses[0].r95_mc, np.quantile(np.linalg.norm(dev, axis=1), 0.95))
+
+
+def test_progress_and_memory_refusal() -> None:
+    spec = _spec({"d": 0.005})
+    seen: list[tuple[int, int]] = []
+    unc.propagate(
+        spec, trials=20_000, workspace=2, seed=1, progress=lambda n, t: seen.append((n, t))
+    )
+    assert sum(n for n, _ in seen) == 20_000 * 5 and {t for _, t in seen} == {20_000 * 5}
+    with pytest.raises(unc.MemoryLimitError, match=r"poses need about .* GiB"):
+        unc.propagate(spec, trials=100, workspace=10**12)
+
+
+def test_cli_outputs_log_and_progress(tmp_path: Path) -> None:
+    log = tmp_path / "run.csv"
+    rows = ["seq," + ",".join(f"theta{i}" for i in range(1, 7))]
+    rows += [f"{k}," + ",".join(f"{0.1 * k + 0.01 * i:.4f}" for i in range(6)) for k in range(30)]
+    log.write_text("\n".join(rows) + "\n")
+    out = _cli(
+        "uncertainty",
+        "example",
+        "--trials",
+        "3000",
+        "--log",
+        str(log),
+        "--every",
+        "3",
+        "--csv",
+        str(tmp_path / "u.csv"),
+        "--png",
+        str(tmp_path / "u.png"),
+        "--json",
+        str(tmp_path / "u.json"),
+        "--progress",
+    )
+    assert out.returncode == 0, out.stderr
+    doc = json.loads((tmp_path / "u.json").read_text())
+    n_spec = len(unc.load_spec("example").poses_rad)
+    assert len(doc["given_poses"]) == n_spec + 10 and doc["workspace_poses"] == []
+    assert doc["mc_quantiles"] == "exact"
+    lines = (tmp_path / "u.csv").read_text().splitlines()
+    assert lines[0].startswith("pose,kind,theta1_deg") and len(lines) == 1 + 3 * (n_spec + 10)
+    assert (tmp_path / "u.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "uncertainty" in out.stderr  # the progress bar, forced off a terminal
+    out = _cli("uncertainty", "example", "--every", "2")
+    assert out.returncode == 2 and "--every needs --log" in out.stderr
+
+
+def test_figure_contents() -> None:
+    res = unc.propagate(_spec({"theta": 2 * ARCSEC, "d": 0.005}), trials=2000, workspace=10)
+    fig = unc.figure(res)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert titles[0].startswith("per pose and axis: $u_{MC}/u_{lin}$ in [")
+    assert "budget:" in titles[2] and r"$\theta$" in titles[2]
+    assert "2000 trials" in fig.get_suptitle()
+
+
+def test_cli_bounded_memory_refusal_and_clean_interrupt() -> None:
+    """Issue 15.4: --trials 1e8 allocated 18.6 GiB at once; under a memory limit
+    it ended in a traceback. Now it runs in bounded memory until Ctrl-C, which
+    stops it with one line and status 130; poses that cannot fit are refused."""
+    import resource
+    import signal
+    import time
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+
+    proc = subprocess.Popen(
+        [*AACMM, "uncertainty", "example", "--trials", "100000000", "--threads", "2"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=limit,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
+    time.sleep(4.0)
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["aacmm uncertainty: interrupted"], err
+    out = _cli("uncertainty", "example", "--trials", "100", "--workspace", "1000000000000")
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "poses need about" in lines[0] and "GiB" in lines[0]

@@ -1,9 +1,12 @@
 """``aacmm uncertainty``: probe-point uncertainty from parameter uncertainties.
 
 The computation lives in :mod:`aacmm.analysis.uncertainty`; this module
-parses the arguments, prints the report and writes the outputs. User errors
-(bad arguments, unreadable or invalid files) print one line
-``aacmm uncertainty: error: ...`` on stderr and exit with status 2.
+parses the arguments, prints the report, shows the progress and writes the
+outputs. User errors (bad arguments, unreadable or invalid files, an
+existing output file without ``--force``, poses that cannot fit in memory)
+print one line ``aacmm uncertainty: error: ...`` on stderr and exit with
+status 2; Ctrl-C stops a run within a chunk of trials (``aacmm uncertainty:
+interrupted``, status 130).
 """
 
 from __future__ import annotations
@@ -34,8 +37,8 @@ def register(sub: Any) -> None:
     un.add_argument(
         "--workspace",
         type=int,
-        default=100,
-        help="random workspace poses to add (default 100; 0 = only given poses)",
+        default=None,
+        help="random workspace poses to add (default 100, with --log 0; 0 = only given poses)",
     )
     un.add_argument(
         "--pose",
@@ -43,6 +46,18 @@ def register(sub: Any) -> None:
         default=[],
         metavar="T1,..,T6",
         help="a pose to report, six joint angles in deg; repeatable",
+    )
+    un.add_argument(
+        "--log",
+        metavar="CSV",
+        help="also the poses of a measurement log (aacmm log CSV, as mc --log)",
+    )
+    un.add_argument(
+        "--every",
+        type=int,
+        default=1,
+        metavar="K",
+        help="with --log: every K-th logged pose (default 1: all)",
     )
     un.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     un.add_argument(
@@ -54,8 +69,55 @@ def register(sub: Any) -> None:
     un.add_argument("--threads", type=int, default=None, help="worker threads (default: all)")
     un.add_argument("--top", type=int, default=10, help="budget rows to print (10)")
     un.add_argument("--json", metavar="PATH", help="write the result as JSON")
+    un.add_argument("--csv", metavar="PATH", help="write every pose and axis as CSV")
+    un.add_argument(
+        "--png",
+        metavar="PATH",
+        help="write a figure: MC vs linear per pose, the spread over the poses, the budget",
+    )
     add_force_option(un)
+    un.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: on at a terminal)",
+    )
     un.set_defaults(func=run_uncertainty)
+
+
+class _Bar:
+    """A tqdm bar on stderr counting trial-poses (its total set by the first report)."""
+
+    def __init__(self, enabled: bool | None) -> None:
+        import sys
+
+        from aacmm.commands.common import is_tty
+
+        self._bar: Any = None
+        self._on = is_tty(sys.stderr) if enabled is None else enabled
+
+    def update(self, n: int, total: int) -> None:
+        if not self._on:
+            return
+        if self._bar is None:
+            import sys
+
+            from tqdm import tqdm
+
+            self._bar = tqdm(
+                total=total,
+                desc="uncertainty",
+                unit="trial-pose",
+                unit_scale=True,
+                file=sys.stderr,
+                leave=False,
+            )
+        self._bar.update(n)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
 
 
 def run_uncertainty(args: argparse.Namespace) -> int:
@@ -67,33 +129,54 @@ def run_uncertainty(args: argparse.Namespace) -> int:
 
     from aacmm.analysis import uncertainty as unc
     from aacmm.errors import AacmmError
-    from aacmm.fileio import check_outputs, write_output
+    from aacmm.fileio import atomic_output, check_outputs, save_figure, write_output
 
+    bar = _Bar(args.progress)
     try:
-        check_outputs([args.json], args.force)
+        check_outputs([args.json, args.csv, args.png], args.force)
         spec = unc.load_spec(args.spec)
+        extra = [spec.poses_rad]
         if args.pose:
-            extra = []
+            given = []
             for text in args.pose:
                 try:
-                    extra.append([float(v) for v in text.split(",")])
+                    given.append([float(v) for v in text.split(",")])
                 except ValueError as e:
                     raise ValueError(f"--pose {text!r}: six comma-separated angles in deg") from e
-            spec = replace(
-                spec, poses_rad=np.concatenate([spec.poses_rad, unc.pose_list(extra, "deg")])
-            )
+            extra.append(unc.pose_list(given, "deg"))
+        if args.every < 1:
+            raise ValueError(f"--every must be >= 1, got {args.every}")
+        if args.log is not None:
+            from aacmm.analysis.poselog import read_pose_log
+
+            extra.append(read_pose_log(args.log).theta_rad[:: args.every])
+        elif args.every != 1:
+            raise ValueError("--every needs --log")
+        spec = replace(spec, poses_rad=np.concatenate(extra))
+        workspace = args.workspace
+        if workspace is None:
+            workspace = 0 if args.log is not None else unc.DEFAULT_WORKSPACE
         res = unc.propagate(
             spec,
             trials=args.trials,
-            workspace=args.workspace,
+            workspace=workspace,
             seed=args.seed,
             ndig=args.ndig,
             threads=args.threads,
+            progress=bar.update,
         )
+        bar.close()
         print(unc.format_report(res, top=args.top))
         if args.json:
             write_output(args.json, json.dumps(unc.to_json(res), indent=2) + "\n", force=args.force)
+        if args.csv:
+            with atomic_output(args.csv, force=args.force, newline="") as f:
+                f.write(unc.csv_text(res))
+        if args.png:
+            save_figure(unc.figure(res), args.png, force=args.force, dpi=120)
     except (AacmmError, ValueError, OSError) as e:
         print_err("uncertainty", f"error: {e}")
         return USAGE
+    finally:
+        bar.close()
     return 0
