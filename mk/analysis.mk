@@ -6,8 +6,10 @@
 ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/_core.pyi \
                      host/src/aacmm/core.py host/src/aacmm/analysis \
                      tests/host/test_core.py tests/host/test_core_oracle.py \
-                     tests/host/test_core_kernels.py tests/host/test_mc.py tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
-                     bench/bench_analysis.py
+                     tests/host/test_core_kernels.py tests/host/test_mc.py \
+                     tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
+                     tests/host/interrupt.py host/src/aacmm/commands/mc.py \
+                     host/src/aacmm/commands/uncertainty.py bench/bench_analysis.py
 ANALYSIS_C := firmware/src/analysis.c firmware/src/simd/simd_dispatch.c \
               firmware/src/simd/simd_f64.c firmware/src/simd/simd_f32.c
 

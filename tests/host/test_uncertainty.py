@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from aacmm.analysis import uncertainty as unc
 from aacmm.core import PARAM_NAMES, Params, perturbed_points
+from interrupt import run_then_interrupt
 from test_core_oracle import numpy_point_jacobian
 
 pytestmark = pytest.mark.timeout(120)
@@ -358,26 +359,10 @@ def test_cli_bounded_memory_refusal_and_clean_interrupt() -> None:
     """Issue 15.4: --trials 1e8 allocated 18.6 GiB at once; under a memory limit
     it ended in a traceback. Now it runs in bounded memory until Ctrl-C, which
     stops it with one line and status 130; poses that cannot fit are refused."""
-    import resource
-    import signal
-    import time
-
-    def limit() -> None:
-        resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
-
-    proc = subprocess.Popen(
-        [*AACMM, "uncertainty", "example", "--trials", "100000000", "--threads", "2"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=limit,
-        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    status, err, _ = run_then_interrupt(
+        ["uncertainty", "example", "--trials", "100000000", "--threads", "2"], after_s=4.0
     )
-    time.sleep(4.0)
-    assert proc.poll() is None, proc.communicate()
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
+    assert status == 130, err
     assert err.strip().splitlines() == ["aacmm uncertainty: interrupted"], err
     out = _cli("uncertainty", "example", "--trials", "100", "--workspace", "1000000000000")
     assert out.returncode == 2

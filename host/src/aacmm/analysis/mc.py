@@ -26,23 +26,22 @@ ValueError) if a pose is rejected by the core.
 
 from __future__ import annotations
 
-import collections
 import csv
 import io
-import itertools
 import math
 import os
 import textwrap
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import contextmanager
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any, Literal
 
 import numpy as np
 
+from aacmm.analysis._parallel import in_order
+from aacmm.analysis._parallel import pool as thread_pool
 from aacmm.core import (
     AXES,
     JAC_COLS,
@@ -326,32 +325,18 @@ def _no_progress(n: int) -> None:
     pass
 
 
-@contextmanager
-def _pool(threads: int) -> Iterator[ThreadPoolExecutor | None]:
-    if threads == 1:
-        yield None
-    else:
-        with ThreadPoolExecutor(max_workers=threads) as ex:
-            yield ex
-
-
-#: Tasks in flight per thread: enough to keep every thread busy, few enough
-#: that memory does not grow with n (each task holds one chunk of poses).
-_IN_FLIGHT_PER_THREAD = 2
-
-
 def _accumulate(
     model: Model,
     tasks: Iterable[Callable[[], FloatArray]],
-    pool: ThreadPoolExecutor | None,
+    ex: ThreadPoolExecutor | None,
     progress: Progress,
     threads: int = 1,
 ) -> tuple[FloatArray, FloatArray, int]:
     """Run each task (it returns poses), sum |J| and J^2 in task order.
 
-    Tasks are drawn from the iterable as they are needed, at most
-    ``2 * threads`` in flight, so memory does not depend on their number. On
-    an exception (Ctrl-C included) the tasks not started are cancelled.
+    Tasks are drawn from the iterable as they are needed (a bounded number in
+    flight, :func:`aacmm.analysis._parallel.in_order`), so memory does not
+    depend on their number.
     """
 
     def one(task: Callable[[], FloatArray]) -> tuple[FloatArray, FloatArray, int]:
@@ -362,31 +347,11 @@ def _accumulate(
     s_tot = np.zeros((JAC_ROWS, JAC_COLS))
     q_tot = np.zeros((JAC_ROWS, JAC_COLS))
     n_tot = 0
-
-    def add(s: FloatArray, q: FloatArray, n: int) -> None:
-        nonlocal s_tot, q_tot, n_tot
+    for s, q, n in in_order(ex, one, tasks, threads):  # in order: the sum ignores threads
         s_tot += s
         q_tot += q
         n_tot += n
         progress(n)
-
-    it = iter(tasks)
-    if pool is None:
-        for task in it:
-            add(*one(task))
-        return s_tot, q_tot, n_tot
-    pending: collections.deque[Future[tuple[FloatArray, FloatArray, int]]] = collections.deque()
-    try:
-        for first in itertools.islice(it, _IN_FLIGHT_PER_THREAD * threads):
-            pending.append(pool.submit(one, first))
-        while pending:
-            add(*pending.popleft().result())  # in task order: the sum does not depend on threads
-            following = next(it, None)
-            if following is not None:
-                pending.append(pool.submit(one, following))
-    finally:
-        for f in pending:
-            f.cancel()
     return s_tot, q_tot, n_tot
 
 
@@ -455,8 +420,8 @@ def error_transfer_coefficients(
     t0 = time.perf_counter()
     tasks = _chunk_tasks(e, 0, n, js)
     workers = min(nt, -(-n // CHUNK))
-    with _pool(workers) as pool:  # no pool for a single chunk
-        s, q, got = _accumulate(model, tasks, pool, progress or _no_progress, workers)
+    with thread_pool(workers) as ex:  # no pool for a single chunk
+        s, q, got = _accumulate(model, tasks, ex, progress or _no_progress, workers)
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s, q, got)
     dev, dz, checked = _checks(model, draw_chunk(e, 0, 0, min(n, CHECK_POSES, CHUNK), js))
@@ -545,12 +510,12 @@ def error_transfer_coefficients_adaptive(
     # are examined in order: the stopping run, and so the result, is the same
     # as with one thread (runs computed past it are discarded).
     max_runs = max(1, max_trials // block)
-    with _pool(min(nt, max_runs)) as pool:
+    with thread_pool(min(nt, max_runs)) as ex:
         h_next = 0
         while not converged and h_next < max_runs:
             batch = list(range(h_next, min(h_next + nt, max_runs)))
             h_next = batch[-1] + 1
-            results = map(run_sums, batch) if pool is None else pool.map(run_sums, batch)
+            results = map(run_sums, batch) if ex is None else ex.map(run_sums, batch)
             for s, q, got in results:
                 report(got)
                 runs += 1
@@ -622,8 +587,8 @@ def coefficients_over_poses(
 
     tasks = (make(k) for k in range(-(-n // CHUNK)))
     workers = min(nt, -(-n // CHUNK))
-    with _pool(workers) as pool:
-        s, q, got = _accumulate(model, tasks, pool, progress or _no_progress, workers)
+    with thread_pool(workers) as ex:
+        s, q, got = _accumulate(model, tasks, ex, progress or _no_progress, workers)
     elapsed = time.perf_counter() - t0
     mean, std, sem = _stats(s, q, got)
     dev, dz, checked = _checks(model, th)

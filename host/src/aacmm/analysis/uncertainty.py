@@ -45,18 +45,18 @@ fit; KinematicsError (a ValueError) if a perturbed arm is invalid.
 
 from __future__ import annotations
 
-import collections
-import itertools
 import math
 import os
 import time
-from collections.abc import Callable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import contextmanager
-from typing import Any
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any, TypeVar
 
 import numpy as np
 
+from aacmm.analysis._parallel import in_order
+from aacmm.analysis._parallel import pool as parallel_pool
 from aacmm.analysis.uncertainty_report import (
     BudgetEntry,
     PoseResult,
@@ -143,8 +143,8 @@ _HIST_POSE_BLOCK = 16
 #: Memory a pose takes in the result and the linear propagation (bytes, measured
 #: order of magnitude: the PoseResult's arrays and objects, the Jacobian and its split).
 BYTES_PER_POSE = 4096
-#: Tasks in flight per thread (each holds one chunk of points).
-_IN_FLIGHT_PER_THREAD = 2
+
+T = TypeVar("T")
 
 #: Progress callback: (trial-poses just done, total trial-poses of the run).
 Progress = Callable[[int, int], None]
@@ -208,38 +208,21 @@ def draw_deltas(spec: UncertaintySpec, trials: int, seed: int) -> FloatArray:
     return np.concatenate(parts) if parts else np.empty((0, JAC_COLS))
 
 
-@contextmanager
-def _pool(threads: int) -> Iterator[ThreadPoolExecutor | None]:
-    if threads == 1:
-        yield None
-    else:
-        with ThreadPoolExecutor(max_workers=threads) as ex:
-            yield ex
+@dataclass(frozen=True)
+class _Run:
+    """What the block statistics need of a run: the deviations of chunk c
+    (``dev_of(c)`` -> (c, (m, k, 3))), the number of chunks, the threads, and
+    the progress tick (trial-poses done)."""
 
+    dev_of: Callable[[int], tuple[int, FloatArray]]
+    chunks: int
+    pool: ThreadPoolExecutor | None
+    threads: int
+    tick: Callable[[int], None]
 
-def _in_order(
-    pool: ThreadPoolExecutor | None, fn: Callable[[int], Any], n: int, threads: int
-) -> Iterator[Any]:
-    """fn(0), fn(1), ... fn(n-1) in order, at most 2 x threads computed ahead.
-
-    On an exception (Ctrl-C included) the tasks not started are cancelled.
-    """
-    if pool is None:
-        yield from (fn(c) for c in range(n))
-        return
-    pending: collections.deque[Future[Any]] = collections.deque()
-    it = iter(range(n))
-    try:
-        for c in itertools.islice(it, _IN_FLIGHT_PER_THREAD * threads):
-            pending.append(pool.submit(fn, c))
-        while pending:
-            yield pending.popleft().result()
-            c_next = next(it, None)
-            if c_next is not None:
-                pending.append(pool.submit(fn, c_next))
-    finally:
-        for f in pending:
-            f.cancel()
+    def map(self, fn: Callable[[int], T], items: Iterable[int]) -> Iterator[T]:
+        """fn over the items in order, on the threads (aacmm.analysis._parallel)."""
+        return in_order(self.pool, fn, items, self.threads)
 
 
 class _Block:
@@ -301,15 +284,7 @@ def _quantiles_in_place(a: FloatArray, qs: tuple[float, ...]) -> FloatArray:
     return np.stack(out)
 
 
-def _exact_block(
-    dev_of: Callable[[int], tuple[int, FloatArray]],
-    chunks: int,
-    k: int,
-    trials: int,
-    pool: ThreadPoolExecutor | None,
-    threads: int,
-    tick: Callable[[int], None],
-) -> _Block:
+def _exact_block(run: _Run, k: int, trials: int) -> _Block:
     """Statistics from every deviation of the block, kept at once: rows
     (k, 4, trials) of the three axes and the radius. Each chunk task writes
     its own columns; the quantiles are partitions in place, pose by pose on
@@ -318,16 +293,16 @@ def _exact_block(
     mom = _Moments(k)
 
     def chunk(c: int) -> tuple[int, FloatArray, FloatArray]:
-        _, d = dev_of(c)
+        _, d = run.dev_of(c)
         m = d.shape[0]
         cols = rows[:, :, c * TRIAL_CHUNK : c * TRIAL_CHUNK + m]
         cols[:, :3, :] = d.transpose(1, 2, 0)
         np.sqrt(np.einsum("mka,mka->km", d, d), out=cols[:, 3, :])
         return _Moments.of(d)
 
-    for mo in _in_order(pool, chunk, chunks, threads):
+    for mo in run.map(chunk, range(run.chunks)):
         mom.add(*mo)
-        tick(mo[0] * k)
+        run.tick(mo[0] * k)
 
     def quantiles(j: int) -> tuple[FloatArray, float]:
         q = _quantiles_in_place(rows[j, :3, :], (0.025, 0.975))
@@ -336,7 +311,7 @@ def _exact_block(
     out = _Block(k)
     out.u_mc = mom.std()
     out.bias = mom.mean
-    for j, (q, r95) in enumerate(_in_order(pool, quantiles, k, threads)):
+    for j, (q, r95) in enumerate(run.map(quantiles, range(k))):
         out.q[:, j, :] = q
         out.r95[j] = r95
     return out
@@ -362,15 +337,7 @@ def _hist_quantile(counts: Any, lo: FloatArray, hi: FloatArray, q: float, n: int
     return np.where(hi > lo, out, lo)
 
 
-def _histogram_block(
-    dev_of: Callable[[int], tuple[int, FloatArray]],
-    chunks: int,
-    k: int,
-    trials: int,
-    pool: ThreadPoolExecutor | None,
-    threads: int,
-    tick: Callable[[int], None],
-) -> _Block:
+def _histogram_block(run: _Run, k: int, trials: int) -> _Block:
     """Statistics in two passes over the chunks, memory independent of the trials."""
     # pass 1: the moments and the extremes of the four series
     mom = _Moments(k)
@@ -378,30 +345,30 @@ def _histogram_block(
     hi = np.full((k, 4), -np.inf)
 
     def moments(c: int) -> tuple[tuple[int, FloatArray, FloatArray], FloatArray, FloatArray]:
-        _, d = dev_of(c)
+        _, d = run.dev_of(c)
         s = _series(d)
         return _Moments.of(d), s.min(axis=0), s.max(axis=0)
 
-    for mo, smin, smax in _in_order(pool, moments, chunks, threads):
+    for mo, smin, smax in run.map(moments, range(run.chunks)):
         mom.add(*mo)
         lo = np.minimum(lo, smin)
         hi = np.maximum(hi, smax)
-        tick(mo[0] * k)
+        run.tick(mo[0] * k)
     # pass 2: histograms of the four series between the extremes
     span = np.where(hi > lo, hi - lo, 1.0)
     offsets = np.arange(k * 4).reshape(k, 4) * HIST_BINS
 
     def histogram(c: int) -> Any:
-        _, d = dev_of(c)
+        _, d = run.dev_of(c)
         b: Any = ((_series(d) - lo) / span * HIST_BINS).astype(np.int64)
         np.clip(b, 0, HIST_BINS - 1, out=b)
         b += offsets
         return d.shape[0], np.bincount(b.ravel(), minlength=k * 4 * HIST_BINS)
 
     flat = np.zeros(k * 4 * HIST_BINS, dtype=np.int64)
-    for m, h in _in_order(pool, histogram, chunks, threads):
+    for m, h in run.map(histogram, range(run.chunks)):
         flat += h
-        tick(m * k)
+        run.tick(m * k)
     counts = flat.reshape(k, 4, HIST_BINS)
     out = _Block(k)
     out.u_mc = mom.std()
@@ -487,7 +454,7 @@ def propagate(
             progress(m, total)
 
     results: list[PoseResult] = []
-    with _pool(min(nt, chunks)) as pool:
+    with parallel_pool(min(nt, chunks)) as pool:
         for b in range(0, n, block):
             th = poses[b : b + block]
             nominal = p_nom[b : b + block]
@@ -498,8 +465,9 @@ def propagate(
                 d -= nominal[None, :, :]
                 return c, d
 
-            run = _exact_block if exact else _histogram_block
-            st = run(dev_of, chunks, th.shape[0], trials, pool, min(nt, chunks), tick)
+            block_stats = _exact_block if exact else _histogram_block
+            run = _Run(dev_of, chunks, pool, min(nt, chunks), tick)
+            st = block_stats(run, th.shape[0], trials)
             for j in range(th.shape[0]):
                 i = b + j
                 ul = np.sqrt(var_lin[i])
