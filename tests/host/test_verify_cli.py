@@ -247,22 +247,33 @@ def test_guard_band_rule(tmp_path: Path) -> None:
     # ISO 14253-1 (value > MPE - U), and the report says why
     plan = make_plan()
     folder = vs.write_session(tmp_path / "s", plan, np.random.default_rng(9), 0.003, upto=25)
-    ref = vs.recompute(folder, plan)
+    # the certificate says 5 um less than the sphere is: a size error of about +5 um
+    small = PLAN.replace("diameter_mm = 25.4012", "diameter_mm = 25.3962")
+    ref = vs.recompute(folder, loads_plan(small.format(rule="simple", mpe=MPE), "small.toml"))
     size = abs(ref["spheres"]["probing"]["size_error"])
+    assert size > 0.002
     mpe_v = round(size + 0.0002, 6)
     mpe = f"p_size_mm = {mpe_v:.6f}"
-    for rule, code, verdict in (("simple", 0, "PASS"), ("iso14253-1", 7, "FAIL")):
-        f2 = tmp_path / rule
+    # U (k = 2) from the certificate's 0.5 um: as stated (k = 2), or doubled when the
+    # certificate states it with k = 1
+    cases = (("simple", 2, 0, "PASS", 0.0), ("iso14253-1", 2, 7, "FAIL", 0.0005),
+             ("iso14253-1", 1, 7, "FAIL", 0.0010))  # fmt: skip
+    for rule, k, code, verdict, u in cases:
+        f2 = tmp_path / f"{rule}-{k}"
         shutil.copytree(folder, f2)
         meta = json.loads((f2 / "session.json").read_text())
-        meta["plan"]["source"] = PLAN.format(rule=rule, mpe=mpe)
+        text = small.format(rule=rule, mpe=mpe).replace(
+            'type = "sphere"\ndiameter_mm = 25.3962',
+            f'type = "sphere"\ncoverage_factor = {k}\ndiameter_mm = 25.3962',
+        )
+        meta["plan"]["source"] = text
         (f2 / "session.json").write_text(json.dumps(meta))
         p = run("verify", str(f2), "--partial", "--json", "-")
         assert p.returncode == code, p.stderr
         res = next(r for r in json.loads(p.stdout)["results"] if r["key"] == "p_size")
-        assert res["verdict"] == verdict
+        assert res["verdict"] == verdict and res["u_mm"] == pytest.approx(u or 0.0005)
         assert res["zone"] == "neither proved (within U of the MPE)"
-        assert res["limit_mm"] == pytest.approx(mpe_v - (rule != "simple") * 0.0005)
+        assert res["limit_mm"] == pytest.approx(mpe_v - u)
 
 
 def test_bad_sessions(good: tuple[Path, Plan], tmp_path: Path) -> None:

@@ -23,10 +23,11 @@ worst one is reported and judged: the largest ratio of value to acceptance
 limit (so for E_Uni, whose MPE grows with the length, not necessarily the
 largest error); every value is kept in the result's ``items``.
 
-The test uncertainty U (k = 2) is the artefact's stated expanded uncertainty:
-the calibrated diameter's for P_Size and the effective diameter, the
-sphere's stated form for P_Form, the calibrated length's for E_Uni and
-volumetric performance, none (0) for L_Dia and the seat tests.
+The test uncertainty U (k = 2) comes from the artefact's stated expanded
+uncertainty (divided by its coverage factor, times 2): the calibrated
+diameter's for P_Size and the effective diameter, the calibrated length's
+for E_Uni and volumetric performance; for P_Form the sphere's stated form
+deviation; none (0) for L_Dia and the seat tests.
 """
 
 from __future__ import annotations
@@ -280,8 +281,10 @@ def _step_points(
     return by_step
 
 
-def _u(value: float | None) -> float:
-    return 0.0 if value is None else float(value)
+def _u(art: Any, expanded: float | None) -> float:
+    """The test's expanded uncertainty (k = 2) from an artefact's stated one (its own k)."""
+    u = art.standard_uncertainty(expanded)
+    return 0.0 if u is None else 2.0 * float(u)
 
 
 def evaluate(
@@ -418,7 +421,7 @@ def _lengths(
             )
         t = length_error(p[a], p[b], art.length_mm, as_sphere=art.ends == "sphere")
         m = None if e_uni is None else float(e_uni.at(art.length_mm))
-        d = decide(abs(t.error), m, _u(art.length_uncertainty_mm), rule)
+        d = decide(abs(t.error), m, _u(art, art.length_uncertainty_mm), rule)
         out.append(LengthMeasurement(step.id, pos, t, m, d))
     return out
 
@@ -439,7 +442,11 @@ def _results(
 
     def sphere_u(step_id: str, attr: str) -> float:
         art = plan.artefact_of(plan.step(step_id))
-        return _u(getattr(art, attr)) if isinstance(art, Sphere) else 0.0
+        if not isinstance(art, Sphere):
+            return 0.0
+        if attr == "form_mm":  # a calibrated form deviation, not an uncertainty
+            return 0.0 if art.form_mm is None else float(art.form_mm)
+        return _u(art, getattr(art, attr))
 
     def sizes(steps: list[SphereStep], mpe_mm: float | None) -> list[Value]:
         return [
