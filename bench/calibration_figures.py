@@ -125,7 +125,6 @@ def eccentricity() -> None:
         s.cone_q = [reading(q) for q in s.cone_q]
         s.length_qa, s.length_qb = reading(s.length_qa), reading(s.length_qb)
         chi = calibrate(observations(s)).chi_square
-        top = chi.suspects[0] if chi.suspects else None
         emit(
             figure="unmodelled eccentricity",
             seed=seed,
@@ -134,8 +133,7 @@ def eccentricity() -> None:
             verdict=chi.verdict,
             chi2_ratio=round(chi.ratio, 2),
             p_value=float(f"{chi.p_value:.2g}"),
-            suspect=top.name if top else None,
-            suspect_amplitude_urad=round(top.amplitude * 1e6, 1) if top else None,
+            suspects=[(x.name, round(x.amplitude * 1e6, 1)) for x in chi.suspects],
         )
 
 

@@ -5,16 +5,18 @@
 
 CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
                   tests/host/test_calibration_report.py tests/host/test_calibration_cli.py \
+                  tests/host/test_calibration_e2e.py \
                   host/src/aacmm/commands/calibrate.py \
                   tests/host/calib_synth.py bench/bench_calibration.py bench/calibration_figures.py
 CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 .PHONY: test-calibration test-calibration-lint bench-calibration
 
-test-calibration:
+#> test-calibration     engine vs synthetic truths (200 seeded runs), reports, aacmm calibrate, end to end on the simulator
+test-calibration: sim
 	$(CALIB_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_calibration.py tests/host/test_calibration_report.py \
-	    tests/host/test_calibration_cli.py
+	    tests/host/test_calibration_cli.py tests/host/test_calibration_e2e.py
 	@$(MAKE) --no-print-directory test-calibration-lint
 
 #> test-calibration-lint  ruff, ruff format, mypy on the calibration code (part of test-calibration)
@@ -25,6 +27,7 @@ test-calibration-lint:
 
 TEST_SUITES += test-calibration
 
+#> bench-calibration    calibration of 1,000 and 100,000 observations, probe calibration of 50 points
 bench-calibration:
 	@$(CALIB_ENV) $(PYTHON) bench/bench_calibration.py
 BENCH_TARGETS += bench-calibration

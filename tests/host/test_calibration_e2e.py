@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 import subprocess
 import sys
@@ -47,7 +48,12 @@ def _env() -> dict[str, str]:
 
 def _aacmm(*args: str, timeout: float = 240) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [str(AACMM), *args], capture_output=True, text=True, timeout=timeout, env=_env(), check=False
+        [str(AACMM), *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=_env(),
+        check=False,
     )
 
 
@@ -129,6 +135,13 @@ def test_end_to_end_on_the_simulator(tmp_path: Path) -> None:
     prov = _calibrate(s1, cal)
     chi = prov["result"]["chi_square"]  # type: ignore[index]
     assert chi["verdict"] == "incomplete" and "MODEL INCOMPLETE" in chi["text"], chi["text"]
+    for sus in chi["suspects"]:  # a joint it names has the eccentricity the truth has
+        joint = int(sus["name"].split()[1]) - 1
+        true_rad = eccentric.errors.eccentricity_arcsec[joint] * math.pi / 648000
+        assert abs(sus["amplitude"] - true_rad) <= 4 * sus["amplitude_sd"] + 0.1 * true_rad, (
+            sus,
+            true_rad,
+        )
 
     # 3. load it into the device, take a fresh session: errors fall by >= 20x
     _params_set(storage, cal)

@@ -287,6 +287,8 @@ def to_json(res: CalibrationResult, cmp_: Comparison | None = None) -> dict[str,
                     "chi2_drop": s.chi2_drop,
                     "excess": s.excess,
                     "amplitude": s.amplitude,
+                    "amplitude_sd": s.amplitude_sd,
+                    "explained": s.explained,
                     "unit": s.unit,
                 }
                 for s in chi.suspects

@@ -91,9 +91,11 @@ class Outlier:
 class Suspect:
     """A candidate unmodelled error found in the residuals of an inconsistent fit.
 
-    ``name``: e.g. ``joint 3 once-per-revolution``; ``chi2_drop``: how much
-    chi^2 it would explain (of ``excess`` = chi^2 - dof); ``amplitude``: its
-    size (rad for an angle error).
+    ``name``: e.g. ``joint 3 once-per-revolution angle``; ``chi2_drop``: its
+    significance given the other suspects (Wald statistic, chi-square with 2
+    dof if it were absent); ``excess``: chi^2 - dof of the fit; ``amplitude``
+    and ``amplitude_sd``: its size and standard uncertainty (rad);
+    ``explained``: how much chi^2 the extended model (every joint) removes.
     """
 
     name: str
@@ -101,6 +103,8 @@ class Suspect:
     excess: float
     amplitude: float
     unit: str
+    amplitude_sd: float = 0.0
+    explained: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -146,11 +150,17 @@ class ChiSquare:
             f"(p < {self.alpha:g}): an unmodelled error, or uncertainties understated"
         )
         if self.suspects:
-            s = self.suspects[0]
-            share = min(100.0, 100 * s.chi2_drop / max(s.excess, 1e-300))
+            share = min(
+                100.0, 100 * self.suspects[0].explained / max(self.suspects[0].excess, 1e-300)
+            )
+            joints = ", ".join(
+                f"{s.name.split(' once')[0]} {s.amplitude * 1e6:.1f} +- "
+                f"{s.amplitude_sd * 1e6:.1f} urad"
+                for s in self.suspects
+            )
             text += (
-                f"; the residuals look like a {s.name} error of {s.amplitude * 1e6:.1f} urad "
-                f"(explains {share:.0f} % of the excess)"
+                f"; the residuals look like once-per-revolution angle errors (eccentric encoders): "
+                f"{joints} (explaining {share:.0f} % of the excess)"
             )
         return text
 
@@ -388,7 +398,17 @@ def _chi_square(
 
 
 def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> tuple[Suspect, ...]:
-    """Per joint: how much of chi^2 a once-per-revolution angle error would explain."""
+    """Once-per-revolution angle errors of the joints that the residuals show.
+
+    The model extended by e_k(q) = s_k sin q_k + c_k cos q_k on every joint (what
+    an eccentric encoder disc gives), fitted to the residuals jointly: the
+    columns dp/dq_k sin q_k and dp/dq_k cos q_k, projected like the rest and
+    made orthogonal to the identifiable columns (so the coefficients are
+    those of the joint fit with the arm's parameters, Frisch-Waugh-Lovell).
+    A joint is a suspect when its pair is significant given the others (Wald
+    statistic over chi-square(2) at 1e-6); the suspects are returned only if
+    the extended model explains at least half of the excess chi^2 - dof.
+    """
     theta = problem.obs.theta_rad
     extra = np.zeros((theta.shape[0], 3, 2 * JOINTS))
     for k in range(JOINTS):
@@ -396,29 +416,38 @@ def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> 
         extra[:, :, 2 * k] = col * np.sin(theta[:, k])[:, None]
         extra[:, :, 2 * k + 1] = col * np.cos(theta[:, k])[:, None]
     ext = problem.evaluate(ev.params, extra_point_jac=extra)
-    jx = ext.jac[:, 25:]
     a = ev.jac @ basis
-    q, _ = np.linalg.qr(a) if a.shape[1] else (np.zeros((a.shape[0], 0)), None)
+    b = ext.jac[:, 25:]
+    if a.shape[1]:
+        q, _ = np.linalg.qr(a)
+        b = b - q @ (q.T @ b)
     excess = max(ev.chi2 - dof, 0.0)
+    coef, *_ = np.linalg.lstsq(b, ev.r, rcond=None)
+    fit = b @ coef
+    explained = float(fit @ (2 * ev.r - fit))
+    if explained < max(0.5 * excess, 25.0):
+        return ()
+    cov = np.linalg.pinv(b.T @ b)
+    limit = float(stats.chi2.isf(1e-6, 2))
     out = []
     for k in range(JOINTS):
-        b = jx[:, 2 * k : 2 * k + 2]
-        b = b - q @ (q.T @ b)
-        coef, *_ = np.linalg.lstsq(b, ev.r, rcond=None)
-        fit = b @ coef
-        drop = float(fit @ (2 * ev.r - fit))
-        out.append(
-            Suspect(
-                f"joint {k + 1} once-per-revolution angle",
-                drop,
-                excess,
-                float(np.hypot(*coef)),
-                "rad",
+        ck = coef[2 * k : 2 * k + 2]
+        vk = cov[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
+        wald = float(ck @ np.linalg.pinv(vk) @ ck)
+        if wald > limit:
+            out.append(
+                Suspect(
+                    f"joint {k + 1} once-per-revolution angle",
+                    wald,
+                    excess,
+                    float(np.hypot(*ck)),
+                    "rad",
+                    float(np.sqrt(np.trace(vk) / 2.0)),
+                    explained,
+                )
             )
-        )
     out.sort(key=lambda s: -s.chi2_drop)
-    # worth naming only if it explains a clear part of the excess
-    return tuple(s for s in out if s.chi2_drop > max(0.5 * excess, 25.0))
+    return tuple(out)
 
 
 def find_outliers(
