@@ -76,6 +76,13 @@ def test_log_format_and_reader(tmp_path: Path) -> None:
     # the trigger file joins the sample file on seq and names the same set
     trig = read_triggers(log)
     assert trig and all(t.param_set.crc32 == meta["param_crc32"] for t in trig)
+    seq = log.column("seq", "int").tolist()
+    dev_t = dict(zip(seq, log.column("device_time_us", "int").tolist(), strict=True))
+    joined = [t for t in trig if t.sample.seq in dev_t]
+    assert len(joined) >= len(trig) - 1  # a press after the last sample has none to join
+    for t in joined:  # the sample after the edge (#14.5), and never the trigger's own
+        assert t.sample.timestamp_us <= dev_t[t.sample.seq]
+        assert t.sample.status & 0x80  # TRIGGER_EVENT
     # --from-log labels the presses in plan order
     s_dir = tmp_path / "s"
     p = run("capture", "probe-calibration", "-o", str(s_dir), "--from-log", str(out))
