@@ -8,8 +8,11 @@
 
 #define CPR_MAX (UINT64_C(1) << 32)
 
-/* 2 pi in Q61, round-to-nearest of 2 pi * 2^61 (relative error < 4e-20). */
-#define TWO_PI_Q61 UINT64_C(0xC90FDAA22168C235)
+/* floor(2 pi * 2^189) as six 32-bit limbs, most significant first; the first
+ * n limbs are floor(2 pi * 2^(32 n - 3)). (The hex digits of pi: C90FDAA2
+ * 2168C234 C4C6628B 80DC1CD1 are also those of RFC 2409's primes.) */
+static const uint32_t two_pi_limbs[6] = {0xC90FDAA2u, 0x2168C234u, 0xC4C6628Bu,
+                                         0x80DC1CD1u, 0x29024E08u, 0x8A67CC74u};
 
 /* Leading zeros of x (64 for 0). GCC and clang have an instruction for it
  * (CLZ on ARMv7-M, LZCNT/BSR on x86); elsewhere, halving in at most 6 steps. */
@@ -134,65 +137,103 @@ aacmm_status_t aacmm_encoder_to_bam(const aacmm_encoder_config_t *config,
 }
 
 
-/* Shift the 96-bit value top:low32 left until bit 63 of top is set,
- * lowering *e by the shift. Requires top:low32 != 0. */
-static void normalise96(uint64_t *top, uint64_t *low32, int *e)
+/* Limbs of a long number: 32 bits each, most significant first. */
+#define ANGLE_LIMBS_MAX 7 /* magnitude (1 limb) x 6 limbs of 2 pi */
+
+/* Bit `idx` (0 = least significant) of the long number q of nq limbs. */
+static uint32_t limb_bits(const uint32_t *q, int nq, int idx)
 {
-    int k;
-    if (*top == 0u) {
-        *top = *low32;
-        *low32 = 0u;
-        *e -= 32;
+    return q[nq - 1 - idx / 32] >> (idx % 32);
+}
+
+/*
+ * 1 if the exact value, which lies in [Q, Q + 1.5) units of Q's last bit, may
+ * be on the other side of the midpoint between two results rounded to `pos`
+ * significant bits: if the bits of Q below the kept ones read 0111...1 or
+ * 0111...10 (the midpoint 1000...0 minus one or two units). Q's top bit is
+ * bit top_bit.
+ */
+static int near_midpoint(const uint32_t *q, int nq, int top_bit, int pos)
+{
+    const int d = top_bit - pos; /* the first bit not kept: must be 0, all below 1 */
+    const int limb = d / 32;
+    const int bit = d % 32;
+    const uint32_t mask = (bit == 31) ? 0xFFFFFFFFu : ((UINT32_C(1) << (bit + 1)) - 1u);
+    const uint32_t want = (UINT32_C(1) << bit) - 1u; /* ones below bit d, zero at d */
+    int i;
+    if (d < 2) {
+        return 1; /* too few bits below the rounding point to decide */
     }
-    k = clz64(*top);
-    if (k >= 32) {
-        *top = (*top << k) | (*low32 << (k - 32));
-        *low32 = 0u;
-    } else if (k > 0) {
-        *top = (*top << k) | (*low32 >> (32 - k));
-        *low32 = (*low32 << k) & 0xFFFFFFFFu;
+    for (i = 0; i < limb; i++) {
+        if ((q[nq - 1 - i] | (i == 0 ? 1u : 0u)) != 0xFFFFFFFFu) {
+            return 0;
+        }
     }
-    *e -= k;
+    return ((limb_bits(q, nq, 32 * limb) | (limb == 0 ? 1u : 0u)) & mask) == want;
+}
+
+/*
+ * |s| * 2 pi / cpr with the first n limbs of 2 pi: *mant (bit 63 set, bit 0
+ * the sticky bit) and *exp2 as aacmm_internal_angle_exact; returns 1 if that
+ * rounds correctly to float and double (the decision is certain), 0 if the
+ * exact value may lie on the other side of a rounding midpoint.
+ */
+static int angle_with_limbs(uint32_t magnitude, uint64_t cpr, int n, uint64_t *mant, int *exp2)
+{
+    uint32_t q[ANGLE_LIMBS_MAX];
+    const int nq = n + 1;
+    uint64_t carry = 0u;
+    int i, top_bit, e;
+    /* P = magnitude * floor(2 pi 2^(32 n - 3)), exact, n + 1 limbs. The exact
+     * value magnitude * 2 pi 2^(32 n - 3) lies in [P, P + magnitude). */
+    for (i = n - 1; i >= 0; i--) {
+        const uint64_t t = (uint64_t)magnitude * two_pi_limbs[i] + carry;
+        q[i + 1] = (uint32_t)(t & 0xFFFFFFFFu);
+        carry = t >> 32;
+    }
+    q[0] = (uint32_t)carry;
+    e = -(32 * n - 3);
+    if ((cpr & (cpr - 1u)) == 0u) {
+        e -= 63 - clz64(cpr); /* a power of two: an exponent change */
+    } else {
+        /* Q = floor(P / cpr), long division (cpr < 2^32): the exact quotient
+         * lies in [Q, Q + 1 + magnitude / cpr) c [Q, Q + 1.5). */
+        uint64_t r = 0u;
+        for (i = 0; i < nq; i++) {
+            const uint64_t cur = (r << 32) | q[i];
+            q[i] = (uint32_t)(cur / cpr);
+            r = cur % cpr;
+        }
+    }
+    /* the top bit of Q, counted from its least significant bit */
+    for (i = 0; i < nq && q[i] == 0u; i++) {
+    }
+    top_bit = 32 * (nq - i) - 1 - (clz64(q[i]) - 32);
+    /* the 64 bits from the top (Q has at least 32 n - 32 >= 96 bits here):
+     * limbs of bits lo .. lo + 95 combined, lo = top_bit - 63 */
+    {
+        const int lo = top_bit - 63;
+        const int sh = lo % 32;
+        const int k = nq - 1 - lo / 32; /* the limb holding bit lo */
+        uint64_t m = ((uint64_t)q[k - 1] << 32 | q[k]) >> sh;
+        if (sh != 0) {
+            m |= (uint64_t)q[k - 2] << (64 - sh);
+        }
+        /* The exact value is strictly above Q (2 pi is irrational), so some
+         * bit below the kept ones is set: the sticky bit. */
+        *mant = m | 1u;
+        *exp2 = e + lo;
+    }
+    /* rounding to double keeps 53 bits, to float 24 */
+    return !near_midpoint(q, nq, top_bit, 53) && !near_midpoint(q, nq, top_bit, 24);
 }
 
 void aacmm_internal_angle_exact(uint32_t magnitude, uint64_t cpr, uint64_t *mant, int *exp2)
 {
-    /* P = magnitude * 2pi*2^61 as a 96-bit value top:low32 (top = bits 95..32). */
-    uint64_t lo = (uint64_t)magnitude * (TWO_PI_Q61 & 0xFFFFFFFFu);
-    uint64_t hi = (uint64_t)magnitude * (TWO_PI_Q61 >> 32);
-    uint64_t top = hi + (lo >> 32); /* < 2^64: hi <= (2^32-1)^2, lo>>32 < 2^32 */
-    uint64_t low32 = lo & 0xFFFFFFFFu;
-    int sticky = 0;
-    /* The value is (top * 2^32 + low32) * 2^(e - 32), about top * 2^e. */
-    int e = -61 + 32;
-
-    /* Put the leading one at bit 95 first, so that the quotient below keeps
-     * at least 64 significant bits (dividend >= 2^95, divisor < 2^32). */
-    normalise96(&top, &low32, &e);
-    if ((cpr & (cpr - 1u)) == 0u) {
-        /* Power of two 2^n: dividing is an exponent change by n. */
-        e -= 63 - clz64(cpr);
-    } else {
-        /* cpr < 2^32: schoolbook division of three 32-bit limbs by one. */
-        uint64_t r = (top >> 32) % cpr;
-        uint64_t q2 = (top >> 32) / cpr;
-        uint64_t cur = (r << 32) | (top & 0xFFFFFFFFu);
-        uint64_t q1 = cur / cpr;
-        uint64_t q0;
-        r = cur % cpr;
-        cur = (r << 32) | low32;
-        q0 = cur / cpr;
-        r = cur % cpr;
-        sticky = (r != 0u);
-        top = (q2 << 32) | q1;
-        low32 = q0;
-        normalise96(&top, &low32, &e);
+    /* 2 pi to 128 bits decides almost every reading; a reading whose exact
+     * value lies within 1.5 units of the 128-bit quotient's last bit of a
+     * rounding midpoint (about 1 in 2^70) is redone with 192 bits. */
+    if (!angle_with_limbs(magnitude, cpr, 4, mant, exp2)) {
+        (void)angle_with_limbs(magnitude, cpr, 6, mant, exp2);
     }
-    if (low32 != 0u) {
-        sticky = 1;
-    }
-    /* Bit 0 carries the sticky bit: 64 bits hold at least 11 more than a
-     * double's 53, so rounding mant to float or double is then correct. */
-    *mant = top | (uint64_t)sticky;
-    *exp2 = e;
 }
