@@ -30,7 +30,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -91,22 +90,9 @@ def _std(art: pm.Artefact, expanded: float | None) -> float:
     return 0.0 if u is None else float(u)
 
 
-class Label(Protocol):
-    """What the mapping reads of a point's labels (a session's point or a plan's slot)."""
-
-    @property
-    def step_index(self) -> int: ...
-    @property
-    def point_index(self) -> int: ...
-    @property
-    def position_index(self) -> int | None: ...
-    @property
-    def end(self) -> str | None: ...
-
-
 def _step_constraints(
     plan: pm.Plan,
-    labels: Sequence[Label],
+    labels: Sequence[pm.PointLabel],
     step: pm.Step,
     rows: IntArray,
     base_known: bool,
@@ -176,7 +162,7 @@ def observations_from_plan(
     theta_rad: npt.ArrayLike,
     sigma_mm: float = DEFAULT_SIGMA_MM,
     base_known: bool = False,
-    labels: Sequence[Label] | None = None,
+    labels: Sequence[pm.PointLabel] | None = None,
     where: str = "",
 ) -> tuple[Observations, list[str], list[str]]:
     """Observations of a plan's points: the mapping of the module doc, step by step.
@@ -194,7 +180,7 @@ def observations_from_plan(
     where = where or f"plan {plan.title}"
     if n == 0:
         raise SessionDataError(f"{where}: no points")
-    labs: Sequence[Label] = labels if labels is not None else plan.slots[:n]
+    labs: Sequence[pm.PointLabel] = labels if labels is not None else plan.slots[:n]
     if len(labs) != n:
         raise SessionDataError(f"{where}: {n} poses for {len(labs)} labelled points")
     step_of = np.array([lab.step_index for lab in labs], dtype=np.intp)
