@@ -7,6 +7,7 @@ import json
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -20,6 +21,8 @@ from aacmm.records import (
     SessionWriter,
     read_session,
 )
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -197,3 +200,50 @@ def test_param_set_record_json_round_trip() -> None:
     back = ParamSetRecord.from_json(json.loads(json.dumps(other.to_json())), "x")
     assert back == other
     assert math.isclose(back.params.l_mm, 150.0)
+
+
+_mutation = st.tuples(
+    st.integers(0, 10**6),
+    st.sampled_from(["del", "ins", "flip"]),
+    st.binary(min_size=1, max_size=8),
+)
+
+
+_GOLDEN: Path | None = None
+
+
+@settings(max_examples=120, deadline=None)
+@given(st.lists(_mutation, min_size=1, max_size=4))
+def test_damaged_files_are_refused_cleanly(tmp_path_factory: Any, muts: list[Any]) -> None:
+    """Every file is hostile: a session or log damaged at random is read or refused with
+    RecordError (one line), never another exception."""
+    import shutil
+
+    from aacmm.records.logs import read_log
+
+    global _GOLDEN
+    if _GOLDEN is None:
+        _GOLDEN = tmp_path_factory.mktemp("golden")
+        w = SessionWriter.create(_GOLDEN / "s", load_plan("probe-calibration"))
+        fill(w, PAPER, 4, np.random.default_rng(8))
+        w.close("interrupted")
+        (_GOLDEN / "run.csv").write_text((_GOLDEN / "s" / "points.csv").read_text())
+    base = tmp_path_factory.mktemp("d")
+    shutil.copytree(_GOLDEN, base, dirs_exist_ok=True)
+    log = base / "run.csv"
+    for target in (base / "s" / "points.csv", base / "s" / "session.json", log):
+        data = bytearray(target.read_bytes())
+        for pos, op, blob in muts:
+            i = pos % (len(data) + 1)
+            if op == "del":
+                del data[i : i + len(blob)]
+            elif op == "ins":
+                data[i:i] = blob
+            elif data:
+                data[i % len(data)] ^= blob[0] or 1
+        target.write_bytes(bytes(data))
+    for read in (lambda: read_session(base / "s"), lambda: read_log(log)):
+        try:
+            read()
+        except RecordError as exc:
+            assert "\n" not in str(exc)
