@@ -151,6 +151,8 @@ class StreamStats:
     """Samples flagged OVERRUN by the device (it dropped samples before them)."""
     dropped: int = 0
     """Samples discarded on the host because the consumer fell ``max_queue`` behind."""
+    foreign: int = 0
+    """Samples of an earlier stream (device time before this one began), not taken."""
     first_seq: int | None = None
     last_seq: int | None = None
 
@@ -189,6 +191,7 @@ class SampleStream:
         """The device's STREAM_START_RSP (rate and content it runs with)."""
         self.stats = StreamStats()
         self._queue: deque[Sample] = deque()
+        self._fence_us: int | None = None  # device time after the previous stream stopped
         self._cond = threading.Condition()
         self._ended = False
         self._error: BaseException | None = None
@@ -198,6 +201,9 @@ class SampleStream:
         st = self.stats
         with self._cond:
             if self._ended:
+                return
+            if self._fence_us is not None and not _after(sample.timestamp_us, self._fence_us):
+                st.foreign += 1  # read before this stream began: an earlier stream's
                 return
             st.received += 1
             if st.last_seq is None:
@@ -288,6 +294,14 @@ class SampleStream:
             self.stop()
         except AacmmError:
             pass  # do not mask the exception that ended the block
+
+
+def _after(t_us: int, fence_us: int) -> bool:
+    """Device time ``t_us`` is later than ``fence_us``, compared on the low 32 bits
+    (CAN sample frames carry only those; a difference beyond 2^31 us, 35 min, is
+    earlier)."""
+    d = (t_us - fence_us) & 0xFFFFFFFF
+    return 0 < d < 1 << 31
 
 
 def step_is_newer(last: int | None, seq: int) -> bool:
@@ -633,11 +647,16 @@ class Client:
             if self._stream is not None:
                 raise OperationError("a stream is already open on this client")
         # A new stream holds only its own samples (#15.1): the device may still be
-        # streaming for a client that went away (a logger killed with -9). Stop that
-        # stream first; the link delivers in order, so once the stop is answered
-        # every sample of the old stream has been received (and counted as
-        # unsolicited), and every sample after the new stream is registered is its own.
+        # streaming for a client that went away (a logger killed with -9), and its
+        # queued samples may follow our requests' answers (responses do not wait
+        # behind samples). So stop that stream, then read the device's clock: every
+        # sample of the old stream was read before that instant, every sample of the
+        # new one after it; the stream takes only samples newer than this fence.
         self.request(MsgType.STREAM_STOP_REQ)
+        try:
+            stream._fence_us = self.measure().timestamp_us
+        except DeviceError:
+            stream._fence_us = None  # no clock reading: the stop alone must do
         with self._lock:
             if self._stream is not None:
                 raise OperationError("a stream is already open on this client")
