@@ -9,7 +9,8 @@ ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/
                      tests/host/test_core_kernels.py tests/host/test_core_encoder.py \
                      tests/host/test_mc.py \
                      tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
-                     tests/host/interrupt.py host/src/aacmm/commands/mc.py \
+                     tests/host/interrupt.py tests/host/portability.py \
+                     tests/host/test_packaging.py host/src/aacmm/commands/mc.py \
                      host/src/aacmm/commands/uncertainty.py bench/bench_analysis.py
 ANALYSIS_C := firmware/src/analysis.c firmware/src/simd/simd_dispatch.c \
               firmware/src/simd/simd_f64.c firmware/src/simd/simd_f32.c
@@ -49,3 +50,12 @@ TEST_SUITES += test-analysis test-analysis-scalar test-analysis-c test-analysis-
 bench-analysis:
 	@$(PYTHON) bench/bench_analysis.py
 BENCH_TARGETS += bench-analysis
+
+# The host package as a user installs it (#14.10): an sdist of host/ alone
+# (with the C sources), a wheel built from it far from the repository,
+# installed and run; no setuptools warning; sim's messages when pip-installed.
+test-packaging:
+	$(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
+	    tests/host/test_packaging.py
+.PHONY: test-packaging
+TEST_SUITES += test-packaging

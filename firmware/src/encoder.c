@@ -180,7 +180,7 @@ static int near_midpoint(const uint32_t *q, int nq, int top_bit, int pos)
  */
 static int angle_with_limbs(uint32_t magnitude, uint64_t cpr, int n, uint64_t *mant, int *exp2)
 {
-    uint32_t q[ANGLE_LIMBS_MAX];
+    uint32_t q[ANGLE_LIMBS_MAX] = {0};
     const int nq = n + 1;
     uint64_t carry = 0u;
     int i, top_bit, e;

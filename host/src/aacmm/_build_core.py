@@ -1,8 +1,9 @@
 """cffi build script: binds the firmware's kinematics core into ``aacmm._core``.
 
 Run by setuptools (``cffi_modules`` in host/setup.py) when the package is
-built or installed; it compiles the firmware's own C sources (not a copy), so
-the host analysis runs exactly the code the arm runs (double-precision build).
+built or installed; it compiles the firmware's own C sources (in a checkout
+the repository's firmware/, in an sdist the copy setup.py bundled under
+csrc/), so the host analysis runs exactly the code the arm runs.
 """
 
 from __future__ import annotations
@@ -12,10 +13,14 @@ from pathlib import Path
 from cffi import FFI
 
 _HERE = Path(__file__).resolve().parent
-# host/src/aacmm -> repository root
-ROOT = _HERE.parents[2]
-FW_INC = ROOT / "firmware" / "include"
-FW_SRC = ROOT / "firmware" / "src"
+HOST = _HERE.parents[1]  # host/src/aacmm -> host
+# The firmware's C sources: bundled under host/csrc/ in an sdist (setup.py's
+# sdist command copies them there), else the repository's firmware/ next to host/.
+_BUNDLED = HOST / "csrc" / "firmware"
+_CHECKOUT = HOST.parent / "firmware"
+FIRMWARE = _BUNDLED if _BUNDLED.is_dir() else _CHECKOUT
+FW_INC = FIRMWARE / "include"
+FW_SRC = FIRMWARE / "src"
 SOURCES = [
     FW_SRC / "status.c",
     FW_SRC / "encoder.c",
@@ -26,6 +31,28 @@ SOURCES = [
     FW_SRC / "simd" / "simd_f64.c",
     FW_SRC / "simd" / "simd_f32.c",
 ]
+
+
+def c_sources() -> list[tuple[Path, str]]:
+    """Every file the extension is compiled from, as (path, path under csrc/).
+
+    The sources above and every header they may include: the public headers
+    and the core's own (firmware/src and firmware/src/simd, not the device,
+    simulator or protocol directories).
+    """
+    root = FIRMWARE.parent
+    files = sorted(FW_INC.glob("aacmm/*.h"))
+    for d in (FW_SRC, FW_SRC / "simd"):
+        files += sorted(p for p in d.iterdir() if p.suffix in (".c", ".h"))
+    return [(p, p.relative_to(root).as_posix()) for p in files]
+
+
+if not (FW_SRC / "kinematics_impl.h").is_file():
+    raise RuntimeError(
+        f"aacmm: the C sources of the kinematics core are missing (looked in {_BUNDLED} and "
+        f"{_CHECKOUT}): build the package from the repository's host/ directory, or from an "
+        "sdist made there (python -m build --sdist host/ or pip wheel host/)"
+    )
 
 CDEF = """
 typedef enum {

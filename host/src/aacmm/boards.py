@@ -71,8 +71,9 @@ def _board(name: str) -> Board:
         raise ValueError(f"unknown board {name!r}; boards: {', '.join(BOARDS)}") from None
 
 
-def repo_root() -> Path:
-    """The checkout this module belongs to (``$AACMM_ROOT`` overrides)."""
+def repo_root() -> Path | None:
+    """The checkout this module belongs to (``$AACMM_ROOT`` overrides); None
+    for a pip-installed package (never the current directory)."""
     env = os.environ.get("AACMM_ROOT")
     if env:
         return Path(env)
@@ -80,13 +81,22 @@ def repo_root() -> Path:
     for parent in here.parents:
         if (parent / "firmware" / "boards").is_dir():
             return parent
-    return Path.cwd()
+    return None
 
 
 def default_image(board: str, image: str = "fw") -> Path:
-    """``build/boards/<board>/<image>.elf`` of the checkout."""
+    """``build/boards/<board>/<image>.elf`` of the checkout.
+
+    Raises FileNotFoundError for a pip-installed package without $AACMM_ROOT.
+    """
     _board(board)
-    return repo_root() / "build" / "boards" / board / f"{image}.elf"
+    root = repo_root()
+    if root is None:
+        raise FileNotFoundError(
+            "the board images are built in the aacmm source tree ('make firmware-boards'): "
+            "set $AACMM_ROOT to that tree"
+        )
+    return root / "build" / "boards" / board / f"{image}.elf"
 
 
 def qemu_argv(

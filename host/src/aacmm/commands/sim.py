@@ -1,7 +1,9 @@
 """``aacmm sim``: start the device simulator (``aacmm-sim``) and print its URLs.
 
 The binary is ``$AACMM_SIM``, else ``build/sim/aacmm-sim`` in the source tree
-this package runs from, else ``aacmm-sim`` on ``PATH``; ``make sim`` builds
+this package runs from (an editable install), else ``aacmm-sim`` on ``PATH``
+(a pip-installed package carries no simulator: the error says how to get
+one); ``make sim`` builds
 it. The command prints one URL per link on stdout (``serial:///dev/pts/N``,
 ``socketcan://vcan0?node=1``) as soon as the simulator is ready, then runs
 until Ctrl-C or SIGTERM, which stop the simulator cleanly.
@@ -73,8 +75,15 @@ def find_simulator() -> Path:
     found = shutil.which("aacmm-sim")
     if found:
         return Path(found)
-    where = f" in {root}" if root is not None else ""
-    raise SimulatorError(f"simulator aacmm-sim not found: run 'make sim'{where} or set ${ENV_SIM}")
+    if root is not None:
+        raise SimulatorError(
+            f"simulator aacmm-sim not found: run 'make sim' in {root} or set ${ENV_SIM}"
+        )
+    raise SimulatorError(
+        "simulator aacmm-sim not found: it is not part of the pip package; build it in the "
+        "aacmm source tree with 'make sim', then set $AACMM_SIM to its build/sim/aacmm-sim "
+        "or put aacmm-sim on PATH"
+    )
 
 
 # ---------------------------------------------------------------- rendezvous
@@ -413,7 +422,7 @@ def cmd_board(args: argparse.Namespace) -> int:
     try:
         proc, url = boards.start_board(args.board)
     except FileNotFoundError as exc:
-        raise InitError(f"{exc}; run 'make firmware'") from exc
+        raise InitError(str(exc)) from exc
     except (OSError, RuntimeError, TimeoutError) as exc:
         raise InitError(f"cannot start the {args.board} board: {exc}") from exc
     stop = threading.Event()
