@@ -100,6 +100,17 @@ def _env(inst: Path, **extra: str) -> dict[str, str]:
     return env
 
 
+def _aacmm(args: list[str], cwd: Path, inst: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "aacmm.cli", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=_env(inst),
+    )
+
+
 def test_the_build_prints_no_setuptools_warning(installed: tuple[Path, str]) -> None:
     _, log = installed
     lowered = log.lower()
@@ -147,14 +158,7 @@ def test_sim_without_a_simulator_says_how_to_get_one(
     installed: tuple[Path, str], tmp_path: Path
 ) -> None:
     inst, _ = installed
-    out = subprocess.run(
-        [sys.executable, "-m", "aacmm.cli", "sim"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        env=_env(inst),
-    )
+    out = _aacmm(["sim"], tmp_path, inst)
     assert out.returncode == 3
     (line,) = out.stderr.strip().splitlines()
     assert "not part of the pip package" in line and "make sim" in line and "AACMM_SIM" in line
@@ -167,14 +171,7 @@ def test_sim_board_never_looks_under_the_current_directory(
     planted = tmp_path / "build" / "boards" / "microbit" / "fw.elf"
     planted.parent.mkdir(parents=True)
     planted.write_bytes(b"not an image")
-    out = subprocess.run(
-        [sys.executable, "-m", "aacmm.cli", "sim", "--board", "microbit"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        env=_env(inst),
-    )
+    out = _aacmm(["sim", "--board", "microbit"], tmp_path, inst)
     assert out.returncode == 3
     (line,) = out.stderr.strip().splitlines()
     assert "source tree" in line and "AACMM_ROOT" in line and str(tmp_path) not in line
