@@ -202,7 +202,8 @@ class SampleStream:
         with self._cond:
             if self._ended:
                 return
-            if self._fence_us is not None and not _after(sample.timestamp_us, self._fence_us):
+            fence = self._fence_us
+            if fence is not None and not device_time_after(sample.timestamp_us, fence):
                 st.foreign += 1  # read before this stream began: an earlier stream's
                 return
             st.received += 1
@@ -296,7 +297,7 @@ class SampleStream:
             pass  # do not mask the exception that ended the block
 
 
-def _after(t_us: int, fence_us: int) -> bool:
+def device_time_after(t_us: int, fence_us: int) -> bool:
     """Device time ``t_us`` is later than ``fence_us``, compared on the low 32 bits
     (CAN sample frames carry only those; a difference beyond 2^31 us, 35 min, is
     earlier)."""

@@ -90,6 +90,8 @@ class Capture:
         self.keys = False
         self._tty_state: Any = None
         self.stop_reason: str | None = None
+        self.fence_us: int | None = None
+        self.stale = 0
 
     # ---------------------------------------------------------- set-up
 
@@ -158,23 +160,6 @@ class Capture:
 
     # ---------------------------------------------------------- the run
 
-    def drop_stale(self, w: SessionWriter) -> None:
-        """Forget (and journal) button events received so far: they were pressed
-        before capture was listening."""
-        stale = 0
-        while True:
-            try:
-                host_time, trig = self.events.get_nowait()
-            except queue.Empty:
-                break
-            if trig.pressed:
-                stale += 1
-                w.ignored(
-                    trig.sample, host_time, trig.button, True, "pressed before capture listened"
-                )
-        if stale:
-            print_err("capture", f"ignored {stale} button presses from before the start")
-
     def prompt(self, slot: Slot) -> None:
         if self.args.quiet:
             return
@@ -198,7 +183,15 @@ class Capture:
         print_err("capture", f"warning: the device's parameter set changed to {ps.crc_hex}")
 
     def press(self, dev: Device, w: SessionWriter, host_time: float, trig: Trigger) -> None:
+        from aacmm.client import device_time_after
+
         n = len(self.plan.slots)
+        if self.fence_us is not None and not device_time_after(
+            trig.sample.timestamp_us, self.fence_us
+        ):
+            w.ignored(trig.sample, host_time, trig.button, True, "pressed before capture listened")
+            self.stale += 1
+            return
         if trig.button == BUTTON_UNDO:
             self.undo(w, host_time)
             return
@@ -295,17 +288,19 @@ class Capture:
             dev.client.add_trigger_callback(self._on_trigger)
             stop.install()
             self.start_keys()
-            # A ping is a barrier: the link delivers in order, so every button event
-            # received before its answer was pressed before capture was listening (for
-            # example events a device queued while no host read it).
-            dev.client.ping()
-            self.drop_stale(w)
+            # The device clock now: a button event whose sample was read before it was
+            # pressed before capture listened (for example one a device queued while no
+            # host read it; answers do not wait behind queued events, so the order of
+            # arrival cannot tell).
+            self.fence_us = dev.client.measure().timestamp_us
             stream = dev.client.stream(LISTEN_RATE_HZ, timeout=self.args.stall)
             try:
                 status = self.loop(dev, w, stream, stop)
             finally:
                 with contextlib.suppress(Exception):
                     stream.stop()
+            if self.stale:
+                print_err("capture", f"ignored {self.stale} presses from before the start")
             if status == "complete":
                 reason, code = "complete", OK
                 say(f"complete: {w.accepted} points in {self.folder}")
