@@ -113,8 +113,10 @@ extern "C" {
 #define AACMM_STORE_BYTES (2u * AACMM_STORE_SLOT_BYTES) /* storage the device needs */
 
 /* ---- sizes and timing -------------------------------------------------- */
-/* Smallest serial output queue: the reserve for one response plus one more
- * frame. 4 KiB or more is advisable for 1 kHz streams with the Jacobian. */
+/* Smallest serial output queue: room for two of the largest queued bodies
+ * (each with its 6-byte header). Responses do not use it (they are framed
+ * into the device's own frame buffer). 4 KiB or more is advisable for 1 kHz
+ * streams with the Jacobian. */
 #define AACMM_DEVICE_SERIAL_TXQ_MIN (2u * AACMM_FRAME_MAX_WIRE)
 #define AACMM_DEVICE_CAN_QUEUE 64u      /* CAN frames queued in the device */
 #define AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ 100u /* CAN streams with Jacobian (ISO-TP) */
