@@ -214,3 +214,18 @@ def test_every_reader_refuses_deep_nesting(tmp_path: Path, command: list[str]) -
     p = run(*args, timeout=60)
     one_error_line(p, exitcodes.USAGE, "nested too deeply")
     assert {f.name for f in tmp_path.iterdir()} == {"deep.toml", "session"}  # nothing written
+
+
+def test_command_line_start_up_imports_nothing_heavy() -> None:
+    """Every aacmm command builds the whole parser first: a command module that
+    imports python-can, cantools, pyserial, numpy, ... at module level makes every
+    command (and `aacmm --help`) start slowly. They import them when they run."""
+    heavy = ("can", "cantools", "isotp", "serial", "numpy", "scipy", "matplotlib", "cffi")
+    code = (
+        "import sys, aacmm.cli\n"
+        "aacmm.cli.build_parser()\n"
+        f"print(' '.join(m for m in {heavy!r} if m in sys.modules))\n"
+    )
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == [], "imported while building the parser"

@@ -105,6 +105,7 @@ def test_cantools_decode_of_a_default_session() -> None:
 def test_dbc_command(tmp_path: Path) -> None:
     p = run("dbc")
     assert p.returncode == 0 and p.stdout == pcan.dbc_text(DEFAULT_CAN_NODE)
+    assert DEFAULT_CAN_NODE == 1  # as the --help text and docs/cli.md say
     out = tmp_path / "arm.dbc"
     p = run("dbc", "--node", "5", "-o", str(out))
     assert p.returncode == 0, p.stderr

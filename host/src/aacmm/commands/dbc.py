@@ -31,21 +31,21 @@ def _node(text: str) -> int:
 
 
 def register(sub: Any) -> None:
-    from aacmm.transport import DEFAULT_CAN_NODE
-
+    # (no aacmm.transport import here: it pulls python-can and cantools, and
+    # every command's start-up would pay for it)
     p = sub.add_parser(
         "dbc",
         help="print or write the CAN database (DBC) of a node, for cantools and CAN tools",
-        description="The DBC with the identifiers of CAN node N (the default node is "
-        f"{DEFAULT_CAN_NODE}, as the simulator's and the socketcan:// URL's): sample, "
-        "trigger and ISO-TP frames, so `cantools decode` and bus analysers decode a capture.",
+        description="The DBC with the identifiers of CAN node N (by default the node the "
+        "simulator and socketcan:// URLs use): sample, trigger and ISO-TP frames, so "
+        "`cantools decode` and bus analysers decode a capture.",
     )
     p.add_argument(
         "--node",
         type=_node,
-        default=DEFAULT_CAN_NODE,
+        default=None,
         metavar="N",
-        help=f"CAN node 0..15 (default {DEFAULT_CAN_NODE})",
+        help="CAN node 0..15 (default: the simulator's and the URLs' default node, 1)",
     )
     p.add_argument(
         "--all",
@@ -59,7 +59,9 @@ def register(sub: Any) -> None:
 
 def cmd_dbc(args: argparse.Namespace) -> int:
     from aacmm.protocol.can import dbc_text
+    from aacmm.transport import DEFAULT_CAN_NODE
 
+    node = DEFAULT_CAN_NODE if args.node is None else args.node
     if args.all:
         if not args.output:
             raise UsageError("--all writes sixteen files: give the directory with -o DIR")
@@ -72,11 +74,11 @@ def cmd_dbc(args: argparse.Namespace) -> int:
             write_output(path, dbc_text(n), force=args.force)
         print(f"wrote {len(files)} files aacmm-node0..15.dbc in {directory}", file=sys.stderr)
         return OK
-    text = dbc_text(args.node)
+    text = dbc_text(node)
     if args.output:
         check_outputs([args.output], args.force)
         write_output(args.output, text, force=args.force)
-        print(f"wrote {args.output} (CAN node {args.node})", file=sys.stderr)
+        print(f"wrote {args.output} (CAN node {node})", file=sys.stderr)
     else:
         sys.stdout.write(text)
     return OK
