@@ -214,3 +214,22 @@ def test_save_fsyncs_the_file_and_the_directory(tmp_path: Path) -> None:
     i_rename = next(i for i, c in enumerate(calls) if c.startswith("rename("))
     i_dir = next(i for i, c in enumerate(calls) if c.startswith("fsync(") and f"<{tmp_path}>" in c)
     assert i_open < i_fsync < i_rename < i_dir
+
+
+def test_storage_that_is_not_a_file_is_refused(tmp_path: Path) -> None:
+    """A directory as storage, or a stale FILE.tmp that cannot be removed: exit 2, one line."""
+    for store, what in (
+        (tmp_path, "is not a regular file"),
+        (tmp_path / "arm.bin", "cannot remove the stale"),
+    ):
+        if what.startswith("cannot"):
+            (tmp_path / "arm.bin.tmp").mkdir()
+            (tmp_path / "arm.bin.tmp" / "x").write_text("x")
+        p = subprocess.run(
+            [str(SIM_BIN), "--serial", "pty", "--storage", str(store)],
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+        assert p.returncode == 2 and what in p.stderr, (p.returncode, p.stderr)
+        assert len(p.stderr.strip().splitlines()) == 1
