@@ -206,7 +206,7 @@ def test_save_fsyncs_the_file_and_the_directory(tmp_path: Path) -> None:
         if not children:
             proc.kill()
         proc.wait(10)
-    calls = [line.split(" ", 1)[1] for line in trace.read_text().splitlines() if " " in line]
+    calls = [line.split(None, 1)[1] for line in trace.read_text().splitlines() if " " in line]
     tmp = f"{store}.tmp"
     i_open = next(i for i, c in enumerate(calls) if c.startswith("openat") and tmp in c)
     assert "O_EXCL" in calls[i_open] and "O_NOFOLLOW" in calls[i_open]
