@@ -198,6 +198,7 @@ class ScenarioRun:
             self._probe(p)
 
     def _following(self) -> None:
+        bad_slot: int | None = None  # a mis-probe the session took and must undo
         while True:
             done = read_progress(self.follow, self.plan_sha256) if self.follow else None
             if done is not None and (done.complete or done.next_slot >= len(self.points)):
@@ -205,6 +206,14 @@ class ScenarioRun:
             self.wait_listening()
             starts = self.chan.starts()
             prog = self._progress()
+            if bad_slot is not None:
+                if prog.next_slot == bad_slot + 1:  # still in the session: undo it
+                    p = self.points[bad_slot]
+                    self.op.undo(f"undo {p.slot.step_id} point {p.slot.point_index + 1}")
+                    if not self._wait_ack(prog, starts):
+                        continue
+                bad_slot = None
+                continue
             if prog.complete or prog.next_slot >= len(self.points):
                 return
             p = self.points[prog.next_slot]
@@ -213,11 +222,9 @@ class ScenarioRun:
                 self.done_misprobes.add(p.slot.index)
                 self._say_slot(p, f"mis-probe {m.offset_mm:g} mm: ")
                 self._probe(p, m.offset_mm)
-                if not self._wait_ack(prog, starts) or m.keep:
-                    continue
-                bad = self._progress()
-                self.op.undo(f"undo {p.slot.step_id} point {p.slot.point_index + 1}")
-                self._wait_ack(bad, starts)
+                if not m.keep:
+                    bad_slot = p.slot.index
+                self._wait_ack(prog, starts)
                 continue
             self._say_slot(p)
             self._probe(p)
