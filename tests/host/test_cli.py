@@ -609,8 +609,10 @@ def test_sim_command(tmp_path: Path) -> None:
     _sim_or_skip()
     link = tmp_path / "arm"
     proc = subprocess.Popen(
-        [str(AACMM), "sim", "--link", str(link), "--quiet", "--motion", "static"]
-        + ["--encoder", "ssi-gray", "--encoder-bits", "20", "--encoder-faults", "1000000"],
+        [
+            *(str(AACMM), "sim", "--link", str(link), "--quiet", "--motion", "static"),
+            *("--encoder", "ssi-gray", "--encoder-bits", "20", "--encoder-faults", "1000000"),
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
