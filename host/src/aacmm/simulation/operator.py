@@ -226,8 +226,10 @@ class Operator:
         target = np.asarray(target_mm, dtype=np.float64).reshape(3)
         th = np.asarray(theta, dtype=np.float64).reshape(JOINTS)
         stylus = self.arm.stylus(th)
-        back, _ = self.reach(target - self.pace.approach_mm * stylus, th, stylus)
-        self.move_to(back)
+        back = th
+        if not self.pace.fast:  # the approach along the stylus (no time to see it at --fast)
+            back, _ = self.reach(target - self.pace.approach_mm * stylus, th, stylus)
+            self.move_to(back)
         offset = self.truth.probing_offset_mm(self.rng)
         if misprobe_mm > 0:
             d = self.rng.normal(size=3)
@@ -249,7 +251,8 @@ class Operator:
             slot=slot,
         )
         self.presses.append(press)
-        self.move_to(back, duration=None if self.pace.fast else self.pace.approach_s)
+        if not self.pace.fast:
+            self.move_to(back, duration=self.pace.approach_s)
         return press
 
     def undo(self, label: str = "undo") -> Press:

@@ -14,7 +14,8 @@ or the true arm wandering on its own.
    resumed capture);
 3. deliberate mis-probes (:class:`Misprobe`): the point probed off target,
    then undone with the second button and probed again (or kept, an outlier);
-4. when every point is done it waits until the client stops streaming.
+4. when every point is done it waits until the client stops streaming (and does
+   not start again within a second).
 
 :class:`Wander` moves the true arm through random postures instead (the
 ``walk`` motion of a simulator with a truth), optionally pressing button 0
@@ -128,10 +129,16 @@ class ScenarioRun:
             self._check()
         self.op.pause(self.op.pace.reaction_s)
 
-    def wait_quiet(self) -> None:
-        """Until no link streams any more (the client finished)."""
-        while not self.chan.wait_stream(False, timeout=POLL_S * 4):
-            self._check()
+    def wait_quiet(self, grace_s: float = 1.0) -> None:
+        """Until no link streams any more (the client finished) and none starts
+        again for ``grace_s`` (the client may still ask something, or resume)."""
+        while True:
+            while not self.chan.wait_stream(False, timeout=POLL_S * 4):
+                self._check()
+            starts = self.chan.starts()
+            if not self.chan.wait_stream(after_starts=starts, timeout=grace_s):
+                self._check()
+                return
 
     def _progress(self) -> Progress:
         assert self.follow is not None
