@@ -105,10 +105,11 @@ def rendezvous_path() -> Path:
 
 def publish_urls(urls: Sequence[str]) -> Path:
     """Publish this process's simulator URLs (replacing any older file)."""
+    from aacmm.fileio import write_output
+
     path = rendezvous_path()
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text("".join(f"{u}\n" for u in urls) + f"# pid {os.getpid()}\n", encoding="ascii")
-    os.replace(tmp, path)
+    text = "".join(f"{u}\n" for u in urls) + f"# pid {os.getpid()}\n"
+    write_output(path, text, force=True)  # exclusive temp file beside it, fsync, rename
     return path
 
 
