@@ -94,14 +94,14 @@ static inline size_t VK(valid_prefix)(const REAL *th, size_t m, aacmm_status_t *
     return m;
 }
 
-/* The joint angles of W poses th[0 .. W*6-1] as six lane vectors. */
+/* The joint angles of W poses th[0 .. W*6-1] as six lane vectors, each built
+ * in registers from W scalar loads (a vector initialiser: writing the lanes
+ * into memory and reading the vector back would stall on store forwarding). */
 static inline void VK(load)(const REAL *th, VR out[AACMM_JOINTS])
 {
-    int i, l;
+    int i;
     for (i = 0; i < AACMM_JOINTS; i++) {
-        for (l = 0; l < W; l++) {
-            out[i][l] = th[l * AACMM_JOINTS + i];
-        }
+        out[i] = (VR)LANES_INIT(th + i, AACMM_JOINTS);
     }
 }
 

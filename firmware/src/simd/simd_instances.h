@@ -20,13 +20,16 @@
  * extension's, and the core tests'), so the lanes give the scalar kernel's
  * results bit for bit. (Measured with FMA: up to 1.4e-12 mm apart over 10^6
  * poses, for 10-30 % more speed.) Clang ignores the pragma under
- * -ffp-contract=fast: build these files without it. */
+ * -ffp-contract=fast: build these files without it. GCC also compiles the
+ * kernels at -O3 whatever the command line says: at -O2 it copies vectors in
+ * 16-byte pieces and reads them back whole (a store-forwarding stall), which
+ * cost the AVX2 kernel 2.5x. */
 #if defined(__clang__)
 #pragma float_control(push)
 #pragma clang fp contract(off)
 #elif defined(__GNUC__)
 #pragma GCC push_options
-#pragma GCC optimize("fp-contract=off")
+#pragma GCC optimize("O3", "fp-contract=off")
 #endif
 
 #define SIMD_PRAGMA_STR(x) _Pragma(#x)
@@ -44,6 +47,18 @@
 #define ZIPHI_8 4, 12, 5, 13, 6, 14, 7, 15
 #define ZIPLO_16 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23
 #define ZIPHI_16 8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31
+/* A vector of W values p[0], p[s], p[2 s], ... as an initialiser. */
+#define LANES_INIT_2(p, s) {(p)[0], (p)[s]}
+#define LANES_INIT_4(p, s) {(p)[0], (p)[s], (p)[2 * (s)], (p)[3 * (s)]}
+#define LANES_INIT_8(p, s)                                                                         \
+    {(p)[0],         (p)[s],         (p)[2 * (s)],   (p)[3 * (s)],                                 \
+     (p)[4 * (s)],   (p)[5 * (s)],   (p)[6 * (s)],   (p)[7 * (s)]}
+#define LANES_INIT_16(p, s)                                                                        \
+    {(p)[0],          (p)[s],          (p)[2 * (s)],    (p)[3 * (s)],                              \
+     (p)[4 * (s)],    (p)[5 * (s)],    (p)[6 * (s)],    (p)[7 * (s)],                              \
+     (p)[8 * (s)],    (p)[9 * (s)],    (p)[10 * (s)],   (p)[11 * (s)],                             \
+     (p)[12 * (s)],   (p)[13 * (s)],   (p)[14 * (s)],   (p)[15 * (s)]}
+#define LANES_INIT(p, s) ZIP_IDX(LANES_INIT, LANES)(p, s)
 #define ZIP_IDX_(name, n) name##_##n
 #define ZIP_IDX(name, n) ZIP_IDX_(name, n)
 #if SIMD_SHUFFLE
