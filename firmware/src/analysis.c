@@ -1,13 +1,24 @@
-/* Host analysis helpers over the double-precision kinematics core. */
+/* Host analysis helpers over the double-precision kinematics core.
+ *
+ * No FMA contraction here (the Python extension and the tests build with
+ * -ffp-contract=off; GCC is told so for other builds): the scaled sums must
+ * round x * scale and + offset separately, as numpy does. */
 #include <math.h>
 #include <stddef.h>
 
 #include "aacmm/analysis.h"
 #include "aacmm/kinematics.h"
 
-aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_t n,
-                                           const double *theta_rad, double abs_sum[AACMM_JAC_SIZE],
-                                           double sq_sum[AACMM_JAC_SIZE], size_t *done)
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
+aacmm_status_t aacmm_abs_jacobian_sums_scaled_f64(const aacmm_model_f64_t *model, size_t n,
+                                                  const double *theta_rad,
+                                                  const double scale[AACMM_JOINTS],
+                                                  const double offset[AACMM_JOINTS],
+                                                  double abs_sum[AACMM_JAC_SIZE],
+                                                  double sq_sum[AACMM_JAC_SIZE], size_t *done)
 {
     double sa[AACMM_JAC_SIZE], sq[AACMM_JAC_SIZE];
     aacmm_status_t st = AACMM_OK;
@@ -16,7 +27,8 @@ aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_
     if (done != NULL) {
         *done = 0u;
     }
-    if (model == NULL || abs_sum == NULL || sq_sum == NULL || (n > 0u && theta_rad == NULL)) {
+    if (model == NULL || abs_sum == NULL || sq_sum == NULL || (n > 0u && theta_rad == NULL) ||
+        ((scale == NULL) != (offset == NULL))) {
         return AACMM_ERR_NULL;
     }
     /* Local accumulators: the compiler keeps them out of the aliasing
@@ -26,8 +38,16 @@ aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_
         sq[j] = 0.0;
     }
     for (k = 0; k < n; k++) {
-        double jac[AACMM_JAC_SIZE], p[3];
-        st = aacmm_point_jacobian_f64(model, theta_rad + k * AACMM_JOINTS, p, jac);
+        double jac[AACMM_JAC_SIZE], p[3], th[AACMM_JOINTS];
+        const double *pose = theta_rad + k * AACMM_JOINTS;
+        if (scale != NULL && offset != NULL) {
+            for (j = 0; j < AACMM_JOINTS; j++) {
+                th[j] = pose[j] * scale[j];
+                th[j] += offset[j];
+            }
+            pose = th;
+        }
+        st = aacmm_point_jacobian_f64(model, pose, p, jac);
         if (st != AACMM_OK) {
             break;
         }
@@ -44,6 +64,14 @@ aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_
         *done = k;
     }
     return st;
+}
+
+aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_t n,
+                                           const double *theta_rad, double abs_sum[AACMM_JAC_SIZE],
+                                           double sq_sum[AACMM_JAC_SIZE], size_t *done)
+{
+    return aacmm_abs_jacobian_sums_scaled_f64(model, n, theta_rad, NULL, NULL, abs_sum, sq_sum,
+                                              done);
 }
 
 void aacmm_params_perturb_f64(const aacmm_params_f64_t *nominal,

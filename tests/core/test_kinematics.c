@@ -1113,6 +1113,30 @@ static void test_simd_batch_semantics(void **state)
                          AACMM_ERR_NULL);
         assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, 0, NULL, s, q, &done), AACMM_OK);
         assert_int_equal((int)done, 0);
+        /* the scaled form: the sums of the poses formed first, bit for bit */
+        {
+            static const double scale[6] = {6.2, 6.1, 6.0, 5.9, 5.8, 5.7};
+            static const double offset[6] = {-3.1, -3.0, -2.9, -2.8, -2.7, -2.6};
+            double unit[N * 6], formed[N * 6];
+            double s1[AACMM_JAC_SIZE] = {0}, q1[AACMM_JAC_SIZE] = {0};
+            double s2[AACMM_JAC_SIZE] = {0}, q2[AACMM_JAC_SIZE] = {0};
+            for (i = 0; i < N * 6; i++) {
+                unit[i] = (double)(uint32_t)rng_next(&g) * 0x1p-32;
+                formed[i] = unit[i] * scale[i % 6];
+                formed[i] += offset[i % 6];
+            }
+            assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, N, formed, s1, q1, NULL),
+                             AACMM_OK);
+            assert_int_equal(aacmm_simd_abs_jacobian_sums_scaled_f64(kk, &m, N, unit, scale, offset,
+                                                                     s2, q2, &done),
+                             AACMM_OK);
+            assert_int_equal((int)done, N);
+            assert_memory_equal(s1, s2, sizeof s1);
+            assert_memory_equal(q1, q2, sizeof q1);
+            assert_int_equal(aacmm_simd_abs_jacobian_sums_scaled_f64(kk, &m, N, unit, scale, NULL,
+                                                                     s2, q2, NULL),
+                             AACMM_ERR_NULL);
+        }
     }
 }
 

@@ -131,3 +131,25 @@ def test_extension_needs_only_baseline_x86_64_outside_the_wide_kernels() -> None
     wide, other = vector_instruction_functions(so)
     assert wide, "no AVX2/AVX-512 kernel found in the extension"
     assert other == [], other
+
+
+def test_scaled_sums_equal_sums_of_the_scaled_poses(restore_kernel: object) -> None:
+    """The Monte Carlo's fused form (poses = unit * scale + offset formed in C)
+    gives the sums of the poses formed with numpy first, bit for bit."""
+    rng = np.random.default_rng(8)
+    unit = rng.random((5000, 6))
+    scale = rng.uniform(0.5, 6.3, 6)
+    offset = rng.uniform(-3.2, 0.0, 6)
+    th = unit * scale
+    th += offset
+    model = Model()
+    for name in core.available_kernels():
+        core.set_kernel(name)
+        s0, q0 = model.abs_jacobian_sums(th)
+        s1, q1 = model.abs_jacobian_sums(unit, scale, offset)
+        assert np.array_equal(s0, s1) and np.array_equal(q0, q1), name
+    bad = unit.copy()
+    bad[700, 2] = np.nan
+    with pytest.raises(core.KinematicsError) as ei:
+        model.abs_jacobian_sums(bad, scale, offset)
+    assert ei.value.index == 700

@@ -43,6 +43,21 @@ aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_
                                            double sq_sum[AACMM_JAC_SIZE], size_t *done);
 
 /*
+ * aacmm_abs_jacobian_sums_f64 on the poses theta[k*6 + i] =
+ * theta_rad[k*6 + i] * scale[i] + offset[i] (the product rounded, then the
+ * sum: the values of forming them first with two separate operations), formed
+ * pose by pose: a Monte Carlo run draws unit deviates and saves a pass over
+ * its poses. scale and offset are both NULL (no scaling) or both given, else
+ * AACMM_ERR_NULL. Errors and *done otherwise as there.
+ */
+aacmm_status_t aacmm_abs_jacobian_sums_scaled_f64(const aacmm_model_f64_t *model, size_t n,
+                                                  const double *theta_rad,
+                                                  const double scale[AACMM_JOINTS],
+                                                  const double offset[AACMM_JOINTS],
+                                                  double abs_sum[AACMM_JAC_SIZE],
+                                                  double sq_sum[AACMM_JAC_SIZE], size_t *done);
+
+/*
  * *out = *nominal with delta[25] added in the Jacobian column order:
  * theta_offset_i += delta[i], alpha_i += delta[6 + i], d_i += delta[12 + i],
  * a_i += delta[18 + i], l += delta[24]. Not validated (aacmm_model_init_f64

@@ -93,6 +93,18 @@ aacmm_status_t aacmm_simd_abs_jacobian_sums_f64(aacmm_kernel_t kernel,
                                                 double sq_sum[AACMM_JAC_SIZE], size_t *done);
 
 /*
+ * aacmm_abs_jacobian_sums_scaled_f64 (analysis.h) with the given kernel: the
+ * sums on the poses unit[k*6 + i] * scale[i] + offset[i], formed a vector
+ * group at a time (the product rounded, then the sum), equal bit for bit to
+ * aacmm_simd_abs_jacobian_sums_f64 on poses formed first. scale and offset
+ * both NULL: no scaling. Errors and *done as there.
+ */
+aacmm_status_t aacmm_simd_abs_jacobian_sums_scaled_f64(
+    aacmm_kernel_t kernel, const aacmm_model_f64_t *model, size_t n, const double *unit,
+    const double scale[AACMM_JOINTS], const double offset[AACMM_JOINTS],
+    double abs_sum[AACMM_JAC_SIZE], double sq_sum[AACMM_JAC_SIZE], size_t *done);
+
+/*
  * aacmm_perturbed_points_f64 (analysis.h) with the given kernel: for each of
  * n_trials parameter draws (nominal + delta[t*25 ..], Jacobian column order)
  * one model, evaluated at the n_poses poses across the lanes; p_mm[(t*n_poses

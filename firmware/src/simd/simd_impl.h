@@ -229,17 +229,21 @@ static aacmm_status_t VK(batch_angles)(const TYPE(aacmm_model) *model, size_t n,
 }
 
 #ifdef SIMD_ABS_SUMS
-/* aacmm_simd_abs_jacobian_sums_f64 for this instruction set (arguments
- * checked by the caller): per-lane sums of |J| and J^2 over the poses, added
- * up lane by lane at the end; lanes past the last pose of a group are masked
- * out. */
+/* aacmm_simd_abs_jacobian_sums_scaled_f64 for this instruction set
+ * (arguments checked by the caller; scale and offset NULL: no scaling):
+ * per-lane sums of |J| and J^2 over the poses, added up lane by lane at the
+ * end; lanes past the last pose of a group are masked out. Scaled poses are
+ * formed a group at a time in a small buffer (x * scale rounded, then
+ * + offset, as the scalar kernel does). */
 static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
-                                   const REAL *theta_rad, REAL abs_sum[AACMM_JAC_SIZE],
-                                   REAL sq_sum[AACMM_JAC_SIZE], size_t *done)
+                                   const REAL *theta_rad, const REAL *scale, const REAL *offset,
+                                   REAL abs_sum[AACMM_JAC_SIZE], REAL sq_sum[AACMM_JAC_SIZE],
+                                   size_t *done)
 {
     VR sa[AACMM_JAC_SIZE], sq[AACMM_JAC_SIZE];
     const VR zero = VK(splat)(LIT(0.0));
     const VU no_sign = ~((VU)zero | SIGN_BIT);
+    REAL buf[W * AACMM_JOINTS];
     aacmm_status_t st = AACMM_OK;
     size_t k = 0, l;
     int e;
@@ -250,7 +254,16 @@ static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
     while (k < n) {
         const REAL *th = theta_rad + k * AACMM_JOINTS;
         const size_t want = (n - k < (size_t)W) ? n - k : (size_t)W;
-        const size_t m = VK(valid_prefix)(th, want, &st);
+        size_t m;
+        if (scale != NULL && offset != NULL) {
+            size_t j;
+            for (j = 0; j < want * AACMM_JOINTS; j++) {
+                buf[j] = th[j] * scale[j % AACMM_JOINTS];
+                buf[j] += offset[j % AACMM_JOINTS];
+            }
+            th = buf;
+        }
+        m = VK(valid_prefix)(th, want, &st);
         if (m > 0u) {
             VR t[AACMM_JOINTS], J[AACMM_JAC_SIZE], P[3];
             VU keep = no_sign;

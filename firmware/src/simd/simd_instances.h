@@ -129,9 +129,27 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles)(aacmm_kernel_t kernel, const TYPE(a
 
 #ifdef SIMD_ABS_SUMS
 typedef aacmm_status_t (*PSFX(abs_sums_fn))(const TYPE(aacmm_model) *, size_t, const REAL *,
-                                            REAL *, REAL *, size_t *);
+                                            const REAL *, const REAL *, REAL *, REAL *, size_t *);
 static const PSFX(abs_sums_fn) PSFX(abs_sums_table)[AACMM_KERNEL_COUNT] =
-    SIMD_TABLE(abs_sums, PSFX(aacmm_abs_jacobian_sums));
+    SIMD_TABLE(abs_sums, PSFX(aacmm_abs_jacobian_sums_scaled));
+
+aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums_scaled)(
+    aacmm_kernel_t kernel, const TYPE(aacmm_model) *model, size_t n, const REAL *theta_rad,
+    const REAL scale[AACMM_JOINTS], const REAL offset[AACMM_JOINTS], REAL abs_sum[AACMM_JAC_SIZE],
+    REAL sq_sum[AACMM_JAC_SIZE], size_t *done)
+{
+    if (done != NULL) {
+        *done = 0u;
+    }
+    if (model == NULL || abs_sum == NULL || sq_sum == NULL || (n > 0u && theta_rad == NULL) ||
+        ((scale == NULL) != (offset == NULL))) {
+        return AACMM_ERR_NULL;
+    }
+    if (!aacmm_kernel_available(kernel) || PSFX(abs_sums_table)[kernel] == NULL) {
+        return AACMM_ERR_UNSUPPORTED;
+    }
+    return PSFX(abs_sums_table)[kernel](model, n, theta_rad, scale, offset, abs_sum, sq_sum, done);
+}
 
 aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums)(aacmm_kernel_t kernel,
                                                   const TYPE(aacmm_model) *model, size_t n,
@@ -139,16 +157,8 @@ aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums)(aacmm_kernel_t kernel,
                                                   REAL abs_sum[AACMM_JAC_SIZE],
                                                   REAL sq_sum[AACMM_JAC_SIZE], size_t *done)
 {
-    if (done != NULL) {
-        *done = 0u;
-    }
-    if (model == NULL || abs_sum == NULL || sq_sum == NULL || (n > 0u && theta_rad == NULL)) {
-        return AACMM_ERR_NULL;
-    }
-    if (!aacmm_kernel_available(kernel) || PSFX(abs_sums_table)[kernel] == NULL) {
-        return AACMM_ERR_UNSUPPORTED;
-    }
-    return PSFX(abs_sums_table)[kernel](model, n, theta_rad, abs_sum, sq_sum, done);
+    return PSFX(aacmm_simd_abs_jacobian_sums_scaled)(kernel, model, n, theta_rad, NULL, NULL,
+                                                     abs_sum, sq_sum, done);
 }
 
 aacmm_status_t PSFX(aacmm_simd_perturbed_points)(aacmm_kernel_t kernel,

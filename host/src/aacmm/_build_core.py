@@ -137,6 +137,10 @@ aacmm_status_t aacmm_simd_abs_jacobian_sums_f64(aacmm_kernel_t kernel,
                                                 const aacmm_model_f64_t *model, size_t n,
                                                 const double *theta_rad, double abs_sum[75],
                                                 double sq_sum[75], size_t *done);
+aacmm_status_t aacmm_simd_abs_jacobian_sums_scaled_f64(
+    aacmm_kernel_t kernel, const aacmm_model_f64_t *model, size_t n, const double *unit,
+    const double scale[6], const double offset[6], double abs_sum[75], double sq_sum[75],
+    size_t *done);
 aacmm_status_t aacmm_simd_perturbed_points_f64(aacmm_kernel_t kernel,
                                                const aacmm_params_f64_t *nominal,
                                                size_t n_trials, const double *delta,

@@ -435,19 +435,42 @@ class Model:
         p, j = self.points_jacobians(counts_to_angles(counts, encoders))
         return p, j
 
-    def abs_jacobian_sums(self, theta_rad: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    def abs_jacobian_sums(
+        self,
+        theta_rad: npt.ArrayLike,
+        scale: npt.ArrayLike | None = None,
+        offset: npt.ArrayLike | None = None,
+    ) -> tuple[FloatArray, FloatArray]:
         """Sums over the poses of |J| and of J^2, each (3, 25).
 
         The fused C loop on the batch kernel (``aacmm_simd_abs_jacobian_sums_f64``):
-        no Jacobian is stored. Raises KinematicsError for a bad pose.
+        no Jacobian is stored. With ``scale`` and ``offset`` (six values
+        each) the poses are ``theta_rad * scale + offset`` per joint, formed
+        in C (the same values as computing them with numpy first, one pass
+        less). Raises KinematicsError for a bad pose.
         """
         th = _poses(theta_rad)
         s = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
         q = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
         done = ffi.new("size_t *")
-        st = lib.aacmm_simd_abs_jacobian_sums_f64(
-            _current_kernel(), self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
-        )
+        if scale is None and offset is None:
+            st = lib.aacmm_simd_abs_jacobian_sums_f64(
+                _current_kernel(), self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
+            )
+        else:
+            sc = np.ascontiguousarray(scale, dtype=np.float64).reshape(JOINTS)
+            off = np.ascontiguousarray(offset, dtype=np.float64).reshape(JOINTS)
+            st = lib.aacmm_simd_abs_jacobian_sums_scaled_f64(
+                _current_kernel(),
+                self._c,
+                th.shape[0],
+                _dptr(th),
+                _dptr(sc),
+                _dptr(off),
+                _dptr(s),
+                _dptr(q),
+                done,
+            )
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return s, q
 

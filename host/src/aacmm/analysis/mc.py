@@ -152,19 +152,22 @@ def _entropy(seed: int | None) -> int:
     return int(seed)
 
 
-def draw_chunk(
+#: A chunk of poses as drawn: (poses, None, None), or for all-uniform joints
+#: (unit deviates, scale, offset) with poses = unit * scale + offset.
+_Chunk = tuple[FloatArray, FloatArray | None, FloatArray | None]
+
+
+def _draw(
     entropy: int, run: int, chunk: int, n: int, joints: Sequence[JointDistribution]
-) -> FloatArray:
-    """The poses (n, 6) of one chunk: a pure function of its arguments."""
+) -> _Chunk:
     rng = np.random.Generator(
         np.random.PCG64(np.random.SeedSequence(entropy, spawn_key=(run, chunk)))
     )
+    if all(j.kind == "uniform" for j in joints):  # fast path: deviates, scaled later
+        u = np.empty((n, JOINTS), dtype=np.float64)
+        rng.random(out=u)
+        return u, np.array([j.b - j.a for j in joints]), np.array([j.a for j in joints])
     out = np.empty((n, JOINTS), dtype=np.float64)
-    if all(j.kind == "uniform" for j in joints):  # fast path: in place, no copies
-        rng.random(out=out)
-        out *= np.array([j.b - j.a for j in joints])
-        out += np.array([j.a for j in joints])
-        return out
     uni = [i for i, j in enumerate(joints) if j.kind == "uniform"]
     nor = [i for i, j in enumerate(joints) if j.kind == "normal"]
     if uni:
@@ -178,7 +181,18 @@ def draw_chunk(
         mu = np.array([joints[i].a for i in nor])
         sd = np.array([joints[i].b for i in nor])
         out[:, nor] = mu + sd * rng.standard_normal((n, len(nor)))
-    return out
+    return out, None, None
+
+
+def draw_chunk(
+    entropy: int, run: int, chunk: int, n: int, joints: Sequence[JointDistribution]
+) -> FloatArray:
+    """The poses (n, 6) of one chunk: a pure function of its arguments."""
+    th, scale, offset = _draw(entropy, run, chunk, n, joints)
+    if scale is not None and offset is not None:
+        th *= scale
+        th += offset
+    return th
 
 
 def draw_poses(
@@ -327,7 +341,7 @@ def _no_progress(n: int) -> None:
 
 def _accumulate(
     model: Model,
-    tasks: Iterable[Callable[[], FloatArray]],
+    tasks: Iterable[Callable[[], _Chunk]],
     ex: ThreadPoolExecutor | None,
     progress: Progress,
     threads: int = 1,
@@ -339,9 +353,9 @@ def _accumulate(
     depend on their number.
     """
 
-    def one(task: Callable[[], FloatArray]) -> tuple[FloatArray, FloatArray, int]:
-        th = task()
-        s, q = model.abs_jacobian_sums(th)
+    def one(task: Callable[[], _Chunk]) -> tuple[FloatArray, FloatArray, int]:
+        th, scale, offset = task()  # scaled in C: one pass over the poses less
+        s, q = model.abs_jacobian_sums(th, scale, offset)
         return s, q, th.shape[0]
 
     s_tot = np.zeros((JAC_ROWS, JAC_COLS))
@@ -357,12 +371,12 @@ def _accumulate(
 
 def _chunk_tasks(
     entropy: int, run: int, n: int, joints: tuple[JointDistribution, ...]
-) -> Iterator[Callable[[], FloatArray]]:
+) -> Iterator[Callable[[], _Chunk]]:
     """The chunks of a run of n poses, one task each, made as they are asked for."""
 
-    def make(k: int) -> Callable[[], FloatArray]:
+    def make(k: int) -> Callable[[], _Chunk]:
         m = min(CHUNK, n - k * CHUNK)
-        return lambda: draw_chunk(entropy, run, k, m, joints)
+        return lambda: _draw(entropy, run, k, m, joints)
 
     return (make(k) for k in range(-(-n // CHUNK)))
 
@@ -582,8 +596,8 @@ def coefficients_over_poses(
     model = Model(params or Params())
     t0 = time.perf_counter()
 
-    def make(k: int) -> Callable[[], FloatArray]:
-        return lambda: th[k * CHUNK : (k + 1) * CHUNK]
+    def make(k: int) -> Callable[[], _Chunk]:
+        return lambda: (th[k * CHUNK : (k + 1) * CHUNK], None, None)
 
     tasks = (make(k) for k in range(-(-n // CHUNK)))
     workers = min(nt, -(-n // CHUNK))
