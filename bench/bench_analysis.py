@@ -11,7 +11,10 @@
 * analysis.cli_mc_1e4, analysis.cli_mc_1e7: `aacmm mc -n 10000` and
   `aacmm mc -n 10000000` as a process on all cores, Python start-up included
   (wall and CPU time; issue 17's target: 10^7 under 1 s wall on 2 cores).
-* analysis.uncertainty: Monte Carlo propagation, trials x poses per second.
+* analysis.uncertainty: Monte Carlo propagation, trials x poses per second,
+  1 thread and all threads.
+* machine: the CPU count, the load average at the start and the batch
+  kernel (the figures are only comparable at a similar load).
 
 Each figure is the best of several repeats. Wall-clock rates depend on what
 else runs on the machine; the ``cpu`` figures (process CPU time, all threads)
@@ -53,6 +56,16 @@ def emit(**kv: object) -> None:
 
 def main() -> None:
     ncpu = os.cpu_count() or 1
+    load1, load5, _ = os.getloadavg()
+    emit(
+        bench="machine",
+        what="the conditions of this run (figures scale with the load on a shared machine)",
+        cpus=ncpu,
+        loadavg_1min=round(load1, 2),
+        loadavg_5min=round(load5, 2),
+        kernel=core.kernel(),
+        kernels=list(core.available_kernels()),
+    )
     model = Model()
     n = 1 << 20
     theta = mc.draw_poses(n, seed=1)
@@ -130,16 +143,24 @@ def main() -> None:
         {"theta": 1e-5, "alpha": 1e-5, "d": 0.005, "a": 0.005, "l": 0.005}
     )
     trials, poses = 100_000, 48
-    t = min(unc.propagate(spec, trials=trials, workspace=poses, seed=0).elapsed_s for _ in range(2))
-    emit(
-        bench="analysis.uncertainty",
-        what="MC + linear propagation incl. quantiles",
-        trials=trials,
-        poses=poses,
-        threads=ncpu,
-        s=round(t, 3),
-        trial_poses_per_s=round(trials * poses / t),
-    )
+    for threads in sorted({1, ncpu}):
+
+        def propagate(th: int = threads) -> object:
+            return unc.propagate(spec, trials=trials, workspace=poses, seed=0, threads=th)
+
+        t, cpu = best_of(propagate, 2)
+        emit(
+            bench="analysis.uncertainty",
+            what="MC + linear propagation incl. quantiles (exact)",
+            kernel=core.kernel(),
+            trials=trials,
+            poses=poses,
+            threads=threads,
+            s=round(t, 3),
+            cpu_s=round(cpu, 3),
+            trial_poses_per_s=round(trials * poses / t),
+            ns_per_trial_pose_cpu=round(cpu / (trials * poses) * 1e9, 2),
+        )
 
 
 if __name__ == "__main__":
