@@ -190,17 +190,51 @@ static inline void VK(store_jacobians)(VR J[AACMM_JAC_SIZE], size_t m, REAL *jac
 #endif
 }
 
-/* Points (and Jacobians) of m <= W valid poses into their slots. */
-static inline void VK(group)(const TYPE(aacmm_model) *model, const REAL *th, size_t m, REAL *p_mm,
-                             REAL *jac)
+/* 1 if every lane of the six angle vectors is finite and within the limit:
+ * a vector test, so a whole group of valid poses skips the pose-by-pose
+ * check (NaN fails the comparisons). */
+static inline int VK(in_range)(const VR t[AACMM_JOINTS])
 {
-    VR t[AACMM_JOINTS], P[3];
-    size_t l;
-    if (m == (size_t)W) {
+    const VR lim = VK(splat)((REAL)AACMM_JOINT_ANGLE_MAX_RAD);
+    VU ok = (VU)(t[0] <= lim) & (VU)(t[0] >= -lim);
+    UREAL all = ~(UREAL)0;
+    int i, l;
+    for (i = 1; i < AACMM_JOINTS; i++) {
+        ok &= (VU)(t[i] <= lim) & (VU)(t[i] >= -lim);
+    }
+    for (l = 0; l < W; l++) {
+        all &= ok[l];
+    }
+    return all == ~(UREAL)0;
+}
+
+/* The angles of the first valid poses among th[0 .. want-1] (want <= W) as
+ * lane vectors in t; returns how many (all of them unless one is invalid,
+ * whose status goes to *st; else *st = AACMM_OK). */
+static inline size_t VK(load_valid)(const REAL *th, size_t want, VR t[AACMM_JOINTS],
+                                    aacmm_status_t *st)
+{
+    size_t m;
+    if (want == (size_t)W) {
         VK(load)(th, t);
-    } else {
+        if (VK(in_range)(t)) {
+            *st = AACMM_OK;
+            return want;
+        }
+    }
+    m = VK(valid_prefix)(th, want, st);
+    if (m > 0u) {
         VK(load_part)(th, m, t);
     }
+    return m;
+}
+
+/* Points (and Jacobians) of m <= W valid poses (angles in t) into their slots. */
+static inline void VK(group)(const TYPE(aacmm_model) *model, const VR t[AACMM_JOINTS], size_t m,
+                             REAL *p_mm, REAL *jac)
+{
+    VR P[3];
+    size_t l;
     if (jac == NULL) {
         VK(chain)(model, t, P, NULL);
     } else {
@@ -224,10 +258,11 @@ static aacmm_status_t VK(batch_angles)(const TYPE(aacmm_model) *model, size_t n,
     while (k < n) {
         const REAL *th = theta_rad + k * AACMM_JOINTS;
         const size_t want = (n - k < (size_t)W) ? n - k : (size_t)W;
+        VR t[AACMM_JOINTS];
         aacmm_status_t st;
-        const size_t m = VK(valid_prefix)(th, want, &st);
+        const size_t m = VK(load_valid)(th, want, t, &st);
         if (m > 0u) {
-            VK(group)(model, th, m, p_mm + k * 3u, jac == NULL ? NULL : jac + k * AACMM_JAC_SIZE);
+            VK(group)(model, t, m, p_mm + k * 3u, jac == NULL ? NULL : jac + k * AACMM_JAC_SIZE);
             k += m;
             if (done != NULL) {
                 *done = k;
@@ -266,6 +301,7 @@ static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
     while (k < n) {
         const REAL *th = theta_rad + k * AACMM_JOINTS;
         const size_t want = (n - k < (size_t)W) ? n - k : (size_t)W;
+        VR t[AACMM_JOINTS];
         size_t m;
         if (scale != NULL && offset != NULL) {
             size_t j;
@@ -275,15 +311,10 @@ static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
             }
             th = buf;
         }
-        m = VK(valid_prefix)(th, want, &st);
+        m = VK(load_valid)(th, want, t, &st);
         if (m > 0u) {
-            VR t[AACMM_JOINTS], J[AACMM_JAC_SIZE], P[3];
+            VR J[AACMM_JAC_SIZE], P[3];
             VU keep = no_sign;
-            if (m == (size_t)W) {
-                VK(load)(th, t);
-            } else {
-                VK(load_part)(th, m, t);
-            }
             VK(chain)(model, t, P, J);
             for (l = m; l < (size_t)W; l++) {
                 keep[l] = 0u;
