@@ -16,6 +16,8 @@ CORE_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests
 # The core tests build as the Python extension does (host/src/aacmm/_build_core.py):
 # no -march (the scalar kernel is the baseline x86-64 / arm64 one a wheel runs)
 # and no FMA contraction, so the batch kernels must equal it bit for bit.
+# The sanitizer build runs a tenth of the poses (CORE_TEST_DIV=10): it runs
+# every accuracy test once per batch kernel, about ten times slower.
 CORE_TEST_OPT := -O2 -ffp-contract=off
 
 # One test binary per compiler configuration.
@@ -27,7 +29,7 @@ $(BUILD)/core/test_kinematics_clang: $(CORE_TEST_DEPS) | $(BUILD)
 	clang $(CSTD) $(WARN) $(CORE_TEST_OPT) -I$(FW_INC) -Itests/core $(CORE_SRCS) $(SIMD_SRCS) $(CORE_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
 $(BUILD)/core/test_kinematics_san: $(CORE_TEST_DEPS) | $(BUILD)
 	@mkdir -p $(@D)
-	clang $(CSTD) $(WARN) $(SAN_FLAGS) -I$(FW_INC) -Itests/core $(CORE_SRCS) $(SIMD_SRCS) $(CORE_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DCORE_TEST_DIV=10 -I$(FW_INC) -Itests/core $(CORE_SRCS) $(SIMD_SRCS) $(CORE_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
 
 .PHONY: test-core-gcc test-core-clang test-core-san test-core-m4f bench-core firmware-core-m4f
 test-core-gcc: $(BUILD)/core/test_kinematics_gcc

@@ -27,6 +27,12 @@
 #include "reference.h"
 
 #define PI 3.14159265358979323846
+
+/* The sanitizer build divides the large pose counts by this (it runs every
+ * accuracy test once per batch kernel, about ten times slower). */
+#ifndef CORE_TEST_DIV
+#define CORE_TEST_DIV 1
+#endif
 #define TWO_PI_LD 6.283185307179586476925286766559005768L
 
 /* Bounds asserted below (and quoted in docs/kinematics.md). */
@@ -120,7 +126,7 @@ static void test_point_matches_reference(void **state)
             perturbed_params(&pr);
         }
         assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
-        for (k = 0; k < 100000; k++) {
+        for (k = 0; k < 100000 / CORE_TEST_DIV; k++) {
             double th[6], p[3];
             long double q[25], pref[3];
             int r;
@@ -136,7 +142,8 @@ static void test_point_matches_reference(void **state)
             }
         }
     }
-    printf("measured: f64 point vs long-double reference, 2x10^5 poses: max %.3g mm\n", worst);
+    printf("measured: f64 point vs long-double reference, %d poses: max %.3g mm\n",
+           2 * (100000 / CORE_TEST_DIV), worst);
     assert_true(worst <= BOUND_F64_POINT_MM);
 }
 
@@ -172,7 +179,7 @@ static void test_jacobian_vs_central_differences(void **state)
     (void)state;
     perturbed_params(&pr);
     assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
-    for (k = 0; k < 10000; k++) {
+    for (k = 0; k < 10000 / CORE_TEST_DIV; k++) {
         double th[6], p[3], J[AACMM_JAC_SIZE];
         random_pose(&g, th);
         assert_int_equal(k_point_jacobian_f64(&m, th, p, J), AACMM_OK);
@@ -216,9 +223,9 @@ static void test_jacobian_vs_central_differences(void **state)
             }
         }
     }
-    printf("measured: f64 Jacobian vs central differences, 10^4 poses: angle columns max %.3g "
+    printf("measured: f64 Jacobian vs central differences, %d poses: angle columns max %.3g "
            "mm/rad, length columns max %.3g mm/mm\n",
-           worst_angle, worst_length);
+           10000 / CORE_TEST_DIV, worst_angle, worst_length);
     assert_true(worst_angle <= BOUND_FD_ANGLE_MM_PER_RAD);
     assert_true(worst_length <= BOUND_FD_LENGTH);
 }
@@ -377,7 +384,7 @@ static void test_f32_vs_f64(void **state)
         pd.d_mm[i] = (double)pf.d_mm[i];
     }
     assert_int_equal(aacmm_model_init_f64(&md, &pd), AACMM_OK);
-    for (k = 0; k < 1000000L; k++) {
+    for (k = 0; k < 1000000L / CORE_TEST_DIV; k++) {
         double thd[6], p64[3], J64[AACMM_JAC_SIZE];
         float thf[6], p32[3], J32[AACMM_JAC_SIZE];
         for (i = 0; i < 6; i++) {
@@ -399,7 +406,8 @@ static void test_f32_vs_f64(void **state)
             }
         }
     }
-    printf("measured: f32 vs f64, 10^6 poses: point max %.3g mm, Jacobian max %.3g\n", worst_p,
+    printf("measured: f32 vs f64, %ld poses: point max %.3g mm, Jacobian max %.3g\n",
+           1000000L / CORE_TEST_DIV, worst_p,
            worst_j);
     assert_true(worst_p <= BOUND_F32_POINT_MM);
     assert_true(worst_j <= BOUND_F32_JAC);
@@ -940,7 +948,7 @@ static double abs_diff_f32(const float *a, const float *b, size_t n)
  * equal bit for bit: asserted too. */
 static void test_simd_agrees_with_scalar(void **state)
 {
-    enum { B = 1000, BATCHES = 1000 };
+    enum { B = 1000, BATCHES = 1000 / CORE_TEST_DIV };
     static double th[B * 6], p0[B * 3], p1[B * 3], j0[B * AACMM_JAC_SIZE], j1[B * AACMM_JAC_SIZE];
     static float thf[B * 6], pf0[B * 3], pf1[B * 3], jf0[B * AACMM_JAC_SIZE],
         jf1[B * AACMM_JAC_SIZE];
@@ -997,9 +1005,11 @@ static void test_simd_agrees_with_scalar(void **state)
             worst_s = fmax(worst_s, fabs(s1[i] - s0[i]) / fmax(1.0, s0[i]));
             worst_s = fmax(worst_s, fabs(q1[i] - q0[i]) / fmax(1.0, q0[i]));
         }
-        printf("measured: kernel %s vs scalar, 10^6 poses: point max %.3g mm, Jacobian max %.3g "
-               "(relative to max(1, |entry|)); f32 max %.3g (10^5 poses); |J| sums max %.3g (relative)\n",
-               aacmm_kernel_name(kk), worst_p, worst_j, worst_f, worst_s);
+        printf("measured: kernel %s vs scalar, %d poses: point max %.3g mm, Jacobian max %.3g "
+               "(relative to max(1, |entry|)); f32 max %.3g (%d poses); |J| sums max %.3g "
+               "(relative)\n",
+               aacmm_kernel_name(kk), B * BATCHES, worst_p, worst_j, worst_f, B * BATCHES / 10,
+               worst_s);
         assert_true(worst_p <= BOUND_SIMD_POINT_MM);
         assert_true(worst_j <= BOUND_SIMD_JAC);
         assert_true(worst_f <= BOUND_SIMD_F32);
