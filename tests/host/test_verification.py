@@ -17,6 +17,8 @@ import verify_sessions as vs
 from aacmm import verification as v
 from aacmm.geometry import GeometryError, TooFewPointsError
 from aacmm.verification import rules
+from hypothesis import given
+from hypothesis import strategies as st
 
 # ---------------------------------------------------------------- decision rules
 
@@ -181,3 +183,33 @@ def test_definitions_are_marked() -> None:
         "assumed (not verified against the standard's text)",
     }
     assert v.DEFINITIONS["L_Dia.5x5:Art:AArm"].status.startswith("assumed")
+
+
+# ---------------------------------------------------------------- aacmm fit --points parser
+
+
+@given(st.text(alphabet="0123456789,- x", max_size=20), st.integers(1, 60))
+def test_point_selection_never_crashes(spec: str, n: int) -> None:
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.commands.fit import parse_selection
+
+    try:
+        idx = parse_selection(spec, n)
+    except UsageError:
+        return
+    assert idx and len(set(idx)) == len(idx) and all(0 <= i < n for i in idx)
+
+
+@given(st.lists(st.tuples(st.integers(1, 40), st.integers(0, 5)), min_size=1, max_size=6))
+def test_point_selection_ranges(parts: list[tuple[int, int]]) -> None:
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.commands.fit import parse_selection
+
+    n = 50
+    spec = ",".join(f"{a}-{a + w}" if w else str(a) for a, w in parts)
+    want = [i - 1 for a, w in parts for i in range(a, a + w + 1)]
+    if len(set(want)) != len(want):
+        with pytest.raises(UsageError, match="twice"):
+            parse_selection(spec, n)
+    else:
+        assert parse_selection(spec, n) == want
