@@ -143,7 +143,9 @@ static inline void VK(transpose)(VR v[W])
  * poses' row-major Jacobians. Blocks of W entries are transposed in
  * registers, so each pose gets W consecutive entries in one vector store, and
  * the stores go pose after pose (one sequential write stream: measured
- * faster than W interleaved ones). The last 75 mod W entries form one more
+ * faster than W interleaved ones). The blocks are transposed in J itself
+ * (each copy of 75 vectors costs a store and a load per vector). The last 75
+ * mod W entries form one more
  * block, padded: its vector store runs W - 75 mod W entries into the next
  * pose's slot, which that pose's first block overwrites right after; the
  * group's last pose, whose successor may not be written, stores them lane by
@@ -154,30 +156,27 @@ static inline void VK(store_jacobians)(VR J[AACMM_JAC_SIZE], size_t m, REAL *jac
     int e;
 #ifdef ZIPLO
     enum { BLOCKS = AACMM_JAC_SIZE / W, REST = AACMM_JAC_SIZE % W };
-    VR T[BLOCKS + 1][W];
+    VR tail[W];
     int b, i;
     for (b = 0; b < BLOCKS; b++) {
-        for (i = 0; i < W; i++) {
-            T[b][i] = J[b * W + i];
-        }
-        VK(transpose)(T[b]);
+        VK(transpose)(J + b * W); /* in place: no copy of the block */
     }
     if (REST > 0) {
         for (i = 0; i < W; i++) {
-            T[BLOCKS][i] = (i < REST) ? J[BLOCKS * W + i] : J[0];
+            tail[i] = (i < REST) ? J[BLOCKS * W + i] : J[0];
         }
-        VK(transpose)(T[BLOCKS]);
+        VK(transpose)(tail);
     }
     for (l = 0; l < m; l++) {
         REAL *dst = jac + l * AACMM_JAC_SIZE;
         for (b = 0; b < BLOCKS; b++) {
-            memcpy(dst + b * W, &T[b][l], sizeof T[b][l]);
+            memcpy(dst + b * W, &J[b * W + (int)l], sizeof J[0]);
         }
         if (REST > 0 && l + 1u < m) {
-            memcpy(dst + BLOCKS * W, &T[BLOCKS][l], sizeof T[BLOCKS][l]);
+            memcpy(dst + BLOCKS * W, &tail[l], sizeof tail[l]);
         } else {
             for (e = 0; e < REST; e++) {
-                dst[BLOCKS * W + e] = T[BLOCKS][l][e];
+                dst[BLOCKS * W + e] = tail[l][e];
             }
         }
     }
