@@ -453,12 +453,16 @@ def test_log_reconnects_after_restart(tmp_path: Path) -> None:
 
 
 def test_log_reconnect_gives_up(fresh_sim: SimProcess, tmp_path: Path) -> None:
+    """The device and its port name vanish; another device opens meanwhile (it
+    usually gets the pty number just freed): the logger must not reconnect to it."""
     out = tmp_path / "giveup.csv"
     proc = start_log(str(out), "--port", fresh_sim.url, "--reconnect", "--reconnect-timeout", "1.5")
     try:
         wait_until(lambda: csv_rows(out) >= 20)
         fresh_sim.kill()
-        _stdout, stderr = proc.communicate(timeout=20)
+        assert fresh_sim.link is not None and not os.path.lexists(fresh_sim.link)
+        with SimProcess(["--serial", "pty", "--quiet"]):
+            _stdout, stderr = proc.communicate(timeout=20)
     finally:
         if proc.poll() is None:
             proc.kill()

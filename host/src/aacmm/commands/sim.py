@@ -189,7 +189,8 @@ class SimProcess:
     Args:
         args: simulator options (e.g. ``["--serial", "pty", "--seed", "1"]``).
         link: make ``link`` a symlink to the simulator's pty, so the port keeps
-            one name across restarts (replaced atomically, removed on stop).
+            one name across restarts (replaced atomically; removed before the
+            simulator ends, by :meth:`stop` or :meth:`kill`).
         stderr: where the simulator's stderr goes (default: inherited).
         pass_fds: descriptors the simulator inherits (e.g. the end of a
             control channel given as ``--control FD``).
@@ -285,14 +286,30 @@ class SimProcess:
     def running(self) -> bool:
         return self.proc.poll() is None
 
+    def _remove_link(self) -> None:
+        """Remove the link if it still leads to this simulator's pty.
+
+        Done before the simulator ends, never after: the kernel gives a freed
+        pty number to the next pseudo-terminal opened anywhere on the machine,
+        so a link that outlived its simulator would lead a reconnecting client
+        to someone else's device (or terminal).
+        """
+        if self.link is not None and self.serial_path is not None:
+            with contextlib.suppress(OSError):
+                if os.readlink(self.link) == self.serial_path:
+                    self.link.unlink()
+
     def kill(self) -> None:
-        """SIGKILL (a device that vanishes); the link is left dangling on purpose."""
+        """SIGKILL: a device that vanishes, its port name with it (as a USB
+        device's node goes away when it is unplugged)."""
+        self._remove_link()
         if self.proc.poll() is None:
             self.proc.kill()
         self.proc.wait()
 
     def stop(self, timeout: float = 5.0) -> int:
-        """SIGTERM, wait (SIGKILL after ``timeout``), remove the link; the exit status."""
+        """Remove the link, SIGTERM, wait (SIGKILL after ``timeout``); the exit status."""
+        self._remove_link()
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
             try:
@@ -300,10 +317,6 @@ class SimProcess:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-        if self.link is not None and self.serial_path is not None:
-            with contextlib.suppress(OSError):
-                if os.readlink(self.link) == self.serial_path:
-                    self.link.unlink()
         if self.proc.stdout is not None:
             with contextlib.suppress(OSError):
                 self.proc.stdout.close()
