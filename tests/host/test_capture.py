@@ -9,7 +9,7 @@ import signal
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +46,7 @@ class Capture:
         self.lines: list[str] = []
         self.err: list[str] = []
         self._cond = threading.Condition()
+        self._eof = False
         self._threads = [
             threading.Thread(target=self._read, daemon=True),
             threading.Thread(target=self._read_err, daemon=True),
@@ -63,14 +64,27 @@ class Capture:
             with self._cond:
                 self.lines.append(line.rstrip("\n"))
                 self._cond.notify_all()
+        with self._cond:
+            self._eof = True
+            self._cond.notify_all()
 
     def wait_for(self, text: str, timeout: float = 30.0) -> None:
+        """Wait for a line containing ``text``."""
+        self.wait_until(lambda: self.has(text), timeout, text)
+
+    def wait_until(self, pred: Callable[[], bool], timeout: float = 30.0, what: str = "") -> None:
+        """Wait until ``pred()`` (checked whenever a line comes) holds; fail at once
+        when capture has ended without it."""
         end = time.monotonic() + timeout
         with self._cond:
-            while not any(text in line for line in self.lines):
+            while not pred():
                 left = end - time.monotonic()
-                assert left > 0 and self.proc.poll() is None, (text, self.lines[-5:])
+                assert left > 0 and not self._eof, (what, self.lines[-5:])
                 self._cond.wait(left)
+
+    def has(self, text: str) -> bool:
+        with self._cond:
+            return any(text in line for line in self.lines)
 
     def acknowledged(self) -> int:
         with self._cond:
@@ -96,6 +110,37 @@ def check_session(folder: Path, n: int) -> None:
     assert np.abs(s.points_mm() - s.device_points_mm).max() < 2e-3
     seqs = [p.device_time_us for p in s.points]
     assert seqs == sorted(seqs)
+
+
+class Operated:
+    """A simulator whose encoders and buttons the test sets through its control
+    channel: a press happens only when the test makes it, with counts it chose."""
+
+    def __init__(self, seed: int, n: int) -> None:
+        from aacmm.simulation.control import ControlChannel
+
+        self.chan, fd = ControlChannel.pair()
+        try:
+            self.sim = SimProcess(
+                ["--serial", "pty", "--quiet", "--control", str(fd)], pass_fds=[fd]
+            )
+        finally:
+            self.chan.child_started()
+        self.chan.hello()
+        rng = np.random.default_rng(seed)
+        self.poses = [tuple(int(c) for c in rng.integers(0, 1 << 32, 6)) for _ in range(n)]
+
+    def press(self, counts: tuple[int, ...], button: int = 0) -> None:
+        self.chan.set_counts(counts)
+        self.chan.press(button)
+        self.chan.release(button)
+
+    def __enter__(self) -> Operated:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.chan.close()
+        self.sim.stop()
 
 
 def test_full_plan(sim: SimProcess, tmp_path: Path) -> None:
@@ -126,9 +171,9 @@ def test_kill9_then_resume_loses_no_acknowledged_point(sim: SimProcess, tmp_path
     cap = Capture(PLAN, "-o", str(out), "--port", sim.url)
     cap.wait_for("recorded 8/30")
     time.sleep(0.27)  # somewhere between two presses, or inside one
-    acked = cap.acknowledged()
     cap.proc.kill()
     cap.finish()
+    acked = cap.acknowledged()  # every line printed before the kill, read to the end
     s = read_session(out)
     # every acknowledged point is there; at most one more (durable, not yet printed)
     assert acked <= len(s) <= acked + 1
@@ -143,28 +188,49 @@ def test_kill9_then_resume_loses_no_acknowledged_point(sim: SimProcess, tmp_path
     assert runs[1]["first_slot"] == len(s)
 
 
-def test_undo_key_and_ctrl_c(sim: SimProcess, tmp_path: Path) -> None:
+def test_undo_key_and_ctrl_c(tmp_path: Path) -> None:
+    """Key u on the terminal undoes the last point even while presses keep coming
+    (capture reads the keyboard after every event, not only in a pause between them),
+    and Ctrl-C stops with the points kept. The test is the operator (:class:`Operated`),
+    so the outcome does not depend on how fast either side runs."""
     out = tmp_path / "s"
     master, slave = pty.openpty()
     try:
-        cap = Capture(PLAN, "-o", str(out), "--port", sim.url, stdin=slave)
-        cap.wait_for("recorded 5/30")
-        os.write(master, b"u")
-        cap.wait_for("  undone ")
-        cap.wait_for("recorded 9/30")
-        cap.proc.send_signal(signal.SIGINT)
-        code, err = cap.finish()
+        with Operated(seed=12, n=30) as op:
+            pressed: list[tuple[int, ...]] = []
+
+            def press() -> None:
+                op.press(op.poses[len(pressed)])
+                pressed.append(op.poses[len(pressed)])
+
+            cap = Capture(PLAN, "-o", str(out), "--port", op.sim.url, stdin=slave)
+            assert op.chan.wait_stream(True, timeout=30), cap.lines
+            for _ in range(5):
+                press()
+            cap.wait_for("recorded 5/30")
+            os.write(master, b"u")
+            # back to back, without waiting for capture, until the key is taken
+            while len(pressed) < 29 and not cap.has("  undone "):
+                press()
+            cap.wait_for("  undone ")
+            undone = [line for line in cap.lines if line.startswith("  undone ")]
+            assert len(undone) == 1
+            k = int(undone[0].split()[1].split("/")[0])  # "  undone K/30: ..."
+            # taken while presses were still coming (a key used to wait for a 50 ms pause)
+            assert 5 <= k < len(pressed), (k, len(pressed))
+            press()
+            cap.wait_until(lambda: cap.acknowledged() == len(pressed))
+            cap.proc.send_signal(signal.SIGINT)
+            code, err = cap.finish()
     finally:
         os.close(master)
         os.close(slave)
     assert code == 130, err
     assert "continue with --resume" in err
-    undone = [line for line in cap.lines if line.startswith("  undone ")]
-    assert len(undone) == 1
     s = read_session(out)
     assert s.status == "interrupted"
-    assert len(s) == cap.acknowledged() - 1  # one acknowledged point was undone
-    check_session(out, len(s))
+    assert [p.counts for p in s.points] == pressed[: k - 1] + pressed[k:]
+    check_session(out, len(pressed) - 1)
     events = (out / "events.csv").read_text().splitlines()
     assert sum(1 for e in events if ",undo," in e) == 1
 
@@ -217,39 +283,24 @@ def test_operator_on_the_control_channel(tmp_path: Path) -> None:
     carries known counts, so every recorded point is checked against what was pressed
     (none lost, none mislabelled); button 1 undoes, and a press made while capture is
     not yet listening is not taken."""
-    from aacmm.simulation.control import ControlChannel
-
-    chan, child_fd = ControlChannel.pair()
-    with SimProcess(
-        ["--serial", "pty", "--quiet", "--control", str(child_fd)], pass_fds=[child_fd]
-    ) as sim:
-        chan.child_started()
-        chan.hello()
-        rng = np.random.default_rng(11)
-        poses = [tuple(int(c) for c in rng.integers(0, 1 << 32, 6)) for _ in range(40)]
-
-        def press(counts: tuple[int, ...], button: int = 0) -> None:
-            chan.set_counts(counts)
-            chan.press(button)
-            chan.release(button)
-
-        press(poses[39])  # nobody listening yet: must not become a point
+    with Operated(seed=11, n=40) as op:
+        poses = op.poses
+        op.press(poses[39])  # nobody listening yet: must not become a point
         out = tmp_path / "s"
-        cap = Capture(PLAN, "-o", str(out), "--port", sim.url)
-        assert chan.wait_stream(True, timeout=30), cap.lines
+        cap = Capture(PLAN, "-o", str(out), "--port", op.sim.url)
+        assert op.chan.wait_stream(True, timeout=30), cap.lines
         taken: list[tuple[int, ...]] = []
         for k in range(33):
-            press(poses[k])
+            op.press(poses[k])
             taken.append(poses[k])
             cap.wait_for(f"recorded {len(taken)}/30")
             if k in (4, 20):  # undo the point just taken
-                press(poses[38], button=1)
+                op.press(poses[38], button=1)
                 cap.wait_for(f"undone {len(taken)}/30")
                 taken.pop()
             if len(taken) == 30:
                 break
         code, err = cap.finish()
-        chan.close()
     assert code == 0, err
     s = read_session(out)
     assert [p.counts for p in s.points] == taken

@@ -230,6 +230,9 @@ class Capture:
             if stop.set:
                 self.stop_reason = "SIGTERM" if stop.signal == signal.SIGTERM else "SIGINT"
                 return "interrupted"
+            # One event, the keyboard and the stream on every turn: a steady flow of
+            # button events (a fast operator, or a backlog while the host is slow)
+            # must not keep a key or the stall check waiting.
             try:
                 host_time, trig = self.events.get(timeout=0.05)
             except queue.Empty:
@@ -237,8 +240,9 @@ class Capture:
             else:
                 if trig.pressed:
                     self.press(dev, w, host_time, trig)
-                    shown = None if w.next_slot is None or w.next_slot.index != shown else shown
-                continue
+                    if w.next_slot is None:
+                        continue  # complete
+                    shown = None if w.next_slot.index != shown else shown
             key = self.read_key()
             if key == "u":
                 self.undo(w, None)
