@@ -21,6 +21,7 @@ TEST_SUITES += test-client
 
 # ---- loopback over a pty against the real simulator (builds it first) ----
 LOOPBACK_PY_FILES := tests/host/test_loopback_pty.py tests/host/simproc.py tests/host/hostref.py \
+                     tests/host/streamclock.py tests/device/sim_smoke.py \
                      tests/host/vcan/test_socketcan_client.py
 
 .PHONY: test-loopback-pty

@@ -41,6 +41,7 @@ import test_loopback_pty as pty_suite
 from aacmm.boards import BOARDS, default_image, start_board, stop_board
 from aacmm.client import Client, connect
 from aacmm.protocol import BuildFlags, SampleStatus
+from streamclock import schedule_drift_us, schedule_rate_hz
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "build" / "boards"
@@ -188,13 +189,15 @@ def test_stream_no_lost_samples(
     st = samples.stats
     diffs = np.array([(b - a) & 0xFFFFFFFF for a, b in itertools.pairwise(seqs)])
     span_s = (stamps[-1] - stamps[0]) * 1e-6
-    dev_rate = (len(seqs) - 1) / span_s
+    drift_us = schedule_drift_us(seqs, stamps, rate)  # late samples cannot move it
+    dev_rate = schedule_rate_hz(seqs, stamps, rate)
     _record(
         board[0],
         f"stream_{rate}hz{'_jacobian' if jacobian else ''}",
         {
             "samples": len(seqs),
             "device_span_s": round(span_s, 4),
+            "schedule_drift_us": round(drift_us),
             "rate_hz_device_clock": round(dev_rate, 3),
             "lost": st.lost,
             "duplicates": st.duplicates,
@@ -203,7 +206,7 @@ def test_stream_no_lost_samples(
     )
     assert np.all(diffs == 1), f"sequence gaps at {np.nonzero(diffs != 1)[0][:10]}"
     assert (st.lost, st.duplicates, st.overruns, st.dropped) == (0, 0, 0, 0)
-    assert abs(dev_rate - rate) < 0.01 * rate
+    assert abs(drift_us) < 1e6 / rate, f"device clock gives {dev_rate:.2f} Hz"
     assert all(b >= a for a, b in itertools.pairwise(stamps))
     assert client.stats.frame_errors == 0
 
