@@ -643,28 +643,6 @@ def test_sim_command(tmp_path: Path) -> None:
     one_error_line(p, exitcodes.PORT, "AACMM_SIM")
 
 
-# ---------------------------------------------------------------- the demo
-
-
-def test_demo_session(tmp_path: Path) -> None:
-    _sim_or_skip()
-    out = tmp_path / "demo"
-    p = subprocess.run(
-        [sys.executable, "-m", "aacmm.commands.demo", "--out", str(out), "--seconds", "1"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert p.returncode == 0, p.stdout + p.stderr
-    last = p.stdout.strip().splitlines()[-1]
-    assert last == f"demo: outputs in {out}"
-    assert "demo: session samples" in p.stdout and "extent x" in p.stdout
-    for name in ("session.csv", "session.csv.json", "params.toml", "mc.json", "mc.png"):
-        assert (out / name).stat().st_size > 0, name
-    s = json.loads((out / "summary.json").read_text())
-    assert s["samples"] > 100 and s["status"] == "complete"
-
-
 def test_sim_board_command() -> None:
     """`aacmm sim --board` runs the device firmware on an emulated Cortex-M4F and
     prints a URL the other commands take."""

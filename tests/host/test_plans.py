@@ -161,7 +161,9 @@ def test_articulation_preset_is_5x5_on_a_sphere(tmp_path: Path) -> None:
     assert loc[6].text.endswith("articulation 2 of 5, point 2 of 5")
 
 
-@pytest.mark.parametrize("name", ["iso10360-12", "kinematic-calibration", "probe-calibration"])
+@pytest.mark.parametrize(
+    "name", ["arm-verification", "iso10360-12", "kinematic-calibration", "probe-calibration"]
+)
 def test_shipped_plans_load(name: str) -> None:
     assert name in shipped_plans()
     plan = load_plan(name)
@@ -179,6 +181,24 @@ def test_kinematic_calibration_plan_contents() -> None:
     assert sum(s.position_count or 0 for s in lengths) == 30
     bar_lengths = {plan.artefacts[s.artefact or ""].length_mm for s in lengths}  # type: ignore[attr-defined]
     assert min(bar_lengths) >= 500 - 1 and max(bar_lengths) <= 1000 + 1
+
+
+def test_arm_verification_is_the_iso_plan_plus_spat() -> None:
+    """The demo's verification plan: the ISO 10360-12 plan point for point, then the
+    B89.4.22 single-point articulation test on three seats the calibration plan has not."""
+    iso, arm = load_plan("iso10360-12"), load_plan("arm-verification")
+    n = len(iso.slots)
+    assert [(s.step_id, s.text.split(",", 1)[1], s.target) for s in arm.slots[:n]] == [
+        (s.step_id, s.text.split(",", 1)[1], s.target) for s in iso.slots
+    ]
+    seats = arm.steps[len(iso.steps) :]
+    assert [(s.procedure, s.points) for s in seats] == [("cone", 10)] * 3
+    kin = load_plan("kinematic-calibration")
+    used = {tuple(a.location_mm or ()) for a in kin.artefacts.values()}
+    assert not used & {tuple(arm.artefacts[s.artefact or ""].location_mm or ()) for s in seats}
+    for key in ("p_size_mm", "p_form_mm", "l_dia_mm", "e_uni"):
+        assert getattr(arm.mpe, key) == getattr(iso.mpe, key)
+    assert arm.mpe.spat_2sigma_mm and arm.mpe.spat_range_mm and arm.mpe.volumetric_mm
 
 
 def test_iso_plan_mpe() -> None:

@@ -15,6 +15,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "aacmm.commands.calibrate",
     "aacmm.commands.capture",
     "aacmm.commands.dbc",
+    "aacmm.commands.demo",
     "aacmm.commands.device",
     "aacmm.commands.fit",
     "aacmm.commands.log",

@@ -1,31 +1,87 @@
-"""The README's main job, one simulated measurement session end to end.
+"""``aacmm demo``: the README's main job, an arm owner's session end to end.
 
-``python -m aacmm.commands.demo [--out DIR] [--seconds S]`` (run by
-``make demo`` as the step ``demo-session``):
+On the simulator, with an arm whose true geometry is random and hidden from
+the device (``aacmm sim --truth random:SEED``: every length +-0.5 mm, every
+angle +-0.05 deg, encoder noise, eccentric encoders, probing noise), and a
+simulated operator who probes each plan (``--scenario``):
 
-1. starts the simulator (``aacmm-sim``) on a pseudo-terminal;
-2. ``aacmm info`` and ``aacmm params get`` through the real ``aacmm`` command;
-3. ``aacmm log`` for a few seconds at 200 Hz (probe button every 0.5 s);
-4. ``aacmm summary``: samples, rate, lost samples, point cloud extent;
-5. ``aacmm mc`` over the logged poses and over 10^4 random poses (Table 2);
+1. a short measurement log (``aacmm log``, ``aacmm summary``) and the paper's
+   Table 2 (``aacmm mc``);
+2. the verification plan (ISO 10360-12 + the B89.4.22 single-point
+   articulation test): ``aacmm capture``, ``aacmm verify`` -- FAIL;
+3. the kinematic-calibration plan, ``aacmm calibrate``,
+   ``aacmm params set --save``;
+4. the verification plan again -- PASS;
+5. the before/after table and figure, and a check of the calibration
+   against the simulator's truth (the only step that reads it).
 
-and writes every output under one folder (default ``out/demo-<UTC time>``),
-whose path it prints first and last. Each step's command line is printed
-before it runs, so the session can be repeated by hand.
+Every step runs the real ``aacmm`` command in the output folder
+(``out/demo-<UTC time>/``) and prints its command line first, so each can be
+repeated by hand there. ``aacmm demo --check DIR`` is the last step alone.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime as dt
-import json
+import os
+import secrets
 import shlex
+import signal
 import subprocess
 import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import IO, Any
 
-from aacmm.commands.common import write_output
-from aacmm.commands.sim import SimProcess, repo_root
+from aacmm.commands.common import add_force_option
+from aacmm.commands.exitcodes import NOT_MET, OK, USAGE
+
+VERIFY_PLAN = "arm-verification"
+CALIBRATION_PLAN = "kinematic-calibration"
+SIM_READY_S = 60.0  # planning the articulations of a plan takes a few seconds
+TITLE = "aacmm demo: an arm out of calibration, verified, calibrated, verified again"
+
+
+def register(sub: Any) -> None:
+    """Add ``demo`` to an argparse subparsers object."""
+    p = sub.add_parser(
+        "demo",
+        help="the main job on the simulator: verify (FAIL), calibrate, verify again (PASS)",
+        description=__doc__.splitlines()[0].split(": ", 1)[1] if __doc__ else None,
+    )
+    add_arguments(p)
+    p.set_defaults(func=run_demo)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, help="output folder (default out/demo-<UTC time>)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        help="the simulated arm's true geometry is random:SEED (default: a random seed, "
+        "printed, so a run can be repeated)",
+    )
+    p.add_argument(
+        "--pace",
+        choices=("fast", "person"),
+        default="fast",
+        help="the simulated operator: 'fast' (no pacing, default) or a person's pace "
+        "(about 1-1.5 s per point: some 8 minutes)",
+    )
+    p.add_argument("--seconds", type=float, default=2.0, help="log duration (default 2)")
+    p.add_argument("--poses", type=int, default=10_000, help="Table 2 poses (default 10^4)")
+    p.add_argument(
+        "--check",
+        metavar="DIR",
+        type=Path,
+        help="only the last step: compare the calibration of a finished demo folder DIR "
+        "with the simulator's truth (DIR/arm/truth.toml)",
+    )
+    add_force_option(p)
 
 
 def _aacmm() -> list[str]:
@@ -33,103 +89,360 @@ def _aacmm() -> list[str]:
     return [str(exe)] if exe.is_file() else [sys.executable, "-m", "aacmm.cli"]
 
 
-def step(
-    title: str, args: list[str], out: Path, log_name: str | None = None, brief: bool = False
-) -> str:
-    """Run ``aacmm ARGS`` in ``out``; echo its output (``brief``: the first line only);
-    keep the output in ``out/log_name``. Exit on failure."""
-    cmd = [*_aacmm(), *args]
-    shown = " ".join(shlex.quote(a) for a in ["aacmm", *args])
-    print(f"\n== {title}\n$ {shown}", flush=True)
-    p = subprocess.run(cmd, capture_output=True, text=True, cwd=out)
-    text = p.stdout + (p.stderr if p.returncode else "")
-    if brief and p.returncode == 0 and log_name:
-        text = text.strip().splitlines()[0] + f"\n(full output: {log_name})" if text.strip() else ""
-    if text.strip():
-        print(text.rstrip(), flush=True)
-    if log_name:
-        write_output(out / log_name, p.stdout)
-    if p.returncode != 0:
-        print(f"demo: step failed (exit status {p.returncode}): {shown}", file=sys.stderr)
-        raise SystemExit(p.returncode)
-    return p.stdout
+def _shown(args: Sequence[str]) -> str:
+    return " ".join(shlex.quote(a) for a in ["aacmm", *args])
+
+
+class StepFailed(Exception):
+    """A command of the demo failed; ``code`` is its exit status."""
+
+    def __init__(self, code: int) -> None:
+        super().__init__(code)
+        self.code = code
+
+
+class Demo:
+    """Prints (and keeps in ``demo.txt``) the steps, runs the commands in ``out``."""
+
+    def __init__(self, out: Path, steps: int, transcript: IO[str]) -> None:
+        self.out = out
+        self.steps = steps
+        self.index = 0
+        self.t0 = time.monotonic()
+        self.transcript = transcript
+        self.live = sys.stdout.isatty()
+
+    def say(self, text: str = "") -> None:
+        print(text, flush=True)
+        self.transcript.write(text + "\n")
+        self.transcript.flush()
+
+    def step(self, title: str) -> None:
+        """The progress line of the next step: number, elapsed time, what it does."""
+        self.index += 1
+        m, s = divmod(int(time.monotonic() - self.t0), 60)
+        self.say(f"\n[{self.index}/{self.steps}] {m}:{s:02d}  {title}")
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.t0
+
+    def run(
+        self,
+        args: list[str],
+        console: str,
+        ok: Sequence[int] = (OK,),
+        show: Callable[[str], list[str]] | None = None,
+        live: str | None = None,
+    ) -> subprocess.CompletedProcess[str]:
+        """``aacmm ARGS`` in the output folder: its command line first, its whole
+        output kept in ``console/CONSOLE``, the lines ``show`` picks printed.
+        ``live``: a prefix of stdout lines counted on a terminal while it runs."""
+        self.say(f"$ {_shown(args)}")
+        t = time.monotonic()
+        proc = subprocess.Popen(
+            [*_aacmm(), *args],
+            cwd=self.out,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            stdin=subprocess.DEVNULL,
+            text=True,
+        )
+        err: list[str] = []
+        assert proc.stderr is not None and proc.stdout is not None
+        drain = threading.Thread(target=lambda: err.extend(proc.stderr or ()), daemon=True)
+        drain.start()
+        lines: list[str] = []
+        for line in proc.stdout:
+            lines.append(line)
+            if live and self.live and line.lstrip().startswith(live):
+                print(f"\r  {line.strip()[:70]:<70}", end="", flush=True)
+        proc.wait()
+        drain.join()
+        if live and self.live:
+            print("\r" + " " * 74 + "\r", end="", flush=True)
+        p = subprocess.CompletedProcess(proc.args, proc.returncode, "".join(lines), "".join(err))
+        from aacmm.fileio import write_output
+
+        write_output(self.out / "console" / console, p.stdout + p.stderr)
+        picked = show(p.stdout) if show is not None else p.stdout.rstrip().splitlines()
+        for line in picked:
+            self.say(f"  {line}" if line else "")
+        if p.returncode not in ok:
+            for line in p.stderr.strip().splitlines()[-5:]:
+                self.say(f"  {line}")
+            self.say(
+                f"demo: step failed (exit status {p.returncode}): {_shown(args)} "
+                f"(output: console/{console})"
+            )
+            raise StepFailed(p.returncode)
+        self.say(f"  ({time.monotonic() - t:.1f} s; output: console/{console})")
+        return p
+
+    @contextlib.contextmanager
+    def simulator(self, args: list[str], log_name: str) -> Iterator[str]:
+        """``aacmm sim ARGS &``: yields the URL it prints; at the end waits for it to
+        finish (a scenario ends when capture stops streaming), else stops it."""
+        self.say(f"$ {_shown(args)} &")
+        log_path = self.out / "console" / log_name
+        with open(log_path, "w", encoding="utf-8") as log:
+            proc = subprocess.Popen(
+                [*_aacmm(), *args],
+                cwd=self.out,
+                stdout=subprocess.PIPE,
+                stderr=log,
+                stdin=subprocess.DEVNULL,
+                text=True,
+            )
+            try:
+                url = _first_line(proc, SIM_READY_S)
+                if not url:
+                    proc.wait(timeout=10)
+                    tail = log_path.read_text(encoding="utf-8").strip().splitlines()[-3:]
+                    for line in tail:
+                        self.say(f"  {line}")
+                    self.say(
+                        f"demo: the simulator did not start (its messages: console/{log_name})"
+                    )
+                    raise StepFailed(proc.returncode if proc.returncode else 3)
+                yield url
+                if "--scenario" in args:
+                    proc.wait(timeout=60)
+            finally:
+                if proc.poll() is None:
+                    self.say("$ kill %1                        # stop the simulator")
+                    proc.send_signal(signal.SIGTERM)
+                    try:
+                        proc.wait(timeout=15)
+                    except subprocess.TimeoutExpired:
+                        proc.kill()
+                        proc.wait()
+                if proc.stdout is not None:
+                    proc.stdout.close()
+
+
+def _first_line(proc: subprocess.Popen[str], timeout: float) -> str:
+    """The first stdout line of ``proc`` (empty if it ended or stayed silent)."""
+    got: list[str] = []
+    assert proc.stdout is not None
+    out = proc.stdout
+
+    def reader() -> None:
+        got.append(out.readline().strip())
+        for _ in out:  # keep draining: the simulator never blocks on a full pipe
+            pass
+
+    threading.Thread(target=reader, daemon=True).start()
+    deadline = time.monotonic() + timeout
+    while not got and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    return got[0] if got else ""
+
+
+def _table_lines(text: str) -> list[str]:
+    """From ``aacmm verify``: the results table and the verdict."""
+    lines = text.splitlines()
+    start = next((i for i, s in enumerate(lines) if s.startswith("test ")), None)
+    end = next((i for i, s in enumerate(lines) if s.startswith("verdict")), None)
+    if start is None or end is None:
+        return lines[-3:]
+    return lines[start : end + 1]
+
+
+def _calibrate_lines(text: str) -> list[str]:
+    """From ``aacmm calibrate``: rank, chi-square, the before/after table, files."""
+    lines = text.splitlines()
+    out: list[str] = []
+    if any("rank" in s for s in lines):
+        out.append(next(s.strip() for s in lines if s.strip().startswith("rank")))
+    out += [s for s in lines if s.startswith(("chi^2", "note: held"))]
+    start = next((i for i, s in enumerate(lines) if s.startswith("Before / after")), None)
+    if start is not None:
+        for s in lines[start:]:
+            if not s.strip():
+                break
+            out.append(s)
+    out += [s for s in lines if s.startswith("wrote ")]
+    return out
+
+
+def _last_line(text: str) -> list[str]:
+    lines = text.strip().splitlines()
+    return lines[-1:] if lines else []
+
+
+def _first(text: str) -> list[str]:
+    lines = text.strip().splitlines()
+    return lines[:1]
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    """Run the whole demo (or ``--check DIR`` alone); the exit status."""
+    if args.check is not None:
+        from aacmm.commands.demo_report import print_truth_check
+
+        return print_truth_check(Path(args.check), force=args.force)
+    from aacmm.commands.sim import find_simulator, repo_root
+
+    if args.seconds <= 0 or args.poses < 1:
+        print("demo: --seconds and --poses must be positive", file=sys.stderr)
+        return USAGE
+    root = repo_root() or Path.cwd()
+    stamp = dt.datetime.now(dt.UTC).strftime("%Y%m%d-%H%M%S")
+    out = (args.out or root / "out" / f"demo-{stamp}").resolve()
+    if out.is_dir() and any(out.iterdir()):  # every output is refused if it exists
+        print(f"demo: {out} is not empty: give a new --out folder", file=sys.stderr)
+        return USAGE
+    find_simulator()  # "run make sim" before anything is written
+    for sub in ("arm", "console"):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+    seed = args.seed if args.seed is not None else secrets.randbelow(1_000_000)
+    with open(out / "demo.txt", "w", encoding="utf-8") as transcript:
+        demo = Demo(out, 11, transcript)
+        try:
+            return _story(demo, seed, args)
+        except StepFailed as exc:
+            return exc.code
+        finally:
+            demo.say(f"demo: outputs in {out}")
+
+
+def _story(demo: Demo, seed: int, args: argparse.Namespace) -> int:
+    from aacmm.commands import demo_report as dr
+
+    out = demo.out
+    demo.say(TITLE)
+    demo.say(f"demo: outputs go to {out}")
+    demo.say(
+        f"demo: every command runs in that folder: to repeat one by hand, cd {out} and run it "
+        "with the venv's aacmm (.venv/bin/aacmm)"
+    )
+    demo.say(
+        f"demo: the simulated arm is random:{seed}: its true geometry, hidden from the device "
+        f"and from every analysis step (aacmm demo --seed {seed} repeats this run)"
+    )
+    _log_and_table2(demo, args)
+    fast = ["--fast"] if args.pace == "fast" else []
+    truth = ["--truth", f"random:{seed}"]
+    store = ["--storage", "arm/arm.bin", "--link", "arm/port"]
+
+    def session(plan: str, name: str, op_seed: int, extra: list[str]) -> None:
+        sim = ["sim", "--scenario", plan, *truth, *extra, *fast, "--seed", str(op_seed), *store]
+        sim += ["--report", f"arm/operator-{name}.json"]
+        with demo.simulator(sim, f"sim-{name}.log") as url:
+            demo.run(
+                ["capture", plan, "-o", name, "--port", url, "-q", "--no-keys"],
+                f"capture-{name}.txt",
+                show=_last_line,
+                live="recorded",
+            )
+
+    demo.step(
+        f"verification before calibration: the simulated operator probes the {VERIFY_PLAN} "
+        "plan (ISO 10360-12 + B89.4.22 single-point articulation, 120 points)"
+    )
+    session(VERIFY_PLAN, "before", 1, ["--truth-out", "arm/truth.toml"])
+    demo.step("aacmm verify: the arm as it comes (expected: FAIL)")
+    rb = demo.run(
+        ["verify", "before", "--report", "before-report"],
+        "verify-before.txt",
+        ok=(OK, NOT_MET),
+        show=_table_lines,
+    )
+    demo.step(f"calibration data: the operator probes the {CALIBRATION_PLAN} plan (135 points)")
+    session(CALIBRATION_PLAN, "calibration", 2, [])
+    demo.step("aacmm calibrate: identify the arm's parameters (identifiable ones only)")
+    demo.run(
+        ["calibrate", "calibration", "-o", "calibrated.toml", "--report", "calibration-report"],
+        "calibrate.txt",
+        show=_calibrate_lines,
+    )
+    demo.step("load the calibrated parameters into the arm and save them (its storage file)")
+    with demo.simulator(["sim", *truth, *store], "sim-params.log") as url:
+        demo.run(["params", "set", "calibrated.toml", "--save", "--port", url], "params-set.txt")
+    demo.step(
+        f"verification after calibration: the operator probes the {VERIFY_PLAN} plan again "
+        "(other articulations; the arm restarted on its saved parameters)"
+    )
+    session(VERIFY_PLAN, "after", 3, [])
+    demo.step("aacmm verify: the calibrated arm (expected: PASS)")
+    ra = demo.run(
+        ["verify", "after", "--report", "after-report"],
+        "verify-after.txt",
+        ok=(OK, NOT_MET),
+        show=_table_lines,
+    )
+    demo.step("before / after (from the two verification reports)")
+    table = dr.write_before_after(out, "before-report", "after-report")
+    for line in table.text.splitlines():
+        demo.say(f"  {line}")
+    demo.say("  (before-after.txt, before-after.json, before-after.png)")
+    demo.step("check against the simulator's truth (arm/truth.toml, read by no step before)")
+    demo.run(["demo", "--check", "."], "truth-check.txt")
+
+    demo.say("\ndemo: figures: before-report/*.png, after-report/*.png, before-after.png,")
+    demo.say("      calibration-report/*.png, table2/mc.png")
+    demo.say("demo: one-page reports: before-report/report.pdf, after-report/report.pdf")
+    demo.say(f"demo: {demo.elapsed():.0f} s in all")
+    if rb.returncode == OK:
+        demo.say("demo: note: this arm passed before calibration (a lucky random arm)")
+    if ra.returncode != OK:
+        demo.say("demo: the calibrated arm still FAILS its verification (see after-report)")
+        return NOT_MET
+    return OK
+
+
+def _log_and_table2(demo: Demo, args: argparse.Namespace) -> None:
+    """The measurement log (aacmm log, summary) and the paper's Table 2 (aacmm mc)."""
+    (demo.out / "logging").mkdir()
+    (demo.out / "table2").mkdir()
+    demo.step(f"log {args.seconds:g} s of measurement at 200 Hz from a simulated arm (aacmm log)")
+    sim = ["sim", "--motion", "walk", "--seed", "7", "--noise-counts", "64"]
+    sim += ["--button-every", "0.5", "--link", "logging/port"]
+    with demo.simulator(sim, "sim-logging.log") as url:
+        demo.run(
+            ["info", "--port", url],
+            "info.txt",
+            show=lambda t: [s for s in t.splitlines() if s.startswith(("firmware", "parameters"))],
+        )
+        demo.run(["params", "get", "-o", "logging/params.toml", "--port", url], "params-get.txt")
+        demo.run(
+            ["log", "logging/session.csv", "--port", url, "-r", "200", "-d", f"{args.seconds:g}"],
+            "log.txt",
+            show=_last_line,
+        )
+    demo.run(["summary", "logging/session.csv"], "summary.txt")
+    demo.step(f"the paper's Table 2: Monte Carlo error transfer over {args.poses} random poses")
+    demo.run(
+        ["mc", "--log", "logging/session.csv", "--json", "table2/mc_log.json"],
+        "mc-log.txt",
+        show=_first,
+    )
+    demo.run(
+        [
+            *("mc", "-n", str(args.poses), "--seed", "1"),
+            *("--json", "table2/mc.json", "--csv", "table2/mc.csv", "--png", "table2/mc.png"),
+        ],
+        "mc.txt",
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="aacmm-demo", description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, help="output folder (default out/demo-<UTC time>)")
-    ap.add_argument("--seconds", type=float, default=3.0, help="log duration (default 3)")
-    ap.add_argument("--poses", type=int, default=10_000, help="Monte Carlo poses (10^4)")
-    a = ap.parse_args(argv)
-    root = repo_root() or Path.cwd()
-    stamp = dt.datetime.now(dt.UTC).strftime("%Y%m%d-%H%M%S")
-    out = (a.out or root / "out" / f"demo-{stamp}").resolve()
-    if out.is_dir() and any(out.iterdir()):  # every output is refused if it exists
-        print(f"demo: {out} is not empty: give a new --out folder", file=sys.stderr)
-        return 2
-    out.mkdir(parents=True, exist_ok=True)
-    print(f"demo: outputs go to {out}", flush=True)
+    """``python -m aacmm.commands.demo`` (same as ``aacmm demo``)."""
+    ap = argparse.ArgumentParser(prog="aacmm demo", description=TITLE)
+    add_arguments(ap)
+    from aacmm.commands.exitcodes import exit_code
+    from aacmm.errors import AacmmError
 
-    sim_args = ["--serial", "pty", "--motion", "walk", "--seed", "7"]
-    sim_args += ["--noise-counts", "64", "--button-every", "0.5"]
-    print("\n== simulator (its diagnostics: simulator.log)", flush=True)
-    print(f"$ aacmm sim {' '.join(sim_args[2:])}", flush=True)
-    with open(out / "simulator.log", "w") as sim_err:
-        with SimProcess(sim_args, stderr=sim_err) as sim:
-            port = sim.url
-            print(f"device at {port}", flush=True)
-            step("device info", ["info", "--port", port], out, "info.txt")
-            step("parameter set", ["params", "get", "-o", "params.toml", "--port", port], out)
-            step(
-                f"log a {a.seconds:g} s measurement session (200 Hz)",
-                ["log", "session.csv", "--port", port, "-r", "200", "-d", f"{a.seconds:g}"],
-                out,
-                "log.txt",
-            )
-    step("summary", ["summary", "session.csv"], out, "summary.txt")
-    summary_json = subprocess.run(
-        [*_aacmm(), "summary", "session.csv", "--json"],
-        cwd=out,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    write_output(out / "summary.json", summary_json)
-    step(
-        "Monte Carlo over the logged poses",
-        ["mc", "--log", "session.csv", "--json", "mc_log.json", "--csv", "mc_log.csv"],
-        out,
-        "mc_log.txt",
-        brief=True,
-    )
-    step(
-        f"Monte Carlo over {a.poses} random poses (the paper's Table 2)",
-        [
-            "mc",
-            "-n",
-            str(a.poses),
-            "--seed",
-            "1",
-            "--json",
-            "mc.json",
-            "--csv",
-            "mc.csv",
-            "--png",
-            "mc.png",
-        ],
-        out,
-        "mc.txt",
-    )
-    from aacmm.commands.log import format_summary
-
-    summary = json.loads((out / "summary.json").read_text())
-    print("\ndemo: session " + format_summary(summary).replace("\n", "\n              "))
-    print("demo: files:")
-    for f in sorted(out.iterdir()):
-        print(f"  {f.name:<22} {f.stat().st_size:>9} bytes")
-    print(f"demo: outputs in {out}", flush=True)
-    return 0
+    try:
+        return run_demo(ap.parse_args(argv))
+    except KeyboardInterrupt:
+        print("demo: interrupted", file=sys.stderr)
+        return exit_code(KeyboardInterrupt())
+    except (AacmmError, ValueError, OSError) as exc:
+        print(f"demo: error: {exc}", file=sys.stderr)
+        return exit_code(exc)
 
 
 if __name__ == "__main__":
+    os.environ.setdefault("PYTHONUNBUFFERED", "1")
     sys.exit(main())

@@ -1,0 +1,258 @@
+"""The demo's before/after table and figure, and its check against the truth.
+
+* :func:`before_after` puts two ``aacmm verify`` JSON reports of the same plan
+  side by side (value before, after, MPE, factor, verdicts);
+  :func:`write_before_after` writes it as text, JSON and a PNG figure.
+* :func:`truth_check` is the only code of the demo that reads the
+  simulator's truth (``arm/truth.toml``, written by ``aacmm sim
+  --truth-out``): it measures random lengths across the arm's reach with the
+  parameter sets the device used before and after calibration, through the
+  true encoders, and compares them with the true distances.
+  ``aacmm demo --check DIR`` runs it (:func:`print_truth_check`).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: results whose sign matters (a size or length deviation), printed with it
+SIGNED = frozenset({"p_size", "e_uni", "effective_diameter"})
+#: the figures the demo's story is told with: length error and single-point articulation
+HEADLINE = (("e_uni", "length error E_Uni"), ("spat_range", "SPAT (max - min)/2"))
+CHECK_LENGTHS = 2000
+CHECK_SEED = 2024
+
+
+@dataclass(frozen=True)
+class BeforeAfter:
+    """Rows (one per verification result), the two verdicts, and the text table."""
+
+    rows: list[dict[str, Any]]
+    verdict_before: str
+    verdict_after: str
+    text: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "format": "aacmm-demo-before-after-1",
+            "verdict_before": self.verdict_before,
+            "verdict_after": self.verdict_after,
+            "rows": self.rows,
+        }
+
+
+def _value(v: float | None, key: str) -> str:
+    if v is None:
+        return "-"
+    return f"{v:+.4f}" if key in SIGNED else f"{v:.4f}"
+
+
+def _mpe(row: dict[str, Any]) -> str:
+    """The MPE; before/after when they differ (E_Uni's depends on the worst length)."""
+    b, a = row["mpe_mm"], row["mpe_after_mm"]
+    if b is None:
+        return "-"
+    return f"{b:.4f}" if a in (None, b) else f"{b:.3f}/{a:.3f}"
+
+
+def _factor(before: float | None, after: float | None) -> float | None:
+    if before is None or after is None or after == 0:
+        return None
+    return abs(before) / abs(after)
+
+
+def before_after(before: dict[str, Any], after: dict[str, Any]) -> BeforeAfter:
+    """The results of two verification reports (``aacmm verify --json``) side by side.
+
+    Raises:
+        ValueError: the reports are of different plans.
+    """
+    pb, pa = before.get("plan", {}), after.get("plan", {})
+    if pb.get("sha256") != pa.get("sha256"):
+        raise ValueError("the two verification reports are of different plans")
+    res_a = {r["key"]: r for r in after["results"]}
+    rows: list[dict[str, Any]] = []
+    for rb in before["results"]:
+        ra = res_a.get(rb["key"], {})
+        vb, va = rb.get("value_mm"), ra.get("value_mm")
+        rows.append(
+            {
+                "key": rb["key"],
+                "name": rb["name"],
+                "before_mm": vb,
+                "after_mm": va,
+                "mpe_mm": rb.get("mpe_mm"),
+                "mpe_after_mm": ra.get("mpe_mm"),
+                "verdict_before": rb.get("verdict"),
+                "verdict_after": ra.get("verdict"),
+                "factor": _factor(vb, va),
+            }
+        )
+    width = max(len(r["name"]) for r in rows) if rows else 4
+    lines = [f"{'test':<{width}}  before mm   after mm       MPE mm   factor  verdict"]
+    for r in rows:
+        f = "-" if r["factor"] is None else f"{r['factor']:.0f}x"
+        lines.append(
+            f"{r['name']:<{width}}  {_value(r['before_mm'], r['key']):>9}  "
+            f"{_value(r['after_mm'], r['key']):>9}  {_mpe(r):>11}  {f:>7}  "
+            f"{r['verdict_before']} -> {r['verdict_after']}"
+        )
+    vb, va = str(before["verdict"]), str(after["verdict"])
+    lines.append(f"{'verdict':<{width}}  {vb:>9}  {va:>9}")
+    by_key = {r["key"]: r for r in rows}
+    fell = [
+        f"{label} fell {by_key[k]['factor']:.0f}x"
+        for k, label in HEADLINE
+        if k in by_key and by_key[k]["factor"] is not None
+    ]
+    if fell:
+        lines.append("calibration: " + ", ".join(fell))
+    return BeforeAfter(rows, vb, va, "\n".join(lines) + "\n")
+
+
+def figure(table: BeforeAfter) -> Any:
+    """Each result as a fraction of its MPE, before and after (log scale)."""
+    from matplotlib.figure import Figure
+
+    rows = [r for r in table.rows if r["mpe_mm"] and r["before_mm"] is not None]
+    fig = Figure(figsize=(8.0, 0.55 * len(rows) + 1.6))
+    ax = fig.add_subplot()
+    y = np.arange(len(rows))[::-1]
+    for k, (field, label, colour) in enumerate(
+        (
+            ("before_mm", f"before calibration ({table.verdict_before})", "tab:red"),
+            ("after_mm", f"after calibration ({table.verdict_after})", "tab:green"),
+        )
+    ):
+        ratio = [abs(r[field] or 0.0) / r["mpe_mm"] for r in rows]
+        ax.barh(y + (0.2 - 0.4 * k), ratio, height=0.38, color=colour, label=label)
+    ax.axvline(1.0, color="black", lw=1.2, ls="--", label="MPE")
+    ax.set_xscale("log")
+    ax.set_yticks(y, [r["name"] for r in rows], fontsize=8)
+    ax.set_xlabel("|value| / MPE (log scale; passes left of the dashed line)")
+    ax.set_title("Verification of the simulated arm, before and after calibration", fontsize=10)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3)
+    fig.tight_layout()
+    return fig
+
+
+def write_before_after(out: Path, before_dir: str, after_dir: str) -> BeforeAfter:
+    """Read ``out/BEFORE_DIR/report.json`` and ``out/AFTER_DIR/report.json``;
+    write ``before-after.txt``, ``.json`` and ``.png`` into ``out``."""
+    from aacmm.fileio import load_json, save_figure, write_output
+
+    table = before_after(
+        load_json(out / before_dir / "report.json"), load_json(out / after_dir / "report.json")
+    )
+    write_output(out / "before-after.txt", table.text)
+    write_output(out / "before-after.json", json.dumps(table.to_json(), indent=2) + "\n")
+    save_figure(figure(table), out / "before-after.png", dpi=120)
+    return table
+
+
+# ------------------------------------------------------------ the truth
+
+
+def truth_check(
+    folder: Path, lengths: int = CHECK_LENGTHS, seed: int = CHECK_SEED
+) -> dict[str, Any]:
+    """Lengths across the reach as the arm measures them, before and after, against the truth.
+
+    ``lengths`` pairs of random postures within the simulated arm's joint
+    limits; each end's true point from the truth's geometry, its measured
+    point from the true encoders' noise-free readings (with their
+    eccentricity) converted by the parameter set the device used for the
+    ``before`` and ``after`` sessions of ``folder``.
+
+    Raises:
+        aacmm.errors.AacmmError / ValueError: a missing or damaged file.
+    """
+    from aacmm.core import Model, counts_to_angles
+    from aacmm.records import read_session
+    from aacmm.simulation.ik import ARM_LIMITS
+    from aacmm.simulation.truth import load_truth
+
+    truth = load_truth(folder / "arm" / "truth.toml")
+    rng = np.random.default_rng(seed)
+    theta = np.array([ARM_LIMITS.sample(rng) for _ in range(2 * lengths)])
+    true_pts = truth.model().points(theta)
+    counts = truth.counts(theta)  # no rng: the readings without noise
+    true_len = np.linalg.norm(true_pts[0::2] - true_pts[1::2], axis=1)
+    out: dict[str, Any] = {
+        "format": "aacmm-demo-truth-check-1",
+        "truth": "arm/truth.toml",
+        "origin": truth.origin,
+        "lengths": lengths,
+        "seed": seed,
+        "true_length_mm": [float(true_len.min()), float(true_len.max())],
+    }
+    for name in ("before", "after"):
+        ps = read_session(folder / name).param_set_of(0)
+        pts = Model(ps.params).points(counts_to_angles(counts, ps.encoders))
+        err = np.linalg.norm(pts[0::2] - pts[1::2], axis=1) - true_len
+        out[name] = {
+            "session": name,
+            "params_crc32": ps.crc_hex,
+            "rms_mm": float(np.sqrt(np.mean(err**2))),
+            "p95_mm": float(np.quantile(np.abs(err), 0.95)),
+            "max_mm": float(np.max(np.abs(err))),
+        }
+    # what the true geometry itself measures through these encoders: the part
+    # of the error (eccentricity) that no calibration of the DH model removes
+    pts = truth.model().points(counts_to_angles(counts, truth.encoders))
+    err = np.linalg.norm(pts[0::2] - pts[1::2], axis=1) - true_len
+    out["floor"] = {
+        "session": None,
+        "params_crc32": "truth",
+        "rms_mm": float(np.sqrt(np.mean(err**2))),
+        "p95_mm": float(np.quantile(np.abs(err), 0.95)),
+        "max_mm": float(np.max(np.abs(err))),
+    }
+    out["factor"] = out["before"]["rms_mm"] / out["after"]["rms_mm"]
+    return out
+
+
+def truth_check_text(c: dict[str, Any]) -> str:
+    lo, hi = c["true_length_mm"]
+    origin = c["origin"]
+    what = f"{origin.get('kind')}:{origin.get('seed')}" if origin.get("kind") else "a truth file"
+    lines = [
+        f"truth: {c['truth']} ({what}), written by the simulator, read here for the first time",
+        f"{c['lengths']} random lengths across the arm's reach ({lo:.0f}-{hi:.0f} mm), each end "
+        "in a random posture:",
+        "what the arm measures (its own encoders, eccentric, without noise) - the true distance",
+        "           rms mm    95 % mm    max mm  parameters",
+    ]
+    for name in ("before", "after", "floor"):
+        r = c[name]
+        what = (
+            f"{r['params_crc32']} (session {r['session']})"
+            if r["session"]
+            else "the true geometry: its encoders' eccentricity, beyond any DH calibration"
+        )
+        lines.append(
+            f"{name:<8} {r['rms_mm']:>8.4f}  {r['p95_mm']:>9.4f}  {r['max_mm']:>8.4f}  {what}"
+        )
+    lines.append(
+        f"the calibration cut the rms length error {c['factor']:.0f}x over the whole reach"
+    )
+    return "\n".join(lines) + "\n"
+
+
+def print_truth_check(folder: Path, force: bool = False) -> int:
+    """``aacmm demo --check DIR``: print the check, write ``truth-check.json``/``.txt``."""
+    from aacmm.fileio import check_outputs, write_output
+
+    targets = [folder / "truth-check.json", folder / "truth-check.txt"]
+    check_outputs(targets, force)
+    c = truth_check(folder)
+    text = truth_check_text(c)
+    write_output(targets[0], json.dumps(c, indent=2) + "\n", force=force)
+    write_output(targets[1], text, force=force)
+    print(text, end="")
+    return 0
