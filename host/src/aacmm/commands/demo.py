@@ -79,7 +79,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         choices=("fast", "person"),
         default="fast",
         help="the simulated operator: 'fast' (no pacing, default) or a person's pace "
-        "(about 1-1.5 s per point: some 8 minutes)",
+        "(about 1.5 s per point: some 10 minutes)",
     )
     p.add_argument(
         "--seconds", type=float, default=2.0, metavar="S", help="log duration (default 2)"
@@ -224,7 +224,7 @@ class Demo:
                         proc.wait(timeout=60)
             finally:
                 if proc.poll() is None:
-                    self.say("$ kill %1                        # stop the simulator")
+                    self.say("$ kill $!                        # stop the simulator")
                     proc.send_signal(signal.SIGTERM)
                     try:
                         proc.wait(timeout=15)
