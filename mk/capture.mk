@@ -11,7 +11,8 @@ CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
                     host/src/aacmm/commands/capture.py host/src/aacmm/commands/plan.py \
                     host/src/aacmm/analysis/poselog.py \
                     tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
-                    tests/host/test_logs.py tests/host/test_capture_scenario.py
+                    tests/host/test_logs.py tests/host/test_capture_scenario.py \
+                    bench/bench_capture.py
 CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-capture test-capture-lint
@@ -28,3 +29,9 @@ test-capture-lint:
 	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CAPTURE_PY_FILES)
 
 TEST_SUITES += test-capture
+
+# ---- benchmark: a press's cost in aacmm capture, queueing apart (JSON lines) ----
+.PHONY: bench-capture
+bench-capture: sim
+	@$(PYTHON) bench/bench_capture.py
+BENCH_TARGETS += bench-capture
