@@ -17,7 +17,8 @@ simulated operator who probes each plan (``--scenario``):
 
 Every step runs the real ``aacmm`` command in the output folder
 (``out/demo-<UTC time>/``) and prints its command line first, so each can be
-repeated by hand there. ``aacmm demo --check DIR`` is the last step alone.
+repeated by hand there. ``aacmm demo --compare DIR`` and ``--check DIR`` are
+the last two steps alone.
 """
 
 from __future__ import annotations
@@ -72,7 +73,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         metavar="N",
         help="the simulated arm's true geometry is random:SEED (default: a random seed, "
-        "printed, so a run can be repeated)",
+        "printed, so the same arm can be taken again)",
     )
     p.add_argument(
         "--pace",
@@ -87,7 +88,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--poses", type=int, default=10_000, metavar="N", help="Table 2 poses (default 10^4)"
     )
-    p.add_argument(
+    alone = p.add_mutually_exclusive_group()
+    alone.add_argument(
+        "--compare",
+        metavar="DIR",
+        type=Path,
+        help="only the before/after step: the table and figure of a finished demo folder DIR "
+        "(from DIR/before-report and DIR/after-report)",
+    )
+    alone.add_argument(
         "--check",
         metavar="DIR",
         type=Path,
@@ -291,11 +300,13 @@ def _first(text: str) -> list[str]:
 
 
 def run_demo(args: argparse.Namespace) -> int:
-    """Run the whole demo (or ``--check DIR`` alone); the exit status."""
-    if args.check is not None:
-        from aacmm.commands.demo_report import print_truth_check
+    """Run the whole demo (or ``--compare``/``--check DIR`` alone); the exit status."""
+    from aacmm.commands import demo_report as dr
 
-        return print_truth_check(Path(args.check), force=args.force)
+    if args.compare is not None:
+        return dr.print_before_after(Path(args.compare), force=args.force)
+    if args.check is not None:
+        return dr.print_truth_check(Path(args.check), force=args.force)
     from aacmm.commands.sim import find_simulator, repo_root
 
     if args.seconds <= 0 or args.poses < 1:
@@ -322,8 +333,6 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def _story(demo: Demo, seed: int, args: argparse.Namespace) -> int:
-    from aacmm.commands import demo_report as dr
-
     out = demo.out
     demo.say(TITLE)
     demo.say(f"demo: outputs go to {out}")
@@ -333,7 +342,7 @@ def _story(demo: Demo, seed: int, args: argparse.Namespace) -> int:
     )
     demo.say(
         f"demo: the simulated arm is random:{seed}: its true geometry, hidden from the device "
-        f"and from every analysis step (aacmm demo --seed {seed} repeats this run)"
+        f"and from every analysis step (aacmm demo --seed {seed}: the same arm again)"
     )
     _log_and_table2(demo, args)
     fast = ["--fast"] if args.pace == "fast" else []
@@ -382,10 +391,7 @@ def _story(demo: Demo, seed: int, args: argparse.Namespace) -> int:
     demo.step("aacmm verify: the calibrated arm (expected: PASS)")
     ra = verify("after")
     demo.step("before / after (from the two verification reports)")
-    table = dr.write_before_after(out, "before-report", "after-report")
-    for line in table.text.splitlines():
-        demo.say(f"  {line}")
-    demo.say("  (before-after.txt, before-after.json, before-after.png)")
+    demo.run(["demo", "--compare", "."], "before-after.txt")
     demo.step("check against the simulator's truth (arm/truth.toml, read by no step before)")
     demo.run(["demo", "--check", "."], "truth-check.txt")
 

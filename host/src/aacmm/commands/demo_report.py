@@ -2,7 +2,8 @@
 
 * :func:`before_after` puts two ``aacmm verify`` JSON reports of the same plan
   side by side (value before, after, MPE, factor, verdicts);
-  :func:`write_before_after` writes it as text, JSON and a PNG figure.
+  :func:`print_before_after` (``aacmm demo --compare DIR``) prints it and
+  writes it as text, JSON and a PNG figure.
 * :func:`truth_check` is the only code of the demo that reads the
   simulator's truth (``arm/truth.toml``, written by ``aacmm sim
   --truth-out``): it measures random lengths across the arm's reach with the
@@ -141,18 +142,24 @@ def figure(table: BeforeAfter) -> Any:
     return fig
 
 
-def write_before_after(out: Path, before_dir: str, after_dir: str) -> BeforeAfter:
-    """Read ``out/BEFORE_DIR/report.json`` and ``out/AFTER_DIR/report.json``;
-    write ``before-after.txt``, ``.json`` and ``.png`` into ``out``."""
-    from aacmm.fileio import load_json, save_figure, write_output
+def print_before_after(folder: Path, force: bool = False) -> int:
+    """``aacmm demo --compare DIR``: read ``DIR/before-report/report.json`` and
+    ``DIR/after-report/report.json``, print the table, write ``before-after.txt``,
+    ``.json`` and ``.png`` into ``DIR``."""
+    from aacmm.fileio import check_outputs, load_json, save_figure, write_output
 
+    targets = [folder / f"before-after.{x}" for x in ("txt", "json", "png")]
+    check_outputs(targets, force)
     table = before_after(
-        load_json(out / before_dir / "report.json"), load_json(out / after_dir / "report.json")
+        load_json(folder / "before-report" / "report.json"),
+        load_json(folder / "after-report" / "report.json"),
     )
-    write_output(out / "before-after.txt", table.text)
-    write_output(out / "before-after.json", json.dumps(table.to_json(), indent=2) + "\n")
-    save_figure(figure(table), out / "before-after.png", dpi=120)
-    return table
+    write_output(targets[0], table.text, force=force)
+    write_output(targets[1], json.dumps(table.to_json(), indent=2) + "\n", force=force)
+    save_figure(figure(table), targets[2], force=force, dpi=120)
+    print(table.text, end="")
+    print("(wrote before-after.txt, before-after.json, before-after.png)")
+    return 0
 
 
 # ------------------------------------------------------------ the truth
