@@ -124,13 +124,13 @@ def figure(table: BeforeAfter) -> Any:
     fig = Figure(figsize=(8.0, 0.55 * len(rows) + 1.6))
     ax = fig.add_subplot()
     y = np.arange(len(rows))[::-1]
-    for k, (field, label, colour) in enumerate(
+    for k, (field, mpe, label, colour) in enumerate(
         (
-            ("before_mm", f"before calibration ({table.verdict_before})", "tab:red"),
-            ("after_mm", f"after calibration ({table.verdict_after})", "tab:green"),
+            ("before_mm", "mpe_mm", f"before calibration ({table.verdict_before})", "tab:red"),
+            ("after_mm", "mpe_after_mm", f"after calibration ({table.verdict_after})", "tab:green"),
         )
     ):
-        ratio = [abs(r[field] or 0.0) / r["mpe_mm"] for r in rows]
+        ratio = [abs(r[field] or 0.0) / (r[mpe] or r["mpe_mm"]) for r in rows]
         ax.barh(y + (0.2 - 0.4 * k), ratio, height=0.38, color=colour, label=label)
     ax.axvline(1.0, color="black", lw=1.2, ls="--", label="MPE")
     ax.set_xscale("log")
