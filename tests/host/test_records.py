@@ -79,6 +79,26 @@ def test_round_trip_labels_and_recompute(tmp_path: Path) -> None:
     assert rows[0]["param_crc32"] == PAPER.crc_hex and rows[0]["end"] == ""
 
 
+def test_session_csv_loads_with_pandas(tmp_path: Path) -> None:
+    """The session's points.csv is what pandas reads as it is: labels, integer counts, mm."""
+    import pandas as pd
+
+    plan = load_plan("iso10360-12")
+    w = SessionWriter.create(tmp_path / "s", plan)
+    fill(w, PAPER, 54, np.random.default_rng(4))
+    w.close("interrupted")
+    s = read_session(tmp_path / "s")
+    df = pd.read_csv(tmp_path / "s" / "points.csv")
+    assert tuple(df.columns) == POINT_COLUMNS and len(df) == 54
+    counts = df[[f"count{i}" for i in range(1, 7)]].to_numpy()
+    assert counts.dtype.kind in "iu" and (counts == s.counts).all()
+    xyz = df[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=float)
+    assert np.abs(xyz - s.device_points_mm).max() <= 1e-9
+    assert list(df["step_id"]) == [p.step_id for p in s.points]
+    ends = df.loc[df["step_id"] == "length500", "end"].tolist()
+    assert ends == ["A", "B", "A", "B"]
+
+
 def test_length_labels(tmp_path: Path) -> None:
     plan = load_plan("iso10360-12")
     w = SessionWriter.create(tmp_path / "s", plan)
