@@ -471,6 +471,33 @@ def test_log_reconnect_gives_up(fresh_sim: SimProcess, tmp_path: Path) -> None:
     assert meta["status"] == "link_lost" and meta["gaps"][0]["gave_up"] is True  # type: ignore[index]
 
 
+def test_log_reconnect_takes_only_its_own_device(tmp_path: Path) -> None:
+    """Another device answering at the port while the logger waits (another arm
+    plugged in) is not taken: one warning, and the logger waits on for its own."""
+    _sim_or_skip()
+    link = tmp_path / "arm"
+    out = tmp_path / "own.csv"
+    own = SimProcess(["--serial", "pty", "--quiet", "--serial-number", "7"], link=link)
+    url = f"serial://{link}"
+    proc = start_log(str(out), "--port", url, "--reconnect", "--reconnect-timeout", "3")
+    try:
+        wait_until(lambda: csv_rows(out) >= 20)
+        own.kill()
+        with SimProcess(["--serial", "pty", "--quiet", "--serial-number", "8"], link=link):
+            _stdout, stderr = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        own.stop()
+    assert proc.returncode == exitcodes.LINK_LOST, stderr
+    warned = [ln for ln in stderr.splitlines() if "another device" in ln]
+    assert len(warned) == 1 and "serial 8; this log's is 7" in warned[0], stderr
+    _, meta = check_log(out)
+    gap = meta["gaps"][0]  # type: ignore[index]
+    assert gap["gave_up"] is True and "another device" in gap["last_error"]
+    assert meta["reconnects"] == 0
+
+
 def test_live_status_line_on_a_terminal(sim: SimProcess, tmp_path: Path) -> None:
     master, slave = os.openpty()
     out = tmp_path / "tty.csv"

@@ -366,6 +366,7 @@ class Logger:
         self.t0 = 0.0
         self.start_wall = 0.0
         self.param_crc = 0
+        self.serial_number = 0  # the device's, read at the start: reconnects take only it
         self.crc_text = ""  # the param_crc32 column of the rows being written
         self.param_sets: dict[int, ParamSetRecord] = {}
         self.trig_queue: collections.deque[tuple[float, Trigger]] = collections.deque()
@@ -611,6 +612,25 @@ class Logger:
             dev.client.transport.close()
         dev.close()
 
+    def check_same_device(self, dev: Device, gap: dict[str, Any]) -> None:
+        """A reconnect takes only the device the log began with (its serial number):
+        another one answering at the port (another arm plugged in, or a port name
+        now given to someone else's device) is refused, said once, and waited past.
+
+        Raises:
+            InitError: another device.
+        """
+        serial = dev.info.serial_number
+        if serial == self.serial_number:
+            return
+        why = (
+            f"{self.url}: another device answers (serial {serial}; this log's is "
+            f"{self.serial_number}): not taken"
+        )
+        if gap.get("last_error") != why:
+            print_err("log", f"warning: {why}")
+        raise InitError(why)
+
     def reconnect(self, err: BaseException) -> Device | None:
         """Try to get the device back; None if stopped or given up."""
         a = self.args
@@ -645,6 +665,7 @@ class Logger:
             try:
                 dev = self.connect()
                 try:
+                    self.check_same_device(dev, gap)
                     ps = ParamSetRecord.from_device(dev.client.get_params())
                 except BaseException:
                     self.drop(dev)
@@ -708,6 +729,7 @@ class Logger:
 
         a = self.args
         dev = self.connect()
+        self.serial_number = dev.info.serial_number
         end_status, end_reason = "error", "error"
         error: BaseException | None = None
         try:
