@@ -33,6 +33,7 @@ from aacmm.protocol import (
     MsgType,
     ParamSet,
     Ping,
+    Sample,
     SampleStatus,
     StorageState,
     encode_frame,
@@ -193,17 +194,31 @@ def test_compute_uses_the_active_parameters(client: Client) -> None:
     assert np.max(np.abs(np.array(r.point_mm) - ref_p)) < FLOAT_PATH_BOUND_MM
 
 
-def test_stream_start_stop_and_jacobian_content(client: Client) -> None:
+def test_stream_start_stop_and_jacobian_content(
+    client: Client, monkeypatch: pytest.MonkeyPatch
+) -> None:
     with client.stream(100, jacobian=True) as samples:
         assert samples.accepted is not None
         assert samples.accepted.rate_hz == 100 and samples.accepted.jacobian
         got = [next(samples) for _ in range(20)]
     assert all(s.jacobian is not None and np.shape(s.jacobian) == (3, 25) for s in got)
     assert samples.stats.lost == samples.stats.duplicates == 0
-    # stopped: nothing more arrives
-    before = client.stats.unsolicited_samples
+    # Stopped: the device reads no sample after the stop. Samples it queued before
+    # may still follow the stop's answer (answers do not wait behind queued samples,
+    # docs/protocol.md), more of them when the host reads slowly: each one that
+    # arrives now must have been read before the device clock read just after it.
+    after_stop: list[int] = []
+    forward = client.on_message
+
+    def spy(msg: Message) -> None:
+        if msg.type == MsgType.SAMPLE_EVT and isinstance(msg.payload, Sample):
+            after_stop.append(msg.payload.timestamp_us)
+        forward(msg)
+
+    monkeypatch.setattr(client, "on_message", spy)
+    stopped_us = client.measure().timestamp_us
     time.sleep(0.2)
-    assert client.stats.unsolicited_samples == before
+    assert all(t < stopped_us for t in after_stop), (stopped_us, after_stop)
     client.ping()
 
 
