@@ -76,13 +76,17 @@ def one_error_line(p: subprocess.CompletedProcess[str], code: int, *words: str) 
         assert w.lower() in lines[0].lower(), (w, lines[0])
 
 
-def wait_until(pred: Callable[[], bool], timeout: float = 15.0) -> None:
+def wait_rows(proc: subprocess.Popen[str], path: Path, n: int, timeout: float = 15.0) -> None:
+    """Wait until the logger ``proc`` has ``n`` rows in ``path``; fail at once, with
+    its stderr, if it ends first."""
     end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return
+    while csv_rows(path) < n:
+        if proc.poll() is not None:
+            err = proc.communicate()[1]
+            raise AssertionError(f"the logger ended (exit {proc.returncode}): {err}")
+        if time.monotonic() > end:
+            raise AssertionError(f"{csv_rows(path)} of {n} rows after {timeout:g} s")
         time.sleep(0.05)
-    raise AssertionError("condition not met in time")
 
 
 def csv_rows(path: Path) -> int:
@@ -347,7 +351,7 @@ def test_log_stopped_by_signal(
     out = tmp_path / "sig.csv"
     proc = start_log(str(out), "--port", sim.url, "-r", "200", *limit)
     try:
-        wait_until(lambda: csv_rows(out) >= 60)
+        wait_rows(proc, out, 60)
         proc.send_signal(sig)
         _stdout, stderr = proc.communicate(timeout=15)
     finally:
@@ -376,7 +380,7 @@ def test_log_killed_with_sigkill_is_parseable(fresh_sim: SimProcess, tmp_path: P
     out = tmp_path / "k9.csv"
     proc = start_log(str(out), "--port", fresh_sim.url, "-r", "1000")
     try:
-        wait_until(lambda: csv_rows(out) >= 700)
+        wait_rows(proc, out, 700)
         proc.kill()
         proc.communicate(timeout=10)
     finally:
@@ -399,7 +403,7 @@ def test_log_device_vanishes(fresh_sim: SimProcess, tmp_path: Path) -> None:
     out = tmp_path / "gone.csv"
     proc = start_log(str(out), "--port", fresh_sim.url, "-r", "200")
     try:
-        wait_until(lambda: csv_rows(out) >= 50)
+        wait_rows(proc, out, 50)
         fresh_sim.kill()
         _stdout, stderr = proc.communicate(timeout=20)
     finally:
@@ -421,16 +425,12 @@ def test_log_reconnects_after_restart(tmp_path: Path) -> None:
     sim2: SimProcess | None = None
     proc = start_log(str(out), "--port", f"serial://{link}", "-r", "200", "--reconnect")
     try:
-        wait_until(lambda: csv_rows(out) >= 50)
+        wait_rows(proc, out, 50)
         sim1.kill()
         n_before = csv_rows(out)
         time.sleep(1.0)
         sim2 = SimProcess(["--serial", "pty", "--quiet"], link=link)
-        try:
-            wait_until(lambda: csv_rows(out) >= n_before + 100, timeout=20)
-        except AssertionError:
-            proc.kill()
-            raise AssertionError(proc.communicate()[1]) from None
+        wait_rows(proc, out, n_before + 100, timeout=20)
         proc.send_signal(signal.SIGINT)
         _stdout, stderr = proc.communicate(timeout=15)
     finally:
@@ -458,7 +458,7 @@ def test_log_reconnect_gives_up(fresh_sim: SimProcess, tmp_path: Path) -> None:
     out = tmp_path / "giveup.csv"
     proc = start_log(str(out), "--port", fresh_sim.url, "--reconnect", "--reconnect-timeout", "1.5")
     try:
-        wait_until(lambda: csv_rows(out) >= 20)
+        wait_rows(proc, out, 20)
         fresh_sim.kill()
         assert fresh_sim.link is not None and not os.path.lexists(fresh_sim.link)
         with SimProcess(["--serial", "pty", "--quiet"]):
@@ -481,7 +481,7 @@ def test_log_reconnect_takes_only_its_own_device(tmp_path: Path) -> None:
     url = f"serial://{link}"
     proc = start_log(str(out), "--port", url, "--reconnect", "--reconnect-timeout", "3")
     try:
-        wait_until(lambda: csv_rows(out) >= 20)
+        wait_rows(proc, out, 20)
         own.kill()
         with SimProcess(["--serial", "pty", "--quiet", "--serial-number", "8"], link=link):
             _stdout, stderr = proc.communicate(timeout=30)
@@ -549,7 +549,7 @@ def test_busy_port(sim: SimProcess, tmp_path: Path) -> None:
     out = tmp_path / "busy.csv"
     proc = start_log(str(out), "--port", sim.url, "-r", "100")
     try:
-        wait_until(lambda: csv_rows(out) >= 5)
+        wait_rows(proc, out, 5)
         one_error_line(run("info", "--port", sim.url), exitcodes.PORT, "busy")
         proc.send_signal(signal.SIGINT)
         proc.communicate(timeout=15)
