@@ -23,13 +23,11 @@ give the cost per core independent of that load.
 
 from __future__ import annotations
 
-import json
 import os
 import resource
 import subprocess
 import sys
 import time
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -37,21 +35,7 @@ from aacmm import core
 from aacmm.analysis import mc
 from aacmm.analysis import uncertainty as unc
 from aacmm.core import Model
-
-
-def best_of(fn: Callable[[], object], repeats: int = 5) -> tuple[float, float]:
-    """Best wall time and best process CPU time (all threads) of ``fn``."""
-    best_wall = best_cpu = float("inf")
-    for _ in range(repeats):
-        c0, t0 = time.process_time(), time.perf_counter()
-        fn()
-        best_wall = min(best_wall, time.perf_counter() - t0)
-        best_cpu = min(best_cpu, time.process_time() - c0)
-    return best_wall, best_cpu
-
-
-def emit(**kv: object) -> None:
-    print(json.dumps(kv), flush=True)
+from benchjson import best_of, emit
 
 
 def main() -> None:
@@ -79,7 +63,7 @@ def main() -> None:
                 def run(pool: ThreadPoolExecutor = ex) -> None:
                     list(pool.map(model.abs_jacobian_sums, chunks))
 
-                t, cpu = best_of(run)
+                t, cpu, _ = best_of(run, 5)
             emit(
                 bench="analysis.abs_sums",
                 what="fused C |J| accumulation (point+Jacobian+sums)",
@@ -103,7 +87,7 @@ def main() -> None:
                 r = mc.error_transfer_coefficients(n_mc, seed=1, threads=threads)
                 acc = min(acc, r.elapsed_s)
 
-            t, cpu = best_of(one, reps)
+            t, cpu, _ = best_of(one, reps)
             emit(
                 bench="analysis.mc",
                 what="error_transfer_coefficients incl. numpy RNG and checks",
@@ -148,7 +132,7 @@ def main() -> None:
         def propagate(th: int = threads) -> object:
             return unc.propagate(spec, trials=trials, workspace=poses, seed=0, threads=th)
 
-        t, cpu = best_of(propagate, 2)
+        t, cpu, _ = best_of(propagate, 2)
         emit(
             bench="analysis.uncertainty",
             what="MC + linear propagation incl. quantiles (exact)",

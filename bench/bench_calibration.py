@@ -14,14 +14,10 @@ exact inverse kinematics on a known truth); generating them is not timed.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
-import time
-from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import TypeVar
 
 # one core, as the targets say (before numpy loads OpenBLAS)
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -32,10 +28,10 @@ import numpy as np
 from aacmm.calibration import Cone, LengthSet, Observations, calibrate
 from aacmm.calibration.probe import calibrate_probe
 from aacmm.core import Params
+from benchjson import best_of, emit
 from calib_synth import Synthetic, synthetic
 
 SIGMA = 0.005
-T = TypeVar("T")
 
 
 def observations(s: Synthetic) -> Observations:
@@ -61,21 +57,6 @@ def observations(s: Synthetic) -> Observations:
     return Observations(q, np.full(q.shape[0], SIGMA), tuple(cons))
 
 
-def best_of(fn: Callable[[], T], repeats: int) -> tuple[float, float, T]:
-    best_wall = best_cpu = float("inf")
-    out = fn()  # warm-up (and the result)
-    for _ in range(repeats):
-        c0, t0 = time.process_time(), time.perf_counter()
-        out = fn()
-        best_wall = min(best_wall, time.perf_counter() - t0)
-        best_cpu = min(best_cpu, time.process_time() - c0)
-    return best_wall, best_cpu, out
-
-
-def emit(**kv: object) -> None:
-    print(json.dumps(kv), flush=True)
-
-
 def main() -> None:
     for cones, per_cone, lengths, repeats, target in (
         (40, 20, 100, 5, 1.0),
@@ -83,7 +64,7 @@ def main() -> None:
     ):
         s = synthetic(1, n_cones=cones, per_cone=per_cone, n_lengths=lengths, noise_mm=SIGMA)
         obs = observations(s)
-        wall, cpu, r = best_of(partial(calibrate, obs), repeats)
+        wall, cpu, r = best_of(partial(calibrate, obs), repeats, warm_up=True)
         emit(
             bench="calibration.solve",
             observations=obs.n_poses,
@@ -103,7 +84,7 @@ def main() -> None:
     v = s.truth.to_vector()
     v[[5, 11, 17, 23, 24]] = Params().to_vector()[[5, 11, 17, 23, 24]]
     start = Params.from_vector(v)
-    wall, cpu, pr = best_of(lambda: calibrate_probe(obs, start), 7)
+    wall, cpu, pr = best_of(lambda: calibrate_probe(obs, start), 7, warm_up=True)
     emit(
         bench="calibration.probe",
         observations=obs.n_poses,

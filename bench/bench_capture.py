@@ -26,7 +26,6 @@ depends on what else the disk does).
 from __future__ import annotations
 
 import csv
-import json
 import os
 import statistics
 import subprocess
@@ -38,12 +37,9 @@ from typing import Any
 
 from aacmm.client import connect
 from aacmm.errors import DeviceTimeoutError
+from benchjson import emit
 
 AACMM = Path(sys.executable).with_name("aacmm")
-
-
-def emit(**kv: object) -> None:
-    print(json.dumps(kv), flush=True)
 
 
 def ms(x: float) -> float:

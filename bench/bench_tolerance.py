@@ -12,37 +12,20 @@ all threads) does not.
 
 from __future__ import annotations
 
-import json
 import os
-import time
 import tomllib
-from collections.abc import Callable
 from dataclasses import replace
 from importlib import resources
 
 from aacmm.analysis import tolerance as tl
-
-
-def best_of(fn: Callable[[], object], repeats: int = 3) -> tuple[float, float]:
-    """Best wall time and best process CPU time of ``fn``."""
-    best_wall = best_cpu = float("inf")
-    for _ in range(repeats):
-        c0, t0 = time.process_time(), time.perf_counter()
-        fn()
-        best_wall = min(best_wall, time.perf_counter() - t0)
-        best_cpu = min(best_cpu, time.process_time() - c0)
-    return best_wall, best_cpu
-
-
-def emit(**kv: object) -> None:
-    print(json.dumps(kv), flush=True)
+from benchjson import best_of, emit
 
 
 def main() -> None:
     text = resources.files("aacmm").joinpath("data", "example_tolerance.toml").read_text("utf-8")
     spec = tl.parse_spec(tomllib.loads(text))
     a = tl.allocate(spec)
-    wall, cpu = best_of(lambda: tl.allocate(spec))
+    wall, cpu, _ = best_of(lambda: tl.allocate(spec), 3)
     emit(
         bench="tolerance.allocate",
         rows=a.design.rows,
@@ -53,7 +36,7 @@ def main() -> None:
         cpu_s=round(cpu, 4),
     )
     rms = replace(spec, encoders=(), target=replace(spec.target, over="rms", coverage_factor=2.0))
-    wall, cpu = best_of(lambda: tl.allocate(rms), repeats=5)
+    wall, cpu, _ = best_of(lambda: tl.allocate(rms), 5)
     emit(
         bench="tolerance.closed_form",
         rows=a.design.rows,
@@ -61,7 +44,7 @@ def main() -> None:
         cpu_s=round(cpu, 4),
     )
     trials, rows = 100_000, 20
-    wall, cpu = best_of(lambda: tl.monte_carlo_check(a, trials=trials, rows=rows), repeats=2)
+    wall, cpu, _ = best_of(lambda: tl.monte_carlo_check(a, trials=trials, rows=rows), 2)
     emit(
         bench="tolerance.check",
         trials=trials,

@@ -11,7 +11,6 @@ runs of the statistical study (default 200, about a minute on one core).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -23,12 +22,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "host"))
 import numpy as np
 from aacmm.calibration import Problem, analyse, calibrate, predicted_covariance
 from aacmm.core import PARAM_NAMES, Model, Params
+from benchjson import emit
 from calib_synth import bar_poses, synthetic
 from test_calibration import SIGMA, combos, observations, seeded_study
-
-
-def emit(**kv: object) -> None:
-    print(json.dumps(kv), flush=True)
 
 
 def spectra() -> None:
