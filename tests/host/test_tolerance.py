@@ -628,6 +628,32 @@ def test_cli_infeasible_is_exit_8(tmp_path: Path) -> None:
     assert "3 um" in line
 
 
+def test_cli_not_met_is_exit_7(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A Monte Carlo check that does not confirm the target: exit 7, report and files written.
+
+    The check is run, for real, against 0.9 x the allocation's limit (as in
+    test_monte_carlo_flags_an_allocation_that_misses): the command itself is unchanged."""
+    from aacmm.cli import main
+
+    real = tl.monte_carlo_check
+
+    def tighter(a: tl.Allocation, **kw: Any) -> tl.CheckResult:
+        return real(replace(a, design=replace(a.design, limit_mm=a.design.limit_mm * 0.9)), **kw)
+
+    monkeypatch.setattr(tl, "monte_carlo_check", tighter)
+    j = tmp_path / "a.json"
+    code = main(["tolerance", "example", "--trials", "5000", "--json", str(j), "--no-progress"])
+    out, err = capsys.readouterr()
+    assert code == 7, err
+    assert err.strip().splitlines() == [
+        "aacmm tolerance: the Monte Carlo check does not confirm the target (report written)"
+    ]
+    assert "NOT MET" in out or "not met" in out
+    assert json.loads(j.read_text())["monte_carlo"]["verdict"] == "not met"
+
+
 def test_cli_bad_spec_is_exit_2(tmp_path: Path) -> None:
     p = tmp_path / "bad.toml"
     p.write_text('[target]\nvalue = "thirty"\n')
