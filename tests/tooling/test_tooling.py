@@ -149,3 +149,35 @@ def test_check_format_finds_bad_files(tmp_path: Path) -> None:
     for name in bad:
         assert name in out, (name, out)
     assert "ok.py" not in out and "ok.c" not in out
+
+
+# Hardware register names the docs quote to describe what QEMU models; the
+# firmware does not use them.
+DOC_ONLY_NAMES = {"RUNSTATUS": "nRF51 WDT status register (docs/boards.md, QEMU limits)"}
+
+
+def test_docs_name_only_constants_that_exist() -> None:
+    """Every `CONSTANT_NAME` that README or docs/ quote (a message, flag, limit,
+    variable) is in the code, scripts or tests: a removed one (docs/client.md
+    described the framing lock constant long after it was gone, issue 14 item 7) fails."""
+    tracked = subprocess.run(
+        ["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True
+    ).stdout.split(b"\0")
+    docs = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    code: list[str] = []
+    for name in tracked:
+        path = ROOT / name.decode()
+        if not name or path in docs or not path.is_file():
+            continue
+        data = path.read_bytes()
+        if b"\0" not in data:
+            code.append(data.decode("utf-8", "replace"))
+    corpus = "\n".join(code)
+    quoted = re.compile(r"`([A-Z][A-Z0-9_]{3,})`")
+    missing = sorted(
+        f"{doc.relative_to(ROOT)}: {name}"
+        for doc in docs
+        for name in set(quoted.findall(doc.read_text(encoding="utf-8")))
+        if name not in corpus and name not in DOC_ONLY_NAMES
+    )
+    assert not missing, missing
