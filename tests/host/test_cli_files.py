@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import tomllib
@@ -229,3 +230,17 @@ def test_command_line_start_up_imports_nothing_heavy() -> None:
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert p.returncode == 0, p.stderr
     assert p.stdout.split() == [], "imported while building the parser"
+
+
+def test_top_level_help_names_every_command_once_by_task() -> None:
+    """`aacmm --help` ends with the commands grouped by task: every command is in
+    exactly one group, and no group names a command that does not exist."""
+    import argparse
+
+    from aacmm.cli import EPILOG, build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    commands = set(sub.choices)
+    groups = EPILOG.split("\n\n")[0].splitlines()[1:]
+    named = [w for g in groups for w in re.sub(r"\([^)]*\)", "", g[17:]).replace(",", " ").split()]
+    assert sorted(named) == sorted(commands), (sorted(named), sorted(commands))

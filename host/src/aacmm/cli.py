@@ -11,25 +11,48 @@ from aacmm import __version__
 # Modules that add subcommands: each has register(subparsers), and each parser
 # it adds sets ``func`` (args -> exit status). Keep their top-level imports
 # light; import heavy modules inside the command functions.
-COMMAND_MODULES: tuple[str, ...] = (
-    "aacmm.commands.calibrate",
+COMMAND_MODULES: tuple[str, ...] = (  # the order of `aacmm --help`: the arm owner's workflow
+    "aacmm.commands.device",
+    "aacmm.commands.sim",
+    "aacmm.commands.log",
+    "aacmm.commands.plan",
     "aacmm.commands.capture",
+    "aacmm.commands.verify",
+    "aacmm.commands.calibrate",
+    "aacmm.commands.fit",
+    "aacmm.commands.mc",
+    "aacmm.commands.uncertainty",
+    "aacmm.commands.tolerance",
     "aacmm.commands.dbc",
     "aacmm.commands.demo",
-    "aacmm.commands.device",
-    "aacmm.commands.fit",
-    "aacmm.commands.log",
-    "aacmm.commands.mc",
-    "aacmm.commands.plan",
-    "aacmm.commands.sim",
-    "aacmm.commands.tolerance",
-    "aacmm.commands.uncertainty",
-    "aacmm.commands.verify",
 )
+
+DESCRIPTION = """\
+The host tool of aacmm, an open stack for articulated arm coordinate measuring
+machines: talk to an arm or the simulator, capture measurement plans, verify and
+calibrate the arm, and analyse its error budget."""
+
+EPILOG = """\
+by task:
+  start here       demo (the whole job on the simulator, in about a minute)
+  the arm          info, params, measure, compute, log, summary, sim
+  measuring        plan, capture, fit, export
+  the arm's state  verify (ISO 10360-12, ASME B89.4.22), calibrate
+  error budgets    mc, uncertainty, tolerance
+  CAN tools        dbc
+
+docs/tutorial.md is the demo's session with a real arm. Every command, option and
+exit status: docs/cli.md; `aacmm COMMAND --help` for one command.
+"""
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="aacmm", description="aacmm host tool")
+    parser = argparse.ArgumentParser(
+        prog="aacmm",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--version", action="version", version=f"aacmm {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
