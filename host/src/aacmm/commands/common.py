@@ -94,7 +94,10 @@ def port_url(args: argparse.Namespace) -> str:
 
         url = published_url() or ""
         if not url:
-            raise UsageError(f"no device given: use --port URL or set {ENV_PORT}")
+            raise UsageError(
+                f"no device given: use --port URL, set {ENV_PORT}, or start a simulator "
+                "(aacmm sim &)"
+            )
         cmd = getattr(args, "command", None) or "aacmm"
         print(f"aacmm {cmd}: using the simulator at {url}", file=sys.stderr, flush=True)
     from aacmm.transport import parse_url

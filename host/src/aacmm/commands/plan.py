@@ -43,7 +43,8 @@ def cmd_list(args: argparse.Namespace) -> int:
 
     for name in shipped_plans():
         plan = load_plan(name)
-        print(f"{name:24s} {len(plan.steps):2d} steps {len(plan.slots):4d} points  {plan.title}")
+        steps = f"{len(plan.steps):2d} step{'s' if len(plan.steps) != 1 else ' '}"
+        print(f"{name:24s} {steps} {len(plan.slots):4d} points  {plan.title}")
     return OK
 
 
