@@ -308,3 +308,104 @@ def test_operator_on_the_control_channel(tmp_path: Path) -> None:
     events = (out / "events.csv").read_text()
     assert events.count(",undo,") == 2
     assert poses[39] not in [p.counts for p in s.points]  # pressed before capture listened
+
+
+def _count(cap: Capture, text: str) -> int:
+    with cap._cond:
+        return sum(1 for line in cap.lines if text in line)
+
+
+def test_last_point_undo_confirm_kill9_resume(tmp_path: Path) -> None:
+    """On a terminal the end of the plan waits for a confirmation, so the last point
+    can be undone too (button 1, key u); kill -9 while waiting leaves every point on
+    disk (status running) and --resume waits for the confirmation again (Enter)."""
+    out = tmp_path / "s"
+    master, slave = pty.openpty()
+    try:
+        with Operated(seed=13, n=33) as op:
+            poses = op.poses
+            cap = Capture(PLAN, "-o", str(out), "--port", op.sim.url, stdin=slave)
+            assert op.chan.wait_stream(True, timeout=30), cap.lines
+            for k in range(30):
+                op.press(poses[k])
+            cap.wait_for("plan complete: press the button or Enter to finish")
+            assert cap.acknowledged() == 30 and cap.proc.poll() is None
+            s = read_session(out)
+            assert s.complete and s.status == "running"  # taken, not yet confirmed
+            op.press(poses[32], button=1)  # the second button undoes the last point
+            cap.wait_for("  undone 30/30: ")
+            assert len(read_session(out)) == 29
+            cap.wait_until(lambda: cap.lines[-1].startswith("[30/30] "), what="prompt 30 again")
+            op.press(poses[30])
+            cap.wait_until(lambda: _count(cap, "plan complete:") == 2, what="complete again")
+            cap.proc.kill()  # kill -9 while waiting for the confirmation
+            cap.finish()
+            s = read_session(out)
+            assert s.status == "running" and s.complete
+            assert [p.counts for p in s.points] == [*poses[:29], poses[30]]
+
+            starts = op.chan.starts()
+            cap = Capture(PLAN, "-o", str(out), "--port", op.sim.url, "--resume", stdin=slave)
+            assert op.chan.wait_stream(after_starts=starts, timeout=30), cap.lines
+            cap.wait_for("plan complete: press the button or Enter to finish")
+            os.write(master, b"u")  # the key undoes the last point too
+            cap.wait_for("  undone 30/30: ")
+            op.press(poses[31])
+            cap.wait_until(lambda: _count(cap, "plan complete:") == 2, what="complete again")
+            os.write(master, b"\n")  # Enter confirms
+            code, err = cap.finish()
+            # a confirmed session is complete: resuming it ends at once
+            again = run("capture", PLAN, "-o", str(out), "--resume", "--port", op.sim.url)
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert code == 0, err
+    assert cap.lines[-1] == f"complete: 30 points in {out}"
+    s = read_session(out)
+    assert s.status == "complete"
+    assert [p.counts for p in s.points] == [*poses[:29], poses[31]]
+    check_session(out, 30)
+    runs = s.meta["runs"]
+    assert [r["kind"] for r in runs] == ["capture", "resume", "resume"]
+    assert runs[1]["end_reason"] == "confirmed by key Enter"
+    assert runs[2]["end_reason"] == "already complete"
+    events = [line.split(",") for line in (out / "events.csv").read_text().splitlines()[1:]]
+    kinds = [e[1] for e in events]
+    assert kinds.count("undo") == 2 and kinds.count("confirm") == 1
+    assert kinds[-4:] == ["confirm", "end", "run", "end"] and events[-4][-1] == "key Enter"
+    assert kinds.count("point") == 32  # 30, one re-taken in each run
+    progress = (out / "progress.json").read_text()
+    assert '"complete": true' in progress and '"status": "complete"' in progress
+    assert again.returncode == 0 and again.stdout == f"session {out} is complete (30 points)\n"
+
+
+def test_confirm_end_by_button_and_sigterm(tmp_path: Path) -> None:
+    """--confirm-end without a terminal: only the buttons; SIGTERM while waiting keeps
+    every point (interrupted, exit 130), and button 0 confirms after --resume.
+    Without it (no terminal) a session ends at its last point (test_full_plan)."""
+    out = tmp_path / "s"
+    with Operated(seed=14, n=31) as op:
+        poses = op.poses
+        cap = Capture(PLAN, "-o", str(out), "--port", op.sim.url, "--confirm-end")
+        assert op.chan.wait_stream(True, timeout=30), cap.lines
+        for k in range(30):
+            op.press(poses[k])
+        cap.wait_for("plan complete: press the button to finish, button 1 to undo")
+        cap.proc.send_signal(signal.SIGTERM)
+        code, err = cap.finish()
+        assert code == 130, err
+        assert "all 30 points kept" in err and "the end not confirmed" in err
+        s = read_session(out)
+        assert s.status == "interrupted" and s.complete
+        starts = op.chan.starts()
+        cap = Capture(PLAN, "-o", str(out), "--port", op.sim.url, "--resume", "--confirm-end")
+        assert op.chan.wait_stream(after_starts=starts, timeout=30), cap.lines
+        cap.wait_for("plan complete:")
+        op.press(poses[30])  # button 0: finish (its counts are no point)
+        code, err = cap.finish()
+    assert code == 0, err
+    s = read_session(out)
+    assert s.status == "complete" and [p.counts for p in s.points] == poses[:30]
+    assert s.meta["runs"][-1]["end_reason"] == "confirmed by button 0"
+    events = (out / "events.csv").read_text().splitlines()
+    assert sum(1 for e in events if ",confirm," in e) == 1

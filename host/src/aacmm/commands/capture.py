@@ -4,10 +4,13 @@ The operator is prompted for every point of the plan in order ("step 3/4,
 ball bar bar500, position 4 of 10: probe end A"); each press of the front
 button (0) records the latched sample with its labels, the second button (1)
 undoes the last point, and on a terminal the key ``u`` does the same (``q``
-stops). Every point is durable before it is acknowledged (``recorded k/N``),
-so Ctrl-C, SIGTERM or kill -9 lose nothing acknowledged; ``--resume``
-continues a session; ``--from-log`` labels the presses recorded in an
-``aacmm log`` trigger file in plan order instead of reading a device.
+stops). With the keyboard in use, the end of the plan waits for the operator
+to confirm it (button 0 or Enter; button 1 or ``u`` undoes the last point
+first); without it the session ends at the last point (``--confirm-end``).
+Every point is durable before it is acknowledged (``recorded k/N``), so
+Ctrl-C, SIGTERM or kill -9 lose nothing acknowledged; ``--resume`` continues
+a session; ``--from-log`` labels the presses recorded in an ``aacmm log``
+trigger file in plan order instead of reading a device.
 Session format: docs/plans.md.
 """
 
@@ -49,8 +52,10 @@ def register(sub: Any) -> None:
         help="guided capture of a measurement plan into a session folder",
         description="Prompt for every point of PLAN (a plan file or a shipped plan's name) "
         "and record each press of the probe button with its labels into the session folder "
-        "SESSION. Button 1 (or the key u on a terminal) undoes the last point; Ctrl-C keeps "
-        "everything; --resume continues; --from-log labels the presses of an existing log.",
+        "SESSION. Button 1 (or the key u on a terminal) undoes the last point, the last one "
+        "included: on a terminal capture waits at the end of the plan until button 0 or "
+        "Enter confirms it (see --confirm-end). Ctrl-C keeps everything; --resume continues; "
+        "--from-log labels the presses of an existing log.",
     )
     add_connection_options(p)
     p.add_argument("plan", metavar="PLAN", help="plan file or shipped plan name (docs/plans.md)")
@@ -69,7 +74,17 @@ def register(sub: Any) -> None:
         help="no sample for S seconds means the link is lost (default 3)",
     )
     p.add_argument("--no-keys", action="store_true", help="do not read keys from the terminal")
-    p.add_argument("-q", "--quiet", action="store_true", help="print only acknowledgements")
+    p.add_argument(
+        "--confirm-end",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="after the last point wait until button 0 (or Enter) confirms the end; button 1 "
+        "(or u) undoes the last point (default: only when keys are read from a terminal; "
+        "--no-confirm-end: end at the last point)",
+    )
+    p.add_argument(
+        "-q", "--quiet", action="store_true", help="print only acknowledgements and the end prompt"
+    )
     p.set_defaults(func=cmd_capture)
 
 
@@ -92,6 +107,11 @@ class Capture:
         self.stop_reason: str | None = None
         self.fence_us: int | None = None
         self.stale = 0
+        # The last point can be undone only while capture waits for the end to be
+        # confirmed: by default when the operator has a keyboard (Enter confirms).
+        wants_keys = not args.no_keys and is_tty(sys.stdin)
+        self.confirm: bool = wants_keys if args.confirm_end is None else args.confirm_end
+        self.confirmed: str | None = None  # how the end was confirmed
 
     # ---------------------------------------------------------- set-up
 
@@ -171,6 +191,16 @@ class Capture:
         keys = " (u: undo, q: stop)" if self.keys else ""
         say(f"[{slot.index + 1}/{n}] {slot.text}{keys}")
 
+    def prompt_end(self) -> None:
+        """The plan is complete; the operator confirms the end or undoes the last point."""
+        if self.keys:
+            say(
+                "plan complete: press the button or Enter to finish, "
+                "button 1 or u to undo the last point (q: stop)"
+            )
+        else:
+            say("plan complete: press the button to finish, button 1 to undo the last point")
+
     def check_params(self, dev: Device, w: SessionWriter) -> None:
         """Before a point is taken: the set in force must be the one recorded."""
         from aacmm.records import ParamSetRecord
@@ -195,6 +225,10 @@ class Capture:
         if trig.button == BUTTON_UNDO:
             self.undo(w, host_time)
             return
+        if trig.button == BUTTON_CAPTURE and w.next_slot is None:
+            self.confirmed = "button 0"
+            w.confirm(trig.sample, host_time, trig.button, self.confirmed)
+            return
         if trig.button != BUTTON_CAPTURE:
             w.ignored(trig.sample, host_time, trig.button, True, f"button {trig.button}")
             return
@@ -215,18 +249,23 @@ class Capture:
             say(f"  undone {slot.index + 1}/{len(self.plan.slots)}: {slot.text}")
 
     def loop(self, dev: Device, w: SessionWriter, stream: SampleStream, stop: StopFlag) -> str:
-        """Take presses until the plan is complete or a stop; return the end status."""
+        """Take presses until the plan is complete (and, with :attr:`confirm`, its end
+        confirmed) or a stop; return the end status."""
         from aacmm.errors import DeviceTimeoutError, OperationError
 
         last_sample = time.monotonic()
         shown: int | None = None
         while True:
             slot = w.next_slot
-            if slot is None:
+            if slot is None and (not self.confirm or self.confirmed is not None):
                 return "complete"
-            if shown != slot.index:
-                self.prompt(slot)
-                shown = slot.index
+            where = len(self.plan.slots) if slot is None else slot.index
+            if shown != where:
+                if slot is None:
+                    self.prompt_end()
+                else:
+                    self.prompt(slot)
+                shown = where
             if stop.set:
                 self.stop_reason = "SIGTERM" if stop.signal == signal.SIGTERM else "SIGINT"
                 return "interrupted"
@@ -240,16 +279,19 @@ class Capture:
             else:
                 if trig.pressed:
                     self.press(dev, w, host_time, trig)
-                    if w.next_slot is None:
+                    if w.next_slot is None and (not self.confirm or self.confirmed):
                         continue  # complete
-                    shown = None if w.next_slot.index != shown else shown
             key = self.read_key()
             if key == "u":
                 self.undo(w, None)
-                shown = None
+                shown = None  # prompt again, also for the slot shown last
             elif key == "q":
                 self.stop_reason = "key q"
                 return "interrupted"
+            elif key in ("\n", "\r") and w.next_slot is None and self.confirm:
+                self.confirmed = "key Enter"
+                w.confirm(None, time.time(), None, self.confirmed)
+                continue
             try:
                 while True:
                     stream.get(timeout=0.0)
@@ -278,7 +320,9 @@ class Capture:
                     f"its parameter set hashes to {ps.crc_hex}",
                 )
             w = self.open_session(dev, ps)
-            if w.next_slot is None:
+            # A session whose points are all taken but whose end was never confirmed
+            # (killed while capture waited) waits for the confirmation again.
+            if w.next_slot is None and not (self.confirm and w.opened_status != "complete"):
                 say(f"session {self.folder} is complete ({w.accepted} points)")
                 status, reason, code = "complete", "already complete", OK
                 return OK
@@ -306,7 +350,8 @@ class Capture:
             if self.stale:
                 print_err("capture", f"ignored {self.stale} presses from before the start")
             if status == "complete":
-                reason, code = "complete", OK
+                reason = f"confirmed by {self.confirmed}" if self.confirmed else "complete"
+                code = OK
                 say(f"complete: {w.accepted} points in {self.folder}")
             else:
                 reason = self.stop_reason or "stopped"
@@ -324,7 +369,13 @@ class Capture:
             dev.close()
             if w is not None:
                 w.close(status, reason)
-                if status != "complete":
+                if status != "complete" and w.next_slot is None:
+                    print_err(
+                        "capture",
+                        f"all {w.accepted} points kept in {self.folder}, the end not confirmed; "
+                        "confirm it or undo the last point with --resume",
+                    )
+                elif status != "complete":
                     print_err(
                         "capture",
                         f"{w.accepted} of {len(self.plan.slots)} points kept in {self.folder}; "

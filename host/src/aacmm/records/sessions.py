@@ -86,7 +86,7 @@ EVENT_COLUMNS: tuple[str, ...] = (
     "detail",
 )
 #: Journal event names.
-EVENTS: tuple[str, ...] = ("run", "point", "undo", "ignored", "params", "end")
+EVENTS: tuple[str, ...] = ("run", "point", "undo", "ignored", "confirm", "params", "end")
 UNITS: dict[str, str] = {
     "slot": "index of the point in the plan (Plan.slots), from 0",
     "step_index,position_index,articulation_index,point_index": "indices from 0 "
@@ -226,6 +226,9 @@ class SessionWriter:
             self._sets[ps.crc32] = ps
         self.current: ParamSetRecord | None = None
         self.undos = 0
+        #: The session's status when it was opened (``running`` for a new one; for a
+        #: resumed one what the last run left: ``running`` after a kill).
+        self.opened_status = str(meta.get("status", "running"))
         self._points = DurableAppender(folder / POINTS_CSV, POINT_COLUMNS, create=not lines)
         self._events = DurableAppender(
             folder / EVENTS_CSV, EVENT_COLUMNS, create=not (folder / EVENTS_CSV).exists()
@@ -408,6 +411,18 @@ class SessionWriter:
         self.undos += 1
         self.write_progress()
         return slot
+
+    def confirm(
+        self, sample: Sample | None, host_time: float, button: int | None, how: str
+    ) -> None:
+        """Journal the operator's confirmation that the complete plan ends here (a
+        press of ``button`` with its ``sample``, or a key: ``sample`` None)."""
+        fields = None
+        if sample is not None and button is not None:
+            crc = self.current.crc32 if self.current is not None else 0
+            fields = _sample_fields(sample, host_time, button, crc)
+        pressed = None if fields is None else 1
+        self._event("confirm", pressed=pressed, fields=fields, detail=how, host_time=host_time)
 
     def ignored(
         self, sample: Sample | None, host_time: float, button: int, pressed: bool, why: str
