@@ -5,7 +5,9 @@
 #                  after a cut row, per-row parameter sets), aacmm capture against
 #                  the simulator (kill -9 + resume, undo, Ctrl-C), logs through
 #                  aacmm.records (15.1 repro, 15.5 reconnect to another set, 14.2
-#                  lost samples, 14.7 rate while connected, --from-log); lint
+#                  lost samples, 14.7 rate while connected, --from-log), whole
+#                  plans against the simulated operator (labels, joint spreads
+#                  per step); lint
 
 CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
                     host/src/aacmm/commands/capture.py host/src/aacmm/commands/plan.py \
@@ -19,7 +21,8 @@ CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pypro
 #> test-capture         plans, sessions, aacmm capture against the simulator
 test-capture: sim
 	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
-	    tests/host/test_logs.py tests/host/test_capture_scenario.py
+	    tests/host/test_logs.py
+	$(CAPTURE_PYTEST) -s tests/host/test_capture_scenario.py  # -s: its "measured:" joint spreads
 	@$(MAKE) --no-print-directory test-capture-lint
 
 #> test-capture-lint    ruff, ruff format, mypy --strict on plans, records, capture (part of test-capture)
