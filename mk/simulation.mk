@@ -1,8 +1,9 @@
 # The simulated arm with a truth of its own and the simulated operator
 # (issue 11 items 3-4), the simulator's control channel, the second button and
 # the trigger-sample rule (issue 14 item 5), replay of aacmm logs (item 6).
-# See docs/simulator.md. The CAN half of the trigger rule runs in the shared
-# vcan session (tests/sim/vcan).
+# See docs/simulator.md. The CAN half of the trigger rule and aacmm capture
+# against the simulated operator over CAN run in the shared vcan session
+# (tests/sim/vcan).
 
 SIMULATION_PY_FILES := host/src/aacmm/simulation host/src/aacmm/commands/simtruth.py tests/sim
 SIMULATION_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300 \
@@ -26,7 +27,7 @@ test-simulation-lint:
 	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(SIMULATION_PY_FILES)
 	MYPYPATH=tests/sim $(VENV)/bin/mypy --config-file host/pyproject.toml host/src/aacmm/simulation \
 	    host/src/aacmm/commands/simtruth.py $(wildcard tests/sim/*.py)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml tests/sim/vcan
+	MYPYPATH=tests/sim:tests/host $(VENV)/bin/mypy --config-file host/pyproject.toml tests/sim/vcan
 
 TEST_SUITES += test-sim-control test-simulation
 

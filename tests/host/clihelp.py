@@ -43,11 +43,18 @@ def one_error_line(p: subprocess.CompletedProcess[str], code: int, *words: str) 
 
 
 def capture_scenario(
-    folder: Path, plan: str | Path, truth: str, params: Path | None = None, timeout: float = 280
+    folder: Path,
+    plan: str | Path,
+    truth: str,
+    params: Path | None = None,
+    timeout: float = 280,
+    can: tuple[str, int] | None = None,
 ) -> tuple[Path, dict[str, Any], Path]:
     """A plan captured from the simulated operator, the way a user runs it:
     ``aacmm sim --scenario PLAN --truth TRUTH --fast`` and ``aacmm capture PLAN``
     into ``folder/s``; ``params``: a parameter file loaded into the device first.
+    The link is a pty (``serial://folder/arm``), or with ``can=(IFACE, NODE)``
+    SocketCAN (``aacmm sim --can IFACE --node NODE``, ``socketcan://IFACE?node=NODE``).
 
     Returns the session folder, the simulator's report and the truth file it used.
     """
@@ -57,15 +64,20 @@ def capture_scenario(
     folder.mkdir(exist_ok=True)
     link, report, truth_out = folder / "arm", folder / "sim.json", folder / "truth.toml"
     session = folder / "s"
+    if can is None:
+        link_args, want_url = ["--link", str(link)], f"serial://{link}"
+    else:
+        link_args = ["--can", can[0], "--node", str(can[1])]
+        want_url = f"socketcan://{can[0]}?node={can[1]}"
     sim = subprocess.Popen(
         [str(AACMM), "sim", "--scenario", str(plan), "--truth", truth, "--fast",
-         "--truth-out", str(truth_out), "--link", str(link), "--report", str(report)],
+         "--truth-out", str(truth_out), *link_args, "--report", str(report)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(),
     )  # fmt: skip
     try:
         assert sim.stdout is not None
         url = sim.stdout.readline().strip()
-        assert url == f"serial://{link}", sim.communicate(timeout=10)[1]
+        assert url == want_url, sim.communicate(timeout=10)[1]
         if params is not None:
             p = run("params", "set", str(params), "--port", url)
             assert p.returncode == 0, p.stderr
@@ -80,6 +92,45 @@ def capture_scenario(
             sim.kill()
             sim.communicate()
     return session, json.loads(report.read_text()), truth_out
+
+
+def check_scenario_capture(session_dir: Path, plan: str | Path, report: dict[str, Any]) -> None:
+    """What a plan captured from the simulated operator must be (issue 11): the
+    session complete, one point per slot in plan order, each labelled with its
+    slot and holding the counts of the operator's press for that slot (zero lost,
+    zero mislabelled), the press made at the slot's target, and no press ignored
+    or undone (``events.csv``)."""
+    import csv
+
+    import numpy as np
+    from aacmm.plans import load_plan
+    from aacmm.records import read_session
+
+    session = read_session(session_dir)
+    want = load_plan(plan)
+    slots = want.slots
+    assert report["plan_sha256"] == want.sha256 == session.plan.sha256
+    assert session.status == "complete" and len(session.points) == len(slots)
+    assert report["points"] == len(slots)
+    presses = [p for p in report["presses"] if p["button"] == 0]
+    # zero lost: one press per slot, and each became the point of its slot
+    assert [p["slot"] for p in presses] == list(range(len(slots)))
+    for k, (pt, press) in enumerate(zip(session.points, presses, strict=True)):
+        assert (pt.slot, pt.step_id, pt.point_index) == (
+            k,
+            slots[k].step_id,
+            slots[k].point_index,
+        )
+        assert pt.position_index == slots[k].position_index and pt.end == slots[k].end
+        assert tuple(pt.counts) == tuple(press["counts"]), f"slot {k} mislabelled"
+        target = slots[k].target
+        assert target is not None
+        np.testing.assert_allclose(press["target_mm"], target.tip_mm, atol=1e-9)
+    # nothing ignored, nothing undone: the journal holds one point event per slot
+    with (session_dir / "events.csv").open(newline="") as f:
+        events = [row["event"] for row in csv.DictReader(f)]
+    assert "ignored" not in events and "undo" not in events, events
+    assert events.count("point") == len(slots)
 
 
 def sim_fixture(*args: str) -> Any:

@@ -1,5 +1,6 @@
 """The vcan session's ``vcan_iface`` fixture (tests/vcan/conftest.py), reused here;
-the simulation tests' helpers (tests/sim/simctl.py) importable."""
+the simulation tests' helpers (tests/sim/simctl.py) and the CLI tests' helpers
+(tests/host/clihelp.py) importable."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/sim: simctl
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))  # clihelp
 
 _spec = importlib.util.spec_from_file_location(
     "aacmm_vcan_conftest", Path(__file__).resolve().parents[2] / "vcan" / "conftest.py"
