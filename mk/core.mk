@@ -10,7 +10,8 @@ SIMD_SRCS := firmware/src/analysis.c firmware/src/simd/simd_dispatch.c \
              firmware/src/simd/simd_f64.c firmware/src/simd/simd_f32.c
 CORE_HDRS := $(wildcard firmware/include/aacmm/*.h) firmware/src/aacmm_internal.h \
              firmware/src/kinematics_impl.h firmware/src/sincos_f64.h firmware/src/sincos_f32.h \
-             firmware/src/template_end.h $(wildcard firmware/src/simd/*.h)
+             firmware/src/template_end.h firmware/src/sincos_eval.h \
+             firmware/src/chain_impl.h $(wildcard firmware/src/simd/*.h)
 CORE_TEST_SRCS := tests/core/test_kinematics.c
 CORE_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests/core/reference.h
 # The core tests build as the Python extension does (host/src/aacmm/_build_core.py):

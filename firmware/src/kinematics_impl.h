@@ -12,6 +12,7 @@
  * No other floating type appears here, so the float build uses only
  * single-precision operations.
  */
+#include "sincos_eval.h"
 
 /* ------------------------------------------------------------------------ */
 /* Parameters                                                                */
@@ -86,23 +87,25 @@ aacmm_status_t SFX(aacmm_model_init)(TYPE(aacmm_model) *model, const TYPE(aacmm_
 /* Sine and cosine                                                           */
 /* ------------------------------------------------------------------------ */
 
+/* a * b + c, the product rounded: the per-pose core fuses nothing (its
+ * arithmetic is the plain one of the firmware and of every host kernel
+ * without FMA; sincos_eval.h, chain_impl.h). */
+#define PLAIN_FMA(a, b, c) ((a) * (b) + (c))
+
 static inline void SFX(sincos_inline)(REAL x, REAL *s, REAL *c)
 {
     /* Quadrant signs, indexed by bit 1 of the quadrant (sine) and of the
      * quadrant + 1 (cosine): a table instead of a switch, because random
      * joint angles make a quadrant branch mispredict half the time. */
     static const REAL sign[2] = {LIT(1.0), LIT(-1.0)};
-    /* k = x / (pi/2) rounded to nearest: adding and subtracting 1.5 * 2^(p-1)
-     * rounds in the FPU's default round-to-nearest mode without a branch.
-     * |x| <= 2048 keeps |k| <= 1304, so k * PIO2_1 and k * PIO2_2 are exact
-     * (each constant has few significant bits). */
-    REAL kf = (x * TWO_OVER_PI + ROUND_MAGIC) - ROUND_MAGIC;
-    uint32_t q = (uint32_t)(int32_t)kf;
-    REAL r = ((x - kf * PIO2_1) - kf * PIO2_2) - kf * PIO2_3; /* |r| <= pi/4 (+tiny) */
-    REAL z = r * r;
+    /* k = x / (pi/2) rounded to nearest (adding and subtracting 1.5 * 2^(p-1)
+     * rounds in the FPU's default round-to-nearest mode without a branch),
+     * r = x - k pi/2 with |r| <= pi/4 (+tiny), sin r and cos r: sincos_eval.h */
+    SINCOS_EVAL(REAL, PLAIN_FMA, x, kr, sr, cr);
+    const uint32_t q = (uint32_t)(int32_t)(kr - ROUND_MAGIC);
     REAL v[2];
-    v[0] = r + r * z * SIN_POLY(z);                            /* sin r */
-    v[1] = LIT(1.0) - (LIT(0.5) * z - z * z * COS_POLY(z));    /* cos r */
+    v[0] = sr;
+    v[1] = cr;
     *s = v[q & 1u] * sign[(q >> 1) & 1u];
     *c = v[(q & 1u) ^ 1u] * sign[((q + 1u) >> 1) & 1u];
 }
@@ -133,7 +136,14 @@ static aacmm_status_t SFX(check_angles)(const REAL theta_rad[AACMM_JOINTS])
 #define CH(name) SFX(name)
 #define CH_SPLAT(x) (x)
 #define CH_SINCOS(x, s, c) SFX(sincos_inline)(x, s, c)
+#define CH_FMA(a, b, c) PLAIN_FMA(a, b, c)
 #include "chain_impl.h"
+#undef CH_FUSE_CHAIN
+#undef CH_FMA
+#undef CH_STEP_PARAM
+#undef CH_STEP
+#undef CH_OUT
+#undef CH_INLINE
 #undef CH_T
 #undef CH
 #undef CH_SPLAT

@@ -12,7 +12,9 @@
 #define PIO2_2 0x1.fb4p-12f
 #define PIO2_3 0x1.4442d2p-24f
 
-/* Taylor series on |r| <= pi/4: truncation error < 2e-9 relative. */
-#define SIN_POLY(z) (-1.0f / 6.0f + (z) * (1.0f / 120.0f + (z) * (-1.0f / 5040.0f + (z) * (1.0f / 362880.0f))))
-#define COS_POLY(z)                                                                                \
-    (1.0f / 24.0f + (z) * (-1.0f / 720.0f + (z) * (1.0f / 40320.0f + (z) * (-1.0f / 3628800.0f))))
+/* Taylor series on |r| <= pi/4: truncation error < 2e-9 relative. Horner's
+ * scheme with F(a, b, c) = a * b + c (sincos_eval.h). */
+#define SIN_POLY(z, F)                                                                             \
+    F(z, F(z, F(z, 1.0f / 362880.0f, -1.0f / 5040.0f), 1.0f / 120.0f), -1.0f / 6.0f)
+#define COS_POLY(z, F)                                                                             \
+    F(z, F(z, F(z, -1.0f / 3628800.0f, 1.0f / 40320.0f), -1.0f / 720.0f), 1.0f / 24.0f)

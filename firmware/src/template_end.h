@@ -21,3 +21,8 @@
 #undef PIO2_3
 #undef SIN_POLY
 #undef COS_POLY
+#undef PLAIN_FMA
+#undef MM_SFX
+#undef MM128
+#undef MM256
+#undef MM512

@@ -943,20 +943,24 @@ static double abs_diff_f32(const float *a, const float *b, size_t n)
  * batches of 1000 (full groups and tails): points within 1e-12 mm, Jacobian
  * entries within 1e-12 relative; single precision within 1e-3 (the f32 bound
  * against f64); the fused |J| sums within 1e-12 relative of the scalar sums.
- * Built as in mk/core.mk (no FMA contraction), the lanes round every
- * operation as the scalar core does, so points and Jacobians are in fact
- * equal bit for bit: asserted too. */
+ * Built as in mk/core.mk (no FMA contraction), the kernels without FMA round
+ * every operation as the scalar core does, so their points and Jacobians are
+ * in fact equal bit for bit: asserted too. The kernels with FMA fuse at the
+ * same places (aacmm/simd.h), so each one equals the first other fused kernel
+ * available (AVX-512 against AVX2) bit for bit, in both precisions. */
 static void test_simd_agrees_with_scalar(void **state)
 {
     enum { B = 1000, BATCHES = 1000 / CORE_TEST_DIV };
-    static double th[B * 6], p0[B * 3], p1[B * 3], j0[B * AACMM_JAC_SIZE], j1[B * AACMM_JAC_SIZE];
-    static float thf[B * 6], pf0[B * 3], pf1[B * 3], jf0[B * AACMM_JAC_SIZE],
-        jf1[B * AACMM_JAC_SIZE];
+    static double th[B * 6], p0[B * 3], p1[B * 3], pr0[B * 3], j0[B * AACMM_JAC_SIZE],
+        j1[B * AACMM_JAC_SIZE];
+    static float thf[B * 6], pf0[B * 3], pf1[B * 3], pfr[B * 3], jf0[B * AACMM_JAC_SIZE],
+        jf1[B * AACMM_JAC_SIZE], jfr[B * AACMM_JAC_SIZE];
     aacmm_params_f64_t pr;
     aacmm_params_f32_t pf;
     aacmm_model_f64_t m;
     aacmm_model_f32_t mf;
     int k;
+    int peer = -1; /* the first fused kernel available */
     (void)state;
     perturbed_params(&pr);
     assert_int_equal(aacmm_model_init_f64(&m, &pr), AACMM_OK);
@@ -964,14 +968,19 @@ static void test_simd_agrees_with_scalar(void **state)
     assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
     for (k = 1; k < AACMM_KERNEL_COUNT; k++) {
         const aacmm_kernel_t kk = (aacmm_kernel_t)k;
+        const int fused = aacmm_kernel_fused(kk);
         test_rng_t g = {UINT64_C(0x5EED) + (uint64_t)k};
         double worst_p = 0.0, worst_j = 0.0, worst_f = 0.0, worst_s = 0.0;
+        double peer_d = 0.0; /* largest difference from the fused peer */
         double s0[AACMM_JAC_SIZE] = {0}, q0[AACMM_JAC_SIZE] = {0};
         double s1[AACMM_JAC_SIZE] = {0}, q1[AACMM_JAC_SIZE] = {0};
         int b, i;
         if (!aacmm_kernel_available(kk)) {
             printf("kernel %s: not available on this CPU\n", aacmm_kernel_name(kk));
             continue;
+        }
+        if (fused && peer < 0) {
+            peer = k;
         }
         for (b = 0; b < BATCHES; b++) {
             size_t done = 0u;
@@ -986,16 +995,32 @@ static void test_simd_agrees_with_scalar(void **state)
                 worst_p = fmax(worst_p, fabs(p1[i] - p0[i]));
             }
             worst_j = fmax(worst_j, rel_diff(j1, j0, B * AACMM_JAC_SIZE));
+            if (fused && peer != k) {
+                assert_int_equal(aacmm_simd_batch_angles_f64((aacmm_kernel_t)peer, &m, B, th, pr0,
+                                                             j0, NULL),
+                                 AACMM_OK);
+                for (i = 0; i < B * 3; i++) {
+                    peer_d = fmax(peer_d, fabs(p1[i] - pr0[i]));
+                }
+                peer_d = fmax(peer_d, rel_diff(j1, j0, B * AACMM_JAC_SIZE));
+            }
             if (b % 10 == 0) {
                 assert_int_equal(aacmm_batch_angles_f32(&mf, B, thf, pf0, jf0, NULL), AACMM_OK);
                 assert_int_equal(aacmm_simd_batch_angles_f32(kk, &mf, B, thf, pf1, jf1, NULL),
                                  AACMM_OK);
                 worst_f = fmax(worst_f, abs_diff_f32(pf1, pf0, B * 3));
                 worst_f = fmax(worst_f, abs_diff_f32(jf1, jf0, B * AACMM_JAC_SIZE));
+                if (fused && peer != k) {
+                    assert_int_equal(aacmm_simd_batch_angles_f32((aacmm_kernel_t)peer, &mf, B, thf,
+                                                                 pfr, jfr, NULL),
+                                     AACMM_OK);
+                    peer_d = fmax(peer_d, abs_diff_f32(pf1, pfr, B * 3));
+                    peer_d = fmax(peer_d, abs_diff_f32(jf1, jfr, B * AACMM_JAC_SIZE));
+                }
                 /* points only: the same points as with the Jacobian */
-                assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, B, th, p0, NULL, NULL),
+                assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, B, th, pr0, NULL, NULL),
                                  AACMM_OK);
-                assert_memory_equal(p0, p1, sizeof p0);
+                assert_memory_equal(pr0, p1, sizeof pr0);
                 assert_int_equal(aacmm_abs_jacobian_sums_f64(&m, B, th, s0, q0, NULL), AACMM_OK);
                 assert_int_equal(aacmm_simd_abs_jacobian_sums_f64(kk, &m, B, th, s1, q1, NULL),
                                  AACMM_OK);
@@ -1005,16 +1030,22 @@ static void test_simd_agrees_with_scalar(void **state)
             worst_s = fmax(worst_s, fabs(s1[i] - s0[i]) / fmax(1.0, s0[i]));
             worst_s = fmax(worst_s, fabs(q1[i] - q0[i]) / fmax(1.0, q0[i]));
         }
-        printf("measured: kernel %s vs scalar, %d poses: point max %.3g mm, Jacobian max %.3g "
+        printf("measured: kernel %s%s vs scalar, %d poses: point max %.3g mm, Jacobian max %.3g "
                "(relative to max(1, |entry|)); f32 max %.3g (%d poses); |J| sums max %.3g "
                "(relative)\n",
-               aacmm_kernel_name(kk), B * BATCHES, worst_p, worst_j, worst_f, B * BATCHES / 10,
-               worst_s);
+               aacmm_kernel_name(kk), fused ? " (FMA)" : "", B * BATCHES, worst_p, worst_j,
+               worst_f, B * BATCHES / 10, worst_s);
         assert_true(worst_p <= BOUND_SIMD_POINT_MM);
         assert_true(worst_j <= BOUND_SIMD_JAC);
         assert_true(worst_f <= BOUND_SIMD_F32);
-        assert_true(worst_p <= 0.0 && worst_j <= 0.0 && worst_f <= 0.0); /* bit for bit */
         assert_true(worst_s <= 1e-12);
+        if (!fused) {
+            assert_true(worst_p <= 0.0 && worst_j <= 0.0 && worst_f <= 0.0); /* bit for bit */
+        } else if (peer != k) {
+            printf("measured: kernel %s vs %s (both FMA): max difference %.3g\n",
+                   aacmm_kernel_name(kk), aacmm_kernel_name((aacmm_kernel_t)peer), peer_d);
+            assert_true(peer_d <= 0.0); /* bit for bit */
+        }
     }
 }
 

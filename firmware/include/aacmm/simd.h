@@ -9,22 +9,26 @@
  * own target attribute, so the object itself needs no more than the
  * baseline of its architecture (x86-64: SSE2; arm64: NEON):
  *
- *   kernel               lanes (double / float)  needs
- *   AACMM_KERNEL_SCALAR  1 / 1                   nothing: the per-pose core
- *   AACMM_KERNEL_VEC128  2 / 4                   a GNU C compiler (SSE2 on x86-64, NEON on arm64)
- *   AACMM_KERNEL_AVX2    4 / 8                   x86 with AVX2 and FMA
- *   AACMM_KERNEL_AVX512  8 / 16                  x86 with AVX-512F
+ *   kernel               lanes (double / float)  FMA  needs
+ *   AACMM_KERNEL_SCALAR  1 / 1                   no   nothing: the per-pose core
+ *   AACMM_KERNEL_VEC128  2 / 4                   no   a GNU C compiler (SSE2 on x86-64, NEON on arm64)
+ *   AACMM_KERNEL_AVX2    4 / 8                   yes  x86 with AVX2 and FMA
+ *   AACMM_KERNEL_AVX512  8 / 16                  yes  x86 with AVX-512F
  *
  * The caller picks the kernel (aacmm_kernel_best(), or its own choice, e.g.
  * from an environment variable) and passes it to every call: no global
  * state, every function is reentrant and disjoint slices of a batch may run
  * on several threads at once.
  *
- * Results: each lane runs the per-pose core's arithmetic in the same order;
- * kernels with FMA fuse some multiply-adds, so results may differ from the
- * scalar kernel in the last bits (measured: <= 1e-12 mm on the point over
- * 10^6 poses, docs/kinematics.md). The error behaviour is the per-pose
- * batch's: validation, the first bad pose stops the batch, *done.
+ * Results: each lane runs the per-pose core's operations in the same order.
+ * The kernels with FMA fuse a * b + c at the same few places (the sine and
+ * cosine polynomials and the Jacobian's cross products: one rounding instead
+ * of two; never in the chain of frames, where a difference would grow along
+ * the arm), so they agree bit for bit with each other and within the core's
+ * own rounding error with the scalar kernel (points within 1e-12 mm over 10^6
+ * poses, tested; docs/kinematics.md); the kernels without FMA agree bit for
+ * bit with the scalar kernel. The error behaviour is the per-pose batch's:
+ * validation, the first bad pose stops the batch, *done.
  */
 #ifndef AACMM_SIMD_H
 #define AACMM_SIMD_H
@@ -42,7 +46,7 @@ typedef enum {
     AACMM_KERNEL_SCALAR = 0, /* the per-pose core, pose after pose */
     AACMM_KERNEL_VEC128 = 1, /* 128-bit vectors: SSE2 (x86-64) or NEON (arm64) */
     AACMM_KERNEL_AVX2 = 2,   /* 256-bit AVX2 + FMA */
-    AACMM_KERNEL_AVX512 = 3  /* 512-bit AVX-512F */
+    AACMM_KERNEL_AVX512 = 3  /* 512-bit AVX-512F (+ FMA) */
 } aacmm_kernel_t;
 
 #define AACMM_KERNEL_COUNT 4
@@ -59,6 +63,9 @@ aacmm_kernel_t aacmm_kernel_best(void);
 
 /* "scalar", "vec128", "avx2", "avx512"; "unknown" for other values. */
 const char *aacmm_kernel_name(aacmm_kernel_t kernel);
+
+/* 1 for the kernels that fuse multiply-adds (avx2, avx512), else 0. Cost: O(1). */
+int aacmm_kernel_fused(aacmm_kernel_t kernel);
 
 /* Poses per vector: lanes of the kernel in double (single = 0) or single
  * precision (single = 1); 0 for values outside the enum. */

@@ -49,6 +49,11 @@ const char *aacmm_kernel_name(aacmm_kernel_t kernel)
     }
 }
 
+int aacmm_kernel_fused(aacmm_kernel_t kernel)
+{
+    return kernel == AACMM_KERNEL_AVX2 || kernel == AACMM_KERNEL_AVX512;
+}
+
 unsigned aacmm_kernel_lanes(aacmm_kernel_t kernel, int single)
 {
     static const unsigned bytes[AACMM_KERNEL_COUNT] = {0u, 16u, 32u, 64u};

@@ -7,8 +7,12 @@
 #include "aacmm/kinematics.h"
 #include "aacmm/simd.h"
 #include "simd_target.h"
+#if SIMD_X86
+#include <immintrin.h>
+#endif
 
 #include "../sincos_f32.h"
+#include "../sincos_eval.h"
 
 #define REAL float
 #define UREAL uint32_t
@@ -17,13 +21,25 @@
 #define PSFX(name) name##_f32
 #define SIGN_BIT UINT32_C(0x80000000)
 
+#define SIMD_REAL_BYTES 4
+#define MM_SFX(name) name##_ps
+#define MM256 __m256
+#define MM512 __m512
+/* The lanes of W poses' angle i (stride 6 REAL) in one gather. */
+#define GATHER256(p) _mm256_i32gather_ps((p), _mm256_set_epi32(42, 36, 30, 24, 18, 12, 6, 0), 4)
+#define GATHER512(p)                                                                               \
+    _mm512_i32gather_ps(                                                                           \
+        _mm512_set_epi32(90, 84, 78, 72, 66, 60, 54, 48, 42, 36, 30, 24, 18, 12, 6, 0), (p), 4)
 #define LANES_16B 4
 #define LANES_32B 8
 #define LANES_64B 16
 
 #include "simd_instances.h"
 
+#undef GATHER256
+#undef GATHER512
 #undef LANES_16B
 #undef LANES_32B
 #undef LANES_64B
+#undef SIMD_REAL_BYTES
 #include "../template_end.h"

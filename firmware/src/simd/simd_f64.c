@@ -8,8 +8,12 @@
 #include "aacmm/kinematics.h"
 #include "aacmm/simd.h"
 #include "simd_target.h"
+#if SIMD_X86
+#include <immintrin.h>
+#endif
 
 #include "../sincos_f64.h"
+#include "../sincos_eval.h"
 
 #define REAL double
 #define UREAL uint64_t
@@ -19,13 +23,23 @@
 #define SIGN_BIT UINT64_C(0x8000000000000000)
 #define SIMD_ABS_SUMS
 
+#define SIMD_REAL_BYTES 8
+#define MM_SFX(name) name##_pd
+#define MM256 __m256d
+#define MM512 __m512d
+/* The lanes of W poses' angle i (stride 6 REAL) in one gather. */
+#define GATHER256(p) _mm256_i64gather_pd((p), _mm256_set_epi64x(18, 12, 6, 0), 8)
+#define GATHER512(p) _mm512_i64gather_pd(_mm512_set_epi64(42, 36, 30, 24, 18, 12, 6, 0), (p), 8)
 #define LANES_16B 2
 #define LANES_32B 4
 #define LANES_64B 8
 
 #include "simd_instances.h"
 
+#undef GATHER256
+#undef GATHER512
 #undef LANES_16B
 #undef LANES_32B
 #undef LANES_64B
+#undef SIMD_REAL_BYTES
 #include "../template_end.h"

@@ -12,19 +12,31 @@
  *   W       the number of lanes
  *   SIGN_BIT  the sign bit of REAL as a VU lane value
  *   VK(name)  name suffixed with the instruction set and the precision
+ *   VK(fma)   a * b + c on VR, fused (one rounding) in the kernels with FMA,
+ *             else the product rounded, then the sum (simd_isa.h)
  * and the sine/cosine constants (sincos_f64.h / sincos_f32.h).
  *
  * Each lane holds one pose; the arithmetic of a lane is the per-pose core's
- * (kinematics_impl.h: the same reduction, polynomials, chain and cross
- * products in the same order), so a lane differs from the scalar result only
- * where the compiler fuses a multiply and an add (FMA) differently.
+ * (sincos_eval.h and chain_impl.h: the same reduction, polynomials, chain
+ * and cross products in the same order), with a * b + c fused where the
+ * kernel has FMA: a kernel without FMA gives the per-pose core's results bit
+ * for bit, and every kernel with FMA gives the same results as every other
+ * one with FMA.
  */
 
 static inline VR VK(splat)(REAL s)
 {
-    VR v = {LIT(0.0)};
-    return v + s;
+    const VR zero = {LIT(0.0)};
+    return s - zero; /* folds to a broadcast (x - 0 is x, -0 included) */
 }
+
+/* F(a, b, c) of sincos_eval.h and chain_impl.h on lanes: each argument a
+ * vector, or a scalar broadcast to all lanes. */
+#define V_IS_VR(x) __builtin_types_compatible_p(__typeof__(x), VR)
+#define V_AS_VR(x)                                                                                 \
+    __builtin_choose_expr(V_IS_VR(x), (x),                                                         \
+                          VK(splat)(__builtin_choose_expr(V_IS_VR(x), LIT(0.0), (x))))
+#define VF(a, b, c) VK(fma)(V_AS_VR(a), V_AS_VR(b), V_AS_VR(c))
 
 /*
  * Sine and cosine of every lane: the per-pose sincos_inline with the table
@@ -36,21 +48,150 @@ static inline VR VK(splat)(REAL s)
  */
 static inline void VK(sincos)(VR x, VR *s, VR *c)
 {
-    const VR kr = x * TWO_OVER_PI + ROUND_MAGIC;
+    SINCOS_EVAL(VR, VF, x, kr, sr, cr);
+    /* bit 1 of q (sine) and of q + 1 (cosine) shifted to the sign bit; the
+     * masks and the XOR fold into one three-input logic instruction */
+    enum { TO_SIGN = (int)sizeof(UREAL) * 8 - 2 };
     const VU q = (VU)kr;
-    const VR kf = kr - ROUND_MAGIC;
-    const VR r = ((x - kf * PIO2_1) - kf * PIO2_2) - kf * PIO2_3;
-    const VR z = r * r;
-    const VR sr = r + r * z * SIN_POLY(z);
-    const VR cr = LIT(1.0) - (LIT(0.5) * z - z * z * COS_POLY(z));
     const VU one = q - q + 1u;
     const VU swap = (q - q) - (q & one); /* all ones in odd quadrants */
-    VU si = ((VU)sr & ~swap) | ((VU)cr & swap);
-    VU ci = ((VU)cr & ~swap) | ((VU)sr & swap);
-    si ^= ((q >> 1) & one) * SIGN_BIT;
-    ci ^= (((q + one) >> 1) & one) * SIGN_BIT;
-    *s = (VR)si;
-    *c = (VR)ci;
+    const VU si = ((VU)sr & ~swap) | ((VU)cr & swap);
+    const VU ci = ((VU)cr & ~swap) | ((VU)sr & swap);
+    *s = (VR)(si ^ ((q << TO_SIGN) & SIGN_BIT));
+    *c = (VR)(ci ^ (((q + one) << TO_SIGN) & SIGN_BIT));
+}
+
+/*
+ * Jacobians: 75 entry vectors (a lane per pose) to the poses' rows of 75
+ * values (pose l's entry e to jac[l * 75 + e]).
+ *
+ * Blocks of SEG consecutive entries are regrouped in registers by log2(SEG)
+ * rounds of interleaving (a perfect shuffle of the block's SEG vectors:
+ * t[2i], t[2i+1] = the two halves of zip(v[i], v[i + SEG/2])), which leaves
+ * vector k of the block holding poses k W/SEG .. (k + 1) W/SEG - 1, SEG
+ * entries each in order: SEG = W would be a full transpose; the 16-byte
+ * segments used (simd_isa.h: SEG = 2 doubles or 4 floats) spend one or two
+ * rounds of shuffles (on the port that also does half the arithmetic)
+ * instead of three or four, for more, narrower stores: measured faster, with
+ * AVX2 and AVX-512, in both precisions. The blocks are regrouped in place;
+ * the last 75 mod SEG entries form one more block, padded, after them (J
+ * holds JAC_VECS vectors).
+ *
+ * A group's rows are written during the NEXT group's pass down the chain
+ * (CH_STEP, a few poses after each joint), pose after pose, each row in
+ * order: the stores drain while the arithmetic runs instead of stalling it
+ * in one burst, and they form one sequential write stream (measured: stores
+ * to W interleaved streams cost up to twice as much). A pose's padded last
+ * segment runs into the next pose's first entries, which that pose's first
+ * segment overwrites right after; the last pose of a group stores its rest
+ * entry by entry (nothing past the output is written).
+ */
+#if SIMD_SEGMENTS
+#define JAC_WHOLE (AACMM_JAC_SIZE / SEG)
+#define JAC_REST (AACMM_JAC_SIZE % SEG)
+#define JAC_VECS ((JAC_WHOLE + (JAC_REST > 0)) * SEG)
+
+static inline void VK(regroup)(VR *v)
+{
+    VR t[SEG];
+    int s, i;
+    for (s = 1; s < SEG; s *= 2) {
+        for (i = 0; i < SEG / 2; i++) {
+            t[2 * i] = ZIPLO(v[i], v[i + SEG / 2]);
+            t[2 * i + 1] = ZIPHI(v[i], v[i + SEG / 2]);
+        }
+        for (i = 0; i < SEG; i++) {
+            v[i] = t[i];
+        }
+    }
+}
+
+static inline void VK(regroup_jacobians)(VR J[JAC_VECS])
+{
+    int b, t;
+    for (t = JAC_REST; t < SEG && JAC_REST > 0; t++) {
+        J[JAC_WHOLE * SEG + t] = J[0]; /* padding (finite values) */
+    }
+    for (b = 0; b < JAC_VECS / SEG; b++) {
+        VK(regroup)(J + b * SEG);
+    }
+}
+
+/* Row l of the m poses of a regrouped group to row. */
+static inline void VK(store_jacobian)(const VR J[JAC_VECS], size_t l, size_t m, REAL *row)
+{
+    enum { PER = W / SEG, BYTES = SEG * (int)sizeof(REAL) };
+    const size_t k = l / PER, at = (l % PER) * (size_t)BYTES;
+    int b, t;
+    for (b = 0; b < JAC_WHOLE; b++) {
+        memcpy(row + b * SEG, (const char *)&J[(size_t)b * SEG + k] + at, (size_t)BYTES);
+    }
+    if (JAC_REST > 0 && l + 1u < m) {
+        memcpy(row + JAC_WHOLE * SEG, (const char *)&J[JAC_WHOLE * SEG + k] + at, (size_t)BYTES);
+    } else {
+        for (t = 0; t < JAC_REST; t++) {
+            row[JAC_WHOLE * SEG + t] = J[JAC_WHOLE * SEG + k][(l % PER) * SEG + (size_t)t];
+        }
+    }
+}
+#else
+#define JAC_VECS AACMM_JAC_SIZE
+static inline void VK(regroup_jacobians)(VR J[JAC_VECS])
+{
+    (void)J;
+}
+
+static inline void VK(store_jacobian)(const VR J[JAC_VECS], size_t l, size_t m, REAL *row)
+{
+    int e;
+    (void)m;
+    for (e = 0; e < AACMM_JAC_SIZE; e++) {
+        row[e] = J[e][l];
+    }
+}
+#endif
+
+/* A regrouped group whose rows are still to be written: m poses to dst; next
+ * is the first pose not written yet. */
+typedef struct {
+    const VR *J;
+    size_t m, next;
+    REAL *dst;
+} VK(pending);
+
+/* Writes the pending rows up to (not including) pose end. */
+static inline void VK(write_pending)(VK(pending) *pend, size_t end)
+{
+    size_t l;
+    if (end > pend->m) {
+        end = pend->m;
+    }
+    for (l = pend->next; l < end; l++) {
+        VK(store_jacobian)(pend->J, l, pend->m, pend->dst + l * AACMM_JAC_SIZE);
+    }
+    if (end > pend->next) {
+        pend->next = end;
+    }
+}
+
+/* The fused Monte Carlo sums: per entry and lane, the sums of |J| and J^2;
+ * keep clears the sign bit, and whole lanes past the group's last pose. */
+typedef struct {
+    VR *sa, *sq;
+    VU keep;
+} VK(sums);
+
+/* Jacobian entry e = v: stored in jac, or (acc not NULL) added to the sums
+ * instead (no store and reload of the entries). */
+static inline void VK(out)(VR *jac, VK(sums) *acc, int e, VR v)
+{
+    if (acc != NULL) {
+        const VR a = (VR)((VU)v & acc->keep);
+        acc->sa[e] += a;
+        acc->sq[e] = VF(a, a, acc->sq[e]);
+    } else {
+        jac[e] = v;
+    }
 }
 
 /* One pass down the chain for W poses: the per-pose chain, lane by lane. */
@@ -58,11 +199,32 @@ static inline void VK(sincos)(VR x, VR *s, VR *c)
 #define CH(name) VK(name)
 #define CH_SPLAT(x) VK(splat)(x)
 #define CH_SINCOS(x, s, c) VK(sincos)(x, s, c)
+#define CH_FMA(a, b, c) VF(a, b, c)
+#define CH_STEP_PARAM , VK(pending) *pend, VK(sums) *acc
+#define CH_STEP(i) /* the pending rows, spread over the six joints */                             \
+    if (pend != NULL) {                                                                            \
+        VK(write_pending)(pend, ((size_t)(i) + 1u) * (size_t)W / AACMM_JOINTS);                    \
+    }
+#define CH_OUT(e, v) VK(out)(jac, acc, e, v)
+#define CH_INLINE static inline __attribute__((always_inline))
 #include "../chain_impl.h"
+/* The chain again, fused throughout, for the Monte Carlo sums (no points
+ * out: chain_impl.h's CH_FUSE_CHAIN): VK(chain_sums). */
+#undef CH
+#undef CH_FUSE_CHAIN
+#define CH(name) VK(name##_sums)
+#define CH_FUSE_CHAIN 1
+#include "../chain_impl.h"
+#undef CH_FUSE_CHAIN
 #undef CH_T
 #undef CH
 #undef CH_SPLAT
 #undef CH_SINCOS
+#undef CH_FMA
+#undef CH_STEP_PARAM
+#undef CH_STEP
+#undef CH_OUT
+#undef CH_INLINE
 
 /* AACMM_OK if every angle of the pose is finite and within the limit, else
  * the reason (the per-pose core's check_angles). */
@@ -94,15 +256,23 @@ static inline size_t VK(valid_prefix)(const REAL *th, size_t m, aacmm_status_t *
     return m;
 }
 
-/* The joint angles of W poses th[0 .. W*6-1] as six lane vectors, each built
- * in registers from W scalar loads (a vector initialiser: writing the lanes
- * into memory and reading the vector back would stall on store forwarding). */
+/* The joint angles of W poses th[0 .. W*6-1] as six lane vectors: a gather
+ * each where the instruction set has one (AVX2, AVX-512: the loads go to the
+ * load ports), else built in registers from W scalar loads (a vector
+ * initialiser: writing the lanes into memory and reading the vector back
+ * would stall on store forwarding). */
 static inline void VK(load)(const REAL *th, VR out[AACMM_JOINTS])
 {
     int i;
+#ifdef ISA_GATHER
+    for (i = 0; i < AACMM_JOINTS; i++) {
+        out[i] = (VR)ISA_GATHER(th + i);
+    }
+#else
     for (i = 0; i < AACMM_JOINTS; i++) {
         out[i] = (VR)LANES_INIT(th + i, AACMM_JOINTS);
     }
+#endif
 }
 
 /* The same for m <= W poses: lanes past m repeat the last pose, so they
@@ -116,77 +286,6 @@ static inline void VK(load_part)(const REAL *th, size_t m, VR out[AACMM_JOINTS])
                AACMM_JOINTS * sizeof(REAL));
     }
     VK(load)(buf, out);
-}
-
-#ifdef ZIPLO
-/* Transposes the W x W matrix whose rows are v[0 .. W-1], in place:
- * log2(W) rounds of interleaving v[i] with v[i + W/2] (a perfect shuffle),
- * which the compiler maps to the instruction set's unpack/permute
- * instructions. */
-static inline void VK(transpose)(VR v[W])
-{
-    VR t[W];
-    int s, i;
-    for (s = 1; s < W; s *= 2) {
-        for (i = 0; i < W / 2; i++) {
-            t[2 * i] = ZIPLO(v[i], v[i + W / 2]);
-            t[2 * i + 1] = ZIPHI(v[i], v[i + W / 2]);
-        }
-        for (i = 0; i < W; i++) {
-            v[i] = t[i];
-        }
-    }
-}
-#endif
-
-/* Jacobian entries J[e] (one vector per entry, a lane per pose) to m <= W
- * poses' row-major Jacobians. Blocks of W entries are transposed in
- * registers, so each pose gets W consecutive entries in one vector store, and
- * the stores go pose after pose (one sequential write stream: measured
- * faster than W interleaved ones). The blocks are transposed in J itself
- * (each copy of 75 vectors costs a store and a load per vector). The last 75
- * mod W entries form one more
- * block, padded: its vector store runs W - 75 mod W entries into the next
- * pose's slot, which that pose's first block overwrites right after; the
- * group's last pose, whose successor may not be written, stores them lane by
- * lane instead. */
-static inline void VK(store_jacobians)(VR J[AACMM_JAC_SIZE], size_t m, REAL *jac)
-{
-    size_t l;
-    int e;
-#ifdef ZIPLO
-    enum { BLOCKS = AACMM_JAC_SIZE / W, REST = AACMM_JAC_SIZE % W };
-    VR tail[W];
-    int b, i;
-    for (b = 0; b < BLOCKS; b++) {
-        VK(transpose)(J + b * W); /* in place: no copy of the block */
-    }
-    if (REST > 0) {
-        for (i = 0; i < W; i++) {
-            tail[i] = (i < REST) ? J[BLOCKS * W + i] : J[0];
-        }
-        VK(transpose)(tail);
-    }
-    for (l = 0; l < m; l++) {
-        REAL *dst = jac + l * AACMM_JAC_SIZE;
-        for (b = 0; b < BLOCKS; b++) {
-            memcpy(dst + b * W, &J[b * W + (int)l], sizeof J[0]);
-        }
-        if (REST > 0 && l + 1u < m) {
-            memcpy(dst + BLOCKS * W, &tail[l], sizeof tail[l]);
-        } else {
-            for (e = 0; e < REST; e++) {
-                dst[BLOCKS * W + e] = tail[l][e];
-            }
-        }
-    }
-#else
-    for (l = 0; l < m; l++) {
-        for (e = 0; e < AACMM_JAC_SIZE; e++) {
-            jac[l * AACMM_JAC_SIZE + (size_t)e] = J[e][l];
-        }
-    }
-#endif
 }
 
 /* 1 if every lane of the six angle vectors is finite and within the limit:
@@ -228,19 +327,22 @@ static inline size_t VK(load_valid)(const REAL *th, size_t want, VR t[AACMM_JOIN
     return m;
 }
 
-/* Points (and Jacobians) of m <= W valid poses (angles in t) into their slots. */
-static inline void VK(group)(const TYPE(aacmm_model) *model, const VR t[AACMM_JOINTS], size_t m,
-                             REAL *p_mm, REAL *jac)
+/* The points of m <= W poses (x, y, z vectors) to p_mm[l * 3 + r]: for a
+ * full group, three vector stores of the lanes regrouped by two shuffles
+ * each. */
+static inline void VK(store_points)(const VR P[3], size_t m, REAL *p_mm)
 {
-    VR P[3];
     size_t l;
-    if (jac == NULL) {
-        VK(chain)(model, t, P, NULL);
-    } else {
-        VR J[AACMM_JAC_SIZE];
-        VK(chain)(model, t, P, J);
-        VK(store_jacobians)(J, m, jac);
+#if SIMD_SEGMENTS
+    if (m == (size_t)W) {
+        const VR o0 = XYZ(P[0], P[1], P[2], 0), o1 = XYZ(P[0], P[1], P[2], 1),
+                 o2 = XYZ(P[0], P[1], P[2], 2);
+        memcpy(p_mm, &o0, sizeof o0);
+        memcpy(p_mm + W, &o1, sizeof o1);
+        memcpy(p_mm + 2 * W, &o2, sizeof o2);
+        return;
     }
+#endif
     for (l = 0; l < m; l++) {
         p_mm[l * 3u + 0u] = P[0][l];
         p_mm[l * 3u + 1u] = P[1][l];
@@ -249,29 +351,48 @@ static inline void VK(group)(const TYPE(aacmm_model) *model, const VR t[AACMM_JO
 }
 
 /* aacmm_simd_batch_angles_* for this instruction set (arguments checked by
- * the caller). */
+ * the caller). With Jacobians, two buffers alternate: the chain fills one
+ * while the other's rows are written (pend). */
 static aacmm_status_t VK(batch_angles)(const TYPE(aacmm_model) *model, size_t n,
                                        const REAL *theta_rad, REAL *p_mm, REAL *jac, size_t *done)
 {
+    VR J[2][JAC_VECS];
+    VK(pending) pend = {NULL, 0u, 0u, NULL};
+    aacmm_status_t st = AACMM_OK;
     size_t k = 0;
+    int cur = 0;
     while (k < n) {
         const REAL *th = theta_rad + k * AACMM_JOINTS;
         const size_t want = (n - k < (size_t)W) ? n - k : (size_t)W;
-        VR t[AACMM_JOINTS];
-        aacmm_status_t st;
+        VR t[AACMM_JOINTS], P[3];
         const size_t m = VK(load_valid)(th, want, t, &st);
         if (m > 0u) {
-            VK(group)(model, t, m, p_mm + k * 3u, jac == NULL ? NULL : jac + k * AACMM_JAC_SIZE);
-            k += m;
-            if (done != NULL) {
-                *done = k;
+            if (jac == NULL) {
+                VK(chain)(model, t, P, NULL, NULL, NULL);
+            } else {
+                VK(chain)(model, t, P, J[cur], &pend, NULL);
+                VK(write_pending)(&pend, pend.m);
+                VK(regroup_jacobians)(J[cur]);
+                pend.J = J[cur];
+                pend.m = m;
+                pend.next = 0u;
+                pend.dst = jac + k * AACMM_JAC_SIZE;
+                cur ^= 1;
             }
+            VK(store_points)(P, m, p_mm + k * 3u);
+            k += m;
         }
         if (st != AACMM_OK) {
-            return st;
+            break;
         }
     }
-    return AACMM_OK;
+    if (jac != NULL && pend.J != NULL) {
+        VK(write_pending)(&pend, pend.m);
+    }
+    if (done != NULL) {
+        *done = k;
+    }
+    return st;
 }
 
 #ifdef SIMD_ABS_SUMS
@@ -312,17 +433,15 @@ static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
         }
         m = VK(load_valid)(th, want, t, &st);
         if (m > 0u) {
-            VR J[AACMM_JAC_SIZE], P[3];
-            VU keep = no_sign;
-            VK(chain)(model, t, P, J);
+            VR P[3];
+            VK(sums) acc;
+            acc.sa = sa;
+            acc.sq = sq;
+            acc.keep = no_sign;
             for (l = m; l < (size_t)W; l++) {
-                keep[l] = 0u;
+                acc.keep[l] = 0u;
             }
-            for (e = 0; e < AACMM_JAC_SIZE; e++) {
-                const VR a = (VR)((VU)J[e] & keep);
-                sa[e] += a;
-                sq[e] += a * a;
-            }
+            VK(chain_sums)(model, t, P, sa, NULL, &acc); /* jac unused: the entries go to acc */
             k += m;
         }
         if (st != AACMM_OK) {
@@ -344,3 +463,10 @@ static aacmm_status_t VK(abs_sums)(const TYPE(aacmm_model) *model, size_t n,
     return st;
 }
 #endif /* SIMD_ABS_SUMS */
+
+#undef JAC_VECS
+#undef JAC_WHOLE
+#undef JAC_REST
+#undef V_IS_VR
+#undef V_AS_VR
+#undef VF

@@ -6,8 +6,10 @@
  * Included by simd_f64.c and simd_f32.c after they define REAL, LIT(x),
  * TYPE(name), UREAL (the unsigned integer as wide as REAL), SIGN_BIT, PSFX(name)
  * (name##_f64 or name##_f32), LANES_16B, LANES_32B, LANES_64B (lanes of a
- * 16-, 32- and 64-byte vector, as plain numbers), the sine/cosine constants
- * and, for double, SIMD_ABS_SUMS.
+ * 16-, 32- and 64-byte vector, as plain numbers), SIMD_REAL_BYTES (sizeof
+ * REAL), MM_SFX(name) (name##_pd or name##_ps),
+ * MM256, MM512 (the intrinsics' vector types),
+ * the sine/cosine constants and, for double, SIMD_ABS_SUMS.
  *
  * The AVX2 and AVX-512 instances are compiled under target attributes
  * (GCC: #pragma GCC target; clang: #pragma clang attribute), so the object
@@ -15,11 +17,12 @@
  * after aacmm_kernel_available() has seen the CPU support them.
  */
 
-/* No fused multiply-add anywhere in the kernels: each lane rounds every
- * operation as the per-pose core does in a build without FMA (the Python
- * extension's, and the core tests'), so the lanes give the scalar kernel's
- * results bit for bit. (Measured with FMA: up to 1.4e-12 mm apart over 10^6
- * poses, for 10-30 % more speed.) Clang ignores the pragma under
+/* No contraction by the compiler: the only fused multiply-adds are the
+ * explicit ones (VK(fma): the intrinsics in the AVX2 and AVX-512
+ * instances, a * b + c rounded twice in vec128), at the places sincos_eval.h
+ * and chain_impl.h chose, so every kernel with FMA rounds like every other one,
+ * and vec128 like the per-pose core built without contraction (the Python
+ * extension's and the core tests' build). Clang ignores the pragma under
  * -ffp-contract=fast: build these files without it. GCC also compiles the
  * kernels at -O3 whatever the command line says: at -O2 it copies vectors in
  * 16-byte pieces and reads them back whole (a store-forwarding stall), which
@@ -47,6 +50,33 @@
 #define ZIPHI_8 4, 12, 5, 13, 6, 14, 7, 15
 #define ZIPLO_16 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23
 #define ZIPHI_16 8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31
+/* Index lists for the points (simd_impl.h's store_points): output vector k
+ * of a group's points, in pose-major (x, y, z) order, is
+ * shuffle(shuffle(x, y, XYZ_A_W_k), z, XYZ_B_W_k). */
+#define XYZ_A_2_0 0, 2
+#define XYZ_B_2_0 0, 1
+#define XYZ_A_2_1 0, 1
+#define XYZ_B_2_1 2, 1
+#define XYZ_A_2_2 3, 0
+#define XYZ_B_2_2 0, 3
+#define XYZ_A_4_0 0, 4, 0, 1
+#define XYZ_B_4_0 0, 1, 4, 3
+#define XYZ_A_4_1 5, 0, 2, 6
+#define XYZ_B_4_1 0, 5, 2, 3
+#define XYZ_A_4_2 0, 3, 7, 0
+#define XYZ_B_4_2 6, 1, 2, 7
+#define XYZ_A_8_0 0, 8, 0, 1, 9, 0, 2, 10
+#define XYZ_B_8_0 0, 1, 8, 3, 4, 9, 6, 7
+#define XYZ_A_8_1 0, 3, 11, 0, 4, 12, 0, 5
+#define XYZ_B_8_1 10, 1, 2, 11, 4, 5, 12, 7
+#define XYZ_A_8_2 13, 0, 6, 14, 0, 7, 15, 0
+#define XYZ_B_8_2 0, 13, 2, 3, 14, 5, 6, 15
+#define XYZ_A_16_0 0, 16, 0, 1, 17, 0, 2, 18, 0, 3, 19, 0, 4, 20, 0, 5
+#define XYZ_B_16_0 0, 1, 16, 3, 4, 17, 6, 7, 18, 9, 10, 19, 12, 13, 20, 15
+#define XYZ_A_16_1 21, 0, 6, 22, 0, 7, 23, 0, 8, 24, 0, 9, 25, 0, 10, 26
+#define XYZ_B_16_1 0, 21, 2, 3, 22, 5, 6, 23, 8, 9, 24, 11, 12, 25, 14, 15
+#define XYZ_A_16_2 0, 11, 27, 0, 12, 28, 0, 13, 29, 0, 14, 30, 0, 15, 31, 0
+#define XYZ_B_16_2 26, 1, 2, 27, 4, 5, 28, 7, 8, 29, 10, 11, 30, 13, 14, 31
 /* A vector of W values p[0], p[s], p[2 s], ... as an initialiser. */
 #define LANES_INIT_2(p, s) {(p)[0], (p)[s]}
 #define LANES_INIT_4(p, s) {(p)[0], (p)[s], (p)[2 * (s)], (p)[3 * (s)]}
@@ -64,12 +94,16 @@
 #if SIMD_SHUFFLE
 #define ZIPLO(a, b) __builtin_shufflevector(a, b, ZIP_IDX(ZIPLO, LANES))
 #define ZIPHI(a, b) __builtin_shufflevector(a, b, ZIP_IDX(ZIPHI, LANES))
+#define XYZ(x, y, z, k)                                                                            \
+    __builtin_shufflevector(__builtin_shufflevector(x, y, ZIP_IDX(ZIP_IDX(XYZ_A, LANES), k)), z,  \
+                            ZIP_IDX(ZIP_IDX(XYZ_B, LANES), k))
 #endif
 
-/* ---- 128-bit: SSE2 on x86-64, NEON on arm64 ---- */
+/* ---- 128-bit: SSE2 on x86-64, NEON on arm64; no FMA ---- */
 #define ISA(name) PSFX(name##_vec128)
 #define ISA_BYTES 16
 #define ISA_LANES LANES_16B
+#define ISA_FMA(a, b, c) ((a) * (b) + (c))
 #include "simd_isa.h"
 
 #endif /* SIMD_VECTOR_EXT */
@@ -81,6 +115,8 @@
 #define ISA_BYTES 32
 #define ISA_LANES LANES_32B
 #define ISA_TARGET "avx2,fma"
+#define ISA_FMA(a, b, c) ((VR)MM_SFX(_mm256_fmadd)((MM256)(a), (MM256)(b), (MM256)(c)))
+#define ISA_GATHER(p) GATHER256(p)
 #include "simd_isa.h"
 
 /* ---- 512-bit AVX-512F ---- */
@@ -88,6 +124,8 @@
 #define ISA_BYTES 64
 #define ISA_LANES LANES_64B
 #define ISA_TARGET "avx512f,avx2,fma"
+#define ISA_FMA(a, b, c) ((VR)MM_SFX(_mm512_fmadd)((MM512)(a), (MM512)(b), (MM512)(c)))
+#define ISA_GATHER(p) GATHER512(p)
 #include "simd_isa.h"
 
 #endif /* SIMD_X86 */

@@ -8,6 +8,7 @@
  *                kernel is then compiled for it (GCC: #pragma GCC target;
  *                clang: #pragma clang attribute) while the rest of the object
  *                keeps the baseline
+ *   ISA_FMA(a, b, c)  a * b + c on two vectors VR: fused (an intrinsic) or not
  * The ISA_ macros are removed at the end.
  */
 #ifdef ISA_TARGET
@@ -26,7 +27,27 @@ typedef UREAL ISA(vu) __attribute__((vector_size(ISA_BYTES)));
 #define LANES ISA_LANES
 #define W LANES
 #define VK(name) ISA(name)
+#if SIMD_SHUFFLE && ISA_LANES > 1
+/* Jacobian rows are written in 16-byte segments (simd_impl.h): measured
+ * faster than 32 or 64 bytes with AVX2 and AVX-512, in both precisions. */
+#define SIMD_SEGMENTS 1
+#if ISA_LANES * SIMD_REAL_BYTES > 16
+#define SEG (16 / SIMD_REAL_BYTES)
+#else
+#define SEG ISA_LANES
+#endif
+#else
+#define SIMD_SEGMENTS 0
+#endif
+
+static inline VR VK(fma)(VR a, VR b, VR c)
+{
+    return ISA_FMA(a, b, c);
+}
+
 #include "simd_impl.h"
+#undef SIMD_SEGMENTS
+#undef SEG
 #undef VR
 #undef VU
 #undef LANES
@@ -44,3 +65,5 @@ SIMD_PRAGMA(GCC pop_options)
 #undef ISA
 #undef ISA_BYTES
 #undef ISA_LANES
+#undef ISA_FMA
+#undef ISA_GATHER

@@ -125,6 +125,7 @@ typedef enum {
 } aacmm_kernel_t;
 int aacmm_kernel_available(aacmm_kernel_t kernel);
 aacmm_kernel_t aacmm_kernel_best(void);
+int aacmm_kernel_fused(aacmm_kernel_t kernel);
 const char *aacmm_kernel_name(aacmm_kernel_t kernel);
 unsigned aacmm_kernel_lanes(aacmm_kernel_t kernel, int single);
 aacmm_status_t aacmm_simd_batch_angles_f64(aacmm_kernel_t kernel, const aacmm_model_f64_t *model,
