@@ -240,7 +240,7 @@ def truth_check_text(c: dict[str, Any]) -> str:
         what = (
             f"{r['params_crc32']} (session {r['session']})"
             if r["session"]
-            else "the true geometry: its encoders' eccentricity, beyond any DH calibration"
+            else "the true parameters: what the encoders' eccentricity alone leaves"
         )
         lines.append(
             f"{name:<8} {r['rms_mm']:>8.4f}  {r['p95_mm']:>9.4f}  {r['max_mm']:>8.4f}  {what}"
