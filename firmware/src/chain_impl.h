@@ -20,6 +20,7 @@
  *   CH_OUT(e, v)    what becomes of Jacobian entry e = v (default: jac[e] = v;
  *                   the fused Monte Carlo sums accumulate it instead)
  *   CH_FUSE_CHAIN   1: the frames and origins use CH_FMA too (default 0)
+ *   CH_DIRECT_DA    1: the d and a columns go to jac during the pass (below)
  * The includer #undefs the CH_ macros afterwards.
  *
  * Each CH_FMA is placed so that, unfused, the arithmetic is exactly the plain
@@ -90,13 +91,41 @@ static inline CH(vec3) CH(cross)(CH(vec3) u, CH(vec3) v)
 #ifndef CH_FUSE_CHAIN
 #define CH_FUSE_CHAIN 0
 #endif
+/* The d and a columns of the Jacobian are z_{i-1} and x_i themselves: with
+ * CH_DIRECT_DA 1 (CH_OUT must then be the plain jac[e] = v) they are written
+ * to jac during the pass and read back from there, instead of being kept in
+ * arrays and copied after it: 36 vector stores and loads fewer per group of
+ * poses in the batch kernels (simd_f64.c says where it pays). Default 0. */
+#ifndef CH_DIRECT_DA
+#define CH_DIRECT_DA 0
+#endif
+#define CH_JD(r, i) jac[(r) * AACMM_JAC_COLS + AACMM_COL_D(i)]
+#define CH_JA(r, i) jac[(r) * AACMM_JAC_COLS + AACMM_COL_A(i)]
+#if CH_DIRECT_DA
+#define CH_KEEP_ZX(i, zv, xv)                                                                      \
+    if (jac != NULL) {                                                                             \
+        CH_JD(0, i) = (zv).x;                                                                      \
+        CH_JD(1, i) = (zv).y;                                                                      \
+        CH_JD(2, i) = (zv).z;                                                                      \
+        CH_JA(0, i) = (xv).x;                                                                      \
+        CH_JA(1, i) = (xv).y;                                                                      \
+        CH_JA(2, i) = (xv).z;                                                                      \
+    }
+#else
+#define CH_KEEP_ZX(i, zv, xv)                                                                      \
+    zprev[i] = (zv);                                                                               \
+    xs[i] = (xv)
+#endif
 CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AACMM_JOINTS],
                              CH_T p_mm[3], CH_T *jac CH_STEP_PARAM)
 {
     const CH_T zero = CH_SPLAT(LIT(0.0));
     const CH_T one = CH_SPLAT(LIT(1.0));
     CH(vec3) X, Y, Z, O;
-    CH(vec3) zprev[AACMM_JOINTS], oprev[AACMM_JOINTS], xs[AACMM_JOINTS], os[AACMM_JOINTS];
+    CH(vec3) oprev[AACMM_JOINTS], os[AACMM_JOINTS];
+#if !CH_DIRECT_DA
+    CH(vec3) zprev[AACMM_JOINTS], xs[AACMM_JOINTS];
+#endif
     CH(vec3) p;
     int i;
 
@@ -108,10 +137,11 @@ CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AA
         const CH_T ca = CH_SPLAT(model->cos_alpha[0]);
         const CH_T a = CH_SPLAT(model->params.a_mm[0]);
         CH_T s, c;
+        CH(vec3) z0;
         CH_SINCOS(theta_rad[0] + model->params.theta_offset_rad[0], &s, &c);
-        zprev[0].x = zero;
-        zprev[0].y = zero;
-        zprev[0].z = one;
+        z0.x = zero;
+        z0.y = zero;
+        z0.z = one;
         oprev[0].x = zero;
         oprev[0].y = zero;
         oprev[0].z = zero;
@@ -127,7 +157,7 @@ CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AA
         O.x = a * c;
         O.y = a * s;
         O.z = CH_SPLAT(model->params.d_mm[0]);
-        xs[0] = X;
+        CH_KEEP_ZX(0, z0, X);
         os[0] = O;
         CH_STEP(0);
     }
@@ -136,19 +166,18 @@ CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AA
         const CH_T ca = CH_SPLAT(model->cos_alpha[i]);
         CH_T s, c;
         CH(vec3) u, step;
+        const CH(vec3) zi = Z;
         CH_SINCOS(theta_rad[i] + model->params.theta_offset_rad[i], &s, &c);
-        zprev[i] = Z;
         oprev[i] = O;
         u = CH(lin2)(-s, X, c, Y);
         X = CH(lin2)(c, X, s, Y);
         Y = CH(lin2)(ca, u, sa, Z);
         Z = CH(lin2)(-sa, u, ca, Z);
-        step = CH(lin2)(CH_SPLAT(model->params.d_mm[i]), zprev[i], CH_SPLAT(model->params.a_mm[i]),
-                        X);
+        step = CH(lin2)(CH_SPLAT(model->params.d_mm[i]), zi, CH_SPLAT(model->params.a_mm[i]), X);
         O.x += step.x;
         O.y += step.y;
         O.z += step.z;
-        xs[i] = X;
+        CH_KEEP_ZX(i, zi, X);
         os[i] = O;
         CH_STEP(i);
     }
@@ -165,8 +194,13 @@ CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AA
         return;
     }
     for (i = 0; i < AACMM_JOINTS; i++) {
+#if CH_DIRECT_DA
+        const CH(vec3) zp = {CH_JD(0, i), CH_JD(1, i), CH_JD(2, i)};
+        const CH(vec3) xi = {CH_JA(0, i), CH_JA(1, i), CH_JA(2, i)};
+#else
         const CH(vec3) zp = zprev[i];
         const CH(vec3) xi = xs[i];
+#endif
         CH(vec3) v, w, jt, ja;
         w.x = p.x - os[i].x;
         w.y = p.y - os[i].y;
@@ -190,13 +224,16 @@ CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AA
         CH_OUT(0 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i), ja.x);
         CH_OUT(1 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i), ja.y);
         CH_OUT(2 * AACMM_JAC_COLS + AACMM_COL_ALPHA(i), ja.z);
-        /* d p / d d_i = z_{i-1};  d p / d a_i = x_i */
+        /* d p / d d_i = z_{i-1};  d p / d a_i = x_i (already in jac with
+         * CH_DIRECT_DA) */
+#if !CH_DIRECT_DA
         CH_OUT(0 * AACMM_JAC_COLS + AACMM_COL_D(i), zp.x);
         CH_OUT(1 * AACMM_JAC_COLS + AACMM_COL_D(i), zp.y);
         CH_OUT(2 * AACMM_JAC_COLS + AACMM_COL_D(i), zp.z);
         CH_OUT(0 * AACMM_JAC_COLS + AACMM_COL_A(i), xi.x);
         CH_OUT(1 * AACMM_JAC_COLS + AACMM_COL_A(i), xi.y);
         CH_OUT(2 * AACMM_JAC_COLS + AACMM_COL_A(i), xi.z);
+#endif
     }
     /* d p / d l = z_6 */
     CH_OUT(0 * AACMM_JAC_COLS + AACMM_COL_L, Z.x);
@@ -204,4 +241,7 @@ CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AA
     CH_OUT(2 * AACMM_JAC_COLS + AACMM_COL_L, Z.z);
 }
 #undef CH_LIN
+#undef CH_JD
+#undef CH_JA
+#undef CH_KEEP_ZX
 

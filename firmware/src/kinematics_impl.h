@@ -139,6 +139,7 @@ static aacmm_status_t SFX(check_angles)(const REAL theta_rad[AACMM_JOINTS])
 #define CH_FMA(a, b, c) PLAIN_FMA(a, b, c)
 #include "chain_impl.h"
 #undef CH_FUSE_CHAIN
+#undef CH_DIRECT_DA
 #undef CH_FMA
 #undef CH_STEP_PARAM
 #undef CH_STEP

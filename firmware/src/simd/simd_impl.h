@@ -200,6 +200,7 @@ static inline void VK(out)(VR *jac, VK(sums) *acc, int e, VR v)
 #define CH_SPLAT(x) VK(splat)(x)
 #define CH_SINCOS(x, s, c) VK(sincos)(x, s, c)
 #define CH_FMA(a, b, c) VF(a, b, c)
+#define CH_DIRECT_DA SIMD_DIRECT_DA
 #define CH_STEP_PARAM , VK(pending) *pend, VK(sums) *acc
 #define CH_STEP(i) /* the pending rows, spread over the six joints */                             \
     if (pend != NULL) {                                                                            \
@@ -212,10 +213,13 @@ static inline void VK(out)(VR *jac, VK(sums) *acc, int e, VR v)
  * out: chain_impl.h's CH_FUSE_CHAIN): VK(chain_sums). */
 #undef CH
 #undef CH_FUSE_CHAIN
+#undef CH_DIRECT_DA
 #define CH(name) VK(name##_sums)
 #define CH_FUSE_CHAIN 1
+#define CH_DIRECT_DA 0 /* CH_OUT adds to the sums: nothing to read back */
 #include "../chain_impl.h"
 #undef CH_FUSE_CHAIN
+#undef CH_DIRECT_DA
 #undef CH_T
 #undef CH
 #undef CH_SPLAT
