@@ -261,8 +261,8 @@ static inline size_t VK(valid_prefix)(const REAL *th, size_t m, aacmm_status_t *
 }
 
 /* The joint angles of W poses th[0 .. W*6-1] as six lane vectors: a gather
- * each where the instruction set has one (AVX2, AVX-512: the loads go to the
- * load ports), else built in registers from W scalar loads (a vector
+ * each in the AVX-512 kernel (the loads go to the load ports; not in AVX2,
+ * see simd_f64.c), else built in registers from W scalar loads (a vector
  * initialiser: writing the lanes into memory and reading the vector back
  * would stall on store forwarding). */
 static inline void VK(load)(const REAL *th, VR out[AACMM_JOINTS])

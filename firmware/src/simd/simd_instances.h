@@ -116,7 +116,6 @@
 #define ISA_LANES LANES_32B
 #define ISA_TARGET "avx2,fma"
 #define ISA_FMA(a, b, c) ((VR)MM_SFX(_mm256_fmadd)((MM256)(a), (MM256)(b), (MM256)(c)))
-#define ISA_GATHER(p) GATHER256(p)
 #include "simd_isa.h"
 
 /* ---- 512-bit AVX-512F ---- */
