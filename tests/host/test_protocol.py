@@ -324,7 +324,8 @@ def test_isotp_vectors_reassemble_with_can_isotp() -> None:
         )
         for _ in range(100):
             tp.process()
-        assert tp.recv() == unhex(msg_hex), name
+        got = tp.recv()
+        assert got is not None and bytes(got) == unhex(msg_hex), name
         assert all(m.data[0] >> 4 == 3 for m in sent)  # only flow control went back
 
 

@@ -13,7 +13,7 @@ import struct
 import zlib
 from dataclasses import dataclass
 
-from cobs import cobs  # type: ignore[import-untyped]
+from cobs import cobs
 
 from aacmm.errors import FrameError
 from aacmm.protocol.status import Status
@@ -46,7 +46,8 @@ def encode_frame(body: bytes | bytearray | memoryview) -> bytes:
     if not MIN_BODY <= len(body) <= MAX_BODY:
         raise ValueError(f"body length {len(body)} outside {MIN_BODY}..{MAX_BODY}")
     raw = bytes(body) + struct.pack("<I", crc32(body))
-    return b"\x00" + cobs.encode(raw) + b"\x00"
+    stuffed: bytes = cobs.encode(raw)
+    return b"\x00" + stuffed + b"\x00"
 
 
 def decode_frame(encoded: bytes | bytearray | memoryview) -> bytes:
@@ -59,7 +60,7 @@ def decode_frame(encoded: bytes | bytearray | memoryview) -> bytes:
     if len(encoded) > MAX_RAW + MAX_RAW // 254 + 1:
         raise FrameError("frame too long", Status.ERR_LENGTH)
     try:
-        raw = cobs.decode(bytes(encoded))
+        raw: bytes = cobs.decode(bytes(encoded))
     except cobs.DecodeError as exc:
         raise FrameError(f"bad COBS stuffing: {exc}", Status.ERR_FRAME) from None
     if len(raw) > MAX_RAW:
