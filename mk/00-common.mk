@@ -4,6 +4,14 @@ VENV       := .venv
 PYTHON     := $(VENV)/bin/python
 FW_INC     := firmware/include
 
+# Every area's Python lint, one recipe: ruff, ruff format and mypy --strict
+# (host/pyproject.toml) on the files $(1). Use: $(call py_lint,$(FILES)).
+define py_lint
+	$(VENV)/bin/ruff check --config host/pyproject.toml $(1)
+	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(1)
+	$(VENV)/bin/mypy --config-file host/pyproject.toml $(1)
+endef
+
 # The warning set every C file in the project must pass, with gcc and clang.
 WARN       := -Wall -Wextra -Wpedantic -Wconversion -Wdouble-promotion \
               -Wfloat-equal -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Werror

@@ -41,9 +41,7 @@ test-analysis-c:
 	@echo "analysis.c, simd/*.c: clean with gcc and clang"
 
 test-analysis-lint:
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(ANALYSIS_PY_FILES)
-	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(ANALYSIS_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(ANALYSIS_PY_FILES)
+	$(call py_lint,$(ANALYSIS_PY_FILES))
 
 TEST_SUITES += test-analysis test-analysis-scalar test-analysis-c test-analysis-lint
 

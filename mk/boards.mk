@@ -172,9 +172,7 @@ test-boards-loopback: $(BOARD_FW_ELFS) | setup
 test-boards-resets: $(BOARD_FW_ELFS) $(BOARD_TEST_ELFS) | setup
 	cd tests/boards && ../../$(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=240 \
 	    test_board_resets.py
-	$(VENV)/bin/ruff check --config host/pyproject.toml tests/boards/test_board_resets.py
-	$(VENV)/bin/ruff format --config host/pyproject.toml --check tests/boards/test_board_resets.py
-	$(VENV)/bin/mypy --config-file host/pyproject.toml tests/boards/test_board_resets.py
+	$(call py_lint,tests/boards/test_board_resets.py)
 
 #> run-<board>          a board's device image under QEMU, printing the URL: run-mps2-an386, run-microbit
 # Start a board's device image and print the URL to connect to (Ctrl-C stops).

@@ -21,9 +21,7 @@ test-calibration: sim
 
 #> test-calibration-lint  ruff, ruff format, mypy on the calibration code (part of test-calibration)
 test-calibration-lint:
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(CALIB_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CALIB_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CALIB_PY_FILES)
+	$(call py_lint,$(CALIB_PY_FILES))
 
 TEST_SUITES += test-calibration
 

@@ -27,9 +27,7 @@ test-capture: sim
 
 #> test-capture-lint    ruff, ruff format, mypy --strict on plans, records, capture (part of test-capture)
 test-capture-lint:
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(CAPTURE_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CAPTURE_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CAPTURE_PY_FILES)
+	$(call py_lint,$(CAPTURE_PY_FILES))
 
 TEST_SUITES += test-capture
 

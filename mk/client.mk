@@ -13,9 +13,7 @@ CLIENT_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300
 .PHONY: test-client
 test-client:
 	$(CLIENT_PYTEST) tests/host/test_client.py tests/host/test_client_transport.py
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(CLIENT_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CLIENT_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CLIENT_PY_FILES)
+	$(call py_lint,$(CLIENT_PY_FILES))
 
 TEST_SUITES += test-client
 
@@ -28,9 +26,7 @@ LOOPBACK_PY_FILES := tests/host/test_loopback_pty.py tests/host/simproc.py tests
 test-loopback-pty: export AACMM_SIM = $(abspath $(SIM_BIN))
 test-loopback-pty: sim
 	$(CLIENT_PYTEST) -s tests/host/test_loopback_pty.py
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(LOOPBACK_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(LOOPBACK_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(LOOPBACK_PY_FILES)
+	$(call py_lint,$(LOOPBACK_PY_FILES))
 
 TEST_SUITES += test-loopback-pty
 

@@ -36,8 +36,6 @@ test-demo: sim
 
 #> test-demo-lint       ruff, ruff format, mypy --strict on the demo (part of test-demo)
 test-demo-lint:
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(DEMO_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(DEMO_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(DEMO_PY_FILES)
+	$(call py_lint,$(DEMO_PY_FILES))
 
 TEST_SUITES += test-demo

@@ -21,8 +21,6 @@ encoder-lib: $(ENC_LIB)
 test-encoder-frames: $(ENC_LIB) | setup
 	AACMM_ENC_LIB=$(abspath $(ENC_LIB)) $(PYTHON) -m pytest -q -p no:cacheprovider --timeout=300 \
 	    $(ENC_PY_FILES)
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(ENC_PY_FILES)
-	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(ENC_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(ENC_PY_FILES)
+	$(call py_lint,$(ENC_PY_FILES))
 
 TEST_SUITES += test-encoder-frames

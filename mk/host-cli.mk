@@ -15,9 +15,7 @@ test-cli: sim $(BUILD)/boards/mps2-an386/fw.elf
 
 #> test-cli-lint        ruff, ruff format, mypy --strict on the CLI (part of test-cli)
 test-cli-lint:
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(CLI_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(CLI_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(CLI_PY_FILES)
+	$(call py_lint,$(CLI_PY_FILES))
 
 TEST_SUITES += test-cli
 

@@ -15,9 +15,7 @@ test-host-io: sim
 	$(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_fileio.py tests/host/test_cli_files.py tests/host/test_port_lock.py \
 	    tests/host/test_dbc.py
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(HOST_IO_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(HOST_IO_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(HOST_IO_PY_FILES)
+	$(call py_lint,$(HOST_IO_PY_FILES))
 
 TEST_SUITES += test-host-io
 

@@ -78,9 +78,7 @@ protocol-shim: $(BUILD)/protocol/libaacmm_proto_shim.so
 test-protocol-py: $(BUILD)/protocol/libaacmm_proto_shim.so
 	AACMM_PROTO_SHIM=$(abspath $<) $(PYTHON) -m pytest -q -p no:cacheprovider \
 	    tests/host/test_protocol.py tests/host/test_protocol_interop.py
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(PROTO_PY_FILES)
-	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(PROTO_PY_FILES)
-	$(VENV)/bin/mypy $(PROTO_PY_FILES)
+	$(call py_lint,$(PROTO_PY_FILES))
 
 #> test-protocol        the protocol suites together (gcc, clang, san, py, fuzz)
 test-protocol: test-protocol-gcc test-protocol-clang test-protocol-san test-protocol-py test-protocol-fuzz

@@ -21,8 +21,6 @@ test-sim-robust: export AACMM_SIM_SAN = $(abspath $(BUILD)/sim-san/aacmm-sim)
 test-sim-robust: export AACMM_SIM_SAN_Q = $(abspath $(BUILD)/sim-q-san/aacmm-sim)
 test-sim-robust: sim sim-san | setup
 	cd tests/host && ../../$(SIM_ROBUST_PYTEST) $(notdir $(SIM_ROBUST_PY))
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(SIM_ROBUST_PY)
-	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(SIM_ROBUST_PY)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(SIM_ROBUST_PY)
+	$(call py_lint,$(SIM_ROBUST_PY))
 
 TEST_SUITES += test-sim-robust

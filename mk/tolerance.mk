@@ -14,9 +14,7 @@ TOLERANCE_PY_FILES := host/src/aacmm/analysis/tolerance host/src/aacmm/commands/
 test-tolerance:
 	$(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_tolerance.py
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(TOLERANCE_PY_FILES)
-	$(VENV)/bin/ruff format --config host/pyproject.toml --check $(TOLERANCE_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(TOLERANCE_PY_FILES)
+	$(call py_lint,$(TOLERANCE_PY_FILES))
 
 TEST_SUITES += test-tolerance
 

@@ -33,9 +33,7 @@ test-verify: sim
 
 #> test-verify-lint     ruff, ruff format, mypy --strict on geometry, verification, their commands
 test-verify-lint:
-	$(VENV)/bin/ruff check --config host/pyproject.toml $(VERIFY_PY_FILES)
-	$(VENV)/bin/ruff format --check --config host/pyproject.toml $(VERIFY_PY_FILES)
-	$(VENV)/bin/mypy --config-file host/pyproject.toml $(VERIFY_PY_FILES)
+	$(call py_lint,$(VERIFY_PY_FILES))
 
 #> verification-figures regenerate the figures of docs/verification.md
 verification-figures:
