@@ -15,6 +15,7 @@ COMMAND_MODULES: tuple[str, ...] = (  # the order of `aacmm --help`: the arm own
     "aacmm.commands.device",
     "aacmm.commands.sim",
     "aacmm.commands.log",
+    "aacmm.commands.summary",
     "aacmm.commands.plan",
     "aacmm.commands.capture",
     "aacmm.commands.verify",

@@ -1,4 +1,4 @@
-"""``aacmm log`` (stream samples to a CSV file) and ``aacmm summary`` (summarise one).
+"""``aacmm log``: stream samples to a CSV file (``aacmm summary`` reads one back).
 
 Files of a log ``run.csv`` (format in docs/cli.md):
 
@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import collections
 import contextlib
-import json
 import math
 import platform
 import signal
@@ -53,6 +52,7 @@ from aacmm.commands.exitcodes import (
     UsageError,
     VersionMismatchError,
 )
+from aacmm.commands.summary import format_summary
 from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
 from aacmm.records.files import RowFile, utc_iso, write_json_atomic
 from aacmm.records.schema import (
@@ -137,17 +137,6 @@ def register(sub: Any) -> None:
     p.add_argument("-f", "--force", action="store_true", help="overwrite existing files")
     p.add_argument("-q", "--quiet", action="store_true", help="no live status line and no summary")
     p.set_defaults(func=cmd_log)
-
-    s = sub.add_parser(
-        "summary",
-        help="summarise a log (samples, rate, lost, extent) or a capture session",
-        description="Read FILE.csv and its sidecar and print samples, rate, lost samples "
-        "and the extent of the point cloud; or, for a capture session folder, its plan, "
-        "status and points per step. Works on files cut short by kill -9.",
-    )
-    s.add_argument("output", metavar="FILE.csv|SESSION", help="the log or session folder")
-    s.add_argument("--json", action="store_true", help="print JSON")
-    s.set_defaults(func=cmd_summary)
 
 
 # ---------------------------------------------------------------- small helpers
@@ -837,34 +826,6 @@ class Logger:
         print(format_summary(summary, files), file=out, flush=True)
 
 
-def format_summary(d: dict[str, Any], files: list[Path] | None = None) -> str:
-    """The summary lines; the rate is taken over the time connected, and each
-    reconnect gap is listed with its length (#14.7)."""
-    rate = f"{d['rate_hz']:.1f} Hz" if d.get("rate_hz") else "- Hz"
-    gaps = d.get("gap_s") or []
-    if gaps:
-        each = ", ".join("?" if g is None else f"{g:.1f} s" for g in gaps)
-        rate += f" while connected; {len(gaps)} gap{'s' if len(gaps) > 1 else ''}: {each}"
-    lines = [
-        f"samples {d['samples']} in {d['duration_s']:.2f} s ({rate}), "
-        f"lost {d['lost_samples']}, triggers {d['triggers']}, reconnects {d['reconnects']}"
-    ]
-    ext = d.get("extent_mm")
-    if ext:
-        lines.append(
-            "extent "
-            + ", ".join(
-                f"{ax} {e['min']:.3f} .. {e['max']:.3f} ({e['size']:.3f})" for ax, e in ext.items()
-            )
-            + " mm"
-        )
-    else:
-        lines.append("extent - (no valid points)")
-    if files:
-        lines.append("files " + " ".join(str(f) for f in files))
-    return "\n".join(lines)
-
-
 def cmd_log(args: argparse.Namespace) -> int:
     if not 1 <= args.rate <= 1000:
         raise UsageError(f"--rate {args.rate} outside 1..1000 Hz")
@@ -880,70 +841,3 @@ def cmd_log(args: argparse.Namespace) -> int:
         raise UsageError("--triggers and --no-triggers exclude each other")
     url = port_url(args)
     return Logger(args, url).run()
-
-
-# ---------------------------------------------------------------- summary of a file
-
-
-def summarize_file(path: Path) -> dict[str, Any]:
-    """Samples, duration, rate while connected, gaps, lost samples and extent of a log
-    (:func:`aacmm.records.logs.log_summary`; works on a log cut short by kill -9).
-
-    Raises:
-        RecordError (exit 2): unreadable file or sidecar, not a log, a bad row.
-    """
-    from aacmm.records.logs import log_summary, read_log
-
-    return log_summary(read_log(path))
-
-
-def summarize_session(folder: Path) -> dict[str, Any]:
-    """Plan, status, device, parameter sets and points per step of a capture session."""
-    from aacmm.records import read_session
-
-    s = read_session(folder)
-    steps = []
-    for st in s.plan.steps:
-        steps.append(
-            {"id": st.id, "procedure": st.procedure, "points": len(s.rows_of(st.index)),
-             "of": st.points}
-        )  # fmt: skip
-    dev = s.device or {}
-    return {
-        "session": str(folder),
-        "status": s.status,
-        "plan": s.meta["plan"].get("name", ""),
-        "title": s.plan.title,
-        "points": len(s.points),
-        "of": len(s.plan.slots),
-        "complete": s.complete,
-        "device_serial_number": dev.get("serial_number"),
-        "param_sets": [crc for _, crc in s.set_changes()],
-        "runs": [r.get("kind") for r in s.meta.get("runs", []) if isinstance(r, dict)],
-        "steps": steps,
-        "warnings": list(s.warnings),
-    }
-
-
-def cmd_summary(args: argparse.Namespace) -> int:
-    path = Path(args.output)
-    if path.is_dir():
-        d = summarize_session(path)
-        if args.json:
-            print(json.dumps(d, indent=2))
-            return OK
-        sets = ", ".join(f"0x{c:08x}" for c in d["param_sets"]) or "-"
-        print(f"session {path} ({d['status']}): {d['points']} of {d['of']} points")
-        print(f"plan {d['plan']}: {d['title']}")
-        print(f"device serial {d['device_serial_number']}, parameter sets {sets}")
-        print(f"runs {', '.join(d['runs']) or '-'}")
-        for st in d["steps"]:
-            print(f"  {st['id']:16s} {st['procedure']:12s} {st['points']:4d} of {st['of']}")
-        return OK
-    d = summarize_file(path)
-    if args.json:
-        print(json.dumps(d, indent=2))
-    else:
-        print(f"log {d['file']} ({d['status']})")
-        print(format_summary(d))
-    return OK
