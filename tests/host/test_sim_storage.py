@@ -35,12 +35,13 @@ SLOT = 512
 RECORD = 294
 
 
-def stderr_line(sim: Sim, prefix: str) -> str:
-    """The simulator's first stderr line starting with prefix (waits for the reader)."""
+def stderr_line(sim: Sim, prefix: str, containing: str = "") -> str:
+    """The simulator's first stderr line starting with prefix and containing
+    ``containing`` (waits for the reader thread, which may lag the simulator)."""
     end = time.monotonic() + 5.0
     while time.monotonic() < end:
         for line in sim.stderr_lines:
-            if line.startswith(prefix):
+            if line.startswith(prefix) and containing in line:
                 return line
         time.sleep(0.02)
     raise AssertionError(f"no {prefix!r} line on stderr: {sim.stderr_lines}")
@@ -154,7 +155,8 @@ def test_stale_tmp_removed_with_a_message(tmp_path: Path) -> None:
             f"removed the stale {stale} (a save was cut)"
         )
         assert not stale.exists()
-        assert "loaded slot 0 (generation 1)" in sim.stderr_lines[-1]
+        loaded = stderr_line(sim, "aacmm-sim: storage", "loaded slot")
+        assert "loaded slot 0 (generation 1)" in loaded
 
 
 def test_planted_symlink_is_not_followed(tmp_path: Path) -> None:
