@@ -4,7 +4,8 @@ dataclasses in, results out; no argument parsing, no printing). The ``aacmm mc``
 
 * :mod:`aacmm.analysis.mc` -- Monte Carlo error-transfer coefficients (the
   paper's Table 2), fixed-N and adaptive (JCGM 101 7.9), over random or
-  logged poses.
+  logged poses; its poses in :mod:`aacmm.analysis.mc_poses`, its results and
+  reports in :mod:`aacmm.analysis.mc_report` (both re-exported).
 * :mod:`aacmm.analysis.poselog` -- reads poses from ``aacmm log`` CSV files.
 * :mod:`aacmm.analysis.uncertainty` -- probe-point uncertainty from parameter
   uncertainties, by Monte Carlo (JCGM 101) and linear propagation (GUM).
