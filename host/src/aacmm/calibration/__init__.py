@@ -9,7 +9,10 @@ A pure library (arrays and dataclasses in, results out; nothing printed):
 * :mod:`~aacmm.calibration.identifiability` -- rank, singular values,
   observability indices, named null-space directions;
 * :mod:`~aacmm.calibration.solve` -- :func:`calibrate`: Levenberg-Marquardt in
-  the identifiable subspace, covariance, chi-square check, outliers.
+  the identifiable subspace;
+* :mod:`~aacmm.calibration.diagnostics` -- covariance, chi-square check,
+  outliers at the solution;
+* :mod:`~aacmm.calibration.results` -- :class:`CalibrationResult` and its parts.
 
 The method and the figures are in docs/calibration.md.
 """

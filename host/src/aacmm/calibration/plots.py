@@ -21,7 +21,7 @@ import numpy as np
 from aacmm.analysis.uncertainty import UncertaintyResult
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.report import unit_residuals
-from aacmm.calibration.solve import CalibrationResult
+from aacmm.calibration.results import CalibrationResult
 from aacmm.core import PARAM_NAMES
 
 

@@ -33,7 +33,8 @@ import numpy as np
 from aacmm.calibration.identifiability import TIP_PARAMS
 from aacmm.calibration.observations import Cone, ObservationError, Observations
 from aacmm.calibration.problem import CalibrationError
-from aacmm.calibration.solve import CalibrationResult, Progress, calibrate
+from aacmm.calibration.results import CalibrationResult, Progress
+from aacmm.calibration.solve import calibrate
 from aacmm.core import PARAM_NAMES, FloatArray, Model, Params
 
 DEFAULT_MIN_SPREAD_DEG = 10.0

@@ -1,6 +1,6 @@
 """Reports of a calibration: text, JSON-ready data, per-point residuals, point uncertainty.
 
-Pure functions of a :class:`~aacmm.calibration.solve.CalibrationResult`:
+Pure functions of a :class:`~aacmm.calibration.results.CalibrationResult`:
 :func:`format_identifiability`, :func:`format_result` (text for a terminal),
 :func:`to_json` (everything, machine-readable), :func:`unit_residuals` (the
 size of each probed point's or length position's residual, for plots and
@@ -19,7 +19,7 @@ import numpy as np
 from aacmm.analysis import uncertainty as unc
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
-from aacmm.calibration.solve import CalibrationResult, Outlier
+from aacmm.calibration.results import CalibrationResult, Outlier
 from aacmm.calibration.validation import Comparison
 from aacmm.core import PARAM_NAMES, PARAM_UNITS, FloatArray
 

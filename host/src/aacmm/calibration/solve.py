@@ -17,225 +17,66 @@
 4. covariance ``(J^T W J)^-1`` of the free parameters (zero rows for held
    ones), correlations, the chi-square consistency check and, when it fails,
    a search for the unmodelled error (a once-per-revolution angle error of a
-   joint, as encoder eccentricity gives);
+   joint, as encoder eccentricity gives) (:mod:`aacmm.calibration.diagnostics`);
 5. outliers: each probed point (or length position) is tested with its
-   normalised residual against a family-wise false-alarm rate; flagged points
+   normalised residual against a family-wise false-alarm rate
+   (:func:`~aacmm.calibration.diagnostics.find_outliers`); flagged points
    are only excluded (and the solve repeated) when ``reject=True``.
 
+The result types (:class:`CalibrationResult` and its parts) are in
+:mod:`aacmm.calibration.results`; both modules' names are re-exported here.
 Nothing here prints: progress goes to an optional callback.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
+from aacmm.calibration.diagnostics import (
+    DEFAULT_ALPHA_CHI2,
+    DEFAULT_ALPHA_OUTLIER,
+    chi_square_check,
+    find_outliers,
+    parameter_covariance,
+)
 from aacmm.calibration.identifiability import DEFAULT_KAPPA, Identifiability, analyse
 from aacmm.calibration.observations import LengthSet, Observations
-from aacmm.calibration.problem import (
-    KIND_LENGTH,
-    CalibrationError,
-    Evaluation,
-    Problem,
-    Residuals,
+from aacmm.calibration.problem import CalibrationError, Evaluation, Problem, Residuals
+from aacmm.calibration.results import (
+    CalibrationResult,
+    ChiSquare,
+    Outlier,
+    Progress,
+    Suspect,
 )
 from aacmm.core import JOINTS, PARAM_GROUPS, PARAM_NAMES, FloatArray, Params
 
+__all__ = [
+    "DEFAULT_ALPHA_CHI2",
+    "DEFAULT_ALPHA_OUTLIER",
+    "STRATEGIES",
+    "CalibrationResult",
+    "ChiSquare",
+    "Outlier",
+    "Progress",
+    "Suspect",
+    "calibrate",
+    "chi_square_check",
+    "find_outliers",
+    "length_observations",
+    "parameter_covariance",
+    "parse_names",
+    "predicted_covariance",
+]
+
 STRATEGIES = ("fix", "min-norm")
-DEFAULT_ALPHA_CHI2 = 0.001
-DEFAULT_ALPHA_OUTLIER = 0.01
 _MAX_STAGES = 5
 _MAX_REJECT_ROUNDS = 4
-
-
-@dataclass(frozen=True)
-class Progress:
-    """One residual evaluation of the solver: stage (1, 2, ...), evaluation count, chi^2."""
-
-    stage: int
-    nfev: int
-    chi2: float
-    rms_mm: float
-    free: int
-
-
-@dataclass(frozen=True)
-class Outlier:
-    """A probed point (or length position) whose residual fails the outlier test.
-
-    ``statistic``: sum of squared normalised residuals of its rows (rows = 3
-    for a point constraint or reference, 1 otherwise), after the robust scale;
-    ``p_value``: its chi-square tail probability; ``threshold``: the
-    statistic the family-wise test allows; ``residual_mm``: size of the
-    residual (distance to the seat, length error, ...).
-    """
-
-    constraint: str
-    kind: str
-    poses: tuple[int, ...]
-    label: str
-    position: int
-    statistic: float
-    threshold: float
-    p_value: float
-    residual_mm: float
-
-
-@dataclass(frozen=True)
-class Suspect:
-    """A candidate unmodelled error found in the residuals of an inconsistent fit.
-
-    ``name``: e.g. ``joint 3 once-per-revolution angle``; ``chi2_drop``: its
-    significance given the other suspects (Wald statistic, chi-square with 2
-    dof if it were absent); ``excess``: chi^2 - dof of the fit; ``amplitude``
-    and ``amplitude_sd``: its size and standard uncertainty (rad);
-    ``explained``: how much chi^2 the extended model (every joint) removes.
-    """
-
-    name: str
-    chi2_drop: float
-    excess: float
-    amplitude: float
-    unit: str
-    amplitude_sd: float = 0.0
-    explained: float = 0.0
-
-
-@dataclass(frozen=True)
-class ChiSquare:
-    """The consistency check: chi^2 of the whitened residuals against its dof.
-
-    ``verdict``: ``consistent``, ``incomplete`` (residuals too large for the
-    stated uncertainties: an unmodelled error, or uncertainties understated),
-    ``overstated`` (too small) or ``no dof``.
-    """
-
-    chi2: float
-    dof: int
-    p_value: float
-    alpha: float
-    verdict: str
-    suspects: tuple[Suspect, ...] = ()
-
-    @property
-    def ratio(self) -> float:
-        """chi^2 / dof: the a-posteriori variance factor."""
-        return self.chi2 / self.dof if self.dof > 0 else math.nan
-
-    @property
-    def consistent(self) -> bool:
-        return self.verdict in ("consistent", "overstated")
-
-    def describe(self) -> str:
-        if self.dof <= 0:
-            return "chi-square check: no degrees of freedom left (as many unknowns as data)"
-        head = (
-            f"chi^2 = {self.chi2:.1f} for {self.dof} dof (ratio {self.ratio:.3f}, "
-            f"p = {self.p_value:.3g})"
-        )
-        if self.verdict == "consistent":
-            return f"{head}: residuals consistent with the stated uncertainties"
-        if self.verdict == "overstated":
-            return (
-                f"{head}: residuals smaller than expected: the stated uncertainties are too large"
-            )
-        text = (
-            f"{head}: MODEL INCOMPLETE -- residuals exceed the stated uncertainties "
-            f"(p < {self.alpha:g}): an unmodelled error, or uncertainties understated"
-        )
-        if self.suspects:
-            share = min(
-                100.0, 100 * self.suspects[0].explained / max(self.suspects[0].excess, 1e-300)
-            )
-            joints = ", ".join(
-                f"{s.name.split(' once')[0]} {s.amplitude * 1e6:.1f} +- "
-                f"{s.amplitude_sd * 1e6:.1f} urad"
-                for s in self.suspects
-            )
-            text += (
-                f"; the residuals look like once-per-revolution angle errors (eccentric encoders): "
-                f"{joints} (explaining {share:.0f} % of the excess)"
-            )
-        return text
-
-
-@dataclass(frozen=True)
-class CalibrationResult:
-    """Everything a calibration found.
-
-    ``params``: calibrated parameters; ``start``: where it began.
-    ``free``: parameters that were estimated; ``held``: parameters held at
-    their start values because the data cannot observe them (auto, 'fix'
-    strategy) and ``fixed``: those the caller fixed. ``identifiability`` (at
-    the solution) and ``identifiability_start``; ``covariance`` (25, 25),
-    rad and mm, from the stated uncertainties (a priori), zero for held and
-    fixed parameters; ``chi_square``; ``outliers`` found at the solution and
-    ``rejected`` (excluded when ``reject=True``); ``before`` and ``after``:
-    evaluations at start and solution; ``observations``: the data finally used.
-    """
-
-    params: Params
-    start: Params
-    strategy: str
-    free: tuple[str, ...]
-    held: tuple[str, ...]
-    fixed: tuple[str, ...]
-    identifiability: Identifiability
-    identifiability_start: Identifiability
-    covariance: FloatArray
-    chi_square: ChiSquare
-    outliers: tuple[Outlier, ...]
-    rejected: tuple[Outlier, ...]
-    before: Evaluation
-    after: Evaluation
-    observations: Observations
-    problem: Problem
-    history: tuple[Progress, ...]
-    elapsed_s: float
-    stages: int
-    solver_status: str = ""
-    notes: tuple[str, ...] = field(default_factory=tuple)
-
-    @property
-    def std(self) -> FloatArray:
-        """Standard uncertainties (25,) of the parameters (0 for held/fixed)."""
-        return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
-
-    @property
-    def correlation(self) -> FloatArray:
-        """Correlation matrix (25, 25); NaN rows/columns for held or fixed parameters."""
-        sd = self.std
-        with np.errstate(invalid="ignore", divide="ignore"):
-            c = self.covariance / np.outer(sd, sd)
-        c[sd == 0, :] = np.nan
-        c[:, sd == 0] = np.nan
-        return c
-
-    @property
-    def scaled_covariance(self) -> FloatArray:
-        """Covariance scaled by max(1, chi^2/dof): honest when the check fails."""
-        return self.covariance * max(1.0, self.chi_square.ratio if self.chi_square.dof else 1.0)
-
-    def delta(self) -> FloatArray:
-        """Calibrated minus start parameters (25,)."""
-        return self.params.to_vector() - self.start.to_vector()
-
-    def strongest_correlations(self, k: int = 5) -> list[tuple[str, str, float]]:
-        """The ``k`` largest |correlations| between free parameters."""
-        c = self.correlation
-        pairs = []
-        for i in range(25):
-            for j in range(i + 1, 25):
-                if np.isfinite(c[i, j]):
-                    pairs.append((PARAM_NAMES[i], PARAM_NAMES[j], float(c[i, j])))
-        pairs.sort(key=lambda t: -abs(t[2]))
-        return pairs[:k]
 
 
 def parse_names(names: Sequence[str]) -> tuple[str, ...]:
@@ -362,150 +203,6 @@ def _stage_basis(
     b = np.zeros((25, ident.rank))
     b[list(ident.columns), :] = ident.basis / ident.scale[:, None]
     return b, ()
-
-
-def _covariance(ev: Evaluation, basis: FloatArray) -> FloatArray:
-    """(25, 25) covariance of basis @ x from the whitened Jacobian (zero outside the basis).
-
-    From the normal matrix: the basis spans identifiable directions only, so
-    it is well conditioned (its condition number squares that of the scaled
-    Jacobian, ~1e4, far from rounding trouble).
-    """
-    if basis.shape[1] == 0:
-        return np.zeros((25, 25))
-    a = ev.jac @ basis
-    cov: FloatArray = basis @ np.linalg.inv(a.T @ a) @ basis.T
-    return cov
-
-
-def _dof(problem: Problem, ev: Evaluation, rank: int) -> int:
-    return int(ev.r.size - problem.n_nuisance - rank)
-
-
-def _chi_square(
-    problem: Problem, ev: Evaluation, basis: FloatArray, rank: int, alpha: float
-) -> ChiSquare:
-    chi2 = ev.chi2
-    dof = _dof(problem, ev, rank)
-    if dof <= 0:
-        return ChiSquare(chi2, dof, math.nan, alpha, "no dof")
-    p = float(stats.chi2.sf(chi2, dof))
-    if p < alpha:
-        return ChiSquare(chi2, dof, p, alpha, "incomplete", _suspects(problem, ev, basis, dof))
-    if float(stats.chi2.cdf(chi2, dof)) < alpha:
-        return ChiSquare(chi2, dof, p, alpha, "overstated")
-    return ChiSquare(chi2, dof, p, alpha, "consistent")
-
-
-def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> tuple[Suspect, ...]:
-    """Once-per-revolution angle errors of the joints that the residuals show.
-
-    The model extended by e_k(q) = s_k sin q_k + c_k cos q_k on every joint (what
-    an eccentric encoder disc gives), fitted to the residuals jointly: the
-    columns dp/dq_k sin q_k and dp/dq_k cos q_k, projected like the rest and
-    made orthogonal to the identifiable columns (so the coefficients are
-    those of the joint fit with the arm's parameters, Frisch-Waugh-Lovell).
-    A joint is a suspect when its pair is significant given the others (Wald
-    statistic over chi-square(2) at 1e-6); the suspects are returned only if
-    the extended model explains at least half of the excess chi^2 - dof.
-    """
-    theta = problem.obs.theta_rad
-    extra = np.zeros((theta.shape[0], 3, 2 * JOINTS))
-    for k in range(JOINTS):
-        col = ev.point_jac[:, :, k]  # dp/dq_k
-        extra[:, :, 2 * k] = col * np.sin(theta[:, k])[:, None]
-        extra[:, :, 2 * k + 1] = col * np.cos(theta[:, k])[:, None]
-    ext = problem.evaluate(ev.params, extra_point_jac=extra)
-    a = ev.jac @ basis
-    b = ext.jac[:, 25:]
-    if a.shape[1]:
-        q, _ = np.linalg.qr(a)
-        b = b - q @ (q.T @ b)
-    excess = max(ev.chi2 - dof, 0.0)
-    coef, *_ = np.linalg.lstsq(b, ev.r, rcond=None)
-    fit = b @ coef
-    explained = float(fit @ (2 * ev.r - fit))
-    if explained < max(0.5 * excess, 25.0):
-        return ()
-    cov = np.linalg.pinv(b.T @ b)
-    limit = float(stats.chi2.isf(1e-6, 2))
-    out = []
-    for k in range(JOINTS):
-        ck = coef[2 * k : 2 * k + 2]
-        vk = cov[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
-        wald = float(ck @ np.linalg.pinv(vk) @ ck)
-        if wald > limit:
-            out.append(
-                Suspect(
-                    f"joint {k + 1} once-per-revolution angle",
-                    wald,
-                    excess,
-                    float(np.hypot(*ck)),
-                    "rad",
-                    float(np.sqrt(np.trace(vk) / 2.0)),
-                    explained,
-                )
-            )
-    out.sort(key=lambda s: -s.chi2_drop)
-    return tuple(out)
-
-
-def find_outliers(
-    problem: Problem, ev: Evaluation, alpha: float = DEFAULT_ALPHA_OUTLIER
-) -> tuple[Outlier, ...]:
-    """Probed points (or length positions) whose normalised residual is improbable.
-
-    Each unit's statistic is sum(r_i^2 / (1 - h_i)) over its rows (chi-square
-    with as many dof as rows if the stated uncertainties hold), divided by a
-    robust scale (the median statistic over its expected median, at least 1,
-    per kind) so that one understated uncertainty does not flag everything;
-    a unit is flagged if its tail probability is below ``alpha`` / units
-    (Bonferroni: ``alpha`` is the chance of any false alarm).
-    """
-    unit = ev.unit
-    ok = unit >= 0
-    denom = np.clip(1.0 - ev.h[ok], 1e-12, None)
-    stat = np.bincount(unit[ok], weights=ev.r[ok] ** 2 / denom, minlength=problem.n_units)
-    rows = np.bincount(unit[ok], minlength=problem.n_units)
-    size = np.sqrt(
-        np.bincount(unit[ok], weights=(ev.r[ok] * ev.sigma[ok]) ** 2, minlength=problem.n_units)
-    )
-    present = rows > 0
-    n_units = int(present.sum())
-    if n_units == 0:
-        return ()
-    scale = np.ones(problem.n_units)
-    kinds = problem.unit_kind
-    for kind in np.unique(kinds[present]):
-        sel = present & (kinds == kind)
-        dof = rows[sel]
-        med = float(np.median(stat[sel] / stats.chi2.median(dof)))
-        scale[sel] = max(1.0, med)
-    t = stat / scale
-    thr = np.zeros(problem.n_units)
-    for dof in np.unique(rows[present]):
-        thr[rows == dof] = float(stats.chi2.isf(alpha / n_units, dof))
-    out = []
-    for i in np.flatnonzero(present & (t > thr)):
-        u = problem.unit(int(i))
-        label = problem.obs.label(u.poses[0])
-        if u.kind == KIND_LENGTH:
-            label = f"{label} (length position {u.position})"
-        out.append(
-            Outlier(
-                problem.obs.constraints[u.constraint].name,
-                u.kind,
-                u.poses,
-                label,
-                u.position,
-                float(t[i]),
-                float(thr[i]),
-                float(stats.chi2.sf(t[i], rows[i])),
-                float(size[i]),
-            )
-        )
-    out.sort(key=lambda o: -o.statistic)
-    return tuple(out)
 
 
 def _candidates(free: Sequence[str] | None, fix: Sequence[str]) -> list[int]:
@@ -635,8 +332,8 @@ def _solve(
     params = Params.from_vector(p)
     after = problem.evaluate(params)
     basis, held = _stage_basis(ident, cand, strategy)
-    cov = _covariance(after, basis)
-    chi = _chi_square(problem, after, basis, ident.rank, alpha_chi2)
+    cov = parameter_covariance(after, basis)
+    chi = chi_square_check(problem, after, basis, ident.rank, alpha_chi2)
     free = [PARAM_NAMES[c] for c in cand if strategy != "fix" or PARAM_NAMES[c] not in held]
     return CalibrationResult(
         params=params,
@@ -677,7 +374,7 @@ def predicted_covariance(
     ev_ideal = dataclasses.replace(ev, r=np.zeros_like(ev.r))
     ident = analyse(ev_ideal, _candidates(free, ()))
     basis, _ = _stage_basis(ident, _candidates(free, ()), "fix")
-    return _covariance(ev, basis), ident
+    return parameter_covariance(ev, basis), ident
 
 
 def length_observations(obs: Observations) -> list[tuple[int, LengthSet]]:

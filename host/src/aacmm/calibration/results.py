@@ -1,0 +1,201 @@
+"""What a calibration found: the result, its chi-square check, outliers, suspects, progress.
+
+Plain records, re-exported by :mod:`aacmm.calibration.solve` (which fills
+them) and by :mod:`aacmm.calibration`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from aacmm.calibration.identifiability import Identifiability
+from aacmm.calibration.observations import Observations
+from aacmm.calibration.problem import Evaluation, Problem
+from aacmm.core import PARAM_NAMES, FloatArray, Params
+
+
+@dataclass(frozen=True)
+class Progress:
+    """One residual evaluation of the solver: stage (1, 2, ...), evaluation count, chi^2."""
+
+    stage: int
+    nfev: int
+    chi2: float
+    rms_mm: float
+    free: int
+
+
+@dataclass(frozen=True)
+class Outlier:
+    """A probed point (or length position) whose residual fails the outlier test.
+
+    ``statistic``: sum of squared normalised residuals of its rows (rows = 3
+    for a point constraint or reference, 1 otherwise), after the robust scale;
+    ``p_value``: its chi-square tail probability; ``threshold``: the
+    statistic the family-wise test allows; ``residual_mm``: size of the
+    residual (distance to the seat, length error, ...).
+    """
+
+    constraint: str
+    kind: str
+    poses: tuple[int, ...]
+    label: str
+    position: int
+    statistic: float
+    threshold: float
+    p_value: float
+    residual_mm: float
+
+
+@dataclass(frozen=True)
+class Suspect:
+    """A candidate unmodelled error found in the residuals of an inconsistent fit.
+
+    ``name``: e.g. ``joint 3 once-per-revolution angle``; ``chi2_drop``: its
+    significance given the other suspects (Wald statistic, chi-square with 2
+    dof if it were absent); ``excess``: chi^2 - dof of the fit; ``amplitude``
+    and ``amplitude_sd``: its size and standard uncertainty (rad);
+    ``explained``: how much chi^2 the extended model (every joint) removes.
+    """
+
+    name: str
+    chi2_drop: float
+    excess: float
+    amplitude: float
+    unit: str
+    amplitude_sd: float = 0.0
+    explained: float = 0.0
+
+
+@dataclass(frozen=True)
+class ChiSquare:
+    """The consistency check: chi^2 of the whitened residuals against its dof.
+
+    ``verdict``: ``consistent``, ``incomplete`` (residuals too large for the
+    stated uncertainties: an unmodelled error, or uncertainties understated),
+    ``overstated`` (too small) or ``no dof``.
+    """
+
+    chi2: float
+    dof: int
+    p_value: float
+    alpha: float
+    verdict: str
+    suspects: tuple[Suspect, ...] = ()
+
+    @property
+    def ratio(self) -> float:
+        """chi^2 / dof: the a-posteriori variance factor."""
+        return self.chi2 / self.dof if self.dof > 0 else math.nan
+
+    @property
+    def consistent(self) -> bool:
+        return self.verdict in ("consistent", "overstated")
+
+    def describe(self) -> str:
+        if self.dof <= 0:
+            return "chi-square check: no degrees of freedom left (as many unknowns as data)"
+        head = (
+            f"chi^2 = {self.chi2:.1f} for {self.dof} dof (ratio {self.ratio:.3f}, "
+            f"p = {self.p_value:.3g})"
+        )
+        if self.verdict == "consistent":
+            return f"{head}: residuals consistent with the stated uncertainties"
+        if self.verdict == "overstated":
+            return (
+                f"{head}: residuals smaller than expected: the stated uncertainties are too large"
+            )
+        text = (
+            f"{head}: MODEL INCOMPLETE -- residuals exceed the stated uncertainties "
+            f"(p < {self.alpha:g}): an unmodelled error, or uncertainties understated"
+        )
+        if self.suspects:
+            share = min(
+                100.0, 100 * self.suspects[0].explained / max(self.suspects[0].excess, 1e-300)
+            )
+            joints = ", ".join(
+                f"{s.name.split(' once')[0]} {s.amplitude * 1e6:.1f} +- "
+                f"{s.amplitude_sd * 1e6:.1f} urad"
+                for s in self.suspects
+            )
+            text += (
+                f"; the residuals look like once-per-revolution angle errors (eccentric encoders): "
+                f"{joints} (explaining {share:.0f} % of the excess)"
+            )
+        return text
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """Everything a calibration found.
+
+    ``params``: calibrated parameters; ``start``: where it began.
+    ``free``: parameters that were estimated; ``held``: parameters held at
+    their start values because the data cannot observe them (auto, 'fix'
+    strategy) and ``fixed``: those the caller fixed. ``identifiability`` (at
+    the solution) and ``identifiability_start``; ``covariance`` (25, 25),
+    rad and mm, from the stated uncertainties (a priori), zero for held and
+    fixed parameters; ``chi_square``; ``outliers`` found at the solution and
+    ``rejected`` (excluded when ``reject=True``); ``before`` and ``after``:
+    evaluations at start and solution; ``observations``: the data finally used.
+    """
+
+    params: Params
+    start: Params
+    strategy: str
+    free: tuple[str, ...]
+    held: tuple[str, ...]
+    fixed: tuple[str, ...]
+    identifiability: Identifiability
+    identifiability_start: Identifiability
+    covariance: FloatArray
+    chi_square: ChiSquare
+    outliers: tuple[Outlier, ...]
+    rejected: tuple[Outlier, ...]
+    before: Evaluation
+    after: Evaluation
+    observations: Observations
+    problem: Problem
+    history: tuple[Progress, ...]
+    elapsed_s: float
+    stages: int
+    solver_status: str = ""
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def std(self) -> FloatArray:
+        """Standard uncertainties (25,) of the parameters (0 for held/fixed)."""
+        return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+
+    @property
+    def correlation(self) -> FloatArray:
+        """Correlation matrix (25, 25); NaN rows/columns for held or fixed parameters."""
+        sd = self.std
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = self.covariance / np.outer(sd, sd)
+        c[sd == 0, :] = np.nan
+        c[:, sd == 0] = np.nan
+        return c
+
+    @property
+    def scaled_covariance(self) -> FloatArray:
+        """Covariance scaled by max(1, chi^2/dof): honest when the check fails."""
+        return self.covariance * max(1.0, self.chi_square.ratio if self.chi_square.dof else 1.0)
+
+    def delta(self) -> FloatArray:
+        """Calibrated minus start parameters (25,)."""
+        return self.params.to_vector() - self.start.to_vector()
+
+    def strongest_correlations(self, k: int = 5) -> list[tuple[str, str, float]]:
+        """The ``k`` largest |correlations| between free parameters."""
+        c = self.correlation
+        pairs = []
+        for i in range(25):
+            for j in range(i + 1, 25):
+                if np.isfinite(c[i, j]):
+                    pairs.append((PARAM_NAMES[i], PARAM_NAMES[j], float(c[i, j])))
+        pairs.sort(key=lambda t: -abs(t[2]))
+        return pairs[:k]
