@@ -1,7 +1,11 @@
 """The aacmm link protocol, host side (specification: ``docs/protocol.md``).
 
 - :mod:`aacmm.protocol.messages`: message set, :func:`encode_message`,
-  :func:`decode_message`
+  :func:`decode_message` (the codec's import path), built from
+  :mod:`~aacmm.protocol.constants` (message types, flags, enumerations),
+  :mod:`~aacmm.protocol.payloads` (payload classes, :class:`Message`),
+  :mod:`~aacmm.protocol.layout` (payload sizes and byte layouts),
+  :mod:`~aacmm.protocol.encode` and :mod:`~aacmm.protocol.decode`
 - :mod:`aacmm.protocol.framing`: serial frames (COBS + CRC-32), :class:`Deframer`
 - :mod:`aacmm.protocol.can`: CAN sample frames (DBC), :class:`SampleAssembler`,
   ISO-TP address and parameters

@@ -1,0 +1,296 @@
+"""Message encoder of the link protocol: range checks, then the wire bytes."""
+
+from __future__ import annotations
+
+import math
+import struct
+from typing import Final
+
+from aacmm.protocol.constants import (
+    COUNTS_PER_REV_MAX,
+    JAC_COLS,
+    JAC_ROWS,
+    JAC_SIZE,
+    JOINTS,
+    PROTOCOL_VERSION,
+    STREAM_RATE_MAX_HZ,
+    STREAM_RATE_MIN_HZ,
+    Content,
+    EncoderFault,
+    EncoderInterface,
+    MsgType,
+    ParamSource,
+    ResetCause,
+    SlotState,
+    StorageFlags,
+    StorageKind,
+)
+from aacmm.protocol.framing import crc32
+from aacmm.protocol.layout import (
+    COMPUTE_REQ_LAYOUT,
+    COMPUTE_RSP_LAYOUT,
+    DIAG_JOINT_LAYOUT,
+    DIAG_LAYOUT,
+    INFO_LAYOUT,
+    JACOBIAN_LAYOUT,
+    PARAMS_LAYOUT,
+    SAMPLE_LAYOUT,
+)
+from aacmm.protocol.payloads import (
+    PAYLOAD_CLASS,
+    ComputeRequest,
+    ComputeResult,
+    DeviceInfo,
+    Diagnostics,
+    ErrorReply,
+    Jacobian,
+    JointDiagnostics,
+    MeasureRequest,
+    Message,
+    ParamCrc,
+    ParamSet,
+    Payload,
+    Ping,
+    Sample,
+    Stream,
+    Trigger,
+)
+
+_FLT_MAX: Final = 3.4028234663852886e38
+
+
+def _check_int(name: str, value: int, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ValueError(f"{name} must be an int")
+    if not lo <= value <= hi:
+        raise ValueError(f"{name}={value} outside {lo}..{hi}")
+
+
+def _check_ints(name: str, values: tuple[int, ...], n: int, lo: int, hi: int) -> None:
+    if len(values) != n:
+        raise ValueError(f"{name} needs {n} values, got {len(values)}")
+    for i, v in enumerate(values):
+        _check_int(f"{name}[{i}]", v, lo, hi)
+
+
+def _check_floats(name: str, values: tuple[float, ...], n: int, f32: bool = False) -> None:
+    if len(values) != n:
+        raise ValueError(f"{name} needs {n} values, got {len(values)}")
+    for i, v in enumerate(values):
+        if not math.isfinite(v):
+            raise ValueError(f"{name}[{i}] is not finite")
+        if f32 and abs(v) > _FLT_MAX:
+            raise ValueError(f"{name}[{i}] does not fit a float32")
+
+
+def _check_flag(name: str, value: bool) -> None:
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} must be a bool")
+
+
+def _jacobian_flat(jac: object) -> tuple[float, ...]:
+    """The 75 values of a 3 x 25 Jacobian (rows x, y, z), row-major."""
+    try:
+        rows = [tuple(r) for r in jac]  # type: ignore[attr-defined]
+    except TypeError:
+        rows = []
+    if len(rows) != JAC_ROWS or any(len(r) != JAC_COLS for r in rows):
+        raise ValueError(f"jacobian must be {JAC_ROWS} rows of {JAC_COLS} values (x, y, z)")
+    return tuple(v for r in rows for v in r)
+
+
+def _enc_jacobian(jac: Jacobian | None) -> bytes:
+    if jac is None:
+        return b""
+    flat = _jacobian_flat(jac)
+    _check_floats("jacobian", flat, JAC_SIZE, f32=True)
+    try:
+        return JACOBIAN_LAYOUT.pack(*flat)
+    except OverflowError:  # rounding up past FLT_MAX
+        raise ValueError("jacobian value does not fit a float32") from None
+
+
+def _enc_sample(s: Sample) -> bytes:
+    _check_int("seq", s.seq, 0, 0xFFFFFFFF)
+    _check_int("timestamp_us", s.timestamp_us, 0, 0xFFFFFFFFFFFFFFFF)
+    _check_ints("counts", s.counts, JOINTS, 0, 0xFFFFFFFF)
+    _check_ints("point_100nm", s.point_100nm, 3, -(2**31), 2**31 - 1)
+    _check_int("status", s.status, 0, 0xFFFFFFFF)
+    content = Content.JACOBIAN if s.jacobian is not None else Content.NONE
+    return SAMPLE_LAYOUT.pack(
+        s.seq, s.timestamp_us, *s.counts, *s.point_100nm, s.status, content
+    ) + _enc_jacobian(s.jacobian)
+
+
+def encode_param_set(p: ParamSet) -> bytes:
+    """The 278-byte wire encoding of a parameter set.
+
+    Raises:
+        ValueError: a value the decoder would reject.
+    """
+    for name in ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm"):
+        _check_floats(name, getattr(p, name), JOINTS)
+    _check_floats("l_mm", (p.l_mm,), 1)
+    _check_ints("counts_per_rev", p.counts_per_rev, JOINTS, 2, COUNTS_PER_REV_MAX)
+    _check_ints("zero_offset_counts", p.zero_offset_counts, JOINTS, 0, 0xFFFFFFFF)
+    _check_ints("direction", p.direction, JOINTS, -1, 1)
+    for i in range(JOINTS):
+        if p.direction[i] == 0:
+            raise ValueError(f"direction[{i}] must be +1 or -1")
+        if p.zero_offset_counts[i] >= p.counts_per_rev[i]:
+            raise ValueError(f"zero_offset_counts[{i}] must be < counts_per_rev[{i}]")
+    return PARAMS_LAYOUT.pack(
+        *p.theta_offset_rad,
+        *p.alpha_rad,
+        *p.d_mm,
+        *p.a_mm,
+        p.l_mm,
+        *p.counts_per_rev,
+        *p.zero_offset_counts,
+        *p.direction,
+    )
+
+
+def param_set_crc32(p: ParamSet) -> int:
+    """The parameter-set CRC reported by the device: CRC-32/ISO-HDLC of the wire encoding."""
+    return crc32(encode_param_set(p))
+
+
+def _enc_payload(t: MsgType, p: Payload) -> bytes:
+    if isinstance(p, Ping):
+        _check_int("token", p.token, 0, 0xFFFFFFFF)
+        return struct.pack("<I", p.token)
+    if isinstance(p, DeviceInfo):
+        _check_int("protocol_version", p.protocol_version, 0, 0xFFFF)
+        _check_int("fw_major", p.fw_major, 0, 0xFF)
+        _check_int("fw_minor", p.fw_minor, 0, 0xFF)
+        _check_int("fw_patch", p.fw_patch, 0, 0xFFFF)
+        _check_int("build_flags", p.build_flags, 0, 0xFFFFFFFF)
+        _check_int("param_crc32", p.param_crc32, 0, 0xFFFFFFFF)
+        _check_int("param_source", p.param_source, 0, max(ParamSource))
+        _check_int("storage_state", p.storage_state, 0, 3)
+        _check_int("max_body_bytes", p.max_body_bytes, 0, 0xFFFF)
+        _check_int("serial_number", p.serial_number, 0, 0xFFFFFFFF)
+        _check_int("can_node_id", p.can_node_id, 0, 15)
+        return INFO_LAYOUT.pack(
+            p.protocol_version,
+            p.fw_major,
+            p.fw_minor,
+            p.fw_patch,
+            p.build_flags,
+            p.param_crc32,
+            p.param_source,
+            p.storage_state,
+            p.max_body_bytes,
+            p.serial_number,
+            p.can_node_id,
+        )
+    if isinstance(p, ParamSet):
+        return encode_param_set(p)
+    if isinstance(p, ParamCrc):
+        _check_int("param_crc32", p.param_crc32, 0, 0xFFFFFFFF)
+        return struct.pack("<I", p.param_crc32)
+    if isinstance(p, MeasureRequest):
+        _check_flag("jacobian", p.jacobian)
+        return bytes([int(p.jacobian)])
+    if isinstance(p, Sample):
+        return _enc_sample(p)
+    if isinstance(p, ComputeRequest):
+        _check_flag("jacobian", p.jacobian)
+        _check_ints("counts", p.counts, JOINTS, 0, 0xFFFFFFFF)
+        return COMPUTE_REQ_LAYOUT.pack(int(p.jacobian), *p.counts)
+    if isinstance(p, ComputeResult):
+        _check_int("status", p.status, 0, 0xFFFFFFFF)
+        _check_floats("point_mm", p.point_mm, 3)
+        content = Content.JACOBIAN if p.jacobian is not None else Content.NONE
+        return COMPUTE_RSP_LAYOUT.pack(p.status, *p.point_mm, content) + _enc_jacobian(p.jacobian)
+    if isinstance(p, Stream):
+        _check_int("rate_hz", p.rate_hz, STREAM_RATE_MIN_HZ, STREAM_RATE_MAX_HZ)
+        _check_flag("jacobian", p.jacobian)
+        return struct.pack("<HB", p.rate_hz, int(p.jacobian))
+    if isinstance(p, Trigger):
+        _check_int("button", p.button, 0, 0xFF)
+        _check_flag("pressed", p.pressed)
+        return bytes([p.button, int(p.pressed)]) + _enc_sample(p.sample)
+    if isinstance(p, Diagnostics):
+        return _enc_diag(p)
+    if isinstance(p, ErrorReply):
+        _check_int("status", p.status, -0x8000, -1)
+        _check_int("request_type", p.request_type, 0, 0xFF)
+        return struct.pack("<hB", p.status, p.request_type)
+    return b""
+
+
+def _enc_diag(d: Diagnostics) -> bytes:
+    _check_int("storage_kind", d.storage_kind, 0, max(StorageKind))
+    _check_int("storage_flags", d.storage_flags, 0, 0xFF)
+    if d.storage_flags & ~int(StorageFlags.PERSISTENT):
+        raise ValueError(f"storage_flags=0x{d.storage_flags:02x} has unknown bits")
+    _check_ints("slot_state", d.slot_state, 2, 0, max(SlotState))
+    _check_ints("slot_generation", d.slot_generation, 2, 0, 0xFFFFFFFF)
+    _check_int("reset_cause", d.reset_cause, 0, max(ResetCause))
+    _check_int("watchdog_ms", d.watchdog_ms, 0, 0xFFFF)
+    _check_int("uptime_us", d.uptime_us, 0, 0xFFFFFFFFFFFFFFFF)
+    u32s = (
+        "storage_errors",
+        "storage_bad_records",
+        "reset_raw",
+        "fault_pc",
+        "boot_count",
+        "encoder_faults",
+        "serial_frames_bad",
+        "samples_dropped",
+        "samples_late",
+    )
+    for name in u32s:
+        _check_int(name, getattr(d, name), 0, 0xFFFFFFFF)
+    if len(d.joints) != JOINTS:
+        raise ValueError(f"joints needs {JOINTS} entries, got {len(d.joints)}")
+    out = DIAG_LAYOUT.pack(
+        d.storage_kind,
+        d.storage_flags,
+        *d.slot_state,
+        *d.slot_generation,
+        d.storage_errors,
+        d.storage_bad_records,
+        d.reset_cause,
+        d.reset_raw,
+        d.fault_pc,
+        d.boot_count,
+        d.watchdog_ms,
+        d.uptime_us,
+        d.encoder_faults,
+        d.serial_frames_bad,
+        d.samples_dropped,
+        d.samples_late,
+    )
+    for i, j in enumerate(d.joints):
+        if not isinstance(j, JointDiagnostics):
+            raise ValueError(f"joints[{i}] must be a JointDiagnostics")
+        _check_int(f"joints[{i}].interface", j.interface, 0, max(EncoderInterface))
+        _check_int(f"joints[{i}].bits", j.bits, 0, 32)
+        _check_int(f"joints[{i}].last_fault", j.last_fault, 0, max(EncoderFault))
+        _check_int(f"joints[{i}].faults", j.faults, 0, 0xFFFFFFFF)
+        _check_int(f"joints[{i}].warnings", j.warnings, 0, 0xFFFFFFFF)
+        out += DIAG_JOINT_LAYOUT.pack(j.interface, j.bits, j.last_fault, j.faults, j.warnings)
+    return out
+
+
+def encode_message(msg: Message) -> bytes:
+    """Encode a message into a body (3 .. 512 bytes).
+
+    Raises:
+        ValueError: unknown type, payload of the wrong class for the type, or a
+            field outside its documented range (including non-finite floats).
+    """
+    try:
+        t = MsgType(msg.type)
+    except ValueError:
+        raise ValueError(f"unknown message type {msg.type!r}") from None
+    _check_int("seq", msg.seq, 0, 0xFF)
+    want = PAYLOAD_CLASS[t]
+    if (want is None and msg.payload is not None) or (
+        want is not None and type(msg.payload) is not want
+    ):
+        raise ValueError(f"{t.name} needs payload {want.__name__ if want else 'None'}")
+    return bytes([PROTOCOL_VERSION, int(t), msg.seq]) + _enc_payload(t, msg.payload)
