@@ -10,7 +10,8 @@ built to those tolerances meet the target. With a calibration model the
 allocation is for a calibrated arm: only what calibration leaves needs a
 manufacturing tolerance. Method and example: docs/tolerance.md.
 
-* :func:`load_spec`, :func:`parse_spec` -- the TOML request (spec.py).
+* :func:`load_spec`, :func:`parse_spec` -- the TOML request (spec.py) into
+  :class:`ToleranceSpec` and its parts (request.py).
 * :func:`allocate` -> :class:`Allocation` (allocation.py; solvers in solve.py,
   the linearised problem in design.py).
 * :func:`monte_carlo_check` -> :class:`CheckResult` (check.py).
@@ -37,7 +38,7 @@ from aacmm.analysis.tolerance.report import (
     to_csv,
     to_json,
 )
-from aacmm.analysis.tolerance.spec import (
+from aacmm.analysis.tolerance.request import (
     CalibrationDesign,
     Encoder,
     ParamCost,
@@ -45,9 +46,8 @@ from aacmm.analysis.tolerance.spec import (
     Target,
     ToleranceSpec,
     Workspace,
-    load_spec,
-    parse_spec,
 )
+from aacmm.analysis.tolerance.spec import load_spec, parse_spec
 
 __all__ = [
     "STATUSES",

@@ -20,6 +20,7 @@ from scipy import optimize
 
 from aacmm.analysis.tolerance.calibrated import CalibrationModel
 from aacmm.analysis.tolerance.design import Design, build_design
+from aacmm.analysis.tolerance.request import ARCSEC_RAD, Encoder, SpecError, ToleranceSpec
 from aacmm.analysis.tolerance.solve import (
     Allocated,
     Candidate,
@@ -29,7 +30,6 @@ from aacmm.analysis.tolerance.solve import (
     optimise,
     prune,
 )
-from aacmm.analysis.tolerance.spec import ARCSEC_RAD, Encoder, SpecError, ToleranceSpec
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray
 from aacmm.errors import InfeasibleError
 

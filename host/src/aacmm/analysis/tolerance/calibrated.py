@@ -35,7 +35,7 @@ import numpy.typing as npt
 from aacmm.core import JAC_COLS, PARAM_NAMES, FloatArray, Params
 
 if TYPE_CHECKING:
-    from aacmm.analysis.tolerance.spec import CalibrationDesign
+    from aacmm.analysis.tolerance.request import CalibrationDesign
     from aacmm.calibration import CalibrationResult, Observations
 
 

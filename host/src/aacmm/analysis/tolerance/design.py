@@ -34,7 +34,7 @@ import numpy.typing as npt
 from scipy import special
 
 from aacmm.analysis.tolerance.calibrated import CalibrationModel
-from aacmm.analysis.tolerance.spec import ToleranceSpec
+from aacmm.analysis.tolerance.request import ToleranceSpec
 from aacmm.core import JOINTS, FloatArray, Model
 
 #: quadrature nodes on the octant of the unit sphere for radius_factor

@@ -16,7 +16,7 @@ import numpy as np
 from aacmm.analysis.tolerance.allocation import Allocation
 from aacmm.analysis.tolerance.check import CheckResult
 from aacmm.analysis.tolerance.design import Design
-from aacmm.analysis.tolerance.spec import ARCSEC_RAD
+from aacmm.analysis.tolerance.request import ARCSEC_RAD
 
 
 def _fmt_t(t: float, unit: str) -> str:

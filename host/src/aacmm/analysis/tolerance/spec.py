@@ -1,4 +1,4 @@
-"""The tolerance-allocation request: target, cost model, workspace, encoders.
+"""Reading the tolerance-allocation request from TOML: every error names the file and field.
 
 :func:`load_spec` reads a TOML file (format in docs/tolerance.md); every
 error names the file and the field (``arm.toml: [parameters] d3.k: must be
@@ -9,292 +9,58 @@ in +-t) in the spec's ``angle_unit`` (default arcsec) and ``length_unit``
 (default um); the cost of a parameter is ``c / t**k`` with ``t`` in those
 units, so ``c`` reads as "the cost of holding one unit". Inside the package
 angles are in rad and lengths in mm, as everywhere in aacmm.
+
+The request's dataclasses (:class:`ToleranceSpec` and its parts,
+:class:`SpecError`) are in :mod:`aacmm.analysis.tolerance.request`,
+re-exported here.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
-from aacmm.analysis.uncertainty import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS, TOLERANCE_FACTOR
+from aacmm.analysis.tolerance.request import (
+    ARCSEC_RAD,
+    DEFAULT_MIN_LENGTH_MM,
+    DEFAULT_RANDOM_POSES,
+    MAX_POSES,
+    CalibrationDesign,
+    Encoder,
+    ParamCost,
+    SpecError,
+    Target,
+    ToleranceSpec,
+    Workspace,
+)
+from aacmm.analysis.uncertainty import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS
 from aacmm.analysis.uncertainty import _expand as expand_names
 from aacmm.core import JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray, Params
-from aacmm.errors import AacmmError
 
-ARCSEC_RAD = ANGLE_UNITS["arcsec"]
+__all__ = [
+    "ARCSEC_RAD",
+    "DEFAULT_MIN_LENGTH_MM",
+    "DEFAULT_RANDOM_POSES",
+    "FULL_TURN_ARCSEC",
+    "MAX_POSES",
+    "CalibrationDesign",
+    "Encoder",
+    "ParamCost",
+    "SpecError",
+    "Target",
+    "ToleranceSpec",
+    "Workspace",
+    "load_spec",
+    "parse_spec",
+]
+
 FULL_TURN_ARCSEC = 1_296_000.0
-DEFAULT_RANDOM_POSES = 200
-DEFAULT_MIN_LENGTH_MM = 100.0
-MAX_POSES = 20_000
 
-
-class SpecError(AacmmError, ValueError):
-    """The tolerance spec is unreadable or invalid (message: file, field, reason)."""
-
-
-@dataclass(frozen=True)
-class ParamCost:
-    """How one parameter may be toleranced, and what that costs.
-
-    ``t`` is the tolerance half-width in ``unit`` (``scale`` rad or mm per
-    unit). Allocated parameters cost ``c / t**k`` and must lie in
-    ``[t_min, t_max]`` (process capability; ``t_max`` may be inf). A
-    parameter with ``fixed`` set keeps that tolerance (a bought part, a
-    given process) and costs nothing here. Within its tolerance the error
-    follows ``distribution``; a normal tolerance is ``coverage_k`` standard
-    uncertainties.
-    """
-
-    name: str
-    unit: str
-    scale: float
-    c: float = 1.0
-    k: float = 2.0
-    t_min: float = 0.0
-    t_max: float = math.inf
-    fixed: float | None = None
-    distribution: str = "uniform"
-    coverage_k: float = 2.0
-
-    def __post_init__(self) -> None:
-        if self.name not in PARAM_NAMES:
-            raise ValueError(f"unknown parameter {self.name!r}")
-        if self.distribution not in DISTRIBUTIONS:
-            raise ValueError(f"distribution must be one of {', '.join(DISTRIBUTIONS)}")
-        for what, v, lo in (("c", self.c, 0.0), ("t_min", self.t_min, 0.0)):
-            if not (math.isfinite(v) and v >= lo):
-                raise ValueError(f"{what} must be finite and >= {lo:g}, got {v}")
-        if not (math.isfinite(self.k) and self.k > 0):
-            raise ValueError(f"k must be finite and > 0, got {self.k}")
-        if not (self.t_max > 0 and not math.isnan(self.t_max)) or self.t_max < self.t_min:
-            raise ValueError(f"max must be > 0 and >= min, got {self.t_max}")
-        if self.fixed is not None and not (math.isfinite(self.fixed) and self.fixed >= 0):
-            raise ValueError(f"tolerance must be finite and >= 0, got {self.fixed}")
-        if not (math.isfinite(self.coverage_k) and self.coverage_k > 0):
-            raise ValueError(f"coverage factor k_normal must be > 0, got {self.coverage_k}")
-
-    @property
-    def allocated(self) -> bool:
-        """True if the tolerance is chosen by the allocation (not fixed)."""
-        return self.fixed is None
-
-    @property
-    def u_per_t(self) -> float:
-        """Standard uncertainty (rad or mm) per unit of tolerance half-width."""
-        f = (
-            1.0 / self.coverage_k
-            if self.distribution == "normal"
-            else TOLERANCE_FACTOR[self.distribution]
-        )
-        return f * self.scale
-
-    def cost(self, t: float) -> float:
-        """``c / t**k`` (0 for a fixed parameter or an unbounded tolerance)."""
-        if not self.allocated or math.isinf(t) or self.c == 0.0:
-            return 0.0
-        return self.c / t**self.k if t > 0 else math.inf
-
-
-@dataclass(frozen=True)
-class Encoder:
-    """One catalogue entry: resolution and accuracy (+- bound) in arc seconds, cost.
-
-    The reading error is the accuracy error (``distribution`` within
-    +-``accuracy_arcsec``) plus the quantisation error (uniform within half a
-    count). ``joints`` lists the joints (1..6) it fits.
-    """
-
-    name: str
-    resolution_arcsec: float
-    accuracy_arcsec: float
-    cost: float
-    joints: tuple[int, ...] = tuple(range(1, JOINTS + 1))
-    distribution: str = "uniform"
-
-    def __post_init__(self) -> None:
-        for what, v in (
-            ("resolution_arcsec", self.resolution_arcsec),
-            ("accuracy_arcsec", self.accuracy_arcsec),
-            ("cost", self.cost),
-        ):
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"{what} must be finite and >= 0, got {v}")
-        if not self.joints or any(j not in range(1, JOINTS + 1) for j in self.joints):
-            raise ValueError(f"joints must be a non-empty list of 1..{JOINTS}")
-        if self.distribution not in DISTRIBUTIONS or self.distribution == "normal":
-            raise ValueError("distribution must be uniform, triangular or arcsine")
-
-    @property
-    def u_rad(self) -> float:
-        """Standard uncertainty of one reading (rad): accuracy and quantisation."""
-        acc = self.accuracy_arcsec * TOLERANCE_FACTOR[self.distribution]
-        quant = self.resolution_arcsec / math.sqrt(12.0)
-        return math.hypot(acc, quant) * ARCSEC_RAD
-
-
-@dataclass(frozen=True)
-class Target:
-    """What the arm must reach.
-
-    ``quantity``: ``"point"``, the expanded uncertainty of the probe point
-    (the radius about the true point that holds ``coverage`` of the probed
-    points; or ``coverage_factor`` times the combined standard uncertainty
-    u_c = sqrt(u_x^2 + u_y^2 + u_z^2) if that is given), or ``"length"``, the
-    length measurement error (its symmetric ``coverage`` interval must lie in
-    +-MPE(L), MPE(L) = ``value_mm + per_metre_mm * L / 1000``). ``over``:
-    ``"worst"`` (every pose or length) or ``"rms"`` (RMS over them).
-    """
-
-    quantity: Literal["point", "length"] = "point"
-    value_mm: float = 0.03
-    over: Literal["worst", "rms"] = "worst"
-    coverage: float = 0.95
-    coverage_factor: float | None = None
-    per_metre_mm: float = 0.0
-    min_length_mm: float = DEFAULT_MIN_LENGTH_MM
-
-    def __post_init__(self) -> None:
-        if self.quantity not in ("point", "length"):
-            raise ValueError(f"quantity must be point or length, got {self.quantity!r}")
-        if self.over not in ("worst", "rms"):
-            raise ValueError(f"over must be worst or rms, got {self.over!r}")
-        if not (math.isfinite(self.value_mm) and self.value_mm > 0):
-            raise ValueError(f"value must be > 0, got {self.value_mm}")
-        if not 0.5 <= self.coverage < 1.0:
-            raise ValueError(f"coverage must be in [0.5, 1), got {self.coverage}")
-        if self.coverage_factor is not None:
-            if not (math.isfinite(self.coverage_factor) and self.coverage_factor > 0):
-                raise ValueError(f"coverage_factor must be > 0, got {self.coverage_factor}")
-            if self.quantity != "point":
-                raise ValueError("coverage_factor applies to the point target only")
-        if not (math.isfinite(self.per_metre_mm) and self.per_metre_mm >= 0):
-            raise ValueError(f"per_metre must be >= 0, got {self.per_metre_mm}")
-        if not (math.isfinite(self.min_length_mm) and self.min_length_mm >= 0):
-            raise ValueError(f"min_length_mm must be >= 0, got {self.min_length_mm}")
-
-    def limit_mm(self, length_mm: FloatArray | float) -> FloatArray:
-        """The permitted value (mm) for each length (point target: constant)."""
-        return np.asarray(self.value_mm + self.per_metre_mm * np.asarray(length_mm) / 1000.0)
-
-
-@dataclass(frozen=True)
-class Workspace:
-    """The poses the target applies to (rad, (n, 6)): given, from a log, random."""
-
-    given: FloatArray = field(default_factory=lambda: np.empty((0, JOINTS)))
-    logged: FloatArray = field(default_factory=lambda: np.empty((0, JOINTS)))
-    random: int = DEFAULT_RANDOM_POSES
-    seed: int = 1
-    joint_range_rad: FloatArray = field(
-        default_factory=lambda: np.tile([-math.pi, math.pi], (JOINTS, 1))
-    )
-    log_path: str | None = None
-
-    def __post_init__(self) -> None:
-        for name in ("given", "logged"):
-            a = np.asarray(getattr(self, name), dtype=np.float64).reshape(-1, JOINTS)
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"{name} poses must be finite")
-            object.__setattr__(self, name, a)
-        r = np.asarray(self.joint_range_rad, dtype=np.float64)
-        if r.shape != (JOINTS, 2) or not np.all(np.isfinite(r)) or np.any(r[:, 1] <= r[:, 0]):
-            raise ValueError(f"joint ranges need {JOINTS} pairs [low, high] with low < high")
-        object.__setattr__(self, "joint_range_rad", r)
-        if isinstance(self.random, bool) or not isinstance(self.random, int) or self.random < 0:
-            raise ValueError(f"random must be an integer >= 0, got {self.random!r}")
-        if self.size == 0:
-            raise ValueError("no poses: give random > 0, poses or a log")
-        if self.size > MAX_POSES:
-            raise ValueError(f"{self.size} poses: at most {MAX_POSES}")
-
-    @property
-    def size(self) -> int:
-        return int(self.given.shape[0] + self.logged.shape[0] + self.random)
-
-    def poses(self) -> FloatArray:
-        """All poses (n, 6) in rad: given, then logged, then random (seeded)."""
-        rng = np.random.default_rng(self.seed)
-        lo, hi = self.joint_range_rad[:, 0], self.joint_range_rad[:, 1]
-        rand = lo + (hi - lo) * rng.random((self.random, JOINTS))
-        return np.concatenate([self.given, self.logged, rand])
-
-    def describe(self) -> str:
-        parts = []
-        if self.given.shape[0]:
-            parts.append(f"{self.given.shape[0]} given")
-        if self.logged.shape[0]:
-            parts.append(f"{self.logged.shape[0]} from {self.log_path}")
-        if self.random:
-            rng = self.joint_range_rad
-            full = np.allclose(rng, np.tile([-math.pi, math.pi], (JOINTS, 1)))
-            how = "joints uniform in [-180, 180) deg" if full else "joints uniform in their ranges"
-            parts.append(f"{self.random} random ({how}, seed {self.seed})")
-        return ", ".join(parts) + " poses"
-
-
-@dataclass(frozen=True)
-class CalibrationDesign:
-    """Allocate for an arm calibrated with ``plan`` (docs/tolerance.md).
-
-    ``plan``: a shipped plan name or a plan file; the simulated operator's
-    articulations for it (``seed``) on the nominal arm, each point with
-    ``sigma_mm`` of probing uncertainty per axis, make the design's
-    observations; ``free``: the parameters the calibration estimates (None:
-    all); ``base_known``: reference points are in the arm's base frame.
-    """
-
-    plan: str
-    sigma_mm: float = 0.005
-    seed: int = 0
-    free: tuple[str, ...] | None = None
-    base_known: bool = False
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.sigma_mm) and self.sigma_mm > 0):
-            raise ValueError(f"sigma must be > 0, got {self.sigma_mm}")
-        if self.seed < 0:
-            raise ValueError(f"seed must be >= 0, got {self.seed}")
-
-
-@dataclass(frozen=True)
-class ToleranceSpec:
-    """A whole allocation request (see docs/tolerance.md)."""
-
-    costs: tuple[ParamCost, ...]
-    target: Target = field(default_factory=Target)
-    workspace: Workspace = field(default_factory=Workspace)
-    encoders: tuple[Encoder, ...] = ()
-    params: Params = field(default_factory=Params)
-    residual_u_mm: float = 0.0
-    angle_unit: str = "arcsec"
-    length_unit: str = "um"
-    calibration: CalibrationDesign | None = None
-    source: str = "<spec>"
-
-    def __post_init__(self) -> None:
-        if tuple(c.name for c in self.costs) != PARAM_NAMES:
-            raise ValueError("costs must list the 25 parameters in PARAM_NAMES order")
-        if not (math.isfinite(self.residual_u_mm) and self.residual_u_mm >= 0):
-            raise ValueError(f"residual u must be >= 0, got {self.residual_u_mm}")
-        if self.encoders:
-            for j in range(1, JOINTS + 1):
-                if not any(j in e.joints for e in self.encoders):
-                    raise ValueError(f"no encoder in the catalogue fits joint {j}")
-
-    @property
-    def length_scale(self) -> float:
-        """mm per ``length_unit``."""
-        return LENGTH_UNITS[self.length_unit]
-
-
-# --------------------------------------------------------------------------
-# Parsing
-# --------------------------------------------------------------------------
 
 _TOP = {
     "angle_unit",
