@@ -5,7 +5,7 @@
 # The SocketCAN tests (tests/host/vcan) run in the shared vcan VM session
 # (mk/vcan.mk, make test-vcan).
 
-CLIENT_PY_FILES := host/src/aacmm/client.py host/src/aacmm/transport bench/bench_host_rx.py \
+CLIENT_PY_FILES := host/src/aacmm/client host/src/aacmm/transport bench/bench_host_rx.py \
                    tests/host/test_client.py tests/host/test_client_transport.py \
                    tests/host/fakedevice.py
 CLIENT_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra --timeout=300

@@ -1,40 +1,4 @@
-"""The aacmm device client: one API over serial, SocketCAN and the virtual CAN bus.
-
->>> from aacmm.client import connect
->>> with connect("serial:///dev/pts/3") as arm:          # doctest: +SKIP
-...     print(arm.info())
-...     sample = arm.measure()
-...     with arm.stream(1000) as samples:
-...         for s in samples:
-...             ...
-
-URL forms are listed in :mod:`aacmm.transport`; without a URL, :func:`connect`
-uses the ``AACMM_PORT`` environment variable.
-
-Requests carry a sequence number the device echoes; a response is taken only
-if its number and its type fit the waiting request, so a late answer to an
-earlier, timed-out attempt (or to another program's request on the same line)
-is never taken for the answer to a later one: it is counted in
-``stats.stale_responses`` and ignored.
-Each request waits ``timeout`` seconds; idempotent requests (ping, info, get
-parameters, measure, compute, stream start/stop) are retried up to
-``retries`` times after a timeout or a busy device, the others (set, save and
-restore parameters) never, so they are not applied twice.
-
-Errors (all but ``ValueError``/``TypeError`` derive from
-:class:`aacmm.errors.AacmmError`):
-
-- :class:`~aacmm.errors.InitError`: the port or bus cannot be opened, or the
-  handshake found an incompatible device;
-- :class:`~aacmm.errors.DeviceTimeoutError`: no answer in time (after retries);
-- :class:`~aacmm.errors.DeviceError`: the device answered with an error
-  response (``status`` is its ``aacmm_status_t``);
-- :class:`~aacmm.errors.FrameError`: a ping answered with another token
-  (invalid frames on the link are dropped and counted, never raised);
-- :class:`~aacmm.errors.OperationError`: the client is closed or the link was
-  lost;
-- ``ValueError``/``TypeError``: bad arguments (checked before anything is sent).
-"""
+"""A connection to one device: requests matched to responses, retries, trigger events."""
 
 from __future__ import annotations
 
@@ -44,11 +8,18 @@ import random
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from types import TracebackType
-from typing import Final
 
+from aacmm.client.options import (
+    DEFAULT_RETRIES,
+    DEFAULT_TIMEOUT,
+    ENV_PORT,
+    IDEMPOTENT_REQUESTS,
+    TRIGGER_QUEUE,
+    check_timeout,
+)
+from aacmm.client.stream import SampleStream
 from aacmm.errors import (
     AacmmError,
     DeviceError,
@@ -71,7 +42,6 @@ from aacmm.protocol import (
     ParamSet,
     Ping,
     Sample,
-    SampleStatus,
     Stream,
     Trigger,
     encode_message,
@@ -80,43 +50,6 @@ from aacmm.protocol import (
 from aacmm.protocol.messages import JOINTS, RESPONSE_BIT, STREAM_RATE_MAX_HZ, STREAM_RATE_MIN_HZ
 from aacmm.protocol.status import Status
 from aacmm.transport import Transport, open_transport
-
-__all__ = [
-    "DEFAULT_RETRIES",
-    "DEFAULT_TIMEOUT",
-    "ENV_PORT",
-    "IDEMPOTENT_REQUESTS",
-    "TIMEOUT_MAX",
-    "Client",
-    "ClientStats",
-    "SampleStream",
-    "StreamStats",
-    "check_timeout",
-    "connect",
-]
-
-ENV_PORT: Final = "AACMM_PORT"
-"""Environment variable with the default device URL."""
-DEFAULT_TIMEOUT: Final = 1.0
-TIMEOUT_MAX: Final = 3600.0
-"""Longest wait (s) a timeout may name: longer ones are refused (``inf`` would
-overflow the clocks of the waits; no device takes an hour to answer)."""
-DEFAULT_RETRIES: Final = 2
-TRIGGER_QUEUE: Final = 1024
-
-IDEMPOTENT_REQUESTS: Final = frozenset(
-    {
-        MsgType.PING_REQ,
-        MsgType.INFO_REQ,
-        MsgType.GET_PARAMS_REQ,
-        MsgType.MEASURE_REQ,
-        MsgType.COMPUTE_REQ,
-        MsgType.STREAM_START_REQ,
-        MsgType.STREAM_STOP_REQ,
-        MsgType.DIAG_REQ,
-    }
-)
-"""Requests that may be sent again after a timeout; the others are sent once."""
 
 
 @dataclass
@@ -138,25 +71,6 @@ class ClientStats:
     """Exceptions raised by trigger callbacks (swallowed)."""
 
 
-@dataclass
-class StreamStats:
-    """Counters of one sample stream."""
-
-    received: int = 0
-    lost: int = 0
-    """Samples missing according to the sequence numbers (gaps)."""
-    duplicates: int = 0
-    """Samples whose sequence number was not newer than the previous one."""
-    overruns: int = 0
-    """Samples flagged OVERRUN by the device (it dropped samples before them)."""
-    dropped: int = 0
-    """Samples discarded on the host because the consumer fell ``max_queue`` behind."""
-    foreign: int = 0
-    """Samples of an earlier stream (device time before this one began), not taken."""
-    first_seq: int | None = None
-    last_seq: int | None = None
-
-
 class _Pending:
     __slots__ = ("event", "response", "seq", "type")
 
@@ -165,152 +79,6 @@ class _Pending:
         self.seq = seq
         self.event = threading.Event()
         self.response: Message | None = None
-
-
-class SampleStream:
-    """Samples streamed by the device: an iterator and a context manager.
-
-    Made by :meth:`Client.stream`, which has already started the stream;
-    leaving the ``with`` block (or :meth:`stop`) stops it. Iteration yields
-    :class:`~aacmm.protocol.Sample` objects in arrival order, raises
-    :class:`~aacmm.errors.DeviceTimeoutError` when no sample came for
-    ``timeout`` seconds, and ends once the stream is stopped and the samples
-    received before the stop are consumed. Gaps and repeats in the sequence
-    numbers are counted in :attr:`stats`, not hidden.
-    """
-
-    def __init__(
-        self, client: Client, rate_hz: int, jacobian: bool, timeout: float, max_queue: int
-    ) -> None:
-        self._client = client
-        self.rate_hz = rate_hz
-        self.jacobian = jacobian
-        self.timeout = timeout
-        self.max_queue = max_queue
-        self.accepted: Stream | None = None
-        """The device's STREAM_START_RSP (rate and content it runs with)."""
-        self.stats = StreamStats()
-        self._queue: deque[Sample] = deque()
-        self._fence_us: int | None = None  # device time after the previous stream stopped
-        self._cond = threading.Condition()
-        self._ended = False
-        self._error: BaseException | None = None
-
-    # called from the transport's reader thread
-    def _push(self, sample: Sample) -> None:
-        st = self.stats
-        with self._cond:
-            if self._ended:
-                return
-            fence = self._fence_us
-            if fence is not None and not device_time_after(sample.timestamp_us, fence):
-                st.foreign += 1  # read before this stream began: an earlier stream's
-                return
-            st.received += 1
-            if st.last_seq is None:
-                st.first_seq = sample.seq
-            else:
-                step = (sample.seq - st.last_seq) & 0xFFFFFFFF
-                if step == 0 or step >= 1 << 31:
-                    st.duplicates += 1
-                elif step > 1:
-                    st.lost += step - 1
-            if step_is_newer(st.last_seq, sample.seq):
-                st.last_seq = sample.seq
-            if sample.status & SampleStatus.OVERRUN:
-                st.overruns += 1
-            if len(self._queue) >= self.max_queue:
-                self._queue.popleft()
-                st.dropped += 1
-            self._queue.append(sample)
-            self._cond.notify()
-
-    def _end(self, error: BaseException | None = None) -> None:
-        with self._cond:
-            self._ended = True
-            if error is not None and self._error is None:
-                self._error = error
-            self._cond.notify_all()
-
-    @property
-    def active(self) -> bool:
-        """True until the stream is stopped or the link is lost."""
-        return not self._ended
-
-    def pending(self) -> int:
-        """Samples received and not yet consumed."""
-        with self._cond:
-            return len(self._queue)
-
-    def get(self, timeout: float | None = None) -> Sample:
-        """The next sample.
-
-        Raises:
-            DeviceTimeoutError: none within ``timeout`` (default: the stream's).
-            OperationError: the link was lost and the queue is empty.
-            StopIteration: the stream was stopped and the queue is empty.
-        """
-        wait = self.timeout if timeout is None else check_timeout(timeout, poll=True)
-        deadline = time.monotonic() + wait
-        with self._cond:
-            while not self._queue:
-                if self._ended:
-                    if self._error is not None:
-                        raise OperationError(f"stream ended: {self._error}") from self._error
-                    raise StopIteration
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    raise DeviceTimeoutError(f"no sample within {wait:.3f} s")
-                self._cond.wait(remaining)
-            return self._queue.popleft()
-
-    def __iter__(self) -> Iterator[Sample]:
-        return self
-
-    def __next__(self) -> Sample:
-        return self.get()
-
-    def stop(self) -> None:
-        """Stop the stream on the device (idempotent). Samples already received stay readable.
-
-        Raises:
-            DeviceTimeoutError, DeviceError, OperationError: the stop request failed
-                (the stream is ended on the host side regardless).
-        """
-        self._client._stop_stream(self)
-
-    def __enter__(self) -> SampleStream:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        if exc_type is None:
-            self.stop()
-            return
-        try:
-            self.stop()
-        except AacmmError:
-            pass  # do not mask the exception that ended the block
-
-
-def device_time_after(t_us: int, fence_us: int) -> bool:
-    """Device time ``t_us`` is later than ``fence_us``, compared on the low 32 bits
-    (CAN sample frames carry only those; a difference beyond 2^31 us, 35 min, is
-    earlier)."""
-    d = (t_us - fence_us) & 0xFFFFFFFF
-    return 0 < d < 1 << 31
-
-
-def step_is_newer(last: int | None, seq: int) -> bool:
-    """True if sample counter ``seq`` comes after ``last`` (modulo 2**32)."""
-    if last is None:
-        return True
-    step = (seq - last) & 0xFFFFFFFF
-    return 0 < step < 1 << 31
 
 
 def _answers(msg: Message, pending: _Pending) -> bool:
@@ -334,23 +102,6 @@ def _counts(counts: Sequence[int]) -> tuple[int, ...]:
         if not 0 <= v <= 0xFFFFFFFF:
             raise ValueError(f"counts[{i}]={v} outside 0..2**32-1")
     return values
-
-
-def check_timeout(value: object, name: str = "timeout", *, poll: bool = False) -> float:
-    """``value`` as a float of seconds in (0, :data:`TIMEOUT_MAX`] (``[0, ...]`` with
-    ``poll``: waits for something already queued may be 0, "do not wait").
-
-    Raises:
-        ValueError: not a number, not finite, negative or zero, or above the maximum.
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{name} must be a number of seconds, got {value!r}")
-    t = float(value)
-    lo_ok = t >= 0.0 if poll else t > 0.0
-    if not (lo_ok and t <= TIMEOUT_MAX):  # also refuses nan
-        bracket = "[" if poll else "("
-        raise ValueError(f"{name} must be in {bracket}0, {TIMEOUT_MAX:g}] seconds, got {value!r}")
-    return t
 
 
 def _flag(name: str, value: object) -> bool:
