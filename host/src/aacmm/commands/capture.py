@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 from aacmm.commands.common import add_connection_options, info_dict, is_tty, print_err
 from aacmm.commands.exitcodes import INTERRUPTED, OK, LinkLostError, UsageError
-from aacmm.commands.log import StopFlag
+from aacmm.commands.stopflag import StopFlag
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream

@@ -1,0 +1,81 @@
+"""Counters of one ``aacmm log`` run: samples, losses, gaps, extent, rate while connected."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from aacmm.commands.common import fmt_point
+
+
+@dataclass
+class Extent:
+    """Bounding box of the valid points, in 1e-4 mm."""
+
+    lo: list[int] = field(default_factory=lambda: [0, 0, 0])
+    hi: list[int] = field(default_factory=lambda: [0, 0, 0])
+    n: int = 0
+
+    def add(self, p: tuple[int, ...]) -> None:
+        if self.n == 0:
+            self.lo, self.hi = list(p), list(p)
+        else:
+            for i in range(3):
+                v = p[i]
+                if v < self.lo[i]:
+                    self.lo[i] = v
+                elif v > self.hi[i]:
+                    self.hi[i] = v
+        self.n += 1
+
+    def as_dict(self) -> dict[str, Any] | None:
+        if self.n == 0:
+            return None
+        return {
+            axis: {
+                "min": float(fmt_point(self.lo[i])),
+                "max": float(fmt_point(self.hi[i])),
+                "size": float(fmt_point(self.hi[i] - self.lo[i])),
+            }
+            for i, axis in enumerate("xyz")
+        }
+
+
+@dataclass
+class Session:
+    """Counters of one log run (over all reconnects)."""
+
+    samples: int = 0
+    lost: int = 0
+    duplicates: int = 0
+    overruns: int = 0
+    dropped: int = 0
+    triggers: int = 0
+    reconnects: int = 0
+    first_host: float | None = None
+    last_host: float | None = None
+    last_seq: int | None = None
+    extent: Extent = field(default_factory=Extent)
+    gaps: list[dict[str, Any]] = field(default_factory=list)
+    # time connected (sum over the stretches between reconnect gaps) and the
+    # sample intervals in it: the rate while connected
+    seg_first: float | None = None
+    seg_rows: int = 0
+    connected_s: float = 0.0
+    intervals: int = 0
+
+    def end_segment(self) -> None:
+        """Close the current connected stretch (at a gap and at the end)."""
+        if self.seg_first is not None and self.last_host is not None:
+            self.connected_s += self.last_host - self.seg_first
+            self.intervals += self.seg_rows - 1
+        self.seg_first, self.seg_rows = None, 0
+
+    def rate_hz(self) -> float | None:
+        """Samples per second while connected (gaps excluded)."""
+        open_s = 0.0
+        open_iv = 0
+        if self.seg_first is not None and self.last_host is not None:
+            open_s, open_iv = self.last_host - self.seg_first, self.seg_rows - 1
+        t = self.connected_s + open_s
+        return (self.intervals + open_iv) / t if t > 0 else None
