@@ -1,6 +1,6 @@
 """The schema of recorded files, without heavy imports (the ``aacmm log`` command
 loads it at start-up): format names, columns, units, file names, row formatting.
-Readers are in :mod:`aacmm.records.logs` and :mod:`aacmm.records.sessions`."""
+Readers are in :mod:`aacmm.records.logs` and :mod:`aacmm.records.session_reader`."""
 
 from __future__ import annotations
 

@@ -1,0 +1,107 @@
+"""The session folder's format: file names, columns and units, and a point's row fields.
+
+Shared by :mod:`aacmm.records.session_writer` and
+:mod:`aacmm.records.session_reader`; the folder is described in
+:mod:`aacmm.records.sessions` and docs/plans.md.
+"""
+
+from __future__ import annotations
+
+from aacmm.plans import Slot
+from aacmm.protocol import Sample
+from aacmm.records.files import crc_hex, fmt_point
+
+SESSION_FORMAT = "aacmm-session-1"
+SIDECAR = "session.json"
+POINTS_CSV = "points.csv"
+EVENTS_CSV = "events.csv"
+PROGRESS = "progress.json"
+PROGRESS_FORMAT = "aacmm-progress-1"
+COUNT_COLUMNS: tuple[str, ...] = tuple(f"count{i}" for i in range(1, 7))
+LABEL_COLUMNS: tuple[str, ...] = (
+    "slot",
+    "step_index",
+    "step_id",
+    "procedure",
+    "artefact",
+    "position_index",
+    "end",
+    "articulation_index",
+    "point_index",
+)
+SAMPLE_COLUMNS: tuple[str, ...] = (
+    "seq",
+    "device_time_us",
+    "host_time",
+    "button",
+    *COUNT_COLUMNS,
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "flags",
+    "param_crc32",
+)
+POINT_COLUMNS: tuple[str, ...] = LABEL_COLUMNS + SAMPLE_COLUMNS
+EVENT_COLUMNS: tuple[str, ...] = (
+    "event_time",
+    "event",
+    "slot",
+    "pressed",
+    *SAMPLE_COLUMNS,
+    "detail",
+)
+#: Journal event names.
+EVENTS: tuple[str, ...] = ("run", "point", "undo", "ignored", "confirm", "params", "end")
+UNITS: dict[str, str] = {
+    "slot": "index of the point in the plan (Plan.slots), from 0",
+    "step_index,position_index,articulation_index,point_index": "indices from 0 "
+    "(empty: not applicable to the procedure)",
+    "end": "A or B on a length step, else empty",
+    "seq": "device sample counter of the latched sample",
+    "device_time_us": "us, device clock",
+    "host_time": "s since the Unix epoch (UTC), host clock at the button event",
+    "event_time": "events.csv: s since the Unix epoch (UTC), when the event was journaled",
+    "button": "0 front (capture), 1 second button",
+    "count1..count6": "raw encoder counts (u32)",
+    "x_mm,y_mm,z_mm": "probe point computed by the device, mm (resolution 0.0001 mm)",
+    "flags": "sample status bits (docs/protocol.md 2.4)",
+    "param_crc32": "CRC of the parameter set in force (session.json param_sets)",
+}
+STATUSES: tuple[str, ...] = ("running", "complete", "interrupted", "link_lost", "error")
+
+
+def opt_field(v: int | None) -> str:
+    """An optional index as a CSV field (empty for None)."""
+    return "" if v is None else str(v)
+
+
+def sample_fields(sample: Sample, host_time: float, button: int, crc: int) -> list[str]:
+    """The :data:`SAMPLE_COLUMNS` fields of a latched sample."""
+    x, y, z = sample.point_100nm
+    return [
+        str(sample.seq),
+        str(sample.timestamp_us),
+        f"{host_time:.6f}",
+        str(button),
+        *(str(c) for c in sample.counts),
+        fmt_point(x),
+        fmt_point(y),
+        fmt_point(z),
+        str(sample.status),
+        crc_hex(crc),
+    ]
+
+
+def label_fields(slot: Slot) -> list[str]:
+    """The :data:`LABEL_COLUMNS` fields of a plan slot."""
+    return [
+        str(slot.index),
+        str(slot.step_index),
+        slot.step_id,
+        slot.procedure,
+        slot.artefact or "",
+        opt_field(slot.position_index),
+        slot.end or "",
+        opt_field(slot.articulation_index),
+        str(slot.point_index),
+    ]
