@@ -21,6 +21,9 @@
  *                   the fused Monte Carlo sums accumulate it instead)
  *   CH_FUSE_CHAIN   1: the frames and origins use CH_FMA too (default 0)
  *   CH_DIRECT_DA    1: the d and a columns go to jac during the pass (below)
+ *   CH_JSTORE(e, v), CH_JLOAD(e)   with CH_DIRECT_DA, how entry e is written
+ *                   and read back (default jac[e]; the tiled batch kernels
+ *                   address the caller's tile)
  * The includer #undefs the CH_ macros afterwards.
  *
  * Each CH_FMA is placed so that, unfused, the arithmetic is exactly the plain
@@ -92,24 +95,29 @@ static inline CH(vec3) CH(cross)(CH(vec3) u, CH(vec3) v)
 #define CH_FUSE_CHAIN 0
 #endif
 /* The d and a columns of the Jacobian are z_{i-1} and x_i themselves: with
- * CH_DIRECT_DA 1 (CH_OUT must then be the plain jac[e] = v) they are written
- * to jac during the pass and read back from there, instead of being kept in
- * arrays and copied after it: 36 vector stores and loads fewer per group of
- * poses in the batch kernels (simd_f64.c says where it pays). Default 0. */
+ * CH_DIRECT_DA 1 they are written to the output during the pass and read back
+ * from there (CH_JSTORE, CH_JLOAD: default jac[e], and CH_OUT must then store
+ * to the same place), instead of being kept in arrays and copied after it:
+ * 36 vector stores and loads fewer per group of poses in the batch kernels
+ * (simd_f64.c says where it pays). Default 0. */
 #ifndef CH_DIRECT_DA
 #define CH_DIRECT_DA 0
 #endif
-#define CH_JD(r, i) jac[(r) * AACMM_JAC_COLS + AACMM_COL_D(i)]
-#define CH_JA(r, i) jac[(r) * AACMM_JAC_COLS + AACMM_COL_A(i)]
+#ifndef CH_JSTORE
+#define CH_JSTORE(e, v) (jac[e] = (v))
+#define CH_JLOAD(e) (jac[e])
+#endif
+#define CH_JD(r, i) CH_JLOAD((r) * AACMM_JAC_COLS + AACMM_COL_D(i))
+#define CH_JA(r, i) CH_JLOAD((r) * AACMM_JAC_COLS + AACMM_COL_A(i))
 #if CH_DIRECT_DA
 #define CH_KEEP_ZX(i, zv, xv)                                                                      \
     if (jac != NULL) {                                                                             \
-        CH_JD(0, i) = (zv).x;                                                                      \
-        CH_JD(1, i) = (zv).y;                                                                      \
-        CH_JD(2, i) = (zv).z;                                                                      \
-        CH_JA(0, i) = (xv).x;                                                                      \
-        CH_JA(1, i) = (xv).y;                                                                      \
-        CH_JA(2, i) = (xv).z;                                                                      \
+        CH_JSTORE(0 * AACMM_JAC_COLS + AACMM_COL_D(i), (zv).x);                                    \
+        CH_JSTORE(1 * AACMM_JAC_COLS + AACMM_COL_D(i), (zv).y);                                    \
+        CH_JSTORE(2 * AACMM_JAC_COLS + AACMM_COL_D(i), (zv).z);                                    \
+        CH_JSTORE(0 * AACMM_JAC_COLS + AACMM_COL_A(i), (xv).x);                                    \
+        CH_JSTORE(1 * AACMM_JAC_COLS + AACMM_COL_A(i), (xv).y);                                    \
+        CH_JSTORE(2 * AACMM_JAC_COLS + AACMM_COL_A(i), (xv).z);                                    \
     }
 #else
 #define CH_KEEP_ZX(i, zv, xv)                                                                      \
@@ -243,5 +251,7 @@ CH_INLINE void CH(chain)(const TYPE(aacmm_model) *model, const CH_T theta_rad[AA
 #undef CH_LIN
 #undef CH_JD
 #undef CH_JA
+#undef CH_JSTORE
+#undef CH_JLOAD
 #undef CH_KEEP_ZX
 

@@ -1181,6 +1181,101 @@ static void test_simd_batch_semantics(void **state)
     }
 }
 
+/* The tiled layout (aacmm_simd_batch_angles_tiled_*), every kernel, both
+ * precisions: each entry of each pose where the layout puts it, equal bit for
+ * bit to the row-major call with the same kernel, for every batch size (tile
+ * boundaries, short last tiles), at an output address that is not 64-byte
+ * aligned too; the padding lanes of the last tile copy its last pose; the
+ * first bad pose stops the batch as in the row-major call; NULL and
+ * unsupported-kernel errors. */
+#define TILED_CHECK(REALT, T, tiled_fn, model, th, P, J, Pt, Jt, n, off)                         \
+    do {                                                                                           \
+        size_t done_ = 99u, l_, e_;                                                                \
+        REALT *jt_ = (Jt) + (off);                                                                 \
+        assert_int_equal(tiled_fn(kk, model, (size_t)(n), th, Pt, jt_, &done_), AACMM_OK);         \
+        assert_int_equal((int)done_, (n));                                                         \
+        assert_memory_equal(Pt, P, sizeof(REALT) * 3u * (size_t)(n));                             \
+        for (l_ = 0; l_ < ((size_t)(n) + (T) - 1u) / (T) * (T); l_++) {                            \
+            const size_t src_ = l_ < (size_t)(n) ? l_ : (size_t)(n) - 1u;                          \
+            for (e_ = 0; e_ < AACMM_JAC_SIZE; e_++) {                                              \
+                assert_memory_equal(&jt_[(l_ / (T)) * (T) * AACMM_JAC_SIZE + e_ * (T) + l_ % (T)], \
+                                    &(J)[src_ * AACMM_JAC_SIZE + e_], sizeof(REALT));              \
+            }                                                                                      \
+        }                                                                                          \
+    } while (0)
+
+static void test_simd_tiled_layout(void **state)
+{
+    enum { N = 50 };
+    static double th[N * 6], P[N * 3], J[N * AACMM_JAC_SIZE], Pt[N * 3];
+    static double Jt[AACMM_SIMD_TILED_SIZE(N, AACMM_SIMD_TILE_F64) + 1];
+    static float thf[N * 6], Pf[N * 3], Jf[N * AACMM_JAC_SIZE], Pft[N * 3];
+    static float Jft[AACMM_SIMD_TILED_SIZE(N, AACMM_SIMD_TILE_F32) + 1];
+    aacmm_model_f64_t m;
+    aacmm_model_f32_t mf;
+    aacmm_params_f32_t pf;
+    test_rng_t g = {47u};
+    int k, i, n;
+    (void)state;
+    default_model(&m);
+    aacmm_params_default_f32(&pf);
+    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
+    for (i = 0; i < N * 6; i++) {
+        th[i] = rng_uniform(&g, -PI, PI);
+        thf[i] = (float)th[i];
+    }
+    assert_int_equal(AACMM_SIMD_TILED_SIZE(17u, 8u), 3u * 8u * AACMM_JAC_SIZE);
+    assert_int_equal(aacmm_simd_batch_angles_tiled_f64((aacmm_kernel_t)7, &m, N, th, Pt, Jt, NULL),
+                     AACMM_ERR_UNSUPPORTED);
+    for (k = 0; k < AACMM_KERNEL_COUNT; k++) {
+        const aacmm_kernel_t kk = (aacmm_kernel_t)k;
+        size_t done = 99u;
+        if (!aacmm_kernel_available(kk)) {
+            assert_int_equal(aacmm_simd_batch_angles_tiled_f32(kk, &mf, N, thf, Pft, Jft, NULL),
+                             AACMM_ERR_UNSUPPORTED);
+            continue;
+        }
+        for (n = 1; n <= N; n++) {
+            assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, (size_t)n, th, P, J, NULL),
+                             AACMM_OK);
+            assert_int_equal(aacmm_simd_batch_angles_f32(kk, &mf, (size_t)n, thf, Pf, Jf, NULL),
+                             AACMM_OK);
+            TILED_CHECK(double, (size_t)AACMM_SIMD_TILE_F64, aacmm_simd_batch_angles_tiled_f64, &m,
+                        th, P, J, Pt, Jt, n, (size_t)(n % 2));
+            TILED_CHECK(float, (size_t)AACMM_SIMD_TILE_F32, aacmm_simd_batch_angles_tiled_f32, &mf,
+                        thf, Pf, Jf, Pft, Jft, n, (size_t)(n % 2));
+        }
+        /* the first bad pose stops the batch; the poses before it are written */
+        th[6 * 17 + 4] = (double)NAN;
+        assert_int_equal(aacmm_simd_batch_angles_tiled_f64(kk, &m, N, th, Pt, Jt, &done),
+                         AACMM_ERR_NOT_FINITE);
+        assert_int_equal((int)done, 17);
+        th[6 * 17 + 4] = (double)thf[6 * 17 + 4];
+        thf[6 * 5] = 2000.0f;
+        assert_int_equal(aacmm_simd_batch_angles_tiled_f32(kk, &mf, N, thf, Pft, Jft, &done),
+                         AACMM_ERR_RANGE);
+        assert_int_equal((int)done, 5);
+        thf[6 * 5] = (float)th[6 * 5];
+        assert_int_equal(aacmm_simd_batch_angles_f64(kk, &m, 17u, th, P, J, NULL), AACMM_OK);
+        for (i = 0; i < 17; i++) {
+            int e;
+            for (e = 0; e < AACMM_JAC_SIZE; e++) {
+                assert_memory_equal(&Jt[(i / 8) * 8 * AACMM_JAC_SIZE + e * 8 + i % 8],
+                                    &J[i * AACMM_JAC_SIZE + e], sizeof(double));
+            }
+        }
+        /* n = 0 and NULL arguments */
+        assert_int_equal(aacmm_simd_batch_angles_tiled_f64(kk, &m, 0, NULL, NULL, NULL, &done),
+                         AACMM_OK);
+        assert_int_equal((int)done, 0);
+        assert_int_equal(aacmm_simd_batch_angles_tiled_f64(kk, &m, 1, th, Pt, NULL, NULL),
+                         AACMM_ERR_NULL);
+        assert_int_equal(aacmm_simd_batch_angles_tiled_f32(kk, NULL, 1, thf, Pft, Jft, NULL),
+                         AACMM_ERR_NULL);
+    }
+}
+#undef TILED_CHECK
+
 int main(void)
 {
     /* Accuracy tests: once per kernel (through k_point_f64 and friends). */
@@ -1205,6 +1300,7 @@ int main(void)
         cmocka_unit_test(test_status_strings),
         cmocka_unit_test(test_simd_agrees_with_scalar),
         cmocka_unit_test(test_simd_batch_semantics),
+        cmocka_unit_test(test_simd_tiled_layout),
     };
     int failed = 0, k;
     for (k = 0; k < AACMM_KERNEL_COUNT; k++) {

@@ -87,6 +87,39 @@ aacmm_status_t aacmm_simd_batch_angles_f32(aacmm_kernel_t kernel, const aacmm_mo
                                            float *jac, size_t *done);
 
 /*
+ * Tiled Jacobians: the same points and Jacobians, with the Jacobians in tiles
+ * of AACMM_SIMD_TILE_F64 (8) or AACMM_SIMD_TILE_F32 (16) consecutive poses,
+ * entry-major inside a tile: entry e (= row * 25 + column) of pose l is
+ *     jac_tiled[(l / T) * 75 * T + e * T + l % T]      (T the tile size),
+ * so an entry of a tile's poses is 64 contiguous bytes (one cache line when
+ * jac_tiled is 64-byte aligned), as an array jac_tiled[tiles][3][25][T]. The
+ * batch kernels then store each entry vector whole, without regrouping lanes
+ * into pose rows: the layout for batch consumers that work entry by entry
+ * (normal equations, sums over poses); the row-major layout above costs the
+ * regrouping (docs/kinematics.md, "Speed").
+ *
+ * jac_tiled must hold AACMM_SIMD_TILED_SIZE(n, T) values (whole tiles; not
+ * NULL when n > 0); p_mm, validation, the stop at the first invalid pose and
+ * *done as aacmm_simd_batch_angles_*. The lanes of the last tile past pose n-1
+ * are set to pose n-1's entries (a tile holds no uninitialised values); after
+ * an invalid pose, the entries from *done on are unspecified. Every kernel
+ * gives the same values as aacmm_simd_batch_angles_* with that kernel, bit for
+ * bit. Alignment: any (64 bytes runs fastest). Cost: per pose, below that of
+ * the row-major call with the same kernel (scalar: the same plus the copy).
+ */
+#define AACMM_SIMD_TILE_F64 8
+#define AACMM_SIMD_TILE_F32 16
+#define AACMM_SIMD_TILED_SIZE(n, tile) ((((n) + (tile) - 1u) / (tile)) * (tile) * AACMM_JAC_SIZE)
+aacmm_status_t aacmm_simd_batch_angles_tiled_f64(aacmm_kernel_t kernel,
+                                                 const aacmm_model_f64_t *model, size_t n,
+                                                 const double *theta_rad, double *p_mm,
+                                                 double *jac_tiled, size_t *done);
+aacmm_status_t aacmm_simd_batch_angles_tiled_f32(aacmm_kernel_t kernel,
+                                                 const aacmm_model_f32_t *model, size_t n,
+                                                 const float *theta_rad, float *p_mm,
+                                                 float *jac_tiled, size_t *done);
+
+/*
  * aacmm_abs_jacobian_sums_f64 (analysis.h) with the given kernel: adds the
  * sums over n poses of |J| and J^2 (75 entries each) to abs_sum and sq_sum.
  * The sums are accumulated per lane and added up at the end, so the rounding

@@ -38,7 +38,10 @@
 #define LANES_32B 8
 #define LANES_64B 16
 
+/* Poses per tile of the tiled Jacobian layout (aacmm/simd.h). */
+#define TILE ((size_t)AACMM_SIMD_TILE_F32)
 #include "simd_instances.h"
+#undef TILE
 
 #undef GATHER512
 #undef LANES_16B

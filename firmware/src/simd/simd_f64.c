@@ -39,7 +39,10 @@
 #define LANES_32B 4
 #define LANES_64B 8
 
+/* Poses per tile of the tiled Jacobian layout (aacmm/simd.h). */
+#define TILE ((size_t)AACMM_SIMD_TILE_F64)
 #include "simd_instances.h"
+#undef TILE
 
 #undef GATHER512
 #undef LANES_16B

@@ -122,7 +122,7 @@
 #define ISA(name) PSFX(name##_avx512)
 #define ISA_BYTES 64
 #define ISA_LANES LANES_64B
-#define ISA_TARGET "avx512f,avx2,fma"
+#define ISA_TARGET "avx512f,avx2,fma,prfchw"
 #define ISA_FMA(a, b, c) ((VR)MM_SFX(_mm512_fmadd)((MM512)(a), (MM512)(b), (MM512)(c)))
 #define ISA_GATHER(p) GATHER512(p)
 #include "simd_isa.h"
@@ -162,6 +162,69 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles)(aacmm_kernel_t kernel, const TYPE(a
         return AACMM_ERR_UNSUPPORTED;
     }
     return PSFX(batch_angles_table)[kernel](model, n, theta_rad, p_mm, jac, done);
+}
+
+/* The tiled layout for the scalar kernel: each pose through the per-pose
+ * core, its 75 entries to its lane. */
+static aacmm_status_t PSFX(batch_tiled_scalar)(const TYPE(aacmm_model) *model, size_t n,
+                                               const REAL *theta_rad, REAL *p_mm, REAL *jac,
+                                               size_t *done)
+{
+    REAL row[AACMM_JAC_SIZE];
+    size_t l;
+    int e;
+    for (l = 0; l < n; l++) {
+        REAL *lane = jac + (l / TILE) * TILE * AACMM_JAC_SIZE + l % TILE;
+        const aacmm_status_t st = PSFX(aacmm_batch_angles)(model, 1u, theta_rad + l * AACMM_JOINTS,
+                                                           p_mm + l * 3u, row, NULL);
+        if (st != AACMM_OK) {
+            *done = l;
+            return st;
+        }
+        for (e = 0; e < AACMM_JAC_SIZE; e++) {
+            lane[(size_t)e * TILE] = row[e];
+        }
+    }
+    *done = n;
+    return AACMM_OK;
+}
+
+typedef aacmm_status_t (*PSFX(batch_tiled_fn))(const TYPE(aacmm_model) *, size_t, const REAL *,
+                                               REAL *, REAL *, size_t *);
+static const PSFX(batch_tiled_fn) PSFX(batch_tiled_table)[AACMM_KERNEL_COUNT] =
+    SIMD_TABLE(batch_tiled, PSFX(batch_tiled_scalar));
+
+aacmm_status_t PSFX(aacmm_simd_batch_angles_tiled)(aacmm_kernel_t kernel,
+                                                   const TYPE(aacmm_model) *model, size_t n,
+                                                   const REAL *theta_rad, REAL *p_mm,
+                                                   REAL *jac_tiled, size_t *done)
+{
+    size_t k = 0, l;
+    aacmm_status_t st;
+    int e;
+    if (done != NULL) {
+        *done = 0u;
+    }
+    if (model == NULL ||
+        (n > 0u && (theta_rad == NULL || p_mm == NULL || jac_tiled == NULL))) {
+        return AACMM_ERR_NULL;
+    }
+    if (!aacmm_kernel_available(kernel) || PSFX(batch_tiled_table)[kernel] == NULL) {
+        return AACMM_ERR_UNSUPPORTED;
+    }
+    st = PSFX(batch_tiled_table)[kernel](model, n, theta_rad, p_mm, jac_tiled, &k);
+    if (st == AACMM_OK && n % TILE != 0u) { /* the last tile's padding lanes */
+        REAL *last = jac_tiled + ((n - 1u) / TILE) * TILE * AACMM_JAC_SIZE;
+        for (e = 0; e < AACMM_JAC_SIZE; e++) {
+            for (l = n % TILE; l < TILE; l++) {
+                last[(size_t)e * TILE + l] = last[(size_t)e * TILE + (n - 1u) % TILE];
+            }
+        }
+    }
+    if (done != NULL) {
+        *done = k;
+    }
+    return st;
 }
 
 #ifdef SIMD_ABS_SUMS
