@@ -5,8 +5,9 @@
  *
  * First the per-pose core pose after pose (core.*: the scalar kernel, built
  * with this machine's -march as before issue 17), then every batch kernel
- * across SIMD lanes this CPU runs (core.simd.*, aacmm/simd.h) with its ratio
- * to the scalar figure of the same run, then large outputs (10^6 poses, far
+ * across SIMD lanes this CPU runs (core.simd.*, aacmm/simd.h; Jacobians
+ * row-major and tiled) with its ratio to the scalar figure of the same run,
+ * then large outputs (10^6 poses, far
  * beyond the caches): bytes written per second beside this machine's memory
  * write bandwidth (a plain memset of a buffer as large).
  */
@@ -26,6 +27,10 @@
 
 static double th64[NPOSE * 6], p64[NPOSE * 3], j64[NPOSE * AACMM_JAC_SIZE];
 static float th32[NPOSE * 6], p32[NPOSE * 3], j32[NPOSE * AACMM_JAC_SIZE];
+/* Tiled Jacobians (aacmm/simd.h), 64-byte aligned: an entry of a tile's poses
+ * is one cache line. */
+static double jt64[AACMM_SIMD_TILED_SIZE(NPOSE, AACMM_SIMD_TILE_F64) + 1] __attribute__((aligned(64)));
+static float jt32[AACMM_SIMD_TILED_SIZE(NPOSE, AACMM_SIMD_TILE_F32)] __attribute__((aligned(64)));
 static uint32_t counts[NPOSE * 6];
 static double sums_abs[AACMM_JAC_SIZE], sums_sq[AACMM_JAC_SIZE];
 static volatile double sink;
@@ -80,6 +85,18 @@ static void run_simd_point_jac_f32(void)
 {
     aacmm_simd_batch_angles_f32(kern, &m32, NPOSE, th32, p32, j32, NULL);
 }
+static void run_simd_tiled_f64(void)
+{
+    aacmm_simd_batch_angles_tiled_f64(kern, &m64, NPOSE, th64, p64, jt64, NULL);
+}
+static void run_simd_tiled_f64_unaligned(void) /* 8 bytes past a line: every store spans two */
+{
+    aacmm_simd_batch_angles_tiled_f64(kern, &m64, NPOSE, th64, p64, jt64 + 1, NULL);
+}
+static void run_simd_tiled_f32(void)
+{
+    aacmm_simd_batch_angles_tiled_f32(kern, &m32, NPOSE, th32, p32, jt32, NULL);
+}
 static void run_simd_sums_f64(void)
 {
     aacmm_simd_abs_jacobian_sums_f64(kern, &m64, NPOSE, th64, sums_abs, sums_sq, NULL);
@@ -107,7 +124,8 @@ static double measure_ns(bench_fn fn)
         }
     }
     last_cpu_ns = best_cpu * 1e9 / NPOSE;
-    sink = p64[0] + (double)p32[0] + j64[5] + (double)j32[5] + sums_abs[3];
+    sink = p64[0] + (double)p32[0] + j64[5] + (double)j32[5] + sums_abs[3] + jt64[7] +
+           (double)jt32[7];
     return best * 1e9 / NPOSE;
 }
 
@@ -136,20 +154,23 @@ static void measure_simd(const char *name, const char *what, bench_fn fn, double
 }
 
 /* Large outputs: 10^6 poses of point + Jacobian (624 MB) with the best
- * kernel, and a memset of a buffer as large (the write bandwidth the machine
- * gives a single core). */
-static void large_outputs(void)
+ * kernel, Jacobians row-major or tiled, and a memset of a buffer as large (the
+ * write bandwidth the machine gives a single core). */
+static void large_output(int tiled)
 {
-    const size_t out_doubles = (size_t)NBIG * (3u + AACMM_JAC_SIZE);
+    const size_t jac_doubles = tiled ? AACMM_SIMD_TILED_SIZE((size_t)NBIG, AACMM_SIMD_TILE_F64)
+                                     : (size_t)NBIG * AACMM_JAC_SIZE;
+    const size_t out_doubles = (size_t)NBIG * 3u + jac_doubles;
     double *th = malloc((size_t)NBIG * 6u * sizeof(double));
     double *out = malloc(out_doubles * sizeof(double));
     double best_k = 1e30, best_m = 1e30, bytes;
+    const char *name = tiled ? "core.simd.large_output_tiled" : "core.simd.large_output";
     int rep;
     size_t i;
     if (th == NULL || out == NULL) {
         free(th);
         free(out);
-        printf("{\"bench\": \"core.simd.large_output\", \"error\": \"out of memory\"}\n");
+        printf("{\"bench\": \"%s\", \"error\": \"out of memory\"}\n", name);
         return;
     }
     for (i = 0; i < (size_t)NBIG * 6u; i++) {
@@ -158,7 +179,12 @@ static void large_outputs(void)
     memset(out, 0, out_doubles * sizeof(double)); /* fault the pages in first */
     for (rep = 0; rep < 3; rep++) {
         double t0 = now_s(), t;
-        aacmm_simd_batch_angles_f64(kern, &m64, NBIG, th, out, out + (size_t)NBIG * 3u, NULL);
+        if (tiled) {
+            aacmm_simd_batch_angles_tiled_f64(kern, &m64, NBIG, th, out, out + (size_t)NBIG * 3u,
+                                              NULL);
+        } else {
+            aacmm_simd_batch_angles_f64(kern, &m64, NBIG, th, out, out + (size_t)NBIG * 3u, NULL);
+        }
         t = now_s() - t0;
         best_k = t < best_k ? t : best_k;
         t0 = now_s();
@@ -168,12 +194,12 @@ static void large_outputs(void)
     }
     sink = out[12345];
     bytes = (double)out_doubles * (double)sizeof(double);
-    printf("{\"bench\": \"core.simd.large_output\", \"what\": \"10^6 poses point + Jacobian, double, "
+    printf("{\"bench\": \"%s\", \"what\": \"10^6 poses point + Jacobian, double, %s, "
            "output far beyond the caches\", \"kernel\": \"%s\", \"poses\": %d, \"bytes\": %.0f, "
            "\"ns_per_pose\": %.2f, \"bytes_written_per_s\": %.3e, \"memset_bytes_per_s\": %.3e, "
            "\"fraction_of_memset\": %.2f, \"threads\": 1}\n",
-           aacmm_kernel_name(kern), NBIG, bytes, best_k * 1e9 / NBIG, bytes / best_k,
-           bytes / best_m, best_m / best_k);
+           name, tiled ? "Jacobians tiled" : "Jacobians row-major", aacmm_kernel_name(kern), NBIG,
+           bytes, best_k * 1e9 / NBIG, bytes / best_k, bytes / best_m, best_m / best_k);
     free(th);
     free(out);
 }
@@ -221,10 +247,20 @@ int main(void)
                      run_simd_point_jac_f64, sc_jac, 25.0, 0);
         measure_simd("core.simd.point_jacobian_f32", "batch probe point + 3x25 Jacobian, single",
                      run_simd_point_jac_f32, sc_jac32, 15.0, 1);
+        measure_simd("core.simd.point_jacobian_tiled_f64",
+                     "batch probe point + 3x25 Jacobian, double, Jacobians in tiles of 8 poses",
+                     run_simd_tiled_f64, sc_jac, 25.0, 0);
+        measure_simd("core.simd.point_jacobian_tiled_f64_unaligned",
+                     "the same, output 8 bytes past a 64-byte boundary", run_simd_tiled_f64_unaligned,
+                     sc_jac, 25.0, 0);
+        measure_simd("core.simd.point_jacobian_tiled_f32",
+                     "batch probe point + 3x25 Jacobian, single, Jacobians in tiles of 16 poses",
+                     run_simd_tiled_f32, sc_jac32, 15.0, 1);
         measure_simd("core.simd.abs_jacobian_sums_f64",
                      "batch fused |J| and J^2 sums, double", run_simd_sums_f64, sc_sums, 25.0, 0);
     }
     kern = aacmm_kernel_best();
-    large_outputs();
+    large_output(0);
+    large_output(1);
     return 0;
 }
