@@ -186,3 +186,34 @@ def test_scaled_sums_equal_sums_of_the_scaled_poses(restore_kernel: object) -> N
     with pytest.raises(core.KinematicsError) as ei:
         model.abs_jacobian_sums(bad, scale, offset)
     assert ei.value.index == 700
+
+
+@pytest.mark.parametrize("name", core.available_kernels())
+def test_tiled_layout_equals_row_major(name: str, restore_kernel: object) -> None:
+    """``points_jacobians_tiled``: pose l's entry (r, c) at [l // T, r, c, l % T],
+    bit for bit the row-major values of the same kernel, in both precisions;
+    the last tile's padding lanes repeat the last pose; 64-byte aligned."""
+    core.set_kernel(name)
+    rng = np.random.default_rng(23)
+    model = Model()
+    for dtype, tile in ((np.float64, core.TILE_F64), (np.float32, core.TILE_F32)):
+        for n in (1, tile - 1, tile, tile + 1, 3 * tile + 5, 1003):
+            th = rng.uniform(-math.pi, math.pi, (n, 6))
+            p, j = model.points_jacobians(th, dtype=dtype)
+            pt, jt = model.points_jacobians_tiled(th, dtype=dtype)
+            assert jt.dtype == dtype and jt.shape == (-(-n // tile), 3, 25, tile)
+            assert jt.ctypes.data % 64 == 0 and jt.flags.c_contiguous
+            assert np.array_equal(pt, p)
+            assert np.array_equal(core.untile_jacobians(jt, n), j)
+            last = (n - 1) // tile
+            for lane in range(n - last * tile, tile):
+                assert np.array_equal(jt[last, :, :, lane], j[-1])
+            pose = n // 2
+            assert np.array_equal(jt[pose // tile, :, :, pose % tile], j[pose])
+    with pytest.raises(core.KinematicsError) as err:
+        model.points_jacobians_tiled(np.array([[0.0, 0.1, 0.2, 0.3, 0.4, 0.5], [np.nan] * 6]))
+    assert err.value.index == 1
+    with pytest.raises(ValueError, match="do not fill"):
+        core.untile_jacobians(np.zeros((2, 3, 25, 8)), 17)
+    with pytest.raises(ValueError, match="shape"):
+        core.untile_jacobians(np.zeros((2, 75, 8)), 9)

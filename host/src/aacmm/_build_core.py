@@ -134,6 +134,14 @@ aacmm_status_t aacmm_simd_batch_angles_f64(aacmm_kernel_t kernel, const aacmm_mo
 aacmm_status_t aacmm_simd_batch_angles_f32(aacmm_kernel_t kernel, const aacmm_model_f32_t *model,
                                            size_t n, const float *theta_rad, float *p_mm,
                                            float *jac, size_t *done);
+aacmm_status_t aacmm_simd_batch_angles_tiled_f64(aacmm_kernel_t kernel,
+                                                 const aacmm_model_f64_t *model, size_t n,
+                                                 const double *theta_rad, double *p_mm,
+                                                 double *jac_tiled, size_t *done);
+aacmm_status_t aacmm_simd_batch_angles_tiled_f32(aacmm_kernel_t kernel,
+                                                 const aacmm_model_f32_t *model, size_t n,
+                                                 const float *theta_rad, float *p_mm,
+                                                 float *jac_tiled, size_t *done);
 aacmm_status_t aacmm_simd_abs_jacobian_sums_f64(aacmm_kernel_t kernel,
                                                 const aacmm_model_f64_t *model, size_t n,
                                                 const double *theta_rad, double abs_sum[75],

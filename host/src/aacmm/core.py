@@ -13,8 +13,10 @@ Main names:
 * :class:`EncoderConfig` -- per-joint encoder description.
 * :class:`Model` -- a prepared model: :meth:`Model.point`,
   :meth:`Model.point_jacobian`, :meth:`Model.points`,
-  :meth:`Model.points_jacobians`, :meth:`Model.points_from_counts`,
-  :meth:`Model.abs_jacobian_sums`.
+  :meth:`Model.points_jacobians`, :meth:`Model.points_jacobians_tiled`,
+  :meth:`Model.points_from_counts`, :meth:`Model.abs_jacobian_sums`.
+* :data:`TILE_F64`, :data:`TILE_F32`, :func:`untile_jacobians` -- the tiled
+  Jacobian layout of :meth:`Model.points_jacobians_tiled`.
 * :func:`counts_to_angles`, :func:`perturbed_points`.
 * :data:`PARAM_NAMES` -- the 25 parameter names in Jacobian column order.
 * :func:`kernel`, :func:`set_kernel`, :func:`available_kernels` -- the batch
@@ -58,6 +60,8 @@ __all__ = [
     "PARAM_GROUPS",
     "PARAM_NAMES",
     "PARAM_UNITS",
+    "TILE_F32",
+    "TILE_F64",
     "EncoderConfig",
     "FloatArray",
     "KinematicsError",
@@ -69,6 +73,7 @@ __all__ = [
     "perturbed_points",
     "set_kernel",
     "status_str",
+    "untile_jacobians",
 ]
 
 JOINTS = 6
@@ -325,6 +330,37 @@ def _precision(dtype: npt.DTypeLike) -> bool:
     raise ValueError(f"dtype must be float64 or float32, got {d}")
 
 
+#: Poses per tile of the tiled Jacobian layout (``AACMM_SIMD_TILE_F64/_F32``):
+#: an entry of a tile's poses is 64 bytes in either precision.
+TILE_F64 = 8
+TILE_F32 = 16
+
+
+def _aligned_empty(shape: tuple[int, ...], dtype: Any) -> npt.NDArray[Any]:
+    """An uninitialised C-contiguous array whose data starts on 64 bytes."""
+    dt = np.dtype(dtype)
+    size = int(np.prod(shape)) * dt.itemsize
+    raw = np.empty(size + 64, dtype=np.uint8)
+    start = -raw.ctypes.data % 64
+    out: npt.NDArray[Any] = raw[start : start + size].view(dt).reshape(shape)
+    return out
+
+
+def untile_jacobians(tiled: npt.NDArray[Any], n: int) -> npt.NDArray[Any]:
+    """The ``(n, 3, 25)`` Jacobians of a ``(tiles, 3, 25, T)`` tiled array (a copy).
+
+    Raises ValueError if the shape is not a tiled one or ``n`` does not fit it.
+    """
+    a = np.asarray(tiled)
+    if a.ndim != 4 or a.shape[1:3] != (JAC_ROWS, JAC_COLS):
+        raise ValueError(f"tiled Jacobians must have shape (tiles, 3, 25, T), not {a.shape}")
+    tile = a.shape[3]
+    if not (a.shape[0] - 1) * tile < n <= a.shape[0] * tile and not (n == 0 == a.shape[0]):
+        raise ValueError(f"{n} poses do not fill {a.shape[0]} tiles of {tile}")
+    out: npt.NDArray[Any] = a.transpose(0, 3, 1, 2).reshape(-1, JAC_ROWS, JAC_COLS)[:n].copy()
+    return out
+
+
 @dataclass(frozen=True)
 class Model:
     """A prepared kinematic model (``aacmm_model_f64_t``) for one parameter set.
@@ -391,33 +427,50 @@ class Model:
         p, j = self._batch(theta_rad, dtype, jacobian=True)
         return p, j
 
-    def _batch(self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike, jacobian: bool) -> Any:
+    def points_jacobians_tiled(
+        self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike = np.float64
+    ) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+        """Probe points (n, 3) and the Jacobians in tiles, ``(tiles, 3, 25, T)``.
+
+        The same values as :meth:`points_jacobians`, bit for bit, in the
+        layout the batch kernels write fastest (``aacmm/simd.h``): pose ``l``'s
+        entry ``(r, c)`` is ``tiled[l // T, r, c, l % T]``, ``T`` =
+        :data:`TILE_F64` (8) or :data:`TILE_F32` (16); the lanes of the last
+        tile past the last pose repeat it. Each ``tiled[t, r, c]`` is one
+        64-byte cache line (the array is 64-byte aligned). For consumers that
+        work entry by entry over many poses (normal equations, sums);
+        :func:`untile_jacobians` gives ``(n, 3, 25)``. Raises KinematicsError
+        for a bad pose.
+        """
+        p, j = self._batch(theta_rad, dtype, jacobian=True, tiled=True)
+        return p, j
+
+    def _batch(
+        self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike, jacobian: bool, tiled: bool = False
+    ) -> Any:
         single = _precision(dtype)
         th = _poses(theta_rad, np.float32 if single else np.float64)
         n = th.shape[0]
         p = np.empty((n, 3), dtype=th.dtype)
-        j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=th.dtype) if jacobian else None
+        j = None
+        if tiled:
+            tile = TILE_F32 if single else TILE_F64
+            j = _aligned_empty((-(-n // tile), JAC_ROWS, JAC_COLS, tile), th.dtype)
+        elif jacobian:
+            j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=th.dtype)
         done = ffi.new("size_t *")
-        if single:
-            st = lib.aacmm_simd_batch_angles_f32(
-                _current_kernel(),
-                self._model32(),
-                n,
-                _fptr(th),
-                _fptr(p),
-                ffi.NULL if j is None else _fptr(j),
-                done,
+        ptr = _fptr if single else _dptr
+        jp = ffi.NULL if j is None else ptr(j)
+        args = (_current_kernel(), self._model32() if single else self._c, n, ptr(th), ptr(p))
+        if tiled:
+            fn = (
+                lib.aacmm_simd_batch_angles_tiled_f32
+                if single
+                else lib.aacmm_simd_batch_angles_tiled_f64
             )
         else:
-            st = lib.aacmm_simd_batch_angles_f64(
-                _current_kernel(),
-                self._c,
-                n,
-                _dptr(th),
-                _dptr(p),
-                ffi.NULL if j is None else _dptr(j),
-                done,
-            )
+            fn = lib.aacmm_simd_batch_angles_f32 if single else lib.aacmm_simd_batch_angles_f64
+        st = fn(*args, jp, done)
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return p, j
 
