@@ -25,6 +25,11 @@ def run_then_interrupt(
 
     def limit() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+        # Ctrl-C reaches a command started from a terminal with SIGINT's default
+        # action; a launcher that ignores it (a background job of a script,
+        # `nohup ... &`) passes SIG_IGN on, and Python then installs no
+        # KeyboardInterrupt handler: the command would never see the signal.
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
 
     proc = subprocess.Popen(
         [*AACMM, *args],
