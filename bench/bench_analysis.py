@@ -3,8 +3,9 @@
 * analysis.abs_sums: the coefficient accumulation alone (fused C loop over
   point + Jacobian + |J| and J^2 sums, aacmm_simd_abs_jacobian_sums_f64) on
   pre-drawn poses, on the scalar kernel and on the widest one this CPU runs,
-  1 thread and all threads (Python thread pool, GIL released); ns per pose
-  per thread = wall x threads / poses.
+  1 thread and all threads, in 64 chunks on the analysis's own thread pool
+  (aacmm.analysis._parallel: inline for one thread, a pool with the GIL
+  released for more); ns per pose per thread = wall x threads / poses.
 * analysis.mc: error_transfer_coefficients end to end (random poses drawn
   with numpy, accumulation, thread pool, the Eq. 11-13 check on 4096 poses),
   N = 10^6 and N = 10^4 (the paper's whole study).
@@ -34,6 +35,8 @@ import numpy as np
 from aacmm import core
 from aacmm.analysis import mc
 from aacmm.analysis import uncertainty as unc
+from aacmm.analysis._parallel import in_order
+from aacmm.analysis._parallel import pool as thread_pool
 from aacmm.core import Model
 from benchjson import best_of, emit
 
@@ -58,10 +61,11 @@ def main() -> None:
     for kern in kernels:
         core.set_kernel(kern)
         for threads in sorted({1, ncpu}):
-            with ThreadPoolExecutor(threads) as ex:
+            # the thread pool of the analysis itself: none for one thread
+            with thread_pool(threads) as ex:
 
-                def run(pool: ThreadPoolExecutor = ex) -> None:
-                    list(pool.map(model.abs_jacobian_sums, chunks))
+                def run(pool: ThreadPoolExecutor | None = ex, threads: int = threads) -> None:
+                    list(in_order(pool, model.abs_jacobian_sums, chunks, threads))
 
                 t, cpu, _ = best_of(run, 5)
             emit(
