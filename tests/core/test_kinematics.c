@@ -1049,6 +1049,22 @@ static void test_simd_agrees_with_scalar(void **state)
     }
 }
 
+/* The default model in both precisions and n random poses (th, and thf the
+ * same angles rounded to float) for the batch tests. */
+static void batch_setup(aacmm_model_f64_t *m, aacmm_model_f32_t *mf, double *th, float *thf,
+                        int n, test_rng_t *g)
+{
+    aacmm_params_f32_t pf;
+    int i;
+    default_model(m);
+    aacmm_params_default_f32(&pf);
+    assert_int_equal(aacmm_model_init_f32(mf, &pf), AACMM_OK);
+    for (i = 0; i < n * 6; i++) {
+        th[i] = rng_uniform(g, -PI, PI);
+        thf[i] = (float)th[i];
+    }
+}
+
 /* Batch semantics of every kernel: a pose's result does not depend on its
  * lane or its neighbours (bitwise, whatever the batch size and offset), the
  * first bad pose stops the batch with *done = the poses before it (written,
@@ -1062,17 +1078,10 @@ static void test_simd_batch_semantics(void **state)
         Jf2[N * AACMM_JAC_SIZE];
     aacmm_model_f64_t m;
     aacmm_model_f32_t mf;
-    aacmm_params_f32_t pf;
     test_rng_t g = {31u};
     int k, i;
     (void)state;
-    default_model(&m);
-    aacmm_params_default_f32(&pf);
-    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
-    for (i = 0; i < N * 6; i++) {
-        th[i] = rng_uniform(&g, -PI, PI);
-        thf[i] = (float)th[i];
-    }
+    batch_setup(&m, &mf, th, thf, N, &g);
     assert_int_equal(aacmm_kernel_available(AACMM_KERNEL_SCALAR), 1);
     assert_int_equal(aacmm_kernel_available((aacmm_kernel_t)7), 0);
     assert_int_equal(aacmm_simd_batch_angles_f64((aacmm_kernel_t)7, &m, N, th, P, J, NULL),
@@ -1213,17 +1222,10 @@ static void test_simd_tiled_layout(void **state)
     static float Jft[AACMM_SIMD_TILED_SIZE(N, AACMM_SIMD_TILE_F32) + 1];
     aacmm_model_f64_t m;
     aacmm_model_f32_t mf;
-    aacmm_params_f32_t pf;
     test_rng_t g = {47u};
     int k, i, n;
     (void)state;
-    default_model(&m);
-    aacmm_params_default_f32(&pf);
-    assert_int_equal(aacmm_model_init_f32(&mf, &pf), AACMM_OK);
-    for (i = 0; i < N * 6; i++) {
-        th[i] = rng_uniform(&g, -PI, PI);
-        thf[i] = (float)th[i];
-    }
+    batch_setup(&m, &mf, th, thf, N, &g);
     assert_int_equal(AACMM_SIMD_TILED_SIZE(17u, 8u), 3u * 8u * AACMM_JAC_SIZE);
     assert_int_equal(aacmm_simd_batch_angles_tiled_f64((aacmm_kernel_t)7, &m, N, th, Pt, Jt, NULL),
                      AACMM_ERR_UNSUPPORTED);

@@ -355,7 +355,7 @@ def untile_jacobians(tiled: npt.NDArray[Any], n: int) -> npt.NDArray[Any]:
     if a.ndim != 4 or a.shape[1:3] != (JAC_ROWS, JAC_COLS):
         raise ValueError(f"tiled Jacobians must have shape (tiles, 3, 25, T), not {a.shape}")
     tile = a.shape[3]
-    if not (a.shape[0] - 1) * tile < n <= a.shape[0] * tile and not (n == 0 == a.shape[0]):
+    if not (a.shape[0] - 1) * tile < n <= a.shape[0] * tile:
         raise ValueError(f"{n} poses do not fill {a.shape[0]} tiles of {tile}")
     out: npt.NDArray[Any] = a.transpose(0, 3, 1, 2).reshape(-1, JAC_ROWS, JAC_COLS)[:n].copy()
     return out
@@ -452,25 +452,23 @@ class Model:
         th = _poses(theta_rad, np.float32 if single else np.float64)
         n = th.shape[0]
         p = np.empty((n, 3), dtype=th.dtype)
-        j = None
+        j: npt.NDArray[Any] | None
         if tiled:
             tile = TILE_F32 if single else TILE_F64
             j = _aligned_empty((-(-n // tile), JAC_ROWS, JAC_COLS, tile), th.dtype)
-        elif jacobian:
-            j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=th.dtype)
-        done = ffi.new("size_t *")
-        ptr = _fptr if single else _dptr
-        jp = ffi.NULL if j is None else ptr(j)
-        args = (_current_kernel(), self._model32() if single else self._c, n, ptr(th), ptr(p))
-        if tiled:
             fn = (
                 lib.aacmm_simd_batch_angles_tiled_f32
                 if single
                 else lib.aacmm_simd_batch_angles_tiled_f64
             )
         else:
+            j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=th.dtype) if jacobian else None
             fn = lib.aacmm_simd_batch_angles_f32 if single else lib.aacmm_simd_batch_angles_f64
-        st = fn(*args, jp, done)
+        done = ffi.new("size_t *")
+        ptr = _fptr if single else _dptr
+        model = self._model32() if single else self._c
+        jp = ffi.NULL if j is None else ptr(j)
+        st = fn(_current_kernel(), model, n, ptr(th), ptr(p), jp, done)
         _check(st, "invalid joint angles", int(done[0]) if st else None)
         return p, j
 
