@@ -37,6 +37,8 @@ BOARD_DEFS_microbit   := -DSELFTEST_F32 -DSELFTEST_Q -DBOARD_KIN_PRIMARY='"q"'
 
 # Buffers: the micro:bit has 16 KiB of RAM for the ~7 KiB device state, the
 # device's serial output queue, the UART rings, the storage and the stack.
+# (The defaults, which the MPS2 uses: UART rings 1 KiB RX + 2 KiB TX
+# (common/uart.c), a 4 KiB serial queue (common/device_main.c).)
 BOARD_DEFS_microbit += -DBOARD_UART_RX_BYTES=256u -DBOARD_UART_TX_BYTES=256u \
                        -DBOARD_SERIAL_TXQ_BYTES=2048u
 # The device application with its kinematics backend (as mk/device.mk).
@@ -51,6 +53,7 @@ BOARD_DEVKIN_microbit   := firmware/src/device/device_kin_q.c $(BOARD_KIN_Q) \
                            firmware/src/kinematics_q_convert.c
 BOARD_DEVFLAGS_microbit := -DAACMM_DEVICE_KIN_FIXED
 
+# (and -Ifirmware/boards/<board>: its uart_hw.h, which common/uart.c includes)
 BOARD_CFLAGS  = $(ARM_CFLAGS) -fcallgraph-info=su -I$(BOARD_COMMON) -Ifirmware/src \
                 -Ifirmware/src/device -Ifirmware/src/sim -I$(BOARD_OUT)
 BOARD_LDFLAGS := -nostartfiles -Wl,--gc-sections -L$(BOARD_COMMON)
@@ -64,19 +67,21 @@ $(BOARD_OUT)/golden.h: tests/boards/gen_golden.py firmware/src/kinematics_f64.c 
 
 # obj/<source path>.o per board; -fcallgraph-info leaves <obj>.ci beside it.
 define BOARD_RULES
-$(BOARD_OUT)/$(1)/obj/%.o: %.c $(BOARD_HDRS)
+$(BOARD_OUT)/$(1)/obj/%.o: %.c $(BOARD_HDRS) $(wildcard firmware/boards/$(1)/*.h)
 	@mkdir -p $$(@D)
-	$(ARM_CC) $(BOARD_CFLAGS) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) -c $$< -o $$@
+	$(ARM_CC) $(BOARD_CFLAGS) -Ifirmware/boards/$(1) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) -c $$< -o $$@
 
 $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/selftest.o: $(BOARD_OUT)/golden.h
 
 # The device image's objects get the backend switch too (own directory).
-$(BOARD_OUT)/$(1)/dev/%.o: %.c $(BOARD_HDRS) $(wildcard firmware/src/device/*.h firmware/src/sim/*.h)
+$(BOARD_OUT)/$(1)/dev/%.o: %.c $(BOARD_HDRS) $(wildcard firmware/boards/$(1)/*.h) \
+        $(wildcard firmware/src/device/*.h firmware/src/sim/*.h)
 	@mkdir -p $$(@D)
-	$(ARM_CC) $(BOARD_CFLAGS) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) $(BOARD_DEVFLAGS_$(1)) -c $$< -o $$@
+	$(ARM_CC) $(BOARD_CFLAGS) -Ifirmware/boards/$(1) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) $(BOARD_DEVFLAGS_$(1)) -c $$< -o $$@
 
 BOARD_FW_OBJS_$(1) := $$(patsubst %.c,$(BOARD_OUT)/$(1)/dev/%.o,$(BOARD_COMMON)/startup.c \
-                        firmware/boards/$(1)/board.c $(BOARD_DEVICE_SRCS) $(BOARD_DEVKIN_$(1)))
+                        $(BOARD_COMMON)/uart.c firmware/boards/$(1)/board.c $(BOARD_DEVICE_SRCS) \
+                        $(BOARD_DEVKIN_$(1)))
 
 $(BOARD_OUT)/$(1)/fw.elf: $$(BOARD_FW_OBJS_$(1)) firmware/boards/$(1)/memory.ld $(BOARD_COMMON)/sections.ld
 	$(ARM_CC) $(BOARD_FLAGS_$(1)) $(BOARD_LDFLAGS) --specs=nano.specs --specs=nosys.specs \
@@ -87,7 +92,7 @@ $(BOARD_OUT)/$(1)/fw.elf: $$(BOARD_FW_OBJS_$(1)) firmware/boards/$(1)/memory.ld 
 $(BOARD_OUT)/$(1)/devtest/$(BOARD_COMMON)/device_main.o: $(BOARD_COMMON)/device_main.c $(BOARD_HDRS) \
         $(wildcard firmware/src/device/*.h firmware/src/sim/*.h)
 	@mkdir -p $$(@D)
-	$(ARM_CC) $(BOARD_CFLAGS) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) $(BOARD_DEVFLAGS_$(1)) \
+	$(ARM_CC) $(BOARD_CFLAGS) -Ifirmware/boards/$(1) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) $(BOARD_DEVFLAGS_$(1)) \
 	    -DBOARD_TEST_HOOKS -c $$< -o $$@
 BOARD_TEST_OBJS_$(1) := $$(filter-out %/common/device_main.o,$$(BOARD_FW_OBJS_$(1))) \
                         $(BOARD_OUT)/$(1)/devtest/$(BOARD_COMMON)/device_main.o
@@ -102,6 +107,7 @@ $(BOARD_OUT)/$(1)/fw.hex: $(BOARD_OUT)/$(1)/fw.elf
 
 
 BOARD_BASE_OBJS_$(1) := $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/startup.o \
+                        $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/uart.o \
                         $(BOARD_OUT)/$(1)/obj/firmware/boards/$(1)/board.o
 BOARD_ECHO_OBJS_$(1) := $$(BOARD_BASE_OBJS_$(1)) $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/echo_main.o
 BOARD_SELF_OBJS_$(1) := $$(BOARD_BASE_OBJS_$(1)) $(BOARD_OUT)/$(1)/obj/$(BOARD_COMMON)/selftest.o \
@@ -117,7 +123,7 @@ $(BOARD_OUT)/$(1)/selftest.elf: $$(BOARD_SELF_OBJS_$(1)) firmware/boards/$(1)/me
 
 $(BOARD_OUT)/$(1)/canary/selftest.o: $(BOARD_COMMON)/selftest.c $(BOARD_OUT)/golden.h $(BOARD_HDRS)
 	@mkdir -p $$(@D)
-	$(ARM_CC) $(BOARD_CFLAGS) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) -DSELFTEST_CANARY -c $$< -o $$@
+	$(ARM_CC) $(BOARD_CFLAGS) -Ifirmware/boards/$(1) $(BOARD_FLAGS_$(1)) $(BOARD_DEFS_$(1)) -DSELFTEST_CANARY -c $$< -o $$@
 $(BOARD_OUT)/$(1)/selftest-canary.elf: $$(BOARD_SELF_OBJS_$(1)) $(BOARD_OUT)/$(1)/canary/selftest.o
 	$(ARM_CC) $(BOARD_FLAGS_$(1)) $(BOARD_LDFLAGS) --specs=nano.specs --specs=rdimon.specs \
 	    -Tfirmware/boards/$(1)/memory.ld \

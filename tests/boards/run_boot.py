@@ -11,7 +11,10 @@ and checks over pyserial's socket:// URL that
 * the clock advances ("?" returns the board's microseconds);
 * 16 KiB sent in one go come back unchanged: the interrupt-driven UART
   driver loses nothing when its receive ring fills (it holds the emulated
-  UART back instead).
+  UART back instead);
+* the driver's counters ("#", firmware/boards/common/uart.h) agree with what
+  the host sent and received: every byte read, every byte written, no line
+  error.
 """
 
 from __future__ import annotations
@@ -40,16 +43,19 @@ def check(elf: Path) -> None:
     try:
         port = serial.serial_for_url(url, timeout=0.2)
         try:
-            banner = read_until(port, b"\r\n").decode()
+            banner_bytes = read_until(port, b"\r\n")
+            banner = banner_bytes.decode()
             print(f"{board}: {banner.strip()}  ({url})")
             assert f"aacmm boot {board} tick_hz=" in banner, banner
-            t1 = int(port.write(b"?") and read_until(port, b"\n"))
+            t1_line = port.write(b"?") and read_until(port, b"\n")
+            t1 = int(t1_line)
             time.sleep(0.2)
             port.write(b"?")
-            t2 = int(read_until(port, b"\n"))
+            t2_line = read_until(port, b"\n")
+            t2 = int(t2_line)
             assert t2 > t1, (t1, t2)
             print(f"{board}: clock {t1} us -> {t2} us")
-            data = bytes(range(256)).replace(b"?", b"!") * 64
+            data = bytes(range(256)).replace(b"?", b"!").replace(b"#", b"!") * 64
             t0 = time.monotonic()
             port.write(data)
             got = b""
@@ -63,6 +69,16 @@ def check(elf: Path) -> None:
                 f"echo: {len(got)} of {len(data)} bytes, first difference at {first_bad}"
             )
             print(f"{board}: echoed {len(data)} bytes intact ({len(data) / dt / 1000:.1f} kB/s)")
+            sent = 1 + 1 + len(data) + 1  # "?", "?", the data, "#"
+            received = len(banner_bytes) + len(t1_line) + len(t2_line) + len(got)
+            port.write(b"#")
+            fields = read_until(port, b"\n").decode().split()
+            counts = {k: int(v) for k, v in (f.split("=") for f in fields)}
+            print(f"{board}: UART counters {counts}")
+            assert counts["rx_bytes"] == sent, (counts, sent)
+            assert counts["tx_bytes"] == received, (counts, received)
+            assert counts["rx_errors"] == 0, counts
+            assert 0 < counts["tx_peak_bytes"] <= received, counts
         finally:
             port.close()
     finally:

@@ -4,9 +4,9 @@
  * machine.
  *
  * UART: nRF51 UART0 at 0x40002000 (IRQ 2), TX on P0.24 and RX on P0.25 (the
- * interface chip's USB-serial bridge), 115200 8N1, interrupt driven through
- * two rings: RXDRDY moves each received byte into the RX ring, TXDRDY feeds
- * the next byte from the TX ring.
+ * interface chip's USB-serial bridge), 115200 8N1, interrupt driven: the
+ * rings and their rules are common/uart.c's; here RXDRDY hands each received
+ * byte to it and TXDRDY asks it for the next byte to send.
  *
  * Time: the nRF51 has no SysTick (the Cortex-M0 is built without it), so
  * the time base is TIMER0 in 32-bit mode at 16 MHz (prescaler 0): CAPTURE[0]
@@ -23,130 +23,33 @@
 #include "board.h"
 #include "board_startup.h"
 #include "cortexm.h"
-#include "ring.h"
+#include "uart.h"
+#include "uart_hw.h"
 
 const char board_name[] = "microbit";
 
 #define TIMER_HZ 16000000u
 const uint32_t board_tick_hz = TIMER_HZ;
 
-/* ---- UART0 ---- */
-#define UART0_BASE 0x40002000u
-#define UART_TASKS_STARTRX AACMM_REG32(UART0_BASE + 0x000u)
-#define UART_TASKS_STARTTX AACMM_REG32(UART0_BASE + 0x008u)
-#define UART_EVENTS_RXDRDY AACMM_REG32(UART0_BASE + 0x108u)
-#define UART_EVENTS_TXDRDY AACMM_REG32(UART0_BASE + 0x11Cu)
-#define UART_EVENTS_ERROR AACMM_REG32(UART0_BASE + 0x124u)
-#define UART_INTENSET AACMM_REG32(UART0_BASE + 0x304u)
-#define UART_INTENCLR AACMM_REG32(UART0_BASE + 0x308u)
-#define UART_ERRORSRC AACMM_REG32(UART0_BASE + 0x480u)
-#define UART_ENABLE AACMM_REG32(UART0_BASE + 0x500u)
-#define UART_PSELRTS AACMM_REG32(UART0_BASE + 0x508u)
-#define UART_PSELTXD AACMM_REG32(UART0_BASE + 0x50Cu)
-#define UART_PSELCTS AACMM_REG32(UART0_BASE + 0x510u)
-#define UART_PSELRXD AACMM_REG32(UART0_BASE + 0x514u)
-#define UART_RXD AACMM_REG32(UART0_BASE + 0x518u)
-#define UART_TXD AACMM_REG32(UART0_BASE + 0x51Cu)
-#define UART_BAUDRATE AACMM_REG32(UART0_BASE + 0x524u)
-#define UART_CONFIG AACMM_REG32(UART0_BASE + 0x56Cu)
-#define UART_INT_RXDRDY (1u << 2)
-#define UART_INT_TXDRDY (1u << 7)
-#define UART_INT_ERROR (1u << 9)
-#define UART_ENABLE_ON 4u
-#define UART_BAUD_115200 0x01D7E000u
-#define UART_PIN_DISCONNECTED 0xFFFFFFFFu
-#define MICROBIT_TX_PIN 24u
-#define MICROBIT_RX_PIN 25u
-#define UART0_IRQ 2u
-
 /* GPIO: the TX pin must be an output driven high while idle. */
 #define GPIO_OUTSET AACMM_REG32(0x50000508u)
 #define GPIO_PIN_CNF(n) AACMM_REG32(0x50000700u + 4u * (n))
 
-#ifndef BOARD_UART_RX_BYTES
-#define BOARD_UART_RX_BYTES 512u
-#endif
-#ifndef BOARD_UART_TX_BYTES
-#define BOARD_UART_TX_BYTES 1024u
-#endif
+/* ---- UART0 (registers: uart_hw.h) ---- */
 
-static uint8_t rx_mem[BOARD_UART_RX_BYTES];
-static uint8_t tx_mem[BOARD_UART_TX_BYTES];
-static ring_t rx_ring = {0u, 0u, rx_mem, BOARD_UART_RX_BYTES - 1u};
-static ring_t tx_ring = {0u, 0u, tx_mem, BOARD_UART_TX_BYTES - 1u};
-static volatile uint32_t tx_busy;
-static volatile uint32_t rx_paused; /* ring full: RXDRDY interrupt off */
-
-/* One handler for both directions. RX: move received bytes into the ring;
- * when it is full, leave them in the UART's FIFO and turn the RXDRDY
- * interrupt off until board_uart_read makes room (on real hardware the FIFO
- * then overruns; under QEMU the emulated UART holds the sender back).
- * TX: the previous byte has gone; send the next or go idle. */
+/* One handler for both directions: received bytes (RXDRDY), line errors
+ * (counted, then cleared), the previous byte sent (TXDRDY). */
 void IRQ2_Handler(void)
 {
-    uint8_t b;
-    while (UART_EVENTS_RXDRDY && !rx_paused) {
-        if (ring_free(&rx_ring) == 0u) {
-            UART_INTENCLR = UART_INT_RXDRDY;
-            rx_paused = 1u;
-            break;
-        }
-        UART_EVENTS_RXDRDY = 0u;
-        (void)ring_put(&rx_ring, (uint8_t)UART_RXD);
-    }
+    board_uart_isr_rx();
     if (UART_EVENTS_ERROR) {
         UART_EVENTS_ERROR = 0u;
         UART_ERRORSRC = UART_ERRORSRC; /* write 1s to clear */
+        board_uart_isr_rx_error();
     }
     if (UART_EVENTS_TXDRDY) {
         UART_EVENTS_TXDRDY = 0u;
-        if (ring_get(&tx_ring, &b)) {
-            UART_TXD = b;
-        } else {
-            tx_busy = 0u;
-        }
-    }
-}
-
-size_t board_uart_read(uint8_t *buf, size_t cap)
-{
-    size_t n = 0;
-    while (n < cap && ring_get(&rx_ring, &buf[n])) {
-        n++;
-    }
-    if (rx_paused && n > 0u) {
-        /* Room again; the pending RXDRDY event fires the handler. */
-        rx_paused = 0u;
-        UART_INTENSET = UART_INT_RXDRDY;
-    }
-    return n;
-}
-
-size_t board_uart_write(const uint8_t *data, size_t len)
-{
-    size_t n = 0;
-    uint32_t primask;
-    while (n < len && ring_put(&tx_ring, data[n])) {
-        n++;
-    }
-    primask = cortexm_irq_save();
-    if (!tx_busy) {
-        uint8_t b;
-        if (ring_get(&tx_ring, &b)) {
-            tx_busy = 1u;
-            UART_TXD = b;
-        }
-    }
-    cortexm_irq_restore(primask);
-    return n;
-}
-
-void board_uart_write_blocking(const uint8_t *data, size_t len)
-{
-    while (len > 0u) {
-        size_t n = board_uart_write(data, len);
-        data += n;
-        len -= n;
+        board_uart_isr_tx_done();
     }
 }
 
@@ -251,18 +154,6 @@ static void wake_timer_init(void)
     TIMER1_TASKS_CLEAR = 1u;
     TIMER1_TASKS_START = 1u;
     cortexm_irq_enable(TIMER1_IRQ);
-}
-
-/* Sleep until an interrupt, unless received bytes are already waiting (the
- * check and the WFI run with interrupts masked: an interrupt that arrives in
- * between still ends the WFI). */
-void board_idle(void)
-{
-    uint32_t primask = cortexm_irq_save();
-    if (ring_used(&rx_ring) == 0u) {
-        cortexm_wfi();
-    }
-    cortexm_irq_restore(primask);
 }
 
 /* ---- reset cause: POWER.RESETREAS ----

@@ -3,8 +3,9 @@
  * emulated by QEMU's mps2-an386 machine.
  *
  * UART: CMSDK APB UART0 at 0x40004000, RX interrupt IRQ 0, TX interrupt IRQ 1,
- * interrupt driven through two rings. The CMSDK UART holds one received byte
- * (STATE.RXFULL); the RX interrupt moves it into the ring at once.
+ * interrupt driven: the rings and their rules are common/uart.c's. The CMSDK
+ * UART holds one received byte (STATE.RXFULL); the RX interrupt hands it over
+ * at once.
  * Time: SysTick on the 25 MHz processor clock, reload 2^24 - 1, extended to
  * 64 bits by counting wraps in SysTick_Handler.
  */
@@ -14,123 +15,38 @@
 #include "board.h"
 #include "board_startup.h"
 #include "cortexm.h"
-#include "ring.h"
+#include "uart.h"
+#include "uart_hw.h"
 
 const char board_name[] = "mps2-an386";
 
 #define CPU_HZ 25000000u
 const uint32_t board_tick_hz = CPU_HZ;
 
-/* ---- CMSDK APB UART0 ---- */
-#define UART0_BASE 0x40004000u
-#define UART_DATA AACMM_REG32(UART0_BASE + 0x00u)
-#define UART_STATE AACMM_REG32(UART0_BASE + 0x04u)
-#define UART_CTRL AACMM_REG32(UART0_BASE + 0x08u)
-#define UART_INTSTATUS AACMM_REG32(UART0_BASE + 0x0Cu) /* write 1 to clear */
-#define UART_BAUDDIV AACMM_REG32(UART0_BASE + 0x10u)
-#define UART_STATE_TXFULL 0x1u
-#define UART_STATE_RXFULL 0x2u
-#define UART_CTRL_TXEN 0x1u
-#define UART_CTRL_RXEN 0x2u
-#define UART_CTRL_TXINTEN 0x4u
-#define UART_CTRL_RXINTEN 0x8u
-#define UART_INT_TX 0x1u
-#define UART_INT_RX 0x2u
-#define UART0_RX_IRQ 0u
-#define UART0_TX_IRQ 1u
-#define BAUD 115200u
+/* ---- CMSDK APB UART0 (registers: uart_hw.h) ---- */
 
-#ifndef BOARD_UART_RX_BYTES
-#define BOARD_UART_RX_BYTES 1024u
-#endif
-#ifndef BOARD_UART_TX_BYTES
-#define BOARD_UART_TX_BYTES 2048u
-#endif
-
-static uint8_t rx_mem[BOARD_UART_RX_BYTES];
-static uint8_t tx_mem[BOARD_UART_TX_BYTES];
-static ring_t rx_ring = {0u, 0u, rx_mem, BOARD_UART_RX_BYTES - 1u};
-static ring_t tx_ring = {0u, 0u, tx_mem, BOARD_UART_TX_BYTES - 1u};
-static volatile uint32_t tx_busy;   /* a byte is in the transmitter */
-static volatile uint32_t rx_paused; /* ring full: RX interrupt off */
-
-/* RX: the receive register holds one byte; move it to the ring. When the
- * ring is full the byte stays in the UART and the RX interrupt is turned off
- * until board_uart_read makes room (on real hardware the line then overruns;
- * under QEMU the emulated UART holds the sender back, so nothing is lost). */
+/* RX: a byte received (an overrun is counted, then cleared). */
 void IRQ0_Handler(void)
 {
     UART_INTSTATUS = UART_INT_RX;
-    while (UART_STATE & UART_STATE_RXFULL) {
-        if (ring_free(&rx_ring) == 0u) {
-            UART_CTRL = UART_CTRL & ~UART_CTRL_RXINTEN;
-            rx_paused = 1u;
-            return;
-        }
-        (void)ring_put(&rx_ring, (uint8_t)UART_DATA);
+    if (UART_STATE & UART_STATE_RXOVERRUN) {
+        UART_STATE = UART_STATE_RXOVERRUN; /* write 1 to clear */
+        board_uart_isr_rx_error();
     }
+    board_uart_isr_rx();
 }
 
-/* TX: the previous byte has gone; send the next one or go idle. */
+/* TX: the previous byte has gone. */
 void IRQ1_Handler(void)
 {
-    uint8_t b;
     UART_INTSTATUS = UART_INT_TX;
-    if (ring_get(&tx_ring, &b)) {
-        UART_DATA = b;
-    } else {
-        tx_busy = 0u;
-    }
-}
-
-size_t board_uart_read(uint8_t *buf, size_t cap)
-{
-    size_t n = 0;
-    while (n < cap && ring_get(&rx_ring, &buf[n])) {
-        n++;
-    }
-    if (rx_paused && n > 0u) {
-        /* Room again: take the byte held in the UART via the handler. */
-        rx_paused = 0u;
-        UART_CTRL = UART_CTRL | UART_CTRL_RXINTEN;
-        cortexm_irq_pend(UART0_RX_IRQ);
-    }
-    return n;
-}
-
-size_t board_uart_write(const uint8_t *data, size_t len)
-{
-    size_t n = 0;
-    uint32_t primask;
-    while (n < len && ring_put(&tx_ring, data[n])) {
-        n++;
-    }
-    /* Start the transmitter if it is idle; the TX interrupt does the rest. */
-    primask = cortexm_irq_save();
-    if (!tx_busy) {
-        uint8_t b;
-        if (ring_get(&tx_ring, &b)) {
-            tx_busy = 1u;
-            UART_DATA = b;
-        }
-    }
-    cortexm_irq_restore(primask);
-    return n;
-}
-
-void board_uart_write_blocking(const uint8_t *data, size_t len)
-{
-    while (len > 0u) {
-        size_t n = board_uart_write(data, len);
-        data += n;
-        len -= n;
-    }
+    board_uart_isr_tx_done();
 }
 
 static void uart_init(void)
 {
     UART_CTRL = 0u;
-    UART_BAUDDIV = CPU_HZ / BAUD;
+    UART_BAUDDIV = CPU_HZ / UART_BAUD;
     UART_INTSTATUS = UART_INT_TX | UART_INT_RX;
     UART_CTRL = UART_CTRL_TXEN | UART_CTRL_RXEN | UART_CTRL_TXINTEN | UART_CTRL_RXINTEN;
     cortexm_irq_enable(UART0_RX_IRQ);
@@ -177,18 +93,6 @@ static void systick_init(void)
     SYST_RVR = SYSTICK_PERIOD - 1u;
     SYST_CVR = 0u;
     SYST_CSR = SYST_CSR_CLKSOURCE | SYST_CSR_TICKINT | SYST_CSR_ENABLE;
-}
-
-/* Sleep until an interrupt, unless received bytes are already waiting (the
- * check and the WFI run with interrupts masked: an interrupt that arrives in
- * between still ends the WFI). */
-void board_idle(void)
-{
-    uint32_t primask = cortexm_irq_save();
-    if (ring_used(&rx_ring) == 0u) {
-        cortexm_wfi();
-    }
-    cortexm_irq_restore(primask);
 }
 
 /* ---- reset cause ---- */
