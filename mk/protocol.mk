@@ -3,11 +3,12 @@
 # through a test-only shared library), mypy/ruff on the Python codec, and a
 # Cortex-M build of the codec.
 
-PROTO_SRCS := firmware/src/status.c firmware/src/protocol/crc32.c firmware/src/protocol/cobs.c \
-              firmware/src/protocol/frame.c firmware/src/protocol/proto.c \
+# encoder.c: aacmm_encoder_validate, the parameter set's encoder check (aacmm/proto.h).
+PROTO_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/protocol/crc32.c \
+              firmware/src/protocol/cobs.c firmware/src/protocol/frame.c firmware/src/protocol/proto.c \
               firmware/src/protocol/proto_can.c firmware/src/protocol/isotp.c
 PROTO_HDRS := $(addprefix firmware/include/aacmm/,status.h kinematics.h crc32.h cobs.h frame.h \
-              proto.h proto_can.h isotp.h)
+              proto.h proto_can.h isotp.h) firmware/src/aacmm_internal.h
 PROTO_VECTORS := tests/vectors/protocol_vectors.txt
 PROTO_TEST_SRCS := tests/protocol/test_protocol.c tests/protocol/vectors.c
 PROTO_TEST_DEPS := $(PROTO_SRCS) $(PROTO_HDRS) $(PROTO_TEST_SRCS) tests/protocol/vectors.h

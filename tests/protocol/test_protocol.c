@@ -255,6 +255,67 @@ static void test_unknown_types_and_version(void **state)
     assert_int_equal(aacmm_msg_decode(body, 3, NULL), AACMM_ERR_NULL);
 }
 
+/* The parameter set's encoder rule at every boundary, both ways: the wire
+ * layout (docs/protocol.md: kin 200 bytes, then u64 cpr[6], u32 zero[6],
+ * i8 direction[6]) patched on a valid encoding for the decoder, the same
+ * values set in the struct for the encoder, and the same verdict from
+ * aacmm_encoder_validate (the one check both use). */
+static void test_param_set_encoder_rule(void **state)
+{
+    static const struct {
+        uint64_t cpr;
+        uint32_t zero;
+        uint8_t dir_byte;
+        int ok;
+    } cases[] = {
+        {2u, 0u, 0x01u, 1},           {2u, 1u, 0xFFu, 1},
+        {4294967296ull, 4294967295u, 0x01u, 1},
+        {1u, 0u, 0x01u, 0},           {0u, 0u, 0x01u, 0},
+        {4294967297ull, 0u, 0x01u, 0}, {UINT64_MAX, 0u, 0x01u, 0},
+        {1000u, 999u, 0x01u, 1},      {1000u, 1000u, 0x01u, 0},
+        {1000u, 4294967295u, 0x01u, 0}, {1000u, 0u, 0x00u, 0},
+        {1000u, 0u, 0x02u, 0},        {1000u, 0u, 0xFEu, 0},
+    };
+    const size_t cpr_at = 200u, zero_at = 248u, dir_at = 272u;
+    aacmm_msg_t m;
+    aacmm_param_set_t valid, set, back;
+    uint8_t wire[AACMM_PARAM_SET_BYTES];
+    uint8_t patched[AACMM_PARAM_SET_BYTES];
+    size_t c, j, k;
+    (void)state;
+    assert_true(vec_expected_msg("set_params_req", &m));
+    valid = m.u.params;
+    assert_int_equal(aacmm_param_set_encode(&valid, wire, sizeof wire), AACMM_OK);
+    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            const aacmm_status_t want = cases[c].ok ? AACMM_OK : AACMM_ERR_RANGE;
+            memcpy(patched, wire, sizeof wire);
+            for (k = 0; k < 8u; k++) {
+                patched[cpr_at + 8u * j + k] = (uint8_t)(cases[c].cpr >> (8u * k));
+            }
+            for (k = 0; k < 4u; k++) {
+                patched[zero_at + 4u * j + k] = (uint8_t)(cases[c].zero >> (8u * k));
+            }
+            patched[dir_at + j] = cases[c].dir_byte;
+            assert_int_equal(aacmm_param_set_decode(patched, sizeof patched, &back), want);
+
+            set = valid;
+            set.enc.counts_per_rev[j] = cases[c].cpr;
+            set.enc.zero_offset_counts[j] = cases[c].zero;
+            set.enc.direction[j] = (int8_t)cases[c].dir_byte;
+            assert_int_equal(aacmm_encoder_validate(&set.enc), want);
+            assert_int_equal(aacmm_param_set_encode(&set, wire, sizeof wire), want);
+            if (cases[c].ok) {
+                assert_memory_equal(wire, patched, sizeof wire);
+                assert_int_equal(back.enc.counts_per_rev[j], cases[c].cpr);
+                assert_int_equal(back.enc.zero_offset_counts[j], cases[c].zero);
+                assert_int_equal(back.enc.direction[j], set.enc.direction[j]);
+            }
+            assert_int_equal(aacmm_param_set_encode(&valid, wire, sizeof wire), AACMM_OK);
+        }
+    }
+}
+
 static void test_helpers_counted_decode_error_reply(void **state)
 {
     aacmm_msg_stats_t stats;
@@ -988,6 +1049,7 @@ int main(void)
         cmocka_unit_test(test_truncated_and_extended),
         cmocka_unit_test(test_unknown_types_and_version),
         cmocka_unit_test(test_encode_rejects),
+        cmocka_unit_test(test_param_set_encoder_rule),
         cmocka_unit_test(test_helpers_counted_decode_error_reply),
         cmocka_unit_test(test_param_set_crc),
         cmocka_unit_test(test_point_to_wire),

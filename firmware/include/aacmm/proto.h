@@ -21,6 +21,12 @@
  *   - every floating-point field is finite (AACMM_ERR_NOT_FINITE)
  *   - content/flag bytes have no unknown bits, reserved bytes are zero,
  *     enumerations are in range (AACMM_ERR_RANGE)
+ *   - a parameter set's encoder configuration passes aacmm_encoder_validate
+ *     (AACMM_ERR_RANGE): the encoder layer owns that rule (aacmm/kinematics.h,
+ *     encoder.c), so the codec, the device and the core apply one check. It is
+ *     the codec's one dependency beyond the protocol folder and status.c:
+ *     encoder.c is integer-only and stateless, with no floating point and no
+ *     other unit behind it.
  *   - an unknown type gives AACMM_ERR_UNKNOWN_TYPE, another version
  *     AACMM_ERR_VERSION (in both cases msg->type and msg->seq are still set
  *     from the header, so the device can answer with an error response).

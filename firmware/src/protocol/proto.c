@@ -172,25 +172,6 @@ static double rd_f64(rd_t *r)
 
 /* ---- payload pieces ---------------------------------------------------- */
 
-#define COUNTS_PER_REV_MAX 4294967296ull
-
-static aacmm_status_t check_encoder(const aacmm_encoder_config_t *enc)
-{
-    size_t i;
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        if (enc->counts_per_rev[i] < 2u || enc->counts_per_rev[i] > COUNTS_PER_REV_MAX) {
-            return AACMM_ERR_RANGE;
-        }
-        if ((uint64_t)enc->zero_offset_counts[i] >= enc->counts_per_rev[i]) {
-            return AACMM_ERR_RANGE;
-        }
-        if (enc->direction[i] != 1 && enc->direction[i] != -1) {
-            return AACMM_ERR_RANGE;
-        }
-    }
-    return AACMM_OK;
-}
-
 static void wr_f64_array(wr_t *w, const double *v, size_t n)
 {
     size_t i;
@@ -225,7 +206,7 @@ static void wr_params(wr_t *w, const aacmm_param_set_t *p)
         wr_u8(w, (uint8_t)p->enc.direction[i]);
     }
     if (w->err == AACMM_OK) {
-        aacmm_status_t st = check_encoder(&p->enc);
+        aacmm_status_t st = aacmm_encoder_validate(&p->enc);
         if (st != AACMM_OK) {
             w->err = st;
         }
@@ -251,7 +232,7 @@ static void rd_params(rd_t *r, aacmm_param_set_t *p)
         p->enc.direction[i] = (b == 0xFFu) ? (int8_t)-1 : (b == 1u ? (int8_t)1 : (int8_t)0);
     }
     if (r->err == AACMM_OK) {
-        aacmm_status_t st = check_encoder(&p->enc);
+        aacmm_status_t st = aacmm_encoder_validate(&p->enc);
         if (st != AACMM_OK) {
             r->err = st;
         }
