@@ -23,13 +23,14 @@ DEV_SUFFIX    := $(if $(filter q,$(DEVICE_KIN)),-q)
 DEVICE_SRCS := firmware/src/device/device.c firmware/src/device/param_store.c $(DEV_KIN_SRCS)
 SIM_SRCS    := firmware/src/sim/sim_motion.c firmware/src/sim/sim_encoder.c
 POSIX_SRCS  := firmware/ports/posix/sim_main.c firmware/ports/posix/posix_port.c \
-               firmware/ports/posix/sim_control.c
+               firmware/ports/posix/sim_control.c firmware/ports/posix/replay_file.c
 
 DEV_ALL_SRCS := $(DEVICE_SRCS) $(SIM_SRCS) $(DEV_CORE_SRCS) $(DEV_PROTO_SRCS)
 DEV_HDRS := $(wildcard firmware/include/aacmm/*.h) $(wildcard firmware/src/*.h) \
             $(wildcard firmware/src/device/*.h) \
             firmware/src/device/device_kin.h firmware/src/sim/aacmm_sim.h \
-            firmware/ports/posix/posix_port.h firmware/ports/posix/sim_control.h
+            firmware/ports/posix/posix_port.h firmware/ports/posix/sim_control.h \
+            firmware/ports/posix/replay_file.h
 DEV_INC  := -I$(FW_INC) -Ifirmware/src/device -Ifirmware/src/sim
 
 # ---- the simulator -------------------------------------------------------
@@ -96,8 +97,27 @@ test-device-q: $(BUILD)/device/test_device_q
 test-device-sim: $(SIM_BIN) $(BUILD)/sim$(DEV_SUFFIX)/aacmm-sim-clang
 	/usr/bin/python3 tests/device/sim_smoke.py $(SIM_BIN)
 
+# The simulator's replay-file parser against hostile files (malformed lines,
+# huge values, NaN, long lines, NUL bytes, empty and missing files): gcc, and
+# clang under ASan+UBSan.
+REPLAY_TEST_DEPS := tests/device/test_replay_file.c firmware/ports/posix/replay_file.c \
+                    firmware/ports/posix/replay_file.h firmware/include/aacmm/kinematics.h
+$(BUILD)/device/test_replay_file_gcc: $(REPLAY_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(HOST_OPT) -I$(FW_INC) -Ifirmware/ports/posix \
+	    tests/device/test_replay_file.c firmware/ports/posix/replay_file.c $(CMOCKA_LIBS) -o $@
+$(BUILD)/device/test_replay_file_san: $(REPLAY_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(SAN_FLAGS) -I$(FW_INC) -Ifirmware/ports/posix \
+	    tests/device/test_replay_file.c firmware/ports/posix/replay_file.c $(CMOCKA_LIBS) -o $@
+.PHONY: test-device-replay
+test-device-replay: $(BUILD)/device/test_replay_file_gcc $(BUILD)/device/test_replay_file_san
+	$(BUILD)/device/test_replay_file_gcc
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	    $(BUILD)/device/test_replay_file_san
+
 TEST_SUITES += test-device-gcc test-device-clang test-device-san test-device-q test-device-sim \
-               test-device-m4f
+               test-device-m4f test-device-replay
 
 # ---- portability: the device application and the simulated arm compile for
 # Cortex-M4F (float core) and Cortex-M0+ with the ARM toolchain, warning-free,

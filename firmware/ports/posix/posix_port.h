@@ -62,16 +62,6 @@ int posix_storage_load(posix_port_t *port, int quiet, char *err, size_t err_cap)
 void posix_storage_report(const posix_port_t *port, const aacmm_msg_diag_t *diag,
                           char *out, size_t cap);
 
-/* Parse a replay file: either one pose per line, six unsigned decimal counts
- * separated by blanks or commas, '#' starts a comment; or a CSV whose first
- * line is a header naming count1..count6 (an aacmm log or trigger file: the
- * other columns are ignored, rows whose flags column has ENCODER_FAULT are
- * skipped). Every count must be < cpr. On success *poses (malloc'd, n*6
- * counts) and *n are set and 0 is returned; else -1 with "FILE:LINE:
- * problem" in err. */
-int posix_replay_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t *n, char *err,
-                      size_t err_cap);
-
 /* Fill *pf with the port's functions (links present as opened). */
 void posix_platform(posix_port_t *port, aacmm_platform_t *pf);
 

@@ -21,6 +21,7 @@
 #include "aacmm/device.h"
 #include "aacmm_sim.h"
 #include "posix_port.h"
+#include "replay_file.h"
 
 #define SERIAL_TXQ_BYTES (256u * 1024u)
 
@@ -302,7 +303,7 @@ int main(int argc, char **argv)
 
     /* Encoder source. */
     if (o.motion == AACMM_SIM_REPLAY &&
-        posix_replay_load(o.replay_path, o.cpr, &replay, &replay_n, err, sizeof err) != 0) {
+        replay_file_load(o.replay_path, o.cpr, &replay, &replay_n, err, sizeof err) != 0) {
         fprintf(stderr, "aacmm-sim: %s\n", err);
         return SIM_EXIT_USAGE;
     }
