@@ -7,7 +7,7 @@
 PROTO_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/protocol/crc32.c \
               firmware/src/protocol/cobs.c firmware/src/protocol/frame.c firmware/src/protocol/proto.c \
               firmware/src/protocol/proto_can.c firmware/src/protocol/isotp.c
-PROTO_HDRS := $(addprefix firmware/include/aacmm/,status.h kinematics.h crc32.h cobs.h frame.h \
+PROTO_HDRS := $(addprefix firmware/include/aacmm/,status.h kinematics.h crc32.h le_bytes.h cobs.h frame.h \
               proto.h proto_can.h isotp.h) firmware/src/aacmm_internal.h
 PROTO_VECTORS := tests/vectors/protocol_vectors.txt
 PROTO_TEST_SRCS := tests/protocol/test_protocol.c tests/protocol/vectors.c

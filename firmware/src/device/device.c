@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "aacmm/crc32.h"
+#include "aacmm/le_bytes.h"
 #include "device_kin.h"
 
 #define US_PER_S 1000000u
@@ -603,12 +604,8 @@ static int serial_send_droppable(aacmm_device_t *dev, const aacmm_msg_t *msg)
     if (aacmm_msg_encode(msg, dev->body, sizeof dev->body, &n) != AACMM_OK || n != need) {
         return 0;
     }
-    hdr[0] = (uint8_t)(n & 0xFFu);
-    hdr[1] = (uint8_t)(n >> 8);
-    hdr[2] = (uint8_t)(t & 0xFFu);
-    hdr[3] = (uint8_t)((t >> 8) & 0xFFu);
-    hdr[4] = (uint8_t)((t >> 16) & 0xFFu);
-    hdr[5] = (uint8_t)(t >> 24);
+    aacmm_le_put_u16(&hdr[0], (uint16_t)n);
+    aacmm_le_put_u32(&hdr[2], t);
     txq_put(s, hdr, TXQ_HDR);
     txq_put(s, dev->body, n);
     return 1;

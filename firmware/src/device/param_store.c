@@ -10,6 +10,7 @@
 
 #include "aacmm/crc32.h"
 #include "aacmm/device.h"
+#include "aacmm/le_bytes.h"
 
 #define OFF_MAGIC 0u
 #define OFF_VERSION 4u
@@ -19,30 +20,6 @@
 #define OFF_CRC (OFF_PAYLOAD + AACMM_PARAM_SET_BYTES)
 
 #define NO_SLOT 0xFFu
-
-static uint32_t get_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
-static uint16_t get_u16(const uint8_t *p)
-{
-    return (uint16_t)((uint16_t)p[0] | (uint16_t)((uint16_t)p[1] << 8));
-}
-
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)((v >> 8) & 0xFFu);
-    p[2] = (uint8_t)((v >> 16) & 0xFFu);
-    p[3] = (uint8_t)((v >> 24) & 0xFFu);
-}
-
-static void put_u16(uint8_t *p, uint16_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)(v >> 8);
-}
 
 static int storage_usable(const aacmm_platform_t *pf)
 {
@@ -86,21 +63,21 @@ static uint8_t classify(const uint8_t *rec, uint32_t *generation, aacmm_param_se
     if (all_bytes(rec, 0xFFu) || all_bytes(rec, 0x00u)) {
         return AACMM_SLOT_ERASED;
     }
-    if (get_u32(rec + OFF_MAGIC) != AACMM_STORE_MAGIC) {
+    if (aacmm_le_get_u32(rec + OFF_MAGIC) != AACMM_STORE_MAGIC) {
         return AACMM_SLOT_UNRECOGNISED;
     }
-    version = get_u16(rec + OFF_VERSION);
+    version = aacmm_le_get_u16(rec + OFF_VERSION);
     if (version == 0xFFFFu) {
         return AACMM_SLOT_INCOMPLETE; /* only the magic was written */
     }
     if (version != AACMM_STORE_VERSION) {
         return AACMM_SLOT_VERSION;
     }
-    *generation = get_u32(rec + OFF_GEN);
-    if (get_u16(rec + OFF_LEN) != AACMM_PARAM_SET_BYTES) {
+    *generation = aacmm_le_get_u32(rec + OFF_GEN);
+    if (aacmm_le_get_u16(rec + OFF_LEN) != AACMM_PARAM_SET_BYTES) {
         return AACMM_SLOT_BAD_LENGTH;
     }
-    if (aacmm_crc32(rec, OFF_CRC) != get_u32(rec + OFF_CRC)) {
+    if (aacmm_crc32(rec, OFF_CRC) != aacmm_le_get_u32(rec + OFF_CRC)) {
         return AACMM_SLOT_BAD_CRC;
     }
     if (decode_payload(rec, set) != AACMM_OK) {
@@ -244,16 +221,16 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     target = r.newest == NO_SLOT ? 0u : (uint8_t)(1u - r.newest);
     gen = r.newest == NO_SLOT ? 1u : r.slot_generation[r.newest] + 1u;
 
-    put_u32(record + OFF_MAGIC, AACMM_STORE_MAGIC);
-    put_u16(record + OFF_VERSION, (uint16_t)AACMM_STORE_VERSION);
-    put_u16(record + OFF_LEN, (uint16_t)AACMM_PARAM_SET_BYTES);
-    put_u32(record + OFF_GEN, gen);
+    aacmm_le_put_u32(record + OFF_MAGIC, AACMM_STORE_MAGIC);
+    aacmm_le_put_u16(record + OFF_VERSION, (uint16_t)AACMM_STORE_VERSION);
+    aacmm_le_put_u16(record + OFF_LEN, (uint16_t)AACMM_PARAM_SET_BYTES);
+    aacmm_le_put_u32(record + OFF_GEN, gen);
     st = aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_BYTES);
     if (st != AACMM_OK) {
         return st;
     }
     crc = aacmm_crc32(record, OFF_CRC);
-    put_u32(record + OFF_CRC, crc);
+    aacmm_le_put_u32(record + OFF_CRC, crc);
 
     offset = (uint32_t)target * AACMM_STORE_SLOT_BYTES;
     /* From here on the target slot is neither its old contents nor the new
@@ -277,7 +254,7 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     {
         uint32_t g = 0u;
         if (classify(record, &g, &tmp) != AACMM_SLOT_OLDER || g != gen ||
-            get_u32(record + OFF_CRC) != crc) {
+            aacmm_le_get_u32(record + OFF_CRC) != crc) {
             return AACMM_ERR_STORAGE;
         }
     }

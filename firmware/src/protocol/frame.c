@@ -1,6 +1,7 @@
 #include "aacmm/frame.h"
 
 #include "aacmm/crc32.h"
+#include "aacmm/le_bytes.h"
 
 aacmm_status_t aacmm_frame_encode(const uint8_t *body, size_t body_len, uint8_t *out,
                                   size_t out_cap, size_t *out_len)
@@ -22,10 +23,7 @@ aacmm_status_t aacmm_frame_encode(const uint8_t *body, size_t body_len, uint8_t 
         return AACMM_ERR_BUFFER;
     }
     crc = aacmm_crc32(body, body_len);
-    crc_le[0] = (uint8_t)(crc & 0xFFu);
-    crc_le[1] = (uint8_t)((crc >> 8) & 0xFFu);
-    crc_le[2] = (uint8_t)((crc >> 16) & 0xFFu);
-    crc_le[3] = (uint8_t)((crc >> 24) & 0xFFu);
+    aacmm_le_put_u32(crc_le, crc);
 
     out[0] = 0u;
     st = aacmm_cobs_encoder_init(&enc, out + 1, out_cap - 2u);
@@ -43,16 +41,22 @@ aacmm_status_t aacmm_frame_encode(const uint8_t *body, size_t body_len, uint8_t 
     return AACMM_OK;
 }
 
-void aacmm_deframer_init(aacmm_deframer_t *d)
+/* The state of the frame in progress: empty, as after a delimiter. */
+static void deframer_restart(aacmm_deframer_t *d)
 {
-    if (d == NULL) {
-        return;
-    }
     d->len = 0u;
     d->wire_bytes = 0u;
     d->remaining = 0u;
     d->zero_pending = 0u;
     d->discarding = 0u;
+}
+
+void aacmm_deframer_init(aacmm_deframer_t *d)
+{
+    if (d == NULL) {
+        return;
+    }
+    deframer_restart(d);
     d->delivered = 0u;
     d->last_error = AACMM_OK;
     d->stats.frames_ok = 0u;
@@ -61,15 +65,6 @@ void aacmm_deframer_init(aacmm_deframer_t *d)
     d->stats.oversize = 0u;
     d->stats.runts = 0u;
     d->stats.bytes_dropped = 0u;
-}
-
-static void deframer_restart(aacmm_deframer_t *d)
-{
-    d->len = 0u;
-    d->wire_bytes = 0u;
-    d->remaining = 0u;
-    d->zero_pending = 0u;
-    d->discarding = 0u;
 }
 
 static void deframer_reject(aacmm_deframer_t *d, aacmm_status_t why, uint32_t *counter)
@@ -110,8 +105,7 @@ static int deframer_end(aacmm_deframer_t *d)
         return 0;
     }
     body_len = d->len - AACMM_FRAME_CRC_BYTES;
-    crc_rx = (uint32_t)d->buf[body_len] | ((uint32_t)d->buf[body_len + 1u] << 8) |
-             ((uint32_t)d->buf[body_len + 2u] << 16) | ((uint32_t)d->buf[body_len + 3u] << 24);
+    crc_rx = aacmm_le_get_u32(&d->buf[body_len]);
     if (crc_rx != aacmm_crc32(d->buf, body_len)) {
         deframer_reject(d, AACMM_ERR_CRC, &d->stats.crc_errors);
         return 0;

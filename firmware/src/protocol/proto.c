@@ -81,11 +81,18 @@ static int f64_bits_finite(uint64_t u)
     return ((u >> 52) & 0x7FFu) != 0x7FFu;
 }
 
+static void wr_fail(wr_t *w, aacmm_status_t e)
+{
+    if (w->err == AACMM_OK) {
+        w->err = e;
+    }
+}
+
 static void wr_f32(wr_t *w, float f)
 {
     uint32_t u = f32_bits(f);
-    if (w->err == AACMM_OK && !f32_bits_finite(u)) {
-        w->err = AACMM_ERR_NOT_FINITE;
+    if (!f32_bits_finite(u)) {
+        wr_fail(w, AACMM_ERR_NOT_FINITE);
     }
     wr_u32(w, u);
 }
@@ -93,17 +100,10 @@ static void wr_f32(wr_t *w, float f)
 static void wr_f64(wr_t *w, double f)
 {
     uint64_t u = f64_bits(f);
-    if (w->err == AACMM_OK && !f64_bits_finite(u)) {
-        w->err = AACMM_ERR_NOT_FINITE;
+    if (!f64_bits_finite(u)) {
+        wr_fail(w, AACMM_ERR_NOT_FINITE);
     }
     wr_u64(w, u);
-}
-
-static void wr_fail(wr_t *w, aacmm_status_t e)
-{
-    if (w->err == AACMM_OK) {
-        w->err = e;
-    }
 }
 
 static uint8_t rd_u8(rd_t *r)
@@ -191,6 +191,7 @@ static void rd_f64_array(rd_t *r, double *v, size_t n)
 static void wr_params(wr_t *w, const aacmm_param_set_t *p)
 {
     size_t i;
+    aacmm_status_t st;
     wr_f64_array(w, p->kin.theta_offset_rad, AACMM_JOINTS);
     wr_f64_array(w, p->kin.alpha_rad, AACMM_JOINTS);
     wr_f64_array(w, p->kin.d_mm, AACMM_JOINTS);
@@ -205,17 +206,16 @@ static void wr_params(wr_t *w, const aacmm_param_set_t *p)
     for (i = 0; i < AACMM_JOINTS; i++) {
         wr_u8(w, (uint8_t)p->enc.direction[i]);
     }
-    if (w->err == AACMM_OK) {
-        aacmm_status_t st = aacmm_encoder_validate(&p->enc);
-        if (st != AACMM_OK) {
-            w->err = st;
-        }
+    st = aacmm_encoder_validate(&p->enc);
+    if (st != AACMM_OK) {
+        wr_fail(w, st);
     }
 }
 
 static void rd_params(rd_t *r, aacmm_param_set_t *p)
 {
     size_t i;
+    aacmm_status_t st;
     rd_f64_array(r, p->kin.theta_offset_rad, AACMM_JOINTS);
     rd_f64_array(r, p->kin.alpha_rad, AACMM_JOINTS);
     rd_f64_array(r, p->kin.d_mm, AACMM_JOINTS);
@@ -231,11 +231,9 @@ static void rd_params(rd_t *r, aacmm_param_set_t *p)
         uint8_t b = rd_u8(r);
         p->enc.direction[i] = (b == 0xFFu) ? (int8_t)-1 : (b == 1u ? (int8_t)1 : (int8_t)0);
     }
-    if (r->err == AACMM_OK) {
-        aacmm_status_t st = aacmm_encoder_validate(&p->enc);
-        if (st != AACMM_OK) {
-            r->err = st;
-        }
+    st = aacmm_encoder_validate(&p->enc);
+    if (st != AACMM_OK) {
+        rd_fail(r, st);
     }
 }
 

@@ -1,19 +1,13 @@
 #include "aacmm/proto_can.h"
 
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)((v >> 8) & 0xFFu);
-    p[2] = (uint8_t)((v >> 16) & 0xFFu);
-    p[3] = (uint8_t)((v >> 24) & 0xFFu);
-}
+#include "aacmm/le_bytes.h"
 
 static void put_pair(aacmm_can_frame_t *f, uint32_t id, uint32_t a, uint32_t b)
 {
     f->id = id;
     f->dlc = 8u;
-    put_u32(&f->data[0], a);
-    put_u32(&f->data[4], b);
+    aacmm_le_put_u32(&f->data[0], a);
+    aacmm_le_put_u32(&f->data[4], b);
 }
 
 aacmm_status_t aacmm_can_sample_encode(const aacmm_sample_t *s, uint8_t node_id,
