@@ -27,12 +27,27 @@ extern uint32_t __bss_end;
 
 int main(void);
 
+/* The weak defaults of the hooks board.h and board_startup.h declare, for
+ * every board (device_main.c overrides what the device image needs). */
 void board_fault_hook(uint32_t ipsr) __attribute__((weak));
 void board_fault_hook(uint32_t ipsr)
 {
     (void)ipsr;
     for (;;) {
     }
+}
+
+void board_watchdog_warning(void) __attribute__((weak));
+void board_watchdog_warning(void)
+{
+}
+
+int board_flash_hook(uint32_t step, uint32_t *word) __attribute__((weak));
+int board_flash_hook(uint32_t step, uint32_t *word)
+{
+    (void)step;
+    (void)word;
+    return 0;
 }
 
 void default_handler(void)

@@ -211,11 +211,6 @@ uint8_t board_reset_cause(uint32_t reg)
 #define WDT_CONFIG_SLEEP_RUN 0x1u
 #define WDT_IRQ 16u
 
-void board_watchdog_warning(void) __attribute__((weak));
-void board_watchdog_warning(void)
-{
-}
-
 void IRQ16_Handler(void)
 {
     WDT_EVENTS_TIMEOUT = 0u;
@@ -267,14 +262,6 @@ void board_watchdog_feed(void)
 const uint8_t board_storage_kind = 4u;  /* AACMM_STORAGE_KIND_FLASH */
 const uint8_t board_storage_flags = 1u; /* AACMM_STORAGE_PERSISTENT */
 const uint8_t board_storage_has_erase = 1u;
-
-int board_flash_hook(uint32_t step, uint32_t *word) __attribute__((weak));
-int board_flash_hook(uint32_t step, uint32_t *word)
-{
-    (void)step;
-    (void)word;
-    return 0;
-}
 
 static void nvmc_wait(void)
 {

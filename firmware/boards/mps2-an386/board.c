@@ -125,11 +125,6 @@ uint8_t board_reset_cause(uint32_t reg)
 #define WDOG_CTRL_INTEN 0x1u
 #define WDOG_CTRL_RESEN 0x2u
 
-void board_watchdog_warning(void) __attribute__((weak));
-void board_watchdog_warning(void)
-{
-}
-
 void NMI_Handler(void)
 {
     board_watchdog_warning(); /* the interrupt stays set: the next timeout resets */
@@ -180,28 +175,38 @@ static void store_init(void)
     }
 }
 
-int board_storage_read(uint32_t offset, uint8_t *buf, size_t len)
+/* The store's bytes at offset, ready for use, or NULL if out of range. */
+static uint8_t *store_at(uint32_t offset, size_t len)
 {
-    size_t i;
     if (offset > STORE_BYTES || len > STORE_BYTES - offset) {
-        return -1;
+        return NULL;
     }
     store_init();
+    return &store[offset];
+}
+
+int board_storage_read(uint32_t offset, uint8_t *buf, size_t len)
+{
+    const uint8_t *p = store_at(offset, len);
+    size_t i;
+    if (p == NULL) {
+        return -1;
+    }
     for (i = 0; i < len; i++) {
-        buf[i] = store[offset + i];
+        buf[i] = p[i];
     }
     return 0;
 }
 
 int board_storage_write(uint32_t offset, const uint8_t *data, size_t len)
 {
+    uint8_t *p = store_at(offset, len);
     size_t i;
-    if (offset > STORE_BYTES || len > STORE_BYTES - offset) {
+    if (p == NULL) {
         return -1;
     }
-    store_init();
     for (i = 0; i < len; i++) {
-        store[offset + i] = data[i];
+        p[i] = data[i];
     }
     return 0;
 }
