@@ -129,27 +129,19 @@ static int parse_args(int argc, char **argv, options_t *o)
             v = eq + 1;
         } else if (i + 1 < argc) {
             v = argv[++i];
-        } else {
+        }
+        if (v == NULL || v[0] == '\0') {
             return usage_error("%s needs a value", name);
         }
         if (strcmp(name, "--serial") == 0) {
-            if (v[0] == '\0') {
-                return usage_error("%s needs a value", name);
-            }
             o->serial = v;
         } else if (strcmp(name, "--can") == 0) {
-            if (v[0] == '\0') {
-                return usage_error("%s needs a value", name);
-            }
             o->can = v;
         } else if (strcmp(name, "--node") == 0) {
             if (parse_u64(v, 0u, AACMM_CAN_NODE_ID_MAX, &o->node) != 0) {
                 return usage_error("--node: '%s' is not a CAN node id 0..15", v);
             }
         } else if (strcmp(name, "--storage") == 0) {
-            if (v[0] == '\0') {
-                return usage_error("%s needs a value", name);
-            }
             o->storage = v;
         } else if (strcmp(name, "--motion") == 0) {
             if (strcmp(v, "sweep") == 0) {
@@ -211,9 +203,6 @@ static int parse_args(int argc, char **argv, options_t *o)
                 return usage_error("--encoder-faults: '%s' is not a number 0..4294967295", v);
             }
         } else if (strcmp(name, "--control") == 0) {
-            if (v[0] == '\0') {
-                return usage_error("%s needs a value", name);
-            }
             o->control = v;
         } else if (strcmp(name, "--serial-number") == 0) {
             if (parse_u64(v, 0u, UINT32_MAX, &o->serial_number) != 0) {
