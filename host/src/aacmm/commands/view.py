@@ -292,6 +292,23 @@ def live(args: argparse.Namespace) -> int:
     return 0
 
 
+def report_names() -> list[str]:
+    """The files :func:`write_report` adds to a report folder."""
+    return [VIEW_JSON, REPORT_HTML]
+
+
+def write_report(folder: Path, scene: dict[str, Any], force: bool) -> None:
+    """``view.json`` (what ``aacmm view FOLDER`` shows) and the self-contained
+    ``report.html`` beside a report's other files."""
+    import json
+
+    from aacmm.fileio import write_output
+    from aacmm.view.html import standalone_html
+
+    write_output(folder / VIEW_JSON, json.dumps(scene, allow_nan=False) + "\n", force=force)
+    write_output(folder / REPORT_HTML, standalone_html(scene), force=force)
+
+
 class CaptureView:
     """What ``aacmm capture --view`` adds to a capture: the server and the feed.
 

@@ -262,7 +262,7 @@ class LiveFeed:
             "status": sample.status,
             "valid": valid,
             "tip": [round(float(x), 4) for x in tip],
-            "theta_deg": _r(np.degrees(theta), 3),
+            "theta_deg": _r(np.degrees(theta), 7),
             "arm": arm_dict(pose),
             "host_ms": host_time * 1000.0,
             "received": self._received,

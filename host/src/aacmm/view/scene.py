@@ -120,6 +120,36 @@ def verification_part(rep: Any) -> dict[str, Any]:
     }
 
 
+def plan_name(session: Any) -> str:
+    """The plan's name as the session recorded it (a shipped plan's name, or its file)."""
+    d = session.meta.get("plan")
+    name = d.get("name") if isinstance(d, dict) else None
+    return str(name) if name else str(session.plan.title)
+
+
+def arm_at(point: Any) -> dict[str, Any]:
+    """The arm drawn at a captured point (its counts through its own parameter set)."""
+    from aacmm.core import counts_to_angles
+
+    ps = point.param_set
+    theta = counts_to_angles(np.array([point.counts], dtype=np.int64), ps.encoders)[0]
+    return arm_dict(arm_pose(ps.params, theta))
+
+
+def verification_scene(
+    plan: Any, labels: Sequence[Any], points_mm: npt.ArrayLike, rep: Any, title: str
+) -> dict[str, Any]:
+    """A verified session (``aacmm verify --report``): points, fits, results vs MPE."""
+    n = len(labels)
+    scene = points_scene(
+        plan, labels, points_mm, title, "verification", f"{n} points, verdict {rep.verdict}"
+    )
+    if n:
+        scene["arm"] = arm_at(labels[-1])
+    scene["verification"] = verification_part(rep)
+    return scene
+
+
 def session_scene(folder: str | Path, verify: bool = True) -> dict[str, Any]:
     """A capture session: its points (recomputed from the counts), fits, arm, verdict.
 
@@ -132,16 +162,14 @@ def session_scene(folder: str | Path, verify: bool = True) -> dict[str, Any]:
     s = read_session(folder)
     n = len(s.points)
     title = f"session {Path(folder).name}: {s.plan.title}"
-    sub = f"plan {s.plan.name}, {n} of {len(s.plan.slots)} points, {s.status}"
+    sub = f"plan {plan_name(s)}, {n} of {len(s.plan.slots)} points, {s.status}"
     if n == 0:
         scene = empty_scene("session", title, sub)
         scene["notes"].append("the session has no points yet")
         return scene
     pts = s.points_mm()
     scene = points_scene(s.plan, s.points, pts, title, "session", sub)
-    last = s.points[-1]
-    theta = s.angles_rad()[-1]
-    scene["arm"] = arm_dict(arm_pose(last.param_set.params, theta))
+    scene["arm"] = arm_at(s.points[-1])
     if verify and s.plan.mpe is not None:
         from aacmm.geometry import GeometryError
         from aacmm.verification.report import evaluate

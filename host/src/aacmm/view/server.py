@@ -134,7 +134,8 @@ CSP = (
 class _Client:
     """One open page: the newest message of each kind, waiting to be sent."""
 
-    def __init__(self) -> None:
+    def __init__(self, sock: Any) -> None:
+        self.sock = sock
         self.pending: dict[str, str] = {}
         self.wake = asyncio.Event()
 
@@ -226,7 +227,7 @@ class ViewServer:
                 return web.Response(status=403, text="another origin\n")
             sock = web.WebSocketResponse(heartbeat=10.0, max_msg_size=4096)
             await sock.prepare(request)
-            client = _Client()
+            client = _Client(sock)
             self._clients.add(client)
             self.pages_total += 1
 
@@ -272,7 +273,15 @@ class ViewServer:
         try:
             await self._stop.wait()
         finally:
+            for c in list(self._clients):  # pages see a clean close (1001: going away)
+                with contextlib.suppress(Exception):
+                    await asyncio.wait_for(c.sock.close(code=1001), 1.0)
             await runner.cleanup()
+            me = asyncio.current_task()
+            rest = [t for t in asyncio.all_tasks() if t is not me]
+            for t in rest:
+                t.cancel()
+            await asyncio.gather(*rest, return_exceptions=True)
 
     def _run(self) -> None:
         loop = asyncio.new_event_loop()

@@ -9,7 +9,9 @@
   const HISTORY = 3000;
   const T = { ARM: 0, TRAIL: 1, POINTS: 2, PLAIN: 3, FEATURES: 4 };
   const state = {
-    mode: null, scene: null, ready: false, connected: false,
+    // history: every frame received (device time, tip); latencies: per frame drawn, ms
+    // from the host reading its sample to the page having drawn it.
+    mode: null, scene: null, ready: false, readyAt: null, connected: false,
     frames: 0, renders: 0, lastFrame: null, history: [], latencies: [],
     capture: null, points: [], fits: 0, pointSeen: {}, errors: [], trail: [], trailMax: 0,
   };
@@ -163,14 +165,19 @@
   function verificationPanel(v) {
     if (!v) return "";
     const cls = (x) => (x === "PASS" ? "pass" : x === "FAIL" ? "fail" : "");
-    const rows = v.results.map((r) => `<tr><td>${esc(r.name)}</td><td class="num">${mm4(r.value_mm)}</td>` +
-      `<td class="num">${mm4(r.mpe_mm)}</td><td class="num">${mm4(r.limit_mm)}</td>` +
-      `<td class="${cls(r.verdict)}">${esc(r.verdict)}</td><td>${esc(r.where)}</td></tr>`).join("");
+    const rows = v.results.map((r) => {
+      const lim = r.limit_mm != null && r.mpe_mm != null && Math.abs(r.limit_mm - r.mpe_mm) > 5e-7
+        ? ` (limit ${mm4(r.limit_mm)})` : "";
+      return `<tr title="${esc(r.where)}"><td>${esc(r.name)}</td><td class="num">${mm4(r.value_mm)}</td>` +
+        `<td class="num">${mm4(r.mpe_mm)}${lim}</td><td class="${cls(r.verdict)}">${esc(r.verdict)}</td></tr>`;
+    }).join("");
     return `<h2>Verification <span class="verdict ${cls(v.verdict)}">${esc(v.verdict)}</span></h2>` +
-      `<p class="small">decision rule ${esc(v.decision_rule)}; values, MPEs and limits in mm</p>` +
+      `<p class="small">decision rule ${esc(v.decision_rule)}; values and MPEs in mm (hover a row: where)</p>` +
       `<table id="verification-table"><tr><th>test</th><th class="num">value</th><th class="num">MPE</th>` +
-      `<th class="num">limit</th><th>verdict</th><th>where</th></tr>${rows}</table>`;
+      `<th>verdict</th></tr>${rows}</table>`;
   }
+  // A before/after figure: lengths (names ending _mm) in um, anything else as it is.
+  const fig = (name, v) => (typeof v !== "number" ? esc(v) : /_mm$/.test(name) ? (v * 1000).toFixed(1) + " um" : v.toPrecision(4));
   function calibrationPanel(c) {
     if (!c) { $("calibration").hidden = true; return; }
     $("calibration").hidden = false;
@@ -179,7 +186,7 @@
     let ba = "";
     if (c.before_after) {
       ba = "<h2>Before / after</h2><table><tr><th>figure</th><th class=num>before</th><th class=num>after</th><th class=num>factor</th></tr>" +
-        c.before_after.map((r) => `<tr><td>${esc(r.figure)}</td><td class="num">${esc(r.before)}</td><td class="num">${esc(r.after)}</td>` +
+        c.before_after.map((r) => `<tr><td>${esc(r.figure)}</td><td class="num">${fig(r.figure, r.before)}</td><td class="num">${fig(r.figure, r.after)}</td>` +
           `<td class="num">${r.factor == null ? "" : Number(r.factor).toFixed(1) + "x"}</td></tr>`).join("") + "</table>";
     }
     $("caltable").innerHTML = `<table id="calibration-table"><tr><th>step</th><th>kind</th><th class="num">units</th>` +
@@ -189,12 +196,14 @@
     c.steps.forEach((s, k) => {
       const jitter = (n) => Array.from({ length: n }, (_, i) => k + (n > 1 ? (i / (n - 1) - 0.5) * 0.6 : 0));
       data.push({ type: "scatter", mode: "markers", x: jitter(s.before_mm.length), y: s.before_mm.map((v) => v * 1000),
-        marker: { size: 4, color: "#afb8c1" }, name: "before", showlegend: k === 0, legendgroup: "b" });
+        marker: { size: 4, color: "#afb8c1" }, name: "before", showlegend: k === 0, legendgroup: "b", yaxis: "y2" });
       data.push({ type: "scatter", mode: "markers", x: jitter(s.after_mm.length), y: s.after_mm.map((v) => v * 1000),
         marker: { size: 4, color: "#0969da" }, name: "after", showlegend: k === 0, legendgroup: "a" });
     });
     Plotly.newPlot("calchart", data, {
-      height: 260, margin: { l: 50, r: 10, t: 10, b: 60 }, yaxis: { title: { text: "residual um" } },
+      height: 300, margin: { l: 55, r: 10, t: 10, b: 60 }, legend: { orientation: "h", y: 1.08 },
+      yaxis: { title: { text: "after, um" }, domain: [0, 0.58] },
+      yaxis2: { title: { text: "before, um" }, domain: [0.68, 1] },
       xaxis: { tickvals: c.steps.map((_, k) => k), ticktext: c.steps.map((s) => s.name) },
     }, { displaylogo: false, responsive: true });
   }
@@ -238,6 +247,8 @@
     state.frames += 1;
     f.recv_ms = now;
     if (f.valid && state.trailMax > 0) { state.trail.push(f.tip); if (state.trail.length > state.trailMax) state.trail.shift(); }
+    state.history.push({ seq: f.seq, t_us: f.device_time_us, tip: f.tip, valid: f.valid, host_ms: f.host_ms, recv_ms: now });
+    if (state.history.length > HISTORY) state.history.shift();
     pendingFrame = f;
     schedule();
   }
@@ -263,8 +274,6 @@
         f.render_ms = done;
         state.renders += 1;
         state.lastFrame = f;
-        state.history.push({ seq: f.seq, t_us: f.device_time_us, tip: f.tip, host_ms: f.host_ms, recv_ms: f.recv_ms, render_ms: done });
-        if (state.history.length > HISTORY) state.history.shift();
         state.latencies.push(done - f.host_ms);
         if (state.latencies.length > HISTORY) state.latencies.shift();
         if (state.capture && state.capture.next && state.capture.next.new_articulation && f.advice) capturePanel(state.capture, f.advice);
@@ -327,6 +336,7 @@
       calibrationPanel(scene.calibration);
       notesPanel(scene.notes);
     }
+    state.readyAt = Date.now();
     state.ready = true;
   }
   const embedded = document.getElementById("aacmm-scene");
