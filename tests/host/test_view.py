@@ -350,7 +350,8 @@ def test_reports_open_offline(iso_session: Path, tmp_path: Path) -> None:
     scene = json.loads((crep / "view.json").read_text())
     with playwright() as p:
         b = launch(p)
-        for html, png in ((rep / "report.html", None), (crep / "report.html", "view-calibration.png")):
+        reports = ((rep / "report.html", None), (crep / "report.html", "view-calibration.png"))
+        for html, png in reports:
             file_url = html.resolve().as_uri()
             w = Watched(b, file_url, offline=True).open(file_url)
             st = w.state("{points: s.points.length, scene: s.scene}")
@@ -423,12 +424,8 @@ def test_bad_input(sim: Any, iso_session: Path, tmp_path: Path) -> None:
         busy.bind(("127.0.0.1", 0))
         busy.listen(1)
         port = busy.getsockname()[1]
-        one_error_line(
-            run("view", str(iso_session), "--bind", f"127.0.0.1:{port}"), 3, "in use"
-        )
-        one_error_line(
-            run("view", "--port", sim.url, "--bind", f"127.0.0.1:{port}"), 3, "in use"
-        )
+        one_error_line(run("view", str(iso_session), "--bind", f"127.0.0.1:{port}"), 3, "in use")
+        one_error_line(run("view", "--port", sim.url, "--bind", f"127.0.0.1:{port}"), 3, "in use")
         s2 = tmp_path / "s2"
         capture_busy = run(
             "capture", "probe-calibration", "-o", str(s2), "--port", sim.url, "--view",
@@ -485,4 +482,3 @@ def test_page_is_read_only(iso_session: Path) -> None:
             assert "default-src 'self'" in r.headers["Content-Security-Policy"]
     finally:
         assert view.stop() == 0
-

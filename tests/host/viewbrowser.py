@@ -92,7 +92,9 @@ class Watched:
 
     def state(self, expr: str = "s") -> Any:
         """Evaluate ``expr`` with ``s`` the page's state (window.aacmmView.state)."""
-        return self.page.evaluate(f"(() => {{ const s = window.aacmmView.state; return {expr}; }})()")
+        return self.page.evaluate(
+            f"(() => {{ const s = window.aacmmView.state; return {expr}; }})()"
+        )
 
     def clean(self) -> None:
         """No console error, no uncaught exception, no request outside the allowed origin."""

@@ -394,11 +394,6 @@ class Capture:
             dev.close()
             if w is not None:
                 w.close(status, reason)
-            if self.view is not None:
-                self.view.changed()  # the page shows the session's end
-                self.view.close()
-            elif srv is not None:
-                srv.close()
                 if status != "complete" and w.next_slot is None:
                     print_err(
                         "capture",
@@ -411,6 +406,11 @@ class Capture:
                         f"{w.accepted} of {len(self.plan.slots)} points kept in {self.folder}; "
                         "continue with --resume",
                     )
+            if self.view is not None:
+                self.view.changed()  # the page shows the session's end
+                self.view.close()
+            elif srv is not None:
+                srv.close()
 
 
 def cmd_capture(args: argparse.Namespace) -> int:

@@ -83,7 +83,7 @@ def _new_articulation(slot: Any, step: Any) -> bool:
         return True
     if slot.procedure == "articulation":
         m = step.points_per_articulation or 1
-        return slot.point_index % m == 0
+        return bool(slot.point_index % m == 0)
     return False
 
 
