@@ -12,7 +12,7 @@
     // history: every frame received (device time, tip); latencies: per frame drawn, ms
     // from the host reading its sample to the page having drawn it.
     mode: null, scene: null, ready: false, readyAt: null, connected: false,
-    frames: 0, renders: 0, lastFrame: null, history: [], latencies: [],
+    frames: 0, renders: 0, lastFrame: null, history: [], latencies: [], drawJs: [],
     capture: null, points: [], fits: 0, pointSeen: {}, errors: [], trail: [], trailMax: 0,
   };
   window.aacmmView = { state: state };
@@ -269,7 +269,10 @@
       const f = pendingFrame; pendingFrame = null;
       if (f) {
         f.arm.tip = f.tip;
+        const t0 = performance.now();
         await setArm(f.arm, state.trail);
+        state.drawJs.push(performance.now() - t0);
+        if (state.drawJs.length > HISTORY) state.drawJs.shift();
         const done = Date.now();
         f.render_ms = done;
         state.renders += 1;
