@@ -206,7 +206,11 @@ def test_capture_view(tmp_path: Path) -> None:
     with playwright() as p:
         # the browsers start first (a cold start takes seconds on a loaded machine)
         ba, bb = launch(p), launch(p)
-        op = Proc("sim", "--scenario", str(plan), "--truth", "random:7", "--link", str(link))
+        # the third seat point is first probed 5 mm off and undone (button 1)
+        op = Proc(
+            "sim", "--scenario", str(plan), "--truth", "random:7", "--link", str(link),
+            "--misprobe", "seat:3:5",
+        )  # fmt: skip
         cap: Proc | None = None
         try:
             op.wait_line("serial://")
@@ -218,9 +222,11 @@ def test_capture_view(tmp_path: Path) -> None:
             a, b = Watched(ba, url), Watched(bb, url)
             for w in (a, b):  # load both pages at once
                 w.page.goto(url, wait_until="commit")
-            for w in (a, b):
-                w.page.wait_for_function("window.aacmmView && window.aacmmView.state.ready")
-            ready_ms = max(a.state("s.readyAt"), b.state("s.readyAt"))
+            for w in (a, b):  # up, and a first live frame drawn (the page warmed up)
+                w.page.wait_for_function(
+                    "window.aacmmView && window.aacmmView.state.liveAt", timeout=90_000
+                )
+            ready_ms = max(a.state("s.liveAt"), b.state("s.liveAt"))
             shot = False
             b_open = True
             deadline = time.monotonic() + 150
@@ -242,7 +248,7 @@ def test_capture_view(tmp_path: Path) -> None:
             assert cap.p.wait(30) == 0, cap.err
             assert not b_open and shot, (b_open, shot)
             time.sleep(0.5)
-            st = a.state("{cap: s.capture, seen: s.pointSeen, hist: s.history}")
+            st = a.state("{cap: s.capture, seen: s.pointSeen, hist: s.history, ev: s.events}")
             a.clean()
             ba.close()
         finally:
@@ -255,6 +261,14 @@ def test_capture_view(tmp_path: Path) -> None:
     with (session / "points.csv").open(newline="") as f:
         rows = list(csv.DictReader(f))
     assert st["cap"]["accepted"] == total
+    # the mis-probed point, recorded then undone, as the page told it (if it came after
+    # the page was up); the journal has the undo either way
+    with (session / "events.csv").open(newline="") as f:
+        undos = [r for r in csv.DictReader(f) if r["event"] == "undo"]
+    assert [int(r["slot"]) for r in undos] == [2]
+    if float(undos[0]["event_time"]) * 1000.0 > ready_ms + 500:
+        kinds = [(e["kind"], e["slot"]) for e in st["ev"]]
+        assert ("undone", 2) in kinds, kinds
     assert [p["slot"] for p in st["cap"]["points"]] == list(range(total))
     hist = st["hist"]
     t_us = np.array([h["t_us"] for h in hist], dtype=np.int64)
@@ -266,12 +280,14 @@ def test_capture_view(tmp_path: Path) -> None:
             continue  # pressed before the pages were up
         seen = st["seen"][r["slot"]]
         assert seen - press_ms < 1000.0, (r["slot"], seen - press_ms)
-        dt = np.abs(t_us - int(r["device_time_us"]))
-        k = int(np.argmin(dt))
-        assert dt[k] < 100_000, f"no frame within 100 ms of press {r['slot']}"
+        # the frames of the samples the device read while the operator held the probe in
+        # place: from 120 ms before the press (the dwell) to 80 ms after (the hold)
+        dt = t_us - int(r["device_time_us"])
+        near = np.flatnonzero((dt >= -120_000) & (dt <= 80_000))
         device = np.array([float(r["x_mm"]), float(r["y_mm"]), float(r["z_mm"])])
-        assert np.linalg.norm(tips[k] - device) <= 2.0, (r["slot"], tips[k], device)
-        checked += 1
+        for k in near:
+            assert np.linalg.norm(tips[k] - device) <= 2.0, (r["slot"], tips[k], device)
+        checked += bool(near.size)
     assert checked >= total // 2, checked
     # each point's residual to its step's fit, as the page had it: the seat's points
     # against their centroid, recomputed here from the session

@@ -289,7 +289,7 @@ class Capture:
                 if trig.pressed:
                     self.press(dev, w, host_time, trig)
                     if self.view is not None:
-                        self.view.changed()
+                        self.view.changed(w.accepted)
                     if w.next_slot is None and (not self.confirm or self.confirmed):
                         continue  # complete
             key = self.read_key()
@@ -297,7 +297,7 @@ class Capture:
                 self.undo(w, None)
                 shown = None  # prompt again, also for the slot shown last
                 if self.view is not None:
-                    self.view.changed()
+                    self.view.changed(w.accepted)
             elif key == "q":
                 self.stop_reason = "key q"
                 return "interrupted"
@@ -420,6 +420,8 @@ def cmd_capture(args: argparse.Namespace) -> int:
         raise UsageError("--stall must be in (0, 3600] seconds")
     plan = load_plan(args.plan)
     folder = Path(args.output)
+    if args.from_log is not None and args.view:
+        raise UsageError("--view shows a device: it does not go with --from-log")
     if args.from_log is not None and not Path(args.from_log).is_file():
         raise UsageError(f"--from-log {args.from_log}: no such file")
     if args.resume:

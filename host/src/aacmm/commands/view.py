@@ -344,8 +344,9 @@ class CaptureView:
     def on_sample(self, sample: Any) -> None:
         self.feed.on_sample(sample)
 
-    def changed(self) -> None:
-        self.feed.session_changed()
+    def changed(self, accepted: int | None = None) -> None:
+        """After a point, an undo or a confirmation; ``accepted``: points now held."""
+        self.feed.session_changed(accepted)
 
     def close(self) -> None:
         self.feed.close()

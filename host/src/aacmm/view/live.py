@@ -46,6 +46,8 @@ TURN_DEG = 20.0
 #: A pose counts as a new articulation when at least this many joints differ by
 #: TURN_DEG or more from every articulation already taken.
 NEW_JOINTS = 2
+#: Re-reads of the session (one a frame) before showing what is there.
+RETRIES = 40
 FPS_DEFAULT = 40
 FPS_RANGE = (30, 120)
 TRAIL_DEFAULT = 400
@@ -198,6 +200,8 @@ class LiveFeed:
         self._folder: Path | None = None
         self._plan: Any = None
         self._accepted: int | None = None
+        self._expected: int | None = None
+        self._retries = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="aacmm-view-feed", daemon=True)
         self.errors = 0
@@ -216,8 +220,14 @@ class LiveFeed:
         self._plan = plan
         self.session_changed()
 
-    def session_changed(self) -> None:
-        """Capture accepted, undid or confirmed something: re-read the session."""
+    def session_changed(self, accepted: int | None = None) -> None:
+        """Capture accepted, undid or confirmed something: re-read the session.
+
+        ``accepted``: the points capture holds now; the feed reads the folder
+        again (each frame, up to :data:`RETRIES` times) until it sees as many.
+        """
+        self._expected = accepted
+        self._retries = 0
         self._capture_dirty.set()
 
     def start(self) -> LiveFeed:
@@ -281,10 +291,18 @@ class LiveFeed:
             return
         try:
             msg = capture_message(self._folder, self._plan, self._accepted)
-        except Exception as exc:  # a row being written, a cut row: try again next time
+        except Exception as exc:  # a file being replaced: try again at the next frame
             self.errors += 1
             self.last_error = str(exc)
+            if self._retries < RETRIES:
+                self._retries += 1
+                self._capture_dirty.set()
             return
+        if self._expected is not None and msg["accepted"] != self._expected:
+            if self._retries < RETRIES:  # a row still on its way to the file
+                self._retries += 1
+                self._capture_dirty.set()
+                return
         self._accepted = msg["accepted"]
         self._capture = msg
         self._push("capture", msg)

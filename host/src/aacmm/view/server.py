@@ -9,8 +9,9 @@ An aiohttp application on its own thread and event loop, so the caller
 ``/assets/plotly.js``   plotly.js as the installed ``plotly`` package ships it
 ``/assets/view.js``     the page's script; ``/assets/view.css`` its style
 ``/scene.json``         the scene (:mod:`aacmm.view.scene`), or the live state
-``/ws``                 a WebSocket the server pushes messages on; whatever a page
-                        sends is ignored (the page is read-only)
+``/ws``                 a WebSocket the server pushes batches of messages on (a JSON
+                        array); a page answers each with ``ack`` and anything else
+                        it sends is ignored (the page is read-only)
 ======================  ==========================================================
 
 Nothing is fetched from anywhere else; the responses carry a
@@ -20,9 +21,11 @@ remote access was allowed, so a web page elsewhere cannot reach the server
 by DNS rebinding; a WebSocket opened by a page of another origin is refused
 (403).
 
-Each page gets the newest message of each kind (``frame``, ``capture``, ...):
-a page that cannot keep up skips frames instead of queueing them, so one
-slow or stalled browser costs no memory and delays nobody else.
+Each page gets the newest message of each kind (``frame``, ``capture``), one
+batch at a time: the next batch leaves when the page has acknowledged the
+last, so a page that cannot keep up skips frames instead of queueing them
+(in the server or in its own event loop), and one slow or stalled browser
+costs no memory and delays nobody else.
 """
 
 from __future__ import annotations
@@ -138,6 +141,8 @@ class _Client:
         self.sock = sock
         self.pending: dict[str, str] = {}
         self.wake = asyncio.Event()
+        self.acked = asyncio.Event()  # the page has taken the last batch
+        self.acked.set()
 
 
 class ViewServer:
@@ -166,6 +171,7 @@ class ViewServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
         self._clients: set[_Client] = set()
+        self._last: dict[str, str] = {}  # the newest message of each kind, for pages to come
         self._ready = threading.Event()
         self._stop: asyncio.Event | None = None
         self._error: BaseException | None = None
@@ -228,23 +234,32 @@ class ViewServer:
             sock = web.WebSocketResponse(heartbeat=10.0, max_msg_size=4096)
             await sock.prepare(request)
             client = _Client(sock)
+            client.pending = dict(self._last)  # a new page starts from the newest state
+            if client.pending:
+                client.wake.set()
             self._clients.add(client)
             self.pages_total += 1
 
             async def sender() -> None:
+                # One batch in flight: the next goes when the page has taken this one,
+                # so what waits is coalesced here (newest wins) instead of queueing
+                # behind a busy page's event loop.
                 while not sock.closed:
                     await client.wake.wait()
+                    await client.acked.wait()
                     client.wake.clear()
+                    client.acked.clear()
                     msgs, client.pending = client.pending, {}
-                    for kind in KINDS:
-                        if kind in msgs:
-                            await sock.send_str(msgs[kind])
+                    batch = [msgs[k] for k in KINDS if k in msgs]
+                    await sock.send_str("[" + ",".join(batch) + "]")
 
             task = asyncio.ensure_future(sender())
             try:
-                async for msg in sock:  # a page has nothing to say: read and drop
+                async for msg in sock:  # a page says only "ack": it took a batch
                     if msg.type in (WSMsgType.ERROR, WSMsgType.CLOSE):
                         break
+                    if msg.type == WSMsgType.TEXT and msg.data == "ack":
+                        client.acked.set()
             finally:
                 self._clients.discard(client)
                 task.cancel()
@@ -296,6 +311,7 @@ class ViewServer:
                 loop.close()
 
     def _deliver(self, kind: str, text: str) -> None:
+        self._last[kind] = text
         for c in self._clients:
             c.pending[kind] = text
             c.wake.set()
@@ -313,7 +329,7 @@ class ViewServer:
     def push(self, kind: str, message: dict[str, Any] | str) -> None:
         """Send ``message`` (JSON text or data) as the newest of its ``kind`` to every page."""
         loop = self._loop
-        if loop is None or loop.is_closed() or not self._clients:
+        if loop is None or loop.is_closed():
             return
         text = message if isinstance(message, str) else json.dumps(message)
         with contextlib.suppress(RuntimeError):  # the loop closed meanwhile

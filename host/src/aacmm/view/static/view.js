@@ -11,9 +11,9 @@
   const state = {
     // history: every frame received (device time, tip); latencies: per frame drawn, ms
     // from the host reading its sample to the page having drawn it.
-    mode: null, scene: null, ready: false, readyAt: null, connected: false,
+    mode: null, scene: null, ready: false, readyAt: null, liveAt: null, connected: false,
     frames: 0, renders: 0, lastFrame: null, history: [], latencies: [], drawJs: [],
-    capture: null, points: [], fits: 0, pointSeen: {}, errors: [], trail: [], trailMax: 0,
+    capture: null, points: [], fits: 0, pointSeen: {}, captureLog: [], events: [], slowDraws: 0, fastErrors: [], errors: [], trail: [], trailMax: 0,
   };
   window.aacmmView = { state: state };
   const $ = (id) => document.getElementById(id);
@@ -136,8 +136,36 @@
     pts.push(arm.tip); size.push(7); color.push("#cf222e");
     return { pts: pts, size: size, color: color };
   }
-  function setArm(arm, trail) {
+  // A live frame's fast path: update the two live traces' WebGL objects in plotly's
+  // gl3d scene and redraw it, instead of Plotly.restyle re-plotting every trace (70 ms
+  // and more of JavaScript a frame where WebGL is software, which starves the page of
+  // time for its messages). It reaches into plotly's internals (gd._fullData,
+  // scene._scene.traces[uid].update, glplot.redraw), so it is guarded: a missing piece
+  // or a changed number of points takes Plotly.restyle (state.slowDraws counts them).
+  function fastArm(a, trail) {
+    const gd = $("plot");
+    const sc = gd._fullLayout && gd._fullLayout.scene && gd._fullLayout.scene._scene;
+    if (!sc || !sc.traces || !sc.glplot || typeof sc.glplot.redraw !== "function" || !gd._fullData) return false;
+    const parts = [[T.ARM, a.pts], [T.TRAIL, trail]];
+    for (const [i, pts] of parts) {
+      const fd = gd._fullData[i], obj = fd && sc.traces[fd.uid];
+      if (!obj || typeof obj.update !== "function" || fd._length !== pts.length ||
+          !gd.data[i].x || gd.data[i].x.length !== pts.length) return false;
+    }
+    for (const [i, pts] of parts) {
+      const [x, y, z] = cols(pts), fd = gd._fullData[i];
+      for (const o of [gd.data[i], fd]) { o.x = x; o.y = y; o.z = z; }
+      sc.traces[fd.uid].update(fd);
+    }
+    sc.glplot.redraw();
+    return true;
+  }
+  function setArm(arm, trail, live) {
     const a = armPoints(arm);
+    if (live) {
+      try { if (fastArm(a, trail)) return Promise.resolve(); } catch (e) { state.fastErrors.push(String(e)); }
+      state.slowDraws += 1;
+    }
     const [ax, ay, az] = cols(a.pts);
     const [tx, ty, tz] = cols(trail || []);
     return Plotly.restyle("plot", { x: [ax, tx], y: [ay, ty], z: [az, tz],
@@ -254,15 +282,27 @@
   }
   function onCapture(c) {
     const now = Date.now();
+    state.captureLog.push([now, c.accepted, c.updated_ms]);  // arrival, points, made
+    if (state.captureLog.length > HISTORY) state.captureLog.shift();
     for (const p of c.points) if (p.slot != null && !(p.slot in state.pointSeen)) state.pointSeen[p.slot] = now;
     const have = new Set(c.points.map((p) => p.slot));
     for (const k of Object.keys(state.pointSeen)) if (!have.has(Number(k))) delete state.pointSeen[k];
+    if (c.event && (!state.capture || c.updated_ms !== state.capture.updated_ms)) {
+      state.events.push({ kind: c.event.kind, slot: c.event.slot, text: c.event.text, at: now });
+    }
     state.capture = c;
     pendingCapture = c;
     schedule();
   }
+  // The trail at its full length from the start (leading gaps): its number of points
+  // stays the same, so the fast path applies from the first frames on.
+  function paddedTrail() {
+    const t = state.trail;
+    return t.length >= state.trailMax ? t : new Array(state.trailMax - t.length).fill(null).concat(t);
+  }
   function schedule() { if (!drawing) { drawing = true; requestAnimationFrame(draw); } }
   async function draw() {
+    const started = performance.now();
     try {
       const c = pendingCapture; pendingCapture = null;
       if (c) { await setPoints(c.points, c.steps); capturePanel(c, state.lastFrame && state.lastFrame.advice); show("steps", stepsPanel(c.steps)); }
@@ -270,12 +310,13 @@
       if (f) {
         f.arm.tip = f.tip;
         const t0 = performance.now();
-        await setArm(f.arm, state.trail);
+        await setArm(f.arm, paddedTrail(), true);
         state.drawJs.push(performance.now() - t0);
         if (state.drawJs.length > HISTORY) state.drawJs.shift();
         const done = Date.now();
         f.render_ms = done;
         state.renders += 1;
+        if (state.liveAt == null && state.connected) state.liveAt = done;
         state.lastFrame = f;
         state.latencies.push(done - f.host_ms);
         if (state.latencies.length > HISTORY) state.latencies.shift();
@@ -285,8 +326,13 @@
     } catch (e) {
       state.errors.push(String(e));
     } finally {
-      drawing = false;
-      if (pendingFrame || pendingCapture) schedule();
+      // Rest as long as the draw took: the page's thread stays free half the time for
+      // the messages (and the person), however slow drawing is on this machine.
+      const rest = Math.min(500, performance.now() - started);
+      setTimeout(() => {
+        drawing = false;
+        if (pendingFrame || pendingCapture) schedule();
+      }, rest);
     }
   }
   let rateMark = { t: Date.now(), n: 0, fps: 0 };
@@ -303,11 +349,15 @@
   function connect() {
     const ws = new WebSocket(`ws://${location.host}/ws`);
     ws.onopen = () => { state.connected = true; status(); };
+    // A batch of messages (the newest of each kind); "ack" asks for the next one.
     ws.onmessage = (ev) => {
-      let m;
-      try { m = JSON.parse(ev.data); } catch (e) { state.errors.push("bad message"); return; }
-      if (m.type === "frame") onFrame(m);
-      else if (m.type === "capture") onCapture(m);
+      let batch;
+      try { batch = JSON.parse(ev.data); } catch (e) { state.errors.push("bad message"); return; }
+      for (const m of batch) {
+        if (m.type === "frame") onFrame(m);
+        else if (m.type === "capture") onCapture(m);
+      }
+      ws.send("ack");
     };
     ws.onclose = () => { state.connected = false; status(); setTimeout(connect, 1000); };
     ws.onerror = () => {};
