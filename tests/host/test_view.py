@@ -241,7 +241,7 @@ def test_capture_view(tmp_path: Path) -> None:
                     b.clean()
                     bb.close()  # the browser closes mid-capture
                     b_open = False
-                if not shot and n >= 5:
+                if not shot and n >= 3:  # in the seat step: the articulation advice
                     a.screenshot(figures_dir(tmp_path) / "view-capture.png")
                     shot = True
                 time.sleep(0.2)

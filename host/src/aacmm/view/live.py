@@ -276,6 +276,7 @@ class LiveFeed:
             "arm": arm_dict(pose),
             "host_ms": host_time * 1000.0,
             "received": self._received,
+            "frame": self.frames + 1,  # frames made so far, this one included
         }
         cap = self._capture
         if (

@@ -110,7 +110,9 @@
     return {
       margin: { l: 0, r: 0, t: 0, b: 0 }, showlegend: true, legend: { x: 0, y: 1 }, uirevision: "keep",
       scene: { xaxis: ax("x mm"), yaxis: ax("y mm"), zaxis: ax("z mm"),
-        aspectmode: reach ? "cube" : "data", camera: { eye: { x: 1.5, y: -1.5, z: 0.9 } } },
+        // live: the cube the arm can reach, seen from closer (the arm fills more of it)
+        aspectmode: reach ? "cube" : "data",
+        camera: { eye: reach ? { x: 0.95, y: -0.95, z: 0.6 } : { x: 1.5, y: -1.5, z: 0.9 } } },
     };
   }
   function setPoints(points, steps) {
