@@ -10,7 +10,8 @@ first); without it the session ends at the last point (``--confirm-end``).
 Every point is durable before it is acknowledged (``recorded k/N``), so
 Ctrl-C, SIGTERM or kill -9 lose nothing acknowledged; ``--resume`` continues
 a session; ``--from-log`` labels the presses recorded in an ``aacmm log``
-trigger file in plan order instead of reading a device.
+trigger file in plan order instead of reading a device; ``--view`` serves the
+live page of ``aacmm view`` beside the capture (:mod:`aacmm.commands.view`).
 Session format: docs/plans.md.
 """
 
