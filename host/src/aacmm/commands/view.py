@@ -50,7 +50,7 @@ def add_bind_options(p: argparse.ArgumentParser) -> None:
 
 
 def register(sub: Any) -> None:
-    from aacmm.view.live import FPS_DEFAULT, FPS_RANGE, TRAIL_DEFAULT
+    from aacmm.view.options import FPS_DEFAULT, FPS_RANGE, TRAIL_DEFAULT
 
     p = sub.add_parser(
         "view",
@@ -232,7 +232,7 @@ def make_feed(dev: Device, srv: ViewServer, fps: int, trail: int, title: str) ->
 
 def _check_live(args: argparse.Namespace) -> None:
     from aacmm.commands.exitcodes import UsageError
-    from aacmm.view.live import FPS_RANGE
+    from aacmm.view.options import FPS_RANGE
 
     lo, hi = FPS_RANGE
     if not lo <= args.fps <= hi:

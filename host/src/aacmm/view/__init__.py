@@ -10,7 +10,8 @@ capture --view`` (docs/view.md) are its commands.
 * :mod:`aacmm.view.scene` -- what a page shows, for a session, a log, a
   verification or a calibration (format ``aacmm-view-1``);
 * :mod:`aacmm.view.live` -- frames from the device's samples, a capture's
-  progress (:class:`~aacmm.view.live.LiveFeed`);
+  progress (:class:`~aacmm.view.live.LiveFeed`); :mod:`aacmm.view.options` its
+  settings' defaults and limits;
 * :mod:`aacmm.view.server` -- the local web server
   (:class:`~aacmm.view.server.ViewServer`: the page, plotly.js from the
   installed ``plotly`` package, ``/scene.json``, a push WebSocket);

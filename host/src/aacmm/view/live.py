@@ -35,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aacmm.view.arm import arm_pose
+from aacmm.view.options import FPS_DEFAULT, FPS_RANGE, TRAIL_DEFAULT
 from aacmm.view.scene import arm_dict, points_scene
 
 FloatArray = npt.NDArray[np.float64]
@@ -48,9 +49,6 @@ TURN_DEG = 20.0
 NEW_JOINTS = 2
 #: Re-reads of the session (one a frame) before showing what is there.
 RETRIES = 40
-FPS_DEFAULT = 40
-FPS_RANGE = (30, 120)
-TRAIL_DEFAULT = 400
 
 
 def _r(a: Any, nd: int = 4) -> list[float]:
