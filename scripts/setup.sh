@@ -12,7 +12,8 @@ APT_PACKAGES="make gcc clang libclang-rt-14-dev libcmocka-dev pkg-config \
 python3 python3-venv python3-dev \
 gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi \
 qemu-system-arm qemu-system-x86 linux-image-amd64 busybox-static \
-valgrind socat can-utils iproute2 kmod cpio strace poppler-utils"
+valgrind socat can-utils iproute2 kmod cpio strace poppler-utils \
+chromium chromium-driver"
 
 missing=""
 for p in $APT_PACKAGES; do

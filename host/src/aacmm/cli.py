@@ -18,6 +18,7 @@ COMMAND_MODULES: tuple[str, ...] = (  # the order of `aacmm --help`: the arm own
     "aacmm.commands.summary",
     "aacmm.commands.plan",
     "aacmm.commands.capture",
+    "aacmm.commands.view",
     "aacmm.commands.verify",
     "aacmm.commands.calibrate",
     "aacmm.commands.fit",
@@ -37,7 +38,7 @@ EPILOG = """\
 by task:
   start here       demo (the whole job on the simulator, in about a minute)
   the arm          info, params, measure, compute, log, summary, sim
-  measuring        plan, capture, fit, export
+  measuring        plan, capture, view, fit, export
   the arm's state  verify (ISO 10360-12, ASME B89.4.22), calibrate
   error budgets    mc, uncertainty, tolerance
   CAN tools        dbc

@@ -166,7 +166,9 @@ def _outputs(args: argparse.Namespace, step_names: tuple[str, ...]) -> list[Path
         if args.workspace:
             names.append("uncertainty.png")
         names += [_step_png(i, n) for i, n in enumerate(step_names)]
-        out += [d / n for n in names]
+        from aacmm.commands.view import report_names
+
+        out += [d / n for n in [*names, *report_names()]]
     return out
 
 
@@ -464,4 +466,9 @@ def _write_report(
         figs[_step_png(step, names[step] if step < len(names) else "")] = fig
     for name, fig in figs.items():
         save_figure(fig, d / name, force=args.force, dpi=110)
-    print(f"wrote {len(figs) + 2} report files to {d}/")
+    from aacmm.commands.view import report_names, write_report
+    from aacmm.view.scene import calibration_scene
+
+    sources = ", ".join(Path(s["path"]).name for s in prov["sessions"])
+    write_report(d, calibration_scene(res, cmp_, f"calibration from {sources}"), args.force)
+    print(f"wrote {len(figs) + 2 + len(report_names())} report files to {d}/ (report.html: 3-D)")

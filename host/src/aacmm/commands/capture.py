@@ -10,7 +10,8 @@ first); without it the session ends at the last point (``--confirm-end``).
 Every point is durable before it is acknowledged (``recorded k/N``), so
 Ctrl-C, SIGTERM or kill -9 lose nothing acknowledged; ``--resume`` continues
 a session; ``--from-log`` labels the presses recorded in an ``aacmm log``
-trigger file in plan order instead of reading a device.
+trigger file in plan order instead of reading a device; ``--view`` serves the
+live page of ``aacmm view`` beside the capture (:mod:`aacmm.commands.view`).
 Session format: docs/plans.md.
 """
 
@@ -30,10 +31,12 @@ from typing import TYPE_CHECKING, Any
 from aacmm.commands.common import add_connection_options, info_dict, is_tty, print_err
 from aacmm.commands.exitcodes import INTERRUPTED, OK, LinkLostError, UsageError
 from aacmm.commands.stopflag import StopFlag
+from aacmm.commands.view import CAPTURE_VIEW_RATE_HZ, add_bind_options
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
     from aacmm.commands.common import Device
+    from aacmm.commands.view import CaptureView
     from aacmm.plans import Plan, Slot
     from aacmm.protocol import Trigger
     from aacmm.records import ParamSetRecord, SessionWriter
@@ -85,6 +88,12 @@ def register(sub: Any) -> None:
     p.add_argument(
         "-q", "--quiet", action="store_true", help="print only acknowledgements and the end prompt"
     )
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="also serve the live 3-D page (aacmm view) of the arm and the session; see --bind",
+    )
+    add_bind_options(p)
     p.set_defaults(func=cmd_capture)
 
 
@@ -112,6 +121,7 @@ class Capture:
         wants_keys = not args.no_keys and is_tty(sys.stdin)
         self.confirm: bool = wants_keys if args.confirm_end is None else args.confirm_end
         self.confirmed: str | None = None  # how the end was confirmed
+        self.view: CaptureView | None = None  # --view: the page, fed from here
 
     # ---------------------------------------------------------- set-up
 
@@ -273,18 +283,22 @@ class Capture:
             # button events (a fast operator, or a backlog while the host is slow)
             # must not keep a key or the stall check waiting.
             try:
-                host_time, trig = self.events.get(timeout=0.05)
+                host_time, trig = self.events.get(timeout=0.05 if self.view is None else 0.01)
             except queue.Empty:
                 pass
             else:
                 if trig.pressed:
                     self.press(dev, w, host_time, trig)
+                    if self.view is not None:
+                        self.view.changed(w.accepted)
                     if w.next_slot is None and (not self.confirm or self.confirmed):
                         continue  # complete
             key = self.read_key()
             if key == "u":
                 self.undo(w, None)
                 shown = None  # prompt again, also for the slot shown last
+                if self.view is not None:
+                    self.view.changed(w.accepted)
             elif key == "q":
                 self.stop_reason = "key q"
                 return "interrupted"
@@ -294,8 +308,10 @@ class Capture:
                 continue
             try:
                 while True:
-                    stream.get(timeout=0.0)
+                    sample = stream.get(timeout=0.0)
                     last_sample = time.monotonic()
+                    if self.view is not None:
+                        self.view.on_sample(sample)
             except DeviceTimeoutError:
                 pass
             except (StopIteration, OperationError) as exc:
@@ -305,10 +321,17 @@ class Capture:
 
     def run(self) -> int:
         from aacmm.commands.common import device_from_args
+        from aacmm.commands.view import open_capture_server, start_capture_view
         from aacmm.records import ParamSetRecord
 
         stop = StopFlag()
-        dev = device_from_args(self.args)
+        srv = open_capture_server(self.args) if self.args.view else None  # busy: before the device
+        try:
+            dev = device_from_args(self.args)
+        except BaseException:
+            if srv is not None:
+                srv.close()
+            raise
         status, reason, code = "error", "error", 1
         w: SessionWriter | None = None
         try:
@@ -333,6 +356,8 @@ class Capture:
                     f"-> {self.folder} ({what}, {w.accepted} points so far)"
                 )
                 say(f"device serial {dev.info.serial_number}, parameters {ps.crc_hex}")
+            if srv is not None:
+                self.view = start_capture_view(srv, dev, self.folder, self.plan)
             dev.client.add_trigger_callback(self._on_trigger)
             stop.install()
             self.start_keys()
@@ -341,7 +366,8 @@ class Capture:
             # host read it; answers do not wait behind queued events, so the order of
             # arrival cannot tell).
             self.fence_us = dev.client.measure().timestamp_us
-            stream = dev.client.stream(LISTEN_RATE_HZ, timeout=self.args.stall)
+            rate = LISTEN_RATE_HZ if self.view is None else CAPTURE_VIEW_RATE_HZ
+            stream = dev.client.stream(rate, timeout=self.args.stall)
             try:
                 status = self.loop(dev, w, stream, stop)
             finally:
@@ -381,6 +407,11 @@ class Capture:
                         f"{w.accepted} of {len(self.plan.slots)} points kept in {self.folder}; "
                         "continue with --resume",
                     )
+            if self.view is not None:
+                self.view.changed()  # the page shows the session's end
+                self.view.close()
+            elif srv is not None:
+                srv.close()
 
 
 def cmd_capture(args: argparse.Namespace) -> int:
@@ -390,6 +421,8 @@ def cmd_capture(args: argparse.Namespace) -> int:
         raise UsageError("--stall must be in (0, 3600] seconds")
     plan = load_plan(args.plan)
     folder = Path(args.output)
+    if args.from_log is not None and args.view:
+        raise UsageError("--view shows a device: it does not go with --from-log")
     if args.from_log is not None and not Path(args.from_log).is_file():
         raise UsageError(f"--from-log {args.from_log}: no such file")
     if args.resume:

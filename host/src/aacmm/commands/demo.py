@@ -398,6 +398,8 @@ def _story(demo: Demo, seed: int, args: argparse.Namespace) -> int:
     demo.say("\ndemo: figures: before-report/*.png, after-report/*.png, before-after.png,")
     demo.say("      calibration-report/*.png, table2/mc.png")
     demo.say("demo: one-page reports: before-report/report.pdf, after-report/report.pdf")
+    demo.say("demo: interactive 3-D reports (open offline): before-report/report.html,")
+    demo.say("      after-report/report.html, calibration-report/report.html")
     demo.say(f"demo: {demo.elapsed():.0f} s in all")
     if rb.returncode == OK:
         demo.say("demo: note: this arm passed before calibration (a lucky random arm)")

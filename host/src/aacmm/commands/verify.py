@@ -35,8 +35,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--report",
         metavar="DIR",
-        help=f"write {REPORT_TEXT}, {REPORT_JSON}, {REPORT_PDF} and the figures "
-        "(spat.png, e_uni.png, spheres.png) into DIR (created if missing)",
+        help=f"write {REPORT_TEXT}, {REPORT_JSON}, {REPORT_PDF}, the figures "
+        "(spat.png, e_uni.png, spheres.png), report.html (self-contained, interactive 3-D) "
+        "and view.json (aacmm view DIR) into DIR (created if missing)",
     )
     p.add_argument("--json", metavar="FILE", help="write the JSON report to FILE ('-': stdout)")
     p.add_argument(
@@ -85,13 +86,18 @@ def run_verify(args: argparse.Namespace) -> int:
             raise UsageError(
                 f"--report {out}: cannot create the directory: {exc.strerror}"
             ) from None
-        names = [REPORT_TEXT, REPORT_JSON, REPORT_PDF, *vr.figure_names(rep)]
+        from aacmm.commands.view import report_names, write_report
+        from aacmm.view.scene import verification_scene
+
+        names = [REPORT_TEXT, REPORT_JSON, REPORT_PDF, *vr.figure_names(rep), *report_names()]
         check_outputs([out / n for n in names], args.force)
         write_output(out / REPORT_TEXT, text, force=args.force)
         write_output(out / REPORT_JSON, doc, force=args.force)
         for name, fig in vr.figures(rep).items():
             save_figure(fig, out / name, force=args.force, dpi=110)
         save_figure(vr.one_page(rep, source), out / REPORT_PDF, force=args.force)
+        title = f"verification of {Path(source).name}: {rep.plan_title}"
+        write_report(out, verification_scene(m.plan, m.labels, m.points, rep, title), args.force)
     if json_out is not None:
         write_output(json_out, doc, force=args.force)
 
