@@ -318,9 +318,7 @@ def error_transfer_coefficients_adaptive(
     cancel = threading.Event()
 
     def run_sums(h: int) -> tuple[FloatArray, FloatArray, int]:
-        tasks = itertools.takewhile(
-            lambda _: not cancel.is_set(), _chunk_tasks(e, h, block, js)
-        )
+        tasks = itertools.takewhile(lambda _: not cancel.is_set(), _chunk_tasks(e, h, block, js))
         return _accumulate(model, tasks, None, _no_progress)
 
     # Runs go to the threads `nt` at a time, each run whole on one thread, and

@@ -90,7 +90,7 @@ def port_url(args: argparse.Namespace) -> str:
     url = (args.port or os.environ.get(ENV_PORT, "")).strip()
     if not url:
         # A running (or starting) `aacmm sim` publishes its URL (docs/cli.md, aacmm sim).
-        from aacmm.commands.sim import published_url
+        from aacmm.commands.sim import published_sims, published_url
 
         url = published_url() or ""
         if not url:
@@ -98,8 +98,10 @@ def port_url(args: argparse.Namespace) -> str:
                 f"no device given: use --port URL, set {ENV_PORT}, or start a simulator "
                 "(aacmm sim &)"
             )
+        n = len(published_sims())
+        more = f" (the newest of {n} running; --port for another)" if n > 1 else ""
         cmd = getattr(args, "command", None) or "aacmm"
-        print(f"aacmm {cmd}: using the simulator at {url}", file=sys.stderr, flush=True)
+        print(f"aacmm {cmd}: using the simulator at {url}{more}", file=sys.stderr, flush=True)
     from aacmm.transport import parse_url
 
     try:
