@@ -101,6 +101,10 @@ class LogWriter:
         parent = self.csv_path.resolve().parent
         if not parent.is_dir():
             raise UsageError(f"directory {parent} does not exist")
+        from aacmm.fileio import check_writable_dir
+
+        for d in dict.fromkeys(p.resolve().parent for p in paths):  # before the device
+            check_writable_dir(d, str(self.csv_path if d == parent else d))
 
     def base_meta(self, dev: Device, ps: ParamSetRecord) -> dict[str, Any]:
         a = self.args

@@ -257,10 +257,16 @@ class SimProcess:
             raise
         if self.link is not None and self.serial_path is not None:
             tmp = self.link.with_name(f".{self.link.name}.{os.getpid()}.tmp")
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
-            os.symlink(self.serial_path, tmp)
-            os.replace(tmp, self.link)
+            try:
+                with contextlib.suppress(FileNotFoundError):
+                    tmp.unlink()
+                os.symlink(self.serial_path, tmp)
+                os.replace(tmp, self.link)
+            except OSError as exc:  # never leave the simulator running without its link
+                self.stop()
+                raise SimulatorUsageError(
+                    f"--link {self.link}: cannot create the link: {exc.strerror or exc}"
+                ) from None
 
     def _wait_ready(self) -> None:
         assert self.proc.stdout is not None
@@ -445,6 +451,32 @@ def sim_args(args: argparse.Namespace) -> list[str]:
     return out
 
 
+def check_sim_files(args: argparse.Namespace) -> None:
+    """The files ``aacmm sim`` makes (``--link``, ``--storage``) checked before the
+    simulator starts: a place that takes no file is one line, exit status 2.
+
+    Raises:
+        OutputFileError: the folder of either takes no new file, or the storage
+            is not a regular file.
+    """
+    from aacmm.fileio import OutputFileError, check_writable_dir
+
+    if getattr(args, "link", None):
+        link = Path(args.link)
+        if link.is_dir() and not link.is_symlink():
+            raise OutputFileError(f"--link {link}: is a directory")
+        check_writable_dir(link.resolve().parent if not link.is_symlink() else link.parent,
+                           f"--link {link}")  # fmt: skip
+    if getattr(args, "storage", None):
+        st = Path(args.storage)
+        if st.exists() and not st.is_file():
+            raise OutputFileError(f"--storage {st}: not a regular file")
+        # the simulator replaces the file through FILE.tmp beside it
+        check_writable_dir(st.resolve().parent, f"--storage {st}")
+        if st.exists() and not os.access(st, os.R_OK | os.W_OK):
+            raise OutputFileError(f"--storage {st}: cannot read and write it")
+
+
 def note_others(others: list[tuple[str, int]]) -> None:
     """Say that commands without ``--port`` now use this simulator, not the others."""
     if others:
@@ -505,6 +537,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     from aacmm.commands import simtruth
 
     simtruth.check_args(args)
+    check_sim_files(args)
     if simtruth.wants_truth(args):
         if args.link is not None and args.serial is None and args.can is not None:
             raise UsageError("--link needs a serial link (--serial pty)")
