@@ -144,6 +144,6 @@ def test_status_comment_names_every_status_bit() -> None:
         named = {int(v): w for v, w in re.findall(r"(\d+) ([a-z0-9 ]+?)(?=[,;(.]|$)", text)}
         for flag in SampleStatus:
             assert flag.value in named, (flag, text)
-            words = flag.name.lower().replace("_", " ").replace("joint", "joint ")
+            words = str(flag.name).lower().replace("_", " ").replace("joint", "joint ")
             key = {"params default": "default parameters"}.get(words, words)
             assert named[flag.value].startswith(key), (flag, named[flag.value])
