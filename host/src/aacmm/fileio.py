@@ -66,6 +66,7 @@ __all__ = [
     "loads_json",
     "loads_toml",
     "nesting_depth",
+    "read_text",
     "save_figure",
     "write_output",
 ]
@@ -468,7 +469,14 @@ def loads_json(text: str, src: str = "input") -> Any:
     return _checked(data, src)
 
 
-def _read_text(path: Path) -> str:
+def read_text(path: PathLike) -> str:
+    """A text file as hostile input: at most :data:`MAX_INPUT_BYTES`, UTF-8 (a
+    leading byte-order mark is dropped).
+
+    Raises:
+        InputFileError: unreadable, too large, or not UTF-8.
+    """
+    path = Path(path)
     try:
         with open(path, "rb") as f:
             raw = f.read(MAX_INPUT_BYTES + 1)
@@ -477,7 +485,7 @@ def _read_text(path: Path) -> str:
     if len(raw) > MAX_INPUT_BYTES:
         raise InputFileError(f"{path}: larger than {MAX_INPUT_BYTES} bytes")
     try:
-        return raw.decode("utf-8")
+        return raw.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
         raise InputFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
@@ -490,7 +498,7 @@ def load_toml(path: PathLike) -> dict[str, Any]:
             nested deeper than :data:`MAX_NESTING`.
     """
     p = Path(path)
-    return loads_toml(_read_text(p), str(p))
+    return loads_toml(read_text(p), str(p))
 
 
 def load_json(path: PathLike) -> Any:
@@ -501,7 +509,7 @@ def load_json(path: PathLike) -> Any:
             nested deeper than :data:`MAX_NESTING`.
     """
     p = Path(path)
-    return loads_json(_read_text(p), str(p))
+    return loads_json(read_text(p), str(p))
 
 
 def load_structured(path: PathLike) -> Any:

@@ -246,19 +246,9 @@ def load_point_file(path: Path) -> Measured:
         UsageError: unreadable, too large, not UTF-8, no x, y, z columns, a value
             that is not a finite number (with its line), or no points.
     """
-    from aacmm.fileio import MAX_INPUT_BYTES
+    from aacmm.fileio import read_text
 
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(MAX_INPUT_BYTES + 1)
-    except OSError as exc:
-        raise UsageError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if len(raw) > MAX_INPUT_BYTES:
-        raise UsageError(f"{path}: larger than {MAX_INPUT_BYTES} bytes")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise UsageError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    text = read_text(path)  # bounded, UTF-8: one line (exit status 2) otherwise
     rows = [
         (k + 1, line)
         for k, line in enumerate(text.splitlines())
