@@ -15,7 +15,9 @@ import re
 import subprocess
 import sys
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from aacmm.commands import exitcodes
@@ -313,23 +315,48 @@ READ_ONLY_OUTPUTS = [
 ]
 
 
-@pytest.mark.parametrize("command", READ_ONLY_OUTPUTS, ids=lambda c: " ".join(c[:3]))
+def _each(cases: list[Any], check: Callable[[Any], None]) -> None:
+    """``check(case)`` for every case, a few at a time (each is a command's start-up,
+    mostly imports), and every failure reported together."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(case: Any) -> str | None:
+        try:
+            check(case)
+        except AssertionError as exc:
+            return f"{case}: {exc}"
+        return None
+
+    with ThreadPoolExecutor(max_workers=3) as ex:
+        failures = [f for f in ex.map(one, cases) if f is not None]
+    assert not failures, "\n".join(failures)
+
+
 def test_read_only_outputs_are_refused_before_the_work(
-    tmp_path: Path, inputs: dict[str, Path], command: list[str]
+    tmp_path: Path, inputs: dict[str, Path]
 ) -> None:
     """Issue 29.5 and its sweep: an output that cannot be written is refused at once
     (one line, exit 2, before a device or a computation), and nothing is left
     behind, where the other outputs would go either: `calibrate -o c.toml --report
     RO/sub` left c.toml and its provenance; `capture -o RO/new` opened the device,
-    then ended in a raw "[Errno 30]", exit 1."""
-    ro, wrap = read_only_dir(tmp_path)
-    args = [a.format(ro=ro, tmp=tmp_path, **inputs) for a in command]
-    before = _tree(tmp_path), _tree(inputs["session"].parent)
-    p = subprocess.run(
-        [*wrap, str(AACMM), *args], capture_output=True, text=True, timeout=120, env=cli_env()
-    )
-    _one_refusal(p, str(ro))
-    assert (_tree(tmp_path), _tree(inputs["session"].parent)) == before
+    then ended in a raw "[Errno 30]", exit 1. Every command that writes files, each
+    in a folder of its own."""
+
+    def check(case: tuple[int, list[str]]) -> None:
+        k, command = case
+        work = tmp_path / f"case{k}"
+        work.mkdir()
+        ro, wrap = read_only_dir(work)
+        args = [a.format(ro=ro, tmp=work, **inputs) for a in command]
+        before = _tree(work), _tree(inputs["session"].parent)
+        p = subprocess.run(
+            [*wrap, str(AACMM), *args], capture_output=True, text=True, timeout=180,
+            env=cli_env(), cwd=work,
+        )  # fmt: skip
+        _one_refusal(p, str(ro))
+        assert (_tree(work), _tree(inputs["session"].parent)) == before
+
+    _each(list(enumerate(READ_ONLY_OUTPUTS)), check)
 
 
 # One output of each multi-output command exists: the command is refused and
@@ -379,18 +406,23 @@ EXISTING_OUTPUTS = [
 ]
 
 
-@pytest.mark.parametrize(("command", "existing"), EXISTING_OUTPUTS, ids=lambda c: str(c)[:40])
-def test_an_existing_output_refuses_the_whole_set(
-    tmp_path: Path, inputs: dict[str, Path], command: list[str], existing: str
-) -> None:
-    target = tmp_path / existing
-    target.parent.mkdir(parents=True, exist_ok=True)
-    target.write_text("mine")
-    args = [a.format(tmp=tmp_path, **inputs) for a in command]
-    before = _tree(tmp_path)
-    p = run(*args, timeout=120)
-    _one_refusal(p)
-    assert _tree(tmp_path) == before
+def test_an_existing_output_refuses_the_whole_set(tmp_path: Path, inputs: dict[str, Path]) -> None:
+    def check(case: tuple[int, tuple[list[str], str]]) -> None:
+        k, (command, existing) = case
+        work = tmp_path / f"case{k}"
+        target = work / existing
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text("mine")
+        args = [a.format(tmp=work, **inputs) for a in command]
+        before = _tree(work)
+        p = subprocess.run(
+            [str(AACMM), *args], capture_output=True, text=True, timeout=180, env=cli_env(),
+            cwd=work,
+        )  # fmt: skip
+        _one_refusal(p)
+        assert _tree(work) == before
+
+    _each(list(enumerate(EXISTING_OUTPUTS)), check)
 
 
 def test_demo_checks_its_arguments_first(tmp_path: Path) -> None:
