@@ -42,6 +42,20 @@ def one_error_line(p: subprocess.CompletedProcess[str], code: int, *words: str) 
     return lines[0]
 
 
+def read_only_dir(tmp_path: Path) -> tuple[Path, list[str]]:
+    """A folder that takes no new file, and the command prefix under which it is so:
+    as root (who ignores permission bits) a read-only tmpfs mounted on it in a mount
+    namespace of the command's own (``unshare -m``: nothing changes outside it); else
+    a folder without write permission and no prefix. The folder is empty."""
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    if os.geteuid() != 0:
+        ro.chmod(0o555)
+        return ro, []
+    wrap = ["unshare", "-m", "sh", "-c", 'mount -t tmpfs -o ro tmpfs "$0" && exec "$@"', str(ro)]
+    return ro, wrap
+
+
 def capture_scenario(
     folder: Path,
     plan: str | Path,

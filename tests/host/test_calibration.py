@@ -360,7 +360,8 @@ def test_chi_square_flags_unmodelled_eccentricity() -> None:
 def test_outlier_flagged_and_rejected_only_on_request() -> None:
     s = synthetic(8, noise_mm=SIGMA)
     obs = observations(s)
-    # a mis-probed point: cone 1, point 7 with the tip 0.2 mm out of the seat
+    # a mis-probed point: the second cone's eighth point (index 1, point index 7)
+    # with the tip 0.2 mm out of the seat
     m = Model(s.truth)
     bad = 25 + 7
     target = m.point(obs.theta_rad[bad]) + np.array([0.2, -0.1, 0.05])
@@ -369,12 +370,13 @@ def test_outlier_flagged_and_rejected_only_on_request() -> None:
     th = obs.theta_rad.copy()
     th[bad] = q[0]
     obs = Observations(
-        th, obs.sigma_mm, obs.constraints, obs.step, obs.index, ("cone0", "cone1", "cone2", "bars")
+        th, obs.sigma_mm, obs.constraints, obs.step, obs.index, ("cone1", "cone2", "cone3", "bars")
     )
     res = calibrate(obs)
     assert [o.poses for o in res.outliers] == [(bad,)]
     o = res.outliers[0]
-    assert o.label == "step 1 (cone1) point 7" and o.kind == "cone"
+    # counted from 1, as the capture prompts count steps and points (issue 29.1)
+    assert o.label == "step 2 (cone2) point 8" and o.kind == "cone"
     assert o.residual_mm == pytest.approx(0.23, rel=0.2)
     assert not res.rejected and res.observations.n_poses == obs.n_poses
     assert not res.chi_square.consistent  # the bad point spoils the fit ...

@@ -219,7 +219,7 @@ def _tamper(folder: Path, row: int, column: str, value: str) -> None:
     "column, value, match",
     [
         ("count3", "nan", "not an integer"),
-        ("step_id", "cone9", "do not match slot 5 of the plan"),
+        ("step_id", "cone9", "do not match point 6 of the plan"),
         ("count1", "-5", "outside"),
         ("param_crc32", "0x12345678", "not listed"),
     ],

@@ -57,11 +57,13 @@ def _aacmm(*args: str, timeout: float = 240) -> subprocess.CompletedProcess[str]
     )
 
 
-def _capture(folder: Path, name: str, truth: Path, storage: Path, seed: int) -> Path:
+def _capture(
+    folder: Path, name: str, truth: Path | str, storage: Path, seed: int, *extra: str
+) -> Path:
     """One scenario run: the simulated operator performs the plan, capture records it."""
     sim = subprocess.Popen(
         [str(AACMM), "sim", "--scenario", PLAN, "--fast", "--truth", str(truth),
-         "--storage", str(storage), "--seed", str(seed), "--quiet"],
+         "--storage", str(storage), "--seed", str(seed), "--quiet", *extra],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
     )  # fmt: skip
     try:
@@ -163,3 +165,24 @@ def test_end_to_end_on_the_simulator(tmp_path: Path) -> None:
         m_after.summary(),
     )
     assert np.isfinite(m_after.length_max) and m_after.length_max < 0.05
+
+
+def test_misprobe_reported_as_the_user_numbered_it(tmp_path: Path) -> None:
+    """Issue 29.1: `aacmm sim --misprobe cone2:3:0.5:keep` (1-based, as the prompts)
+    was reported by calibrate as outlier "step 1 (cone2) point 2", and its figures
+    as "step 0"; now the outlier is step 2 point 3 in the text and the report, and
+    the figures' files are numbered from 1."""
+    s = _capture(tmp_path, "s", "random:7", tmp_path / "store.bin", 1, "--misprobe",
+                 "cone2:3:0.5:keep")  # fmt: skip
+    rep = tmp_path / "rep"
+    r = _aacmm("calibrate", str(s), "-o", str(tmp_path / "c.toml"), "--report", str(rep),
+               "--workspace", "0", "-q")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    lines = [ln.strip() for ln in r.stdout.splitlines()]
+    flagged = [ln for ln in lines if ln.startswith("step ") and "residual" in ln]
+    assert len(flagged) == 1 and flagged[0].startswith("step 2 (cone2) point 3: cone2"), flagged
+    doc = json.loads((rep / "report.json").read_text())
+    assert [o["label"] for o in doc["result"]["outliers"]] == ["step 2 (cone2) point 3"]
+    pngs = sorted(p.name for p in rep.glob("residuals-step*.png"))
+    assert pngs == [f"residuals-step{k:02d}-{sid}.png" for k, sid in enumerate(
+        ("cone1", "cone2", "cone3", "bar500", "bar750", "bar1000"), start=1)]  # fmt: skip

@@ -70,6 +70,9 @@ def test_report_json_and_figures(tmp_path: Path) -> None:
     assert {d["kind"] for d in data["identifiability"]["null_space"]} == {"theta1", "d1", "tip"}
     figs = plots.residual_figures(res)
     assert sorted(figs) == [0, 1, 2, 3]  # 3 seats and the lengths
+    # a person reads the steps numbered from 1, as the capture prompts (issue 29.1)
+    titles = [figs[k].get_suptitle() for k in sorted(figs)]
+    assert [t.split()[:2] for t in titles] == [["step", str(k + 1)] for k in range(4)], titles
     others = [
         plots.spectrum_figure(res.identifiability),
         plots.correlation_figure(res),

@@ -17,7 +17,7 @@ import pytest
 from aacmm.commands.sim import SimProcess
 from aacmm.plans import load_plan
 from aacmm.records import read_session
-from clihelp import AACMM, cli_env, one_error_line, run
+from clihelp import AACMM, cli_env, one_error_line, read_only_dir, run
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -409,3 +409,62 @@ def test_confirm_end_by_button_and_sigterm(tmp_path: Path) -> None:
     assert s.meta["runs"][-1]["end_reason"] == "confirmed by button 0"
     events = (out / "events.csv").read_text().splitlines()
     assert sum(1 for e in events if ",confirm," in e) == 1
+
+
+STEPS_PLAN = """\
+format = "aacmm-plan-1"
+[artefacts.seatA]
+type = "cone"
+[artefacts.seatB]
+type = "cone"
+[artefacts.bar]
+type = "ballbar"
+length_mm = 500.0
+[[steps]]
+id = "first"
+procedure = "cone"
+artefact = "seatA"
+articulations = 2
+note = "Turn the wrist between presses."
+[[steps]]
+id = "second"
+procedure = "cone"
+artefact = "seatB"
+articulations = 2
+[[steps]]
+id = "third"
+procedure = "length"
+artefact = "bar"
+positions = 1
+"""
+
+
+def test_every_step_is_announced(sim: SimProcess, tmp_path: Path) -> None:
+    """Issue 29.7: capture announced only the steps that have a note."""
+    plan = tmp_path / "three.toml"
+    plan.write_text(STEPS_PLAN)
+    cap = Capture(str(plan), "-o", str(tmp_path / "s"), "--port", sim.url)
+    code, err = cap.finish()
+    assert code == 0, err
+    steps = [line for line in cap.lines if line.startswith("step ")]
+    assert steps == [
+        "step 1/3 first: 2 points on cone seat seatA. Turn the wrist between presses.",
+        "step 2/3 second: 2 points on cone seat seatB",
+        "step 3/3 third: 2 points on ball bar bar",
+    ], cap.lines
+
+
+def test_read_only_session_folder_refused_before_the_device(tmp_path: Path) -> None:
+    """Issue 29.5: `capture -o RO/new` opened the device, then failed with a raw
+    "[Errno 30] Read-only file system", exit 1. Now: one line, exit 2, before any
+    port is opened (this port does not exist: opening it would be exit 3)."""
+    ro, wrap = read_only_dir(tmp_path)
+    for extra in ([], ["--from-log", str(tmp_path / "x.csv")]):
+        (tmp_path / "x.csv").write_text("")
+        p = subprocess.run(
+            [*wrap, str(AACMM), "capture", PLAN, "-o", str(ro / "new"),
+             "--port", "serial:///nonexistent/port", *extra],
+            capture_output=True, text=True, timeout=60, env=cli_env(),
+        )  # fmt: skip
+        one_error_line(p, 2, f"{ro / 'new'}: cannot create a file in {ro}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ro", "x.csv"]

@@ -15,12 +15,14 @@ import re
 import subprocess
 import sys
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from aacmm.commands import exitcodes
 from aacmm.commands.sim import SimProcess
-from clihelp import one_error_line, run, sim_fixture
+from clihelp import AACMM, cli_env, one_error_line, read_only_dir, run, sim_fixture
 
 pytestmark = pytest.mark.timeout(120)
 sim = sim_fixture("--seed", "5")
@@ -244,3 +246,265 @@ def test_top_level_help_names_every_command_once_by_task() -> None:
     groups = EPILOG.split("\n\n")[0].splitlines()[1:]
     named = [w for g in groups for w in re.sub(r"\([^)]*\)", "", g[17:]).replace(",", " ").split()]
     assert sorted(named) == sorted(commands), (sorted(named), sorted(commands))
+
+
+# ---------------------------------------------- issue 29: outputs, signals, pipes
+
+PLAN = "probe-calibration"
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A session of a shipped plan and a log with its trigger file (written the
+    way the commands write them), for the commands that read them."""
+    from aacmm.core import Params
+    from calib_synth import plan_session
+
+    d = tmp_path_factory.mktemp("inputs")
+    plan_session(d / "session", PLAN, Params(), 5)
+    log = small_log(d)
+    return {"session": d / "session", "log": log}
+
+
+def _tree(root: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(root)): (p.read_bytes() if p.is_file() else b"<dir>")
+        for p in sorted(root.rglob("*"))
+    }
+
+
+def _one_refusal(p: subprocess.CompletedProcess[str], *words: str) -> str:
+    """Exit status 2 and one line on stderr (``aacmm CMD: error: ...`` or ``demo: ...``)."""
+    assert p.returncode == exitcodes.USAGE, (p.returncode, p.stdout, p.stderr)
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert lines[0].startswith(("aacmm ", "demo: ")), lines
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
+# Every command that writes files, each output in a folder that takes no file.
+# {ro}: that folder; {tmp}: a writable one; {session}, {log}: inputs.
+READ_ONLY_OUTPUTS = [
+    ["params", "get", "-o", "{ro}/arm.toml", "--port", NOWHERE],
+    ["log", "{ro}/run.csv", "--port", NOWHERE],
+    ["log", "{tmp}/run.csv", "--triggers", "{ro}/t.csv", "--port", NOWHERE],
+    ["capture", PLAN, "-o", "{ro}/s", "--port", NOWHERE],
+    ["capture", PLAN, "-o", "{ro}/s", "--from-log", "{log}"],
+    ["calibrate", "{session}", "-o", "{ro}/c.toml"],
+    ["calibrate", "{session}", "-o", "{tmp}/c.toml", "--report", "{ro}/sub/rep"],  # the issue's
+    ["verify", "{session}", "--report", "{ro}/rep"],
+    ["verify", "{session}", "--json", "{ro}/v.json"],
+    ["fit", "{session}", "point", "--json", "{ro}/f.json"],
+    ["fit", "{session}", "point", "--json", "{tmp}/f.json", "--csv", "{ro}/f.csv"],
+    ["export", "{session}", "-o", "{ro}/p.ply"],
+    ["sim", "--truth", "nominal", "--truth-out", "{ro}/truth.toml"],
+    ["sim", "--scenario", PLAN, "--truth-out", "{tmp}/t.toml", "--report", "{ro}/op.json"],
+    ["sim", "--link", "{ro}/port"],
+    ["sim", "--storage", "{ro}/arm.bin"],
+    ["mc", "-n", "100", "--json", "{tmp}/m.json", "--png", "{ro}/m.png"],
+    ["uncertainty", "example", "--trials", "100", "--csv", "{ro}/u.csv"],
+    ["tolerance", "example", "--trials", "0", "--json", "{tmp}/t.json", "--csv", "{ro}/t.csv"],
+    ["dbc", "-o", "{ro}/arm.dbc"],
+    ["dbc", "--all", "-o", "{ro}"],
+    ["plan", "example", PLAN, "-o", "{ro}/plan.toml"],
+    ["demo", "--out", "{ro}/demo"],
+    ["demo", "--compare", "{ro}"],
+    ["demo", "--check", "{ro}"],
+]
+
+
+def _each(cases: list[Any], check: Callable[[Any], None]) -> None:
+    """``check(case)`` for every case, a few at a time (each is a command's start-up,
+    mostly imports), and every failure reported together."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(case: Any) -> str | None:
+        try:
+            check(case)
+        except AssertionError as exc:
+            return f"{case}: {exc}"
+        return None
+
+    with ThreadPoolExecutor(max_workers=3) as ex:
+        failures = [f for f in ex.map(one, cases) if f is not None]
+    assert not failures, "\n".join(failures)
+
+
+def test_read_only_outputs_are_refused_before_the_work(
+    tmp_path: Path, inputs: dict[str, Path]
+) -> None:
+    """Issue 29.5 and its sweep: an output that cannot be written is refused at once
+    (one line, exit 2, before a device or a computation), and nothing is left
+    behind, where the other outputs would go either: `calibrate -o c.toml --report
+    RO/sub` left c.toml and its provenance; `capture -o RO/new` opened the device,
+    then ended in a raw "[Errno 30]", exit 1. Every command that writes files, each
+    in a folder of its own."""
+
+    def check(case: tuple[int, list[str]]) -> None:
+        k, command = case
+        work = tmp_path / f"case{k}"
+        work.mkdir()
+        ro, wrap = read_only_dir(work)
+        args = [a.format(ro=ro, tmp=work, **inputs) for a in command]
+        before = _tree(work), _tree(inputs["session"].parent)
+        p = subprocess.run(
+            [*wrap, str(AACMM), *args], capture_output=True, text=True, timeout=180,
+            env=cli_env(), cwd=work,
+        )  # fmt: skip
+        _one_refusal(p, str(ro))
+        assert (_tree(work), _tree(inputs["session"].parent)) == before
+
+    _each(list(enumerate(READ_ONLY_OUTPUTS)), check)
+
+
+# One output of each multi-output command exists: the command is refused and
+# writes none of the others (no half-written set of outputs).
+EXISTING_OUTPUTS = [
+    (["calibrate", "{session}", "-o", "{tmp}/c.toml"], "c.provenance.json"),
+    (["calibrate", "{session}", "-o", "{tmp}/c.toml", "--report", "{tmp}/rep"], "rep/report.txt"),
+    (["verify", "{session}", "--json", "{tmp}/v.json", "--report", "{tmp}/rep"], "rep/report.pdf"),
+    (["fit", "{session}", "point", "--json", "{tmp}/f.json", "--csv", "{tmp}/f.csv"], "f.csv"),
+    (["mc", "-n", "100", "--json", "{tmp}/m.json", "--png", "{tmp}/m.png"], "m.png"),
+    (
+        [
+            "uncertainty",
+            "example",
+            "--trials",
+            "100",
+            "--json",
+            "{tmp}/u.json",
+            "--png",
+            "{tmp}/u.png",
+        ],
+        "u.png",
+    ),
+    (
+        ["tolerance", "example", "--trials", "0", "--json", "{tmp}/t.json", "--png", "{tmp}/t.png"],
+        "t.png",
+    ),
+    (
+        [
+            "sim",
+            "--truth",
+            "nominal",
+            "--truth-out",
+            "{tmp}/t.toml",
+            "--scenario",
+            PLAN,
+            "--report",
+            "{tmp}/op.json",
+        ],
+        "op.json",
+    ),
+    (["log", "{tmp}/run.csv", "--port", NOWHERE], "run.triggers.csv"),
+    (["capture", PLAN, "-o", "{tmp}/s", "--from-log", "{log}"], "s/x"),
+    (["dbc", "--all", "-o", "{tmp}"], "aacmm-node7.dbc"),
+    (["demo", "--compare", "{tmp}"], "before-after.png"),
+    (["demo", "--out", "{tmp}/d"], "d/x"),
+]
+
+
+def test_an_existing_output_refuses_the_whole_set(tmp_path: Path, inputs: dict[str, Path]) -> None:
+    def check(case: tuple[int, tuple[list[str], str]]) -> None:
+        k, (command, existing) = case
+        work = tmp_path / f"case{k}"
+        target = work / existing
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text("mine")
+        args = [a.format(tmp=work, **inputs) for a in command]
+        before = _tree(work)
+        p = subprocess.run(
+            [str(AACMM), *args], capture_output=True, text=True, timeout=180, env=cli_env(),
+            cwd=work,
+        )  # fmt: skip
+        _one_refusal(p)
+        assert _tree(work) == before
+
+    _each(list(enumerate(EXISTING_OUTPUTS)), check)
+
+
+def test_demo_checks_its_arguments_first(tmp_path: Path) -> None:
+    """Issue 29.5: `demo --seed -1 --out d` ran two steps before the simulator refused
+    random:-1, its messages on stdout only, d/ half full."""
+    for args, words in (
+        (["--seed", "-1"], "--seed must be in 0 .. 2^64-1"),
+        (["--seed", str(1 << 64)], "--seed"),
+        (["--seconds", "nan"], "--seconds"),
+        (["--poses", "1000000000000"], "--poses"),
+    ):
+        p = run("demo", *args, "--out", str(tmp_path / "d"), timeout=60)
+        _one_refusal(p, words)
+        assert p.stdout == "" and list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_is_130_in_every_device_command(tmp_path: Path) -> None:
+    """Issue 29.4: Ctrl-C ends every command with one line `... interrupted`, exit 130,
+    and no file: here while each waits for a device that never answers (a pty no
+    simulator serves), the longest a device command can wait. (`log` waited for
+    the device's answers before: Ctrl-C only took effect after the timeout.)"""
+    import os
+    import pty
+    import select
+    import signal
+
+    master, slave = pty.openpty()
+    try:
+        port = f"serial://{os.ttyname(slave)}"
+        for cmd in (
+            ["info"],
+            ["measure"],
+            ["compute", "0", "0", "0", "0", "0", "0"],
+            ["params", "get", "-o", str(tmp_path / "a.toml")],
+            ["params", "save"],
+            ["log", str(tmp_path / "run.csv"), "-d", "5"],
+            ["capture", PLAN, "-o", str(tmp_path / "s")],
+        ):
+            proc = subprocess.Popen(
+                [str(AACMM), *cmd, "--port", port, "--timeout", "60"],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(),
+                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+            )  # fmt: skip
+            # interrupted while it waits for the answer to its first request
+            ready, _, _ = select.select([master], [], [], 60)
+            assert ready, cmd
+            os.read(master, 4096)
+            proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=60)
+            assert proc.returncode == exitcodes.INTERRUPTED, (cmd, err)
+            assert err.strip().splitlines() == [f"aacmm {cmd[0]}: interrupted"], (cmd, err)
+            assert list(tmp_path.iterdir()) == [], cmd
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+STDOUT_COMMANDS = [
+    ["plan", "list"],
+    ["plan", "show", "iso10360-12", "--points"],
+    ["dbc"],
+    ["summary", "{session}"],
+    ["export", "{session}", "--format", "csv"],
+    ["fit", "{session}", "point", "--json", "-"],
+    ["mc", "-n", "1000"],
+    ["uncertainty", "example", "--trials", "200"],
+    ["tolerance", "example", "--trials", "0"],
+    ["--help"],
+    ["fit", "--help"],
+]
+
+
+@pytest.mark.parametrize("command", STDOUT_COMMANDS, ids=lambda c: " ".join(c[:2]))
+def test_a_closed_stdout_ends_quietly(inputs: dict[str, Path], command: list[str]) -> None:
+    """Issue 29.4: a closed stdout (`aacmm mc | head -c 10`) ended in "error: [Errno 32]
+    Broken pipe", exit 2, or a traceback; it ends quietly, exit 0, as for other tools."""
+    p = subprocess.Popen(
+        [str(AACMM), *[a.format(**inputs) for a in command]],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(),
+    )  # fmt: skip
+    assert p.stdout is not None and p.stderr is not None
+    p.stdout.close()  # the reader is gone before the first byte
+    err = p.stderr.read()
+    assert p.wait(timeout=120) == 0, err
+    assert err == "", err

@@ -126,3 +126,24 @@ def test_dbc_command(tmp_path: Path) -> None:
     one_error_line(p, exitcodes.USAGE, "-o DIR")
     p = run("dbc", "--node", "16")
     assert p.returncode == exitcodes.USAGE and "outside 0..15" in p.stderr
+
+
+def test_status_comment_names_every_status_bit() -> None:
+    """Issue 29.7: the DBC's Status comment listed bits 0-5 only; a CAN tool user
+    reads there what each bit means, so it names every bit of SampleStatus (the one
+    definition, aacmm.protocol.constants) by its value, in every node's file."""
+    import re
+
+    from aacmm.protocol import SampleStatus
+
+    for node in (0, 1, 15):
+        db = cantools.database.load_file(pcan.node_dbc_path(node))
+        assert isinstance(db, cantools.database.can.Database)
+        sig = next(s for m in db.messages for s in m.signals if s.name == "Status")
+        text = sig.comment or ""
+        named = {int(v): w for v, w in re.findall(r"(\d+) ([a-z0-9 ]+?)(?=[,;(.]|$)", text)}
+        for flag in SampleStatus:
+            assert flag.value in named, (flag, text)
+            words = str(flag.name).lower().replace("_", " ").replace("joint", "joint ")
+            key = {"params default": "default parameters"}.get(words, words)
+            assert named[flag.value].startswith(key), (flag, named[flag.value])

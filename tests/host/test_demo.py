@@ -306,7 +306,7 @@ def test_steps_outputs_and_the_earlier_demo(demo: Run) -> None:
         "after-report/spat.png",
         "before-after.png",
         "before-after.json",
-        "calibration-report/residuals-step00-cone1.png",
+        "calibration-report/residuals-step01-cone1.png",
         "calibrated.toml",
         "table2/mc.png",
         "logging/session.csv",

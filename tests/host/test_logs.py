@@ -163,3 +163,63 @@ def test_reconnect_to_another_parameter_set(tmp_path: Path) -> None:
     assert len(d["param_sets"]) == 2
     p = run("mc", "--log", str(out), "-q")
     one_error_line(p, 2, "parameter set changes at row", "mc --log")
+
+
+def test_presses_crc_columns_and_damage_noticed(tmp_path: Path) -> None:
+    """Issue 29.7: `log` reported "triggers 12" for 6 presses (a press and its release
+    are two rows); both CSVs write param_crc32 the same way (0x + 8 hex digits, as the
+    sidecar's param_crc32_hex). Issue 29.6: a log cut short, a NaN point and a session
+    with fewer points than its sidecar says were summarised as sound."""
+    import csv
+    import re
+
+    with SimProcess(["--serial", "pty", "--quiet", "--button-every", "0.25"]) as sim:
+        out = tmp_path / "run.csv"
+        p = run("log", str(out), "-r", "100", "-d", "2.2", "-p", sim.url)
+        assert p.returncode == 0, p.stderr
+    meta = json.loads((tmp_path / "run.csv.json").read_text())
+    with (tmp_path / "run.triggers.csv").open() as f:
+        trows = list(csv.DictReader(f))
+    presses = sum(r["pressed"] == "1" for r in trows)
+    assert presses >= 3 and meta["presses"] == presses and meta["triggers"] == len(trows)
+    assert f"presses {presses} ({len(trows)} button edges)" in p.stdout
+    s = run("summary", str(out))
+    assert s.returncode == 0 and f"presses {presses} ({len(trows)} button edges)" in s.stdout
+    with out.open() as f:
+        rows = list(csv.DictReader(f))
+    crcs = {r["param_crc32"] for r in rows} | {r["param_crc32"] for r in trows}
+    assert crcs == {meta["param_crc32_hex"]} and re.fullmatch(r"0x[0-9a-f]{8}", crcs.pop())
+
+    # a log cut short: the sidecar says more samples than the file holds
+    lines = out.read_text().splitlines(keepends=True)
+    cut = tmp_path / "cut.csv"
+    cut.write_text("".join(lines[: len(lines) // 2]))
+    (tmp_path / "cut.csv.json").write_text(
+        json.dumps({**meta, "csv": "cut.csv", "triggers_csv": "run.triggers.csv"})
+    )
+    s = run("summary", str(cut))
+    one_error_line(s, 2, "cut.csv: damaged", f"counts {meta['samples']} samples", "cut short")
+    assert s.stdout.startswith(f"log {cut} (complete, damaged)")
+    # a NaN point: one line naming the file, line and column
+    nan = tmp_path / "nan.csv"
+    bad = lines[4].split(",")
+    bad[9] = "nan"
+    nan.write_text("".join(lines[:4]) + ",".join(bad) + "".join(lines[5:]))
+    (tmp_path / "nan.csv.json").write_text(json.dumps({**meta, "csv": "nan.csv"}))
+    s = run("summary", str(nan))
+    one_error_line(s, 2, f"{nan}:5: x_mm: 'nan' is not a finite number")
+    assert "nan .." not in s.stdout
+
+    # a session whose points.csv lost rows: closed "complete" with 2 of 30 points
+    ses = tmp_path / "s"
+    p = run("capture", "probe-calibration", "-o", str(ses), "--from-log", str(out))
+    assert p.returncode == 0, p.stderr
+    pts = (ses / "points.csv").read_text().splitlines(keepends=True)
+    (ses / "points.csv").write_text("".join(pts[:3]))
+    side = json.loads((ses / "session.json").read_text())
+    side["status"] = "complete"
+    (ses / "session.json").write_text(json.dumps(side))
+    s = run("summary", str(ses))
+    line = one_error_line(s, 2, f"{ses}: damaged", "status complete, but points.csv holds 2")
+    assert f"counts {side['accepted']} accepted points" in line
+    assert s.stdout.startswith(f"session {ses} (complete, damaged): 2 of 30 points")

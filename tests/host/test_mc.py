@@ -6,6 +6,7 @@ import csv
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -376,8 +377,94 @@ def test_cli_bounded_memory_and_clean_interrupt() -> None:
     Now memory stays flat under a 2 GiB address-space limit, and Ctrl-C stops
     the run at once with one line and status 130."""
     status, err, stopped_in = run_then_interrupt(
-        ["mc", "-n", "1000000000000", "--seed", "1", "--threads", "2"], after_s=3.0
+        ["mc", "-n", "1000000000000", "--seed", "1", "--threads", "2", "--max-hours", "1e4"],
+        after_s=3.0,
     )
     assert status == 130, err
-    assert err.strip().splitlines() == ["aacmm mc: interrupted"], err
+    # issue 29.3: a long run says how long it will take before its bulk
+    estimate, last = err.strip().splitlines()
+    assert re.fullmatch(
+        r"aacmm mc: estimated time about .+ \(10\^12 poses at .+ per second\); Ctrl-C stops it",
+        estimate,
+    ), err
+    assert last == "aacmm mc: interrupted", err
     assert stopped_in < 10.0, stopped_in
+
+
+def test_cli_run_beyond_the_limit_is_refused_at_once(tmp_path: Path) -> None:
+    """Issue 29.3: `mc -n 10^12` ran silently for hours. A run estimated beyond
+    --max-hours (default 24) is refused with the estimate, after its first half
+    second; nothing is written."""
+    for args, limit in ((["-n", "1000000000000000"], "24 h"), (["-n", "10000000000",
+                        "--max-hours", "0.0001"], "0 s")):  # fmt: skip
+        out = _cli("mc", *args, "--seed", "1", "--threads", "2", "--json", "n.json", cwd=tmp_path)
+        assert out.returncode == 2, out.stderr
+        lines = out.stderr.strip().splitlines()
+        assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+        assert re.fullmatch(
+            r"aacmm mc: error: -n \S+ would take about .+ \(\S+ poses at .+ per second\), "
+            rf"more than the limit of {limit}: use fewer poses \(or a larger --max-hours\)",
+            lines[0],
+        ), lines
+    assert list(tmp_path.iterdir()) == []
+    out = _cli("mc", "-n", "100", "--max-hours", "0")
+    assert out.returncode == 2 and "--max-hours must be a positive number" in out.stderr
+
+
+def test_cli_adaptive_interrupt_is_130() -> None:
+    """Issue 29.4: Ctrl-C during `mc --adaptive` ended in "did not converge", exit 1.
+    Runs of 10^8 poses each: the runs in flight stop within a chunk."""
+    status, err, stopped_in = run_then_interrupt(
+        ["mc", "--adaptive", "--block", "100000000", "--max-trials", "1000000000",
+         "--threads", "2", "--seed", "1"], after_s=2.0,
+    )  # fmt: skip
+    assert status == 130, err
+    assert err.strip().splitlines()[-1] == "aacmm mc: interrupted", err
+    assert "converge" not in err and "Traceback" not in err
+    assert stopped_in < 10.0, stopped_in
+
+
+def test_cli_closed_stdout_ends_quietly(tmp_path: Path) -> None:
+    """Issue 29.4: `aacmm mc | head -c 10` ended in "error: [Errno 32] Broken pipe",
+    exit 2; the files asked for are still written."""
+    for args in (["mc", "-n", "1000", "--seed", "1", "--json", str(tmp_path / "m.json")],
+                 ["mc", "--help"]):  # fmt: skip
+        p = subprocess.Popen(
+            [*AACMM, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        assert p.stdout is not None and p.stderr is not None
+        p.stdout.close()  # the reader went away before the first byte
+        err = p.stderr.read()
+        assert p.wait(timeout=60) == 0, err
+        assert err == "", err
+    assert json.loads((tmp_path / "m.json").read_text())["n"] == 1000
+
+
+def test_run_clock() -> None:
+    """The estimate from the run's own progress (a fake clock): nothing before the
+    warm-up, then once; beyond the limit a RunLimitError with the estimate."""
+    from aacmm.analysis.runlimits import RunClock, RunLimitError, format_duration
+
+    now = [0.0]
+    c = RunClock(1000, "poses", limit_s=100.0, what="-n 1000", clock=lambda: now[0])
+    now[0] = 0.1
+    assert c.update(1) is None  # first report: the start of the rate
+    now[0] = 0.3
+    assert c.update(10) is None  # within the warm-up
+    now[0] = 1.1
+    est = c.update(9)  # 19 more poses in 1.0 s since the first report
+    assert est is not None and est.rate == pytest.approx(19.0)
+    assert est.seconds == pytest.approx(1.1 + (1000 - 20) / 19.0)
+    now[0] = 2.0
+    assert c.update(10) is None  # only once
+    c2 = RunClock(1e6, "poses", limit_s=100.0, what="-n 10^6", hint="fewer", clock=lambda: now[0])
+    now[0] = 3.0
+    c2.update(1)
+    now[0] = 4.0
+    with pytest.raises(RunLimitError, match=r"-n 10\^6 would take about .* limit of 2 min: fewer"):
+        c2.update(1)
+    with pytest.raises(RunLimitError, match="limit of 1 min"):
+        RunClock(10, "arms", limit_s=60.0).preset(61.0)
+    assert [format_duration(x) for x in (59, 600, 7260, 86400, 3 * 86400)] == [
+        "59 s", "10 min", "2 h 1 min", "24 h", "3.0 days"
+    ]  # fmt: skip

@@ -399,3 +399,40 @@ def test_plan_cli(tmp_path: Path) -> None:
         [aacmm, "plan", "example", "iso10360-12", "-o", str(out)], capture_output=True, text=True
     )
     assert r.returncode == 2 and "exists" in r.stderr
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "field", "words"),
+    [
+        ("diameter_mm = 25.4", "diameter_mm = 1e308", "artefacts.s1.diameter_mm", "beyond any arm"),
+        ("length_mm = 500.0", "length_mm = 20000.0", "artefacts.bar.length_mm", "at most 10000"),
+        (
+            "location_mm = [700.0, 0.0, -200.0]",
+            "location_mm = [7e5, 0.0, -200.0]",
+            "artefacts.seat1.location_mm[0]",
+            "beyond any arm",
+        ),
+        (
+            "ball_diameter_mm = 6.0",
+            "ball_diameter_mm = 30.0",
+            "probe.ball_diameter_mm",
+            "cannot probe the 25.4 mm s1 (artefacts.s1.diameter_mm) of step 'probing'",
+        ),
+        ("ball_diameter_mm = 6.0", "ball_diameter_mm = 500", "probe.ball_diameter_mm", "plausible"),
+        (
+            'preset = "iso10360-12"\n',
+            'preset = "iso10360-12"\n[verification]\ntemperature_c = 1e6\n',
+            "verification.temperature_c",
+            "outside -20..60 deg C",
+        ),
+    ],
+)
+def test_implausible_plans(tmp_path: Path, old: str, new: str, field: str, words: str) -> None:
+    """Issue 29.7: `plan check` accepted a 1e308 mm sphere, a 30 mm probe ball on a
+    25 mm sphere and 10^6 deg C. Each is one line: FILE:LINE: FIELD: problem."""
+    assert old in GOOD
+    text = GOOD.replace(old, new, 1)
+    err = error_of(tmp_path, text)
+    assert err.field == field and words in err.problem, str(err)
+    assert err.line is not None and "\n" not in str(err)
+    load_plan(write(tmp_path, GOOD.replace(old, old, 1), "ok.toml"))  # the original is fine

@@ -193,7 +193,7 @@ def test_damaged_sessions_are_refused(tmp_path: Path) -> None:
     pts = folder / "points.csv"
     text = pts.read_text()
     pts.write_text(text.replace(",pivot,cone,seat,,,1,1,", ",pivot,cone,seat,,,2,1,"))
-    with pytest.raises(RecordError, match=r"points.csv:3: labels do not match slot 1"):
+    with pytest.raises(RecordError, match=r"points.csv:3: labels do not match point 2"):
         read_session(folder)
     pts.write_text(text.replace(PAPER.crc_hex, "0x12345678", 1))
     with pytest.raises(RecordError, match=r"points.csv:2: parameter set '0x12345678'"):

@@ -693,3 +693,23 @@ def test_special_functions_used_by_the_radius_factor() -> None:
     x = np.linspace(0.01, 20, 50)
     g = np.sqrt(x * 2 / np.pi) * np.exp(-x / 2)
     assert np.allclose(special.erf(np.sqrt(x / 2)) - g, stats.chi2.cdf(x, 3), atol=1e-14)
+
+
+def test_cli_unbounded_checks_are_refused_with_the_estimate(tmp_path: Path) -> None:
+    """Issue 29.3: `tolerance example --trials 10^12` ended in a numpy traceback
+    ("182 TiB"). The check's memory is estimated before the allocation and its
+    time by a pilot check of 2000 arms; beyond half the memory available or
+    --max-hours it is refused with the estimate (one line, exit 2, no file)."""
+    import tomli_w
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(tomli_w.dumps(doc()))
+    j = tmp_path / "a.json"
+    r = run("tolerance", str(spec), "--trials", "1000000000000", "--json", str(j))
+    line = one_error_line(r, 2, "the Monte Carlo check of 10^12 arms at 20 rows", "TiB")
+    assert "needs about" in line and "more than half the" in line and "use fewer --trials" in line
+    r = run("tolerance", str(spec), "--trials", "1000000", "--max-hours", "0.0001",
+            "--json", str(j), timeout=240)  # fmt: skip
+    line = one_error_line(r, 2, "the Monte Carlo check of 10^6 arms would take about")
+    assert "arm-rows at" in line and "more than the limit of 0 s" in line
+    assert list(tmp_path.iterdir()) == [spec]

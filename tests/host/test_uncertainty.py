@@ -242,6 +242,18 @@ def test_cli_example_and_json(tmp_path: Path) -> None:
     doc = json.loads((tmp_path / "u.json").read_text())
     assert len(doc["given_poses"]) == 4 and len(doc["workspace_poses"]) == 20
     assert doc["group_shares"]["alpha"] > doc["group_shares"]["l"]
+    # issue 29.7: the sensitivities were labelled "mm/unit" while u is shown in
+    # arcsec: they are mm per rad (angles) and mm per mm (lengths)
+    assert "mm/unit" not in out.stdout
+    rows = {ln.split()[0]: ln for ln in out.stdout.splitlines() if ln.startswith("  ")}
+    budget = {e["name"]: e for e in doc["budget"]}
+    for name, line in rows.items():
+        if name in budget:
+            e = budget[name]
+            want = "mm/rad" if e["unit"] == "rad" else "mm/mm"
+            assert e["sensitivity_unit"] == want
+            assert f"{e['sensitivity']:.3f} {want}" in line, line
+    assert {e["sensitivity_unit"] for e in doc["budget"]} == {"mm/rad", "mm/mm"}
 
 
 @pytest.mark.parametrize(
@@ -360,11 +372,31 @@ def test_cli_bounded_memory_refusal_and_clean_interrupt() -> None:
     it ended in a traceback. Now it runs in bounded memory until Ctrl-C, which
     stops it with one line and status 130; poses that cannot fit are refused."""
     status, err, _ = run_then_interrupt(
-        ["uncertainty", "example", "--trials", "100000000", "--threads", "2"], after_s=4.0
-    )
+        ["uncertainty", "example", "--trials", "100000000", "--threads", "2", "--max-hours",
+         "1e4"], after_s=4.0,
+    )  # fmt: skip
     assert status == 130, err
-    assert err.strip().splitlines() == ["aacmm uncertainty: interrupted"], err
+    estimate, last = err.strip().splitlines()  # issue 29.3: the estimate first
+    assert estimate.startswith("aacmm uncertainty: estimated time about "), err
+    assert "trial-poses at" in estimate and estimate.endswith("; Ctrl-C stops it"), err
+    assert last == "aacmm uncertainty: interrupted", err
     out = _cli("uncertainty", "example", "--trials", "100", "--workspace", "1000000000000")
     assert out.returncode == 2
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "poses need about" in lines[0] and "GiB" in lines[0]
+
+
+def test_cli_run_beyond_the_limit_is_refused_at_once(tmp_path: Path) -> None:
+    """Issue 29.3: `uncertainty example --trials 10^12` ran silently for hours; it is
+    refused with the estimate after its first half second, and writes nothing."""
+    out = subprocess.run(
+        [*AACMM, "uncertainty", "example", "--trials", "1000000000000", "--threads", "2",
+         "--json", "u.json"],
+        capture_output=True, text=True, timeout=90, cwd=tmp_path,
+    )  # fmt: skip
+    assert out.returncode == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    assert lines[0].startswith("aacmm uncertainty: error: --trials 10^12 would take about ")
+    assert "more than the limit of 24 h: use fewer --trials or poses" in lines[0]
+    assert list(tmp_path.iterdir()) == []

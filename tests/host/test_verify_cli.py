@@ -408,11 +408,17 @@ def test_fit_sphere_and_plane(good: tuple[Path, Plan], tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("fmt", ["xyz", "ply", "csv"])
 def test_export(good: tuple[Path, Plan], tmp_path: Path, fmt: str) -> None:
-    folder, _ = good
+    """Issue 29.2: xyz is three columns that numpy.loadtxt and trimesh read (the
+    '#' lines and label columns broke trimesh and read as colours); ply keeps the
+    labels as vertex properties, counted from 1 as the prompts (0: none)."""
+    import trimesh
+
+    folder, plan = good
     rows, pts = vs.session_points(folder)
     out = tmp_path / f"pts.{fmt}"
-    p = run("export", str(folder), "--format", fmt, "-o", str(out))
+    p = run("export", str(folder), "-o", str(out))  # the format from the suffix
     assert p.returncode == 0, p.stderr
+    assert p.stderr.strip() == f"{len(rows)} points written to {out} ({fmt})"
     text = out.read_text()
     if fmt == "csv":
         got = list(csv.DictReader(text.splitlines()))
@@ -420,19 +426,100 @@ def test_export(good: tuple[Path, Plan], tmp_path: Path, fmt: str) -> None:
         xyz = np.array([[float(g[k]) for k in ("x_mm", "y_mm", "z_mm")] for g in got])
         assert [g["step"] for g in got] == [r["step_id"] for r in rows]
         assert [g["end"] for g in got] == [r["end"] for r in rows]
+        assert [int(g["point"]) for g in got] == [int(r["point_index"]) + 1 for r in rows]
+    elif fmt == "xyz":
+        xyz = np.loadtxt(out)
+        assert xyz.shape == (len(rows), 3)
+        cloud = trimesh.load(out)
+        assert isinstance(cloud, trimesh.PointCloud)
+        assert np.array_equal(np.asarray(cloud.vertices), xyz)
     else:
         lines = text.splitlines()
-        if fmt == "ply":
-            assert lines[0] == "ply" and f"element vertex {len(rows)}" in lines
-            lines = lines[lines.index("end_header") + 1 :]
-        else:
-            lines = [ln for ln in lines if not ln.startswith("#")]
-        vals = np.array([[float(v) for v in ln.split()] for ln in lines])
-        assert vals.shape == (len(rows), 8)
-        xyz = vals[:, :3]
-        assert list(vals[:, 3].astype(int)) == [int(r["step_index"]) for r in rows]
+        assert lines[0] == "ply" and f"element vertex {len(rows)}" in lines
+        assert f"comment step 1 = {plan.steps[0].id} ({plan.steps[0].procedure}, " in text
+        cloud = trimesh.load(out, process=False)
+        assert isinstance(cloud, trimesh.PointCloud)
+        xyz = np.asarray(cloud.vertices)
+        v = cloud.metadata["_ply_raw"]["vertex"]["data"]
+
+        def prop(name: str) -> list[int]:
+            return [int(x) for x in np.asarray(v[name]).ravel()]
+
+        def one_based(key: str) -> list[int]:
+            return [int(r[key]) + 1 if r[key] != "" else 0 for r in rows]
+
+        assert prop("step") == [int(r["step_index"]) + 1 for r in rows]
+        assert prop("point") == one_based("point_index")
+        assert prop("position") == one_based("position_index")
+        assert prop("articulation") == one_based("articulation_index")
+        assert prop("end") == [{"A": 1, "B": 2}.get(r["end"], 0) for r in rows]
+        assert max(prop("end")) == 2 and min(prop("step")) == 1
     assert np.allclose(xyz, pts, atol=2e-6)  # 6 decimals, from the raw counts
     one_error_line(run("export", str(folder), "--format", fmt, "-o", str(out)), 2, "exists")
+
+
+def test_export_format_from_the_suffix(good: tuple[Path, Plan], tmp_path: Path) -> None:
+    """Issue 29.2: --format was required although -o x.ply names it, and
+    `--format csv -o x.ply` was accepted."""
+    folder, _ = good
+    out = tmp_path / "x.ply"
+    one_error_line(
+        run("export", str(folder), "--format", "csv", "-o", str(out)), 2, "--format csv", "ply"
+    )
+    one_error_line(run("export", str(folder)), 2, "--format", "stdout")
+    one_error_line(run("export", str(folder), "-o", str(tmp_path / "x.txt")), 2, "--format")
+    assert list(tmp_path.iterdir()) == []
+    p = run("export", str(folder), "--format", "xyz", "-o", str(tmp_path / "x.txt"))
+    assert p.returncode == 0, p.stderr
+    p = run("export", str(folder), "--format", "xyz")  # stdout
+    assert p.returncode == 0 and p.stdout == (tmp_path / "x.txt").read_text()
+
+
+def test_fit_points_from_another_instrument(good: tuple[Path, Plan], tmp_path: Path) -> None:
+    """Issue 29.2: `fit` refused a plain x,y,z CSV ("header has no joint columns").
+    The same points as a CSV in mm (and as an xyz file) give the session's fit."""
+    folder, _ = good
+    ses = run("fit", str(folder), "sphere", "--step", "probing", "--json", "-")
+    assert ses.returncode == 0, ses.stderr
+    want = json.loads(ses.stdout)
+    _, pts = vs.session_points(folder)
+    rows, _ = vs.session_points(folder)
+    sel = pts[[i for i, r in enumerate(rows) if r["step_id"] == "probing"]]
+    plain = tmp_path / "cmm.csv"
+    plain.write_text("X,Y,Z\n" + "".join(",".join(repr(float(v)) for v in q) + "\n" for q in sel))
+    exported = tmp_path / "probing.xyz"
+    p = run("export", str(folder), "--step", "probing", "-o", str(exported))
+    assert p.returncode == 0, p.stderr
+    for src, tol in ((plain, 1e-9), (exported, 2e-6)):  # the export: 6 decimals
+        p = run("fit", str(src), "sphere", "--probe-diameter", "6", "--json", "-")
+        assert p.returncode == 0, p.stderr
+        got = json.loads(p.stdout)
+        assert got["n_points"] == 25
+        assert got["feature"]["radius"] == pytest.approx(want["feature"]["radius"], abs=tol)
+        assert got["feature"]["center"] == pytest.approx(want["feature"]["center"], abs=tol)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("a,b,c\n1,2,3\n")
+    one_error_line(run("fit", str(bad), "point"), 2, "x, y, z columns")
+    bad.write_text("x,y,z\n1,2,3\n1,nan,3\n")
+    one_error_line(run("fit", str(bad), "point"), 2, f"{bad}:3", "finite")
+
+
+def test_fit_small_rough_edges(good: tuple[Path, Plan]) -> None:
+    """Issue 29.7: --probe-diameter 1e308 printed a 300-digit number; a line through
+    2 points printed "sigma nan"."""
+    folder, _ = good
+    for d in ("1e308", "nan", "-1", "101"):
+        one_error_line(
+            run("fit", str(folder), "sphere", "--step", "probing", "--probe-diameter", d),
+            2, "--probe-diameter must be in 0..100 mm",
+        )  # fmt: skip
+    p = run("fit", str(folder), "line", "--points", "1-2")
+    assert p.returncode == 0, p.stderr
+    assert "nan" not in p.stdout.lower()
+    assert "sigma        - (0 degrees of freedom: 2 points fix a line exactly" in p.stdout
+    p = run("fit", str(folder), "line", "--points", "1-2", "--json", "-")
+    d = json.loads(p.stdout)  # strict JSON: null, not NaN
+    assert d["dof"] == 0 and d["sigma_mm"] is None and set(d["std"].values()) == {None}
 
 
 # ---------------------------------------------------------------- logs

@@ -246,6 +246,57 @@ def test_rendezvous_without_port(tmp_path: Path) -> None:
     assert "using the simulator at serial://" in cap.stderr
     assert sim.returncode == 0, err
     assert read_session(tmp_path / "s1").complete
+    # issue 29.7: in one terminal every prompt printed twice (the simulated operator
+    # said each point it probed as capture's prompt); now only with --verbose
+    from aacmm.plans import load_plan
+
+    slots = load_plan("probe-calibration").slots
+    assert not any(sl.text in err for sl in slots), err
+    assert "operator presses" not in err
+
+
+def test_second_simulator_does_not_take_discovery_away(tmp_path: Path) -> None:
+    """Issue 29.7: a second `aacmm sim` silently took over discovery and, when it
+    stopped, the first was no longer found. Now each publishes its own URL: the
+    newest is used (and says so), and the first is found again when it stops."""
+
+    def sim() -> tuple[subprocess.Popen[str], str]:
+        p = subprocess.Popen(
+            [str(AACMM), "sim", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+            text=True, env=_env(),
+        )  # fmt: skip
+        assert p.stdout is not None
+        return p, p.stdout.readline().strip()
+
+    def info() -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [str(AACMM), "info"], capture_output=True, text=True, timeout=60, env=_env()
+        )
+
+    first, url1 = sim()
+    second: subprocess.Popen[str] | None = None
+    try:
+        r = info()
+        assert r.returncode == 0 and r.stderr == f"aacmm info: using the simulator at {url1}\n"
+        second, url2 = sim()
+        r = info()
+        assert r.returncode == 0, r.stderr
+        assert r.stderr == (
+            f"aacmm info: using the simulator at {url2} (the newest of 2 running; --port "
+            "for another)\n"
+        )
+        second.terminate()
+        _, err2 = second.communicate(timeout=30)
+        assert f"also running: {url1} (pid " in err2, err2  # said when it started
+        r = info()
+        assert r.returncode == 0 and r.stderr == f"aacmm info: using the simulator at {url1}\n"
+    finally:
+        for p in (first, second):
+            if p is not None and p.poll() is None:
+                p.terminate()
+                p.communicate(timeout=30)
+    r = info()
+    assert r.returncode == 2 and "no device given" in r.stderr
 
 
 @pytest.mark.parametrize(
@@ -261,6 +312,7 @@ def test_rendezvous_without_port(tmp_path: Path) -> None:
         (["--scenario", "no-such-plan"], "no-such-plan"),
         (["--truth", "nominal", "--motion", "sweep"], "walk or static"),
         (["--fast"], "need --scenario"),
+        (["--verbose"], "need --scenario"),
     ],
 )
 def test_option_errors(args: list[str], needle: str) -> None:

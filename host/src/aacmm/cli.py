@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from typing import Any
 
 from aacmm import __version__
 
@@ -63,12 +64,37 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    func = getattr(args, "func", None)
-    if args.command is None or func is None:
-        parser.print_help()
+    """Run one command; its exit status (docs/cli.md, aacmm.commands.exitcodes).
+
+    Errors end in one line on stderr, never a traceback; Ctrl-C ends in
+    ``aacmm COMMAND: interrupted`` and status 130 wherever it lands (parsing,
+    imports, the work); a stdout closed by its reader (``aacmm mc | head``)
+    ends the command quietly, status 0, as for other command-line tools.
+    """
+    command = ""
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        command = args.command or ""
+        func = getattr(args, "func", None)
+        if args.command is None or func is None:
+            parser.print_help()
+            sys.stdout.flush()
+            return 0
+        status = _run(func, args)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+        return status
+    except KeyboardInterrupt:
+        from aacmm.commands.exitcodes import INTERRUPTED
+
+        print(f"aacmm {command}: interrupted" if command else "aacmm: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except BrokenPipeError:
+        _stdout_gone()
         return 0
+
+
+def _run(func: Any, args: argparse.Namespace) -> int:
     # Errors end in one line on stderr and a documented exit status
     # (aacmm.commands.exitcodes, docs/cli.md), never a traceback.
     from aacmm.commands.exitcodes import exit_code
@@ -76,19 +102,26 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         return int(func(args))
-    except KeyboardInterrupt:
-        print(f"aacmm {args.command}: interrupted", file=sys.stderr)
-        return exit_code(KeyboardInterrupt())
+    except BrokenPipeError:
+        raise
     except (AacmmError, ValueError) as exc:
         print(f"aacmm {args.command}: error: {exc}", file=sys.stderr)
         return exit_code(exc)
-    except BrokenPipeError:
-        # stdout closed by the reader (aacmm ... | head): not an error
-        sys.stderr.close()
-        return 0
     except OSError as exc:
         print(f"aacmm {args.command}: error: {exc}", file=sys.stderr)
         return exit_code(exc)
+
+
+def _stdout_gone() -> None:
+    """The reader of stdout went away: say nothing more, there or at exit."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

@@ -12,7 +12,10 @@ the final step is ``link()``, which fails if the name appeared meanwhile, so
 even a file created during the write is not replaced.
 
 - :func:`check_outputs`: refuse early, before a long computation or a device
-  session (existing file, the same file twice, missing directory);
+  session (existing file, the same file twice, missing directory, a directory
+  that takes no new file: read-only file system, no permission);
+- :func:`check_output_dir`: the same for an output *folder* (a report folder,
+  a session, the demo's folder) that is created only when it is written;
 - :func:`atomic_output`: a context manager yielding the temporary file
   (text or binary), for ``csv.writer``, ``json.dump``, ``f.write``;
 - :func:`write_output`: one call for a ``str`` or ``bytes``;
@@ -54,13 +57,16 @@ __all__ = [
     "OutputFileError",
     "atomic_output",
     "atomic_path",
+    "check_output_dir",
     "check_outputs",
+    "check_writable_dir",
     "load_json",
     "load_structured",
     "load_toml",
     "loads_json",
     "loads_toml",
     "nesting_depth",
+    "read_text",
     "save_figure",
     "write_output",
 ]
@@ -109,6 +115,34 @@ def _check_target(p: Path, force: bool) -> None:
         raise OutputFileError(f"{p} is not a regular file (not replaced, even with --force)")
 
 
+def check_writable_dir(directory: PathLike, what: str | None = None) -> None:
+    """Refuse a directory in which this process cannot create a file.
+
+    The test is the real thing: a temporary file is created exclusively in
+    ``directory`` and removed at once (``access()`` would pass a read-only
+    directory for root, and a read-only file system only at the write).
+    ``what`` names the output in the message (default: the directory).
+
+    Raises:
+        OutputFileError: the directory does not exist, is not a directory, or
+            takes no new file (read-only file system, no permission, full).
+    """
+    d = Path(directory)
+    name = what or str(d)
+    if not d.is_dir():
+        gone = "is not a directory" if d.exists() else "does not exist"
+        raise OutputFileError(f"{name}: directory {d} {gone}")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=d, prefix=".aacmm-probe.", suffix=".tmp")
+    except OSError as exc:
+        raise OutputFileError(
+            f"{name}: cannot create a file in {d}: {exc.strerror or exc}"
+        ) from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(tmp)
+
+
 def check_outputs(paths: Iterable[PathLike | None], force: bool = False) -> list[Path]:
     """Check the output files of a command before it starts its work.
 
@@ -117,10 +151,12 @@ def check_outputs(paths: Iterable[PathLike | None], force: bool = False) -> list
     Raises:
         OutputExistsError: a file exists and ``force`` is false.
         OutputFileError: a path is given twice, names a directory or another
-            non-regular file (device, FIFO), or its directory does not exist.
+            non-regular file (device, FIFO), its directory does not exist, or
+            its directory takes no new file (:func:`check_writable_dir`).
     """
     out: list[Path] = []
     seen: dict[Path, Path] = {}
+    probed: set[Path] = set()
     for item in paths:
         if item is None:
             continue
@@ -133,8 +169,55 @@ def check_outputs(paths: Iterable[PathLike | None], force: bool = False) -> list
         parent = key.parent
         if not parent.is_dir():
             raise OutputFileError(f"{p}: directory {parent} does not exist")
+        if parent not in probed:
+            check_writable_dir(parent, str(p))
+            probed.add(parent)
         out.append(p)
     return out
+
+
+def check_output_dir(
+    directory: PathLike,
+    names: Iterable[str] = (),
+    force: bool = False,
+    *,
+    parents: bool = False,
+    empty: bool = False,
+    what: str | None = None,
+) -> Path:
+    """Check an output folder before the work starts, without creating it.
+
+    The folder may exist (then it must be a directory that takes new files,
+    holding none of ``names`` unless ``force``, and nothing at all with
+    ``empty``) or not (then its parent must exist, or with ``parents`` its
+    nearest existing ancestor, and take a new folder). Create it only when
+    its files are written, so a refusal or a failed computation leaves no
+    empty folder behind. ``what`` names it in messages (``--report DIR``).
+
+    Raises:
+        OutputExistsError: one of ``names`` exists and ``force`` is false.
+        OutputFileError: not a directory, not empty (``empty``), a missing
+            parent, or a place that takes no new file (read-only, ...).
+    """
+    d = Path(directory)
+    name = what or str(d)
+    if d.exists() or d.is_symlink():
+        if not d.is_dir():
+            raise OutputFileError(f"{name}: not a directory")
+        if empty and any(d.iterdir()):
+            raise OutputFileError(f"{name}: the folder is not empty")
+        check_writable_dir(d, name)
+        check_outputs([d / n for n in names], force)
+        return d
+    parent = d.resolve().parent
+    if not parents and not parent.is_dir():
+        gone = "is not a directory" if parent.exists() else "does not exist"
+        raise OutputFileError(f"{name}: directory {parent} {gone}")
+    base = parent
+    while not base.exists():
+        base = base.parent
+    check_writable_dir(base, name)
+    return d
 
 
 def _umask() -> int:
@@ -386,7 +469,14 @@ def loads_json(text: str, src: str = "input") -> Any:
     return _checked(data, src)
 
 
-def _read_text(path: Path) -> str:
+def read_text(path: PathLike) -> str:
+    """A text file as hostile input: at most :data:`MAX_INPUT_BYTES`, UTF-8 (a
+    leading byte-order mark is dropped).
+
+    Raises:
+        InputFileError: unreadable, too large, or not UTF-8.
+    """
+    path = Path(path)
     try:
         with open(path, "rb") as f:
             raw = f.read(MAX_INPUT_BYTES + 1)
@@ -395,7 +485,7 @@ def _read_text(path: Path) -> str:
     if len(raw) > MAX_INPUT_BYTES:
         raise InputFileError(f"{path}: larger than {MAX_INPUT_BYTES} bytes")
     try:
-        return raw.decode("utf-8")
+        return raw.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
         raise InputFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
@@ -408,7 +498,7 @@ def load_toml(path: PathLike) -> dict[str, Any]:
             nested deeper than :data:`MAX_NESTING`.
     """
     p = Path(path)
-    return loads_toml(_read_text(p), str(p))
+    return loads_toml(read_text(p), str(p))
 
 
 def load_json(path: PathLike) -> Any:
@@ -419,7 +509,7 @@ def load_json(path: PathLike) -> Any:
             nested deeper than :data:`MAX_NESTING`.
     """
     p = Path(path)
-    return loads_json(_read_text(p), str(p))
+    return loads_json(read_text(p), str(p))
 
 
 def load_structured(path: PathLike) -> Any:

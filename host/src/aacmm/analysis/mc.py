@@ -29,8 +29,11 @@ ValueError) if a pose is rejected by the core.
 
 from __future__ import annotations
 
+import contextlib
+import itertools
 import math
 import os
+import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -237,6 +240,16 @@ def error_transfer_coefficients(
     )
 
 
+@contextlib.contextmanager
+def _cancel_on_error(cancel: threading.Event) -> Iterator[None]:
+    """Set ``cancel`` if the block raises (before the pool waits for its threads)."""
+    try:
+        yield
+    except BaseException:
+        cancel.set()
+        raise
+
+
 def jcgm_tolerance(values: FloatArray, ndig: int) -> FloatArray:
     """JCGM 101 7.9.2: delta = 1/2 10^l where |value| = c 10^l with c of ``ndig`` digits.
 
@@ -299,14 +312,20 @@ def error_transfer_coefficients_adaptive(
     delta = np.zeros((JAC_ROWS, JAC_COLS))
     report = progress or _no_progress
 
+    # Set when the loop below ends by an exception (Ctrl-C, a progress callback
+    # refusing the run): the runs in flight stop within a chunk instead of
+    # finishing their block (10^8 poses would take half a minute).
+    cancel = threading.Event()
+
     def run_sums(h: int) -> tuple[FloatArray, FloatArray, int]:
-        return _accumulate(model, _chunk_tasks(e, h, block, js), None, _no_progress)
+        tasks = itertools.takewhile(lambda _: not cancel.is_set(), _chunk_tasks(e, h, block, js))
+        return _accumulate(model, tasks, None, _no_progress)
 
     # Runs go to the threads `nt` at a time, each run whole on one thread, and
     # are examined in order: the stopping run, and so the result, is the same
     # as with one thread (runs computed past it are discarded).
     max_runs = max(1, max_trials // block)
-    with thread_pool(min(nt, max_runs)) as ex:
+    with thread_pool(min(nt, max_runs)) as ex, _cancel_on_error(cancel):
         h_next = 0
         while not converged and h_next < max_runs:
             batch = list(range(h_next, min(h_next + nt, max_runs)))

@@ -57,6 +57,7 @@ import numpy as np
 
 from aacmm.analysis._parallel import in_order
 from aacmm.analysis._parallel import pool as parallel_pool
+from aacmm.analysis.runlimits import RunLimitError, available_memory
 from aacmm.analysis.uncertainty_report import (
     BudgetEntry,
     PoseResult,
@@ -90,7 +91,6 @@ from aacmm.core import (
     Model,
     perturbed_points,
 )
-from aacmm.errors import AacmmError
 
 # the private name aacmm.analysis.tolerance imported before the split
 _expand = expand_name
@@ -150,23 +150,8 @@ T = TypeVar("T")
 Progress = Callable[[int, int], None]
 
 
-class MemoryLimitError(AacmmError, ValueError):
+class MemoryLimitError(RunLimitError):
     """The request cannot fit in the memory available."""
-
-
-def _available_memory() -> int:
-    """Bytes of memory available to this process (MemAvailable, else physical)."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (OSError, ValueError, AttributeError):
-        return 1 << 34
 
 
 def _delta(u: FloatArray, ndig: int) -> FloatArray:
@@ -425,7 +410,7 @@ def propagate(
     n = spec.poses_rad.shape[0] + workspace
     if n == 0:
         raise ValueError("no poses: give poses in the spec or a workspace size > 0")
-    need, avail = n * BYTES_PER_POSE, _available_memory()
+    need, avail = n * BYTES_PER_POSE, available_memory()
     if need > avail // 2:
         raise MemoryLimitError(
             f"{n} poses need about {need / 2**30:.1f} GiB for their results, more than "

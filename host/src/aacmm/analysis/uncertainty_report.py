@@ -169,11 +169,14 @@ def format_report(res: UncertaintyResult, top: int = 10, pose_rows: int = 8) -> 
     lines += [
         "",
         f"budget (mean over the {len(res.poses)} poses; share of the 3D variance):",
-        f"  {'param':<8} {'u':>14} {'sens (mm/unit)':>15} {'contrib um':>11} {'share':>8}",
+        f"  {'param':<8} {'u':>14} {'sensitivity':>18} {'contrib um':>11} {'share':>8}",
     ]
     for e in res.budget[:top]:
+        # per unit of the parameter as the model takes it (rad or mm), whatever
+        # unit its u is shown in (arcsec, um)
+        sens = f"{e.sensitivity:.3f} mm/{e.unit}"
         lines.append(
-            f"  {e.name:<8} {_fmt_unit(e):>14} {e.sensitivity:15.3f} "
+            f"  {e.name:<8} {_fmt_unit(e):>14} {sens:>18} "
             f"{e.contribution_mm * um:11.3f} {100 * e.share:7.2f}%"
         )
     g = res.group_shares
@@ -225,6 +228,7 @@ def to_json(res: UncertaintyResult) -> dict[str, Any]:
                 "unit": e.unit,
                 "u": e.u,
                 "sensitivity": e.sensitivity,
+                "sensitivity_unit": f"mm/{e.unit}",
                 "contribution_mm": e.contribution_mm,
                 "share": e.share,
             }

@@ -149,7 +149,7 @@ def find_outliers(
         u = problem.unit(int(i))
         label = problem.obs.label(u.poses[0])
         if u.kind == KIND_LENGTH:
-            label = f"{label} (length position {u.position})"
+            label = f"{label} (length position {u.position + 1})"
         out.append(
             Outlier(
                 problem.obs.constraints[u.constraint].name,

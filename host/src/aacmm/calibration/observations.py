@@ -115,7 +115,7 @@ class LengthSet:
         b = tuple(_indices(self.name, e) for e in self.ends_b)
         for i, (ea, eb) in enumerate(zip(a, b, strict=True)):
             if ea.size == 0 or eb.size == 0:
-                raise ObservationError(f"{self.name}: position {i} has an end without points")
+                raise ObservationError(f"{self.name}: position {i + 1} has an end without points")
         object.__setattr__(self, "ends_a", a)
         object.__setattr__(self, "ends_b", b)
         u = _finite_positive(self.name, "the length uncertainty", self.u_length_mm)
@@ -129,7 +129,7 @@ class LengthSet:
             for i, (ea, eb) in enumerate(zip(a, b, strict=True)):
                 if min(ea.size, eb.size) < 4:
                     raise ObservationError(
-                        f"{self.name}: position {i}: a ball end needs at least 4 points"
+                        f"{self.name}: position {i + 1}: a ball end needs at least 4 points"
                     )
 
     @property
@@ -265,10 +265,11 @@ class Observations:
         return int(self.theta_rad.shape[0])
 
     def label(self, pose: int) -> str:
-        """``step 3 (cone-A) point 7`` for a pose index."""
+        """``step 3 (cone-A) point 7`` for a pose index (numbers from 1, as people count;
+        :attr:`step` and :attr:`index` count from 0)."""
         s = int(self.step[pose])
         name = f" ({self.step_names[s]})" if 0 <= s < len(self.step_names) else ""
-        return f"step {s}{name} point {int(self.index[pose])}"
+        return f"step {s + 1}{name} point {int(self.index[pose]) + 1}"
 
     def validate(self) -> None:
         """Check everything a solve relies on; raise :class:`ObservationError` if not.

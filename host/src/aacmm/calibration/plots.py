@@ -68,7 +68,7 @@ def residual_figures(res: CalibrationResult) -> dict[int, Any]:
             if signed and kinds == ["length"]
             else ("signed residual" if signed else "distance from the fitted feature")
         )
-        label = f"step {step} {name}" if name else f"step {step}"
+        label = f"step {step + 1} {name}" if name else f"step {step + 1}"
         fig.suptitle(f"{label} ({', '.join(kinds)}): {what}", fontsize=10)
         figs[int(step)] = fig
     return figs

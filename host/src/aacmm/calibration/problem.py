@@ -466,7 +466,7 @@ class Problem:
         if np.any(dist < 1e-6):
             u = self.unit(self.len_unit0 + int(np.argmin(dist)))
             raise CalibrationError(
-                f"{self.obs.constraints[u.constraint].name}: position {u.position}: "
+                f"{self.obs.constraints[u.constraint].name}: position {u.position + 1}: "
                 "both ends at one point"
             )
         s = self.len_sigma

@@ -244,7 +244,7 @@ def _outlier_json(o: Outlier) -> dict[str, Any]:
         "constraint": o.constraint,
         "kind": o.kind,
         "poses": list(o.poses),
-        "position": o.position if o.kind == KIND_LENGTH else None,
+        "position": o.position + 1 if o.kind == KIND_LENGTH else None,  # from 1, as the label
         "residual_mm": o.residual_mm,
         "statistic": o.statistic,
         "threshold": o.threshold,

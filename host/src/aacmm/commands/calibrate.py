@@ -146,35 +146,33 @@ def run_calibrate(args: argparse.Namespace) -> int:
         if args.validate
         else None
     )
-    outputs = _outputs(args, data.observations.step_names)
-    from aacmm.fileio import check_outputs
-
-    check_outputs(outputs, args.force)
+    _check_outputs(args, data.observations.step_names)
     return _calibrate(args, data, held_out)
 
 
-def _outputs(args: argparse.Namespace, step_names: tuple[str, ...]) -> list[Path]:
-    out = [Path(args.output), provenance_path(args.output)]
-    if args.report:
-        d = Path(args.report)
-        if d.exists() and not d.is_dir():
-            from aacmm.commands.exitcodes import UsageError
+def _check_outputs(args: argparse.Namespace, step_names: tuple[str, ...]) -> None:
+    """Every output checked before the work starts; nothing is created yet (the
+    report folder is made when its files are written), so a refusal leaves nothing."""
+    from aacmm.fileio import check_output_dir, check_outputs
 
-            raise UsageError(f"--report {d}: not a directory")
-        d.mkdir(parents=True, exist_ok=True)
+    check_outputs([Path(args.output), provenance_path(args.output)], args.force)
+    if args.report:
         names = ["report.txt", "report.json", "spectrum.png", "correlation.png", "convergence.png"]
         if args.workspace:
             names.append("uncertainty.png")
         names += [_step_png(i, n) for i, n in enumerate(step_names)]
         from aacmm.commands.view import report_names
 
-        out += [d / n for n in [*names, *report_names()]]
-    return out
+        names += report_names()
+        check_output_dir(
+            args.report, names, args.force, parents=True, what=f"--report {args.report}"
+        )
 
 
 def _step_png(step: int, name: str) -> str:
+    """``residuals-step01-cone1.png`` for step index 0: numbered from 1, as the reports."""
     safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
-    return f"residuals-step{step:02d}{'-' + safe if safe else ''}.png"
+    return f"residuals-step{step + 1:02d}{'-' + safe if safe else ''}.png"
 
 
 def _progress(args: argparse.Namespace) -> Any:
@@ -398,13 +396,13 @@ def _write(
         }
     if ures is not None:
         prov["point_uncertainty"] = unc.to_json(ures)
-    write_output(args.output, text, force=args.force)
+    if args.report:  # first: the parameter file, written last, says the job is done
+        _write_report(args, res, cmp_, val, kf, ures, probe, prov)
     write_output(provenance_path(args.output), json.dumps(prov, indent=1) + "\n", force=args.force)
+    write_output(args.output, text, force=args.force)
     print()
     print(f"wrote {args.output} (load it with: aacmm params set {args.output} --save)")
     print(f"wrote {provenance_path(args.output)}")
-    if args.report:
-        _write_report(args, res, cmp_, val, kf, ures, probe, prov)
 
 
 def _cmp_json(cmp_: Any) -> list[dict[str, Any]]:
@@ -445,6 +443,7 @@ def _write_report(
     from aacmm.fileio import save_figure, write_output
 
     d = Path(args.report)
+    d.mkdir(parents=True, exist_ok=True)
     parts = [report.format_result(res, cmp_)]
     if probe is not None:
         parts.append(_probe_text(probe))

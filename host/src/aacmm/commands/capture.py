@@ -101,6 +101,25 @@ def say(text: str) -> None:
     print(text, flush=True)
 
 
+ARTEFACT_WORDS = {
+    "cone": "cone seat",
+    "sphere": "sphere",
+    "ballbar": "ball bar",
+    "gauge": "gauge",
+    "plane": "plane",
+    "part": "part",
+}
+
+
+def step_announcement(plan: Plan, step_index: int) -> str:
+    """The line that opens a step: its number, id, points and artefact, and its note."""
+    st = plan.steps[step_index]
+    art = plan.artefacts.get(st.artefact or "")
+    on = f" on {ARTEFACT_WORDS.get(art.type, art.type)} {art.id}" if art is not None else ""
+    text = f"step {st.index + 1}/{len(plan.steps)} {st.id}: {st.points} points{on}"
+    return f"{text}. {st.note}" if st.note else text
+
+
 class Capture:
     """One ``aacmm capture`` run against a device."""
 
@@ -195,9 +214,7 @@ class Capture:
             return
         n = len(self.plan.slots)
         if slot.point_index == 0 and slot.position_index in (None, 0):
-            st = self.plan.steps[slot.step_index]
-            if st.note:
-                say(f"step {st.index + 1}/{len(self.plan.steps)} {st.id}: {st.note}")
+            say(step_announcement(self.plan, slot.step_index))
         keys = " (u: undo, q: stop)" if self.keys else ""
         say(f"[{slot.index + 1}/{n}] {slot.text}{keys}")
 
@@ -415,6 +432,7 @@ class Capture:
 
 
 def cmd_capture(args: argparse.Namespace) -> int:
+    from aacmm.fileio import check_output_dir, check_writable_dir
     from aacmm.plans import load_plan
 
     if not (args.stall > 0 and args.stall <= 3600):
@@ -431,10 +449,13 @@ def cmd_capture(args: argparse.Namespace) -> int:
         if not session_exists(folder):
             raise UsageError(f"{folder}: no session to resume (no session.json)")
         read_session(folder)  # refuse a damaged session before touching the device
+        check_writable_dir(folder, str(folder))
     elif folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise UsageError(f"{folder} exists: use --resume to continue it, or another folder")
     elif not folder.resolve().parent.is_dir():
         raise UsageError(f"directory {folder.resolve().parent} does not exist")
+    else:  # the folder must be creatable (or take files) before the device is opened
+        check_output_dir(folder, what=str(folder))
     if args.from_log is not None:
         return label_log(args, plan)
     return Capture(args, plan).run()

@@ -90,7 +90,7 @@ def port_url(args: argparse.Namespace) -> str:
     url = (args.port or os.environ.get(ENV_PORT, "")).strip()
     if not url:
         # A running (or starting) `aacmm sim` publishes its URL (docs/cli.md, aacmm sim).
-        from aacmm.commands.sim import published_url
+        from aacmm.commands.sim import published_sims, published_url
 
         url = published_url() or ""
         if not url:
@@ -98,8 +98,10 @@ def port_url(args: argparse.Namespace) -> str:
                 f"no device given: use --port URL, set {ENV_PORT}, or start a simulator "
                 "(aacmm sim &)"
             )
+        n = len(published_sims())
+        more = f" (the newest of {n} running; --port for another)" if n > 1 else ""
         cmd = getattr(args, "command", None) or "aacmm"
-        print(f"aacmm {cmd}: using the simulator at {url}", file=sys.stderr, flush=True)
+        print(f"aacmm {cmd}: using the simulator at {url}{more}", file=sys.stderr, flush=True)
     from aacmm.transport import parse_url
 
     try:
@@ -330,3 +332,137 @@ class StatusLine:
 
 def print_err(cmd: str, text: str) -> None:
     print(f"aacmm {cmd}: {text}", file=sys.stderr, flush=True)
+
+
+def add_run_limit_options(parser: argparse.ArgumentParser, bar: str) -> None:
+    """``--max-hours`` and ``--progress``/``--no-progress`` of a long analysis run.
+
+    ``bar``: what the progress bar counts, for the help text.
+    """
+    from aacmm.analysis.runlimits import MAX_RUN_S
+
+    parser.add_argument(
+        "--max-hours",
+        type=float,
+        default=MAX_RUN_S / 3600,
+        metavar="H",
+        help=f"refuse a run estimated longer than H hours (default {MAX_RUN_S / 3600:g})",
+    )
+    parser.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help=f"progress of {bar} on stderr (default: for long runs; a bar at a terminal)",
+    )
+
+
+def max_run_seconds(args: argparse.Namespace) -> float:
+    """``--max-hours`` in seconds.
+
+    Raises:
+        UsageError: not a positive number.
+    """
+    h = float(args.max_hours)
+    if not (h > 0 and h < 1e6):
+        raise UsageError(f"--max-hours must be a positive number of hours, got {args.max_hours}")
+    return h * 3600.0
+
+
+class RunProgress:
+    """A long analysis run seen from stderr: its estimate first, then its progress.
+
+    :meth:`update` goes to the run's progress callback. Once the first half
+    second is measured (:class:`aacmm.analysis.runlimits.RunClock`), a run
+    estimated beyond the limit is refused (:class:`RunLimitError`, exit
+    status 2); one estimated at :data:`LONG_RUN_S` or more is announced with
+    its estimate (``aacmm mc: estimated time about 3 h 10 min (...); Ctrl-C
+    stops it``), then shown as a bar at a terminal, or off a terminal as a
+    line every 5 % (at least 10 s apart). ``show``: ``--progress`` (True: a
+    bar from the start, False: no progress, only the estimate).
+    """
+
+    def __init__(
+        self,
+        cmd: str,
+        total: float,
+        unit: str,
+        *,
+        show: bool | None,
+        limit_s: float,
+        what: str,
+        hint: str,
+    ) -> None:
+        from aacmm.analysis.runlimits import RunClock
+
+        self.cmd = cmd
+        self.show = show
+        self.clock = RunClock(total, unit, limit_s, what, hint)
+        self._bar: Any = None
+        self._lines = False
+        self._last_line = 0.0
+        self._last_pct = 0
+        if show:
+            self._open_bar()
+
+    def _open_bar(self) -> None:
+        from tqdm import tqdm
+
+        c = self.clock
+        self._bar = tqdm(
+            total=c.total, desc=self.cmd, unit=c.unit.rstrip("s") or c.unit, unit_scale=True,
+            file=sys.stderr, leave=False, initial=c.done,
+        )  # fmt: skip
+
+    def preset(self, seconds: float) -> None:
+        """The whole run's time, estimated another way (a pilot run): refused
+        beyond the limit, announced when long.
+
+        Raises:
+            RunLimitError: beyond the limit.
+        """
+        self._announce(self.clock.preset(seconds))
+
+    def _announce(self, est: Any) -> None:
+        from aacmm.analysis.runlimits import LONG_RUN_S
+
+        if est is None or est.seconds < LONG_RUN_S:
+            return
+        print_err(self.cmd, f"estimated time {est.describe()}; Ctrl-C stops it")
+        if self.show is None:
+            if is_tty(sys.stderr):
+                self._open_bar()
+            else:
+                self._lines = True
+                self._last_line = time.monotonic()
+
+    def update(self, n: float) -> None:
+        """``n`` more units done.
+
+        Raises:
+            RunLimitError: the run, as measured so far, would exceed the limit.
+        """
+        self._announce(self.clock.update(n))
+        if self._bar is not None:
+            self._bar.update(n)
+        elif self._lines:
+            self._line()
+
+    def _line(self) -> None:
+        from aacmm.analysis.runlimits import format_count, format_duration
+
+        c = self.clock
+        pct = int(100 * c.done / c.total)
+        now = time.monotonic()
+        if pct < self._last_pct + 5 or now - self._last_line < 10.0 or c.done >= c.total:
+            return
+        est = c.current()
+        left = f", {format_duration(est.remaining_s)} left" if est is not None else ""
+        print_err(
+            self.cmd, f"{pct}% ({format_count(c.done)} of {format_count(c.total)} {c.unit}){left}"
+        )
+        self._last_pct, self._last_line = pct, now
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None

@@ -139,6 +139,13 @@ class Demo:
         self.transcript.write(text + "\n")
         self.transcript.flush()
 
+    def fail(self, text: str) -> None:
+        """Why the demo stops: in the story on stdout, and as the one line on stderr
+        a script reads (once, when both are the same terminal)."""
+        self.say(text)
+        if not (sys.stdout.isatty() and sys.stderr.isatty()):
+            print(text, file=sys.stderr, flush=True)
+
     def step(self, title: str) -> None:
         """The progress line of the next step: number, elapsed time, what it does."""
         self.index += 1
@@ -192,10 +199,11 @@ class Demo:
         if p.returncode not in ok:
             for line in p.stderr.strip().splitlines()[-5:]:
                 self.say(f"  {line}")
-            self.say(
+            failed = (
                 f"demo: step failed (exit status {p.returncode}): {_shown(args)} "
                 f"(output: console/{console})"
             )
+            self.fail(failed)
             raise StepFailed(p.returncode)
         self.say(f"  ({time.monotonic() - t:.1f} s; output: console/{console})")
         return p
@@ -223,7 +231,7 @@ class Demo:
                     tail = log_path.read_text(encoding="utf-8").strip().splitlines()[-3:]
                     for line in tail:
                         self.say(f"  {line}")
-                    self.say(
+                    self.fail(
                         f"demo: the simulator did not start (its messages: console/{log_name})"
                     )
                     raise StepFailed(proc.returncode if proc.returncode else 3)
@@ -309,14 +317,24 @@ def run_demo(args: argparse.Namespace) -> int:
         return dr.print_truth_check(Path(args.check), force=args.force)
     from aacmm.commands.sim import find_simulator, repo_root
 
-    if args.seconds <= 0 or args.poses < 1:
-        print("demo: --seconds and --poses must be positive", file=sys.stderr)
+    # Every argument and the output folder are checked before anything runs or is
+    # written: a refusal is one line on stderr, exit status 2, and no file.
+    problem = _bad_arguments(args)
+    if problem:
+        print(f"demo: {problem}", file=sys.stderr)
         return USAGE
     root = repo_root() or Path.cwd()
     stamp = dt.datetime.now(dt.UTC).strftime("%Y%m%d-%H%M%S")
     out = (args.out or root / "out" / f"demo-{stamp}").resolve()
     if out.is_dir() and any(out.iterdir()):  # every output is refused if it exists
         print(f"demo: {out} is not empty: give a new --out folder", file=sys.stderr)
+        return USAGE
+    from aacmm.fileio import OutputFileError, check_output_dir
+
+    try:
+        check_output_dir(out, parents=True, what=f"--out {out}")
+    except OutputFileError as exc:
+        print(f"demo: {exc}", file=sys.stderr)
         return USAGE
     find_simulator()  # "run make sim" before anything is written
     for sub in ("arm", "console"):
@@ -330,6 +348,23 @@ def run_demo(args: argparse.Namespace) -> int:
             return exc.code
         finally:
             demo.say(f"demo: outputs in {out}")
+
+
+#: The largest log duration (s) and Table 2 poses the demo takes: a demo, not a study
+#: (aacmm log and aacmm mc take more).
+MAX_SECONDS = 600.0
+MAX_POSES = 10_000_000
+
+
+def _bad_arguments(args: argparse.Namespace) -> str | None:
+    """What is wrong with the demo's options (None: nothing)."""
+    if args.seed is not None and not 0 <= args.seed < 1 << 64:
+        return f"--seed must be in 0 .. 2^64-1 (the arm random:SEED), got {args.seed}"
+    if not 0 < args.seconds <= MAX_SECONDS:  # also refuses NaN
+        return f"--seconds must be in (0, {MAX_SECONDS:g}], got {args.seconds:g}"
+    if not 1 <= args.poses <= MAX_POSES:
+        return f"--poses must be in 1 .. {MAX_POSES}, got {args.poses}"
+    return None
 
 
 def _story(demo: Demo, seed: int, args: argparse.Namespace) -> int:

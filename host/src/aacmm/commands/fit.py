@@ -36,7 +36,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "session or a log (points recomputed from the raw counts with the parameter set in "
         "force), with form (range of residuals), standard uncertainties and covariance.",
     )
-    p.add_argument("source", metavar="SOURCE", help="a session (aacmm capture) or a log CSV")
+    p.add_argument(
+        "source",
+        metavar="SOURCE",
+        help="a session (aacmm capture), a log CSV, or a CSV of x, y, z points in mm",
+    )
     p.add_argument("feature", choices=FEATURES, help="the feature to fit")
     sel = p.add_argument_group("point selection (default: every point)")
     sel.add_argument("--step", metavar="ID", help="session: only the points of this step")
@@ -82,7 +86,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "articulation.",
     )
     e.add_argument("session", metavar="SESSION", help="a session (aacmm capture) or a log CSV")
-    e.add_argument("--format", choices=FORMATS, required=True, help="output format")
+    e.add_argument(
+        "--format",
+        choices=FORMATS,
+        help="output format (default: the one -o's suffix names: .xyz, .ply, .csv)",
+    )
     e.add_argument("-o", "--output", metavar="FILE", help="output file (default: stdout)")
     e.add_argument("--step", metavar="ID", help="only the points of this step")
     add_force_option(e)
@@ -193,9 +201,15 @@ def fit_text(fit: Fit[Any], source: str, n_sel: str, mz: Any) -> str:
         lines.append(f"out of plane {fit.extra['out_of_plane_form']:.6f} mm (range)")
     if mz is not None:
         lines.append(f"min. zone    {mz.form:.6f} mm ({mz.method})")
-    lines.append(f"sigma        {fit.sigma:.6f} mm ({fit.dof} degrees of freedom)")
-    unc = "  ".join(f"{k} {v:.6f}" for k, v in fit.std.items())
-    lines.append(f"std. unc.    {unc}  (mm, rad)")
+    if fit.dof > 0:
+        lines.append(f"sigma        {fit.sigma:.6f} mm ({fit.dof} degrees of freedom)")
+        unc = "  ".join(f"{k} {v:.6f}" for k, v in fit.std.items())
+        lines.append(f"std. unc.    {unc}  (mm, rad)")
+    else:
+        lines.append(
+            f"sigma        - (0 degrees of freedom: {fit.n_points} points fix a {fit.kind} "
+            "exactly; more points give its sigma and uncertainties)"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -204,6 +218,7 @@ def run_fit(args: argparse.Namespace) -> int:
     from aacmm.commands.common import atomic_output, check_outputs, write_output
     from aacmm.commands.exitcodes import UsageError
     from aacmm.commands.measured import load_points
+    from aacmm.plans.model import MAX_PROBE_DIAMETER_MM
 
     json_out = None if args.json in (None, "-") else Path(args.json)
     check_outputs([json_out, args.csv], args.force)
@@ -211,8 +226,11 @@ def run_fit(args: argparse.Namespace) -> int:
     idx = _select(m, args)
     pts = m.points[idx]
     if args.probe_diameter is not None:
-        if not (math.isfinite(args.probe_diameter) and args.probe_diameter >= 0):
-            raise UsageError("--probe-diameter must be >= 0 mm")
+        if not (0 <= args.probe_diameter <= MAX_PROBE_DIAMETER_MM):  # also refuses NaN
+            raise UsageError(
+                f"--probe-diameter must be in 0..{MAX_PROBE_DIAMETER_MM:g} mm, "
+                f"got {args.probe_diameter:g}"
+            )
         probe_r = args.probe_diameter / 2.0
     else:
         probe_r = m.probe_diameter_mm / 2.0
@@ -250,26 +268,26 @@ def run_fit(args: argparse.Namespace) -> int:
 
 
 def export_text(m: Measured, idx: list[int], fmt: str) -> str:
-    """The export file's content for the selected points."""
+    """The export file's content for the selected points.
+
+    ``xyz``: three columns (``x y z`` in mm), nothing else, as point-cloud
+    readers take it (numpy.loadtxt, trimesh, MeshLab, CloudCompare);
+    ``ply``: the points with their labels as vertex properties, counted from 1
+    (0: not applicable); ``csv``: the points with every label by name.
+    """
     buf = io.StringIO()
     if fmt == "xyz":
-        buf.write("# x_mm y_mm z_mm step point position end articulation")
-        buf.write(" (indices from 0, -1: none; end 0 = A, 1 = B)\n")
-        for k, sid in enumerate(m.step_table()):
-            buf.write(f"# step {k} = {sid}\n")
         for i in idx:
-            nums = m.label_numbers(i)
-            buf.write(
-                " ".join(f"{v:.6f}" for v in m.points[i])
-                + " "
-                + " ".join(str(v) for v in nums)
-                + "\n"
-            )
+            buf.write(" ".join(f"{v:.6f}" for v in m.points[i]) + "\n")
     elif fmt == "ply":
         buf.write("ply\nformat ascii 1.0\n")
         buf.write(f"comment aacmm export of {m.source.name}: ball centres in mm\n")
+        buf.write(
+            "comment step, point, position, articulation count from 1 as the prompts; "
+            "end 1 = A, 2 = B; 0: not applicable\n"
+        )
         for k, sid in enumerate(m.step_table()):
-            buf.write(f"comment step {k} = {sid}\n")
+            buf.write(f"comment step {k + 1} = {sid}\n")
         buf.write(f"element vertex {len(idx)}\n")
         for p in ("x", "y", "z"):
             buf.write(f"property double {p}\n")
@@ -307,17 +325,38 @@ def export_text(m: Measured, idx: list[int], fmt: str) -> str:
     return buf.getvalue()
 
 
+def export_format(fmt: str | None, output: str | None) -> str:
+    """The export format: ``--format``, else the one ``-o``'s suffix names.
+
+    Raises:
+        UsageError: neither says one, or they disagree (``--format csv -o x.ply``).
+    """
+    from aacmm.commands.exitcodes import UsageError
+
+    suffix = Path(output).suffix.lower().lstrip(".") if output else ""
+    named = suffix if suffix in FORMATS else None
+    if fmt is None:
+        if named is None:
+            where = f"{output} has no suffix of one" if output else "stdout has no file suffix"
+            raise UsageError(f"give --format xyz, ply or csv ({where})")
+        return named
+    if named is not None and named != fmt:
+        raise UsageError(f"--format {fmt}, but {output} names {named}: make them agree")
+    return fmt
+
+
 def run_export(args: argparse.Namespace) -> int:
     from aacmm.commands.common import check_outputs, write_output
     from aacmm.commands.measured import load_points
 
+    fmt = export_format(args.format, args.output)
     check_outputs([args.output], args.force)
     m = load_points(Path(args.session))
     idx = _select(m, args)
-    text = export_text(m, idx, args.format)
+    text = export_text(m, idx, fmt)
     if args.output is None:
         sys.stdout.write(text)
     else:
         write_output(args.output, text, force=args.force)
-        print(f"{len(idx)} points written to {args.output}", file=sys.stderr)
+        print(f"{len(idx)} points written to {args.output} ({fmt})", file=sys.stderr)
     return 0

@@ -240,6 +240,7 @@ class Logger(LogWriter):
                     f"--raw {raw_path}: the suffix picks the format: {', '.join(RAW_SUFFIXES)}"
                 )
             self.raw = RawCanRecorder(raw_path, kind, channel, node, a.force)
+        self.stop.immediate = True  # until the log starts: opening the device
         self.stop.install()
         try:
             code = self._run()
@@ -270,6 +271,7 @@ class Logger(LogWriter):
                 )
             self.start_wall = time.time()
             self.t0 = time.monotonic()
+            self.stop.immediate = False  # from here a signal ends the log cleanly
             self.rows = open_rows(self.csv_path, COLUMNS, a.force)
             self.meta = self.base_meta(dev, ps)
             self.use_param_set(ps)

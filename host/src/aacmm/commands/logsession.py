@@ -51,6 +51,7 @@ class Session:
     overruns: int = 0
     dropped: int = 0
     triggers: int = 0
+    presses: int = 0  # trigger rows that are presses (a press and its release: 2 rows)
     reconnects: int = 0
     first_host: float | None = None
     last_host: float | None = None

@@ -101,6 +101,10 @@ class LogWriter:
         parent = self.csv_path.resolve().parent
         if not parent.is_dir():
             raise UsageError(f"directory {parent} does not exist")
+        from aacmm.fileio import check_writable_dir
+
+        for d in dict.fromkeys(p.resolve().parent for p in paths):  # before the device
+            check_writable_dir(d, str(self.csv_path if d == parent else d))
 
     def base_meta(self, dev: Device, ps: ParamSetRecord) -> dict[str, Any]:
         a = self.args
@@ -152,6 +156,7 @@ class LogWriter:
             "overrun_flags": s.overruns,
         }
         m["triggers"] = s.triggers
+        m["presses"] = s.presses
         if self.trig_rows is not None:
             m["triggers_csv"] = self.trig_rows.path.name
         m["reconnects"] = s.reconnects
@@ -205,6 +210,7 @@ class LogWriter:
             extra = (trig.button, int(trig.pressed))
             self.trig_rows.add(sample_row(trig.sample, host_time, self.crc_text, extra))
             self.s.triggers += 1
+            self.s.presses += int(trig.pressed)
 
     def account(self, stream: SampleStream) -> None:
         st = stream.stats
@@ -219,7 +225,7 @@ class LogWriter:
             lost += stream.stats.lost + stream.stats.dropped
         text = f"lost {lost}"
         if self.s.triggers:
-            text += f", triggers {self.s.triggers}"
+            text += f", presses {self.s.presses}"
         if self.s.reconnects:
             text += f", reconnects {self.s.reconnects}"
         return text
@@ -234,6 +240,7 @@ class LogWriter:
             "gap_s": [g.get("duration_s") for g in s.gaps],
             "lost_samples": s.lost + s.dropped,
             "triggers": s.triggers,
+            "presses": s.presses,
             "reconnects": s.reconnects,
             "extent_mm": s.extent.as_dict(),
         }

@@ -15,7 +15,13 @@ import argparse
 import math
 from typing import Any
 
-from aacmm.commands.common import add_force_option, print_err
+from aacmm.commands.common import (
+    RunProgress,
+    add_force_option,
+    add_run_limit_options,
+    max_run_seconds,
+    print_err,
+)
 from aacmm.commands.exitcodes import USAGE
 
 
@@ -107,12 +113,7 @@ def register(sub: Any) -> None:
     mc.add_argument("--png", metavar="PATH", help="write a figure of the coefficients (PNG)")
     mc.add_argument("-q", "--quiet", action="store_true", help="no terminal table")
     add_force_option(mc)
-    mc.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar on stderr (default: on long runs at a terminal)",
-    )
+    add_run_limit_options(mc, "the poses")
     mc.set_defaults(func=run_mc)
 
 
@@ -129,35 +130,18 @@ def _joints(args: argparse.Namespace) -> Any:
     return js
 
 
-def _progress_bar(enabled: bool | None, total: int | None) -> Any:
-    """A tqdm bar on stderr counting poses (None when off).
-
-    Default: on at a terminal for runs of at least 2*10^6 poses (and for
-    adaptive runs, whose length is not known in advance).
-    """
-    import sys
-
-    from aacmm.commands.common import is_tty
-
-    if enabled is None:
-        enabled = is_tty(sys.stderr) and (total is None or total >= 2_000_000)
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc="mc", unit="pose", unit_scale=True, file=sys.stderr, leave=False)
-
-
 def run_mc(args: argparse.Namespace) -> int:
     """``aacmm mc``: returns the exit status."""
     import json
 
     from aacmm.analysis import mc
+    from aacmm.analysis.runlimits import format_count
     from aacmm.errors import AacmmError
     from aacmm.fileio import atomic_output, check_outputs, save_figure, write_output
 
-    bar = None
+    bar: RunProgress | None = None
     try:
+        limit_s = max_run_seconds(args)
         check_outputs([args.csv, args.json, args.png], args.force)
         if args.log is not None:
             if args.adaptive or args.range or args.normal or args.seed is not None:
@@ -167,7 +151,7 @@ def run_mc(args: argparse.Namespace) -> int:
             from aacmm.analysis.poselog import read_pose_log
 
             log = read_pose_log(args.log)
-            bar = _progress_bar(args.progress, log.theta_rad.shape[0])
+            bar = _progress(args, log.theta_rad.shape[0], limit_s, f"mc --log {args.log}")
             res = mc.coefficients_over_poses(
                 log.theta_rad,
                 params=log.params,
@@ -178,7 +162,12 @@ def run_mc(args: argparse.Namespace) -> int:
         elif args.adaptive:
             if args.tol is not None and args.ndig is not None:
                 raise ValueError("give --ndig or --tol, not both")
-            bar = _progress_bar(args.progress, None)
+            bar = _progress(
+                args,
+                args.max_trials,
+                limit_s,
+                f"an adaptive run of up to {format_count(args.max_trials)} poses (--max-trials)",
+            )
             res = mc.error_transfer_coefficients_adaptive(
                 ndig=None if args.tol is not None else (2 if args.ndig is None else args.ndig),
                 tolerance=args.tol,
@@ -193,7 +182,7 @@ def run_mc(args: argparse.Namespace) -> int:
             if args.ndig is not None or args.tol is not None:
                 raise ValueError("--ndig and --tol need --adaptive")
             joints = _joints(args)
-            bar = _progress_bar(args.progress, args.poses if args.poses > 0 else None)
+            bar = _progress(args, args.poses, limit_s, f"-n {format_count(args.poses)}")
             res = mc.error_transfer_coefficients(
                 args.poses,
                 joints=joints,
@@ -204,8 +193,7 @@ def run_mc(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
             bar = None
-        if not args.quiet:
-            print(mc.format_report(res))
+        # the files first: a closed stdout (mc | head) must not cost them
         if args.csv:
             with atomic_output(args.csv, force=args.force, newline="") as f:
                 f.write(mc.csv_text(res))
@@ -213,6 +201,10 @@ def run_mc(args: argparse.Namespace) -> int:
             write_output(args.json, json.dumps(mc.to_json(res), indent=2) + "\n", force=args.force)
         if args.png:
             save_figure(mc.figure(res), args.png, force=args.force, dpi=120)
+        if not args.quiet:
+            print(mc.format_report(res), flush=True)
+    except BrokenPipeError:
+        raise
     except (AacmmError, ValueError, OSError) as e:
         print_err("mc", f"error: {e}")
         return USAGE
@@ -223,3 +215,20 @@ def run_mc(args: argparse.Namespace) -> int:
         print_err("mc", "warning: adaptive run did not converge within --max-trials")
         return 1
     return 0
+
+
+def _progress(
+    args: argparse.Namespace, total: int, limit_s: float, what: str
+) -> RunProgress | None:
+    """The run's estimate and progress (None for a count the library refuses itself)."""
+    if total <= 0:
+        return None
+    return RunProgress(
+        "mc",
+        total,
+        "poses",
+        show=args.progress,
+        limit_s=limit_s,
+        what=what,
+        hint="use fewer poses (or a larger --max-hours)",
+    )

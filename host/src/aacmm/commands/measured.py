@@ -7,6 +7,7 @@ double precision), never taken from the device's rounded point.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -47,14 +48,15 @@ class Measured:
         return [f"{s.id} ({s.procedure}, {s.artefact or '-'})" for s in self.plan.steps]
 
     def label_numbers(self, i: int) -> list[int]:
-        """step, point, position, end (0 A, 1 B), articulation; -1 where not applicable."""
+        """step, point, position, end (1 A, 2 B), articulation, counted from 1 as the
+        prompts count them; 0 where not applicable (a log's points have only a number)."""
         if self.labels is None:
-            return [-1, i, -1, -1, -1]
+            return [0, i + 1, 0, 0, 0]
         p = self.labels[i]
-        end = {"A": 0, "B": 1}.get(p.end or "", -1)
-        pos = -1 if p.position_index is None else p.position_index
-        art = -1 if p.articulation_index is None else p.articulation_index
-        return [p.step_index, p.point_index, pos, end, art]
+        end = {"A": 1, "B": 2}.get(p.end or "", 0)
+        pos = 0 if p.position_index is None else p.position_index + 1
+        art = 0 if p.articulation_index is None else p.articulation_index + 1
+        return [p.step_index + 1, p.point_index + 1, pos, end, art]
 
     def csv_labels(self, i: int) -> list[str]:
         """step id, procedure, artefact, point, position, end, articulation (1-based counts)."""
@@ -140,8 +142,9 @@ def load_session(path: Path, partial: bool = False) -> Measured:
 
 
 def load_points(path: Path, triggers: bool = False) -> Measured:
-    """Points of a session folder (any status) or of a log CSV (``triggers``: the
-    log's probe-button presses instead of its samples).
+    """Points of a session folder (any status), of a log CSV (``triggers``: the
+    log's probe-button presses instead of its samples), or of a file of points
+    in mm measured by any instrument (:func:`load_point_file`).
 
     Raises:
         UsageError: no such file, ``triggers`` with a session, an empty selection.
@@ -155,6 +158,10 @@ def load_points(path: Path, triggers: bool = False) -> Measured:
         return load_session(path, partial=True)
     if not path.is_file():
         raise UsageError(f"{path}: no such session folder or log file")
+    if not _has_joint_columns(path):
+        if triggers:
+            raise UsageError(f"--triggers applies to a log; {path} holds points")
+        return load_point_file(path)
     from aacmm.protocol import SampleStatus
     from aacmm.records import Recorded
     from aacmm.records.logs import read_log, read_triggers
@@ -190,4 +197,100 @@ def load_points(path: Path, triggers: bool = False) -> Measured:
         step_ids=[None] * len(pts),
         probe_diameter_mm=0.0,
         meta=meta,
+    )
+
+
+# ---------------------------------------------------------------- points from elsewhere
+
+#: Column names of x, y, z in a file of points (any case): aacmm's own, or plain.
+XYZ_COLUMNS: tuple[tuple[str, str, str], ...] = (("x_mm", "y_mm", "z_mm"), ("x", "y", "z"))
+
+
+def _first_line(path: Path) -> str:
+    from aacmm.fileio import MAX_INPUT_BYTES
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(min(MAX_INPUT_BYTES, 1 << 16))
+    except OSError as exc:
+        raise UsageError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    for raw in head.decode("utf-8", "replace").splitlines():
+        if raw.strip() and not raw.lstrip().startswith("#"):
+            return raw
+    return ""
+
+
+def _has_joint_columns(path: Path) -> bool:
+    """The file's header names joint columns (a log or a file of poses, ``aacmm.records.logs``)."""
+    from aacmm.records.schema import COUNT_ALIASES, COUNT_COLUMNS, THETA_COLUMNS
+
+    header = {h.strip().lower() for h in _first_line(path).split(",")}
+    return any(
+        all(c in header for c in cols) for cols in (COUNT_COLUMNS, COUNT_ALIASES, THETA_COLUMNS)
+    )
+
+
+def _fields(line: str) -> list[str]:
+    return [f.strip() for f in line.split(",")] if "," in line else line.split()
+
+
+def load_point_file(path: Path) -> Measured:
+    """Points in mm measured by any instrument (a CMM, a laser tracker, another
+    arm, ``aacmm export``): a CSV whose header names ``x, y, z`` (or ``x_mm,
+    y_mm, z_mm``; any case, other columns ignored), or rows of three numbers
+    without a header, separated by commas or white space (an xyz file). ``#``
+    lines and blank lines are skipped. The points are taken as they are: ball
+    centres for ``--probe-diameter``, which defaults to 0 here.
+
+    Raises:
+        UsageError: unreadable, too large, not UTF-8, no x, y, z columns, a value
+            that is not a finite number (with its line), or no points.
+    """
+    from aacmm.fileio import read_text
+
+    text = read_text(path)  # bounded, UTF-8: one line (exit status 2) otherwise
+    rows = [
+        (k + 1, line)
+        for k, line in enumerate(text.splitlines())
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not rows:
+        raise UsageError(f"{path}: no points")
+    cols = (0, 1, 2)
+    first = [f.lower() for f in _fields(rows[0][1])]
+    try:
+        [float(v) for v in first[:3]]
+        header = len(first) < 3
+    except ValueError:
+        header = True
+    if header:
+        found = next((c for c in XYZ_COLUMNS if all(n in first for n in c)), None)
+        if found is None:
+            raise UsageError(
+                f"{path}: header has neither joint columns (count1..count6 or theta1..theta6: "
+                "a log) nor x, y, z columns (points in mm); got " + ",".join(first)
+            )
+        cols = (first.index(found[0]), first.index(found[1]), first.index(found[2]))
+        rows = rows[1:]
+    pts: list[tuple[float, float, float]] = []
+    names: list[str] = []
+    for line, text_row in rows:
+        fields = _fields(text_row)
+        try:
+            x, y, z = (float(fields[c]) for c in cols)
+        except (ValueError, IndexError):
+            raise UsageError(f"{path}:{line}: x, y, z must be numbers (mm)") from None
+        if not all(math.isfinite(v) for v in (x, y, z)):
+            raise UsageError(f"{path}:{line}: x, y, z must be finite numbers (mm)")
+        pts.append((x, y, z))
+        names.append(f"point {len(pts)} (line {line})")
+    if not pts:
+        raise UsageError(f"{path}: no points")
+    return Measured(
+        source=path,
+        kind="points",
+        points=np.asarray(pts, dtype=np.float64),
+        names=names,
+        step_ids=[None] * len(pts),
+        probe_diameter_mm=0.0,
     )

@@ -91,47 +91,75 @@ def find_simulator() -> Path:
 RENDEZVOUS_WAIT_S = 15.0
 
 
-def rendezvous_path() -> Path:
-    """Where a running ``aacmm sim`` publishes its URLs (one per line), for the
-    commands of the same login session (``getsid``: the same terminal or
-    script): ``$XDG_RUNTIME_DIR/aacmm-sim-SID.url``, else
-    ``/tmp/aacmm-sim-UID-SID.url``."""
+def _rendezvous_dir() -> tuple[Path, str]:
+    """The folder of the published URLs and the name prefix of this login session's."""
     sid = os.getsid(0)
     base = os.environ.get("XDG_RUNTIME_DIR", "")
     if base and os.path.isdir(base):
-        return Path(base) / f"aacmm-sim-{sid}.url"
-    return Path(tempfile.gettempdir()) / f"aacmm-sim-{os.getuid()}-{sid}.url"
+        return Path(base), f"aacmm-sim-{sid}"
+    return Path(tempfile.gettempdir()), f"aacmm-sim-{os.getuid()}-{sid}"
 
 
-def publish_urls(urls: Sequence[str]) -> Path:
-    """Publish this process's simulator URLs (replacing any older file)."""
+def rendezvous_path(pid: int | None = None) -> Path:
+    """Where a running ``aacmm sim`` (this process, or ``pid``) publishes its URLs
+    (one per line), for the commands of the same login session (``getsid``: the
+    same terminal or script): ``$XDG_RUNTIME_DIR/aacmm-sim-SID.PID.url``, else
+    ``/tmp/aacmm-sim-UID-SID.PID.url``. One file per simulator, so a second
+    ``aacmm sim`` takes nothing from the first: the newest running one is used,
+    and when it stops the one before is found again."""
+    d, prefix = _rendezvous_dir()
+    return d / f"{prefix}.{os.getpid() if pid is None else pid}.url"
+
+
+def publish_urls(urls: Sequence[str]) -> list[tuple[str, int]]:
+    """Publish this process's simulator URLs; the other simulators of the session
+    already running (``(url, pid)``, newest first), which commands without
+    ``--port`` no longer use while this one runs."""
     from aacmm.fileio import write_output
 
-    path = rendezvous_path()
-    text = "".join(f"{u}\n" for u in urls) + f"# pid {os.getpid()}\n"
-    write_output(path, text, force=True)  # exclusive temp file beside it, fsync, rename
-    return path
+    others = published_sims()
+    text = "".join(f"{u}\n" for u in urls) + f"# pid {os.getpid()}\n# started {time.time():.6f}\n"
+    write_output(rendezvous_path(), text, force=True)  # exclusive temp file, fsync, rename
+    return others
 
 
 def unpublish_urls() -> None:
-    """Remove the published URLs if they are still this process's."""
-    path = rendezvous_path()
+    """Remove this process's published URLs."""
     with contextlib.suppress(OSError):
-        if _published(path)[1] == os.getpid():
-            path.unlink()
+        rendezvous_path().unlink()
 
 
-def _published(path: Path) -> tuple[list[str], int | None]:
+def _published(path: Path) -> tuple[list[str], int | None, float]:
     try:
         lines = path.read_text(encoding="ascii").splitlines()
     except (OSError, UnicodeDecodeError):
-        return [], None
+        return [], None, 0.0
     urls = [ln.strip() for ln in lines if ln.strip() and not ln.startswith("#")]
-    pid = None
+    pid, started = None, 0.0
     for ln in lines:
         if ln.startswith("# pid ") and ln[6:].strip().isdigit():
             pid = int(ln[6:].strip())
-    return urls, pid
+        elif ln.startswith("# started "):
+            with contextlib.suppress(ValueError):
+                started = float(ln[10:])
+    return urls, pid, started
+
+
+def published_sims() -> list[tuple[str, int]]:
+    """``(first URL, pid)`` of every running ``aacmm sim`` of this session, newest
+    first (files of simulators that died without removing theirs are skipped)."""
+    d, prefix = _rendezvous_dir()
+    try:
+        names = [n for n in os.listdir(d) if n.startswith(prefix + ".") and n.endswith(".url")]
+    except OSError:
+        return []
+    found = []
+    for name in names:
+        urls, pid, started = _published(d / name)
+        if urls and pid is not None and name == f"{prefix}.{pid}.url" and _alive(pid):
+            found.append((started, urls[0], pid))
+    found.sort(reverse=True)
+    return [(url, pid) for _, url, pid in found]
 
 
 def _alive(pid: int) -> bool:
@@ -167,17 +195,16 @@ def _sim_command_running() -> bool:
 
 
 def published_url(wait_s: float = RENDEZVOUS_WAIT_S) -> str | None:
-    """The first URL published by a running ``aacmm sim`` of this session, or None.
+    """The first URL of the newest running ``aacmm sim`` of this session, or None.
 
     When none is published yet but an ``aacmm sim`` is starting (``aacmm sim
     ... & aacmm capture ...``), wait up to ``wait_s`` seconds for it.
     """
-    path = rendezvous_path()
     deadline = time.monotonic() + wait_s
     while True:
-        urls, pid = _published(path)
-        if urls and pid is not None and _alive(pid):
-            return urls[0]
+        sims = published_sims()
+        if sims:
+            return sims[0][0]
         if time.monotonic() >= deadline or not _sim_command_running():
             return None
         time.sleep(0.1)
@@ -230,10 +257,16 @@ class SimProcess:
             raise
         if self.link is not None and self.serial_path is not None:
             tmp = self.link.with_name(f".{self.link.name}.{os.getpid()}.tmp")
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
-            os.symlink(self.serial_path, tmp)
-            os.replace(tmp, self.link)
+            try:
+                with contextlib.suppress(FileNotFoundError):
+                    tmp.unlink()
+                os.symlink(self.serial_path, tmp)
+                os.replace(tmp, self.link)
+            except OSError as exc:  # never leave the simulator running without its link
+                self.stop()
+                raise SimulatorUsageError(
+                    f"--link {self.link}: cannot create the link: {exc.strerror or exc}"
+                ) from None
 
     def _wait_ready(self) -> None:
         assert self.proc.stdout is not None
@@ -418,6 +451,44 @@ def sim_args(args: argparse.Namespace) -> list[str]:
     return out
 
 
+def check_sim_files(args: argparse.Namespace) -> None:
+    """The files ``aacmm sim`` makes (``--link``, ``--storage``) checked before the
+    simulator starts: a place that takes no file is one line, exit status 2.
+
+    Raises:
+        OutputFileError: the folder of either takes no new file, or the storage
+            is not a regular file.
+    """
+    from aacmm.fileio import OutputFileError, check_writable_dir
+
+    if getattr(args, "link", None):
+        link = Path(args.link)
+        if link.is_dir() and not link.is_symlink():
+            raise OutputFileError(f"--link {link}: is a directory")
+        check_writable_dir(link.resolve().parent if not link.is_symlink() else link.parent,
+                           f"--link {link}")  # fmt: skip
+    if getattr(args, "storage", None):
+        st = Path(args.storage)
+        if st.exists() and not st.is_file():
+            raise OutputFileError(f"--storage {st}: not a regular file")
+        # the simulator replaces the file through FILE.tmp beside it
+        check_writable_dir(st.resolve().parent, f"--storage {st}")
+        if st.exists() and not os.access(st, os.R_OK | os.W_OK):
+            raise OutputFileError(f"--storage {st}: cannot read and write it")
+
+
+def note_others(others: list[tuple[str, int]]) -> None:
+    """Say that commands without ``--port`` now use this simulator, not the others."""
+    if others:
+        urls = ", ".join(f"{u} (pid {p})" for u, p in others)
+        print(
+            f"aacmm sim: note: commands without --port now use this simulator; "
+            f"also running: {urls}, used again when this one stops",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
 def _wait_for_signal(stop: threading.Event, alive: Any) -> None:
     while not stop.is_set() and alive():
         stop.wait(0.2)
@@ -446,7 +517,7 @@ def cmd_board(args: argparse.Namespace) -> int:
     }
     try:
         print(url, flush=True)
-        publish_urls([url])
+        note_others(publish_urls([url]))
         print(
             f"aacmm sim: {args.board} under QEMU (pid {proc.pid}); the board starts when a "
             "client connects (one client); Ctrl-C to stop",
@@ -466,6 +537,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     from aacmm.commands import simtruth
 
     simtruth.check_args(args)
+    check_sim_files(args)
     if simtruth.wants_truth(args):
         if args.link is not None and args.serial is None and args.can is not None:
             raise UsageError("--link needs a serial link (--serial pty)")
@@ -487,12 +559,13 @@ def cmd_sim(args: argparse.Namespace) -> int:
         try:
             for url in sim.urls:
                 print(url, flush=True)
-            publish_urls(sim.urls)
+            others = publish_urls(sim.urls)
             print(
                 f"aacmm sim: {sim.binary} running (pid {sim.proc.pid}); Ctrl-C to stop",
                 file=sys.stderr,
                 flush=True,
             )
+            note_others(others)
             _wait_for_signal(stop, sim.running)
         finally:
             rc = sim.stop()

@@ -60,6 +60,12 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--report", metavar="FILE", help="write what the operator did (JSON)")
     g.add_argument(
+        "--verbose",
+        action="store_true",
+        help="also say every press of the operator (off by default: in the terminal of "
+        "aacmm capture they would repeat its prompts)",
+    )
+    g.add_argument(
         "-f", "--force", action="store_true", help="overwrite --truth-out and --report files"
     )
 
@@ -74,8 +80,8 @@ def check_args(args: argparse.Namespace) -> None:
         for opt in ("truth_out", "follow", "report"):
             if getattr(args, opt):
                 raise UsageError(f"--{opt.replace('_', '-')} needs --truth or --scenario")
-        if args.fast or args.misprobe:
-            raise UsageError("--fast and --misprobe need --scenario")
+        if args.fast or args.misprobe or args.verbose:
+            raise UsageError("--fast, --misprobe and --verbose need --scenario")
         return
     if args.board is not None:
         raise UsageError("--board runs the board's own firmware: no --truth or --scenario")
@@ -85,8 +91,8 @@ def check_args(args: argparse.Namespace) -> None:
         for opt, val in (("--follow", args.follow), ("--report", args.report)):
             if val:
                 raise UsageError(f"{opt} needs --scenario")
-        if args.fast or args.misprobe:
-            raise UsageError("--fast and --misprobe need --scenario")
+        if args.fast or args.misprobe or args.verbose:
+            raise UsageError("--fast, --misprobe and --verbose need --scenario")
         if args.motion not in (None, "walk", "static"):
             raise UsageError("with --truth the host moves the arm: --motion walk or static")
     elif args.motion is not None or args.button_every is not None:
@@ -134,7 +140,7 @@ def run(args: argparse.Namespace, sim_args: list[str]) -> int:
     """The command (see the module doc). ``sim_args``: the simulator's own options."""
     import numpy as np
 
-    from aacmm.commands.sim import SimProcess, publish_urls, unpublish_urls
+    from aacmm.commands.sim import SimProcess, note_others, publish_urls, unpublish_urls
     from aacmm.fileio import check_outputs, write_output
     from aacmm.simulation.control import ControlChannel
     from aacmm.simulation.operator import FAST, Operator, Pace, Stopped
@@ -191,9 +197,10 @@ def run(args: argparse.Namespace, sim_args: list[str]) -> int:
         chan.hello()
         for url in sim.urls:
             print(url, flush=True)
-        publish_urls(sim.urls)
+        others = publish_urls(sim.urls)
         origin = truth.origin.get("kind", "file")
         say(f"{sim.binary} running (pid {sim.proc.pid}) with a {origin} truth; Ctrl-C to stop")
+        note_others(others)
         rng = np.random.default_rng(args.seed or 0)
         op = Operator(chan, truth, rng, FAST if args.fast else Pace(), stop=stop)
 
@@ -290,6 +297,7 @@ def _perform(
         follow=Path(args.follow) if args.follow else None,
         misprobes=misprobes,
         say=say,
+        say_press=say if args.verbose else None,
     )
     runs.append(run)
     run.run()

@@ -9,15 +9,22 @@ from typing import Any
 
 
 class StopFlag:
-    """Set by SIGINT/SIGTERM; a second Ctrl-C raises KeyboardInterrupt at once."""
+    """Set by SIGINT/SIGTERM; a second Ctrl-C raises KeyboardInterrupt at once.
 
-    def __init__(self) -> None:
+    While :attr:`immediate` (the command has not started its loop yet, e.g. it is
+    still opening the device) a signal raises KeyboardInterrupt at once: there is
+    nothing to finish, and a wait for a device that does not answer must not
+    outlast Ctrl-C.
+    """
+
+    def __init__(self, immediate: bool = False) -> None:
         self.event = threading.Event()
         self.signal: int | None = None
+        self.immediate = immediate
         self._old: dict[int, Any] = {}
 
     def _handler(self, signum: int, frame: FrameType | None) -> None:
-        if self.event.is_set() and signum == signal.SIGINT:
+        if self.immediate or (self.event.is_set() and signum == signal.SIGINT):
             raise KeyboardInterrupt
         self.signal = signum
         self.event.set()

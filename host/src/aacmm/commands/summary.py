@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +38,16 @@ def format_summary(d: dict[str, Any], files: list[Path] | None = None) -> str:
     if gaps:
         each = ", ".join("?" if g is None else f"{g:.1f} s" for g in gaps)
         rate += f" while connected; {len(gaps)} gap{'s' if len(gaps) > 1 else ''}: {each}"
+    presses = d.get("presses")
+    # a press and its release are two trigger rows: people count the presses
+    buttons = (
+        f"triggers {d['triggers']}"
+        if presses is None
+        else f"presses {presses} ({d['triggers']} button edges)"
+    )
     lines = [
         f"samples {d['samples']} in {d['duration_s']:.2f} s ({rate}), "
-        f"lost {d['lost_samples']}, triggers {d['triggers']}, reconnects {d['reconnects']}"
+        f"lost {d['lost_samples']}, {buttons}, reconnects {d['reconnects']}"
     ]
     ext = d.get("extent_mm")
     if ext:
@@ -94,7 +102,17 @@ def summarize_session(folder: Path) -> dict[str, Any]:
         "runs": [r.get("kind") for r in s.meta.get("runs", []) if isinstance(r, dict)],
         "steps": steps,
         "warnings": list(s.warnings),
+        "damage": list(s.damage),
     }
+
+
+def _damaged(path: Path, damage: list[str]) -> int:
+    """A damaged file ends the summary with one line and exit status 2 (bad input)."""
+    if not damage:
+        return OK
+    from aacmm.records.files import RecordError
+
+    raise RecordError(f"{path}: damaged: {'; '.join(damage)}")
 
 
 def cmd_summary(args: argparse.Namespace) -> int:
@@ -102,20 +120,24 @@ def cmd_summary(args: argparse.Namespace) -> int:
     if path.is_dir():
         d = summarize_session(path)
         if args.json:
-            print(json.dumps(d, indent=2))
-            return OK
+            print(json.dumps(d, indent=2), flush=True)
+            return _damaged(path, d["damage"])
         sets = ", ".join(f"0x{c:08x}" for c in d["param_sets"]) or "-"
-        print(f"session {path} ({d['status']}): {d['points']} of {d['of']} points")
+        status = f"{d['status']}, damaged" if d["damage"] else d["status"]
+        print(f"session {path} ({status}): {d['points']} of {d['of']} points")
         print(f"plan {d['plan']}: {d['title']}")
         print(f"device serial {d['device_serial_number']}, parameter sets {sets}")
         print(f"runs {', '.join(d['runs']) or '-'}")
         for st in d["steps"]:
             print(f"  {st['id']:16s} {st['procedure']:12s} {st['points']:4d} of {st['of']}")
-        return OK
+        sys.stdout.flush()
+        return _damaged(path, d["damage"])
     d = summarize_file(path)
     if args.json:
         print(json.dumps(d, indent=2))
     else:
-        print(f"log {d['file']} ({d['status']})")
+        status = f"{d['status']}, damaged" if d["damage"] else d["status"]
+        print(f"log {d['file']} ({status})")
         print(format_summary(d))
-    return OK
+    sys.stdout.flush()
+    return _damaged(path, d["damage"])

@@ -14,7 +14,12 @@ import argparse
 import sys
 from typing import Any
 
-from aacmm.commands.common import add_force_option, is_tty
+from aacmm.commands.common import (
+    RunProgress,
+    add_force_option,
+    add_run_limit_options,
+    max_run_seconds,
+)
 
 EXAMPLE = "example"
 
@@ -55,12 +60,7 @@ def register(sub: Any) -> None:
     p.add_argument("--csv", metavar="PATH", help="write the tolerances and budget as CSV")
     p.add_argument("--png", metavar="PATH", help="write a figure of the budget (PNG)")
     p.add_argument("-q", "--quiet", action="store_true", help="print only the summary lines")
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar of the Monte Carlo check on stderr (default: at a terminal)",
-    )
+    add_run_limit_options(p, "the Monte Carlo check")
     add_force_option(p)
     p.set_defaults(func=run_tolerance)
 
@@ -96,25 +96,38 @@ def run_tolerance(args: argparse.Namespace) -> int:
         raise UsageError(f"--seed must be >= 0, got {args.seed}")
     if args.threads is not None and args.threads < 1:
         raise UsageError(f"--threads must be >= 1, got {args.threads}")
+    limit_s = max_run_seconds(args)
     check_outputs([args.json, args.csv, args.png], args.force)
 
     from aacmm.analysis import tolerance as tl
 
     spec = _load(args.spec)
+    if args.trials:
+        tl.check_memory_limit(spec, args.trials, args.check_rows)  # before the allocation
     alloc = tl.allocate(spec)
     check = None
     if args.trials:
-        show = args.progress if args.progress is not None else is_tty(sys.stderr)
-        bar: Any = None
-        if show:
-            from tqdm import tqdm
+        from aacmm.analysis.runlimits import format_count
 
-            bar = tqdm(total=100, file=sys.stderr, leave=False, desc="Monte Carlo check")
+        rows = alloc.design.limit_mm.size
+        if args.check_rows is not None:
+            rows = min(rows, args.check_rows)
+        work = args.trials * rows
+        bar = RunProgress(
+            "tolerance",
+            work,
+            "arm-rows",
+            show=args.progress,
+            limit_s=limit_s,
+            what=f"the Monte Carlo check of {format_count(args.trials)} arms",
+            hint="use fewer --trials or --check-rows (or a larger --max-hours)",
+        )
+        bar.preset(tl.estimate_check_seconds(alloc, args.trials, args.check_rows, args.threads))
+        done = [0.0]
 
         def progress(fraction: float) -> None:
-            if bar is not None:
-                bar.n = round(100 * fraction)
-                bar.refresh()
+            bar.update(fraction * work - done[0])
+            done[0] = fraction * work
 
         try:
             check = tl.monte_carlo_check(
@@ -126,12 +139,11 @@ def run_tolerance(args: argparse.Namespace) -> int:
                 progress=progress,
             )
         finally:
-            if bar is not None:
-                bar.close()
+            bar.close()
     text = tl.format_report(alloc, check)
     if args.quiet:
         text = "\n".join(tl.summary_lines(alloc, check))
-    print(text, flush=True)
+    # the files first: a closed stdout (tolerance | head) must not cost them
     if args.json:
         write_output(
             args.json, json.dumps(tl.to_json(alloc, check), indent=2) + "\n", force=args.force
@@ -140,6 +152,7 @@ def run_tolerance(args: argparse.Namespace) -> int:
         write_output(args.csv, tl.to_csv(alloc), force=args.force)
     if args.png:
         write_output(args.png, tl.budget_png(alloc), force=args.force)
+    print(text, flush=True)
     if check is not None and check.verdict == "not met":
         print(
             "aacmm tolerance: the Monte Carlo check does not confirm the target (report written)",

@@ -14,7 +14,13 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from aacmm.commands.common import add_force_option, print_err
+from aacmm.commands.common import (
+    RunProgress,
+    add_force_option,
+    add_run_limit_options,
+    max_run_seconds,
+    print_err,
+)
 from aacmm.commands.exitcodes import USAGE
 
 
@@ -76,48 +82,37 @@ def register(sub: Any) -> None:
         help="write a figure: MC vs linear per pose, the spread over the poses, the budget",
     )
     add_force_option(un)
-    un.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar on stderr (default: on at a terminal)",
-    )
+    add_run_limit_options(un, "the trials")
     un.set_defaults(func=run_uncertainty)
 
 
-class _Bar:
-    """A tqdm bar on stderr counting trial-poses (its total set by the first report)."""
+class _Progress:
+    """The run's estimate and progress (:class:`RunProgress`); the library reports
+    its total (trials x poses, each pass counted) with every chunk."""
 
-    def __init__(self, enabled: bool | None) -> None:
-        import sys
-
-        from aacmm.commands.common import is_tty
-
-        self._bar: Any = None
-        self._on = is_tty(sys.stderr) if enabled is None else enabled
+    def __init__(self, args: argparse.Namespace, limit_s: float) -> None:
+        self.args = args
+        self.limit_s = limit_s
+        self.run: RunProgress | None = None
 
     def update(self, n: int, total: int) -> None:
-        if not self._on:
-            return
-        if self._bar is None:
-            import sys
+        if self.run is None:
+            from aacmm.analysis.runlimits import format_count
 
-            from tqdm import tqdm
-
-            self._bar = tqdm(
-                total=total,
-                desc="uncertainty",
-                unit="trial-pose",
-                unit_scale=True,
-                file=sys.stderr,
-                leave=False,
+            self.run = RunProgress(
+                "uncertainty",
+                total,
+                "trial-poses",
+                show=self.args.progress,
+                limit_s=self.limit_s,
+                what=f"--trials {format_count(self.args.trials)}",
+                hint="use fewer --trials or poses (or a larger --max-hours)",
             )
-        self._bar.update(n)
+        self.run.update(n)
 
     def close(self) -> None:
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
+        if self.run is not None:
+            self.run.close()
 
 
 def run_uncertainty(args: argparse.Namespace) -> int:
@@ -131,8 +126,9 @@ def run_uncertainty(args: argparse.Namespace) -> int:
     from aacmm.errors import AacmmError
     from aacmm.fileio import atomic_output, check_outputs, save_figure, write_output
 
-    bar = _Bar(args.progress)
+    bar: _Progress | None = None
     try:
+        bar = _Progress(args, max_run_seconds(args))
         check_outputs([args.json, args.csv, args.png], args.force)
         spec = unc.load_spec(args.spec)
         extra = [spec.poses_rad]
@@ -166,7 +162,7 @@ def run_uncertainty(args: argparse.Namespace) -> int:
             progress=bar.update,
         )
         bar.close()
-        print(unc.format_report(res, top=args.top))
+        # the files first: a closed stdout (uncertainty | head) must not cost them
         if args.json:
             write_output(args.json, json.dumps(unc.to_json(res), indent=2) + "\n", force=args.force)
         if args.csv:
@@ -174,9 +170,13 @@ def run_uncertainty(args: argparse.Namespace) -> int:
                 f.write(unc.csv_text(res))
         if args.png:
             save_figure(unc.figure(res), args.png, force=args.force, dpi=120)
+        print(unc.format_report(res, top=args.top), flush=True)
+    except BrokenPipeError:
+        raise
     except (AacmmError, ValueError, OSError) as e:
         print_err("uncertainty", f"error: {e}")
         return USAGE
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
     return 0

@@ -67,6 +67,16 @@ def run_verify(args: argparse.Namespace) -> int:
 
     json_out = None if args.json in (None, "-") else Path(args.json)
     check_outputs([json_out], args.force)
+    if args.report is not None:  # before the work: the report's folder and its fixed files
+        from aacmm.commands.view import report_names
+        from aacmm.fileio import check_output_dir
+
+        check_output_dir(
+            args.report,
+            [REPORT_TEXT, REPORT_JSON, REPORT_PDF, *report_names()],
+            args.force,
+            what=f"--report {args.report}",
+        )
     m = load_session(Path(args.session), partial=args.partial)
     assert m.plan is not None and m.labels is not None
     rep = evaluate(
@@ -76,6 +86,8 @@ def run_verify(args: argparse.Namespace) -> int:
     text = vr.text_report(rep, source)
     doc = json.dumps(vr.report_json(rep, source), indent=2) + "\n"
 
+    if rep.verdict == NO_MPE:  # refused before any file is written
+        raise UsageError("no measured test has an MPE in the plan: nothing was judged")
     if args.report is not None:
         out = Path(args.report)
         if out.exists() and not out.is_dir():
@@ -109,6 +121,4 @@ def run_verify(args: argparse.Namespace) -> int:
         sys.stdout.write(text)
         if args.report is not None:
             print(f"report written to {args.report}")
-    if rep.verdict == NO_MPE:
-        raise UsageError("no measured test has an MPE in the plan: nothing was judged")
     return NOT_MET if rep.verdict == FAIL else 0

@@ -303,11 +303,15 @@ def to_dict(fit: Fit[Any]) -> dict[str, Any]:
         "dof": fit.dof,
         "form_mm": fit.form,
         "rms_mm": fit.rms,
-        "sigma_mm": fit.sigma,
-        "std": dict(fit.std),
+        # no degrees of freedom (2 points on a line): no sigma, no uncertainties;
+        # null, not NaN, which is not JSON
+        "sigma_mm": fit.sigma if fit.dof > 0 else None,
+        "std": {k: (float(v) if np.isfinite(v) else None) for k, v in fit.std.items()},
         "probe_radius_mm": fit.probe_radius,
         "iterations": fit.iterations,
         "parameter_names": list(fit.parameter_names),
-        "covariance": fit.covariance.tolist(),
+        "covariance": [
+            [float(x) if np.isfinite(x) else None for x in row] for row in fit.covariance
+        ],
         **({"extra": dict(fit.extra)} if fit.extra else {}),
     }

@@ -17,9 +17,12 @@ from aacmm.plans._slots import PRESET_ISO, make_slots
 from aacmm.plans.model import (
     ARTEFACT_TYPES,
     DECISION_RULES,
+    MAX_PLAN_MM,
+    MAX_PROBE_DIAMETER_MM,
     PLAN_FORMAT,
     PROCEDURE_ARTEFACTS,
     PROCEDURES,
+    TEMPERATURE_RANGE_C,
     Artefact,
     ConeSeat,
     EUniMpe,
@@ -107,6 +110,8 @@ class _Ctx:
         f = float(v)
         if not math.isfinite(f):
             self.fail(path, "must be finite")
+        if any(isinstance(k, str) and k.endswith("_mm") for k in path) and abs(f) > MAX_PLAN_MM:
+            self.fail(path, f"{_num(f)} mm is beyond any arm (at most {MAX_PLAN_MM:g} mm)")
         return f
 
     def positive(self, path: KeyPath, v: Any) -> float:
@@ -448,6 +453,24 @@ def _mpe(c: _Ctx, t: dict[str, Any]) -> Mpe:
     )
 
 
+def _check_ball_fits(c: _Ctx, step: Step, art: Artefact | None, ball: float) -> None:
+    """A probe ball must be smaller than the sphere (or ball end) it probes."""
+    if ball <= 0:
+        return
+    if isinstance(art, Sphere) and step.procedure in ("sphere", "articulation"):
+        size, what = art.diameter_mm, "diameter_mm"
+    elif isinstance(art, LengthStandard) and art.end_diameter_mm is not None:
+        size, what = art.end_diameter_mm, "end_diameter_mm"
+    else:
+        return
+    if ball >= size:
+        c.fail(
+            ("probe", "ball_diameter_mm"),
+            f"a {_num(ball)} mm probe ball cannot probe the {_num(size)} mm {art.id} "
+            f"(artefacts.{art.id}.{what}) of step {step.id!r}: it must be smaller",
+        )
+
+
 def _needs_ball(step: Step, art: Artefact | None) -> bool:
     if step.procedure in ("sphere", "plane"):
         return True
@@ -508,14 +531,28 @@ def loads_plan(text: str, name: str = "<plan>", path: Path | None = None) -> Pla
                 ("probe", "ball_diameter_mm"),
                 f"missing field (step {st.id!r} probes a surface; 0 for a point probe)",
             )
+    if ball is not None and ball > MAX_PROBE_DIAMETER_MM:
+        c.fail(
+            ("probe", "ball_diameter_mm"),
+            f"a {_num(ball)} mm probe ball is not plausible (at most {MAX_PROBE_DIAMETER_MM:g} mm)",
+        )
+    for st in steps:
+        _check_ball_fits(c, st, artefacts.get(st.artefact or ""), ball or 0.0)
     probe = Probe(ball or 0.0)
     mpe = _mpe(c, c.table(("mpe",), doc["mpe"])) if "mpe" in doc else Mpe()
     ver_t: dict[str, Any] = c.get(doc, root, "verification", c.table, {}) or {}
     c.keys(ver_t, ("verification",), ("decision_rule", "temperature_c"))
+    temp = c.get(ver_t, ("verification",), "temperature_c", c.number)
+    lo, hi = TEMPERATURE_RANGE_C
+    if temp is not None and not lo <= temp <= hi:
+        c.fail(
+            ("verification", "temperature_c"),
+            f"{_num(temp)} deg C is outside {lo:g}..{hi:g} deg C (no arm measures there)",
+        )
     verification = Verification(
         c.get(ver_t, ("verification",), "decision_rule", c.choice(DECISION_RULES), "simple")
         or "simple",
-        c.get(ver_t, ("verification",), "temperature_c", c.number),
+        temp,
     )
     return Plan(
         name=name,

@@ -30,6 +30,14 @@ PROCEDURE_ARTEFACTS: dict[str, tuple[str, ...]] = {
     "points": ARTEFACT_TYPES,
 }
 DECISION_RULES: tuple[str, ...] = ("simple", "iso14253-1")
+#: Largest length, coordinate or diameter a plan may give (mm): the device's own
+#: limit on a length (10 m), far beyond any arm's reach.
+MAX_PLAN_MM = 10_000.0
+#: Largest probe ball accepted, in a plan and by ``aacmm fit`` (mm).
+MAX_PROBE_DIAMETER_MM = 100.0
+#: Temperatures a plan may record for its verification (deg C): beyond any
+#: arm's operating range, a typo (10^6 deg C) rather than a measurement.
+TEMPERATURE_RANGE_C = (-20.0, 60.0)
 ENDS: tuple[str, ...] = ("A", "B")
 
 

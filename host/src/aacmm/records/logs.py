@@ -70,6 +70,15 @@ __all__ = [
 
 # ---------------------------------------------------------------- reader
 
+#: Sidecar statuses of a log whose logger ended (its counts are final).
+FINAL_LOG_STATUSES: tuple[str, ...] = (
+    "complete",
+    "incomplete",
+    "interrupted",
+    "link_lost",
+    "error",
+)
+
 
 @dataclass(frozen=True, eq=False)
 class Log(Recorded):
@@ -105,6 +114,41 @@ class Log(Recorded):
             RecordError: no such column, or a value that is not a number (with its line).
         """
         return column(self.table, name, kind)
+
+    @property
+    def damage(self) -> tuple[str, ...]:
+        """What the sidecar and the files disagree on (empty for a sound log): a
+        finished log whose CSV holds other than the samples its sidecar counts (cut
+        short, or rows added), or whose trigger file holds other than its triggers.
+        A log still ``running`` (its logger killed) is not judged: its sidecar's
+        counts were never final."""
+        meta = self.meta
+        if self.format is None or meta.get("status") not in FINAL_LOG_STATUSES:
+            return ()
+        out = []
+        want = meta.get("samples")
+        if isinstance(want, int) and not isinstance(want, bool) and want != len(self.table):
+            out.append(
+                f"the sidecar counts {want} samples, {self.path.name} holds {len(self.table)} "
+                f"rows ({'cut short' if len(self.table) < want else 'rows added'})"
+            )
+        trig = self.trigger_path
+        want_t = meta.get("triggers")
+        if trig is not None and isinstance(want_t, int) and not isinstance(want_t, bool):
+            try:
+                have_t = len(CsvTable(trig, "trigger file")) if trig.is_file() else 0
+            except RecordError:
+                have_t = -1
+            if have_t != want_t and not (have_t == 0 and want_t == 0):
+                held = "is unreadable" if have_t < 0 else f"holds {have_t} rows"
+                out.append(f"the sidecar counts {want_t} trigger rows, {trig.name} {held}")
+        return tuple(out)
+
+    @property
+    def trigger_path(self) -> Path | None:
+        """The trigger file the sidecar names (None when it names none)."""
+        name = self.meta.get("triggers_csv")
+        return self.path.with_name(name) if isinstance(name, str) and name else None
 
     @property
     def gaps(self) -> list[dict[str, Any]]:
@@ -285,6 +329,13 @@ def read_log(path: str | Path, encoders: EncoderConfig | None = None) -> Log:
         params_given=given,
         warnings=(f"{p}: dropped a last row cut short",) if t.cut_short else (),
     )
+    for c in (*POINT_COLUMNS, "host_time"):
+        if c in header:  # a log's points and times are finite: anything else is damage
+            v = column(t, c)
+            bad = np.flatnonzero(~np.isfinite(v))
+            if bad.size:
+                line, row = t.rows[int(bad[0])]
+                raise t.fail(line, f"{c}: {row[t.index(c)]!r} is not a finite number")
     if theta is None:
         log.angles_rad()  # refuse readings beyond the configured resolution now, with the row
     return log
@@ -337,10 +388,31 @@ def log_summary(log: Log) -> dict[str, Any]:
         "gap_s": [float(g) if isinstance(g, int | float) else None for g in gap_s],
         "lost_samples": meta.get("lost_samples", 0),
         "triggers": meta.get("triggers", 0),
+        "presses": _presses(log),
         "reconnects": meta.get("reconnects", 0),
         "param_sets": [crc_hex(c) for _, c in log.set_changes()] if log.format else [],
         "extent_mm": ext,
+        "damage": list(log.damage),
     }
+
+
+def _presses(log: Log) -> int | None:
+    """Button presses (a press and its release are two trigger rows): the sidecar's
+    count, or for a log without one the pressed rows of its trigger file."""
+    n = log.meta.get("presses")
+    if isinstance(n, int) and not isinstance(n, bool):
+        return n
+    trig = log.trigger_path
+    if trig is None or not trig.is_file():
+        return None
+    try:
+        t = CsvTable(trig, "trigger file")
+        if "pressed" not in t.header:
+            return None
+        i = t.index("pressed")
+        return sum(1 for _, row in t if i < len(row) and row[i].strip() == "1")
+    except RecordError:
+        return None
 
 
 # ---------------------------------------------------------------- triggers

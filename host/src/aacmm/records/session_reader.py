@@ -85,6 +85,29 @@ class Session(Recorded):
         """Every slot of the plan has its point."""
         return len(self.points) == len(self.plan.slots)
 
+    @property
+    def damage(self) -> tuple[str, ...]:
+        """What the sidecar and ``points.csv`` disagree on (empty for a sound session):
+        a session closed as ``complete`` without every point, or one whose sidecar
+        counts more accepted points than the file holds (rows lost). A session
+        still ``running`` (its capture killed) is judged only by what it holds."""
+        out = []
+        n, want = len(self.points), len(self.plan.slots)
+        if self.status == "complete" and n < want:
+            out.append(f"status complete, but {POINTS_CSV} holds {n} of the plan's {want} points")
+        accepted = self.meta.get("accepted")
+        if (
+            self.status != "running"
+            and isinstance(accepted, int)
+            and not isinstance(accepted, bool)
+            and accepted > n
+        ):
+            out.append(
+                f"{SIDECAR} counts {accepted} accepted points, {POINTS_CSV} holds {n} "
+                f"({accepted - n} lost)"
+            )
+        return tuple(out)
+
     def rows_of(self, step: int | str) -> npt.NDArray[np.intp]:
         """Row numbers of the points of one step (by index or id)."""
         i = self.plan.step(step).index
@@ -165,12 +188,15 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
         f = dict(zip(POINT_COLUMNS, row, strict=True))
         slot_i = _int(t, line, "slot", f["slot"], 0, 1 << 31)
         if slot_i != n:
-            raise t.fail(line, f"slot {slot_i} where slot {n} was expected (rows out of order)")
+            raise t.fail(
+                line, f"slot {slot_i} (point {slot_i + 1}) where point {n + 1} was expected "
+                "(rows out of order)",
+            )  # fmt: skip
         if n >= len(plan.slots):
             raise t.fail(line, f"more points than the plan's {len(plan.slots)}")
         slot = plan.slots[n]
         if row[: len(LABEL_COLUMNS)] != label_fields(slot):
-            raise t.fail(line, f"labels do not match slot {n} of the plan ({slot.text})")
+            raise t.fail(line, f"labels do not match point {n + 1} of the plan ({slot.text})")
         crc_s = f["param_crc32"]
         try:
             crc = int(crc_s, 16) if crc_s.startswith("0x") else -1

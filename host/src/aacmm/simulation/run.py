@@ -98,6 +98,7 @@ class ScenarioRun:
         follow: Path | None = None,
         misprobes: tuple[Misprobe, ...] = (),
         say: Callable[[str], None] = lambda text: None,
+        say_press: Callable[[str], None] | None = None,
         ack_timeout_s: float = 30.0,
     ) -> None:
         self.op = operator
@@ -109,6 +110,7 @@ class ScenarioRun:
         self.misprobes = {m.slot: m for m in misprobes}
         self.stop = operator.stop
         self.say = say
+        self.say_press = say_press
         self.ack_timeout_s = ack_timeout_s
         self.done_misprobes: set[int] = set()
 
@@ -173,7 +175,11 @@ class ScenarioRun:
         return self.op.probe(p.target_mm, p.theta, label, slot=s.index, misprobe_mm=offset_mm)
 
     def _say_slot(self, p: PlannedPoint, what: str = "") -> None:
-        self.say(f"[{p.slot.index + 1}/{len(self.points)}] {what}{p.slot.text}")
+        """Each press, only to ``say_press``: the capture prompting for the same point
+        (often in the same terminal) says it already."""
+        if self.say_press is not None:
+            k, n = p.slot.index + 1, len(self.points)
+            self.say_press(f"operator presses {k}/{n}: {what}{p.slot.text}")
 
     def run(self) -> list[Press]:
         """Perform the choreography; the presses made (also in ``operator.presses``).

@@ -14,7 +14,8 @@ manufacturing tolerance. Method and example: docs/tolerance.md.
   :class:`ToleranceSpec` and its parts (request.py).
 * :func:`allocate` -> :class:`Allocation` (allocation.py; solvers in solve.py,
   the linearised problem in design.py).
-* :func:`monte_carlo_check` -> :class:`CheckResult` (check.py).
+* :func:`monte_carlo_check` -> :class:`CheckResult` (check.py), with
+  :func:`check_memory_limit` and :func:`estimate_check_seconds` before a long one.
 * :class:`CalibrationModel` -- what a calibration identifies (calibrated.py).
 * :func:`format_report`, :func:`summary_lines`, :func:`to_json`,
   :func:`to_csv`, :func:`budget_png` (report.py).
@@ -28,7 +29,12 @@ from aacmm.analysis.tolerance.allocation import (
     allocate,
 )
 from aacmm.analysis.tolerance.calibrated import CalibrationModel
-from aacmm.analysis.tolerance.check import CheckResult, monte_carlo_check
+from aacmm.analysis.tolerance.check import (
+    CheckResult,
+    check_memory_limit,
+    estimate_check_seconds,
+    monte_carlo_check,
+)
 from aacmm.analysis.tolerance.design import Design, build_design, radius_factor, z_two_sided
 from aacmm.analysis.tolerance.report import (
     budget_png,
@@ -68,6 +74,8 @@ __all__ = [
     "budget_png",
     "build_design",
     "check_lines",
+    "check_memory_limit",
+    "estimate_check_seconds",
     "format_report",
     "load_spec",
     "monte_carlo_check",

@@ -33,7 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aacmm.analysis.runlimits import check_memory, format_count
 from aacmm.analysis.tolerance.allocation import Allocation
+from aacmm.analysis.tolerance.request import ToleranceSpec
 from aacmm.analysis.uncertainty import ParamUncertainty
 from aacmm.core import JAC_COLS, PARAM_NAMES, FloatArray, perturbed_points
 
@@ -122,6 +124,52 @@ def _quantile_se(x: FloatArray, p: float) -> tuple[FloatArray, FloatArray]:
     return q, 0.5 * (part[hi] - part[lo])
 
 
+def check_memory_bytes(trials: int, rows: int) -> int:
+    """Memory the check of ``trials`` arms at ``rows`` rows plans (bytes, an upper
+    bound): the parameter errors and both readings (trials x 25 each, and their
+    sum), the errors (trials x rows) and their sorted copy, the points of a block."""
+    return 8 * trials * (4 * JAC_COLS + 2 * rows) + 8 * 3 * 4 * _BLOCK_VALUES
+
+
+#: Arms of the pilot check that times a long one (:func:`estimate_check_seconds`).
+PILOT_TRIALS = 2000
+
+
+def check_rows(spec: ToleranceSpec, rows: int | None = None) -> int:
+    """Rows the check of ``spec`` evaluates (``rows``: at most that many), known
+    without the allocation: the workspace poses, or its pairs for a length."""
+    from aacmm.analysis.tolerance.design import build_design
+
+    n = int(build_design(spec).limit_mm.size)
+    return n if rows is None else min(n, rows)
+
+
+def check_memory_limit(spec: ToleranceSpec, trials: int, rows: int | None = None) -> None:
+    """Refuse at once a check that would need more than half the memory available.
+
+    Raises:
+        RunLimitError: with the estimate (a ValueError).
+    """
+    k = check_rows(spec, rows)
+    check_memory(
+        check_memory_bytes(trials, k),
+        f"the Monte Carlo check of {format_count(trials)} arms at {k} rows",
+        "use fewer --trials or --check-rows",
+    )
+
+
+def estimate_check_seconds(
+    alloc: Allocation, trials: int, rows: int | None = None, threads: int | None = None
+) -> float:
+    """Seconds the check of ``trials`` arms takes on this machine now: a check of
+    :data:`PILOT_TRIALS` arms, timed and scaled (the time is linear in the arms)."""
+    if trials <= PILOT_TRIALS:
+        return 0.0
+    t0 = time.perf_counter()
+    monte_carlo_check(alloc, PILOT_TRIALS, seed=0, rows=rows, threads=threads)
+    return (time.perf_counter() - t0) * trials / PILOT_TRIALS
+
+
 def monte_carlo_check(
     alloc: Allocation,
     trials: int = DEFAULT_TRIALS,
@@ -134,8 +182,11 @@ def monte_carlo_check(
 
     ``rows``: check only the that many rows with the highest design value
     (default: every row); ``progress`` is called with the fraction done
-    after every block of rows. Raises ValueError for trials < 100, rows < 1, a
-    bad seed or threads < 1; KinematicsError if a drawn arm is invalid.
+    after every block of rows (it may raise to stop the check). Raises
+    ValueError for trials < 100, rows < 1, a bad seed or threads < 1;
+    :class:`~aacmm.analysis.runlimits.RunLimitError` (a ValueError) when
+    the check would need more than half the memory available
+    (:func:`check_memory_bytes`); KinematicsError if a drawn arm is invalid.
     """
     for name, v, lo in (("trials", trials, 100), ("seed", seed, 0)):
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
@@ -153,6 +204,11 @@ def monte_carlo_check(
             raise ValueError(f"rows must be a positive integer, got {rows!r}")
         order = order[:rows]
     checked = np.sort(order)
+    check_memory(
+        check_memory_bytes(trials, checked.size),
+        f"the Monte Carlo check of {format_count(trials)} arms at {checked.size} rows",
+        "use fewer --trials or --check-rows",
+    )
     ss = np.random.SeedSequence(seed)
     r_par, r_enc_a, r_enc_b, r_res = (np.random.default_rng(s) for s in ss.spawn(4))
     dq = _draw(alloc, trials, r_par)
