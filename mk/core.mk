@@ -13,7 +13,8 @@ CORE_HDRS := $(wildcard firmware/include/aacmm/*.h) firmware/src/aacmm_internal.
              firmware/src/template_end.h firmware/src/sincos_eval.h \
              firmware/src/chain_impl.h $(wildcard firmware/src/simd/*.h)
 CORE_TEST_SRCS := tests/core/test_kinematics.c
-CORE_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests/core/reference.h
+CORE_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests/core/reference.h \
+                  tests/core/legacy_paths.h tests/core/legacy_golden.h
 # The core tests build as the Python extension does (host/src/aacmm/_build_core.py):
 # no -march (the scalar kernel is the baseline x86-64 / arm64 one a wheel runs)
 # and no FMA contraction, so the batch kernels must equal it bit for bit.

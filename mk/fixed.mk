@@ -10,7 +10,8 @@ FIXED_CONVERT_SRCS := firmware/src/kinematics_q_convert.c
 FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h
 FIXED_TEST_SRCS := tests/fixed/test_fixed.c
 FIXED_TEST_DEPS := $(CORE_SRCS) $(CORE_HDRS) $(FIXED_SRCS) $(FIXED_CONVERT_SRCS) $(FIXED_HDRS) \
-                   $(FIXED_TEST_SRCS) tests/core/reference.h
+                   $(FIXED_TEST_SRCS) tests/core/reference.h tests/core/legacy_paths.h \
+                   tests/core/legacy_golden.h
 FIXED_ALL_SRCS := $(CORE_SRCS) $(FIXED_SRCS) $(FIXED_CONVERT_SRCS)
 FIXED_TEST_INC := -I$(FW_INC) -Ifirmware/src -Itests/core -Itests/fixed
 

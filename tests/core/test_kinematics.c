@@ -26,6 +26,10 @@
 #include "aacmm/simd.h"
 #include "reference.h"
 
+#define LEGACY_FLOAT_PATHS
+#include "legacy_golden.h"
+#include "legacy_paths.h"
+
 #define PI 3.14159265358979323846
 
 /* The sanitizer build divides the large pose counts by this (it runs every
@@ -1278,6 +1282,65 @@ static void test_simd_tiled_layout(void **state)
 }
 #undef TILED_CHECK
 
+/* The paper's arm computes bit for bit what the core of commit aa8b712 (the
+ * last one before the general arm model) computed, on every path: the hash
+ * of every output of tests/core/legacy_paths.h against the one that core
+ * gave (tests/core/legacy_golden.h, scripts/legacy-golden.sh). Per batch
+ * kernel available here; a fused kernel without a golden of its own (AVX-512
+ * where the golden was made on a CPU without it) is held to its fused peer's
+ * point and Jacobian hashes (the fused kernels agree bit for bit,
+ * test_simd_agrees_with_scalar), its lane-order sums to nothing. */
+static void test_legacy_golden(void **state)
+{
+    static const uint64_t scalar_golden[LEGACY_SCALAR_PATHS] = {
+        LEGACY_GOLDEN_f64_point,          LEGACY_GOLDEN_f64_point_jacobian,
+        LEGACY_GOLDEN_f64_batch,          LEGACY_GOLDEN_f64_counts,
+        LEGACY_GOLDEN_f32_point_jacobian, LEGACY_GOLDEN_f32_batch,
+        LEGACY_GOLDEN_analysis_sums};
+    static const uint64_t simd_golden[AACMM_KERNEL_COUNT][LEGACY_SIMD_PATHS] = {
+        {LEGACY_GOLDEN_simd_f64_scalar, LEGACY_GOLDEN_simd_f32_scalar,
+         LEGACY_GOLDEN_simd_sums_scalar},
+        {LEGACY_GOLDEN_simd_f64_vec128, LEGACY_GOLDEN_simd_f32_vec128,
+         LEGACY_GOLDEN_simd_sums_vec128},
+        {LEGACY_GOLDEN_simd_f64_avx2, LEGACY_GOLDEN_simd_f32_avx2, LEGACY_GOLDEN_simd_sums_avx2},
+#ifdef LEGACY_GOLDEN_simd_f64_avx512
+        {LEGACY_GOLDEN_simd_f64_avx512, LEGACY_GOLDEN_simd_f32_avx512,
+         LEGACY_GOLDEN_simd_sums_avx512},
+#else
+        {LEGACY_GOLDEN_simd_f64_avx2, LEGACY_GOLDEN_simd_f32_avx2, 0u},
+#endif
+    };
+    int i, k;
+    (void)state;
+    for (i = 0; i < LEGACY_SCALAR_PATHS; i++) {
+        const uint64_t h = legacy_scalar_hash(i);
+        printf("legacy golden %-20s %016llx %s\n", legacy_scalar_names[i], (unsigned long long)h,
+               h == scalar_golden[i] ? "same" : "DIFFERS");
+        assert_true(h == scalar_golden[i]);
+    }
+    for (k = 0; k < AACMM_KERNEL_COUNT; k++) {
+        if (!aacmm_kernel_available((aacmm_kernel_t)k)) {
+            printf("legacy golden: kernel %s not available on this CPU\n",
+                   aacmm_kernel_name((aacmm_kernel_t)k));
+            continue;
+        }
+        for (i = 0; i < LEGACY_SIMD_PATHS; i++) {
+            char name[48];
+            uint64_t h;
+            snprintf(name, sizeof name, "%s_%s", legacy_simd_names[i],
+                     aacmm_kernel_name((aacmm_kernel_t)k));
+            if (simd_golden[k][i] == 0u) {
+                printf("legacy golden %s: no golden (made on a CPU without the kernel)\n", name);
+                continue;
+            }
+            h = legacy_simd_hash(i, (aacmm_kernel_t)k);
+            printf("legacy golden %-20s %016llx %s\n", name, (unsigned long long)h,
+                   h == simd_golden[k][i] ? "same" : "DIFFERS");
+            assert_true(h == simd_golden[k][i]);
+        }
+    }
+}
+
 int main(void)
 {
     /* Accuracy tests: once per kernel (through k_point_f64 and friends). */
@@ -1303,6 +1366,7 @@ int main(void)
         cmocka_unit_test(test_simd_agrees_with_scalar),
         cmocka_unit_test(test_simd_batch_semantics),
         cmocka_unit_test(test_simd_tiled_layout),
+        cmocka_unit_test(test_legacy_golden),
     };
     int failed = 0, k;
     for (k = 0; k < AACMM_KERNEL_COUNT; k++) {

@@ -22,6 +22,18 @@
 #include "aacmm/kinematics_q.h"
 #include "reference.h"
 
+#define LEGACY_FIXED_PATHS
+#include "legacy_golden.h"
+#include "legacy_paths.h"
+
+/* The library's formulation in this build (the test itself compiles the
+ * split multiply below whatever the library uses). */
+#ifdef AACMM_Q_SPLIT_MUL
+#define LIB_SPLIT_MUL 1
+#else
+#define LIB_SPLIT_MUL 0
+#endif
+
 /* The split 32 x 32 -> 64 multiply that the Cortex-M0+ build uses, compiled
  * here on the host so it is tested in every build (the library itself uses
  * it only on ARMv6-M, or everywhere with -DAACMM_Q_SPLIT_MUL, as in the
@@ -995,6 +1007,32 @@ static void test_nulls(void **state)
     assert_true(p[0] == 11 && p[1] == 22 && p[2] == 33); /* nothing written */
 }
 
+/* The paper's arm (and the perturbed and limit blocks of
+ * tests/core/legacy_paths.h) through the fixed-point path gives bit for bit
+ * what the core of commit aa8b712 gave, in the formulation of this build
+ * (64-bit products, or ARMv6-M's with AACMM_Q_SPLIT_MUL): the hashes of
+ * tests/core/legacy_golden.h (scripts/legacy-golden.sh). */
+static void test_legacy_golden(void **state)
+{
+#if LIB_SPLIT_MUL
+    static const uint64_t golden[LEGACY_Q_PATHS] = {
+        LEGACY_GOLDEN_q_point_split, LEGACY_GOLDEN_q_batch_split, LEGACY_GOLDEN_q_counts_split,
+        LEGACY_GOLDEN_q_params_split};
+#else
+    static const uint64_t golden[LEGACY_Q_PATHS] = {LEGACY_GOLDEN_q_point, LEGACY_GOLDEN_q_batch,
+                                                    LEGACY_GOLDEN_q_counts, LEGACY_GOLDEN_q_params};
+#endif
+    int i;
+    (void)state;
+    for (i = 0; i < LEGACY_Q_PATHS; i++) {
+        const uint64_t h = legacy_q_hash(i);
+        printf("legacy golden %s%s %016llx %s\n", legacy_q_names[i],
+               LIB_SPLIT_MUL ? " (ARMv6-M formulation)" : "", (unsigned long long)h,
+               h == golden[i] ? "same" : "DIFFERS");
+        assert_true(h == golden[i]);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1014,6 +1052,7 @@ int main(void)
         cmocka_unit_test(test_conversion),
         cmocka_unit_test(test_validation),
         cmocka_unit_test(test_nulls),
+        cmocka_unit_test(test_legacy_golden),
     };
     return cmocka_run_group_tests_name("fixed-point kinematics", tests, NULL, NULL);
 }
