@@ -1,7 +1,7 @@
 # Kinematics core: host library, tests (gcc, clang, ASan+UBSan), M4F cross
 # build with a symbol check, and the benchmark.
 
-CORE_SRCS := firmware/src/status.c firmware/src/encoder.c \
+CORE_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/shape.c \
              firmware/src/kinematics_f32.c firmware/src/kinematics_f64.c
 # Host-only batch kernels across SIMD lanes (aacmm/simd.h) and the analysis
 # loops they build on: in the host test and benchmark binaries, not in the
@@ -22,6 +22,11 @@ CORE_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests
 # every accuracy test once per batch kernel, about ten times slower.
 CORE_TEST_OPT := -O2 -ffp-contract=off
 
+# The general arm model's tests (tests/core/test_arm.c) build alike.
+ARM_TEST_SRCS := tests/core/test_arm.c
+ARM_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(ARM_TEST_SRCS) tests/core/reference.h \
+                 tests/core/reference_arm.h
+
 # One test binary per compiler configuration.
 $(BUILD)/core/test_kinematics_gcc: $(CORE_TEST_DEPS) | $(BUILD)
 	@mkdir -p $(@D)
@@ -33,18 +38,32 @@ $(BUILD)/core/test_kinematics_san: $(CORE_TEST_DEPS) | $(BUILD)
 	@mkdir -p $(@D)
 	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DCORE_TEST_DIV=10 -I$(FW_INC) -Itests/core $(CORE_SRCS) $(SIMD_SRCS) $(CORE_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
 
+$(BUILD)/core/test_arm_gcc: $(ARM_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(CORE_TEST_OPT) -I$(FW_INC) -Itests/core $(CORE_SRCS) $(SIMD_SRCS) $(ARM_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/core/test_arm_clang: $(ARM_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(CORE_TEST_OPT) -I$(FW_INC) -Itests/core $(CORE_SRCS) $(SIMD_SRCS) $(ARM_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/core/test_arm_san: $(ARM_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DCORE_TEST_DIV=10 -I$(FW_INC) -Itests/core $(CORE_SRCS) $(SIMD_SRCS) $(ARM_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+
 .PHONY: test-core-gcc test-core-clang test-core-san test-core-m4f bench-core firmware-core-m4f
-test-core-gcc: $(BUILD)/core/test_kinematics_gcc
-	$<
-test-core-clang: $(BUILD)/core/test_kinematics_clang
-	$<
-test-core-san: $(BUILD)/core/test_kinematics_san
-	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $<
+test-core-gcc: $(BUILD)/core/test_kinematics_gcc $(BUILD)/core/test_arm_gcc
+	$(BUILD)/core/test_kinematics_gcc
+	$(BUILD)/core/test_arm_gcc
+test-core-clang: $(BUILD)/core/test_kinematics_clang $(BUILD)/core/test_arm_clang
+	$(BUILD)/core/test_kinematics_clang
+	$(BUILD)/core/test_arm_clang
+test-core-san: $(BUILD)/core/test_kinematics_san $(BUILD)/core/test_arm_san
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $(BUILD)/core/test_kinematics_san
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $(BUILD)/core/test_arm_san
 TEST_SUITES += test-core-gcc test-core-clang test-core-san test-core-m4f
 
 # ---- Cortex-M4F cross build of the core (float path on the FPU) ----
 M4F_DIR := $(BUILD)/arm-m4f/core
-M4F_CORE_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c
+M4F_CORE_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/shape.c \
+                 firmware/src/kinematics_f32.c
 M4F_CORE_OBJS := $(patsubst firmware/src/%.c,$(M4F_DIR)/%.o,$(M4F_CORE_SRCS))
 
 $(M4F_DIR)/%.o: firmware/src/%.c $(CORE_HDRS)

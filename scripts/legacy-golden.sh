@@ -21,6 +21,8 @@ build() { # $1 = firmware tree, $2 = output binary, $3.. = extra flags
          $fw/src/analysis.c $fw/src/simd/simd_dispatch.c $fw/src/simd/simd_f64.c \
          $fw/src/simd/simd_f32.c $fw/src/kinematics_q.c $fw/src/fixed_sincos.c \
          $fw/src/kinematics_q_convert.c"
+    # the general model's arm shapes (issue 26 on; absent from the old core)
+    if [ -f "$fw/src/shape.c" ]; then src="$src $fw/src/shape.c"; fi
     # shellcheck disable=SC2086
     gcc -std=c99 -O2 -ffp-contract=off "$@" -I"$fw/include" -I"$fw/src" -Itests/core $src \
         tests/core/legacy_golden_main.c -lm -o "$out"

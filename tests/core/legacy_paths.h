@@ -37,6 +37,13 @@
 #endif
 
 #define LEGACY_POSES 4096 /* poses per path and model */
+
+#if LEGACY_NEW_API
+/* 1: run the general chains on the paper's arm (the models' paper flag
+ * cleared after init; the perturbed-points paths build their own models and
+ * keep the paper's chains): they must give the same hashes. */
+int legacy_force_general; /* one test file per binary includes this header */
+#endif
 #define LEGACY_BATCH 509  /* a prime: every kernel gets full groups and a tail */
 #define LEGACY_PI 3.14159265358979323846
 
@@ -214,6 +221,12 @@ static void legacy_models(int which, aacmm_params_f64_t *p, aacmm_model_f64_t *m
     legacy_params_f32(&pf, p);
     (void)aacmm_model_init_f64(m, p);
     (void)aacmm_model_init_f32(mf, &pf);
+#if LEGACY_NEW_API
+    if (legacy_force_general) {
+        m->paper = 0u;
+        mf->paper = 0u;
+    }
+#endif
 }
 
 static void legacy_float_poses(int which)
@@ -613,6 +626,11 @@ static uint64_t legacy_q_hash(int path)
         size_t done = 0u;
         legacy_mix_int(&g, legacy_params_q(&q, which));
         legacy_mix_int(&g, aacmm_model_q_init(&m, &q));
+#if LEGACY_NEW_API
+        if (legacy_force_general) {
+            m.paper = 0u;
+        }
+#endif
         for (k = 0; k < LEGACY_POSES; k++) {
             for (i = 0; i < 6; i++) {
                 legacy_bam[k * 6 + i] =
