@@ -8,6 +8,7 @@ csrc/), so the host analysis runs exactly the code the arm runs.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shlex
@@ -98,7 +99,7 @@ def header_cdef() -> str:
     binding cannot drift from the headers: there is no second copy to drift.
     """
     lines = [_preprocess([])]
-    for m in _MACRO.finditer(_preprocess(["-dM"])):
+    for m in sorted(_MACRO.finditer(_preprocess(["-dM"])), key=lambda m: m.group(1)):
         name, value = m.group(1), m.group(2).strip()
         if "(" in name or value == "":
             continue
@@ -113,6 +114,11 @@ CDEF = header_cdef()
 
 ffibuilder = FFI()
 ffibuilder.cdef(CDEF)
+# The declarations the extension was built from, kept in it: the core suite
+# (tests/host/test_core_binding.py) compares them with the headers as they
+# are now, so a stale build fails there rather than computing with a
+# layout the headers no longer have.
+ffibuilder.cdef("extern const char aacmm_binding_cdef[];")
 
 
 # One translation unit (a "unity build") that includes the firmware sources:
@@ -125,6 +131,8 @@ ffibuilder.cdef(CDEF)
 # (aacmm/simd.h). No FMA contraction: the kernels then give the scalar
 # kernel's results bit for bit.
 UNITY = "".join(f'#include "{p.relative_to(FW_SRC).as_posix()}"\n' for p in SOURCES)
+# (ASCII, so JSON's string escapes are C's.)
+UNITY += f"const char aacmm_binding_cdef[] = {json.dumps(CDEF)};\n"
 ffibuilder.set_source(
     "aacmm._core",
     UNITY,
