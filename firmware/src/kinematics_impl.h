@@ -348,8 +348,12 @@ static aacmm_status_t SFX(check_angles)(const REAL *theta_rad, int joints)
 #undef CH_SPLAT
 #undef CH_SINCOS
 
-/* One pose through the chain of the model's shape. Inlined, so each caller
- * gets chains specialised for its jac (NULL or not). */
+/* One pose through the chain of the model's shape. Inlined (always: -Os
+ * would keep it out of line, a call more per pose on the Cortex-M4F), so
+ * each caller gets chains specialised for its jac (NULL or not). */
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
 static inline void SFX(chain)(const TYPE(aacmm_model) *model, const REAL *theta_rad, REAL p_mm[3],
                               REAL *jac)
 {
