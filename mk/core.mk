@@ -89,9 +89,44 @@ test-core-m4f: $(M4F_DIR)/libaacmm_core.a
 # ---- benchmark ----
 # The scalar figures use HOST_OPT (this machine's -march, as before issue 17),
 # so the SIMD speed-ups are against the fastest scalar build.
-$(BUILD)/core/bench_core: bench/bench_core.c $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) | $(BUILD)
+#
+# Issue 26: the core of commit aa8b712 (before the general arm model) is built
+# into the benchmark too, from `git archive`, with the same flags, its aacmm_
+# symbols renamed legacy_aacmm_ (bench/bench_legacy.c), so both cores run in
+# one process, their runs alternating. Without that commit in the history
+# (an export of the tree), the benchmark is built without it and says so.
+LEGACY_COMMIT := aa8b712
+LEGACY_DIR    := $(BUILD)/core/legacy
+LEGACY_OK     := $(shell git cat-file -e $(LEGACY_COMMIT)^{commit} 2>/dev/null && echo 1)
+LEGACY_SRCS   := status.c encoder.c kinematics_f32.c kinematics_f64.c analysis.c \
+                 simd/simd_dispatch.c simd/simd_f64.c simd/simd_f32.c
+
+$(LEGACY_DIR)/firmware/.extracted:
+	@rm -rf $(LEGACY_DIR)/firmware && mkdir -p $(LEGACY_DIR)
+	git archive $(LEGACY_COMMIT) firmware | tar -x -C $(LEGACY_DIR)
+	@touch $@
+
+# One relocatable object: the old core and bench_legacy.c, linked together
+# (ld -r), every aacmm_ symbol (definitions and references) then renamed.
+$(LEGACY_DIR)/legacy.o: $(LEGACY_DIR)/firmware/.extracted bench/bench_legacy.c bench/bench_legacy.h
+	@rm -rf $(LEGACY_DIR)/obj && mkdir -p $(LEGACY_DIR)/obj
+	@for f in $(LEGACY_SRCS); do \
+	   gcc $(CSTD) $(WARN) $(HOST_OPT) -I$(LEGACY_DIR)/firmware/include -c $(LEGACY_DIR)/firmware/src/$$f \
+	       -o $(LEGACY_DIR)/obj/$$(echo $$f | tr / _).o || exit 1; \
+	 done
+	gcc $(CSTD) $(WARN) $(HOST_OPT) -I$(LEGACY_DIR)/firmware/include -Ibench -c bench/bench_legacy.c \
+	    -o $(LEGACY_DIR)/obj/bench_legacy.o
+	ld -r -o $(LEGACY_DIR)/legacy_raw.o $(LEGACY_DIR)/obj/*.o
+	nm $(LEGACY_DIR)/legacy_raw.o | awk '$$NF ~ /^aacmm_/ {print $$NF, "legacy_" $$NF}' | sort -u \
+	    > $(LEGACY_DIR)/rename.txt
+	objcopy --redefine-syms=$(LEGACY_DIR)/rename.txt $(LEGACY_DIR)/legacy_raw.o $@
+
+BENCH_CORE_LEGACY := $(if $(LEGACY_OK),$(LEGACY_DIR)/legacy.o)
+BENCH_CORE_FLAGS  := $(if $(LEGACY_OK),-DBENCH_LEGACY=1 -Ibench,-DBENCH_LEGACY=0)
+
+$(BUILD)/core/bench_core: bench/bench_core.c $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(BENCH_CORE_LEGACY) | $(BUILD)
 	@mkdir -p $(@D)
-	gcc $(CSTD) $(WARN) -D_POSIX_C_SOURCE=199309L $(HOST_OPT) -I$(FW_INC) $(CORE_SRCS) $(SIMD_SRCS) bench/bench_core.c -lm -o $@
+	gcc $(CSTD) $(WARN) -D_POSIX_C_SOURCE=199309L $(HOST_OPT) $(BENCH_CORE_FLAGS) -I$(FW_INC) $(CORE_SRCS) $(SIMD_SRCS) bench/bench_core.c $(BENCH_CORE_LEGACY) -lm -o $@
 bench-core: $(BUILD)/core/bench_core
 	@$<
 BENCH_TARGETS += bench-core
