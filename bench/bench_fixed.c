@@ -32,6 +32,7 @@ static volatile double sink;
 static aacmm_model_f32_t m32;
 static aacmm_model_q_t mq;
 static aacmm_encoder_config_t enc;
+static aacmm_arm_encoders_t encs; /* the same, in the arm form of the batches */
 
 static double now_s(void)
 {
@@ -44,12 +45,12 @@ typedef void (*bench_fn)(void);
 
 static void run_point_q(void) { aacmm_batch_bam_q(&mq, NPOSE, bam, pq, NULL, NULL); }
 static void run_point_jac_q(void) { aacmm_batch_bam_q(&mq, NPOSE, bam, pq, jq, NULL); }
-static void run_counts_jac_q(void) { aacmm_batch_counts_q(&mq, &enc, NPOSE, bam, pq, jq, NULL); }
+static void run_counts_jac_q(void) { aacmm_batch_counts_q(&mq, &encs, NPOSE, bam, pq, jq, NULL); }
 static void run_point_f32(void) { aacmm_batch_angles_f32(&m32, NPOSE, th32, p32, NULL, NULL); }
 static void run_point_jac_f32(void) { aacmm_batch_angles_f32(&m32, NPOSE, th32, p32, j32, NULL); }
 static void run_counts_jac_f32(void)
 {
-    aacmm_batch_counts_f32(&m32, &enc, NPOSE, bam, p32, j32, NULL);
+    aacmm_batch_counts_f32(&m32, &encs, NPOSE, bam, p32, j32, NULL);
 }
 
 static void measure(const char *name, const char *what, bench_fn fn)
@@ -85,6 +86,7 @@ static void setup(void)
     aacmm_model_init_f32(&m32, &pf);
     aacmm_model_q_init(&mq, &q);
     aacmm_encoder_default(&enc);
+    aacmm_arm_encoders_from_config(&encs, &enc);
     for (i = 0; i < NPOSE * 6; i++) {
         s ^= s >> 12;
         s ^= s << 25;
@@ -110,9 +112,9 @@ static int callgrind_run(const char *path, long n)
         } else if (strcmp(path, "q") == 0) {
             ok &= aacmm_batch_bam_q(&mq, m, bam, pq, jq, NULL) == AACMM_OK;
         } else if (strcmp(path, "f32-counts") == 0) {
-            ok &= aacmm_batch_counts_f32(&m32, &enc, m, bam, p32, j32, NULL) == AACMM_OK;
+            ok &= aacmm_batch_counts_f32(&m32, &encs, m, bam, p32, j32, NULL) == AACMM_OK;
         } else if (strcmp(path, "q-counts") == 0) {
-            ok &= aacmm_batch_counts_q(&mq, &enc, m, bam, pq, jq, NULL) == AACMM_OK;
+            ok &= aacmm_batch_counts_q(&mq, &encs, m, bam, pq, jq, NULL) == AACMM_OK;
         } else if (strcmp(path, "f32-point") == 0) {
             ok &= aacmm_batch_angles_f32(&m32, m, th32, p32, NULL, NULL) == AACMM_OK;
         } else if (strcmp(path, "q-point") == 0) {

@@ -86,6 +86,7 @@ static float pf[3], jf[AACMM_JAC_SIZE];
 static aacmm_model_q_t mq;
 static aacmm_model_f32_t mf;
 static aacmm_encoder_config_t enc;
+static aacmm_arm_encoders_t encs; /* the same, in the arm form of the batches */
 
 typedef void (*pose_fn)(int k);
 
@@ -93,13 +94,13 @@ static void q_point(int k) { (void)aacmm_point_q(&mq, bam + 6 * k, pq); }
 static void q_point_jac(int k) { (void)aacmm_point_jacobian_q(&mq, bam + 6 * k, pq, jq); }
 static void q_counts_jac(int k)
 {
-    (void)aacmm_batch_counts_q(&mq, &enc, 1u, bam + 6 * k, pq, jq, (size_t *)0);
+    (void)aacmm_batch_counts_q(&mq, &encs, 1u, bam + 6 * k, pq, jq, (size_t *)0);
 }
 static void f_point(int k) { (void)aacmm_point_f32(&mf, rad + 6 * k, pf); }
 static void f_point_jac(int k) { (void)aacmm_point_jacobian_f32(&mf, rad + 6 * k, pf, jf); }
 static void f_counts_jac(int k)
 {
-    (void)aacmm_batch_counts_f32(&mf, &enc, 1u, bam + 6 * k, pf, jf, (size_t *)0);
+    (void)aacmm_batch_counts_f32(&mf, &encs, 1u, bam + 6 * k, pf, jf, (size_t *)0);
 }
 static void empty(int k) { (void)k; }
 
@@ -148,6 +149,7 @@ int main(void)
     aacmm_model_q_init(&mq, &q);
     aacmm_model_init_f32(&mf, &p);
     aacmm_encoder_default(&enc);
+    aacmm_arm_encoders_from_config(&encs, &enc);
     for (i = 0; i < NPOSE * 6; i++) {
         s ^= s >> 12;
         s ^= s << 25;

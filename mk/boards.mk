@@ -30,7 +30,8 @@ BOARD_FLAGS_microbit   := -mcpu=cortex-m0 -mthumb -mfloat-abi=soft
 # Kinematics in the self-test images: the float core everywhere; the
 # fixed-point core too. The board's own path ("primary": what its device
 # image uses) is float on the M4F, fixed on the M0.
-BOARD_KIN_F32 := firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c
+BOARD_KIN_F32 := firmware/src/status.c firmware/src/encoder.c firmware/src/shape.c \
+                 firmware/src/kinematics_f32.c
 BOARD_KIN_Q   := firmware/src/kinematics_q.c firmware/src/fixed_sincos.c
 BOARD_DEFS_mps2-an386 := -DSELFTEST_F32 -DSELFTEST_Q -DBOARD_KIN_PRIMARY='"f32"'
 BOARD_DEFS_microbit   := -DSELFTEST_F32 -DSELFTEST_Q -DBOARD_KIN_PRIMARY='"q"'
@@ -45,7 +46,8 @@ BOARD_DEFS_microbit += -DBOARD_UART_RX_BYTES=256u -DBOARD_UART_TX_BYTES=256u \
 BOARD_DEVICE_SRCS := firmware/src/device/device.c firmware/src/device/param_store.c \
                      firmware/src/sim/sim_motion.c firmware/src/sim/sim_encoder.c \
                      $(sort $(wildcard firmware/src/protocol/*.c)) \
-                     firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c \
+                     firmware/src/status.c firmware/src/encoder.c firmware/src/shape.c \
+                     firmware/src/kinematics_f32.c \
                      firmware/src/kinematics_f64.c firmware/src/encoder_frame.c \
                      $(BOARD_COMMON)/device_main.c
 BOARD_DEVKIN_mps2-an386 := firmware/src/device/device_kin_f32.c

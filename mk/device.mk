@@ -6,7 +6,8 @@
 # The protocol codec's sources (the protocol fragment may name them too; a
 # wildcard keeps this fragment independent of its variable names).
 DEV_PROTO_SRCS := $(sort $(wildcard firmware/src/protocol/*.c))
-DEV_CORE_SRCS  := firmware/src/status.c firmware/src/encoder.c firmware/src/kinematics_f32.c \
+DEV_CORE_SRCS  := firmware/src/status.c firmware/src/encoder.c firmware/src/shape.c \
+                  firmware/src/kinematics_f32.c \
                   firmware/src/kinematics_f64.c firmware/src/encoder_frame.c
 
 # Kinematics backend of the device: f32 (float core, default) or q (the

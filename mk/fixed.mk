@@ -7,10 +7,15 @@ FIXED_SRCS := firmware/src/kinematics_q.c firmware/src/fixed_sincos.c
 # Host / load-time conversion from double parameters (uses double: never in
 # the M0+ build).
 FIXED_CONVERT_SRCS := firmware/src/kinematics_q_convert.c
-FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h
+FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h
 FIXED_TEST_SRCS := tests/fixed/test_fixed.c
+# The general arm model through the fixed path (tests/fixed/test_fixed_arm.c).
+FIXED_ARM_TEST_SRCS := tests/fixed/test_fixed_arm.c
 FIXED_TEST_DEPS := $(CORE_SRCS) $(CORE_HDRS) $(FIXED_SRCS) $(FIXED_CONVERT_SRCS) $(FIXED_HDRS) \
-                   $(FIXED_TEST_SRCS) tests/core/reference.h
+                   $(FIXED_TEST_SRCS) tests/core/reference.h tests/core/legacy_paths.h \
+                   tests/core/legacy_golden.h
+FIXED_ARM_TEST_DEPS := $(CORE_SRCS) $(CORE_HDRS) $(FIXED_SRCS) $(FIXED_CONVERT_SRCS) $(FIXED_HDRS) \
+                       $(FIXED_ARM_TEST_SRCS) tests/core/reference.h tests/core/reference_arm.h
 FIXED_ALL_SRCS := $(CORE_SRCS) $(FIXED_SRCS) $(FIXED_CONVERT_SRCS)
 FIXED_TEST_INC := -I$(FW_INC) -Ifirmware/src -Itests/core -Itests/fixed
 
@@ -27,20 +32,34 @@ $(BUILD)/fixed/test_fixed_san: $(FIXED_TEST_DEPS) | $(BUILD)
 	@mkdir -p $(@D)
 	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DFIXED_TEST_POSES=100000L -DAACMM_Q_SPLIT_MUL $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
 
+$(BUILD)/fixed/test_fixed_arm_gcc: $(FIXED_ARM_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(HOST_OPT) $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_ARM_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/fixed/test_fixed_arm_clang: $(FIXED_ARM_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(HOST_OPT) $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_ARM_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/fixed/test_fixed_arm_san: $(FIXED_ARM_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	clang $(CSTD) $(WARN) $(SAN_FLAGS) -DFIXED_TEST_POSES=100000L -DAACMM_Q_SPLIT_MUL $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_ARM_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+
 .PHONY: test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p test-fixed-icount \
         firmware-fixed-m0p bench-fixed bench-fixed-m0
-test-fixed-gcc: $(BUILD)/fixed/test_fixed_gcc
-	$<
-test-fixed-clang: $(BUILD)/fixed/test_fixed_clang
-	$<
-test-fixed-san: $(BUILD)/fixed/test_fixed_san
-	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $<
+test-fixed-gcc: $(BUILD)/fixed/test_fixed_gcc $(BUILD)/fixed/test_fixed_arm_gcc
+	$(BUILD)/fixed/test_fixed_gcc
+	$(BUILD)/fixed/test_fixed_arm_gcc
+test-fixed-clang: $(BUILD)/fixed/test_fixed_clang $(BUILD)/fixed/test_fixed_arm_clang
+	$(BUILD)/fixed/test_fixed_clang
+	$(BUILD)/fixed/test_fixed_arm_clang
+test-fixed-san: $(BUILD)/fixed/test_fixed_san $(BUILD)/fixed/test_fixed_arm_san
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $(BUILD)/fixed/test_fixed_san
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $(BUILD)/fixed/test_fixed_arm_san
 TEST_SUITES += test-fixed-gcc test-fixed-clang test-fixed-san test-fixed-m0p test-fixed-icount
 
 # ---- Cortex-M0+ cross build (soft-float ABI, integer only) ----
 M0P_DIR := $(BUILD)/arm-m0p/fixed
-# encoder.c (shared core, integer only) supplies aacmm_encoder_to_bam.
-M0P_FIXED_SRCS := $(FIXED_SRCS) firmware/src/encoder.c
+# encoder.c (shared core, integer only) supplies aacmm_encoder_to_bam; shape.c
+# (integer only) the arm shapes.
+M0P_FIXED_SRCS := $(FIXED_SRCS) firmware/src/encoder.c firmware/src/shape.c
 M0P_FIXED_OBJS := $(patsubst firmware/src/%.c,$(M0P_DIR)/%.o,$(M0P_FIXED_SRCS))
 
 $(M0P_DIR)/%.o: firmware/src/%.c $(CORE_HDRS) $(FIXED_HDRS)
@@ -68,7 +87,7 @@ test-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a $(M0P_DIR)/float_canary.o
 	sh scripts/check-symbols.sh m0-fixed $(M0P_FIXED_OBJS)
 	@bad=$$(for o in $(M0P_FIXED_OBJS); do $(ARM_NM) -u $$o; done | awk '{print $$2}' | grep -E '$(FIXED_FLOAT_EXTRA)' || true); \
 	 if [ -n "$$bad" ]; then echo "test-fixed-m0p: float conversion helpers referenced: $$bad" >&2; exit 1; fi
-	@for f in $(FIXED_SRCS) firmware/src/fixed_sincos.h; do \
+	@for f in $(FIXED_SRCS) firmware/src/shape.c firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h; do \
 	   if gcc -fpreprocessed -dD -E -P -x c $$f 2>/dev/null | grep -nwE 'float|double|long double'; then \
 	     echo "test-fixed-m0p: $$f uses a floating type" >&2; exit 1; fi; \
 	 done
@@ -122,7 +141,11 @@ BENCH_TARGETS += bench-fixed-m0
 $(BUILD)/fixed/test_fixed_split: $(FIXED_TEST_DEPS) | $(BUILD)
 	@mkdir -p $(@D)
 	gcc $(CSTD) $(WARN) $(HOST_OPT) -DAACMM_Q_SPLIT_MUL $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
+$(BUILD)/fixed/test_fixed_arm_split: $(FIXED_ARM_TEST_DEPS) | $(BUILD)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) $(HOST_OPT) -DAACMM_Q_SPLIT_MUL $(FIXED_TEST_INC) $(FIXED_ALL_SRCS) $(FIXED_ARM_TEST_SRCS) $(CMOCKA_LIBS) -lm -o $@
 .PHONY: test-fixed-split
-test-fixed-split: $(BUILD)/fixed/test_fixed_split
-	$<
+test-fixed-split: $(BUILD)/fixed/test_fixed_split $(BUILD)/fixed/test_fixed_arm_split
+	$(BUILD)/fixed/test_fixed_split
+	$(BUILD)/fixed/test_fixed_arm_split
 TEST_SUITES += test-fixed-split

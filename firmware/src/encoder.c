@@ -36,6 +36,34 @@ static int clz64(uint64_t x)
 #endif
 }
 
+/* The per-joint arrays of either encoder form. */
+typedef struct {
+    const uint64_t *cpr;
+    const uint32_t *zero;
+    const int8_t *dir;
+    int joints;
+} enc_view_t;
+
+static enc_view_t view_config(const aacmm_encoder_config_t *c)
+{
+    enc_view_t v;
+    v.cpr = c->counts_per_rev;
+    v.zero = c->zero_offset_counts;
+    v.dir = c->direction;
+    v.joints = AACMM_JOINTS;
+    return v;
+}
+
+static enc_view_t view_arm(const aacmm_arm_encoders_t *e)
+{
+    enc_view_t v;
+    v.cpr = e->counts_per_rev;
+    v.zero = e->zero_offset_counts;
+    v.dir = e->direction;
+    v.joints = (int)e->joints;
+    return v;
+}
+
 aacmm_status_t aacmm_encoder_default(aacmm_encoder_config_t *config)
 {
     int i;
@@ -50,45 +78,94 @@ aacmm_status_t aacmm_encoder_default(aacmm_encoder_config_t *config)
     return AACMM_OK;
 }
 
-aacmm_status_t aacmm_encoder_validate(const aacmm_encoder_config_t *config)
+aacmm_status_t aacmm_arm_encoders_default(aacmm_arm_encoders_t *enc, int joints)
 {
     int i;
-    if (config == NULL) {
+    if (enc == NULL) {
         return AACMM_ERR_NULL;
     }
+    if (joints < 1 || joints > AACMM_JOINTS_MAX) {
+        return AACMM_ERR_RANGE;
+    }
+    enc->joints = (uint8_t)joints;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        enc->counts_per_rev[i] = CPR_MAX;
+        enc->zero_offset_counts[i] = 0u;
+        enc->direction[i] = 1;
+    }
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_arm_encoders_from_config(aacmm_arm_encoders_t *enc,
+                                              const aacmm_encoder_config_t *config)
+{
+    int i;
+    if (enc == NULL || config == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    (void)aacmm_arm_encoders_default(enc, AACMM_JOINTS);
     for (i = 0; i < AACMM_JOINTS; i++) {
-        uint64_t cpr = config->counts_per_rev[i];
+        enc->counts_per_rev[i] = config->counts_per_rev[i];
+        enc->zero_offset_counts[i] = config->zero_offset_counts[i];
+        enc->direction[i] = config->direction[i];
+    }
+    return AACMM_OK;
+}
+
+static aacmm_status_t validate(enc_view_t v)
+{
+    int i;
+    if (v.joints < 1 || v.joints > AACMM_JOINTS_MAX) {
+        return AACMM_ERR_RANGE;
+    }
+    for (i = 0; i < v.joints; i++) {
+        uint64_t cpr = v.cpr[i];
         if (cpr < 2u || cpr > CPR_MAX) {
             return AACMM_ERR_RANGE;
         }
-        if ((uint64_t)config->zero_offset_counts[i] >= cpr) {
+        if ((uint64_t)v.zero[i] >= cpr) {
             return AACMM_ERR_RANGE;
         }
-        if (config->direction[i] != 1 && config->direction[i] != -1) {
+        if (v.dir[i] != 1 && v.dir[i] != -1) {
             return AACMM_ERR_RANGE;
         }
     }
     return AACMM_OK;
 }
 
-aacmm_status_t aacmm_encoder_signed_counts(const aacmm_encoder_config_t *config,
-                                           const uint32_t reading_counts[AACMM_JOINTS],
-                                           int64_t counts_out[AACMM_JOINTS])
+aacmm_status_t aacmm_encoder_validate(const aacmm_encoder_config_t *config)
 {
-    int64_t tmp[AACMM_JOINTS];
+    if (config == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    return validate(view_config(config));
+}
+
+aacmm_status_t aacmm_arm_encoders_validate(const aacmm_arm_encoders_t *enc)
+{
+    if (enc == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    return validate(view_arm(enc));
+}
+
+static aacmm_status_t signed_counts(enc_view_t v, const uint32_t *reading_counts,
+                                    int64_t *counts_out)
+{
+    int64_t tmp[AACMM_JOINTS_MAX];
     int i;
     aacmm_status_t st;
     if (reading_counts == NULL || counts_out == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_encoder_validate(config);
+    st = validate(v);
     if (st != AACMM_OK) {
         return st;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        uint64_t cpr = config->counts_per_rev[i];
+    for (i = 0; i < v.joints; i++) {
+        uint64_t cpr = v.cpr[i];
         uint64_t reading = reading_counts[i];
-        uint64_t zero = config->zero_offset_counts[i];
+        uint64_t zero = v.zero[i];
         uint64_t delta;
         int64_t s;
         if (reading >= cpr) {
@@ -97,30 +174,48 @@ aacmm_status_t aacmm_encoder_signed_counts(const aacmm_encoder_config_t *config,
         /* Both operands are < cpr, so one conditional add of cpr wraps. */
         delta = (reading >= zero) ? reading - zero : reading + (cpr - zero);
         s = (2u * delta < cpr) ? (int64_t)delta : (int64_t)delta - (int64_t)cpr;
-        tmp[i] = (config->direction[i] < 0) ? -s : s;
+        tmp[i] = (v.dir[i] < 0) ? -s : s;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
+    for (i = 0; i < v.joints; i++) {
         counts_out[i] = tmp[i];
     }
     return AACMM_OK;
 }
 
-aacmm_status_t aacmm_encoder_to_bam(const aacmm_encoder_config_t *config,
-                                    const uint32_t reading_counts[AACMM_JOINTS],
-                                    uint32_t angle_bam[AACMM_JOINTS])
+aacmm_status_t aacmm_encoder_signed_counts(const aacmm_encoder_config_t *config,
+                                           const uint32_t reading_counts[AACMM_JOINTS],
+                                           int64_t counts_out[AACMM_JOINTS])
 {
-    int64_t s[AACMM_JOINTS];
+    if (config == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    return signed_counts(view_config(config), reading_counts, counts_out);
+}
+
+aacmm_status_t aacmm_arm_encoders_signed_counts(const aacmm_arm_encoders_t *enc,
+                                                const uint32_t *reading_counts,
+                                                int64_t *counts_out)
+{
+    if (enc == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    return signed_counts(view_arm(enc), reading_counts, counts_out);
+}
+
+static aacmm_status_t to_bam(enc_view_t v, const uint32_t *reading_counts, uint32_t *angle_bam)
+{
+    int64_t s[AACMM_JOINTS_MAX];
     int i;
     aacmm_status_t st;
     if (angle_bam == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_encoder_signed_counts(config, reading_counts, s);
+    st = signed_counts(v, reading_counts, s);
     if (st != AACMM_OK) {
         return st;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        uint64_t cpr = config->counts_per_rev[i];
+    for (i = 0; i < v.joints; i++) {
+        uint64_t cpr = v.cpr[i];
         uint64_t mag = (uint64_t)(s[i] < 0 ? -s[i] : s[i]); /* <= 2^31 */
         uint64_t q;
         if ((cpr & (cpr - 1u)) == 0u) {
@@ -134,6 +229,25 @@ aacmm_status_t aacmm_encoder_to_bam(const aacmm_encoder_config_t *config,
         angle_bam[i] = (uint32_t)((s[i] < 0 ? (0u - q) : q) & 0xFFFFFFFFu);
     }
     return AACMM_OK;
+}
+
+aacmm_status_t aacmm_encoder_to_bam(const aacmm_encoder_config_t *config,
+                                    const uint32_t reading_counts[AACMM_JOINTS],
+                                    uint32_t angle_bam[AACMM_JOINTS])
+{
+    if (config == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    return to_bam(view_config(config), reading_counts, angle_bam);
+}
+
+aacmm_status_t aacmm_arm_encoders_to_bam(const aacmm_arm_encoders_t *enc,
+                                         const uint32_t *reading_counts, uint32_t *angle_bam)
+{
+    if (enc == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    return to_bam(view_arm(enc), reading_counts, angle_bam);
 }
 
 

@@ -1,5 +1,6 @@
 /*
- * Fixed-point kinematics: model set-up, probe point, 3x25 Jacobian, batches.
+ * Fixed-point kinematics: model set-up, probe point, 3 x P Jacobian, batches,
+ * for every arm shape (aacmm/kinematics.h).
  * Integer arithmetic only (built for the Cortex-M0+ and checked for any
  * floating-point helper). Formats, rounding and bounds: kinematics_q.h.
  */
@@ -34,6 +35,38 @@ aacmm_status_t aacmm_params_q_validate(const aacmm_params_q_t *params)
     return (reach <= AACMM_Q_REACH_MAX_Q18) ? AACMM_OK : AACMM_ERR_RANGE;
 }
 
+aacmm_status_t aacmm_arm_q_validate(const aacmm_arm_q_t *arm)
+{
+    int64_t reach;
+    aacmm_status_t st;
+    int i, n;
+    if (arm == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = aacmm_shape_validate(&arm->shape);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    n = (int)arm->shape.joints;
+    /* At most 17 * 2^31 < 2^36: the sum cannot overflow. */
+    reach = abs64(arm->tip_q18[0]) + abs64(arm->tip_q18[1]) + abs64(arm->tip_q18[2]);
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        if (i < n) {
+            reach += abs64(arm->d_q18[i]) + abs64(arm->a_q18[i]);
+            if (!arm->shape.beta[i] && arm->beta_bam[i] != 0u) {
+                return AACMM_ERR_RANGE;
+            }
+        } else if (arm->theta_offset_bam[i] != 0u || arm->alpha_bam[i] != 0u ||
+                   arm->d_q18[i] != 0 || arm->a_q18[i] != 0 || arm->beta_bam[i] != 0u) {
+            return AACMM_ERR_RANGE;
+        }
+    }
+    if (arm->shape.tip == (uint8_t)AACMM_TIP_Z && (arm->tip_q18[0] != 0 || arm->tip_q18[1] != 0)) {
+        return AACMM_ERR_RANGE;
+    }
+    return (reach <= AACMM_Q_REACH_MAX_Q18) ? AACMM_OK : AACMM_ERR_RANGE;
+}
+
 aacmm_status_t aacmm_params_default_q(aacmm_params_q_t *params)
 {
     /* 300, 65.5, 792.7, 65.5, 883.2, 0 mm in Q18, rounded to nearest:
@@ -54,10 +87,71 @@ aacmm_status_t aacmm_params_default_q(aacmm_params_q_t *params)
     return AACMM_OK;
 }
 
-aacmm_status_t aacmm_model_q_init(aacmm_model_q_t *model, const aacmm_params_q_t *params)
+aacmm_status_t aacmm_arm_q_from_params(aacmm_arm_q_t *arm, const aacmm_params_q_t *params)
+{
+    int i;
+    if (arm == NULL || params == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    (void)aacmm_shape_paper(&arm->shape);
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        const int in = i < AACMM_JOINTS;
+        arm->theta_offset_bam[i] = in ? params->theta_offset_bam[i] : 0u;
+        arm->alpha_bam[i] = in ? params->alpha_bam[i] : 0u;
+        arm->d_q18[i] = in ? params->d_q18[i] : 0;
+        arm->a_q18[i] = in ? params->a_q18[i] : 0;
+        arm->beta_bam[i] = 0u;
+    }
+    arm->tip_q18[0] = 0;
+    arm->tip_q18[1] = 0;
+    arm->tip_q18[2] = params->l_q18;
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_arm_default_q(aacmm_arm_q_t *arm)
+{
+    aacmm_params_q_t p;
+    (void)aacmm_params_default_q(&p);
+    return aacmm_arm_q_from_params(arm, &p);
+}
+
+aacmm_status_t aacmm_model_q_init_arm(aacmm_model_q_t *model, const aacmm_arm_q_t *arm)
 {
     aacmm_status_t st;
     int i;
+    if (model == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = aacmm_arm_q_validate(arm);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    model->arm = *arm;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        model->sin_alpha_q30[i] = 0;
+        model->cos_alpha_q30[i] = AACMM_Q_ONE_Q30;
+        model->sin_beta_q30[i] = 0;
+        model->cos_beta_q30[i] = AACMM_Q_ONE_Q30;
+        model->col_beta[i] = 0u;
+        if (i < (int)arm->shape.joints) {
+            aacmm_fixed_sincos(arm->alpha_bam[i], &model->sin_alpha_q30[i],
+                               &model->cos_alpha_q30[i]);
+        }
+        if (arm->shape.beta[i]) {
+            aacmm_fixed_sincos(arm->beta_bam[i], &model->sin_beta_q30[i], &model->cos_beta_q30[i]);
+            model->col_beta[i] = (uint8_t)aacmm_shape_col_beta(&arm->shape, i);
+        }
+    }
+    model->n_params = (uint8_t)aacmm_shape_params(&arm->shape);
+    model->col_tip = (uint8_t)aacmm_shape_col_tip(&arm->shape);
+    model->paper = (uint8_t)aacmm_shape_is_paper(&arm->shape);
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_model_q_init(aacmm_model_q_t *model, const aacmm_params_q_t *params)
+{
+    aacmm_arm_q_t arm;
+    aacmm_status_t st;
     if (model == NULL) {
         return AACMM_ERR_NULL;
     }
@@ -65,12 +159,8 @@ aacmm_status_t aacmm_model_q_init(aacmm_model_q_t *model, const aacmm_params_q_t
     if (st != AACMM_OK) {
         return st;
     }
-    model->params = *params;
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        aacmm_fixed_sincos(params->alpha_bam[i], &model->sin_alpha_q30[i],
-                           &model->cos_alpha_q30[i]);
-    }
-    return AACMM_OK;
+    (void)aacmm_arm_q_from_params(&arm, params);
+    return aacmm_model_q_init_arm(model, &arm);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -104,6 +194,16 @@ typedef struct {
     int64_t x, y, z;
 } vec3_q48;
 
+/* The small helpers of the chain are inlined wherever they are used: -Os
+ * would otherwise keep them out of line once two chains use them (each call
+ * passing 3-vectors by value), which cost the paper's chain 40 % on the
+ * Cortex-M4F (measured, bench-boards). */
+#if defined(__GNUC__)
+#define Q_INLINE static inline __attribute__((always_inline))
+#else
+#define Q_INLINE static inline
+#endif
+
 /* 32 x 32 -> 64-bit product (operands within the int32 range). */
 #if AACMM_FIXED_SPLIT_MUL
 #define MUL(a, b) aacmm_fixed_mul((int32_t)(a), (int32_t)(b))
@@ -126,7 +226,7 @@ typedef struct {
 
 /* a u + b v for Q30 a, b, u, v: each product rounded half up to Q30, then
  * summed: within 1 LSB of the exact value. */
-static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
+Q_INLINE vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
 {
     vec3_q30 r;
     const int32_t a32 = (int32_t)a, b32 = (int32_t)b;
@@ -150,7 +250,7 @@ static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
     ((int64_t)(aacmm_fixed_mul_q30((int32_t)(a1), (int32_t)(b1)) -                               \
                aacmm_fixed_mul_q30((int32_t)(a2), (int32_t)(b2))) *                               \
      ((int64_t)1 << 31))
-static inline void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
+Q_INLINE void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
 {
     out[0 * stride] = CROSS_Q17(a.y, b.z, a.z, b.y);
     out[1 * stride] = CROSS_Q17(a.z, b.x, a.x, b.z);
@@ -161,7 +261,7 @@ static inline void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
 
 /* a u + b v for Q30 a, b, u, v: exact Q60 sum in int64 (|.| < 2^61 for the
  * unit-bounded operands here), rounded half up to Q30. */
-static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
+Q_INLINE vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
 {
     vec3_q30 r;
     r.x = (qv_t)AACMM_FIXED_RND(MUL(a, u.x) + MUL(b, v.x), 30);
@@ -177,7 +277,7 @@ static inline vec3_q30 lin2_q30(qv_t a, vec3_q30 u, qv_t b, vec3_q30 v)
 
 /* Cross product a x b of a Q30 axis and a Q18 vector: each component is the
  * exact Q48 difference of two products (|.| < 2^62), the output format. */
-static inline void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
+Q_INLINE void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
 {
     out[0 * stride] = MUL(a.y, b.z) - MUL(a.z, b.y);
     out[1 * stride] = MUL(a.z, b.x) - MUL(a.x, b.z);
@@ -188,7 +288,7 @@ static inline void cross_q48(vec3_q30 a, vec3_q30 b, int64_t *out, int stride)
 
 /* (p + PH_HALF) - o, shifted down: p - o rounded half up (to Q17 or Q18, as
  * above). ph is p + PH_HALF, formed once. */
-static inline vec3_q30 diff_po(vec3_q48 ph, vec3_q48 o)
+Q_INLINE vec3_q30 diff_po(vec3_q48 ph, vec3_q48 o)
 {
     vec3_q30 r;
     r.x = (qv_t)((ph.x - o.x) >> PO_SHIFT);
@@ -201,123 +301,31 @@ static inline vec3_q30 diff_po(vec3_q48 ph, vec3_q48 o)
  * values are undefined in C). */
 #define Q30_TO_Q48(v) ((int64_t)(v) * ((int64_t)1 << 18))
 
-/*
- * One pass down the chain (kinematics_q.h has the formulas and bounds).
- * Joint 1 starts from the identity frame, so its step is written out with the
- * zero products left away (bit-identical to the general step). Frame 6's y
- * axis is never used, so it is not formed. Inlined with jac constant NULL or
- * not, so the point-only path does no Jacobian work.
- */
-static inline void chain_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
+/* The chain twice from one template (chain_q_impl.h): chain_paper_q for the
+ * paper's shape, its constants compiled in, and chain_any_q for every shape;
+ * chain_q runs the one of the model's shape. */
+#define CQ(name) name##_paper_q
+#define CQ_GENERAL 0
+#include "chain_q_impl.h"
+#undef CQ
+#undef CQ_GENERAL
+#define CQ(name) name##_any_q
+#define CQ_GENERAL 1
+#include "chain_q_impl.h"
+#undef CQ
+#undef CQ_GENERAL
+
+Q_INLINE void chain_q(const aacmm_model_q_t *model, const uint32_t *theta_bam,
                            int64_t p_q48[3], int64_t *jac)
 {
-    vec3_q30 X, Y, Z;
-    vec3_q48 O;
-    vec3_q30 zs[AACMM_JOINTS + 1], xs[AACMM_JOINTS]; /* z_0..z_6, x_1..x_6 */
-    vec3_q48 os[AACMM_JOINTS + 1];                    /* o_0..o_6 */
-    vec3_q48 p, ph;
-    int i;
-
-    {
-        /* Joint 1: x_0, y_0, z_0 = e_x, e_y, e_z; u = (-s, c, 0). */
-        const qv_t sa = model->sin_alpha_q30[0];
-        const qv_t ca = model->cos_alpha_q30[0];
-        int32_t s32, c32;
-        qv_t s, c;
-        aacmm_fixed_sincos(theta_bam[0] + model->params.theta_offset_bam[0], &s32, &c32);
-        s = s32;
-        c = c32;
-        X.x = c;
-        X.y = s;
-        X.z = 0;
-        Y.x = aacmm_fixed_mul_q30((int32_t)ca, (int32_t)-s);
-        Y.y = aacmm_fixed_mul_q30((int32_t)ca, (int32_t)c);
-        Y.z = sa;
-        Z.x = aacmm_fixed_mul_q30((int32_t)sa, (int32_t)s);
-        Z.y = aacmm_fixed_mul_q30((int32_t)-sa, (int32_t)c);
-        Z.z = ca;
-        /* o_1 = d_1 z_0 + a_1 x_1 */
-        O.x = MUL(model->params.a_q18[0], c);
-        O.y = MUL(model->params.a_q18[0], s);
-        O.z = MUL(model->params.d_q18[0], AACMM_Q_ONE_Q30);
-        zs[0].x = 0;
-        zs[0].y = 0;
-        zs[0].z = AACMM_Q_ONE_Q30;
-        os[0].x = os[0].y = os[0].z = 0;
-        xs[0] = X;
-        zs[1] = Z;
-        os[1] = O;
+    if (model->paper) {
+        chain_paper_q(model, theta_bam, p_q48, jac);
+    } else {
+        chain_any_q(model, theta_bam, p_q48, jac);
     }
-    UNROLL_JOINTS
-    for (i = 1; i < AACMM_JOINTS; i++) {
-        const qv_t sa = model->sin_alpha_q30[i];
-        const qv_t ca = model->cos_alpha_q30[i];
-        const qv_t d = model->params.d_q18[i];
-        const qv_t a = model->params.a_q18[i];
-        const vec3_q30 zp = Z;
-        int32_t s32, c32;
-        qv_t s, c;
-        vec3_q30 u;
-        aacmm_fixed_sincos(theta_bam[i] + model->params.theta_offset_bam[i], &s32, &c32);
-        s = s32;
-        c = c32;
-        u = lin2_q30(c, Y, -s, X);
-        X = lin2_q30(c, X, s, Y);
-        if (i + 1 < AACMM_JOINTS) {
-            Y = lin2_q30(ca, u, sa, Z);
-        }
-        Z = lin2_q30(ca, Z, -sa, u);
-        /* Q18 x Q30 = Q48, exact; |d z + a x| <= 2^31 * 2^30 * 2 = 2^62. */
-        O.x += MUL(d, zp.x) + MUL(a, X.x);
-        O.y += MUL(d, zp.y) + MUL(a, X.y);
-        O.z += MUL(d, zp.z) + MUL(a, X.z);
-        xs[i] = X;
-        zs[i + 1] = Z;
-        os[i + 1] = O;
-    }
-    {
-        const qv_t l = model->params.l_q18;
-        p.x = O.x + MUL(l, Z.x);
-        p.y = O.y + MUL(l, Z.y);
-        p.z = O.z + MUL(l, Z.z);
-    }
-    p_q48[0] = p.x;
-    p_q48[1] = p.y;
-    p_q48[2] = p.z;
-    if (jac == NULL) {
-        return;
-    }
-    ph.x = p.x + PH_HALF;
-    ph.y = p.y + PH_HALF;
-    ph.z = p.z + PH_HALF;
-    /* d p / d theta_1 = z_0 x p = (-p_y, p_x, 0): exact, straight from Q48 */
-    jac[0 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = -p.y;
-    jac[1 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = p.x;
-    jac[2 * AACMM_JAC_COLS + AACMM_COL_THETA(0)] = 0;
-    UNROLL_JOINTS
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        const vec3_q30 w = diff_po(ph, os[i + 1]); /* p - o_i (1-based i) */
-        /* d p / d alpha_i = x_i x (p - o_i) */
-        cross_q48(xs[i], w, jac + AACMM_COL_ALPHA(i), AACMM_JAC_COLS);
-        /* d p / d theta_{i+1} = z_i x (p - o_i) */
-        if (i + 1 < AACMM_JOINTS) {
-            cross_q48(zs[i + 1], w, jac + AACMM_COL_THETA(i + 1), AACMM_JAC_COLS);
-        }
-        /* d p / d d_i = z_{i-1};  d p / d a_i = x_i  (Q30 -> Q48, exact) */
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_D(i)] = Q30_TO_Q48(zs[i].x);
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_D(i)] = Q30_TO_Q48(zs[i].y);
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_D(i)] = Q30_TO_Q48(zs[i].z);
-        jac[0 * AACMM_JAC_COLS + AACMM_COL_A(i)] = Q30_TO_Q48(xs[i].x);
-        jac[1 * AACMM_JAC_COLS + AACMM_COL_A(i)] = Q30_TO_Q48(xs[i].y);
-        jac[2 * AACMM_JAC_COLS + AACMM_COL_A(i)] = Q30_TO_Q48(xs[i].z);
-    }
-    /* d p / d l = z_6 */
-    jac[0 * AACMM_JAC_COLS + AACMM_COL_L] = Q30_TO_Q48(Z.x);
-    jac[1 * AACMM_JAC_COLS + AACMM_COL_L] = Q30_TO_Q48(Z.y);
-    jac[2 * AACMM_JAC_COLS + AACMM_COL_L] = Q30_TO_Q48(Z.z);
 }
 
-aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
+aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t *theta_bam,
                              int64_t p_q48[3])
 {
     if (model == NULL || theta_bam == NULL || p_q48 == NULL) {
@@ -327,9 +335,8 @@ aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_
     return AACMM_OK;
 }
 
-aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
-                                      const uint32_t theta_bam[AACMM_JOINTS], int64_t p_q48[3],
-                                      int64_t jac_q48[AACMM_JAC_SIZE])
+aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model, const uint32_t *theta_bam,
+                                      int64_t p_q48[3], int64_t *jac_q48)
 {
     if (model == NULL || theta_bam == NULL || p_q48 == NULL || jac_q48 == NULL) {
         return AACMM_ERR_NULL;
@@ -345,19 +352,20 @@ aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
 aacmm_status_t aacmm_batch_bam_q(const aacmm_model_q_t *model, size_t n, const uint32_t *theta_bam,
                                  int64_t *p_q48, int64_t *jac_q48, size_t *done)
 {
-    size_t k;
+    size_t k, nj, jn;
     if (done != NULL) {
         *done = 0u;
     }
     if (model == NULL || (n > 0u && (theta_bam == NULL || p_q48 == NULL))) {
         return AACMM_ERR_NULL;
     }
+    nj = model->arm.shape.joints;
+    jn = (size_t)AACMM_JAC_ROWS * model->n_params;
     for (k = 0; k < n; k++) {
         if (jac_q48 != NULL) {
-            chain_q(model, theta_bam + k * AACMM_JOINTS, p_q48 + k * 3u,
-                    jac_q48 + k * AACMM_JAC_SIZE);
+            chain_q(model, theta_bam + k * nj, p_q48 + k * 3u, jac_q48 + k * jn);
         } else {
-            chain_q(model, theta_bam + k * AACMM_JOINTS, p_q48 + k * 3u, NULL);
+            chain_q(model, theta_bam + k * nj, p_q48 + k * 3u, NULL);
         }
     }
     if (done != NULL) {
@@ -367,11 +375,11 @@ aacmm_status_t aacmm_batch_bam_q(const aacmm_model_q_t *model, size_t n, const u
 }
 
 aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
-                                    const aacmm_encoder_config_t *encoders, size_t n,
+                                    const aacmm_arm_encoders_t *encoders, size_t n,
                                     const uint32_t *reading_counts, int64_t *p_q48,
                                     int64_t *jac_q48, size_t *done)
 {
-    size_t k;
+    size_t k, nj, jn;
     if (done != NULL) {
         *done = 0u;
     }
@@ -379,14 +387,19 @@ aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
         (n > 0u && (reading_counts == NULL || p_q48 == NULL))) {
         return AACMM_ERR_NULL;
     }
+    nj = model->arm.shape.joints;
+    jn = (size_t)AACMM_JAC_ROWS * model->n_params;
+    if (encoders->joints != nj) {
+        return AACMM_ERR_RANGE;
+    }
     for (k = 0; k < n; k++) {
-        uint32_t th[AACMM_JOINTS];
-        aacmm_status_t st = aacmm_encoder_to_bam(encoders, reading_counts + k * AACMM_JOINTS, th);
+        uint32_t th[AACMM_JOINTS_MAX];
+        aacmm_status_t st = aacmm_arm_encoders_to_bam(encoders, reading_counts + k * nj, th);
         if (st != AACMM_OK) {
             return st;
         }
         if (jac_q48 != NULL) {
-            chain_q(model, th, p_q48 + k * 3u, jac_q48 + k * AACMM_JAC_SIZE);
+            chain_q(model, th, p_q48 + k * 3u, jac_q48 + k * jn);
         } else {
             chain_q(model, th, p_q48 + k * 3u, NULL);
         }

@@ -106,3 +106,79 @@ aacmm_status_t aacmm_params_q_to_f64(aacmm_params_f64_t *out, const aacmm_params
     out->l_mm = (double)in->l_q18 / TWO_POW_18;
     return AACMM_OK;
 }
+
+aacmm_status_t aacmm_arm_q_from_f64(aacmm_arm_q_t *out, const aacmm_arm_f64_t *in)
+{
+    aacmm_arm_q_t q;
+    aacmm_status_t st;
+    int i;
+    if (out == NULL || in == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = aacmm_arm_validate_f64(in);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    q.shape = in->shape;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        q.theta_offset_bam[i] = rad_to_bam(in->theta_offset_rad[i]);
+        q.alpha_bam[i] = rad_to_bam(in->alpha_rad[i]);
+        q.beta_bam[i] = rad_to_bam(in->beta_rad[i]);
+        if ((st = len_to_q18(in->d_mm[i], &q.d_q18[i])) != AACMM_OK ||
+            (st = len_to_q18(in->a_mm[i], &q.a_q18[i])) != AACMM_OK) {
+            return st;
+        }
+    }
+    for (i = 0; i < 3; i++) {
+        if ((st = len_to_q18(in->tip_mm[i], &q.tip_q18[i])) != AACMM_OK) {
+            return st;
+        }
+    }
+    st = aacmm_arm_q_validate(&q); /* the total reach */
+    if (st != AACMM_OK) {
+        return st;
+    }
+    *out = q;
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_arm_q_from_f32(aacmm_arm_q_t *out, const aacmm_arm_f32_t *in)
+{
+    aacmm_arm_f64_t d;
+    int i;
+    if (out == NULL || in == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    d.shape = in->shape;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        d.theta_offset_rad[i] = (double)in->theta_offset_rad[i];
+        d.alpha_rad[i] = (double)in->alpha_rad[i];
+        d.d_mm[i] = (double)in->d_mm[i];
+        d.a_mm[i] = (double)in->a_mm[i];
+        d.beta_rad[i] = (double)in->beta_rad[i];
+    }
+    for (i = 0; i < 3; i++) {
+        d.tip_mm[i] = (double)in->tip_mm[i];
+    }
+    return aacmm_arm_q_from_f64(out, &d);
+}
+
+aacmm_status_t aacmm_arm_q_to_f64(aacmm_arm_f64_t *out, const aacmm_arm_q_t *in)
+{
+    int i;
+    if (out == NULL || in == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    out->shape = in->shape;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        out->theta_offset_rad[i] = bam_to_rad(in->theta_offset_bam[i]);
+        out->alpha_rad[i] = bam_to_rad(in->alpha_bam[i]);
+        out->beta_rad[i] = bam_to_rad(in->beta_bam[i]);
+        out->d_mm[i] = (double)in->d_q18[i] / TWO_POW_18;
+        out->a_mm[i] = (double)in->a_q18[i] / TWO_POW_18;
+    }
+    for (i = 0; i < 3; i++) {
+        out->tip_mm[i] = (double)in->tip_q18[i] / TWO_POW_18;
+    }
+    return AACMM_OK;
+}

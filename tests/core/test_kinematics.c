@@ -26,6 +26,10 @@
 #include "aacmm/simd.h"
 #include "reference.h"
 
+#define LEGACY_FLOAT_PATHS
+#include "legacy_golden.h"
+#include "legacy_paths.h"
+
 #define PI 3.14159265358979323846
 
 /* The sanitizer build divides the large pose counts by this (it runs every
@@ -845,6 +849,7 @@ static void test_batches(void **state)
     aacmm_model_f32_t mf;
     aacmm_params_f32_t pf;
     aacmm_encoder_config_t enc;
+    aacmm_arm_encoders_t encs;
     static double th[N * 6], P[N * 3], J[N * AACMM_JAC_SIZE];
     static float thf[N * 6], Pf[N * 3], Jf[N * AACMM_JAC_SIZE];
     static uint32_t counts[N * 6];
@@ -863,8 +868,9 @@ static void test_batches(void **state)
             counts[k] %= 3600u;
         }
     }
+    assert_int_equal(aacmm_arm_encoders_from_config(&encs, &enc), AACMM_OK);
     /* counts batch == per-pose conversion + point_jacobian */
-    assert_int_equal(aacmm_batch_counts_f64(&m, &enc, N, counts, P, J, &done), AACMM_OK);
+    assert_int_equal(aacmm_batch_counts_f64(&m, &encs, N, counts, P, J, &done), AACMM_OK);
     assert_int_equal((int)done, N);
     for (k = 0; k < N; k++) {
         double a[6], p[3], Jk[AACMM_JAC_SIZE];
@@ -880,16 +886,16 @@ static void test_batches(void **state)
     /* angle batch with and without Jacobians */
     assert_int_equal(aacmm_batch_angles_f64(&m, N, th, P, NULL, &done), AACMM_OK);
     assert_int_equal(aacmm_batch_angles_f32(&mf, N, thf, Pf, Jf, &done), AACMM_OK);
-    assert_int_equal(aacmm_batch_counts_f32(&mf, &enc, N, counts, Pf, NULL, &done), AACMM_OK);
+    assert_int_equal(aacmm_batch_counts_f32(&mf, &encs, N, counts, Pf, NULL, &done), AACMM_OK);
     assert_int_equal((int)done, N);
     /* the first bad pose stops the batch; done counts the good ones */
     th[6 * 17 + 2] = (double)NAN;
     assert_int_equal(aacmm_batch_angles_f64(&m, N, th, P, J, &done), AACMM_ERR_NOT_FINITE);
     assert_int_equal((int)done, 17);
     counts[6 * 9 + 3] = 3600u; /* out of range for this joint */
-    assert_int_equal(aacmm_batch_counts_f64(&m, &enc, N, counts, P, J, &done), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_batch_counts_f64(&m, &encs, N, counts, P, J, &done), AACMM_ERR_RANGE);
     assert_int_equal((int)done, 9);
-    assert_int_equal(aacmm_batch_counts_f32(&mf, &enc, N, counts, Pf, Jf, &done), AACMM_ERR_RANGE);
+    assert_int_equal(aacmm_batch_counts_f32(&mf, &encs, N, counts, Pf, Jf, &done), AACMM_ERR_RANGE);
     assert_int_equal((int)done, 9);
     /* n = 0 is a no-op, NULL buffers allowed then */
     assert_int_equal(aacmm_batch_angles_f64(&m, 0, NULL, NULL, NULL, &done), AACMM_OK);
@@ -1278,6 +1284,84 @@ static void test_simd_tiled_layout(void **state)
 }
 #undef TILED_CHECK
 
+/* The paper's arm computes bit for bit what the core of commit aa8b712 (the
+ * last one before the general arm model) computed, on every path: the hash
+ * of every output of tests/core/legacy_paths.h against the one that core
+ * gave (tests/core/legacy_golden.h, scripts/legacy-golden.sh). Per batch
+ * kernel available here; a fused kernel without a golden of its own (AVX-512
+ * where the golden was made on a CPU without it) is held to its fused peer's
+ * point and Jacobian hashes (the fused kernels agree bit for bit,
+ * test_simd_agrees_with_scalar), its lane-order sums to nothing. Run on the
+ * paper's chains, and (test_legacy_golden_general) on the general ones. */
+static void legacy_golden_check(int general)
+{
+    static const uint64_t scalar_golden[LEGACY_SCALAR_PATHS] = {
+        LEGACY_GOLDEN_f64_point,          LEGACY_GOLDEN_f64_point_jacobian,
+        LEGACY_GOLDEN_f64_batch,          LEGACY_GOLDEN_f64_counts,
+        LEGACY_GOLDEN_f32_point_jacobian, LEGACY_GOLDEN_f32_batch,
+        LEGACY_GOLDEN_analysis_sums};
+    static const uint64_t simd_golden[AACMM_KERNEL_COUNT][LEGACY_SIMD_PATHS] = {
+        {LEGACY_GOLDEN_simd_f64_scalar, LEGACY_GOLDEN_simd_f32_scalar,
+         LEGACY_GOLDEN_simd_sums_scalar},
+        {LEGACY_GOLDEN_simd_f64_vec128, LEGACY_GOLDEN_simd_f32_vec128,
+         LEGACY_GOLDEN_simd_sums_vec128},
+        {LEGACY_GOLDEN_simd_f64_avx2, LEGACY_GOLDEN_simd_f32_avx2, LEGACY_GOLDEN_simd_sums_avx2},
+#ifdef LEGACY_GOLDEN_simd_f64_avx512
+        {LEGACY_GOLDEN_simd_f64_avx512, LEGACY_GOLDEN_simd_f32_avx512,
+         LEGACY_GOLDEN_simd_sums_avx512},
+#else
+        {LEGACY_GOLDEN_simd_f64_avx2, LEGACY_GOLDEN_simd_f32_avx2, 0u},
+#endif
+    };
+    int i, k;
+    legacy_force_general = general;
+    printf("legacy golden: %s\n", general ? "the general chains (paper flag cleared)"
+                                           : "the paper's chains");
+    for (i = 0; i < LEGACY_SCALAR_PATHS; i++) {
+        const uint64_t h = legacy_scalar_hash(i);
+        printf("legacy golden %-20s %016llx %s\n", legacy_scalar_names[i], (unsigned long long)h,
+               h == scalar_golden[i] ? "same" : "DIFFERS");
+        assert_true(h == scalar_golden[i]);
+    }
+    for (k = 0; k < AACMM_KERNEL_COUNT; k++) {
+        if (!aacmm_kernel_available((aacmm_kernel_t)k)) {
+            printf("legacy golden: kernel %s not available on this CPU\n",
+                   aacmm_kernel_name((aacmm_kernel_t)k));
+            continue;
+        }
+        for (i = 0; i < LEGACY_SIMD_PATHS; i++) {
+            char name[48];
+            uint64_t h;
+            snprintf(name, sizeof name, "%s_%s", legacy_simd_names[i],
+                     aacmm_kernel_name((aacmm_kernel_t)k));
+            if (simd_golden[k][i] == 0u) {
+                printf("legacy golden %s: no golden (made on a CPU without the kernel)\n", name);
+                continue;
+            }
+            h = legacy_simd_hash(i, (aacmm_kernel_t)k);
+            printf("legacy golden %-20s %016llx %s\n", name, (unsigned long long)h,
+                   h == simd_golden[k][i] ? "same" : "DIFFERS");
+            assert_true(h == simd_golden[k][i]);
+        }
+    }
+    legacy_force_general = 0;
+}
+
+static void test_legacy_golden(void **state)
+{
+    (void)state;
+    legacy_golden_check(0);
+}
+
+/* The general chains (CH_GENERAL 1, SH_GENERAL 1) on the paper's arm: the
+ * same operations, so the same hashes. */
+static void test_legacy_golden_general(void **state)
+{
+    (void)state;
+    legacy_golden_check(1);
+}
+
+
 int main(void)
 {
     /* Accuracy tests: once per kernel (through k_point_f64 and friends). */
@@ -1303,6 +1387,8 @@ int main(void)
         cmocka_unit_test(test_simd_agrees_with_scalar),
         cmocka_unit_test(test_simd_batch_semantics),
         cmocka_unit_test(test_simd_tiled_layout),
+        cmocka_unit_test(test_legacy_golden),
+        cmocka_unit_test(test_legacy_golden_general),
     };
     int failed = 0, k;
     for (k = 0; k < AACMM_KERNEL_COUNT; k++) {

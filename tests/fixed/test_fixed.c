@@ -22,6 +22,18 @@
 #include "aacmm/kinematics_q.h"
 #include "reference.h"
 
+#define LEGACY_FIXED_PATHS
+#include "legacy_golden.h"
+#include "legacy_paths.h"
+
+/* The library's formulation in this build (the test itself compiles the
+ * split multiply below whatever the library uses). */
+#ifdef AACMM_Q_SPLIT_MUL
+#define LIB_SPLIT_MUL 1
+#else
+#define LIB_SPLIT_MUL 0
+#endif
+
 /* The split 32 x 32 -> 64 multiply that the Cortex-M0+ build uses, compiled
  * here on the host so it is tested in every build (the library itself uses
  * it only on ARMv6-M, or everywhere with -DAACMM_Q_SPLIT_MUL, as in the
@@ -747,7 +759,12 @@ static void test_encoder_counts(void **state)
                             ? enc_cases[k].reading
                             : (uint32_t)(rng_next(&g) % enc_cases[k].cpr);
             }
-            assert_int_equal(aacmm_batch_counts_q(&m.mq, &c, 1u, rd, pq, jq, &done), AACMM_OK);
+            {
+                aacmm_arm_encoders_t ca;
+                assert_int_equal(aacmm_arm_encoders_from_config(&ca, &c), AACMM_OK);
+                assert_int_equal(aacmm_batch_counts_q(&m.mq, &ca, 1u, rd, pq, jq, &done),
+                                 AACMM_OK);
+            }
             assert_true(done == 1u);
             /* same as the two steps done by hand */
             assert_int_equal(aacmm_encoder_to_bam(&c, rd, bam), AACMM_OK);
@@ -755,7 +772,12 @@ static void test_encoder_counts(void **state)
             assert_memory_equal(pq, pq2, sizeof pq);
             assert_memory_equal(jq, jq2, sizeof jq);
             /* against the double core's own counts path */
-            assert_int_equal(aacmm_batch_counts_f64(&m.md, &c, 1u, rd, pd, jd, NULL), AACMM_OK);
+            {
+                aacmm_arm_encoders_t ca;
+                assert_int_equal(aacmm_arm_encoders_from_config(&ca, &c), AACMM_OK);
+                assert_int_equal(aacmm_batch_counts_f64(&m.md, &ca, 1u, rd, pd, jd, NULL),
+                                 AACMM_OK);
+            }
             for (i = 0; i < 3; i++) {
                 double e = fabs(Q48_TO_MM(pq[i]) - pd[i]);
                 wp = e > wp ? e : wp;
@@ -777,7 +799,7 @@ static void test_batches(void **state)
 {
     aacmm_params_q_t q;
     aacmm_model_q_t m;
-    aacmm_encoder_config_t enc;
+    aacmm_arm_encoders_t enc;
     test_rng_t g = {8u};
     enum { N = 50 };
     uint32_t th[N * 6];
@@ -801,7 +823,7 @@ static void test_batches(void **state)
         assert_memory_equal(J1, J + AACMM_JAC_SIZE * k, sizeof J1);
     }
     /* the counts path with 2^32 counts per turn is the BAM path */
-    aacmm_encoder_default(&enc);
+    assert_int_equal(aacmm_arm_encoders_default(&enc, 6), AACMM_OK);
     assert_int_equal(aacmm_batch_counts_q(&m, &enc, N, th, pp, NULL, &done), AACMM_OK);
     assert_true(done == N);
     assert_memory_equal(p, pp, sizeof p);
@@ -995,6 +1017,48 @@ static void test_nulls(void **state)
     assert_true(p[0] == 11 && p[1] == 22 && p[2] == 33); /* nothing written */
 }
 
+/* The paper's arm (and the perturbed and limit blocks of
+ * tests/core/legacy_paths.h) through the fixed-point path gives bit for bit
+ * what the core of commit aa8b712 gave, in the formulation of this build
+ * (64-bit products, or ARMv6-M's with AACMM_Q_SPLIT_MUL): the hashes of
+ * tests/core/legacy_golden.h (scripts/legacy-golden.sh). */
+static void legacy_golden_check(int general)
+{
+#if LIB_SPLIT_MUL
+    static const uint64_t golden[LEGACY_Q_PATHS] = {
+        LEGACY_GOLDEN_q_point_split, LEGACY_GOLDEN_q_batch_split, LEGACY_GOLDEN_q_counts_split,
+        LEGACY_GOLDEN_q_params_split};
+#else
+    static const uint64_t golden[LEGACY_Q_PATHS] = {LEGACY_GOLDEN_q_point, LEGACY_GOLDEN_q_batch,
+                                                    LEGACY_GOLDEN_q_counts, LEGACY_GOLDEN_q_params};
+#endif
+    int i;
+    legacy_force_general = general;
+    for (i = 0; i < LEGACY_Q_PATHS; i++) {
+        const uint64_t h = legacy_q_hash(i);
+        printf("legacy golden %s%s, %s chain %016llx %s\n", legacy_q_names[i],
+               LIB_SPLIT_MUL ? " (ARMv6-M formulation)" : "", general ? "general" : "paper's",
+               (unsigned long long)h, h == golden[i] ? "same" : "DIFFERS");
+        assert_true(h == golden[i]);
+    }
+    legacy_force_general = 0;
+}
+
+static void test_legacy_golden(void **state)
+{
+    (void)state;
+    legacy_golden_check(0);
+}
+
+/* The general chain (chain_q_impl.h, CQ_GENERAL 1) on the same models: the
+ * same operations, so the same hashes. */
+static void test_legacy_golden_general(void **state)
+{
+    (void)state;
+    legacy_golden_check(1);
+}
+
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1014,6 +1078,8 @@ int main(void)
         cmocka_unit_test(test_conversion),
         cmocka_unit_test(test_validation),
         cmocka_unit_test(test_nulls),
+        cmocka_unit_test(test_legacy_golden),
+        cmocka_unit_test(test_legacy_golden_general),
     };
     return cmocka_run_group_tests_name("fixed-point kinematics", tests, NULL, NULL);
 }

@@ -16,6 +16,11 @@
  *    of BENCH_CALLS calls each, less the loop's own cost (an empty call).
  * 4. Stack: the stack below main's frame is painted, one point + Jacobian
  *    call is made, and the untouched part is measured.
+ * 5. The general arm model (issue 26): with both paths built in, point and
+ *    point + Jacobian instructions for arms of 5, 6 and 7 joints (the general
+ *    chains; the paper's arm above runs its own), and the float and the fixed
+ *    path checked against each other on them (1e-3 mm per coordinate, scaled
+ *    by the arm's reach).
  *
  * SELFTEST_CANARY: a build whose every error is inflated past its bound; it
  * must fail (run_selftest.py --expect-fail), showing that the checks can.
@@ -221,7 +226,7 @@ static aacmm_encoder_config_t enc;
 /* ---- float path ---- */
 #ifdef SELFTEST_F32
 static aacmm_model_f32_t model_f32;
-static float out_p32[3], out_j32[AACMM_JAC_SIZE];
+static float out_p32[3], out_j32[AACMM_JAC_SIZE_MAX];
 
 __attribute__((noinline)) static uint32_t stack_f32(void)
 {
@@ -282,7 +287,7 @@ static void run_f32(uint32_t milli_ipt)
 /* ---- fixed path ---- */
 #ifdef SELFTEST_Q
 static aacmm_model_q_t model_q;
-static int64_t out_pq[3], out_jq[AACMM_JAC_SIZE];
+static int64_t out_pq[3], out_jq[AACMM_JAC_SIZE_MAX];
 
 __attribute__((noinline)) static uint32_t stack_q(void)
 {
@@ -348,6 +353,146 @@ static void run_q(uint32_t milli_ipt)
 }
 #endif
 
+
+/* ---- the general arm model: N = 5, 6, 7 (both paths built in) ---- */
+#if defined(SELFTEST_F32) && defined(SELFTEST_Q)
+/* 2^32 / (2 pi) and 2^18: BAM and Q18 of the arms below, exact for their
+ * values (the lengths are dyadic, the alphas quarter turns or given in BAM). */
+#define Q18(mm) ((int32_t)((mm) * 262144))
+#define BAM_QUARTER 0x40000000u
+#define BAM_MINUS_QUARTER 0xC0000000u
+#define BAM_MILLIRAD 683565u  /* 0.001 rad */
+#define BAM_BETA 273426u      /* 4e-4 rad */
+
+/* The arms of bench/bench_core.c's per-N figures, in both forms: 5 joints
+ * modified DH with a beta on joint 3, tip l; 6 joints the paper's geometry
+ * (lengths rounded to 1/8 mm) with a tip vector; 7 joints of commercial
+ * proportions, standard DH, tip vector. */
+static void arm_pair(int joints, aacmm_arm_f32_t *af, aacmm_arm_q_t *aq)
+{
+    static const float pi2 = 1.5707963267948966f;
+    int i;
+    memset(af, 0, sizeof *af);
+    memset(aq, 0, sizeof *aq);
+    af->shape.joints = (uint8_t)joints;
+    if (joints == 5) {
+        static const float alpha[5] = {0.0f, 1.5707963267948966f, 0.001f, 1.5707963267948966f,
+                                       -1.5707963267948966f};
+        static const uint32_t alpha_bam[5] = {0u, BAM_QUARTER, BAM_MILLIRAD, BAM_QUARTER,
+                                              BAM_MINUS_QUARTER};
+        static const float d[5] = {210.0f, 0.0f, 0.0f, 260.0f, 0.0f};
+        static const float a[5] = {0.0f, 24.0f, 260.0f, 0.0f, 0.0f};
+        for (i = 0; i < 5; i++) {
+            af->shape.convention[i] = AACMM_DH_MODIFIED;
+            af->alpha_rad[i] = alpha[i];
+            aq->alpha_bam[i] = alpha_bam[i];
+            af->d_mm[i] = d[i];
+            af->a_mm[i] = a[i];
+        }
+        af->shape.beta[2] = 1u;
+        af->beta_rad[2] = 4e-4f;
+        aq->beta_bam[2] = BAM_BETA;
+        af->shape.tip = AACMM_TIP_Z;
+        af->tip_mm[2] = 95.0f;
+    } else if (joints == 6) {
+        static const float d[6] = {300.0f, 65.5f, 792.75f, 65.5f, 883.25f, 0.0f};
+        for (i = 0; i < 6; i++) {
+            af->alpha_rad[i] = pi2;
+            aq->alpha_bam[i] = BAM_QUARTER;
+            af->d_mm[i] = d[i];
+        }
+        af->shape.tip = AACMM_TIP_XYZ;
+        af->tip_mm[0] = 5.0f;
+        af->tip_mm[1] = -3.0f;
+        af->tip_mm[2] = 183.5f;
+    } else {
+        static const float d[7] = {180.0f, 0.0f, 1200.0f, 0.0f, 1000.0f, 0.0f, 150.0f};
+        static const float a[7] = {0.0f, 80.0f, 0.0f, 80.0f, 0.0f, 0.0f, 0.0f};
+        for (i = 0; i < 7; i++) {
+            af->alpha_rad[i] = (i == 6) ? 0.0f : ((i % 2) ? -pi2 : pi2);
+            aq->alpha_bam[i] = (i == 6) ? 0u : ((i % 2) ? BAM_MINUS_QUARTER : BAM_QUARTER);
+            af->d_mm[i] = d[i];
+            af->a_mm[i] = a[i];
+        }
+        af->shape.tip = AACMM_TIP_XYZ;
+        af->tip_mm[0] = 12.0f;
+        af->tip_mm[1] = -5.0f;
+        af->tip_mm[2] = 110.0f;
+    }
+    aq->shape = af->shape;
+    for (i = 0; i < joints; i++) {
+        aq->d_q18[i] = Q18(af->d_mm[i]);
+        aq->a_q18[i] = Q18(af->a_mm[i]);
+    }
+    for (i = 0; i < 3; i++) {
+        aq->tip_q18[i] = Q18(af->tip_mm[i]);
+    }
+}
+
+static aacmm_model_f32_t arm_f32;
+static aacmm_model_q_t arm_q;
+/* The poses: the golden binary angles, a seventh joint added, and the same
+ * angles in rad (2^32 counts per turn, so they are readings too). */
+static uint32_t arm_bam[GOLDEN_N][AACMM_JOINTS_MAX];
+static float arm_theta[GOLDEN_N][AACMM_JOINTS_MAX];
+
+static void run_arms(uint32_t milli_ipt)
+{
+    int joints;
+    for (joints = 5; joints <= 7; joints++) {
+        aacmm_arm_f32_t af;
+        aacmm_arm_q_t aq;
+        double worst = 0.0, reach = 0.0, bound;
+        uint64_t t_empty, t_fp, t_fj, t_qp, t_qj;
+        uint32_t k, i;
+        arm_pair(joints, &af, &aq);
+        if (aacmm_model_init_arm_f32(&arm_f32, &af) != AACMM_OK ||
+            aacmm_model_q_init_arm(&arm_q, &aq) != AACMM_OK) {
+            printf("  arm of %d joints: model init failed\n", joints);
+            failures++;
+            continue;
+        }
+        for (i = 0; i < (uint32_t)joints; i++) {
+            reach += absd((double)af.d_mm[i]) + absd((double)af.a_mm[i]);
+        }
+        reach += absd((double)af.tip_mm[0]) + absd((double)af.tip_mm[1]) +
+                 absd((double)af.tip_mm[2]);
+        bound = BOUND_F32_POINT_MM * (reach > 2290.4 ? reach / 2290.4 : 1.0);
+        /* the two paths on the same binary angles (the BAM of the golden
+         * poses; 2^32 counts per turn, so they are readings too) */
+        for (k = 0; k < GOLDEN_N; k++) {
+            float p[3];
+            int64_t pq[3];
+            for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+                arm_bam[k][i] = golden_bam[k][i % 6u] + 0x01000000u * i;
+                arm_theta[k][i] = (float)(int32_t)arm_bam[k][i] * 1.4629180792671596e-09f;
+            }
+            (void)aacmm_point_q(&arm_q, arm_bam[k], pq);
+            (void)aacmm_point_f32(&arm_f32, arm_theta[k], p);
+            for (i = 0; i < 3; i++) {
+                double e = absd((double)p[i] - q_to_d(pq[i]));
+                worst = e > worst ? e : worst;
+            }
+        }
+        printf("arm of %d joints (P = %u), float vs fixed path:\n", joints,
+               (unsigned)arm_q.n_params);
+        check("point (mm)", worst, bound);
+        t_empty = time_empty(&arm_q);
+        TIME_BEST(t_fp, k, (void)aacmm_point_f32(&arm_f32, arm_theta[k], out_p32));
+        TIME_BEST(t_fj, k,
+                  (void)aacmm_point_jacobian_f32(&arm_f32, arm_theta[k], out_p32, out_j32));
+        TIME_BEST(t_qp, k, (void)aacmm_point_q(&arm_q, arm_bam[k], out_pq));
+        TIME_BEST(t_qj, k, (void)aacmm_point_jacobian_q(&arm_q, arm_bam[k], out_pq, out_jq));
+        printf("{\"bench\": \"boards.arm\", \"board\": \"%s\", \"joints\": %d, \"params\": %u, "
+               "\"insn_point_f32\": %lu, \"insn_point_jacobian_f32\": %lu, \"insn_point_q\": %lu, "
+               "\"insn_point_jacobian_q\": %lu, \"board_path\": \"%s\", \"calls\": %u, \"runs\": %u}\n",
+               board_name, joints, (unsigned)arm_q.n_params, per_call(t_fp, t_empty, milli_ipt),
+               per_call(t_fj, t_empty, milli_ipt), per_call(t_qp, t_empty, milli_ipt),
+               per_call(t_qj, t_empty, milli_ipt), BOARD_KIN_PRIMARY, BENCH_CALLS, BENCH_RUNS);
+    }
+}
+#endif
+
 int main(void)
 {
     uint32_t milli_ipt;
@@ -363,6 +508,9 @@ int main(void)
 #endif
 #ifdef SELFTEST_Q
     run_q(milli_ipt);
+#endif
+#if defined(SELFTEST_F32) && defined(SELFTEST_Q)
+    run_arms(milli_ipt);
 #endif
     printf("self-test %s: %d failure(s)\n", failures ? "FAILED" : "passed", failures);
     exit(failures ? 1 : 0);

@@ -1,30 +1,104 @@
 /*
  * aacmm kinematics core: encoder counts -> joint angles -> probe point, and
- * the analytic 3x25 Jacobian of the point with respect to every structural
- * parameter of the arm.
+ * the analytic 3 x P Jacobian of the point with respect to every structural
+ * parameter, for any serial arm of N revolute joints, 4 <= N <= 7.
  *
- * Model (Gao, Wang, Zhou 2013, Eq. 1-3): standard Denavit-Hartenberg,
+ * ---- The model ------------------------------------------------------------
  *
- *     T_{i-1,i} = Rot(z, theta_i) Trans(0, 0, d_i) Trans(a_i, 0, 0) Rot(x, alpha_i)
- *     [x y z 1]^T = T_{0,1} T_{1,2} ... T_{5,6} [0 0 l 1]^T
+ * The probe point is [x y z 1]^T = A_1 A_2 ... A_N [t_x t_y t_z 1]^T, one
+ * transform per joint i = 1..N in that joint's convention:
  *
- * where theta_i = joint reading_i + theta_offset_i. Lengths are in mm, angles
- * in rad. The Jacobian is 3 rows (x, y, z) by 25 columns, row-major, columns in
- * the paper's Eq. 10 order:
+ *   standard DH (the paper's Eq. 1-2, Gao, Wang, Zhou 2013):
+ *     A_i = [Ry(beta_i)] Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)
+ *   modified DH (Craig's convention; alpha_i, a_i describe the link from
+ *   axis i-1 to axis i, so they come first):
+ *     A_i = Rx(alpha_i) Tx(a_i) [Ry(beta_i)] Rz(theta_i) Tz(d_i)
  *
- *     theta_1..6 (mm/rad), alpha_1..6 (mm/rad), d_1..6, a_1..6, l (mm/mm)
+ * with theta_i = joint reading_i + theta_offset_i. Lengths are in mm, angles
+ * in rad. Conventions may differ from joint to joint.
  *
- * so entry (row r, column c) is jac[r * AACMM_JAC_COLS + c].
+ * Hayati's beta. Where the axes of joints i-1 and i are parallel or nearly
+ * so, the common normal of DH is ill-defined: a tiny misalignment moves it
+ * (and d) by a large amount, so DH is singular there and calibration
+ * ill-conditioned (the paper's section 2.1). Hayati and Mirmirani (1985,
+ * "Improving the absolute positioning accuracy of robot manipulators",
+ * J. Robotic Systems 2(4); as given in Mooring, Roth, Driels, "Fundamentals
+ * of manipulator calibration", 1991) add a rotation Ry(beta) about the y
+ * axis after the twist Rx(alpha) between the two parallel axes:
+ * Rz(theta) Tx(a) Rx(alpha) Ry(beta). So alpha and beta together describe
+ * the small tilt of the second axis in both directions. Here a beta is
+ * declared on joint i (2 <= i <= N: joint 1 has no previous axis) and
+ * Ry(beta_i) is applied immediately before Rz(theta_i) in the product above:
+ *   standard DH: it closes A_{i-1} = Rz(theta_{i-1}) Tz(d_{i-1})
+ *                Tx(a_{i-1}) Rx(alpha_{i-1}) Ry(beta_i), Hayati's placement
+ *                after the twist alpha_{i-1} between the axes of joints i-1
+ *                and i (written at the start of A_i above, the same product);
+ *   modified DH: it follows Rx(alpha_i) Tx(a_i), the twist and offset
+ *                between the same two axes: Hayati's order of the link
+ *                part, Tx(a) Rx(alpha) Ry(beta), in the convention that puts
+ *                the link first. (The MicroScribe SDK's model is modified DH
+ *                with a beta at its parallel hinges; its text was not found
+ *                to confirm the placement.)
+ * Hayati drops the d of that link, which a parallel pair makes redundant;
+ * this core keeps every d (set it to 0 and hold it fixed in a calibration, or
+ * let the identifiability analysis name the redundant direction).
  *
- * Precision: every function exists in single precision (suffix _f32, for the
- * Cortex-M4F FPU: float arithmetic only, no double-precision helpers) and
- * double precision (suffix _f64, for host analysis). Both are compiled from one
- * source (kinematics_impl.h). The fixed-point path for FPU-less parts lives in
- * kinematics_q.h.
+ * Probe tip: AACMM_TIP_Z puts it at (0, 0, l) in frame N (the paper's l, one
+ * parameter); AACMM_TIP_XYZ at (t_x, t_y, t_z) (three parameters).
+ *
+ * ---- Parameters and Jacobian columns (generalises the paper's Eq. 10) -----
+ *
+ * The parameter vector, and the columns of the 3 x P Jacobian, in this
+ * order (N joints, B declared betas, T = 1 or 3 tip parameters):
+ *
+ *   columns              parameters                         unit of dp/dq
+ *   0 .. N-1             theta_1 .. theta_N (offsets)        mm/rad
+ *   N .. 2N-1            alpha_1 .. alpha_N                  mm/rad
+ *   2N .. 3N-1           d_1 .. d_N                          mm/mm
+ *   3N .. 4N-1           a_1 .. a_N                          mm/mm
+ *   4N .. 4N+B-1         beta of each joint declaring one,   mm/rad
+ *                        in joint order
+ *   4N+B .. 4N+B+T-1     the tip: l (AACMM_TIP_Z) or         mm/mm
+ *                        t_x, t_y, t_z (AACMM_TIP_XYZ)
+ *
+ * P = 4N + B + T <= AACMM_PARAMS_MAX (37). For the paper's arm (N = 6,
+ * standard DH, no beta, tip l) these are exactly the paper's 25 columns in
+ * its order (AACMM_COL_THETA(i) .. AACMM_COL_L below). The Jacobian is
+ * row-major, rows x, y, z: entry (r, c) is jac[r * P + c]. Blocks of
+ * parameters added later (issue 27: encoder harmonics, thermal expansion)
+ * follow the tip, so every column above keeps its index.
+ *
+ * Each column is geometric, not a finite difference. With the frame (x, y,
+ * z axes, origin o) running down the chain, a parameter that acts at some
+ * point of the product moves everything after it:
+ *     a rotation about an axis u through a point o:  dp/dq = u x (p - o)
+ *     a translation along an axis u:                 dp/dq = u
+ * where u, o are the frame's at that point of the product: theta_i about
+ * z (after Ry(beta_i)), alpha_i about x (standard: after Rz(theta_i);
+ * modified: before it), beta_i about y (the frame's y before Ry, which Ry
+ * keeps), d_i along that same z, a_i along that same x, the tip along the
+ * axes of frame N. For joint 1 in standard DH, dp/dtheta_1 = z_0 x p has an
+ * exactly zero z component.
+ *
+ * ---- Precisions, paths, ownership ------------------------------------------
+ *
+ * Every function exists in single precision (suffix _f32, for the Cortex-M4F
+ * FPU: float arithmetic only, no double-precision helpers) and double
+ * precision (suffix _f64, for host analysis), compiled from one source
+ * (firmware/src/kinematics_impl.h). The fixed-point path for FPU-less parts
+ * is kinematics_q.h; batch kernels across SIMD lanes are simd.h.
+ *
+ * The paper's shape (N = 6, standard DH everywhere, no beta, tip l: any
+ * model of that shape, whatever its values) runs a chain specialised at
+ * compile time; every other shape runs the general chain. Both are one
+ * template (firmware/src/chain_impl.h), so they perform the same operations
+ * in the same order, and the paper's arm gives bit for bit what this core
+ * gave before the general model (tested against golden values of commit
+ * aa8b712 on every path).
  *
  * Ownership: the caller owns every struct and buffer; nothing is allocated,
- * nothing is kept between calls, no global state is touched. All functions are
- * reentrant. Costs are stated per call for one pose.
+ * nothing is kept between calls, no global state is touched. All functions
+ * are reentrant. Costs are stated per call for one pose.
  */
 #ifndef AACMM_KINEMATICS_H
 #define AACMM_KINEMATICS_H
@@ -38,12 +112,31 @@
 extern "C" {
 #endif
 
-#define AACMM_JOINTS 6
+/* ---- Limits of the general model: size caller buffers with these ---- */
+#define AACMM_JOINTS_MIN 4
+#define AACMM_JOINTS_MAX 7
+#define AACMM_BETAS_MAX (AACMM_JOINTS_MAX - 1) /* joints 2 .. N */
+#define AACMM_TIP_MAX 3
+/* Parameters (Jacobian columns) of the largest model: 4 * 7 + 6 + 3 = 37. */
+#define AACMM_PARAMS_MAX (4 * AACMM_JOINTS_MAX + AACMM_BETAS_MAX + AACMM_TIP_MAX)
 #define AACMM_JAC_ROWS 3
+#define AACMM_JAC_SIZE_MAX (AACMM_JAC_ROWS * AACMM_PARAMS_MAX) /* 111 entries */
+
+/* Column index of each parameter of an N-joint model with B betas. */
+#define AACMM_ARM_COL_THETA(n, i) (i)             /* joint i = 0 .. n-1 */
+#define AACMM_ARM_COL_ALPHA(n, i) ((n) + (i))
+#define AACMM_ARM_COL_D(n, i) (2 * (n) + (i))
+#define AACMM_ARM_COL_A(n, i) (3 * (n) + (i))
+#define AACMM_ARM_COL_BETA(n, k) (4 * (n) + (k))  /* the k-th declared beta, k = 0 .. b-1 */
+#define AACMM_ARM_COL_TIP(n, b) (4 * (n) + (b))   /* l, or t_x (then t_y, t_z) */
+
+/* ---- The paper's arm (6 joints, 25 parameters): today's wire format, the
+ * stored parameter record, aacmm_params_*_t below ---- */
+#define AACMM_JOINTS 6
 #define AACMM_JAC_COLS 25
 #define AACMM_JAC_SIZE (AACMM_JAC_ROWS * AACMM_JAC_COLS) /* 75 entries */
 
-/* Column index of each structural parameter in the Jacobian (joint i = 0..5). */
+/* Column index of each structural parameter of the paper's arm (i = 0..5). */
 #define AACMM_COL_THETA(i) (i)
 #define AACMM_COL_ALPHA(i) (6 + (i))
 #define AACMM_COL_D(i) (12 + (i))
@@ -52,15 +145,109 @@ extern "C" {
 
 /* Validity limits. Lengths beyond 10 m or angles beyond one turn are not an
  * arm; rejecting them also keeps every intermediate far from overflow. */
-#define AACMM_LENGTH_MAX_MM 10000.0
-#define AACMM_PARAM_ANGLE_MAX_RAD 6.283185307179586 /* |theta_offset|, |alpha| <= 2 pi */
+#define AACMM_LENGTH_MAX_MM 10000.0                 /* |d|, |a|, |l|, |t_x|, |t_y|, |t_z| */
+#define AACMM_PARAM_ANGLE_MAX_RAD 6.283185307179586 /* |theta_offset|, |alpha|, |beta| <= 2 pi */
 #define AACMM_JOINT_ANGLE_MAX_RAD 1024.0            /* |joint angle| accepted by the point functions */
+
+/* ------------------------------------------------------------------------ */
+/* Shape of an arm                                                           */
+/* ------------------------------------------------------------------------ */
+
+typedef enum {
+    AACMM_DH_STANDARD = 0, /* Rz(theta) Tz(d) Tx(a) Rx(alpha): the paper's Eq. 1 */
+    AACMM_DH_MODIFIED = 1  /* Rx(alpha) Tx(a) Rz(theta) Tz(d): Craig's */
+} aacmm_dh_convention_t;
+
+typedef enum {
+    AACMM_TIP_Z = 1,  /* tip (0, 0, l) in frame N: one parameter */
+    AACMM_TIP_XYZ = 3 /* tip (t_x, t_y, t_z) in frame N: three parameters */
+} aacmm_tip_kind_t;
+
+/*
+ * What an arm is made of, independent of its values and precision.
+ *   joints:      N, AACMM_JOINTS_MIN .. AACMM_JOINTS_MAX
+ *   tip:         AACMM_TIP_Z or AACMM_TIP_XYZ (the value is the number of
+ *                tip parameters)
+ *   convention:  per joint, AACMM_DH_STANDARD or AACMM_DH_MODIFIED
+ *   beta:        per joint, 1 if it declares a Hayati beta, else 0; never
+ *                joint 1 (index 0)
+ * Entries from index N on must be 0. Zero-initialise, then set.
+ */
+typedef struct {
+    uint8_t joints;
+    uint8_t tip;
+    uint8_t convention[AACMM_JOINTS_MAX];
+    uint8_t beta[AACMM_JOINTS_MAX];
+} aacmm_shape_t;
+
+/* Fill *shape with the paper's: 6 standard joints, no beta, tip l.
+ * AACMM_ERR_NULL or AACMM_OK. */
+aacmm_status_t aacmm_shape_paper(aacmm_shape_t *shape);
+
+/*
+ * AACMM_OK for a valid shape; AACMM_ERR_NULL for NULL; AACMM_ERR_RANGE for
+ * joints outside 4..7, an unknown tip kind or convention, a beta flag other
+ * than 0/1, a beta on joint 1, or a non-zero entry from index N on.
+ * Cost: O(N).
+ */
+aacmm_status_t aacmm_shape_validate(const aacmm_shape_t *shape);
+
+/* P = 4N + B + T for a valid shape, else the (negative) status of
+ * aacmm_shape_validate. Cost: O(N). */
+int aacmm_shape_params(const aacmm_shape_t *shape);
+
+/* The Jacobian column of joint i's beta (i = 0 .. N-1), or -1 if joint i
+ * declares none or i is out of range; the first tip column
+ * (AACMM_ARM_COL_TIP). Both -1 for an invalid shape. Cost: O(N). */
+int aacmm_shape_col_beta(const aacmm_shape_t *shape, int joint);
+int aacmm_shape_col_tip(const aacmm_shape_t *shape);
+
+/* 1 if *shape is the paper's (6 standard joints, no beta, tip l), else 0. */
+int aacmm_shape_is_paper(const aacmm_shape_t *shape);
 
 /* ------------------------------------------------------------------------ */
 /* Structural parameters                                                     */
 /* ------------------------------------------------------------------------ */
 
-/* One arm's structural parameters, double precision. Units: mm and rad. */
+/*
+ * One arm: its shape and structural parameters, double precision (mm, rad).
+ * Joint i = 0 .. N-1 is the paper's joint i + 1.
+ *   theta_offset_rad  added to each joint reading           |x| <= 2 pi
+ *   alpha_rad         twist about x                          |x| <= 2 pi
+ *   d_mm              offset along z                         |x| <= 10000
+ *   a_mm              length along x                         |x| <= 10000
+ *   beta_rad          Hayati's twist about y, where declared |x| <= 2 pi
+ *                     (0 where not)
+ *   tip_mm            (t_x, t_y, t_z) in frame N; for AACMM_TIP_Z t_x = t_y
+ *                     = 0 and t_z is the paper's l           |x| <= 10000
+ * Entries from index N on must be 0.
+ */
+typedef struct {
+    aacmm_shape_t shape;
+    double theta_offset_rad[AACMM_JOINTS_MAX];
+    double alpha_rad[AACMM_JOINTS_MAX];
+    double d_mm[AACMM_JOINTS_MAX];
+    double a_mm[AACMM_JOINTS_MAX];
+    double beta_rad[AACMM_JOINTS_MAX];
+    double tip_mm[3];
+} aacmm_arm_f64_t;
+
+/* The same in single precision. */
+typedef struct {
+    aacmm_shape_t shape;
+    float theta_offset_rad[AACMM_JOINTS_MAX];
+    float alpha_rad[AACMM_JOINTS_MAX];
+    float d_mm[AACMM_JOINTS_MAX];
+    float a_mm[AACMM_JOINTS_MAX];
+    float beta_rad[AACMM_JOINTS_MAX];
+    float tip_mm[3];
+} aacmm_arm_f32_t;
+
+/*
+ * The paper's arm in the 25-parameter form of its Table 1 and of the wire
+ * format and stored record (6 joints, standard DH, tip l); the general form
+ * is aacmm_arm_*_t. Units: mm and rad.
+ */
 typedef struct {
     double theta_offset_rad[AACMM_JOINTS]; /* added to each joint reading; |x| <= 2 pi */
     double alpha_rad[AACMM_JOINTS];        /* DH twist; |x| <= 2 pi */
@@ -81,41 +268,84 @@ typedef struct {
 /*
  * Fill *params with the paper's Table 1: d = (300, 65.5, 792.7, 65.5, 883.2, 0)
  * mm, a = 0, alpha = pi/2 for all joints, theta offsets 0, l = 183.5 mm.
- * Returns AACMM_ERR_NULL if params is NULL, else AACMM_OK. Cost: O(1).
+ * aacmm_arm_default_* fills the same arm in the general form.
+ * Returns AACMM_ERR_NULL if the pointer is NULL, else AACMM_OK. Cost: O(1).
  */
 aacmm_status_t aacmm_params_default_f64(aacmm_params_f64_t *params);
 aacmm_status_t aacmm_params_default_f32(aacmm_params_f32_t *params);
+aacmm_status_t aacmm_arm_default_f64(aacmm_arm_f64_t *arm);
+aacmm_status_t aacmm_arm_default_f32(aacmm_arm_f32_t *arm);
 
 /*
  * Check every field: AACMM_ERR_NOT_FINITE for NaN/inf, AACMM_ERR_RANGE for a
- * value outside the limits above, AACMM_ERR_NULL for a NULL pointer, else
- * AACMM_OK. Cost: 25 comparisons.
+ * value outside the limits above (and, for an arm, an invalid shape as
+ * aacmm_shape_validate, a non-zero beta where none is declared, a non-zero
+ * t_x or t_y with AACMM_TIP_Z, or a non-zero entry from index N on),
+ * AACMM_ERR_NULL for a NULL pointer, else AACMM_OK. The shape is checked
+ * first, then the values in the parameter order. Cost: O(N).
  */
 aacmm_status_t aacmm_params_validate_f64(const aacmm_params_f64_t *params);
 aacmm_status_t aacmm_params_validate_f32(const aacmm_params_f32_t *params);
+aacmm_status_t aacmm_arm_validate_f64(const aacmm_arm_f64_t *arm);
+aacmm_status_t aacmm_arm_validate_f32(const aacmm_arm_f32_t *arm);
+
+/* The paper's 25 parameters as a general arm (the paper's shape; the values
+ * copied, not validated). AACMM_ERR_NULL or AACMM_OK. Cost: O(1). */
+aacmm_status_t aacmm_arm_from_params_f64(aacmm_arm_f64_t *arm, const aacmm_params_f64_t *params);
+aacmm_status_t aacmm_arm_from_params_f32(aacmm_arm_f32_t *arm, const aacmm_params_f32_t *params);
 
 /*
- * A prepared model: the parameters plus the per-joint sine and cosine of alpha,
- * computed once so that each pose needs only the six joint sines and cosines.
- * Treat as opaque; build it with aacmm_model_init_*.
+ * The arm's parameters as a vector in the Jacobian column order (P values,
+ * P = aacmm_shape_params), and back: _set_vector writes v[0 .. P-1] into
+ * *arm's values, keeping its shape (nothing is validated; a model init does
+ * that). Both need a valid shape: AACMM_ERR_RANGE otherwise (nothing
+ * written), AACMM_ERR_NULL for NULL. Cost: O(P).
+ */
+aacmm_status_t aacmm_arm_get_vector_f64(const aacmm_arm_f64_t *arm, double *v);
+aacmm_status_t aacmm_arm_set_vector_f64(aacmm_arm_f64_t *arm, const double *v);
+aacmm_status_t aacmm_arm_get_vector_f32(const aacmm_arm_f32_t *arm, float *v);
+aacmm_status_t aacmm_arm_set_vector_f32(aacmm_arm_f32_t *arm, const float *v);
+
+/*
+ * A prepared model: the validated arm plus the sines and cosines of its
+ * alphas and betas, computed once so that each pose needs only the N joint
+ * sines and cosines. Build it with aacmm_model_init_*; the fields may be
+ * read (arm: the parameters; n_params: P; col_beta[i]: joint i's beta
+ * column, 0 if none; col_tip: the first tip column; paper: 1 for the
+ * paper's shape), never written.
  */
 typedef struct {
-    aacmm_params_f64_t params;
-    double sin_alpha[AACMM_JOINTS];
-    double cos_alpha[AACMM_JOINTS];
+    aacmm_arm_f64_t arm;
+    double sin_alpha[AACMM_JOINTS_MAX];
+    double cos_alpha[AACMM_JOINTS_MAX];
+    double sin_beta[AACMM_JOINTS_MAX];
+    double cos_beta[AACMM_JOINTS_MAX];
+    uint8_t n_params;
+    uint8_t col_beta[AACMM_JOINTS_MAX];
+    uint8_t col_tip;
+    uint8_t paper;
 } aacmm_model_f64_t;
 
 typedef struct {
-    aacmm_params_f32_t params;
-    float sin_alpha[AACMM_JOINTS];
-    float cos_alpha[AACMM_JOINTS];
+    aacmm_arm_f32_t arm;
+    float sin_alpha[AACMM_JOINTS_MAX];
+    float cos_alpha[AACMM_JOINTS_MAX];
+    float sin_beta[AACMM_JOINTS_MAX];
+    float cos_beta[AACMM_JOINTS_MAX];
+    uint8_t n_params;
+    uint8_t col_beta[AACMM_JOINTS_MAX];
+    uint8_t col_tip;
+    uint8_t paper;
 } aacmm_model_f32_t;
 
 /*
- * Validate *params (as aacmm_params_validate_*) and, if valid, copy them into
- * *model with their alpha sines and cosines. On error *model is left unchanged.
- * Cost: 6 sine/cosine pairs.
+ * Validate the parameters (aacmm_arm_validate_* / aacmm_params_validate_*)
+ * and, if valid, build *model from them: _init_arm from any arm, _init from
+ * the paper's 25-parameter form (a model of the paper's shape). On error
+ * *model is left unchanged. Cost: N + B sine/cosine pairs.
  */
+aacmm_status_t aacmm_model_init_arm_f64(aacmm_model_f64_t *model, const aacmm_arm_f64_t *arm);
+aacmm_status_t aacmm_model_init_arm_f32(aacmm_model_f32_t *model, const aacmm_arm_f32_t *arm);
 aacmm_status_t aacmm_model_init_f64(aacmm_model_f64_t *model, const aacmm_params_f64_t *params);
 aacmm_status_t aacmm_model_init_f32(aacmm_model_f32_t *model, const aacmm_params_f32_t *params);
 
@@ -124,7 +354,9 @@ aacmm_status_t aacmm_model_init_f32(aacmm_model_f32_t *model, const aacmm_params
 /* ------------------------------------------------------------------------ */
 
 /*
- * Per-joint encoder description.
+ * Per-joint encoder description, for the paper's six joints (the wire
+ * format and the stored record); aacmm_arm_encoders_t below is the same for
+ * N joints.
  *   counts_per_rev: resolution, 2 .. 2^32 (2^32 = 4294967296 for a full
  *                   32-bit absolute encoder).
  *   zero_offset_counts: the reading at which the joint angle is zero;
@@ -138,22 +370,41 @@ typedef struct {
     int8_t direction[AACMM_JOINTS];
 } aacmm_encoder_config_t;
 
+/* The encoders of an N-joint arm: as aacmm_encoder_config_t for joints
+ * 0 .. joints-1 (joints = N, 1 .. AACMM_JOINTS_MAX; entries past it are
+ * ignored). */
+typedef struct {
+    uint8_t joints;
+    uint64_t counts_per_rev[AACMM_JOINTS_MAX];
+    uint32_t zero_offset_counts[AACMM_JOINTS_MAX];
+    int8_t direction[AACMM_JOINTS_MAX];
+} aacmm_arm_encoders_t;
+
 /*
- * Fill *config with 2^32 counts per revolution, zero offset 0 and direction
- * +1 on every joint (readings are then binary angles). AACMM_ERR_NULL or
- * AACMM_OK.
+ * Fill the encoders with 2^32 counts per revolution, zero offset 0 and
+ * direction +1 on every joint (readings are then binary angles); the arm
+ * form for `joints` joints (1 .. AACMM_JOINTS_MAX, else AACMM_ERR_RANGE).
+ * AACMM_ERR_NULL or AACMM_OK.
  */
 aacmm_status_t aacmm_encoder_default(aacmm_encoder_config_t *config);
+aacmm_status_t aacmm_arm_encoders_default(aacmm_arm_encoders_t *enc, int joints);
+
+/* The six joints of a config as arm encoders (joints = 6; copied, not
+ * validated). AACMM_ERR_NULL or AACMM_OK. */
+aacmm_status_t aacmm_arm_encoders_from_config(aacmm_arm_encoders_t *enc,
+                                              const aacmm_encoder_config_t *config);
 
 /*
  * AACMM_ERR_RANGE if any counts_per_rev is outside 2 .. 2^32, a zero offset is
- * >= its counts_per_rev, or a direction is not +1/-1; AACMM_ERR_NULL for NULL;
- * else AACMM_OK. Cost: O(6).
+ * >= its counts_per_rev, a direction is not +1/-1, or (arm form) joints is
+ * outside 1 .. AACMM_JOINTS_MAX; AACMM_ERR_NULL for NULL; else AACMM_OK.
+ * Cost: O(joints).
  */
 aacmm_status_t aacmm_encoder_validate(const aacmm_encoder_config_t *config);
+aacmm_status_t aacmm_arm_encoders_validate(const aacmm_arm_encoders_t *enc);
 
 /*
- * Signed joint position in counts:
+ * Signed joint position in counts, per joint:
  *     delta = (reading - zero_offset) mod counts_per_rev, in 0 .. cpr-1
  *     s     = delta        if 2 * delta <  cpr
  *           = delta - cpr  otherwise              (so s is in [-cpr/2, cpr/2))
@@ -161,12 +412,17 @@ aacmm_status_t aacmm_encoder_validate(const aacmm_encoder_config_t *config);
  * Wrap-around is handled exactly: a reading just below the zero offset gives
  * a small negative count. Readings must be < counts_per_rev (an absolute
  * encoder never reports more); otherwise AACMM_ERR_RANGE and nothing is
- * written. The config must be valid (aacmm_encoder_validate); invalid configs
- * give AACMM_ERR_RANGE. Cost: O(6), integer only.
+ * written. The encoders must be valid (aacmm_encoder_validate /
+ * aacmm_arm_encoders_validate); invalid ones give AACMM_ERR_RANGE. Arrays
+ * hold 6 values (config form) or enc->joints (arm form). Cost: O(joints),
+ * integer only.
  */
 aacmm_status_t aacmm_encoder_signed_counts(const aacmm_encoder_config_t *config,
                                            const uint32_t reading_counts[AACMM_JOINTS],
                                            int64_t counts_out[AACMM_JOINTS]);
+aacmm_status_t aacmm_arm_encoders_signed_counts(const aacmm_arm_encoders_t *enc,
+                                                const uint32_t *reading_counts,
+                                                int64_t *counts_out);
 
 /*
  * Joint angles in rad, in [-pi, pi], from raw readings (see
@@ -178,10 +434,11 @@ aacmm_status_t aacmm_encoder_signed_counts(const aacmm_encoder_config_t *config,
  * rounded once; when the quotient lies one or two units under a rounding
  * midpoint the angle is formed again with 2 pi to 192 bits. Exception: an
  * exact angle within 1.5 2^-180 (relative) of a midpoint, which no reading is
- * expected to meet (docs/kinematics.md). The _f32 variant uses no double
+ * expected to meet (docs/kinematics.md). The _f32 variants use no double
  * arithmetic.
- * Cost: O(6); per joint a 4-limb product, for non-power-of-two resolutions 5
- * 64/32-bit divisions, two rounding checks, one int-to-float conversion.
+ * Cost: O(joints); per joint a 4-limb product, for non-power-of-two
+ * resolutions 5 64/32-bit divisions, two rounding checks, one int-to-float
+ * conversion.
  */
 aacmm_status_t aacmm_encoder_to_angles_f64(const aacmm_encoder_config_t *config,
                                            const uint32_t reading_counts[AACMM_JOINTS],
@@ -189,60 +446,71 @@ aacmm_status_t aacmm_encoder_to_angles_f64(const aacmm_encoder_config_t *config,
 aacmm_status_t aacmm_encoder_to_angles_f32(const aacmm_encoder_config_t *config,
                                            const uint32_t reading_counts[AACMM_JOINTS],
                                            float theta_rad[AACMM_JOINTS]);
+aacmm_status_t aacmm_arm_encoders_to_angles_f64(const aacmm_arm_encoders_t *enc,
+                                                const uint32_t *reading_counts, double *theta_rad);
+aacmm_status_t aacmm_arm_encoders_to_angles_f32(const aacmm_arm_encoders_t *enc,
+                                                const uint32_t *reading_counts, float *theta_rad);
 
 /*
  * Binary angles (uint32, 2^32 = one turn, 0 = zero angle, wrapping) from raw
  * readings, for the fixed-point path: round(s * 2^32 / cpr) mod 2^32 with
  * s from aacmm_encoder_signed_counts. Exact for power-of-two resolutions;
  * otherwise rounded to nearest (error <= 1/2 of 2^-32 turn, 0.73 nrad).
- * Errors as aacmm_encoder_signed_counts. Cost: O(6), one 64-bit division per
- * joint for non-power-of-two resolutions.
+ * Errors as aacmm_encoder_signed_counts. Cost: O(joints), one 64-bit
+ * division per joint for non-power-of-two resolutions.
  */
 aacmm_status_t aacmm_encoder_to_bam(const aacmm_encoder_config_t *config,
                                     const uint32_t reading_counts[AACMM_JOINTS],
                                     uint32_t angle_bam[AACMM_JOINTS]);
+aacmm_status_t aacmm_arm_encoders_to_bam(const aacmm_arm_encoders_t *enc,
+                                         const uint32_t *reading_counts, uint32_t *angle_bam);
 
 /* ------------------------------------------------------------------------ */
 /* Forward kinematics and Jacobian                                           */
 /* ------------------------------------------------------------------------ */
 
 /*
- * Probe point p_mm = (x, y, z) in the base frame for joint readings theta_rad
- * (the theta offsets of the model are added). Joint angles must be finite and
+ * Probe point p_mm = (x, y, z) in the base frame for the N joint readings
+ * theta_rad[0 .. N-1] (N = model->arm.shape.joints; the model's theta
+ * offsets are added). Joint angles must be finite and
  * |theta| <= AACMM_JOINT_ANGLE_MAX_RAD, else AACMM_ERR_RANGE (or
- * AACMM_ERR_NOT_FINITE) and p_mm is not written. The model must come from
- * aacmm_model_init_*. Cost: 6 sine/cosine pairs + about 120 flops.
+ * AACMM_ERR_NOT_FINITE) and p_mm is not written; AACMM_ERR_NULL for a NULL
+ * pointer. The model must come from aacmm_model_init_*.
+ * Cost: N sine/cosine pairs + about 20 N flops (+ 12 per beta, + 12 for a
+ * tip vector); the paper's arm: 6 pairs + about 120 flops.
  */
-aacmm_status_t aacmm_point_f64(const aacmm_model_f64_t *model, const double theta_rad[AACMM_JOINTS],
+aacmm_status_t aacmm_point_f64(const aacmm_model_f64_t *model, const double *theta_rad,
                                double p_mm[3]);
-aacmm_status_t aacmm_point_f32(const aacmm_model_f32_t *model, const float theta_rad[AACMM_JOINTS],
+aacmm_status_t aacmm_point_f32(const aacmm_model_f32_t *model, const float *theta_rad,
                                float p_mm[3]);
 
 /*
- * Probe point and the full 3x25 Jacobian in one pass (see the column order at
- * the top). jac must hold AACMM_JAC_SIZE values; it is written row-major.
- * Each column is geometric, not a finite difference:
+ * Probe point and the full 3 x P Jacobian in one pass (the columns at the
+ * top). jac must hold 3 P values (P = model->n_params; at most
+ * AACMM_JAC_SIZE_MAX; the paper's arm: AACMM_JAC_SIZE = 75); it is written
+ * row-major, jac[r * P + c]. Each column is geometric, not a finite
+ * difference (top of this file); for the paper's arm:
  *     d p / d theta_i = z_{i-1} x (p - o_{i-1})
  *     d p / d alpha_i = x_i x (p - o_i)
  *     d p / d d_i     = z_{i-1}
  *     d p / d a_i     = x_i
  *     d p / d l       = z_6
- * d p_z / d theta_1 is exactly 0. Errors as aacmm_point_*; on error nothing is
- * written. Cost: 6 sine/cosine pairs + about 330 flops.
+ * d p_z / d theta_1 is exactly 0 when joint 1 is standard DH. Errors as
+ * aacmm_point_*; on error nothing is written. Cost: the point + about 35 N
+ * flops (+ 15 per beta); the paper's arm: 6 pairs + about 330 flops.
  */
-aacmm_status_t aacmm_point_jacobian_f64(const aacmm_model_f64_t *model,
-                                        const double theta_rad[AACMM_JOINTS], double p_mm[3],
-                                        double jac[AACMM_JAC_SIZE]);
-aacmm_status_t aacmm_point_jacobian_f32(const aacmm_model_f32_t *model,
-                                        const float theta_rad[AACMM_JOINTS], float p_mm[3],
-                                        float jac[AACMM_JAC_SIZE]);
+aacmm_status_t aacmm_point_jacobian_f64(const aacmm_model_f64_t *model, const double *theta_rad,
+                                        double p_mm[3], double *jac);
+aacmm_status_t aacmm_point_jacobian_f32(const aacmm_model_f32_t *model, const float *theta_rad,
+                                        float p_mm[3], float *jac);
 
 /*
  * Batch entry points for host analysis: n poses in, n points (n*3 values) and,
- * if jac is not NULL, n Jacobians (n*75 values, pose after pose) out.
- *   _angles: theta_rad holds n*6 joint readings in rad.
- *   _counts: reading_counts holds n*6 raw encoder readings, converted with
- *            aacmm_encoder_to_angles_* first.
+ * if jac is not NULL, n Jacobians (n*3P values, pose after pose) out.
+ *   _angles: theta_rad holds n*N joint readings in rad, pose after pose.
+ *   _counts: reading_counts holds n*N raw encoder readings, converted with
+ *            aacmm_arm_encoders_to_angles_* first; encoders->joints must be
+ *            N (else AACMM_ERR_RANGE, nothing written).
  * Stops at the first invalid pose and returns its error; *done (if not NULL)
  * receives the number of poses fully written before it (n on success). n = 0
  * is valid and writes nothing. Cost: n times the single-pose cost.
@@ -254,11 +522,11 @@ aacmm_status_t aacmm_batch_angles_f32(const aacmm_model_f32_t *model, size_t n,
                                       const float *theta_rad, float *p_mm, float *jac,
                                       size_t *done);
 aacmm_status_t aacmm_batch_counts_f64(const aacmm_model_f64_t *model,
-                                      const aacmm_encoder_config_t *encoders, size_t n,
+                                      const aacmm_arm_encoders_t *encoders, size_t n,
                                       const uint32_t *reading_counts, double *p_mm, double *jac,
                                       size_t *done);
 aacmm_status_t aacmm_batch_counts_f32(const aacmm_model_f32_t *model,
-                                      const aacmm_encoder_config_t *encoders, size_t n,
+                                      const aacmm_arm_encoders_t *encoders, size_t n,
                                       const uint32_t *reading_counts, float *p_mm, float *jac,
                                       size_t *done);
 

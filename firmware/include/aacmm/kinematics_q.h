@@ -1,9 +1,12 @@
 /*
  * aacmm fixed-point kinematics: the float core's operations (encoder counts to
- * angles, probe point, full 3x25 Jacobian in the paper's column order, batch
- * entry point) in integer arithmetic only, for controllers without an FPU
- * (Cortex-M0/M0+, small M3 parts). See docs/fixed-point.md for the design,
- * the error analysis and the measured accuracy, size, stack and speed.
+ * angles, probe point, full 3 x P Jacobian in the column order of
+ * kinematics.h, batch entry points) in integer arithmetic only, for
+ * controllers without an FPU (Cortex-M0/M0+, small M3 parts), for any arm
+ * the float core models: N = 4..7 joints, standard or modified DH, Hayati
+ * betas, a tip l or a tip vector (kinematics.h has the model and the
+ * columns). See docs/fixed-point.md for the design, the error analysis and
+ * the measured accuracy, size, stack and speed.
  *
  * Files:
  *   firmware/src/fixed_sincos.c, .h    aacmm_sincos_q, its table, the multiply
@@ -22,17 +25,20 @@
  * x * 2^-n; BAM: binary angle, a uint32 where 2^32 is one turn):
  *
  *   what                         type      format   unit    range
- *   joint / offset / alpha angle uint32_t  BAM      turn    any value; wraps mod 2^32
- *   sine, cosine, unit axes      int32_t   Q30      1       [-2, 2); |value| <= 1 + 2^-25
- *   structural lengths d, a, l   int32_t   Q18      mm      |x| <= 8000 mm (see below)
+ *   joint / offset / alpha /     uint32_t  BAM      turn    any value; wraps mod 2^32
+ *     beta angle
+ *   sine, cosine, unit axes      int32_t   Q30      1       [-2, 2); |value| <= 1 + 2^-24
+ *   lengths d, a, l, tip t       int32_t   Q18      mm      |x| <= 8000 mm (see below)
  *   positions, probe point       int64_t   Q48      mm      |x| <= 8000 mm (+ tiny)
  *   Jacobian entries (output)    int64_t   Q48      mm/rad, mm/mm  |x| <= 8000
  *   p - o for the cross products int32_t   Q18      mm      |x| <= 8000 mm (Q17 on ARMv6-M)
  *
  * Resolution: BAM 1.46e-9 rad; Q30 9.3e-10; Q18 3.8e-6 mm; Q48 3.6e-15 mm.
- * Axes: each joint step rotates unit vectors with a sine/cosine off by <= 1
- * LSB and rounds each component by <= 1/2 LSB, so after six joints a
- * component is off by at most ~24 LSB (< 2^-25); measured, a few LSB. The
+ * Axes: each rotation (Rz, Rx, Ry) turns unit vectors with a sine/cosine off
+ * by <= 1 LSB and rounds each component by <= 1/2 LSB (1 LSB on ARMv6-M), so
+ * after the paper's six joints (12 rotations) a component is off by at most
+ * ~24 LSB (< 2^-25), after the most of the general model (7 joints, 6
+ * betas: 20 rotations) ~60 LSB (< 2^-24); measured, a few LSB. The
  * overflow bounds below only need |axis component| < 1.02.
  * The outputs keep the internal Q48 because it is exact (no rounding step):
  * value in mm = x * 2^-48 (ldexp(x, -48)); the int64 range is +-32768 mm.
@@ -55,11 +61,13 @@
  *
  * Saturate or wrap: binary angles wrap (that is their meaning: adding a theta
  * offset is a uint32 addition mod 2^32). Nothing else saturates or wraps:
- * aacmm_model_q_init only accepts parameter blocks whose total reach
- * sum(|d_i|) + sum(|a_i|) + |l| is at most AACMM_Q_REACH_MAX_MM, and that bound
- * keeps every intermediate of every function below inside its type for every
- * possible input (the bounds are worked out at each function). No function
- * can overflow for a model built by aacmm_model_q_init.
+ * aacmm_model_q_init(_arm) only accepts parameter blocks whose total reach
+ * sum(|d_i|) + sum(|a_i|) + |l| (or + |t_x| + |t_y| + |t_z|) is at most
+ * AACMM_Q_REACH_MAX_MM, and that bound keeps every intermediate of every
+ * function below inside its type for every possible input (the probe point
+ * and every origin are sums of those lengths times unit axes, in either
+ * convention; the bounds are worked out at each function). No function can
+ * overflow for a model built by aacmm_model_q_init(_arm).
  *
  * Why 8000 mm: the paper's arm has a total reach (sum of |lengths|) of
  * 2290.4 mm; the largest commercial portable arms (4.5 m measuring volume)
@@ -69,7 +77,8 @@
  * Accuracy (docs/fixed-point.md has the measured numbers): against a
  * double-precision reference, at most 1e-4 mm per point coordinate and 1e-4
  * (mm/rad or mm/mm) per Jacobian entry anywhere in the representable range
- * (the test suite checks both over 10^6 random poses and an edge-case table).
+ * (the test suite checks both over 10^6 random poses and an edge-case table,
+ * and every shape of the general model).
  *
  * Ownership and state as in kinematics.h: the caller owns every buffer,
  * nothing is allocated, no global state, every function is reentrant.
@@ -109,7 +118,8 @@ extern "C" {
 /* ------------------------------------------------------------------------ */
 
 /*
- * One arm's structural parameters in fixed point.
+ * The paper's arm's 25 structural parameters in fixed point (the form of the
+ * device's parameter set today; aacmm_arm_q_t is the general form).
  *   theta_offset_bam, alpha_bam: BAM (uint32, 2^32 = one turn). Every value is
  *                    valid; 0x80000000 is half a turn, 0xC0000000 is -1/4 turn.
  *   d_q18, a_q18, l_q18: int32 Q18 mm (resolution 2^-18 mm = 3.8 nm).
@@ -126,38 +136,76 @@ typedef struct {
 } aacmm_params_q_t;
 
 /*
- * A prepared model: the parameters plus the Q30 sine and cosine of each
- * alpha. Treat as opaque; build it with aacmm_model_q_init. 148 bytes.
+ * Any arm in fixed point: the shape of kinematics.h and, per joint i < N,
+ * the angles in BAM and the lengths in Q18 as above; beta_bam where the
+ * shape declares a beta (0 elsewhere); tip_q18 = (t_x, t_y, t_z), with t_x =
+ * t_y = 0 for AACMM_TIP_Z (t_z is l). Entries from index N on must be 0.
+ * Valid when the shape is and the total reach is within
+ * AACMM_Q_REACH_MAX_MM (aacmm_arm_q_validate).
  */
 typedef struct {
-    aacmm_params_q_t params;
-    int32_t sin_alpha_q30[AACMM_JOINTS];
-    int32_t cos_alpha_q30[AACMM_JOINTS];
+    aacmm_shape_t shape;
+    uint32_t theta_offset_bam[AACMM_JOINTS_MAX];
+    uint32_t alpha_bam[AACMM_JOINTS_MAX];
+    int32_t d_q18[AACMM_JOINTS_MAX];
+    int32_t a_q18[AACMM_JOINTS_MAX];
+    uint32_t beta_bam[AACMM_JOINTS_MAX];
+    int32_t tip_q18[3];
+} aacmm_arm_q_t;
+
+/*
+ * A prepared model: the arm plus the Q30 sine and cosine of each alpha and
+ * beta. Build it with aacmm_model_q_init(_arm); the fields may be read (as
+ * aacmm_model_f64_t's: n_params P, col_beta, col_tip, paper), never written.
+ * 284 bytes.
+ */
+typedef struct {
+    aacmm_arm_q_t arm;
+    int32_t sin_alpha_q30[AACMM_JOINTS_MAX];
+    int32_t cos_alpha_q30[AACMM_JOINTS_MAX];
+    int32_t sin_beta_q30[AACMM_JOINTS_MAX];
+    int32_t cos_beta_q30[AACMM_JOINTS_MAX];
+    uint8_t n_params;
+    uint8_t col_beta[AACMM_JOINTS_MAX];
+    uint8_t col_tip;
+    uint8_t paper;
 } aacmm_model_q_t;
 
 /*
  * AACMM_ERR_NULL for NULL; AACMM_ERR_RANGE if the total reach
- * sum(|d_i|) + sum(|a_i|) + |l| (summed exactly in int64, |INT32_MIN| = 2^31
- * included) exceeds AACMM_Q_REACH_MAX_Q18; else AACMM_OK. Angles are never
- * out of range. Integer only. Cost: 13 additions.
+ * sum(|d_i|) + sum(|a_i|) + |l| (arm: + |t_x| + |t_y| + |t_z|, over the N
+ * joints; summed exactly in int64, |INT32_MIN| = 2^31 included) exceeds
+ * AACMM_Q_REACH_MAX_Q18, and (arm) for an invalid shape (aacmm_shape_validate),
+ * a non-zero beta where none is declared, a non-zero t_x or t_y with
+ * AACMM_TIP_Z, or a non-zero entry from index N on; else AACMM_OK. Angles are
+ * never out of range. Integer only. Cost: O(N).
  */
 aacmm_status_t aacmm_params_q_validate(const aacmm_params_q_t *params);
+aacmm_status_t aacmm_arm_q_validate(const aacmm_arm_q_t *arm);
+
+/* The paper's 25 parameters as a general arm (copied, not validated).
+ * AACMM_ERR_NULL or AACMM_OK. Integer only. */
+aacmm_status_t aacmm_arm_q_from_params(aacmm_arm_q_t *arm, const aacmm_params_q_t *params);
 
 /*
- * Validate *params (as aacmm_params_q_validate) and, if valid, copy them into
- * *model with sin/cos(alpha_i) from aacmm_sincos_q (Q30). On error *model is
- * left unchanged. Integer only (runs on the M0+). Cost: 6 aacmm_sincos_q.
+ * Validate the parameters (as aacmm_arm_q_validate / aacmm_params_q_validate)
+ * and, if valid, build *model with sin/cos(alpha_i) and sin/cos(beta_i) from
+ * aacmm_sincos_q (Q30); _init from the paper's 25 parameters (the paper's
+ * shape), _init_arm from any arm. On error *model is left unchanged. Integer
+ * only (runs on the M0+). Cost: N + B aacmm_sincos_q.
  */
 aacmm_status_t aacmm_model_q_init(aacmm_model_q_t *model, const aacmm_params_q_t *params);
+aacmm_status_t aacmm_model_q_init_arm(aacmm_model_q_t *model, const aacmm_arm_q_t *arm);
 
 /*
  * The paper's Table 1 (as aacmm_params_default_f64) in fixed point, exactly:
  * d = (300, 65.5, 792.7, 65.5, 883.2, 0) mm rounded to Q18 (792.7 and 883.2
  * are not dyadic: error <= 2^-19 mm), a = 0, alpha = a quarter turn
- * (0x40000000), offsets 0, l = 183.5 mm. Integer only. AACMM_ERR_NULL or
- * AACMM_OK.
+ * (0x40000000), offsets 0, l = 183.5 mm; _arm: the same as a general arm.
+ * Integer only. AACMM_ERR_NULL or AACMM_OK.
  */
 aacmm_status_t aacmm_params_default_q(aacmm_params_q_t *params);
+aacmm_status_t aacmm_arm_default_q(aacmm_arm_q_t *arm);
 
 /* ---- host / load-time conversion (kinematics_q_convert.c, uses double) --- */
 
@@ -179,6 +227,12 @@ aacmm_status_t aacmm_params_q_from_f64(aacmm_params_q_t *out, const aacmm_params
 /* The same from single precision (each value widened to double exactly). */
 aacmm_status_t aacmm_params_q_from_f32(aacmm_params_q_t *out, const aacmm_params_f32_t *in);
 
+/* The same for any arm: first aacmm_arm_validate_f64 / _f32, then each
+ * length, angle (theta offsets, alphas, betas) and tip value converted as
+ * above, then aacmm_arm_q_validate (the total reach). */
+aacmm_status_t aacmm_arm_q_from_f64(aacmm_arm_q_t *out, const aacmm_arm_f64_t *in);
+aacmm_status_t aacmm_arm_q_from_f32(aacmm_arm_q_t *out, const aacmm_arm_f32_t *in);
+
 /*
  * The exact values a fixed-point block stands for, in double: lengths
  * x_q18 * 2^-18 (exact), angles as signed BAM * 2 pi / 2^32 in (-pi, pi]
@@ -187,6 +241,7 @@ aacmm_status_t aacmm_params_q_from_f32(aacmm_params_q_t *out, const aacmm_params
  * AACMM_ERR_NULL or AACMM_OK; no validation. Not for the integer-only build.
  */
 aacmm_status_t aacmm_params_q_to_f64(aacmm_params_f64_t *out, const aacmm_params_q_t *in);
+aacmm_status_t aacmm_arm_q_to_f64(aacmm_arm_f64_t *out, const aacmm_arm_q_t *in);
 
 /* ------------------------------------------------------------------------ */
 /* Sine and cosine of a binary angle                                          */
@@ -223,42 +278,50 @@ void aacmm_sincos_q(uint32_t angle_bam, int32_t *s, int32_t *c);
 /* ------------------------------------------------------------------------ */
 
 /*
- * Probe point p_q48 = (x, y, z) in the base frame, Q48 mm (int64), for joint
- * angles theta_bam (BAM, e.g. from aacmm_encoder_to_bam); the model's theta
- * offsets are added mod 2^32. Every uint32 is a valid angle, so the only
- * error is AACMM_ERR_NULL (then nothing is written). The model must come from
- * aacmm_model_q_init.
+ * Probe point p_q48 = (x, y, z) in the base frame, Q48 mm (int64), for the N
+ * joint angles theta_bam[0 .. N-1] (BAM, e.g. from aacmm_encoder_to_bam; N =
+ * model->arm.shape.joints); the model's theta offsets are added mod 2^32.
+ * Every uint32 is a valid angle, so the only error is AACMM_ERR_NULL (then
+ * nothing is written). The model must come from aacmm_model_q_init(_arm).
  *
  * Chain (docs/fixed-point.md), with c, s = aacmm_sincos_q(theta_i + offset_i)
- * and ca, sa the model's Q30 sin/cos alpha:
+ * and ca, sa (cb, sb) the model's Q30 sin/cos alpha (beta); for a standard
+ * joint:
  *     u   = c y - s x         Q30 x Q30 -> Q60 int64 sum, round >> 30 -> Q30 int32
  *     x_i = c x + s y         (same)
- *     y_i = ca u + sa z       (same; not formed for joint 6)
+ *     y_i = ca u + sa z       (same; not formed for the last joint with tip l)
  *     z_i = ca z - sa u       (same)
  *     o_i = o_{i-1} + d z_{i-1} + a x_i   Q18 x Q30 -> Q48, summed exactly in
  *                                         int64 (no rounding at all)
- *     p   = o_6 + l z_6                   exact in Q48 (the output)
- * ARMv6-M: u, x_i, y_i, z_i are the sums of two products each rounded half
- * up to Q30 (aacmm_fixed_mul_q30, exact per product, 32-bit arithmetic):
- * within 1 LSB instead of 1/2.
- * Joint 1 starts from the identity frame; its step skips the zero products
- * (same result). Bounds: Q30 axis components stay within 1 + 2^-25 (see the
- * top), so each Q60 sum is below 2^61.1; |o_i|, |p| are at most the total
- * reach 8000 mm (times 1 + 2^-25) = 2^60.97 in Q48 < 2^63.
- * Cost: 6 aacmm_sincos_q (8 multiplies each) + 154 multiplies 32x32->64
- * (ARMv6-M: 36 of them, the positions; the frame steps are 114 products of
- * four MULS each).
+ *     p   = o_N + l z_N                   exact in Q48 (the output)
+ * and for a modified joint, and the Ry(beta) before a joint's Rz(theta), the
+ * same kinds of steps in the order of kinematics.h: each rotation two
+ * products per axis component, each translation an exact Q48 sum; a tip
+ * vector is p = o_N + t_x x_N + t_y y_N + t_z z_N, exact.
+ * ARMv6-M: each rotation's components are the sums of two products each
+ * rounded half up to Q30 (aacmm_fixed_mul_q30, exact per product, 32-bit
+ * arithmetic): within 1 LSB instead of 1/2.
+ * Standard joint 1 starts from the identity frame; its step skips the zero
+ * products (same result). Bounds: Q30 axis components stay within 1 + 2^-24
+ * (see the top), so each Q60 sum is below 2^61.1; |o_i|, |p| are at most the
+ * total reach 8000 mm (times 1 + 2^-24) = 2^60.97 in Q48 < 2^63.
+ * Cost: N aacmm_sincos_q (8 multiplies each) + about 25 multiplies 32x32->64
+ * per joint (+ 12 per beta, + 6 for a tip vector); the paper's arm: 6
+ * sincos + 154 multiplies (ARMv6-M: 36 of them, the positions; the frame
+ * steps are 114 products of four MULS each).
  */
-aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_bam[AACMM_JOINTS],
+aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t *theta_bam,
                              int64_t p_q48[3]);
 
 /*
- * Probe point (as aacmm_point_q, identical result) and the full 3x25
- * Jacobian, Q48 int64, row-major jac_q48[row * AACMM_JAC_COLS + col] in the
- * paper's column order (AACMM_COL_THETA(i), AACMM_COL_ALPHA(i), AACMM_COL_D(i),
- * AACMM_COL_A(i), AACMM_COL_L):
- *     theta_i (mm/rad): z_{i-1} x (p - o_{i-1})
- *     alpha_i (mm/rad): x_i x (p - o_i)
+ * Probe point (as aacmm_point_q, identical result) and the full 3 x P
+ * Jacobian, Q48 int64, row-major jac_q48[row * P + col] (P =
+ * model->n_params, at most AACMM_PARAMS_MAX; 25 for the paper's arm) in the
+ * column order of kinematics.h (AACMM_ARM_COL_*; AACMM_COL_* for the paper's
+ * arm):
+ *     rotation columns (theta, alpha, beta; mm/rad): u x (p - o) with the
+ *         axis u and point o of kinematics.h (the paper's arm: theta_i
+ *         z_{i-1} x (p - o_{i-1}), alpha_i x_i x (p - o_i)):
  *         the vector v = p - o (Q48) is rounded half up to Q18 int32
  *         (|v| <= 8000 mm, so |v| * 2^18 < 2^31), and each component of the
  *         cross product is the exact int64 difference of two Q30 x Q18 = Q48
@@ -266,24 +329,25 @@ aacmm_status_t aacmm_point_q(const aacmm_model_q_t *model, const uint32_t theta_
  *         from v. ARMv6-M: v is rounded half up to Q17 (|v| * 2^17 < 2^30)
  *         and each product to Q17 (aacmm_fixed_mul_q30), so an entry is
  *         within 2^-18 + 2 x 2^-18 = 1.1e-5 mm/rad of the exact cross product
- *         of the rounded axes. theta_1 is z_0 x p = (-p_y, p_x, 0) exactly.
- *     d_i: z_{i-1}, a_i: x_i, l: z_6 (mm/mm): the Q30 axes times 2^18 (exact).
+ *         of the rounded axes. For a standard joint 1, theta_1 is z_0 x p =
+ *         (-p_y, p_x, 0) exactly.
+ *     translation columns (d, a, tip; mm/mm): the Q30 axes times 2^18 (exact).
  * AACMM_ERR_NULL if any pointer is NULL (nothing written), else AACMM_OK.
- * jac_q48 holds AACMM_JAC_SIZE (75) values. Cost: aacmm_point_q + 66 more
- * multiplies.
+ * jac_q48 holds 3 P values (AACMM_JAC_SIZE_MAX at most). Cost: aacmm_point_q
+ * + about 11 multiplies per rotation column; the paper's arm: + 66.
  */
-aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
-                                      const uint32_t theta_bam[AACMM_JOINTS], int64_t p_q48[3],
-                                      int64_t jac_q48[AACMM_JAC_SIZE]);
+aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model, const uint32_t *theta_bam,
+                                      int64_t p_q48[3], int64_t *jac_q48);
 
 /*
  * Batch entry points: n poses in, n points (n*3 Q48 values) and, if jac_q48
- * is not NULL, n Jacobians (n*75 Q48 values, pose after pose) out.
- *   _bam:    theta_bam holds n*6 binary angles.
- *   _counts: reading_counts holds n*6 raw encoder readings, converted with
- *            aacmm_encoder_to_bam (shared core, integer only: exact for
- *            power-of-two resolutions, nearest BAM otherwise). Readings at or
- *            above their resolution, or an invalid encoder config, give
+ * is not NULL, n Jacobians (n*3P Q48 values, pose after pose) out.
+ *   _bam:    theta_bam holds n*N binary angles.
+ *   _counts: reading_counts holds n*N raw encoder readings, converted with
+ *            aacmm_arm_encoders_to_bam (shared core, integer only: exact for
+ *            power-of-two resolutions, nearest BAM otherwise); encoders->joints
+ *            must be N (else AACMM_ERR_RANGE, nothing written). Readings at or
+ *            above their resolution, or invalid encoders, give
  *            AACMM_ERR_RANGE.
  * Stops at the first invalid pose and returns its error; *done (if not NULL)
  * receives the number of poses fully written before it (n on success). n = 0
@@ -293,7 +357,7 @@ aacmm_status_t aacmm_point_jacobian_q(const aacmm_model_q_t *model,
 aacmm_status_t aacmm_batch_bam_q(const aacmm_model_q_t *model, size_t n, const uint32_t *theta_bam,
                                  int64_t *p_q48, int64_t *jac_q48, size_t *done);
 aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
-                                    const aacmm_encoder_config_t *encoders, size_t n,
+                                    const aacmm_arm_encoders_t *encoders, size_t n,
                                     const uint32_t *reading_counts, int64_t *p_q48,
                                     int64_t *jac_q48, size_t *done);
 

@@ -72,12 +72,16 @@ int aacmm_kernel_fused(aacmm_kernel_t kernel);
 unsigned aacmm_kernel_lanes(aacmm_kernel_t kernel, int single);
 
 /*
- * aacmm_batch_angles_f64 / _f32 (kinematics.h) with the given kernel: n poses
- * theta_rad[n*6] (rad) in, n points p_mm[n*3] and, if jac is not NULL, n
- * Jacobians jac[n*75] (pose after pose, row-major) out. Validation, the stop
- * at the first invalid pose (AACMM_ERR_RANGE, AACMM_ERR_NOT_FINITE) and *done
- * as there. AACMM_ERR_UNSUPPORTED if the kernel is not available.
- * Cost: per pose, the per-pose cost divided by about the number of lanes.
+ * aacmm_batch_angles_f64 / _f32 (kinematics.h) with the given kernel, for a
+ * model of any shape: n poses theta_rad[n*N] (rad) in, n points p_mm[n*3]
+ * and, if jac is not NULL, n Jacobians jac[n*3P] (pose after pose,
+ * row-major; N = model->arm.shape.joints, P = model->n_params; the paper's
+ * arm: 6 and 25) out. Validation, the stop at the first invalid pose
+ * (AACMM_ERR_RANGE, AACMM_ERR_NOT_FINITE) and *done as there.
+ * AACMM_ERR_UNSUPPORTED if the kernel is not available.
+ * Cost: per pose, the per-pose cost divided by about the number of lanes
+ * (the paper's shape runs kernels with its constants compiled in; other
+ * shapes the general kernels: docs/kinematics.md has both per N).
  */
 aacmm_status_t aacmm_simd_batch_angles_f64(aacmm_kernel_t kernel, const aacmm_model_f64_t *model,
                                            size_t n, const double *theta_rad, double *p_mm,
@@ -89,27 +93,30 @@ aacmm_status_t aacmm_simd_batch_angles_f32(aacmm_kernel_t kernel, const aacmm_mo
 /*
  * Tiled Jacobians: the same points and Jacobians, with the Jacobians in tiles
  * of AACMM_SIMD_TILE_F64 (8) or AACMM_SIMD_TILE_F32 (16) consecutive poses,
- * entry-major inside a tile: entry e (= row * 25 + column) of pose l is
- *     jac_tiled[(l / T) * 75 * T + e * T + l % T]      (T the tile size),
+ * entry-major inside a tile: entry e (= row * P + column) of pose l is
+ *     jac_tiled[(l / T) * 3P * T + e * T + l % T]      (T the tile size),
  * so an entry of a tile's poses is 64 contiguous bytes (one cache line when
- * jac_tiled is 64-byte aligned), as an array jac_tiled[tiles][3][25][T]. The
+ * jac_tiled is 64-byte aligned), as an array jac_tiled[tiles][3][P][T]. The
  * batch kernels then store each entry vector whole, without regrouping lanes
  * into pose rows: the layout for batch consumers that work entry by entry
  * (normal equations, sums over poses); the row-major layout above costs the
  * regrouping (docs/kinematics.md, "Speed").
  *
- * jac_tiled must hold AACMM_SIMD_TILED_SIZE(n, T) values (whole tiles; not
- * NULL when n > 0); p_mm, validation, the stop at the first invalid pose and
- * *done as aacmm_simd_batch_angles_*. The lanes of the last tile past pose n-1
- * are set to pose n-1's entries (a tile holds no uninitialised values); after
- * an invalid pose, the entries from *done on are unspecified. Every kernel
- * gives the same values as aacmm_simd_batch_angles_* with that kernel, bit for
- * bit. Alignment: any (64 bytes runs fastest). Cost: per pose, below that of
- * the row-major call with the same kernel (scalar: the same plus the copy).
+ * jac_tiled must hold AACMM_SIMD_TILED_ENTRIES(n, T, P) values (whole tiles;
+ * AACMM_SIMD_TILED_SIZE(n, T) for the paper's arm; not NULL when n > 0);
+ * p_mm, validation, the stop at the first invalid pose and *done as
+ * aacmm_simd_batch_angles_*. The lanes of the last tile past pose n-1 are set
+ * to pose n-1's entries (a tile holds no uninitialised values); after an
+ * invalid pose, the entries from *done on are unspecified. Every kernel gives
+ * the same values as aacmm_simd_batch_angles_* with that kernel, bit for bit.
+ * Alignment: any (64 bytes runs fastest). Cost: per pose, below that of the
+ * row-major call with the same kernel (scalar: the same plus the copy).
  */
 #define AACMM_SIMD_TILE_F64 8
 #define AACMM_SIMD_TILE_F32 16
-#define AACMM_SIMD_TILED_SIZE(n, tile) ((((n) + (tile) - 1u) / (tile)) * (tile) * AACMM_JAC_SIZE)
+#define AACMM_SIMD_TILED_ENTRIES(n, tile, params)                                                  \
+    ((((n) + (tile) - 1u) / (tile)) * (tile) * AACMM_JAC_ROWS * (params))
+#define AACMM_SIMD_TILED_SIZE(n, tile) AACMM_SIMD_TILED_ENTRIES(n, tile, AACMM_JAC_COLS)
 aacmm_status_t aacmm_simd_batch_angles_tiled_f64(aacmm_kernel_t kernel,
                                                  const aacmm_model_f64_t *model, size_t n,
                                                  const double *theta_rad, double *p_mm,
@@ -121,41 +128,41 @@ aacmm_status_t aacmm_simd_batch_angles_tiled_f32(aacmm_kernel_t kernel,
 
 /*
  * aacmm_abs_jacobian_sums_f64 (analysis.h) with the given kernel: adds the
- * sums over n poses of |J| and J^2 (75 entries each) to abs_sum and sq_sum.
+ * sums over n poses of |J| and J^2 (3 P entries each) to abs_sum and sq_sum.
  * The sums are accumulated per lane and added up at the end, so the rounding
  * of the sums depends on the kernel (not on anything else). Errors and *done
  * as there; AACMM_ERR_UNSUPPORTED if the kernel is not available.
  */
 aacmm_status_t aacmm_simd_abs_jacobian_sums_f64(aacmm_kernel_t kernel,
                                                 const aacmm_model_f64_t *model, size_t n,
-                                                const double *theta_rad,
-                                                double abs_sum[AACMM_JAC_SIZE],
-                                                double sq_sum[AACMM_JAC_SIZE], size_t *done);
+                                                const double *theta_rad, double *abs_sum,
+                                                double *sq_sum, size_t *done);
 
 /*
  * aacmm_abs_jacobian_sums_scaled_f64 (analysis.h) with the given kernel: the
- * sums on the poses unit[k*6 + i] * scale[i] + offset[i], formed a vector
+ * sums on the poses unit[k*N + i] * scale[i] + offset[i], formed a vector
  * group at a time (the product rounded, then the sum), equal bit for bit to
  * aacmm_simd_abs_jacobian_sums_f64 on poses formed first. scale and offset
- * both NULL: no scaling. Errors and *done as there.
+ * (N values each) both NULL: no scaling. Errors and *done as there.
  */
-aacmm_status_t aacmm_simd_abs_jacobian_sums_scaled_f64(
-    aacmm_kernel_t kernel, const aacmm_model_f64_t *model, size_t n, const double *unit,
-    const double scale[AACMM_JOINTS], const double offset[AACMM_JOINTS],
-    double abs_sum[AACMM_JAC_SIZE], double sq_sum[AACMM_JAC_SIZE], size_t *done);
+aacmm_status_t aacmm_simd_abs_jacobian_sums_scaled_f64(aacmm_kernel_t kernel,
+                                                       const aacmm_model_f64_t *model, size_t n,
+                                                       const double *unit, const double *scale,
+                                                       const double *offset, double *abs_sum,
+                                                       double *sq_sum, size_t *done);
 
 /*
  * aacmm_perturbed_points_f64 (analysis.h) with the given kernel: for each of
- * n_trials parameter draws (nominal + delta[t*25 ..], Jacobian column order)
+ * n_trials parameter draws (nominal + delta[t*P ..], Jacobian column order)
  * one model, evaluated at the n_poses poses across the lanes; p_mm[(t*n_poses
  * + k)*3 + r]. Errors and *done (trials written) as there;
  * AACMM_ERR_UNSUPPORTED if the kernel is not available.
  */
 aacmm_status_t aacmm_simd_perturbed_points_f64(aacmm_kernel_t kernel,
-                                               const aacmm_params_f64_t *nominal,
-                                               size_t n_trials, const double *delta,
-                                               size_t n_poses, const double *theta_rad,
-                                               double *p_mm, size_t *done);
+                                               const aacmm_arm_f64_t *nominal, size_t n_trials,
+                                               const double *delta, size_t n_poses,
+                                               const double *theta_rad, double *p_mm,
+                                               size_t *done);
 
 #ifdef __cplusplus
 }

@@ -28,7 +28,8 @@
 #define MM_SFX(name) name##_ps
 #define MM256 __m256
 #define MM512 __m512
-/* The lanes of W poses' angle i (stride 6 REAL) in one gather (AVX-512 only:
+/* The lanes of W poses' angle i (stride 6 REAL: the paper's shape; the
+ * general kernels load the lanes one by one) in one gather (AVX-512 only:
  * QEMU 7.2's TCG, which runs the vcan test VM, returns wrong lanes for the
  * AVX2 gather, so the AVX2 kernel builds its vectors from scalar loads). */
 #define GATHER512(p)                                                                               \

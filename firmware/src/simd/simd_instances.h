@@ -165,24 +165,24 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles)(aacmm_kernel_t kernel, const TYPE(a
 }
 
 /* The tiled layout for the scalar kernel: each pose through the per-pose
- * core, its 75 entries to its lane. */
+ * core, its 3 P entries to its lane. */
 static aacmm_status_t PSFX(batch_tiled_scalar)(const TYPE(aacmm_model) *model, size_t n,
                                                const REAL *theta_rad, REAL *p_mm, REAL *jac,
                                                size_t *done)
 {
-    REAL row[AACMM_JAC_SIZE];
-    size_t l;
-    int e;
+    const size_t nj = model->arm.shape.joints, jn = (size_t)AACMM_JAC_ROWS * model->n_params;
+    REAL row[AACMM_JAC_SIZE_MAX];
+    size_t l, e;
     for (l = 0; l < n; l++) {
-        REAL *lane = jac + (l / TILE) * TILE * AACMM_JAC_SIZE + l % TILE;
-        const aacmm_status_t st = PSFX(aacmm_batch_angles)(model, 1u, theta_rad + l * AACMM_JOINTS,
-                                                           p_mm + l * 3u, row, NULL);
+        REAL *lane = jac + (l / TILE) * TILE * jn + l % TILE;
+        const aacmm_status_t st =
+            PSFX(aacmm_batch_angles)(model, 1u, theta_rad + l * nj, p_mm + l * 3u, row, NULL);
         if (st != AACMM_OK) {
             *done = l;
             return st;
         }
-        for (e = 0; e < AACMM_JAC_SIZE; e++) {
-            lane[(size_t)e * TILE] = row[e];
+        for (e = 0; e < jn; e++) {
+            lane[e * TILE] = row[e];
         }
     }
     *done = n;
@@ -199,9 +199,8 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles_tiled)(aacmm_kernel_t kernel,
                                                    const REAL *theta_rad, REAL *p_mm,
                                                    REAL *jac_tiled, size_t *done)
 {
-    size_t k = 0, l;
+    size_t k = 0, l, e, jn;
     aacmm_status_t st;
-    int e;
     if (done != NULL) {
         *done = 0u;
     }
@@ -212,12 +211,13 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles_tiled)(aacmm_kernel_t kernel,
     if (!aacmm_kernel_available(kernel) || PSFX(batch_tiled_table)[kernel] == NULL) {
         return AACMM_ERR_UNSUPPORTED;
     }
+    jn = (size_t)AACMM_JAC_ROWS * model->n_params;
     st = PSFX(batch_tiled_table)[kernel](model, n, theta_rad, p_mm, jac_tiled, &k);
     if (st == AACMM_OK && n % TILE != 0u) { /* the last tile's padding lanes */
-        REAL *last = jac_tiled + ((n - 1u) / TILE) * TILE * AACMM_JAC_SIZE;
-        for (e = 0; e < AACMM_JAC_SIZE; e++) {
+        REAL *last = jac_tiled + ((n - 1u) / TILE) * TILE * jn;
+        for (e = 0; e < jn; e++) {
             for (l = n % TILE; l < TILE; l++) {
-                last[(size_t)e * TILE + l] = last[(size_t)e * TILE + (n - 1u) % TILE];
+                last[e * TILE + l] = last[e * TILE + (n - 1u) % TILE];
             }
         }
     }
@@ -235,8 +235,7 @@ static const PSFX(abs_sums_fn) PSFX(abs_sums_table)[AACMM_KERNEL_COUNT] =
 
 aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums_scaled)(
     aacmm_kernel_t kernel, const TYPE(aacmm_model) *model, size_t n, const REAL *theta_rad,
-    const REAL scale[AACMM_JOINTS], const REAL offset[AACMM_JOINTS], REAL abs_sum[AACMM_JAC_SIZE],
-    REAL sq_sum[AACMM_JAC_SIZE], size_t *done)
+    const REAL *scale, const REAL *offset, REAL *abs_sum, REAL *sq_sum, size_t *done)
 {
     if (done != NULL) {
         *done = 0u;
@@ -254,26 +253,29 @@ aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums_scaled)(
 aacmm_status_t PSFX(aacmm_simd_abs_jacobian_sums)(aacmm_kernel_t kernel,
                                                   const TYPE(aacmm_model) *model, size_t n,
                                                   const REAL *theta_rad,
-                                                  REAL abs_sum[AACMM_JAC_SIZE],
-                                                  REAL sq_sum[AACMM_JAC_SIZE], size_t *done)
+                                                  REAL *abs_sum, REAL *sq_sum, size_t *done)
 {
     return PSFX(aacmm_simd_abs_jacobian_sums_scaled)(kernel, model, n, theta_rad, NULL, NULL,
                                                      abs_sum, sq_sum, done);
 }
 
 aacmm_status_t PSFX(aacmm_simd_perturbed_points)(aacmm_kernel_t kernel,
-                                                 const TYPE(aacmm_params) *nominal,
+                                                 const TYPE(aacmm_arm) *nominal,
                                                  size_t n_trials, const REAL *delta,
                                                  size_t n_poses, const REAL *theta_rad,
                                                  REAL *p_mm, size_t *done)
 {
-    size_t t;
+    size_t t, np;
     if (done != NULL) {
         *done = 0u;
     }
     if (nominal == NULL) {
         return AACMM_ERR_NULL;
     }
+    if (aacmm_shape_validate(&nominal->shape) != AACMM_OK) {
+        return AACMM_ERR_RANGE;
+    }
+    np = (size_t)aacmm_shape_params(&nominal->shape);
     if (n_trials > 0u && (delta == NULL || (n_poses > 0u && (theta_rad == NULL || p_mm == NULL)))) {
         return AACMM_ERR_NULL;
     }
@@ -285,11 +287,13 @@ aacmm_status_t PSFX(aacmm_simd_perturbed_points)(aacmm_kernel_t kernel,
                                             done);
     }
     for (t = 0; t < n_trials; t++) {
-        TYPE(aacmm_params) prm;
+        TYPE(aacmm_arm) prm;
         TYPE(aacmm_model) model;
         aacmm_status_t st;
-        PSFX(aacmm_params_perturb)(nominal, delta + t * AACMM_N_PARAMS, &prm);
-        st = PSFX(aacmm_model_init)(&model, &prm);
+        st = PSFX(aacmm_arm_perturb)(nominal, delta + t * np, &prm);
+        if (st == AACMM_OK) {
+            st = PSFX(aacmm_model_init_arm)(&model, &prm);
+        }
         if (st == AACMM_OK) {
             st = PSFX(aacmm_simd_batch_angles)(kernel, &model, n_poses, theta_rad,
                                                p_mm + t * n_poses * 3u, NULL, NULL);

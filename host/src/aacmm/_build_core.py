@@ -8,6 +8,13 @@ csrc/), so the host analysis runs exactly the code the arm runs.
 
 from __future__ import annotations
 
+import json
+import os
+import re
+import shlex
+import subprocess
+import sysconfig
+import tempfile
 from pathlib import Path
 
 from cffi import FFI
@@ -24,6 +31,7 @@ FW_SRC = FIRMWARE / "src"
 SOURCES = [
     FW_SRC / "status.c",
     FW_SRC / "encoder.c",
+    FW_SRC / "shape.c",
     FW_SRC / "kinematics_f64.c",
     FW_SRC / "kinematics_f32.c",
     FW_SRC / "analysis.c",
@@ -54,114 +62,63 @@ if not (FW_SRC / "kinematics_impl.h").is_file():
         "sdist made there (python -m build --sdist host/ or pip wheel host/)"
     )
 
-CDEF = """
-typedef enum {
-    AACMM_OK, AACMM_ERR_NULL, AACMM_ERR_RANGE, AACMM_ERR_NOT_FINITE, ...
-} aacmm_status_t;
-const char *aacmm_status_str(aacmm_status_t status);
+#: The public headers the extension binds, in include order: everything they
+#: declare is the binding (aacmm.core wraps it).
+PUBLIC_HEADERS = ("aacmm/status.h", "aacmm/kinematics.h", "aacmm/analysis.h", "aacmm/simd.h")
 
-typedef struct {
-    double theta_offset_rad[6];
-    double alpha_rad[6];
-    double d_mm[6];
-    double a_mm[6];
-    double l_mm;
-} aacmm_params_f64_t;
 
-typedef struct {
-    aacmm_params_f64_t params;
-    double sin_alpha[6];
-    double cos_alpha[6];
-} aacmm_model_f64_t;
+def _preprocess(extra: list[str]) -> str:
+    """The public headers through the C compiler's preprocessor (``-E``).
 
-typedef struct {
-    float theta_offset_rad[6];
-    float alpha_rad[6];
-    float d_mm[6];
-    float a_mm[6];
-    float l_mm;
-} aacmm_params_f32_t;
+    System headers are replaced by empty stubs (cffi knows ``size_t`` and the
+    ``<stdint.h>`` types), so only aacmm's own declarations come out.
+    """
+    cc = shlex.split(os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc")
+    src = "".join(f'#include "{h}"\n' for h in PUBLIC_HEADERS)
+    with tempfile.TemporaryDirectory() as tmp:
+        for stub in ("stddef.h", "stdint.h"):
+            (Path(tmp) / stub).write_text("", encoding="ascii")
+        cmd = [*cc, "-E", "-P", "-nostdinc", "-I", tmp, "-I", str(FW_INC), *extra, "-x", "c", "-"]
+        done = subprocess.run(cmd, input=src, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"aacmm: preprocessing the core's headers failed: {done.stderr.strip()}")
+    return done.stdout
 
-typedef struct {
-    aacmm_params_f32_t params;
-    float sin_alpha[6];
-    float cos_alpha[6];
-} aacmm_model_f32_t;
 
-typedef struct {
-    uint64_t counts_per_rev[6];
-    uint32_t zero_offset_counts[6];
-    int8_t direction[6];
-} aacmm_encoder_config_t;
+_MACRO = re.compile(r"#define (AACMM_[A-Z0-9_]+) (.+)")
 
-aacmm_status_t aacmm_params_default_f64(aacmm_params_f64_t *params);
-aacmm_status_t aacmm_params_validate_f64(const aacmm_params_f64_t *params);
-aacmm_status_t aacmm_model_init_f64(aacmm_model_f64_t *model, const aacmm_params_f64_t *params);
-aacmm_status_t aacmm_encoder_validate(const aacmm_encoder_config_t *config);
-aacmm_status_t aacmm_encoder_to_angles_f64(const aacmm_encoder_config_t *config,
-                                           const uint32_t reading_counts[6], double theta_rad[6]);
-aacmm_status_t aacmm_point_f64(const aacmm_model_f64_t *model, const double theta_rad[6],
-                               double p_mm[3]);
-aacmm_status_t aacmm_point_jacobian_f64(const aacmm_model_f64_t *model,
-                                        const double theta_rad[6], double p_mm[3],
-                                        double jac[75]);
-aacmm_status_t aacmm_batch_angles_f64(const aacmm_model_f64_t *model, size_t n,
-                                      const double *theta_rad, double *p_mm, double *jac,
-                                      size_t *done);
-aacmm_status_t aacmm_batch_counts_f64(const aacmm_model_f64_t *model,
-                                      const aacmm_encoder_config_t *encoders, size_t n,
-                                      const uint32_t *reading_counts, double *p_mm, double *jac,
-                                      size_t *done);
-aacmm_status_t aacmm_abs_jacobian_sums_f64(const aacmm_model_f64_t *model, size_t n,
-                                           const double *theta_rad, double abs_sum[75],
-                                           double sq_sum[75], size_t *done);
-aacmm_status_t aacmm_perturbed_points_f64(const aacmm_params_f64_t *nominal, size_t n_trials,
-                                          const double *delta, size_t n_poses,
-                                          const double *theta_rad, double *p_mm, size_t *done);
-aacmm_status_t aacmm_model_init_f32(aacmm_model_f32_t *model, const aacmm_params_f32_t *params);
 
-typedef enum {
-    AACMM_KERNEL_SCALAR, AACMM_KERNEL_VEC128, AACMM_KERNEL_AVX2, AACMM_KERNEL_AVX512
-} aacmm_kernel_t;
-int aacmm_kernel_available(aacmm_kernel_t kernel);
-aacmm_kernel_t aacmm_kernel_best(void);
-int aacmm_kernel_fused(aacmm_kernel_t kernel);
-const char *aacmm_kernel_name(aacmm_kernel_t kernel);
-unsigned aacmm_kernel_lanes(aacmm_kernel_t kernel, int single);
-aacmm_status_t aacmm_simd_batch_angles_f64(aacmm_kernel_t kernel, const aacmm_model_f64_t *model,
-                                           size_t n, const double *theta_rad, double *p_mm,
-                                           double *jac, size_t *done);
-aacmm_status_t aacmm_simd_batch_angles_f32(aacmm_kernel_t kernel, const aacmm_model_f32_t *model,
-                                           size_t n, const float *theta_rad, float *p_mm,
-                                           float *jac, size_t *done);
-aacmm_status_t aacmm_simd_batch_angles_tiled_f64(aacmm_kernel_t kernel,
-                                                 const aacmm_model_f64_t *model, size_t n,
-                                                 const double *theta_rad, double *p_mm,
-                                                 double *jac_tiled, size_t *done);
-aacmm_status_t aacmm_simd_batch_angles_tiled_f32(aacmm_kernel_t kernel,
-                                                 const aacmm_model_f32_t *model, size_t n,
-                                                 const float *theta_rad, float *p_mm,
-                                                 float *jac_tiled, size_t *done);
-aacmm_status_t aacmm_simd_abs_jacobian_sums_f64(aacmm_kernel_t kernel,
-                                                const aacmm_model_f64_t *model, size_t n,
-                                                const double *theta_rad, double abs_sum[75],
-                                                double sq_sum[75], size_t *done);
-aacmm_status_t aacmm_simd_abs_jacobian_sums_scaled_f64(
-    aacmm_kernel_t kernel, const aacmm_model_f64_t *model, size_t n, const double *unit,
-    const double scale[6], const double offset[6], double abs_sum[75], double sq_sum[75],
-    size_t *done);
-aacmm_status_t aacmm_simd_perturbed_points_f64(aacmm_kernel_t kernel,
-                                               const aacmm_params_f64_t *nominal,
-                                               size_t n_trials, const double *delta,
-                                               size_t n_poses, const double *theta_rad,
-                                               double *p_mm, size_t *done);
-aacmm_status_t aacmm_counts_to_angles_f64(const aacmm_encoder_config_t *encoders, size_t n,
-                                          const uint32_t *reading_counts, double *theta_rad,
-                                          size_t *done);
-"""
+def header_cdef() -> str:
+    """The cffi declarations of the public headers, generated from them.
+
+    Every type and function exactly as the headers declare it (the
+    preprocessor expands the size macros), and the headers' object-like
+    AACMM_ macros as constants: integer ones as ``#define NAME ...`` and
+    floating ones as ``static const double NAME;`` (cffi reads both values
+    from the compiled headers). Include guards (no value) are left out. So the
+    binding cannot drift from the headers: there is no second copy to drift.
+    """
+    lines = [_preprocess([])]
+    for m in sorted(_MACRO.finditer(_preprocess(["-dM"])), key=lambda m: m.group(1)):
+        name, value = m.group(1), m.group(2).strip()
+        if "(" in name or value == "":
+            continue
+        if re.search(r"[0-9]\.[0-9]|e[+-]?[0-9]", value):
+            lines.append(f"static const double {name};")
+        else:
+            lines.append(f"#define {name} ...")
+    return "\n".join(lines) + "\n"
+
+
+CDEF = header_cdef()
 
 ffibuilder = FFI()
 ffibuilder.cdef(CDEF)
+# The declarations the extension was built from, kept in it: the core suite
+# (tests/host/test_core_binding.py) compares them with the headers as they
+# are now, so a stale build fails there rather than computing with a
+# layout the headers no longer have.
+ffibuilder.cdef("extern const char aacmm_binding_cdef[];")
 
 
 # One translation unit (a "unity build") that includes the firmware sources:
@@ -174,6 +131,8 @@ ffibuilder.cdef(CDEF)
 # (aacmm/simd.h). No FMA contraction: the kernels then give the scalar
 # kernel's results bit for bit.
 UNITY = "".join(f'#include "{p.relative_to(FW_SRC).as_posix()}"\n' for p in SOURCES)
+# (ASCII, so JSON's string escapes are C's.)
+UNITY += f"const char aacmm_binding_cdef[] = {json.dumps(CDEF)};\n"
 ffibuilder.set_source(
     "aacmm._core",
     UNITY,

@@ -4,21 +4,26 @@ The C core (``firmware/src/kinematics_f64.c``, bound by cffi as
 ``aacmm._core``) is the single implementation of the arm's model; this module
 gives it numpy-friendly, validated entry points so the host tools use exactly
 the code the arm runs. See ``firmware/include/aacmm/kinematics.h`` for the
-model (standard DH, paper Eq. 1-3) and the Jacobian column order.
+model (N joints, standard or modified DH, Hayati betas, a tip on z or a tip
+vector; the paper's Eq. 1-3 for its arm) and the Jacobian column order.
 
 Main names:
 
-* :class:`Params` -- structural parameters (mm, rad); ``Params()`` is the
-  paper's Table 1.
-* :class:`EncoderConfig` -- per-joint encoder description.
-* :class:`Model` -- a prepared model: :meth:`Model.point`,
+* :class:`Params` -- the paper's arm in its 25-parameter form (mm, rad);
+  ``Params()`` is the paper's Table 1, :meth:`Params.to_arm` the same as an
+  :class:`aacmm.arm.Arm`.
+* :class:`EncoderConfig` -- per-joint encoder description (any joint count).
+* :class:`Model` -- a prepared model of a :class:`Params` or any
+  :class:`aacmm.arm.Arm` (:attr:`Model.joints`, :attr:`Model.n_params`,
+  :attr:`Model.param_names`): :meth:`Model.point`,
   :meth:`Model.point_jacobian`, :meth:`Model.points`,
   :meth:`Model.points_jacobians`, :meth:`Model.points_jacobians_tiled`,
   :meth:`Model.points_from_counts`, :meth:`Model.abs_jacobian_sums`.
 * :data:`TILE_F64`, :data:`TILE_F32`, :func:`untile_jacobians` -- the tiled
   Jacobian layout of :meth:`Model.points_jacobians_tiled`.
 * :func:`counts_to_angles`, :func:`perturbed_points`.
-* :data:`PARAM_NAMES` -- the 25 parameter names in Jacobian column order.
+* :data:`PARAM_NAMES` -- the paper's 25 parameter names in Jacobian column
+  order (:attr:`aacmm.arm.Arm.param_names` for any arm).
 * :func:`kernel`, :func:`set_kernel`, :func:`available_kernels` -- the batch
   kernel across SIMD lanes the batch methods run on (``aacmm/simd.h``):
   on first use the widest one this CPU runs, or the one the environment
@@ -46,6 +51,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aacmm._core import ffi, lib
+from aacmm.arm import Arm, Joint
 
 __all__ = [
     "AXES",
@@ -76,6 +82,8 @@ __all__ = [
     "untile_jacobians",
 ]
 
+#: The paper's arm: joints and Jacobian columns (a general model has its own:
+#: :attr:`Model.joints`, :attr:`Model.n_params`).
 JOINTS = 6
 JAC_ROWS = 3
 JAC_COLS = 25
@@ -237,6 +245,33 @@ class Params:
         f = [float(x) for x in a]
         return cls(tuple(f[0:6]), tuple(f[6:12]), tuple(f[12:18]), tuple(f[18:24]), f[24])
 
+    def to_arm(self) -> Arm:
+        """These parameters as a general :class:`aacmm.arm.Arm` (the paper's shape)."""
+        return Arm(
+            joints=tuple(
+                Joint(theta_offset_rad=t, alpha_rad=al, d_mm=d, a_mm=a)
+                for t, al, d, a in zip(
+                    self.theta_offset_rad, self.alpha_rad, self.d_mm, self.a_mm, strict=True
+                )
+            ),
+            tip="z",
+            tip_mm=(0.0, 0.0, self.l_mm),
+        )
+
+    @classmethod
+    def from_arm(cls, arm: Arm) -> Params:
+        """The 25-parameter form of an arm of the paper's shape.
+
+        Raises ValueError for an arm of another shape (joint count,
+        conventions, betas, tip kind).
+        """
+        if not arm.is_paper_shape:
+            raise ValueError(
+                "only an arm of the paper's shape (6 standard joints, no beta, tip l) has "
+                "the 25-parameter form"
+            )
+        return cls.from_vector(arm.to_vector())
+
     def _fill(self, c: Any) -> Any:
         c.theta_offset_rad = list(self.theta_offset_rad)
         c.alpha_rad = list(self.alpha_rad)
@@ -264,9 +299,11 @@ class Params:
 
 @dataclass(frozen=True)
 class EncoderConfig:
-    """Per-joint encoder description (see ``aacmm_encoder_config_t``).
+    """Per-joint encoder description (see ``aacmm_arm_encoders_t``), one entry per joint.
 
-    Default: 2^32 counts per revolution, zero offset 0, direction +1.
+    Default: six joints (the paper's arm) of 2^32 counts per revolution, zero
+    offset 0, direction +1; :meth:`default` for another joint count. Raises
+    ValueError unless the three tuples have the same length, 1 to 7.
     """
 
     counts_per_rev: tuple[int, ...] = (1 << 32,) * JOINTS
@@ -274,14 +311,27 @@ class EncoderConfig:
     direction: tuple[int, ...] = (1,) * JOINTS
 
     def __post_init__(self) -> None:
+        n = len(tuple(self.counts_per_rev))
+        if not 1 <= n <= 7:
+            raise ValueError(f"counts_per_rev needs 1 to 7 values (one per joint), got {n}")
         for name in ("counts_per_rev", "zero_offset_counts", "direction"):
             vals = tuple(int(v) for v in getattr(self, name))
-            if len(vals) != JOINTS:
-                raise ValueError(f"{name} needs {JOINTS} values, got {len(vals)}")
+            if len(vals) != n:
+                raise ValueError(f"{name} needs {n} values, got {len(vals)}")
             object.__setattr__(self, name, vals)
 
+    @classmethod
+    def default(cls, joints: int = JOINTS) -> EncoderConfig:
+        """2^32 counts per revolution, offset 0, direction +1 on ``joints`` joints."""
+        return cls((1 << 32,) * joints, (0,) * joints, (1,) * joints)
+
+    @property
+    def joints(self) -> int:
+        """The number of joints described."""
+        return len(self.counts_per_rev)
+
     def to_c(self) -> Any:
-        """A validated ``aacmm_encoder_config_t *``.
+        """A validated ``aacmm_arm_encoders_t *``.
 
         Raises ValueError for values outside the C ranges (resolution
         2 .. 2^32, zero offset below the resolution, direction +1 or -1).
@@ -295,21 +345,48 @@ class EncoderConfig:
                 raise ValueError(f"zero_offset_counts must be in 0 .. counts_per_rev-1, got {z}")
             if d not in (1, -1):
                 raise ValueError(f"direction must be +1 or -1, got {d}")
-        c = ffi.new("aacmm_encoder_config_t *")
+        c = ffi.new("aacmm_arm_encoders_t *")
+        c.joints = self.joints
         c.counts_per_rev = list(self.counts_per_rev)
         c.zero_offset_counts = list(self.zero_offset_counts)
         c.direction = list(self.direction)
-        _check(lib.aacmm_encoder_validate(c), "invalid encoder config")
+        _check(lib.aacmm_arm_encoders_validate(c), "invalid encoder config")
         return c
 
 
-def _poses(theta_rad: npt.ArrayLike, dtype: type = np.float64) -> Any:
+def _poses(theta_rad: npt.ArrayLike, dtype: type = np.float64, joints: int = JOINTS) -> Any:
     a: npt.NDArray[Any] = np.ascontiguousarray(theta_rad, dtype=dtype)
-    if a.ndim == 1 and a.size == JOINTS:
-        a = a.reshape(1, JOINTS)
-    if a.ndim != 2 or a.shape[1] != JOINTS:
-        raise ValueError(f"joint angles must have shape (n, {JOINTS}), got {a.shape}")
+    if a.ndim == 1 and a.size == joints:
+        a = a.reshape(1, joints)
+    if a.ndim != 2 or a.shape[1] != joints:
+        raise ValueError(f"joint angles must have shape (n, {joints}), got {a.shape}")
     return a
+
+
+def _arm_c(arm: Arm, single: bool = False) -> Any:
+    """A freshly allocated ``aacmm_arm_f64_t *`` (``aacmm_arm_f32_t *``) holding the arm."""
+    c = ffi.new("aacmm_arm_f32_t *" if single else "aacmm_arm_f64_t *")
+    n = arm.n_joints
+    unused = int(lib.AACMM_JOINTS_MAX) - n
+    pad = [0.0] * unused
+    c.shape.joints = n
+    c.shape.tip = lib.AACMM_TIP_XYZ if arm.tip == "xyz" else lib.AACMM_TIP_Z
+    c.shape.convention = [_CONVENTION_CODES[j.convention] for j in arm.joints] + [0] * unused
+    c.shape.beta = [int(j.beta_rad is not None) for j in arm.joints] + [0] * unused
+    c.theta_offset_rad = [j.theta_offset_rad for j in arm.joints] + pad
+    c.alpha_rad = [j.alpha_rad for j in arm.joints] + pad
+    c.d_mm = [j.d_mm for j in arm.joints] + pad
+    c.a_mm = [j.a_mm for j in arm.joints] + pad
+    c.beta_rad = [float(j.beta_rad or 0.0) for j in arm.joints] + pad
+    c.tip_mm = list(arm.tip_mm)
+    return c
+
+
+# ``aacmm_dh_convention_t`` of each convention name (aacmm.arm.CONVENTIONS).
+_CONVENTION_CODES: dict[str, int] = {
+    "standard": int(lib.AACMM_DH_STANDARD),
+    "modified": int(lib.AACMM_DH_MODIFIED),
+}
 
 
 def _dptr(a: FloatArray) -> Any:
@@ -347,54 +424,89 @@ def _aligned_empty(shape: tuple[int, ...], dtype: Any) -> npt.NDArray[Any]:
 
 
 def untile_jacobians(tiled: npt.NDArray[Any], n: int) -> npt.NDArray[Any]:
-    """The ``(n, 3, 25)`` Jacobians of a ``(tiles, 3, 25, T)`` tiled array (a copy).
+    """The ``(n, 3, P)`` Jacobians of a ``(tiles, 3, P, T)`` tiled array (a copy).
 
     Raises ValueError if the shape is not a tiled one or ``n`` does not fit it.
     """
     a = np.asarray(tiled)
-    if a.ndim != 4 or a.shape[1:3] != (JAC_ROWS, JAC_COLS):
-        raise ValueError(f"tiled Jacobians must have shape (tiles, 3, 25, T), not {a.shape}")
-    tile = a.shape[3]
+    if a.ndim != 4 or a.shape[1] != JAC_ROWS or a.shape[2] < 1:
+        raise ValueError(f"tiled Jacobians must have shape (tiles, 3, P, T), not {a.shape}")
+    cols, tile = a.shape[2], a.shape[3]
     if not (a.shape[0] - 1) * tile < n <= a.shape[0] * tile:
         raise ValueError(f"{n} poses do not fill {a.shape[0]} tiles of {tile}")
-    out: npt.NDArray[Any] = a.transpose(0, 3, 1, 2).reshape(-1, JAC_ROWS, JAC_COLS)[:n].copy()
+    out: npt.NDArray[Any] = a.transpose(0, 3, 1, 2).reshape(-1, JAC_ROWS, cols)[:n].copy()
     return out
 
 
 @dataclass(frozen=True)
 class Model:
-    """A prepared kinematic model (``aacmm_model_f64_t``) for one parameter set.
+    """A prepared kinematic model (``aacmm_model_f64_t``) of one arm.
 
-    Raises KinematicsError (a ValueError) if the parameters are invalid.
+    ``params`` is the paper's arm in its 25-parameter form (:class:`Params`,
+    the default: Table 1) or any :class:`aacmm.arm.Arm`; a :class:`Params`
+    and its :meth:`Params.to_arm` give the same model. Raises
+    KinematicsError (a ValueError) if the parameters are invalid.
     Joint angles are readings in rad (the model adds the theta offsets); every
-    batch method takes an ``(n, 6)`` array (a single ``(6,)`` pose is
-    accepted as ``n = 1``) and runs on the batch kernel :func:`kernel`.
-    ``dtype=np.float32`` runs the single-precision core (parameters rounded
-    to float; the Cortex-M4F's arithmetic) and returns float32 arrays.
+    batch method takes an ``(n, N)`` array (a single ``(N,)`` pose is
+    accepted as ``n = 1``; N = :attr:`joints`) and runs on the batch kernel
+    :func:`kernel`; Jacobians are ``(n, 3, P)``, P = :attr:`n_params`, columns
+    as :attr:`param_names`. ``dtype=np.float32`` runs the single-precision
+    core (parameters rounded to float; the Cortex-M4F's arithmetic) and
+    returns float32 arrays.
     """
 
-    params: Params = field(default_factory=Params)
+    params: Params | Arm = field(default_factory=Params)
     _c: Any = field(init=False, repr=False, compare=False)
     _c32: list[Any] = field(init=False, repr=False, compare=False)
+    _arm: Arm = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         c = ffi.new("aacmm_model_f64_t *")
-        _check(lib.aacmm_model_init_f64(c, self.params.to_c()), "invalid parameters")
+        if isinstance(self.params, Params):
+            _check(lib.aacmm_model_init_f64(c, self.params.to_c()), "invalid parameters")
+            arm = self.params.to_arm()  # valid: the core accepted the values
+        elif isinstance(self.params, Arm):
+            arm = self.params
+            _check(lib.aacmm_model_init_arm_f64(c, _arm_c(arm)), "invalid arm")
+        else:
+            raise ValueError(f"a model needs Params or an Arm, got {type(self.params).__name__}")
         object.__setattr__(self, "_c", c)
         object.__setattr__(self, "_c32", [])
+        object.__setattr__(self, "_arm", arm)
 
     @property
     def c_model(self) -> Any:
         """The underlying ``aacmm_model_f64_t *`` (for other cffi callers)."""
         return self._c
 
+    @property
+    def arm(self) -> Arm:
+        """The arm of this model (for :class:`Params`, :meth:`Params.to_arm`)."""
+        return self._arm
+
+    @property
+    def joints(self) -> int:
+        """N, the joint count: the width of every pose array."""
+        return self._arm.n_joints
+
+    @property
+    def n_params(self) -> int:
+        """P, the Jacobian's columns (25 for the paper's arm)."""
+        return int(self._c.n_params)
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """The P parameter names in Jacobian column order (:attr:`aacmm.arm.Arm.param_names`)."""
+        return self._arm.param_names
+
     def _model32(self) -> Any:
         if not self._c32:  # built on first use; a race builds it twice, harmlessly
             c = ffi.new("aacmm_model_f32_t *")
-            _check(
-                lib.aacmm_model_init_f32(c, self.params.to_c32()),
-                "invalid parameters (single precision)",
-            )
+            if isinstance(self.params, Params):
+                st = lib.aacmm_model_init_f32(c, self.params.to_c32())
+            else:
+                st = lib.aacmm_model_init_arm_f32(c, _arm_c(self._arm, single=True))
+            _check(st, "invalid parameters (single precision)")
             self._c32.append(c)
         return self._c32[0]
 
@@ -406,7 +518,7 @@ class Model:
     def point_jacobian(
         self, theta_rad: Sequence[float] | FloatArray
     ) -> tuple[FloatArray, FloatArray]:
-        """Probe point (3,) and Jacobian (3, 25) for one pose."""
+        """Probe point (3,) and Jacobian (3, P) for one pose."""
         p, j = self.points_jacobians(theta_rad)
         return p[0], j[0]
 
@@ -420,7 +532,7 @@ class Model:
     def points_jacobians(
         self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike = np.float64
     ) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
-        """Probe points (n, 3) and Jacobians (n, 3, 25), columns as :data:`PARAM_NAMES`.
+        """Probe points (n, 3) and Jacobians (n, 3, P), columns as :attr:`param_names`.
 
         Raises KinematicsError for a bad pose.
         """
@@ -430,7 +542,7 @@ class Model:
     def points_jacobians_tiled(
         self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike = np.float64
     ) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
-        """Probe points (n, 3) and the Jacobians in tiles, ``(tiles, 3, 25, T)``.
+        """Probe points (n, 3) and the Jacobians in tiles, ``(tiles, 3, P, T)``.
 
         The same values as :meth:`points_jacobians`, bit for bit, in the
         layout the batch kernels write fastest (``aacmm/simd.h``): pose ``l``'s
@@ -439,7 +551,7 @@ class Model:
         tile past the last pose repeat it. Each ``tiled[t, r, c]`` is one
         64-byte cache line (the array is 64-byte aligned). For consumers that
         work entry by entry over many poses (normal equations, sums);
-        :func:`untile_jacobians` gives ``(n, 3, 25)``. Raises KinematicsError
+        :func:`untile_jacobians` gives ``(n, 3, P)``. Raises KinematicsError
         for a bad pose.
         """
         p, j = self._batch(theta_rad, dtype, jacobian=True, tiled=True)
@@ -449,20 +561,20 @@ class Model:
         self, theta_rad: npt.ArrayLike, dtype: npt.DTypeLike, jacobian: bool, tiled: bool = False
     ) -> Any:
         single = _precision(dtype)
-        th = _poses(theta_rad, np.float32 if single else np.float64)
-        n = th.shape[0]
+        th = _poses(theta_rad, np.float32 if single else np.float64, self.joints)
+        n, cols = th.shape[0], self.n_params
         p = np.empty((n, 3), dtype=th.dtype)
         j: npt.NDArray[Any] | None
         if tiled:
             tile = TILE_F32 if single else TILE_F64
-            j = _aligned_empty((-(-n // tile), JAC_ROWS, JAC_COLS, tile), th.dtype)
+            j = _aligned_empty((-(-n // tile), JAC_ROWS, cols, tile), th.dtype)
             fn = (
                 lib.aacmm_simd_batch_angles_tiled_f32
                 if single
                 else lib.aacmm_simd_batch_angles_tiled_f64
             )
         else:
-            j = np.empty((n, JAC_ROWS, JAC_COLS), dtype=th.dtype) if jacobian else None
+            j = np.empty((n, JAC_ROWS, cols), dtype=th.dtype) if jacobian else None
             fn = lib.aacmm_simd_batch_angles_f32 if single else lib.aacmm_simd_batch_angles_f64
         done = ffi.new("size_t *")
         ptr = _fptr if single else _dptr
@@ -475,15 +587,20 @@ class Model:
     def points_from_counts(
         self, counts: npt.ArrayLike, encoders: EncoderConfig | None = None
     ) -> tuple[FloatArray, FloatArray]:
-        """Points (n, 3) and Jacobians (n, 3, 25) from raw readings (n, 6).
+        """Points (n, 3) and Jacobians (n, 3, P) from raw readings (n, N).
 
         Counts -> angles with the core's converter (as the firmware), then the
         batch kernel; ``encoders`` defaults to 2^32 counts/rev, offset 0,
-        direction +1. Raises ValueError for readings outside 0 .. 2^32-1 or a
-        bad config, KinematicsError (``index`` = pose) for a reading >=
-        counts_per_rev.
+        direction +1 on each joint. Raises ValueError for readings outside
+        0 .. 2^32-1, a bad config or one of another joint count,
+        KinematicsError (``index`` = pose) for a reading >= counts_per_rev.
         """
-        p, j = self.points_jacobians(counts_to_angles(counts, encoders))
+        enc = encoders if encoders is not None else EncoderConfig.default(self.joints)
+        if enc.joints != self.joints:
+            raise ValueError(
+                f"the encoder configuration has {enc.joints} joints, the model {self.joints}"
+            )
+        p, j = self.points_jacobians(counts_to_angles(counts, enc))
         return p, j
 
     def abs_jacobian_sums(
@@ -492,25 +609,25 @@ class Model:
         scale: npt.ArrayLike | None = None,
         offset: npt.ArrayLike | None = None,
     ) -> tuple[FloatArray, FloatArray]:
-        """Sums over the poses of |J| and of J^2, each (3, 25).
+        """Sums over the poses of |J| and of J^2, each (3, P).
 
         The fused C loop on the batch kernel (``aacmm_simd_abs_jacobian_sums_f64``):
-        no Jacobian is stored. With ``scale`` and ``offset`` (six values
+        no Jacobian is stored. With ``scale`` and ``offset`` (N values
         each) the poses are ``theta_rad * scale + offset`` per joint, formed
         in C (the same values as computing them with numpy first, one pass
         less). Raises KinematicsError for a bad pose.
         """
-        th = _poses(theta_rad)
-        s = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
-        q = np.zeros((JAC_ROWS, JAC_COLS), dtype=np.float64)
+        th = _poses(theta_rad, joints=self.joints)
+        s = np.zeros((JAC_ROWS, self.n_params), dtype=np.float64)
+        q = np.zeros((JAC_ROWS, self.n_params), dtype=np.float64)
         done = ffi.new("size_t *")
         if scale is None and offset is None:
             st = lib.aacmm_simd_abs_jacobian_sums_f64(
                 _current_kernel(), self._c, th.shape[0], _dptr(th), _dptr(s), _dptr(q), done
             )
         else:
-            sc = np.ascontiguousarray(scale, dtype=np.float64).reshape(JOINTS)
-            off = np.ascontiguousarray(offset, dtype=np.float64).reshape(JOINTS)
+            sc = np.ascontiguousarray(scale, dtype=np.float64).reshape(self.joints)
+            off = np.ascontiguousarray(offset, dtype=np.float64).reshape(self.joints)
             st = lib.aacmm_simd_abs_jacobian_sums_scaled_f64(
                 _current_kernel(),
                 self._c,
@@ -526,25 +643,27 @@ class Model:
         return s, q
 
 
-def _counts(counts: npt.ArrayLike) -> npt.NDArray[np.uint32]:
+def _counts(counts: npt.ArrayLike, joints: int) -> npt.NDArray[np.uint32]:
     raw = np.asarray(counts)
-    if raw.ndim == 1 and raw.size == JOINTS:
-        raw = raw.reshape(1, JOINTS)
-    if raw.ndim != 2 or raw.shape[1] != JOINTS:
-        raise ValueError(f"encoder readings must have shape (n, {JOINTS}), got {raw.shape}")
+    if raw.ndim == 1 and raw.size == joints:
+        raw = raw.reshape(1, joints)
+    if raw.ndim != 2 or raw.shape[1] != joints:
+        raise ValueError(f"encoder readings must have shape (n, {joints}), got {raw.shape}")
     if raw.size and (raw.min() < 0 or raw.max() > 0xFFFFFFFF):
         raise ValueError("encoder readings must be in 0 .. 2^32-1")
     return np.ascontiguousarray(raw, dtype=np.uint32)
 
 
 def counts_to_angles(counts: npt.ArrayLike, encoders: EncoderConfig | None = None) -> FloatArray:
-    """Joint angles (n, 6) in rad from raw readings (n, 6) with the core's converter.
+    """Joint angles (n, N) in rad from raw readings (n, N) with the core's converter.
 
+    N is the encoder configuration's joint count (default: the paper's six).
     Raises ValueError for negative or non-integer-range readings and
     KinematicsError for a reading >= counts_per_rev.
     """
-    c = _counts(counts)
-    enc = (encoders or EncoderConfig()).to_c()
+    cfg = encoders or EncoderConfig()
+    c = _counts(counts, cfg.joints)
+    enc = cfg.to_c()
     out = np.empty(c.shape, dtype=np.float64)
     done = ffi.new("size_t *")
     st = lib.aacmm_counts_to_angles_f64(
@@ -554,24 +673,28 @@ def counts_to_angles(counts: npt.ArrayLike, encoders: EncoderConfig | None = Non
     return out
 
 
-def perturbed_points(nominal: Params, delta: npt.ArrayLike, theta_rad: npt.ArrayLike) -> FloatArray:
+def perturbed_points(
+    nominal: Params | Arm, delta: npt.ArrayLike, theta_rad: npt.ArrayLike
+) -> FloatArray:
     """Probe points (T, n, 3) of arms with parameters ``nominal + delta[t]``.
 
-    ``delta`` is (T, 25) in Jacobian column order (rad and mm); one model is
-    built per trial and evaluated at every pose of ``theta_rad`` (n, 6) on the
+    ``delta`` is (T, P) in Jacobian column order (rad and mm; P = 25 for
+    :class:`Params`, :attr:`aacmm.arm.Arm.n_params` for an arm); one model is
+    built per trial and evaluated at every pose of ``theta_rad`` (n, N) on the
     batch kernel (as :meth:`Model.points`).
     Raises ValueError for bad shapes and KinematicsError (``index`` = trial)
     if a perturbed parameter set or a pose is invalid.
     """
+    arm = nominal.to_arm() if isinstance(nominal, Params) else nominal
     d = np.ascontiguousarray(delta, dtype=np.float64)
-    if d.ndim != 2 or d.shape[1] != JAC_COLS:
-        raise ValueError(f"parameter deltas must have shape (T, {JAC_COLS}), got {d.shape}")
-    th = _poses(theta_rad)
+    if d.ndim != 2 or d.shape[1] != arm.n_params:
+        raise ValueError(f"parameter deltas must have shape (T, {arm.n_params}), got {d.shape}")
+    th = _poses(theta_rad, joints=arm.n_joints)
     out = np.empty((d.shape[0], th.shape[0], 3), dtype=np.float64)
     done = ffi.new("size_t *")
     st = lib.aacmm_simd_perturbed_points_f64(
         _current_kernel(),
-        nominal.to_c(),
+        _arm_c(arm),
         d.shape[0],
         _dptr(d),
         th.shape[0],
