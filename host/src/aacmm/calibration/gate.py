@@ -80,6 +80,7 @@ SYMMETRIES = frozenset({"theta1", "d1", "tip"})
 CHECKS = ("session", "rank", "uncertainty", "correlation", "prediction", "validation")
 DEFAULT_PAIRS = 500
 DEFAULT_SEED = 2024
+DEFAULT_CONFIDENCE = 0.99
 
 
 @dataclass(frozen=True)
@@ -100,6 +101,7 @@ class GateLimits:
     max_correlation: float = 0.9995
     pairs: int = DEFAULT_PAIRS
     seed: int = DEFAULT_SEED
+    confidence: float = DEFAULT_CONFIDENCE
 
     def __post_init__(self) -> None:
         for name in ("max_u_length_mm", "max_u_angle_rad"):
@@ -110,6 +112,8 @@ class GateLimits:
             raise ValueError(f"max_correlation must be in (0, 1], got {self.max_correlation}")
         if self.pairs < 1:
             raise ValueError(f"pairs must be >= 1, got {self.pairs}")
+        if not 0.5 <= self.confidence < 1:
+            raise ValueError(f"confidence must be in [0.5, 1), got {self.confidence}")
 
 
 @dataclass(frozen=True)
@@ -142,8 +146,11 @@ class Prediction:
     ``calibrated_rms_mm`` (U) and ``calibrated_p95_mm``: the calibrated set's
     predicted length error, RMS and 95th percentile over the pairs;
     ``change_rms_mm`` (D); ``in_force_rms_mm`` (S, estimated from the data);
-    ``previous_rms_mm`` (U_prev) and ``previous_source`` when the set in
-    force's provenance is known.
+    ``dof``: the effective degrees of freedom of D^2 (Satterthwaite) and
+    ``change_limit_mm``: the change that the calibration's own uncertainty
+    explains with probability ``confidence`` (D must exceed it to show the set
+    in force worse than the calibration); ``previous_rms_mm`` (U_prev) and
+    ``previous_source`` when the set in force's provenance is known.
     """
 
     pairs: int
@@ -152,8 +159,22 @@ class Prediction:
     calibrated_p95_mm: float
     change_rms_mm: float
     in_force_rms_mm: float
+    dof: float
+    confidence: float
+    change_limit_mm: float
     previous_rms_mm: float | None = None
     previous_source: str | None = None
+
+    @property
+    def significant(self) -> bool:
+        """The change exceeds what the calibration's own uncertainty explains: the
+        data show the set in force to be worse than the calibrated set."""
+        return self.change_rms_mm > self.change_limit_mm
+
+    @property
+    def beats_previous(self) -> bool:
+        """A previous calibration made the set in force, and predicted more error."""
+        return self.previous_rms_mm is not None and self.calibrated_rms_mm < self.previous_rms_mm
 
     @property
     def set_in_force_mm(self) -> float:
@@ -164,29 +185,30 @@ class Prediction:
     @property
     def improves(self) -> bool:
         """Writing the calibration is expected to reduce the length errors."""
-        return self.calibrated_rms_mm < self.set_in_force_mm
+        return self.significant or self.beats_previous
 
     def describe(self) -> str:
         """One line: both predictions and where the set in force's comes from."""
         um = 1e3
-        force = (
-            f"{self.set_in_force_mm * um:.2f} um for the set in force ("
-            + (
-                f"as its calibration predicted, {self.previous_source}"
-                if self.previous_rms_mm is not None and self.previous_rms_mm >= self.in_force_rms_mm
-                else "estimated from the change the calibration makes"
-            )
-            + f"; change {self.change_rms_mm * um:.2f} um RMS)"
+        prev = (
+            f"; its own calibration predicted {self.previous_rms_mm * um:.3g} um "
+            f"({self.previous_source})"
+            if self.previous_rms_mm is not None
+            else ""
         )
         return (
             f"predicted length error over the workspace ({self.pairs} random pose pairs, "
-            f"k = 1, RMS): {self.calibrated_rms_mm * um:.2f} um for the calibrated set "
-            f"(95 % of pairs below {self.calibrated_p95_mm * um:.2f} um) vs {force}"
+            f"k = 1, RMS): {self.calibrated_rms_mm * um:.3g} um for the calibrated set "
+            f"(95 % of pairs below {self.calibrated_p95_mm * um:.3g} um); the set in force "
+            f"{self.in_force_rms_mm * um:.3g} um as the data show it (the change "
+            f"{self.change_rms_mm * um:.3g} um RMS, its own uncertainty explaining up to "
+            f"{self.change_limit_mm * um:.3g} um at {self.confidence:.0%}){prev}"
         )
 
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
         d["set_in_force_mm"] = self.set_in_force_mm
+        d["significant"] = self.significant
         d["improves"] = self.improves
         return d
 
@@ -230,19 +252,39 @@ def workspace_pairs(pairs: int, seed: int) -> FloatArray:
     return out
 
 
+def length_gradients(params: Params, theta_rad: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Distances (n,) between consecutive pose pairs of ``theta_rad`` (2n, 6) and their
+    gradients (n, 25) with respect to the 25 parameters (rad, mm)."""
+    p, j = Model(params).points_jacobians(theta_rad)
+    d = p[0::2] - p[1::2]
+    length = np.linalg.norm(d, axis=1)
+    u = d / np.maximum(length, 1e-300)[:, None]
+    g: FloatArray = np.einsum("na,nak->nk", u, j[0::2] - j[1::2])
+    return length, g
+
+
 def length_uncertainty(
     params: Params, covariance: FloatArray, theta_rad: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """Distances (n,) between consecutive pose pairs of ``theta_rad`` (2n, 6) and
     their standard uncertainties (n,) from ``covariance`` (25, 25)."""
-    cov = np.asarray(covariance, dtype=np.float64)
-    p, j = Model(params).points_jacobians(theta_rad)
-    d = p[0::2] - p[1::2]
-    length = np.linalg.norm(d, axis=1)
-    u = d / np.maximum(length, 1e-300)[:, None]
-    g = np.einsum("na,nak->nk", u, j[0::2] - j[1::2])
-    var = np.einsum("nk,kl,nl->n", g, cov, g)
+    length, g = length_gradients(params, theta_rad)
+    var = np.einsum("nk,kl,nl->n", g, np.asarray(covariance, dtype=np.float64), g)
     return length, np.sqrt(np.clip(var, 0.0, None))
+
+
+def _change_dof(g: FloatArray, cov: FloatArray) -> float:
+    """Effective degrees of freedom of D^2 = mean((g dp)^2) for dp ~ N(0, cov):
+    a weighted sum of chi-square(1) variables whose weights are the eigenvalues of
+    C^T M C (M = mean g^T g, cov = C C^T), taken as a scaled chi-square
+    (Satterthwaite): (sum w)^2 / sum w^2."""
+    lam, vec = np.linalg.eigh(0.5 * (cov + cov.T))
+    c = vec * np.sqrt(np.clip(lam, 0.0, None))
+    gc = g @ c
+    w = np.linalg.eigvalsh(gc.T @ gc / g.shape[0])
+    w = np.clip(w, 0.0, None)
+    total = float(w.sum())
+    return total**2 / float(np.sum(w**2)) if total > 0 else 1.0
 
 
 def predict(
@@ -250,20 +292,48 @@ def predict(
     previous: PreviousCalibration | None = None,
     pairs: int = DEFAULT_PAIRS,
     seed: int = DEFAULT_SEED,
+    confidence: float = DEFAULT_CONFIDENCE,
 ) -> Prediction:
-    """The predicted length errors of the calibrated set and of the set in force."""
+    """The predicted length errors of the calibrated set and of the set in force.
+
+    The change is significant when D^2 > U^2 (1 + q), q the ``confidence``
+    quantile of chi-square(nu) / nu with nu the effective degrees of freedom
+    of D^2 (:func:`_change_dof`): then S^2 = D^2 - U^2 > q U^2, the set in force
+    shown worse than the calibrated set with a margin for the scatter of D
+    itself (few effective degrees of freedom: a few parameter directions
+    carry the change).
+    """
+    from scipy import stats
+
     theta = workspace_pairs(pairs, seed)
-    l_cal, u = length_uncertainty(res.params, res.scaled_covariance, theta)
+    cov = res.scaled_covariance
+    l_cal, g = length_gradients(res.params, theta)
+    u = np.sqrt(np.clip(np.einsum("nk,kl,nl->n", g, cov, g), 0.0, None))
     p0 = Model(res.start).points(theta)
     l_start = np.linalg.norm(p0[0::2] - p0[1::2], axis=1)
     big_u = float(np.sqrt(np.mean(u**2)))
     big_d = float(np.sqrt(np.mean((l_cal - l_start) ** 2)))
     s = math.sqrt(max(0.0, big_d**2 - big_u**2))
+    nu = _change_dof(g, cov) if big_u > 0 else 1.0
+    q = float(stats.chi2.ppf(confidence, nu) / nu)
+    limit = big_u * math.sqrt(1.0 + q)
     prev = prev_src = None
     if previous is not None:
         _, u_prev = length_uncertainty(previous.params, previous.covariance, theta)
         prev, prev_src = float(np.sqrt(np.mean(u_prev**2))), previous.source
-    return Prediction(pairs, seed, big_u, float(np.quantile(u, 0.95)), big_d, s, prev, prev_src)
+    return Prediction(
+        pairs,
+        seed,
+        big_u,
+        float(np.quantile(u, 0.95)),
+        big_d,
+        s,
+        nu,
+        confidence,
+        limit,
+        prev,
+        prev_src,
+    )
 
 
 def previous_from_provenance(data: Any, source: str) -> PreviousCalibration:
@@ -395,20 +465,19 @@ def _prediction_refusals(p: Prediction) -> list[Refusal]:
     if p.improves:
         return []
     um = 1e3
-    if p.previous_rms_mm is not None and p.previous_rms_mm >= p.in_force_rms_mm:
-        why = f"as its own calibration predicted ({p.previous_source})"
-    elif p.in_force_rms_mm == 0.0:
-        why = (
-            f"estimated: the change the calibration makes, {p.change_rms_mm * um:.3g} um RMS, "
-            "is within its own uncertainty"
-        )
-    else:
-        why = f"estimated from the change the calibration makes, {p.change_rms_mm * um:.3g} um RMS"
+    prev = (
+        f"; the set in force's own calibration predicted {p.previous_rms_mm * um:.3g} um "
+        f"({p.previous_source})"
+        if p.previous_rms_mm is not None
+        else ""
+    )
     return [
         Refusal(
             "prediction",
-            f"predicted length error {p.calibrated_rms_mm * um:.3g} um RMS over the workspace, "
-            f"not below the set in force's {p.set_in_force_mm * um:.3g} um ({why})",
+            f"not shown to be better than the set in force: the change it makes, "
+            f"{p.change_rms_mm * um:.3g} um RMS over the workspace, is within what its own "
+            f"uncertainty explains ({p.change_limit_mm * um:.3g} um at {p.confidence:.0%}; "
+            f"predicted length error {p.calibrated_rms_mm * um:.3g} um RMS){prev}",
         )
     ]
 
@@ -444,7 +513,7 @@ def assess(
     comparison on held-out sessions, if any.
     """
     lim = limits or GateLimits()
-    pred = predict(res, previous, lim.pairs, lim.seed)
+    pred = predict(res, previous, lim.pairs, lim.seed, lim.confidence)
     refusals = [
         *_session_refusals(sessions),
         *_rank_refusals(res),

@@ -153,15 +153,15 @@ def before_after(before: dict[str, Any], after: dict[str, Any]) -> BeforeAfter:
     by_key = {r["key"]: r for r in rows}
     headline = []
     for k, label in HEADLINE:
-        r = by_key.get(k)
-        if r is None or r["before_mm"] is None or r["after_mm"] is None:
+        h = by_key.get(k)
+        if h is None or h["before_mm"] is None or h["after_mm"] is None:
             continue
-        if r["worse"]:
-            headline.append(f"{label} WORSE: grew {r['change'].split()[0]}")
-        elif r["factor"] is not None and abs(r["after_mm"]) < abs(r["before_mm"]):
-            headline.append(f"{label} fell {r['change'].split()[0]}")
+        if h["worse"]:
+            headline.append(f"{label} WORSE: grew {h['change'].split()[0]}")
+        elif h["factor"] is not None and abs(h["after_mm"]) < abs(h["before_mm"]):
+            headline.append(f"{label} fell {h['change'].split()[0]}")
         else:
-            headline.append(f"{label} {r['change']}")
+            headline.append(f"{label} {h['change']}")
     if headline:
         lines.append("calibration: " + ", ".join(headline))
     worse = [r for r in rows if r["worse"]]
