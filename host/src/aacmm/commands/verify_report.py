@@ -274,6 +274,7 @@ def figure_names(rep: Report) -> list[str]:
 PAGE_W_IN, PAGE_H_IN = 8.27, 11.69  # A4 portrait
 LEFT, RIGHT = 0.07, 0.93  # text margins (page fraction)
 FOOT = 0.055  # the signature line sits below
+MAX_NOTES = 6
 #: what "value" and "where" mean in the results table (text report and page)
 VALUE_NOTE = (
     "value: each test's worst value relative to its acceptance limit (the largest "
@@ -330,7 +331,10 @@ class _Page:
         ax.set_position((x0, y0, x1 - x0, y1 - y0))
         inv = self.fig.transFigure.inverted()
         for _ in range(4):
-            tb = inv.transform_bbox(ax.get_tightbbox(self.renderer))
+            tight = ax.get_tightbbox(self.renderer)
+            if tight is None:
+                break
+            tb = inv.transform_bbox(tight)
             pos = ax.get_position()
             left, right = pos.x0 - tb.x0, tb.x1 - pos.x1
             below, above = pos.y0 - tb.y0, tb.y1 - pos.y1
@@ -338,7 +342,10 @@ class _Page:
             ny0, ny1 = y0 + below, y1 - above
             if nx1 - nx0 < 0.05 or ny1 - ny0 < 0.03:
                 break
-            if max(abs(nx0 - pos.x0), abs(nx1 - pos.x1), abs(ny0 - pos.y0), abs(ny1 - pos.y1)) < 1e-4:
+            if (
+                max(abs(nx0 - pos.x0), abs(nx1 - pos.x1), abs(ny0 - pos.y0), abs(ny1 - pos.y1))
+                < 1e-4
+            ):
                 break
             ax.set_position((nx0, ny0, nx1 - nx0, ny1 - ny0))
 
@@ -390,10 +397,16 @@ def _details(page: _Page, rep: Report) -> None:
     than a page) is counted and pointed to report.txt."""
     prose = [line for line in _detail_lines(rep) if not line.startswith("length ")]
     rows = _length_rows(rep) if rep.lengths else []
-    notes = [f"Note: {n}" for n in rep.notes]
+    notes = [f"Note: {n}" for n in rep.notes[:MAX_NOTES]]
+    if len(rep.notes) > MAX_NOTES:
+        notes.append(f"... and {len(rep.notes) - MAX_NOTES} more notes: see report.txt")
     tail = 3 * page.line_height(6.5) + 0.01  # definitions, assumptions, the pointer
-    page.text("Details (mm; every value of every test is in report.txt and report.json "
-              "beside this page):", 7, weight="bold")
+    page.text(
+        "Details (mm; every value of every test is in report.txt and report.json "
+        "beside this page):",
+        7,
+        weight="bold",
+    )
     for size in (6.5, 6.0, 5.5, 5.0):
         lh = page.line_height(size) + 0.0015
         avail = page.y - FOOT - tail - lh * len(notes)
@@ -519,7 +532,7 @@ def _one_page(rep: Report, source: str, when: _dt.datetime | None) -> Figure:
         )
     fig.text(
         LEFT,
-        0.03,
+        0.035,
         "Operator: ____________________    Signature: ____________________    Date: ____________",
         fontsize=8,
     )
