@@ -29,8 +29,8 @@ calibration and returns the reasons to refuse it (none: it may be written):
     set in force (an RMS figure of the before/after table grew).
 
 **Prediction.** Over ``pairs`` random pairs of workspace poses (every joint
-uniform in [-pi, pi), seeded; the same draw as the propagated point
-uncertainty uses), each pair's distance is computed with the start and the
+uniform in [-pi, pi), seeded, as the propagated point uncertainty draws its
+workspace), each pair's distance is computed with the start and the
 calibrated parameters. Distances are what every verification test measures
 (lengths, the scatter of one point probed from several articulations, sphere
 form): they do not depend on where the arm stands, so the held theta1 and d1
@@ -47,14 +47,17 @@ model is refuted):
   the calibration's own scatter explains;
 * when the set in force is itself a calibration whose provenance is known
   (:class:`PreviousCalibration`), its predicted length error U_prev (the
-  same computation with its covariance) is a floor for S: a set in force is
-  at least as uncertain as its own calibration said.
+  same computation with its covariance).
 
-The calibration is refused unless U < max(S, U_prev): writing it must be
-expected to leave the arm with smaller length errors than it has. When the
-change is within what the calibration's own uncertainty explains (D^2 <=
-2 U^2), nothing shows the set in force to be wrong, and a new set would
-replace it by one as uncertain as the change: the calibration lab's "as
+Writing helps when the set in force is worse than the calibrated set, S > U
+(D^2 > 2 U^2); the gate asks that the change be clearly larger than what the
+calibration's own scatter explains: D^2 > U^2 (1 + q), q the ``confidence``
+quantile (99 %) of chi-square(nu) / nu, nu the effective degrees of freedom
+of D^2 (a weighted sum of chi-square(1) variables, Satterthwaite; a few
+parameter directions carry the change, so nu is small and the margin real).
+A calibration that predicts less error than the previous one did (U <
+U_prev) passes too. Otherwise nothing shows the set in force to be wrong,
+and a new set would replace it by one no better: the calibration lab's "as
 found within tolerance, not adjusted".
 
 Pure library code: arrays and dataclasses in, a :class:`GateResult` out.
