@@ -96,7 +96,8 @@ def test_short_verification_session_refused_then_overridden(
     (t / "points.csv").write_text("".join(lines[:41]))
     out, rep = tmp_path / "bad.toml", tmp_path / "rep"
     for quiet in (["-q"], []):
-        p = run("calibrate", str(t), "-o", str(out), "--report", str(rep), *quiet, timeout=300)
+        p = run("calibrate", str(t), "-o", str(out), "--report", str(rep), *quiet,
+                "--workspace", "0", timeout=300)  # fmt: skip
         if not quiet:  # the solver's progress first, then the one line
             last = p.stderr.strip().splitlines()[-1]
             p.stderr = last + "\n"
@@ -107,7 +108,9 @@ def test_short_verification_session_refused_then_overridden(
         for check in ("[session]", "[uncertainty]", "[prediction]"):
             assert check in p.stdout, check
         assert _no_outputs(tmp_path) == [] and not rep.exists()
-    code, stdout, err = calibrate_cli(str(t), "-o", str(out), "--override", "-q")
+    code, stdout, err = calibrate_cli(
+        str(t), "-o", str(out), "--override", "-q", "--workspace", "0"
+    )
     assert code == 0, err
     assert "written anyway (--override)" in stdout
     assert "written with --override although the quality gate refused it" in err
@@ -128,10 +131,13 @@ def test_interrupted_session_refused(arm: dict[str, object], tmp_path: Path) -> 
     truth, rng = arm["truth"], arm["rng"]
     s = sample(load_plan("kinematic-calibration"), truth, record(Params()), rng, limit=100)  # type: ignore[arg-type]
     folder = write_session(tmp_path / "s", s, SERIAL)
-    p = run("calibrate", str(folder), "-o", str(tmp_path / "c.toml"), "-q", timeout=300)
+    p = run("calibrate", str(folder), "-o", str(tmp_path / "c.toml"), "-q", "--workspace", "0",
+            timeout=300)  # fmt: skip
     one_error_line(p, REFUSED, "interrupted", "100 of 135 points", "capture --resume")
     assert _no_outputs(tmp_path) == []
-    code, _, err = calibrate_cli(str(folder), "-o", str(tmp_path / "c.toml"), "-q", "--override")
+    code, _, err = calibrate_cli(
+        str(folder), "-o", str(tmp_path / "c.toml"), "-q", "--override", "--workspace", "0"
+    )
     assert code == 0, err
     prov = json.loads((tmp_path / "c.provenance.json").read_text())
     assert [r["check"] for r in prov["quality_gate"]["refusals"]] == ["session"]
@@ -143,7 +149,8 @@ def test_one_cone_seat_refused(arm: dict[str, object], tmp_path: Path) -> None:
     truth, rng = arm["truth"], arm["rng"]
     s = sample(load_plan("probe-calibration"), truth, record(Params()), rng)  # type: ignore[arg-type]
     folder = write_session(tmp_path / "s", s, SERIAL)
-    p = run("calibrate", str(folder), "-o", str(tmp_path / "c.toml"), "-q", timeout=300)
+    p = run("calibrate", str(folder), "-o", str(tmp_path / "c.toml"), "-q", "--workspace", "0",
+            timeout=300)  # fmt: skip
     one_error_line(p, REFUSED, "rank", "scale")
     assert "add a calibrated length" in p.stderr
     assert _no_outputs(tmp_path) == []
