@@ -273,12 +273,14 @@ def _session_set(session: Session) -> ParamSetRecord:
 
 
 def _device_identity(s: Session) -> tuple[int | None, str | None]:
-    """The session's device serial number and firmware version (None where not recorded)."""
+    """The session's device serial number and firmware version (None where not recorded,
+    or not a plausible value: the sidecar is input like any other)."""
     dev = s.device or {}
     serial = dev.get("serial_number")
     fw = dev.get("firmware")
     ok_serial = isinstance(serial, int) and not isinstance(serial, bool) and serial >= 0
-    return (serial if ok_serial else None), (fw if isinstance(fw, str) else None)
+    ok_fw = isinstance(fw, str) and 0 < len(fw) <= 64 and fw.isprintable()
+    return (serial if ok_serial else None), (fw if ok_fw else None)
 
 
 def _same_arm(ref: SessionSource, src: SessionSource) -> None:

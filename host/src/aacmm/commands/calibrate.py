@@ -467,6 +467,11 @@ def _probe_text(pr: Any) -> str:
     )
 
 
+def _comment(text: str) -> str:
+    """``text`` fit for one TOML comment line (a path may hold any character)."""
+    return "".join(ch if ch.isprintable() else "?" for ch in text)
+
+
 def _arm_table(data: Any) -> dict[str, Any]:
     """The parameter file's ``[arm]`` table: whose calibration it is (docs/cli.md)."""
     out: dict[str, Any] = {}
@@ -485,13 +490,15 @@ def _param_file_text(data: Any, res: Any, args: argparse.Namespace, gate: Any) -
 
     ps = ParamSetRecord(0, res.params, data.encoders).to_device()
     param_set_from_mapping(param_set_dict(ps), args.output)  # the loader's own checks
+    sources = _comment(", ".join(s.path for s in data.sources))
+    sidecar = _comment(provenance_path(args.output).name)
     head = (
-        f"# calibrated by aacmm calibrate from {', '.join(s.path for s in data.sources)}\n"
-        f"# provenance (sessions, residuals, covariance): {provenance_path(args.output).name}\n"
+        f"# calibrated by aacmm calibrate from {sources}\n"
+        f"# provenance (sessions, residuals, covariance): {sidecar}\n"
     )
     if not gate.passed:
         head += "# WRITTEN WITH --override: the quality gate refused this calibration:\n"
-        head += "".join(f"#   [{r.check}] {r.message}\n" for r in gate.refusals)
+        head += "".join(f"#   [{r.check}] {_comment(r.message)}\n" for r in gate.refusals)
     return head + dump_param_set(ps, "toml", param_set_crc32(ps), arm=_arm_table(data))
 
 
