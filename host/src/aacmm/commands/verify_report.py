@@ -426,8 +426,20 @@ def _details(page: _Page, rep: Report) -> None:
             fits = room >= 1 and per_col <= room
         if fits or size == 5.0:
             break
-    for t in prose:
+    budget = int(avail // lh) - (3 if rows else 0)  # rows: their header, one row, a pointer
+    used = 0
+    for k, t in enumerate(prose):
+        n = len(page.wrap(t, size, RIGHT - LEFT))
+        if used + n > budget - (1 if k < len(prose) - 1 else 0):
+            page.text(
+                f"... and {len(prose) - k} more detail lines, not shown for want of room: see "
+                "report.txt (in the same folder as this PDF)",
+                size,
+                weight="bold",
+            )
+            break
         page.text(t, size)
+        used += n
     shown = len(rows) - 1
     if rows:
         room = int((page.y - FOOT - tail - lh * len(notes)) // lh) - 1
