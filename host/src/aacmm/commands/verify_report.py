@@ -463,8 +463,8 @@ def _details(page: _Page, rep: Report) -> None:
             size,
             weight="bold",
         )
-    for n in notes:
-        page.text(n, size)
+    for note in notes:
+        page.text(note, size)
 
 
 def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figure:
