@@ -1,22 +1,24 @@
 # Calibration (issue 12): aacmm.calibration (identification engine, identifiability,
 # covariance, validation, probe calibration), its tests against synthetic truths,
-# lint, and the benchmark. BLAS runs on one thread: the engine's matrices are tall
+# lint, and the benchmark; the quality gate and the arm's identity (issue 24:
+# tests/host/test_calibration_gate.py, the 20-arm study of tests/host/gate_study.py). BLAS runs on one thread: the engine's matrices are tall
 # and thin, where OpenBLAS threads only contend on a shared machine (docs/calibration.md).
 
 CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
                   tests/host/test_calibration_report.py tests/host/test_calibration_cli.py \
-                  tests/host/test_calibration_e2e.py \
-                  host/src/aacmm/commands/calibrate.py \
+                  tests/host/test_calibration_e2e.py tests/host/test_calibration_gate.py \
+                  tests/host/gate_study.py host/src/aacmm/commands/calibrate.py \
                   tests/host/calib_synth.py bench/bench_calibration.py bench/calibration_figures.py
 CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 .PHONY: test-calibration test-calibration-lint bench-calibration
 
-#> test-calibration     engine vs synthetic truths (200 seeded runs), reports, aacmm calibrate, end to end on the simulator
+#> test-calibration     engine vs synthetic truths (200 seeded runs), reports, aacmm calibrate, end to end on the simulator, the quality gate (20 random arms)
 test-calibration: sim
 	$(CALIB_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_calibration.py tests/host/test_calibration_report.py \
-	    tests/host/test_calibration_cli.py tests/host/test_calibration_e2e.py
+	    tests/host/test_calibration_cli.py tests/host/test_calibration_e2e.py \
+	    tests/host/test_calibration_gate.py
 	@$(MAKE) --no-print-directory test-calibration-lint
 
 #> test-calibration-lint  ruff, ruff format, mypy on the calibration code (part of test-calibration)

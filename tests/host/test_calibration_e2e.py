@@ -12,7 +12,10 @@ it, as a user would run them. Then:
 3. that calibration loaded into the device (``aacmm params set --save``), a
    fresh session of the same plan (other articulations): the calibrated arm's
    own length errors and seat dispersions are at least 20x smaller than the
-   uncalibrated arm's.
+   uncalibrated arm's;
+4. the repro of issue 24: the calibrated arm passes its verification; that
+   session cut to 40 of its points is refused by the quality gate; forced
+   with ``--override`` and loaded, it makes the next verification fail.
 
 The truths are compared only here, never read by the calibration.
 """
@@ -37,6 +40,7 @@ from aacmm.simulation.truth import ErrorSources, Truth, random_truth
 pytestmark = pytest.mark.timeout(600)
 AACMM = Path(sys.executable).with_name("aacmm")
 PLAN = "kinematic-calibration"
+VERIFY_PLAN = "arm-verification"
 SIGMA_UM = 2.0
 
 
@@ -58,11 +62,17 @@ def _aacmm(*args: str, timeout: float = 240) -> subprocess.CompletedProcess[str]
 
 
 def _capture(
-    folder: Path, name: str, truth: Path | str, storage: Path, seed: int, *extra: str
+    folder: Path,
+    name: str,
+    truth: Path | str,
+    storage: Path,
+    seed: int,
+    *extra: str,
+    plan: str = PLAN,
 ) -> Path:
     """One scenario run: the simulated operator performs the plan, capture records it."""
     sim = subprocess.Popen(
-        [str(AACMM), "sim", "--scenario", PLAN, "--fast", "--truth", str(truth),
+        [str(AACMM), "sim", "--scenario", plan, "--fast", "--truth", str(truth),
          "--storage", str(storage), "--seed", str(seed), "--quiet", *extra],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
     )  # fmt: skip
@@ -71,7 +81,7 @@ def _capture(
         url = sim.stdout.readline().strip()
         assert url.startswith("serial://"), sim.stderr.read() if sim.stderr else ""
         session = folder / name
-        cap = _aacmm("capture", PLAN, "-o", str(session), "--port", url, "-q")
+        cap = _aacmm("capture", plan, "-o", str(session), "--port", url, "-q")
         assert cap.returncode == 0, cap.stderr
         _, err = sim.communicate(timeout=120)
         assert sim.returncode == 0, err
@@ -82,10 +92,11 @@ def _capture(
     return session
 
 
-def _params_set(storage: Path, param_file: Path) -> None:
-    """``aacmm params set FILE --save`` on the simulated device (its storage file)."""
+def _params_set(storage: Path, param_file: Path, truth: Path) -> None:
+    """``aacmm params set FILE --save`` on the simulated device (its storage file; the
+    same true arm, so the same device serial number)."""
     sim = subprocess.Popen(
-        [str(AACMM), "sim", "--storage", str(storage), "--quiet"],
+        [str(AACMM), "sim", "--truth", str(truth), "--storage", str(storage), "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
     )  # fmt: skip
     try:
@@ -146,7 +157,7 @@ def test_end_to_end_on_the_simulator(tmp_path: Path) -> None:
         )
 
     # 3. load it into the device, take a fresh session: errors fall by >= 20x
-    _params_set(storage, cal)
+    _params_set(storage, cal, t_ecc)
     s2 = _capture(tmp_path, "s2", t_ecc, storage, 3)
     before = load_sessions([s1], SIGMA_UM / 1000)
     after = load_sessions([s2], SIGMA_UM / 1000)
@@ -165,6 +176,36 @@ def test_end_to_end_on_the_simulator(tmp_path: Path) -> None:
         m_after.summary(),
     )
     assert np.isfinite(m_after.length_max) and m_after.length_max < 0.05
+
+    # 4. the issue's repro (#24): the calibrated arm passes its verification; a
+    # verification session cut to 40 of its points is refused (exit 9, nothing
+    # written); forced with --override and loaded, the next verification fails
+    v1 = _capture(tmp_path, "v1", t_ecc, storage, 4, plan=VERIFY_PLAN)
+    e_before = _e_uni(v1, 0)
+    cut = tmp_path / "cut"
+    cut.mkdir()
+    for name in ("session.json", "events.csv", "progress.json"):
+        (cut / name).write_bytes((v1 / name).read_bytes())
+    rows = (v1 / "points.csv").read_text().splitlines(keepends=True)
+    (cut / "points.csv").write_text("".join(rows[:41]))  # head -41: 40 points
+    bad = tmp_path / "bad.toml"
+    r = _aacmm("calibrate", str(cut), "-o", str(bad), "-q", "--workspace", "0")
+    assert r.returncode == 9 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "refused" in r.stderr and not bad.exists()
+    r = _aacmm("calibrate", str(cut), "-o", str(bad), "-q", "--workspace", "0", "--override")
+    assert r.returncode == 0, r.stderr
+    _params_set(storage, bad, t_ecc)
+    v2 = _capture(tmp_path, "v2", t_ecc, storage, 5, plan=VERIFY_PLAN)
+    e_after = _e_uni(v2, 7)
+    assert e_after > 5 * e_before, (e_before, e_after)
+
+
+def _e_uni(session: Path, code: int) -> float:
+    """``aacmm verify SESSION``'s |E_Uni| (mm); its exit status must be ``code``."""
+    r = _aacmm("verify", str(session), "--json", "-")
+    assert r.returncode == code, (r.returncode, r.stderr, r.stdout[-2000:])
+    res = {x["key"]: x for x in json.loads(r.stdout)["results"]}
+    return abs(float(res["e_uni"]["value_mm"]))
 
 
 def test_misprobe_reported_as_the_user_numbered_it(tmp_path: Path) -> None:

@@ -23,6 +23,7 @@ wrote, never against the demo's own arithmetic:
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -101,10 +102,17 @@ def before_after_table(stdout: str) -> dict[str, dict[str, Any]]:
     rows: dict[str, dict[str, Any]] = {}
     for s in _block(stdout, "aacmm demo --compare ."):
         m = re.match(
-            rf"(.+?)\s+{NUM}\s+{NUM}\s+([\d./]+)\s+(\d+)x\s+(PASS|FAIL) -> (PASS|FAIL)$", s
+            rf"(.+?)\s+{NUM}\s+{NUM}\s+([\d./]+)\s+([\d.]+x (?:better|worse))\s+"
+            r"(PASS|FAIL) -> (PASS|FAIL)$",
+            s,
         )
         if m:
-            rows[m[1]] = {"before": float(m[2]), "after": float(m[3]), "verdicts": (m[6], m[7])}
+            rows[m[1]] = {
+                "before": float(m[2]),
+                "after": float(m[3]),
+                "change": m[5],
+                "verdicts": (m[6], m[7]),
+            }
         elif s.startswith("verdict"):
             rows["verdict"] = {"verdicts": tuple(s.split()[1:3])}
     return rows
@@ -315,3 +323,81 @@ def test_steps_outputs_and_the_earlier_demo(demo: Run) -> None:
     ):
         assert (demo.out / name).stat().st_size > 0, name
     assert (demo.out / "demo.txt").read_text().strip() == demo.stdout.strip()
+
+
+# ------------------------------------------------- honest comparisons, the arm's identity (#24)
+
+
+def _demo_folder(tmp: Path, before: Params, after: Params, serial: int = 4242) -> Path:
+    """A demo folder with two verification sessions of the arm-verification plan, the
+    device computing with ``before`` and ``after`` on a true arm equal to ``before``
+    (so the "calibration" ``after`` makes it worse), and their ``aacmm verify`` reports."""
+    import verify_sessions as vs
+
+    folder = tmp / "demo"
+    folder.mkdir()
+    plan = load_plan(PLAN)
+    for k, (name, stored) in enumerate((("before", before), ("after", after))):
+        rng = np.random.default_rng(40 + k)
+        vs.write_session(folder / name, plan, rng, 0.001, stored=stored, truth=before)
+        meta = json.loads((folder / name / "session.json").read_text())
+        meta["device"]["serial_number"] = serial
+        (folder / name / "session.json").write_text(json.dumps(meta))
+        p = run("verify", name, "--report", f"{name}-report", "-q", cwd=folder)
+        assert p.returncode in (0, 7), p.stderr
+    return folder
+
+
+def test_compare_pass_to_fail_says_worse_and_exits_11(tmp_path: Path) -> None:
+    v = Params().to_vector()
+    v[12 + 2] += 0.3  # d3 +0.3 mm: the "calibration" breaks a good arm
+    v[6 + 4] += 5e-4
+    folder = _demo_folder(tmp_path, Params(), Params.from_vector(v))
+    p = run("demo", "--compare", str(folder))
+    assert p.returncode == 11, (p.returncode, p.stdout, p.stderr)
+    rows = {}
+    for s in p.stdout.splitlines():
+        m = re.match(
+            rf"(.+?)\s+{NUM}\s+{NUM}\s+[\d./]+\s+(\S+) (better|worse)\s+(\w+) -> (\w+)$", s
+        )
+        if m:
+            rows[m[1]] = (float(m[2]), float(m[3]), float(m[4].removesuffix("x")), m[5], m[6], m[7])
+    b, a, factor, word, vb, va = rows[E_UNI]
+    assert (vb, va) == ("PASS", "FAIL") and word == "worse"
+    assert factor == pytest.approx(abs(a) / abs(b), rel=0.02) and factor > 10
+    assert re.search(r"length error E_Uni WORSE: grew [\d.]+x", p.stdout)
+    assert "WORSE after than before" in p.stdout and "fell 0x" not in p.stdout
+    table = json.loads((folder / "before-after.json").read_text())
+    assert "e_uni" in table["worse"] and table["verdict_after"] == "FAIL"
+    # the other way round it is better, and says so: exit 0 once the arm passes
+    (folder / "before-report").rename(folder / "x")
+    (folder / "after-report").rename(folder / "before-report")
+    (folder / "x").rename(folder / "after-report")
+    p = run("demo", "--compare", str(folder), "-f")
+    assert p.returncode == 0, (p.stdout, p.stderr)
+    assert re.search(r"length error E_Uni fell [\d.]+x", p.stdout) and " worse " not in p.stdout
+
+
+def test_compare_and_check_refuse_another_arm(tmp_path: Path) -> None:
+    from aacmm.simulation.truth import random_truth
+
+    folder = _demo_folder(tmp_path, Params(), Params())
+    meta = json.loads((folder / "after-report" / "report.json").read_text())
+    meta["session"]["device"] = "serial 999"
+    (folder / "after-report" / "report.json").write_text(json.dumps(meta))
+    p = run("demo", "--compare", str(folder))
+    assert p.returncode == 10 and "two arms" in p.stderr, (p.returncode, p.stderr)
+    assert len(p.stderr.strip().splitlines()) == 1
+    truth = random_truth(5)  # another arm: its serial number is not the sessions' 4242
+    (folder / "arm").mkdir()
+    (folder / "arm" / "truth.toml").write_text(truth.dumps())
+    p = run("demo", "--check", str(folder))
+    assert p.returncode == 10 and not (folder / "truth-check.json").exists(), p.stderr
+    assert f"serial number {truth.device_serial}" in p.stderr and "serial 4242" in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    # the same truth as the arm's own (its serial the sessions'): checked, cut "1x"
+    mine = dataclasses.replace(truth, params=Params(), serial_number=4242)
+    (folder / "arm" / "truth.toml").write_text(mine.dumps())
+    p = run("demo", "--check", str(folder))
+    assert p.returncode == 0, p.stderr
+    assert "the arm with serial number 4242" in p.stdout

@@ -571,3 +571,172 @@ def test_fit_plain_csv_of_counts(tmp_path: Path) -> None:
     assert f"{r - 3.0:.6f}" in p.stdout
     one_error_line(run("fit", str(plain), "point", "--triggers"), 2, "trigger")
     one_error_line(run("fit", str(tmp_path / "none.csv"), "point"), 2, "no such")
+
+
+# ------------------------------------------------------------ the one-page PDF (#24)
+
+
+def _words(pdf: Path) -> tuple[float, float, list[tuple[float, float, float, float, str]]]:
+    """Page size (pt) and every word's bounding box, as pdftotext -bbox reads them."""
+    import re
+
+    out = subprocess.run(
+        ["pdftotext", "-bbox", str(pdf), "-"], check=True, capture_output=True, text=True
+    ).stdout
+    page = re.search(r'<page width="([\d.]+)" height="([\d.]+)"', out)
+    assert page is not None and out.count("<page ") == 1
+    words = [
+        (float(a), float(b), float(c), float(d), w)
+        for a, b, c, d, w in re.findall(
+            r'<word xMin="([-\d.]+)" yMin="([-\d.]+)" '
+            r'xMax="([-\d.]+)" yMax="([-\d.]+)">([^<]*)</word>',
+            out,
+        )
+    ]
+    return float(page[1]), float(page[2]), words
+
+
+def _flat(text: str) -> str:
+    return " ".join(text.split())
+
+
+def _check_page(out: Path, tmp: Path) -> str:
+    """The filed page: one A4 page, every word at least 10 pt inside its edges (printable),
+    no ink in the outer 2 % of the rasterised page, every test line present (or, for
+    lengths that cannot fit, the count and where they are). Returns the page's text."""
+    pdf = out / "report.pdf"
+    w, h, words = _words(pdf)
+    assert abs(h / w - 297 / 210) < 0.01 and len(words) > 100
+    outside = [x for x in words if x[0] < 10 or x[1] < 10 or x[2] > w - 10 or x[3] > h - 10]
+    assert not outside, outside[:5]
+    subprocess.run(["pdftoppm", "-r", "60", "-png", str(pdf), str(tmp / "pg")], check=True)
+    from matplotlib.image import imread
+
+    (png,) = sorted(tmp.glob("pg*.png"))
+    img = imread(png)[..., :3].mean(axis=2)
+    bh, bw = int(0.02 * img.shape[0]), int(0.02 * img.shape[1])
+    border = np.concatenate(
+        [img[:bh].ravel(), img[-bh:].ravel(), img[:, :bw].ravel(), img[:, -bw:].ravel()]
+    )
+    assert float(border.min()) > 0.9, "ink at the edge of the page"
+    text = subprocess.run(
+        ["pdftotext", "-layout", str(pdf), "-"], check=True, capture_output=True, text=True
+    ).stdout
+    flat = _flat(text)
+    rep = _report(out)
+    for r in rep["results"]:  # every test of the results table, its value and where
+        assert r["name"] in flat and r["where"] in flat, r["name"]
+        sign = "+" if r["key"] in ("p_size", "e_uni", "effective_diameter") else ""
+        assert f"{r['value_mm']:{sign}.4f}" in flat, r["name"]
+    txt = (out / "report.txt").read_text().splitlines()
+    details = [s for s in txt if s.startswith(("sphere ", "location ", "seat ", "plane "))]
+    assert details
+    absent = [line for line in details if _flat(line) not in flat]
+    if absent:  # every detail line of the text report word for word, or counted and pointed to
+        assert f"... and {len(absent)} more detail lines" in flat and "report.txt" in flat
+        assert all(_flat(a) not in flat for a in details[len(details) - len(absent) :]), absent
+    positions = [
+        (step, p)
+        for step, d in rep["steps"].items()
+        if d["kind"] == "length"
+        for p in d["positions"]
+    ]
+    shown = 0
+    for step, p in positions:
+        row = f"{step} {p['position'] + 1} {p['length_mm']:.4f} {p['calibrated_mm']:.4f} "
+        row += f"{p['error_mm']:+.4f} {p['verdict']}"
+        shown += row in flat
+    missing = len(positions) - shown
+    if missing:
+        assert f"... and {missing} more length positions" in flat and "report.txt" in flat
+    if positions:
+        assert "worst relative to its MPE" in flat  # the E_Uni chart says relative to what
+    assert "worst value relative to its acceptance limit" in flat  # and the table
+    return flat
+
+
+def _arm_verification(tmp: Path, truth: Params | None, name: str) -> Path:
+    from aacmm.plans import load_plan
+
+    folder = vs.write_session(
+        tmp / name, load_plan("arm-verification"), np.random.default_rng(3), 0.002, truth=truth
+    )
+    return folder
+
+
+@pytest.mark.timeout(400)
+@pytest.mark.parametrize("arm", ["passing", "failing", "failing by millimetres"])
+def test_report_page_complete_and_inside_the_page(arm: str, tmp_path: Path) -> None:
+    """The issue: the detail list stopped after 12 lengths, the E_Uni label was cut at
+    the page edge on a failing arm, "worst" did not say relative to what."""
+    from calib_synth import perturbed_truth
+
+    size = {"passing": 0.0, "failing": 0.5, "failing by millimetres": 4.0}[arm]
+    truth = None if size == 0 else perturbed_truth(np.random.default_rng(11), size, size / 10)
+    folder = _arm_verification(tmp_path, truth, "s")
+    out = tmp_path / "rep"
+    p = run("verify", str(folder), "--report", str(out), "-q", timeout=300)
+    assert p.returncode == (0 if size == 0 else 7), p.stderr
+    flat = _check_page(out, tmp_path)
+    assert ("VERDICT: PASS" if size == 0 else "VERDICT: FAIL") in flat
+    assert "device serial 4242" in flat and "firmware 0.1.0" in flat  # the arm's identity
+    assert "parameter set 0x" in flat
+    if size == 0:
+        assert "more length positions" not in flat  # 20 lengths and 3 seats: all on the page
+
+
+@pytest.mark.timeout(400)
+def test_report_page_of_a_large_plan_points_to_the_rest(tmp_path: Path) -> None:
+    """120 length positions cannot fit on one page: the page says how many are left out
+    and where they are, and still nothing leaves the page."""
+    rng = np.random.default_rng(12)
+    rows = []
+    for _ in range(120):
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        c = np.array([800.0, 0.0, -150.0]) + rng.uniform(-150, 150, 3)
+        rows.append(
+            f"{{{{ centre_mm = {c.round(1).tolist()}, direction = {d.round(3).tolist()} }}}}"
+        )
+    text = PLAN.replace(
+        "positions = [\n  {{ centre_mm = [800, 0, -150], direction = [1, 0, 0] }},",
+        "positions = [\n  " + ",\n  ".join(rows) + ",\n  {{ centre_mm = [800, 0, -150], "
+        "direction = [1, 0, 0] }},",
+    )
+    plan = loads_plan(text.format(rule="simple", mpe=MPE), "large.toml")
+    folder = vs.write_session(tmp_path / "s", plan, rng, 0.002)
+    out = tmp_path / "rep"
+    p = run("verify", str(folder), "--report", str(out), "-q", timeout=300)
+    assert p.returncode in (0, 7), p.stderr
+    flat = _check_page(out, tmp_path)
+    assert "more length positions" in flat
+
+
+@pytest.mark.timeout(400)
+def test_report_page_of_many_steps_points_to_the_rest(tmp_path: Path) -> None:
+    """A seat and 70 planes cannot fit either: the page shows what fits, says how many
+    detail lines are left out and where they are, and nothing leaves the page."""
+    planes = "".join(
+        f'[artefacts.p{k}]\ntype = "plane"\nlocation_mm = [{700 + 3 * k}.0, {k - 45}.0, -250.0]\n'
+        "normal = [0.0, 0.0, 1.0]\nsize_mm = [40.0, 40.0]\n"
+        for k in range(70)
+    )
+    steps = "".join(
+        f'[[steps]]\nid = "plane{k}"\nprocedure = "plane"\nartefact = "p{k}"\npoints = 4\n'
+        for k in range(70)
+    )
+    text = (
+        'format = "aacmm-plan-1"\ntitle = "Many steps"\n[probe]\nball_diameter_mm = 6.0\n'
+        "[mpe]\nspat_2sigma_mm = 0.030\nspat_range_mm = 0.030\n"
+        '[artefacts.seat]\ntype = "cone"\nlocation_mm = [800.0, 0.0, -200.0]\n'
+        + planes
+        + '[[steps]]\nid = "spat"\nprocedure = "cone"\nartefact = "seat"\narticulations = 5\n'
+        + steps
+    )
+    plan = loads_plan(text, "steps.toml")
+    folder = vs.write_session(tmp_path / "s", plan, np.random.default_rng(13), 0.002)
+    out = tmp_path / "rep"
+    p = run("verify", str(folder), "--report", str(out), "-q", timeout=300)
+    assert p.returncode in (0, 7), p.stderr
+    flat = _check_page(out, tmp_path)
+    assert "more detail lines" in flat

@@ -109,7 +109,9 @@ class ProbeResult:
     """A probe calibration: the engine's result plus the pivot figures.
 
     ``tip_before``/``tip_after``: tip vectors (mm) in the flange frame;
-    ``tip_cov`` (3, 3): covariance of ``tip_after``; ``spread_deg``: the
+    ``tip_cov`` (3, 3): covariance of ``tip_after`` (the reported one: scaled by
+    chi^2/dof when the chi-square check refutes the model, which it does when
+    the arm's own geometry, not the tip, leaves the seats open); ``spread_deg``: the
     orientation spread; ``pivot_rms_mm`` / ``pivot_max_mm``: distance of
     every point from its seat after (``_before``: with the start tip).
     """
@@ -167,7 +169,7 @@ def calibrate_probe(
     res = calibrate(obs, p0, free=TIP_PARAMS, reject=reject, progress=progress)
     g = tip_jacobian(res.params)
     idx = [PARAM_NAMES.index(n) for n in TIP_PARAMS]
-    cov = g @ res.covariance[np.ix_(idx, idx)] @ g.T
+    cov = g @ res.scaled_covariance[np.ix_(idx, idx)] @ g.T
     before, _ = _pivot(p0, res.observations)
     rms, mx = _pivot(res.params, res.observations)
     return ProbeResult(

@@ -20,7 +20,7 @@ from aacmm.analysis import uncertainty as unc
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
 from aacmm.calibration.results import CalibrationResult, Outlier
-from aacmm.calibration.validation import Comparison
+from aacmm.calibration.validation import Comparison, describe_change, is_worse
 from aacmm.core import PARAM_NAMES, PARAM_UNITS, FloatArray
 
 ARCSEC = math.pi / 648000.0
@@ -114,7 +114,7 @@ def format_identifiability(idn: Identifiability, title: str = "Identifiability")
 
 def format_parameters(res: CalibrationResult) -> str:
     """Start and calibrated values, change and standard uncertainty of every parameter."""
-    v0, v1, sd = res.start.to_vector(), res.params.to_vector(), res.std
+    v0, v1, sd = res.start.to_vector(), res.params.to_vector(), res.scaled_std
     lines = [
         f"  {'param':<7} {'start':>17} {'calibrated':>17} {'change':>12} {'u (k=1)':>10}",
     ]
@@ -132,13 +132,24 @@ def format_parameters(res: CalibrationResult) -> str:
     return "\n".join(lines)
 
 
+def uncertainty_scaling_text(res: CalibrationResult) -> str:
+    """One line saying how the reported uncertainties were scaled ('' when they were not)."""
+    if res.variance_factor == 1.0:
+        return ""
+    return (
+        f"the model is incomplete: every uncertainty reported (parameters, tip, point) is "
+        f"scaled by sqrt(chi^2/dof) = {res.uncertainty_scale:.3g}, so that it reflects the "
+        "residual scatter rather than the stated probing uncertainty"
+    )
+
+
 def format_comparison(cmp_: Comparison, title: str) -> str:
     """A before/after table (um)."""
-    lines = [f"{title}:", f"  {'figure':<18} {'before':>12} {'after':>12} {'factor':>8}"]
-    for name, b, a, f in cmp_.rows():
-        fac = "" if not math.isfinite(f) else f"{f:.1f}x"
+    lines = [f"{title}:", f"  {'figure':<18} {'before':>12} {'after':>12}  change"]
+    for name, b, a, _ in cmp_.rows():
         lines.append(
-            f"  {name.removesuffix('_mm'):<18} {b * 1e3:9.2f} um {a * 1e3:9.2f} um {fac:>8}"
+            f"  {name.removesuffix('_mm'):<18} {b * 1e3:9.2f} um {a * 1e3:9.2f} um  "
+            f"{describe_change(b, a)}"
         )
     return "\n".join(lines)
 
@@ -167,6 +178,9 @@ def format_result(res: CalibrationResult, cmp_: Comparison | None = None) -> str
         "",
         res.chi_square.describe(),
     ]
+    scaling = uncertainty_scaling_text(res)
+    if scaling:
+        lines.append(scaling)
     corr = res.strongest_correlations(3)
     if corr:
         lines.append(
@@ -204,9 +218,10 @@ def point_uncertainty(
     ``workspace`` random poses (and ``poses_rad``). Held parameters add
     nothing: they are rigid motions of the whole arm (theta1, d1) or leave
     the tip where it is (the tip's split), so distances measured with the
-    arm do not depend on them.
+    arm do not depend on them. The covariance is the reported one
+    (:attr:`~aacmm.calibration.results.CalibrationResult.scaled_covariance`).
     """
-    spec = unc.UncertaintySpec.from_covariance(res.covariance, res.params, poses_rad)
+    spec = unc.UncertaintySpec.from_covariance(res.scaled_covariance, res.params, poses_rad)
     return unc.propagate(spec, trials=trials, workspace=workspace, seed=seed)
 
 
@@ -256,6 +271,22 @@ def _params_json(v: FloatArray) -> dict[str, float]:
     return {n: float(v[k]) for k, n in enumerate(PARAM_NAMES)}
 
 
+def comparison_json(cmp_: Comparison) -> list[dict[str, Any]]:
+    """A before/after table as JSON rows: figure, before, after (mm), factor
+    (before / after), change (in words) and worse (the figure grew)."""
+    return [
+        {
+            "figure": n,
+            "before": None if math.isnan(b) else b,
+            "after": None if math.isnan(a) else a,
+            "factor": f if math.isfinite(f) else None,
+            "change": describe_change(b, a),
+            "worse": is_worse(b, a),
+        }
+        for n, b, a, f in cmp_.rows()
+    ]
+
+
 def to_json(res: CalibrationResult, cmp_: Comparison | None = None) -> dict[str, Any]:
     """Everything about a calibration as JSON-ready data (mm, rad)."""
     chi = res.chi_square
@@ -267,9 +298,13 @@ def to_json(res: CalibrationResult, cmp_: Comparison | None = None) -> dict[str,
         "fixed": list(res.fixed),
         "start": _params_json(res.start.to_vector()),
         "calibrated": _params_json(res.params.to_vector()),
-        "std": _params_json(res.std),
+        "std": _params_json(res.scaled_std),
+        "std_a_priori": _params_json(res.std),
         "units": dict(zip(PARAM_NAMES, PARAM_UNITS, strict=True)),
-        "covariance": res.covariance.tolist(),
+        "variance_factor": res.variance_factor,
+        "uncertainty_scale": res.uncertainty_scale,
+        "covariance": res.scaled_covariance.tolist(),
+        "covariance_a_priori": res.covariance.tolist(),
         "correlation": [[None if not np.isfinite(x) else float(x) for x in row] for row in corr],
         "identifiability": identifiability_json(res.identifiability),
         "identifiability_start": identifiability_json(res.identifiability_start),
@@ -314,8 +349,5 @@ def to_json(res: CalibrationResult, cmp_: Comparison | None = None) -> dict[str,
         "notes": list(res.notes),
     }
     if cmp_ is not None:
-        out["before_after"] = [
-            {"figure": n, "before": b, "after": a, "factor": f if math.isfinite(f) else None}
-            for n, b, a, f in cmp_.rows()
-        ]
+        out["before_after"] = comparison_json(cmp_)
     return out

@@ -138,9 +138,11 @@ class CalibrationResult:
     strategy) and ``fixed``: those the caller fixed. ``identifiability`` (at
     the solution) and ``identifiability_start``; ``covariance`` (25, 25),
     rad and mm, from the stated uncertainties (a priori), zero for held and
-    fixed parameters; ``chi_square``; ``outliers`` found at the solution and
-    ``rejected`` (excluded when ``reject=True``); ``before`` and ``after``:
-    evaluations at start and solution; ``observations``: the data finally used.
+    fixed parameters (:attr:`scaled_covariance` is the one to report: scaled
+    by chi^2/dof when the check refutes the model); ``chi_square``;
+    ``outliers`` found at the solution and ``rejected`` (excluded when
+    ``reject=True``); ``before`` and ``after``: evaluations at start and
+    solution; ``observations``: the data finally used.
     """
 
     params: Params
@@ -181,9 +183,36 @@ class CalibrationResult:
         return c
 
     @property
+    def variance_factor(self) -> float:
+        """chi^2/dof when the chi-square check refutes the model (verdict
+        ``incomplete``), else 1: the factor the reported covariance carries.
+
+        A refuted model means the residuals, not the stated probing
+        uncertainty, tell how well the parameters are known: the a-posteriori
+        variance factor scales the covariance (the standard uncertainties by
+        its square root), as a least-squares adjustment with an unknown
+        variance of unit weight does.
+        """
+        chi = self.chi_square
+        if chi.verdict == "incomplete" and chi.dof > 0 and math.isfinite(chi.ratio):
+            return max(1.0, chi.ratio)
+        return 1.0
+
+    @property
+    def uncertainty_scale(self) -> float:
+        """sqrt(:attr:`variance_factor`): what the reported uncertainties are multiplied by."""
+        return math.sqrt(self.variance_factor)
+
+    @property
     def scaled_covariance(self) -> FloatArray:
-        """Covariance scaled by max(1, chi^2/dof): honest when the check fails."""
-        return self.covariance * max(1.0, self.chi_square.ratio if self.chi_square.dof else 1.0)
+        """The reported covariance: :attr:`covariance` times :attr:`variance_factor`."""
+        return self.covariance * self.variance_factor
+
+    @property
+    def scaled_std(self) -> FloatArray:
+        """The reported standard uncertainties (25,): :attr:`std` times
+        :attr:`uncertainty_scale` (0 for held/fixed)."""
+        return self.std * self.uncertainty_scale
 
     def delta(self) -> FloatArray:
         """Calibrated minus start parameters (25,)."""

@@ -69,6 +69,9 @@ class SessionSource:
     param_set: ParamSetRecord
     used_steps: tuple[str, ...]
     unused_steps: tuple[str, ...]
+    plan_points: int = 0
+    serial_number: int | None = None
+    firmware: str | None = None
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,15 @@ class SessionData:
     @property
     def encoders(self) -> EncoderConfig:
         return self.param_set.encoders
+
+    @property
+    def serial_number(self) -> int | None:
+        """The device serial number the sessions were taken on (None: not recorded)."""
+        return self.sources[0].serial_number if self.sources else None
+
+    @property
+    def firmware(self) -> str | None:
+        return self.sources[0].firmware if self.sources else None
 
 
 def _std(art: pm.Artefact, expanded: float | None) -> float:
@@ -260,6 +272,29 @@ def _session_set(session: Session) -> ParamSetRecord:
     return first
 
 
+def _device_identity(s: Session) -> tuple[int | None, str | None]:
+    """The session's device serial number and firmware version (None where not recorded,
+    or not a plausible value: the sidecar is input like any other)."""
+    dev = s.device or {}
+    serial = dev.get("serial_number")
+    fw = dev.get("firmware")
+    ok_serial = isinstance(serial, int) and not isinstance(serial, bool) and serial >= 0
+    ok_fw = isinstance(fw, str) and 0 < len(fw) <= 64 and fw.isprintable()
+    return (serial if ok_serial else None), (fw if ok_fw else None)
+
+
+def _same_arm(ref: SessionSource, src: SessionSource) -> None:
+    if (
+        ref.serial_number is not None
+        and src.serial_number is not None
+        and ref.serial_number != src.serial_number
+    ):
+        raise SessionDataError(
+            f"{src.path}: taken on the arm with serial number {src.serial_number}, {ref.path} on "
+            f"serial {ref.serial_number}: a calibration takes the sessions of one arm"
+        )
+
+
 def _plan_name(s: Session) -> str:
     """The plan's name as the session records it (a shipped plan's name, or the file's stem)."""
     meta = s.meta.get("plan")
@@ -273,13 +308,16 @@ def load_sessions(
     base_known: bool = False,
     like: ParamSetRecord | None = None,
     any_params: bool = False,
+    arm: Sequence[SessionSource] | None = None,
 ) -> SessionData:
     """Read sessions and turn them into one set of observations.
 
     ``like``: the encoder configuration (and, unless ``any_params``, the
     kinematic set) the sessions must have been taken with; default: the
     first session's. ``any_params``: accept other kinematic sets (held-out
-    validation data taken after a calibration).
+    validation data taken after a calibration). Every session must come from
+    one arm (the device serial number its sidecar records), the arm of the
+    sessions ``arm`` too when given (the calibration's, for held-out data).
 
     Raises SessionDataError, RecordError (unreadable or damaged session).
     """
@@ -305,18 +343,23 @@ def load_sessions(
             _same_set(ref, ref_path, ps, str(s.path))
         obs, used, unused = session_observations(s, sigma_mm, base_known)
         parts.append(obs)
-        sources.append(
-            SessionSource(
-                str(s.path),
-                _plan_name(s),
-                s.plan.sha256,
-                s.status,
-                len(s),
-                ps,
-                tuple(used),
-                tuple(unused),
-            )
+        serial, firmware = _device_identity(s)
+        src = SessionSource(
+            str(s.path),
+            _plan_name(s),
+            s.plan.sha256,
+            s.status,
+            len(s),
+            ps,
+            tuple(used),
+            tuple(unused),
+            len(s.plan.slots),
+            serial,
+            firmware,
         )
+        for other in (*(arm or ()), *sources):
+            _same_arm(other, src)
+        sources.append(src)
     assert ref is not None
     obs = parts[0] if len(parts) == 1 else combine(parts)
     return SessionData(obs, ref.params, ref, tuple(sources))

@@ -151,6 +151,31 @@ def measure(obs: Observations, params: Params) -> Metrics:
     )
 
 
+def factor_text(f: float) -> str:
+    """A ratio as a table prints it: ``181x``, ``50.6x``, ``1.07x``."""
+    return f"{f:.0f}x" if f >= 100 else f"{f:.3g}x"
+
+
+def is_worse(before: float, after: float) -> bool:
+    """A figure (a magnitude: smaller is better) grew from ``before`` to ``after``."""
+    return math.isfinite(before) and math.isfinite(after) and abs(after) > abs(before)
+
+
+def describe_change(before: float, after: float) -> str:
+    """How a figure (a magnitude: smaller is better) changed, for before/after tables:
+    ``132x better``, ``1.07x worse``, ``unchanged``, ``-`` when one side is missing.
+    The factor is always the larger over the smaller magnitude, so it reads the
+    same way in both directions."""
+    b, a = abs(before), abs(after)
+    if not (math.isfinite(b) and math.isfinite(a)):
+        return "-"
+    if a == b:
+        return "unchanged"
+    if a < b:
+        return "better (to 0)" if a == 0 else f"{factor_text(b / a)} better"
+    return "worse (from 0)" if b == 0 else f"{factor_text(a / b)} worse"
+
+
 @dataclass(frozen=True)
 class Comparison:
     """Two parameter sets measured on the same data (``before``, ``after``)."""
@@ -159,7 +184,8 @@ class Comparison:
     after: Metrics
 
     def rows(self) -> list[tuple[str, float, float, float]]:
-        """(figure, before, after, improvement factor) for the figures present."""
+        """(figure, before, after, before / after) for the figures present
+        (:func:`describe_change` says it in words, "worse" when a figure grew)."""
         b, a = self.before.summary(), self.after.summary()
         out = []
         for k, vb in b.items():

@@ -6,7 +6,11 @@ results, and writes the parameter file (which ``aacmm params set`` loads),
 its provenance sidecar and, with ``--report DIR``, the text and JSON reports
 and the figures. Bad data (an empty session, a seat with one point, a
 session taken with another parameter set or encoder configuration, a damaged
-session) end in one line on stderr and exit status 2. docs/calibration.md.
+session) end in one line on stderr and exit status 2. Before anything is
+written the result goes through its quality gate
+(:mod:`aacmm.calibration.gate`): a refused calibration ends in one line, exit
+status 9 and no file, unless ``--override`` (recorded in the provenance and
+the parameter file). docs/calibration.md.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from aacmm.commands.common import add_force_option, print_err
+from aacmm.commands.exitcodes import CalibrationRefusedError
 
 CMD = "calibrate"
 
@@ -104,6 +109,34 @@ def register(sub: Any) -> None:
         metavar="N",
         help="random poses for the propagated point uncertainty (default 100; 0: none)",
     )
+    gate = p.add_argument_group("quality gate (docs/calibration.md, 'Quality gate')")
+    gate.add_argument(
+        "--override",
+        action="store_true",
+        help="write the calibration even if its quality gate refuses it (the provenance "
+        "and the parameter file say so)",
+    )
+    gate.add_argument(
+        "--previous",
+        metavar="PROVENANCE.json",
+        help="the provenance of the calibration that made the set in force: its predicted "
+        "accuracy is the bar to beat (default: the -o file's own provenance when -f "
+        "replaces it and it made the set in force)",
+    )
+    gate.add_argument(
+        "--max-u-um",
+        type=float,
+        default=50.0,
+        metavar="UM",
+        help="largest standard uncertainty of a length parameter, um (default 50)",
+    )
+    gate.add_argument(
+        "--max-u-arcsec",
+        type=float,
+        default=20.0,
+        metavar="ARCSEC",
+        help="largest standard uncertainty of an angle parameter, arcsec (default 20)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no solver progress on stderr")
     add_force_option(p)
     p.set_defaults(func=run_calibrate)
@@ -122,6 +155,9 @@ def _check_args(args: argparse.Namespace) -> None:
         raise UsageError("--probe sets the free parameters itself: drop --free/--fix")
     if not args.output.lower().endswith(".toml"):
         raise UsageError(f"{args.output}: the parameter file must be a .toml file")
+    for opt, v in (("--max-u-um", args.max_u_um), ("--max-u-arcsec", args.max_u_arcsec)):
+        if not (v > 0 and v < 1e9):
+            raise UsageError(f"{opt} must be a positive number, got {v}")
 
 
 def provenance_path(output: str) -> Path:
@@ -142,12 +178,55 @@ def run_calibrate(args: argparse.Namespace) -> int:
     sigma = args.sigma_um / 1000.0
     data = load_sessions(args.sessions, sigma, args.base_frame)
     held_out = (
-        load_sessions(args.validate, sigma, args.base_frame, like=data.param_set, any_params=True)
+        load_sessions(
+            args.validate,
+            sigma,
+            args.base_frame,
+            like=data.param_set,
+            any_params=True,
+            arm=data.sources,
+        )
         if args.validate
         else None
     )
+    previous = _previous(args, data)
     _check_outputs(args, data.observations.step_names)
-    return _calibrate(args, data, held_out)
+    return _calibrate(args, data, held_out, previous)
+
+
+def _previous(args: argparse.Namespace, data: Any) -> Any:
+    """The calibration that made the set in force (:class:`PreviousCalibration`), if known:
+    ``--previous FILE`` (an error unless it made that set), else the output's own
+    provenance when it is being replaced and made that set."""
+    from aacmm.calibration.gate import previous_from_provenance
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.fileio import InputFileError, load_json
+
+    explicit = args.previous is not None
+    path = Path(args.previous) if explicit else provenance_path(args.output)
+    if not explicit and not (args.force and path.is_file()):
+        return None
+    try:
+        prev = previous_from_provenance(load_json(path), str(path))
+    except (InputFileError, ValueError) as exc:
+        if explicit:
+            raise UsageError(f"--previous {exc}") from None
+        return None
+    crc = _crc_hex(prev.params, data.encoders)
+    if crc != data.param_set.crc_hex:
+        if explicit:
+            raise UsageError(
+                f"--previous {path}: its calibration made parameter set {crc}, the sessions "
+                f"were taken with {data.param_set.crc_hex}: not the provenance of the set in force"
+            )
+        return None
+    return prev
+
+
+def _crc_hex(params: Any, encoders: Any) -> str:
+    from aacmm.records import ParamSetRecord
+
+    return str(ParamSetRecord.from_device(ParamSetRecord(0, params, encoders).to_device()).crc_hex)
 
 
 def _check_outputs(args: argparse.Namespace, step_names: tuple[str, ...]) -> None:
@@ -201,10 +280,12 @@ def _summary(data: Any) -> str:
     obs = data.observations
     kinds = Counter(type(c).__name__ for c in obs.constraints)
     lines = [f"Calibration data ({obs.n_poses} points):"]
+    lines.append(f"  arm: {_arm_text(data)}")
     for s in data.sources:
         unused = f"; not used: {', '.join(s.unused_steps)}" if s.unused_steps else ""
+        of = f" of {s.plan_points}" if s.plan_points and s.plan_points != s.points else ""
         lines.append(
-            f"  {s.path}: plan {s.plan}, {s.points} points, {s.status}, parameter set "
+            f"  {s.path}: plan {s.plan}, {s.points}{of} points, {s.status}, parameter set "
             f"{s.param_set.crc_hex}{unused}"
         )
     label = {
@@ -222,7 +303,50 @@ def _summary(data: Any) -> str:
     return "\n".join(lines)
 
 
-def _calibrate(args: argparse.Namespace, data: Any, held_out: Any) -> int:
+def _arm_text(data: Any) -> str:
+    serial = data.serial_number
+    fw = data.firmware
+    return (
+        f"device serial {serial if serial is not None else '(not recorded)'}, firmware "
+        f"{fw or '(not recorded)'}, parameter set in force {data.param_set.crc_hex}"
+    )
+
+
+def _gate_text(gate: Any, args: argparse.Namespace) -> str:
+    lines = ["Quality gate:", f"  {gate.prediction.describe()}"]
+    if gate.passed:
+        lines.append(
+            "  passed: sessions complete, rank, parameter uncertainties, correlations, "
+            "predicted accuracy" + (", held-out sessions" if args.validate else "")
+        )
+        return "\n".join(lines)
+    what = "written anyway (--override)" if args.override else "nothing written"
+    lines.append(f"  REFUSED ({what}):")
+    lines += [f"    [{r.check}] {r.message}" for r in gate.refusals]
+    return "\n".join(lines)
+
+
+def _gate(args: argparse.Namespace, data: Any, res: Any, val: Any, previous: Any) -> Any:
+    from aacmm.calibration.gate import ARCSEC_RAD, GateLimits, SessionState, assess
+
+    limits = GateLimits(
+        max_u_length_mm=args.max_u_um / 1000.0, max_u_angle_rad=args.max_u_arcsec * ARCSEC_RAD
+    )
+    states = [SessionState(s.path, s.status, s.points, s.plan_points) for s in data.sources]
+    gate = assess(res, states, limits, previous, val)
+    print()
+    print(_gate_text(gate, args))
+    if not gate.passed and not args.override:
+        n = len(gate.refusals)
+        more = f" (+{n - 1} more reason{'s' if n > 2 else ''} above)" if n > 1 else ""
+        raise CalibrationRefusedError(
+            f"refused by the quality gate, nothing written: {gate.refusals[0].message}{more}; "
+            "--override writes it anyway"
+        )
+    return gate
+
+
+def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any = None) -> int:
     from aacmm.calibration import Problem, analyse, parse_names, report
     from aacmm.calibration.identifiability import TIP_PARAMS
     from aacmm.calibration.validation import compare, kfold
@@ -301,7 +425,14 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any) -> int:
             f"poses, k = 1): median {u3[len(u3) // 2] * 1e3:.2f} um, max {u3[-1] * 1e3:.2f} um "
             "(held parameters excluded: they move the whole arm, not distances)"
         )
-    _write(args, data, held_out, res, cmp_, val, kf, ures, probe)
+    gate = _gate(args, data, res, val, previous)
+    _write(args, data, held_out, res, cmp_, val, kf, ures, probe, gate)
+    if not gate.passed:
+        print_err(
+            CMD,
+            "warning: written with --override although the quality gate refused it: "
+            f"{gate.refusals[0].message}",
+        )
     if not res.chi_square.consistent:
         print_err(CMD, f"warning: {res.chi_square.describe()}")
     return 0
@@ -327,17 +458,39 @@ def _probe_text(pr: Any) -> str:
     )
 
 
-def _param_file_text(data: Any, res: Any, args: argparse.Namespace) -> str:
+def _comment(text: str) -> str:
+    """``text`` fit for one TOML comment line (a path may hold any character)."""
+    return "".join(ch if ch.isprintable() else "?" for ch in text)
+
+
+def _arm_table(data: Any) -> dict[str, Any]:
+    """The parameter file's ``[arm]`` table: whose calibration it is (docs/cli.md)."""
+    out: dict[str, Any] = {}
+    if data.serial_number is not None:
+        out["serial_number"] = data.serial_number
+    if data.firmware is not None:
+        out["firmware"] = data.firmware
+    out["start_param_crc32"] = data.param_set.crc_hex
+    return out
+
+
+def _param_file_text(data: Any, res: Any, args: argparse.Namespace, gate: Any) -> str:
     from aacmm.commands.paramfile import dump_param_set, param_set_dict, param_set_from_mapping
+    from aacmm.protocol import param_set_crc32
     from aacmm.records import ParamSetRecord
 
     ps = ParamSetRecord(0, res.params, data.encoders).to_device()
     param_set_from_mapping(param_set_dict(ps), args.output)  # the loader's own checks
+    sources = _comment(", ".join(s.path for s in data.sources))
+    sidecar = _comment(provenance_path(args.output).name)
     head = (
-        f"# calibrated by aacmm calibrate from {', '.join(s.path for s in data.sources)}\n"
-        f"# provenance (sessions, residuals, covariance): {provenance_path(args.output).name}\n"
+        f"# calibrated by aacmm calibrate from {sources}\n"
+        f"# provenance (sessions, residuals, covariance): {sidecar}\n"
     )
-    return head + dump_param_set(ps, "toml")
+    if not gate.passed:
+        head += "# WRITTEN WITH --override: the quality gate refused this calibration:\n"
+        head += "".join(f"#   [{r.check}] {_comment(r.message)}\n" for r in gate.refusals)
+    return head + dump_param_set(ps, "toml", param_set_crc32(ps), arm=_arm_table(data))
 
 
 def _write(
@@ -350,6 +503,7 @@ def _write(
     kf: Any,
     ures: Any,
     probe: Any,
+    gate: Any,
 ) -> None:
     import datetime as dt
     import json
@@ -359,7 +513,7 @@ def _write(
     from aacmm.calibration import report
     from aacmm.fileio import write_output
 
-    text = _param_file_text(data, res, args)
+    text = _param_file_text(data, res, args, gate)
     prov: dict[str, Any] = {
         "format": "aacmm-calibration-1",
         "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
@@ -368,6 +522,12 @@ def _write(
         "parameter_file": Path(args.output).name,
         "sessions": [_source_json(s) for s in data.sources],
         "validation_sessions": [_source_json(s) for s in held_out.sources] if held_out else [],
+        "arm": {
+            "serial_number": data.serial_number,
+            "firmware": data.firmware,
+            "start_param_crc32": data.param_set.crc_hex,
+            "calibrated_param_crc32": _crc_hex(res.params, data.encoders),
+        },
         "start_param_set": data.param_set.to_json(),
         "probing_sigma_mm": args.sigma_um / 1000.0,
         "settings": {
@@ -379,11 +539,17 @@ def _write(
             "base_frame": args.base_frame,
         },
         "result": report.to_json(res, cmp_),
+        "quality_gate": {
+            **gate.to_json(),
+            "override": bool(args.override and not gate.passed),
+            "previous": args.previous
+            or (gate.prediction.previous_source if gate.prediction.previous_source else None),
+        },
     }
     if val is not None:
-        prov["validation"] = _cmp_json(val)
+        prov["validation"] = report.comparison_json(val)
     if kf is not None:
-        prov["kfold"] = {"k": kf.k, "pooled": _cmp_json(kf.pooled)}
+        prov["kfold"] = {"k": kf.k, "pooled": report.comparison_json(kf.pooled)}
     if probe is not None:
         prov["probe"] = {
             "tip_before_mm": probe.tip_before.tolist(),
@@ -397,21 +563,12 @@ def _write(
     if ures is not None:
         prov["point_uncertainty"] = unc.to_json(ures)
     if args.report:  # first: the parameter file, written last, says the job is done
-        _write_report(args, res, cmp_, val, kf, ures, probe, prov)
+        _write_report(args, data, res, cmp_, val, kf, ures, probe, prov, gate)
     write_output(provenance_path(args.output), json.dumps(prov, indent=1) + "\n", force=args.force)
     write_output(args.output, text, force=args.force)
     print()
     print(f"wrote {args.output} (load it with: aacmm params set {args.output} --save)")
     print(f"wrote {provenance_path(args.output)}")
-
-
-def _cmp_json(cmp_: Any) -> list[dict[str, Any]]:
-    import math
-
-    return [
-        {"figure": n, "before": b, "after": a, "factor": f if math.isfinite(f) else None}
-        for n, b, a, f in cmp_.rows()
-    ]
 
 
 def _source_json(s: Any) -> dict[str, Any]:
@@ -422,6 +579,9 @@ def _source_json(s: Any) -> dict[str, Any]:
         "status": s.status,
         "points": s.points,
         "param_crc32": s.param_set.crc_hex,
+        "plan_points": s.plan_points,
+        "serial_number": s.serial_number,
+        "firmware": s.firmware,
         "used_steps": list(s.used_steps),
         "unused_steps": list(s.unused_steps),
     }
@@ -429,6 +589,7 @@ def _source_json(s: Any) -> dict[str, Any]:
 
 def _write_report(
     args: argparse.Namespace,
+    data: Any,
     res: Any,
     cmp_: Any,
     val: Any,
@@ -436,6 +597,7 @@ def _write_report(
     ures: Any,
     probe: Any,
     prov: dict[str, Any],
+    gate: Any,
 ) -> None:
     import json
 
@@ -444,13 +606,14 @@ def _write_report(
 
     d = Path(args.report)
     d.mkdir(parents=True, exist_ok=True)
-    parts = [report.format_result(res, cmp_)]
+    parts = [_summary(data), report.format_result(res, cmp_)]
     if probe is not None:
         parts.append(_probe_text(probe))
     if val is not None:
         parts.append(report.format_comparison(val, "Held-out sessions (not used by the fit)"))
     if kf is not None:
         parts.append(report.format_comparison(kf.pooled, f"{kf.k}-fold cross-validation"))
+    parts.append(_gate_text(gate, args))
     write_output(d / "report.txt", "\n\n".join(parts) + "\n", force=args.force)
     write_output(d / "report.json", json.dumps(prov, indent=1) + "\n", force=args.force)
     figs = {

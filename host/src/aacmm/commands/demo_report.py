@@ -1,15 +1,19 @@
 """The demo's before/after table and figure, and its check against the truth.
 
 * :func:`before_after` puts two ``aacmm verify`` JSON reports of the same plan
-  side by side (value before, after, MPE, factor, verdicts);
+  and arm side by side (value before, after, MPE, change, verdicts): a figure
+  whose magnitude grew says "worse" with its factor;
   :func:`print_before_after` (``aacmm demo --compare DIR``) prints it and
-  writes it as text, JSON and a PNG figure.
+  writes it as text, JSON and a PNG figure; its exit status is 11 (worse)
+  when any figure grew, else 7 when the arm still fails, else 0.
 * :func:`truth_check` is the only code of the demo that reads the
   simulator's truth (``arm/truth.toml``, written by ``aacmm sim
   --truth-out``): it measures random lengths across the arm's reach with the
   parameter sets the device used before and after calibration, through the
   true encoders, and compares them with the true distances.
-  ``aacmm demo --check DIR`` runs it (:func:`print_truth_check`).
+  ``aacmm demo --check DIR`` runs it (:func:`print_truth_check`), after
+  checking that the truth is the arm's: its serial number must be the one the
+  sessions' device reported (exit status 10 otherwise).
 """
 
 from __future__ import annotations
@@ -37,12 +41,20 @@ class BeforeAfter:
     verdict_before: str
     verdict_after: str
     text: str
+    arm: dict[str, Any] | None = None
+
+    @property
+    def worse(self) -> list[dict[str, Any]]:
+        """The rows whose figure grew from before to after."""
+        return [r for r in self.rows if r["worse"]]
 
     def to_json(self) -> dict[str, Any]:
         return {
             "format": "aacmm-demo-before-after-1",
             "verdict_before": self.verdict_before,
             "verdict_after": self.verdict_after,
+            "worse": [r["key"] for r in self.worse],
+            "arm": self.arm,
             "rows": self.rows,
         }
 
@@ -67,15 +79,39 @@ def _factor(before: float | None, after: float | None) -> float | None:
     return abs(before) / abs(after)
 
 
+def _change(before: float | None, after: float | None) -> str:
+    from aacmm.calibration.validation import describe_change
+
+    if before is None or after is None:
+        return "-"
+    return describe_change(before, after)
+
+
+def report_arm(rep: dict[str, Any]) -> dict[str, Any]:
+    """The arm a verification report names: device (``serial N``), firmware, parameter set."""
+    got = rep.get("session")
+    meta: dict[str, Any] = got if isinstance(got, dict) else {}
+    return {k: meta.get(k) for k in ("device", "firmware", "params_crc32")}
+
+
 def before_after(before: dict[str, Any], after: dict[str, Any]) -> BeforeAfter:
     """The results of two verification reports (``aacmm verify --json``) side by side.
 
     Raises:
         ValueError: the reports are of different plans.
+        WrongArmError: the reports name different devices (serial numbers).
     """
+    from aacmm.commands.exitcodes import WrongArmError
+
     pb, pa = before.get("plan", {}), after.get("plan", {})
     if pb.get("sha256") != pa.get("sha256"):
         raise ValueError("the two verification reports are of different plans")
+    arm_b, arm_a = report_arm(before), report_arm(after)
+    if arm_b["device"] and arm_a["device"] and arm_b["device"] != arm_a["device"]:
+        raise WrongArmError(
+            f"the reports are of two arms (device {arm_b['device']} before, {arm_a['device']} "
+            "after): a before/after comparison needs one arm"
+        )
     res_a = {r["key"]: r for r in after["results"]}
     rows: list[dict[str, Any]] = []
     for rb in before["results"]:
@@ -92,28 +128,51 @@ def before_after(before: dict[str, Any], after: dict[str, Any]) -> BeforeAfter:
                 "verdict_before": rb.get("verdict"),
                 "verdict_after": ra.get("verdict"),
                 "factor": _factor(vb, va),
+                "change": _change(vb, va),
+                "worse": vb is not None and va is not None and abs(va) > abs(vb),
             }
         )
     width = max(len(r["name"]) for r in rows) if rows else 4
-    lines = [f"{'test':<{width}}  before mm   after mm       MPE mm   factor  verdict"]
+    cw = max([len(r["change"]) for r in rows] + [6])
+    lines = []
+    if arm_b["device"] or arm_a["device"]:
+        lines.append(
+            f"arm: device {arm_b['device'] or arm_a['device']}, firmware "
+            f"{arm_b['firmware'] or '-'}; parameter set {arm_b['params_crc32'] or '-'} before, "
+            f"{arm_a['params_crc32'] or '-'} after"
+        )
+    lines.append(f"{'test':<{width}}  before mm   after mm       MPE mm  {'change':<{cw}}  verdict")
     for r in rows:
-        f = "-" if r["factor"] is None else f"{r['factor']:.0f}x"
         lines.append(
             f"{r['name']:<{width}}  {_value(r['before_mm'], r['key']):>9}  "
-            f"{_value(r['after_mm'], r['key']):>9}  {_mpe(r):>11}  {f:>7}  "
+            f"{_value(r['after_mm'], r['key']):>9}  {_mpe(r):>11}  {r['change']:<{cw}}  "
             f"{r['verdict_before']} -> {r['verdict_after']}"
         )
     vb, va = str(before["verdict"]), str(after["verdict"])
     lines.append(f"{'verdict':<{width}}  {vb:>9}  {va:>9}")
     by_key = {r["key"]: r for r in rows}
-    fell = [
-        f"{label} fell {by_key[k]['factor']:.0f}x"
-        for k, label in HEADLINE
-        if k in by_key and by_key[k]["factor"] is not None
-    ]
-    if fell:
-        lines.append("calibration: " + ", ".join(fell))
-    return BeforeAfter(rows, vb, va, "\n".join(lines) + "\n")
+    headline = []
+    for k, label in HEADLINE:
+        h = by_key.get(k)
+        if h is None or h["before_mm"] is None or h["after_mm"] is None:
+            continue
+        if h["worse"]:
+            headline.append(f"{label} WORSE: grew {h['change'].split()[0]}")
+        elif h["factor"] is not None and abs(h["after_mm"]) < abs(h["before_mm"]):
+            headline.append(f"{label} fell {h['change'].split()[0]}")
+        else:
+            headline.append(f"{label} {h['change']}")
+    if headline:
+        lines.append("calibration: " + ", ".join(headline))
+    worse = [r for r in rows if r["worse"]]
+    if worse:
+        lines.append(
+            f"WORSE after than before: {len(worse)} of {len(rows)} figures grew ("
+            + ", ".join(f"{r['name']} {r['change'].split()[0]}" for r in worse)
+            + ")"
+        )
+    arm = {"before": arm_b, "after": arm_a}
+    return BeforeAfter(rows, vb, va, "\n".join(lines) + "\n", arm)
 
 
 def figure(table: BeforeAfter) -> Any:
@@ -159,7 +218,17 @@ def print_before_after(folder: Path, force: bool = False) -> int:
     save_figure(figure(table), targets[2], force=force, dpi=120)
     print(table.text, end="")
     print("(wrote before-after.txt, before-after.json, before-after.png)")
-    return 0
+    return compare_status(table)
+
+
+def compare_status(table: BeforeAfter) -> int:
+    """The exit status of a comparison: WORSE (11) when a figure grew, NOT_MET (7)
+    when the arm still fails after, else OK."""
+    from aacmm.commands.exitcodes import NOT_MET, OK, WORSE
+
+    if table.worse:
+        return WORSE
+    return NOT_MET if table.verdict_after == "FAIL" else OK
 
 
 # ------------------------------------------------------------ the truth
@@ -185,6 +254,7 @@ def truth_check(
     from aacmm.simulation.truth import load_truth
 
     truth = load_truth(folder / "arm" / "truth.toml")
+    check_truth_arm(truth, folder)
     rng = np.random.default_rng(seed)
     theta = np.array([ARM_LIMITS.sample(rng) for _ in range(2 * lengths)])
     true_pts = truth.model().points(theta)
@@ -197,6 +267,7 @@ def truth_check(
         "lengths": lengths,
         "seed": seed,
         "true_length_mm": [float(true_len.min()), float(true_len.max())],
+        "serial_number": truth.device_serial,
     }
     for name in ("before", "after"):
         ps = read_session(folder / name).param_set_of(0)
@@ -224,12 +295,33 @@ def truth_check(
     return out
 
 
+def check_truth_arm(truth: Any, folder: Path) -> None:
+    """The truth must be the arm the demo's sessions were taken on (its device serial).
+
+    Raises:
+        WrongArmError: a session's device reported another serial number.
+    """
+    from aacmm.commands.exitcodes import WrongArmError
+    from aacmm.records import read_session
+
+    for name in ("before", "after"):
+        dev = read_session(folder / name).device or {}
+        serial = dev.get("serial_number")
+        if serial is not None and serial != truth.device_serial:
+            raise WrongArmError(
+                f"{folder / 'arm' / 'truth.toml'}: the truth of the arm with serial number "
+                f"{truth.device_serial}; session {name} was taken on serial {serial}: not this "
+                "arm's truth"
+            )
+
+
 def truth_check_text(c: dict[str, Any]) -> str:
     lo, hi = c["true_length_mm"]
     origin = c["origin"]
     what = f"{origin.get('kind')}:{origin.get('seed')}" if origin.get("kind") else "a truth file"
     lines = [
-        f"truth: {c['truth']} ({what}), written by the simulator, read here for the first time",
+        f"truth: {c['truth']} ({what}, the arm with serial number {c.get('serial_number')}), "
+        "written by the simulator, read here for the first time",
         f"{c['lengths']} random lengths across the arm's reach ({lo:.0f}-{hi:.0f} mm), each end "
         "in a random posture:",
         "what the arm measures (its own encoders, eccentric, without noise) - the true distance",
@@ -245,10 +337,21 @@ def truth_check_text(c: dict[str, Any]) -> str:
         lines.append(
             f"{name:<8} {r['rms_mm']:>8.4f}  {r['p95_mm']:>9.4f}  {r['max_mm']:>8.4f}  {what}"
         )
-    lines.append(
-        f"the calibration cut the rms length error {c['factor']:.0f}x over the whole reach"
-    )
+    f = c["factor"]
+    if f >= 1:
+        lines.append(f"the calibration cut the rms length error {_times(f)} over the whole reach")
+    else:
+        lines.append(
+            f"WORSE: the calibration made the rms length error grow {_times(1 / f)} over the "
+            "whole reach"
+        )
     return "\n".join(lines) + "\n"
+
+
+def _times(f: float) -> str:
+    from aacmm.calibration.validation import factor_text
+
+    return factor_text(f)
 
 
 def print_truth_check(folder: Path, force: bool = False) -> int:
@@ -262,4 +365,6 @@ def print_truth_check(folder: Path, force: bool = False) -> int:
     write_output(targets[0], json.dumps(c, indent=2) + "\n", force=force)
     write_output(targets[1], text, force=force)
     print(text, end="")
-    return 0
+    from aacmm.commands.exitcodes import OK, WORSE
+
+    return WORSE if c["factor"] < 1 else OK

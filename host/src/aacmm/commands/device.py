@@ -86,6 +86,11 @@ def register(sub: Any) -> None:
     pset.add_argument("file", metavar="FILE", help="parameter file (.toml or .json)")
     pset.add_argument("--save", action="store_true", help="also store it on the device")
     pset.add_argument("--check", action="store_true", help="only validate FILE; do not connect")
+    pset.add_argument(
+        "--override",
+        action="store_true",
+        help="send FILE even if its [arm] table names another device serial number",
+    )
     pset.set_defaults(func=cmd_params_set)
     save = psub.add_parser("save", help="store the active set in the device's storage")
     add_connection_options(save)
@@ -224,17 +229,37 @@ def _verify(dev_params: ParamSet, sent: ParamSet, what: str) -> None:
         raise ReadBackError(f"{what}: the device reads back other values for {', '.join(diff)}")
 
 
+def _check_arm(file: str, arm: Any, serial: int, override: bool) -> str:
+    """'' or a note; refuses (WrongArmError) a file of another device serial number."""
+    from aacmm.commands.exitcodes import WrongArmError
+
+    if arm is None or arm.serial_number is None or arm.serial_number == serial:
+        return ""
+    what = f"{file}: a parameter set of the arm with serial number {arm.serial_number}"
+    if not override:
+        raise WrongArmError(
+            f"{what}; this device is serial {serial}: not sent (--override sends it anyway)"
+        )
+    return f"; sent with --override to serial {serial} although it is {what[len(file) + 2 :]}"
+
+
 def cmd_params_set(args: argparse.Namespace) -> int:
-    from aacmm.commands.paramfile import load_param_file
+    from aacmm.commands.paramfile import load_param_file_arm
     from aacmm.protocol import ParamSource
 
-    ps = load_param_file(args.file)  # validated before anything is sent
+    ps, arm = load_param_file_arm(args.file)  # validated before anything is sent
     want = _local_crc(ps)
     if args.check:
-        print(f"{args.file}: valid parameter set, crc 0x{want:08x}")
+        whose = (
+            f", for the arm with serial number {arm.serial_number}"
+            if arm is not None and arm.serial_number is not None
+            else ""
+        )
+        print(f"{args.file}: valid parameter set, crc 0x{want:08x}{whose}")
         return OK
     with device_from_args(args) as dev:
         c = dev.client
+        note = _check_arm(args.file, arm, dev.info.serial_number, args.override)
         got = c.set_params(ps)
         if got != want:
             raise ReadBackError(
@@ -257,7 +282,7 @@ def cmd_params_set(args: argparse.Namespace) -> int:
             msg += (
                 "; NOT saved: lost at restart (add --save, or run `aacmm params save` to keep it)"
             )
-    print(msg)
+    print(msg + note)
     return OK
 
 

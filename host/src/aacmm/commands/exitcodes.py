@@ -37,6 +37,16 @@ NOT_MET: Final = 7
 report is still written)."""
 INFEASIBLE: Final = 8
 """The request cannot be met (a tolerance target no allocation reaches)."""
+REFUSED: Final = 9
+"""A calibration fails its quality gate (``aacmm calibrate``: one line says why; nothing
+is written; ``--override`` writes it anyway, and its provenance says so)."""
+WRONG_ARM: Final = 10
+"""A file belongs to another arm (its device serial number differs): ``aacmm params set``
+of another arm's calibration (``--override`` sends it anyway), ``aacmm demo --check``
+with another arm's truth, ``aacmm demo --compare`` of two arms' reports."""
+WORSE: Final = 11
+"""A before/after comparison found a figure worse after than before (``aacmm demo
+--compare``: the table says which, by what factor)."""
 INTERRUPTED: Final = 130
 """Ctrl-C or SIGTERM before the work was done (data written so far is kept)."""
 
@@ -50,6 +60,9 @@ NAMES: Final[dict[int, str]] = {
     LINK_LOST: "link lost mid-operation",
     NOT_MET: "requirement not met (verification FAIL)",
     INFEASIBLE: "infeasible request",
+    REFUSED: "calibration refused by its quality gate",
+    WRONG_ARM: "a file of another arm",
+    WORSE: "worse after than before",
     INTERRUPTED: "interrupted",
 }
 
@@ -63,13 +76,18 @@ __all__ = [
     "NOT_MET",
     "OK",
     "PORT",
+    "REFUSED",
     "TIMEOUT",
     "USAGE",
     "VERSION",
+    "WORSE",
+    "WRONG_ARM",
+    "CalibrationRefusedError",
     "LinkLostError",
     "PortBusyError",
     "UsageError",
     "VersionMismatchError",
+    "WrongArmError",
     "exit_code",
 ]
 
@@ -86,12 +104,24 @@ class LinkLostError(OperationError):
     """The link went away in the middle of an operation (exit status 6)."""
 
 
+class CalibrationRefusedError(AacmmError):
+    """A calibration failed its quality gate and was not written (exit status 9)."""
+
+
+class WrongArmError(AacmmError):
+    """A calibration, truth or report of another arm than the one at hand (exit status 10)."""
+
+
 def exit_code(exc: BaseException) -> int:
     """The exit status for an exception that ended a command."""
     if isinstance(exc, KeyboardInterrupt):
         return INTERRUPTED
     if isinstance(exc, VersionMismatchError):
         return VERSION
+    if isinstance(exc, CalibrationRefusedError):
+        return REFUSED
+    if isinstance(exc, WrongArmError):
+        return WRONG_ARM
     if isinstance(exc, InfeasibleError):
         return INFEASIBLE
     if isinstance(exc, InitError):

@@ -22,6 +22,16 @@ keys are read (its error tables are not parameters). The optional keys ``format`
 ``param_crc32`` are ignored on reading; any other key is an error. The format is chosen by the
 suffix: ``.toml`` or ``.json``.
 
+An optional ``arm`` table says whose set it is (``aacmm calibrate`` writes it)::
+
+    [arm]
+    serial_number = 1               # the device the calibration sessions were taken on
+    firmware = "0.1.0"
+    start_param_crc32 = "0xf2210b6c"  # the set in force the calibration started from
+
+``aacmm params set`` refuses a file whose ``serial_number`` is another
+device's (:func:`load_param_file_arm`, :class:`ArmIdentity`).
+
 :func:`load_param_file` checks everything the device would check (types,
 six values each, finite, encoder ranges, |angle| <= 2 pi, |length| <= 10 m)
 before anything is sent; problems raise :class:`ParamFileError` naming the
@@ -32,6 +42,8 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -48,8 +60,50 @@ ANGLE_MAX = 2.0 * math.pi
 LENGTH_MAX_MM = 10_000.0
 
 
+ARM_TABLE = "arm"
+ARM_KEYS = ("serial_number", "firmware", "start_param_crc32")
+
+
 class ParamFileError(UsageError):
     """A parameter file cannot be read or is not a valid parameter set."""
+
+
+@dataclass(frozen=True)
+class ArmIdentity:
+    """A parameter file's ``[arm]`` table: the arm the set belongs to (None: not stated)."""
+
+    serial_number: int | None = None
+    firmware: str | None = None
+    start_param_crc32: str | None = None
+
+    def to_mapping(self) -> dict[str, Any]:
+        """The table's keys that are set (TOML/JSON-ready)."""
+        return {k: getattr(self, k) for k in ARM_KEYS if getattr(self, k) is not None}
+
+
+def arm_identity_from_mapping(value: Any, src: str = "parameters") -> ArmIdentity:
+    """An :class:`ArmIdentity` from an ``arm`` table.
+
+    Raises:
+        ParamFileError: not a table, an unknown key or a value of the wrong type.
+    """
+    if not isinstance(value, Mapping):
+        raise ParamFileError(f"{src}: {ARM_TABLE} must be a table")
+    for k in value:
+        if k not in ARM_KEYS:
+            raise ParamFileError(
+                f"{src}: unknown key {ARM_TABLE}.{k} (expected {', '.join(ARM_KEYS)})"
+            )
+    serial = value.get("serial_number")
+    if serial is not None and (
+        isinstance(serial, bool) or not isinstance(serial, int) or not 0 <= serial <= 0xFFFFFFFF
+    ):
+        raise ParamFileError(f"{src}: {ARM_TABLE}.serial_number must be an integer 0..2^32-1")
+    for k in ("firmware", "start_param_crc32"):
+        v = value.get(k)
+        if v is not None and (not isinstance(v, str) or len(v) > 64 or not v.isprintable()):
+            raise ParamFileError(f"{src}: {ARM_TABLE}.{k} must be a short text")
+    return ArmIdentity(serial, value.get("firmware"), value.get("start_param_crc32"))
 
 
 def _floats(src: str, key: str, value: Any, n: int) -> tuple[float, ...]:
@@ -104,6 +158,8 @@ def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
                 flat[k] = v
         elif key in ALL_KEYS:
             flat[key] = value
+        elif key == ARM_TABLE:
+            arm_identity_from_mapping(value, src)  # checked here, read by load_param_file_arm
         elif key not in IGNORED_KEYS:
             raise ParamFileError(f"{src}: unknown key {key!r} (expected {', '.join(ALL_KEYS)})")
     missing = [k for k in ALL_KEYS if k not in flat]
@@ -177,6 +233,26 @@ def load_param_file(path: str | Path) -> ParamSet:
     return param_set_from_mapping(data, str(p))
 
 
+def load_param_file_arm(path: str | Path) -> tuple[ParamSet, ArmIdentity | None]:
+    """:func:`load_param_file` and the file's ``[arm]`` table (None if it has none).
+
+    Raises:
+        ParamFileError: as :func:`load_param_file`.
+    """
+    p = Path(path)
+    file_format(p)
+    try:
+        data = load_structured(p)
+    except InputFileError as exc:
+        raise ParamFileError(str(exc)) from None
+    ps = param_set_from_mapping(data, str(p))
+    arm = data.get(ARM_TABLE) if isinstance(data, dict) else None
+    fmt = data.get("format") if isinstance(data, dict) else None
+    if arm is None or (isinstance(fmt, str) and fmt.startswith("aacmm-log")):
+        return ps, None
+    return ps, arm_identity_from_mapping(arm, str(p))
+
+
 def param_set_dict(ps: ParamSet) -> dict[str, Any]:
     """The flat mapping of a parameter set (lists, JSON/TOML-ready)."""
     return {
@@ -191,12 +267,16 @@ def param_set_dict(ps: ParamSet) -> dict[str, Any]:
     }
 
 
-def dump_param_set(ps: ParamSet, fmt: str, crc: int | None = None) -> str:
-    """A parameter file's text (``fmt``: ``toml`` or ``json``)."""
+def dump_param_set(
+    ps: ParamSet, fmt: str, crc: int | None = None, arm: Mapping[str, Any] | None = None
+) -> str:
+    """A parameter file's text (``fmt``: ``toml`` or ``json``); ``arm``: its ``[arm]`` table."""
     data: dict[str, Any] = {"format": "aacmm-params-1"}
     if crc is not None:
         data["param_crc32"] = crc
     data.update(param_set_dict(ps))
+    if arm:
+        data[ARM_TABLE] = dict(arm)
     if fmt == "json":
         return json.dumps(data, indent=2) + "\n"
     import tomli_w

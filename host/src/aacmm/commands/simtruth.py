@@ -17,6 +17,7 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -156,6 +157,8 @@ def run(args: argparse.Namespace, sim_args: list[str]) -> int:
     if cpr is not None and cprs != {cpr}:
         raise UsageError(f"the truth has {cprs.pop()} counts per revolution, --cpr says {cpr}")
     cpr = cprs.pop()
+    if args.serial_number is not None:  # the device this truth is, as --truth-out records it
+        truth = replace(truth, serial_number=int(args.serial_number))
     plan = None
     misprobes: tuple[Any, ...] = ()
     if args.scenario is not None:
@@ -180,7 +183,11 @@ def run(args: argparse.Namespace, sim_args: list[str]) -> int:
         received.append(signum)
         stop.set()
 
-    base = _without(sim_args, ("--seed", "--motion", "--button-every", "--cpr", "--encoder-bits"))
+    base = _without(
+        sim_args,
+        ("--seed", "--motion", "--button-every", "--cpr", "--encoder-bits", "--serial-number"),
+    )
+    base += ["--serial-number", str(truth.device_serial)]  # each true arm is its own device
     chan, fd = ControlChannel.pair()
     old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     sim = None

@@ -88,6 +88,7 @@ def text_report(rep: Report, source: str) -> str:
         f"verdict    {rep.verdict} ({len(rep.results)} tests: {n_pass} passed, {n_fail} failed"
         + (f", {n_none} without MPE)" if n_none else ")")
     )
+    lines.append(f"({VALUE_NOTE})")
     extra = _detail_lines(rep)
     if extra:
         lines += ["", *extra]
@@ -179,28 +180,38 @@ def spat_figure(rep: Report) -> Figure:
     return fig
 
 
+def _unit(values_mm: Any) -> tuple[float, str]:
+    """(scale, name) to plot errors in: um, or mm once they reach a millimetre."""
+    big = float(np.max(np.abs(values_mm))) if np.size(values_mm) else 0.0
+    return (1.0, "mm") if big >= 1.0 else (UM, "um")
+
+
 def _e_uni_axes(ax: Axes, rep: Report) -> None:
     lengths = np.array([m.test.cal_length for m in rep.lengths])
-    errors = np.array([m.test.error for m in rep.lengths]) * UM
+    res = rep.result("e_uni")
+    scale, unit = _unit([m.test.error for m in rep.lengths])
+    errors = np.array([m.test.error for m in rep.lengths]) * scale
     colors = ["tab:red" if m.decision.failed else "tab:blue" for m in rep.lengths]
     ax.scatter(lengths, errors, c=colors, s=22, zorder=3)
     ax.axhline(0.0, color="k", lw=0.6)
     grid = np.linspace(0.0, 1.1 * float(lengths.max()), 60)
-    res = rep.result("e_uni")
     e_uni = getattr(rep.mpe, "e_uni", None)
     if e_uni is not None:
-        line = np.array([e_uni.at(float(x)) for x in grid]) * UM
-        ax.plot(grid, line, "r-", lw=1, label="MPE")
+        line = np.array([e_uni.at(float(x)) for x in grid]) * scale
+        ax.plot(grid, line, "r-", lw=1, label="+-MPE")
         ax.plot(grid, -line, "r-", lw=1)
         if rep.decision_rule == "iso14253-1":
-            u = max(m.decision.u for m in rep.lengths) * UM
+            u = max(m.decision.u for m in rep.lengths) * scale
             ax.plot(grid, line - u, "r:", lw=1, label="MPE - U")
             ax.plot(grid, -(line - u), "r:", lw=1)
     ax.set_xlim(0.0, float(grid[-1]))
     ax.set_xlabel("calibrated length (mm)")
-    ax.set_ylabel("length error (um)")
+    ax.set_ylabel(f"length error ({unit})")
     ax.set_title(
-        f"E_Uni: worst {res.value_mm * UM:+.1f} um ({res.decision.verdict})", loc="left", fontsize=9
+        f"E_Uni ({res.decision.verdict}): worst relative to its MPE\n"
+        f"{res.value_mm * scale:+.{1 if unit == 'um' else 4}f} {unit} at {res.where}",
+        loc="left",
+        fontsize=8,
     )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
@@ -260,52 +271,101 @@ def figure_names(rep: Report) -> list[str]:
 # ------------------------------------------------------------------ one page
 
 
-def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figure:
-    """An A4 page a lab can file: identification, rule, results, verdict, charts, notes."""
-    fig = _new(8.27, 11.69)
-    fig.set_layout_engine(None)
-    when = when or _dt.datetime.now(_dt.UTC)
-    y = 0.955
+PAGE_W_IN, PAGE_H_IN = 8.27, 11.69  # A4 portrait
+LEFT, RIGHT = 0.07, 0.93  # text margins (page fraction)
+FOOT = 0.055  # the signature line sits below
+MAX_NOTES = 6
+#: what "value" and "where" mean in the results table (text report and page)
+VALUE_NOTE = (
+    "value: each test's worst value relative to its acceptance limit (the largest "
+    "|value| / limit); where: the step (and position) it was measured at"
+)
 
-    def text(s: str, size: float = 8.5, **kw: Any) -> None:
-        nonlocal y
-        fig.text(0.07, y, s, fontsize=size, va="top", family=kw.pop("family", "sans-serif"), **kw)
-        y -= 0.0125 * size / 8.5 + 0.004
 
-    text("Arm performance verification", 16, weight="bold")
-    y -= 0.008
-    text("ISO 10360-12:2016 and ASME B89.4.22-2004 tests, evaluated by aacmm " + __version__)
-    text(f"Session: {source}")
-    text(
-        f"Plan: {rep.plan_name}"
-        + (f" -- {rep.plan_title}" if rep.plan_title else "")
-        + f" (sha256 {rep.plan_sha256[:16]})"
-    )
-    meta = ", ".join(
-        f"{k} {rep.meta[k]}"
-        for k in ("device", "firmware", "params_crc32", "captured")
-        if k in rep.meta
-    )
-    if meta:
-        text(meta)
-    tc = f", temperature {rep.temperature_c:g} C" if rep.temperature_c is not None else ""
-    text(f"Probe ball diameter {rep.probe_diameter_mm:.4f} mm{tc}")
-    text(f"Decision rule: {rep.decision_rule} -- {RULE_TEXT[rep.decision_rule]}")
-    text(f"Evaluated {when.strftime('%Y-%m-%d %H:%M UTC')}")
-    y -= 0.01
-    color = {"PASS": "tab:green", "FAIL": "tab:red"}.get(rep.verdict, "tab:gray")
-    text(f"VERDICT: {rep.verdict}", 20, weight="bold", color=color)
-    y -= 0.01
+class _Page:
+    """Top-down layout of the one-page report: every line measured, wrapped to the
+    margins, and nothing placed below the foot (docs/verification.md)."""
+
+    def __init__(self, fig: Figure) -> None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg(fig)
+        self.fig = fig
+        self.renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+        self.y = 0.955
+
+    def width(self, artist: Any) -> float:
+        """An artist's width in page fraction."""
+        bb = artist.get_window_extent(self.renderer)
+        return float(bb.width) / float(self.fig.bbox.width)
+
+    def line_height(self, size: float) -> float:
+        return 1.3 * size / 72.0 / PAGE_H_IN
+
+    def wrap(self, s: str, size: float, width: float, **kw: Any) -> list[str]:
+        """``s`` split at spaces into lines no wider than ``width`` (page fraction)."""
+        probe = self.fig.text(0, 0, "", fontsize=size, **kw)
+        out: list[str] = []
+        line = ""
+        for word in s.split(" "):
+            cand = f"{line} {word}" if line else word
+            probe.set_text(cand)
+            if line and self.width(probe) > width:
+                out.append(line)
+                line = "    " + word
+            else:
+                line = cand
+        out.append(line)
+        probe.remove()
+        return out
+
+    def text(self, s: str, size: float = 8.5, x: float = LEFT, **kw: Any) -> None:
+        for part in self.wrap(s, size, RIGHT - x, **kw):
+            self.fig.text(x, self.y, part, fontsize=size, va="top", **kw)
+            self.y -= self.line_height(size) + 0.0015
+
+    def fit_axes(self, ax: Axes, box: tuple[float, float, float, float]) -> None:
+        """Move and shrink ``ax`` until everything it draws (labels, ticks, title,
+        legend) lies within ``box`` = (x0, y0, x1, y1), page fraction."""
+        x0, y0, x1, y1 = box
+        ax.set_position((x0, y0, x1 - x0, y1 - y0))
+        inv = self.fig.transFigure.inverted()
+        for _ in range(4):
+            tight = ax.get_tightbbox(self.renderer)
+            if tight is None:
+                break
+            tb = inv.transform_bbox(tight)
+            pos = ax.get_position()
+            left, right = pos.x0 - tb.x0, tb.x1 - pos.x1
+            below, above = pos.y0 - tb.y0, tb.y1 - pos.y1
+            nx0, nx1 = x0 + left, x1 - right
+            ny0, ny1 = y0 + below, y1 - above
+            if nx1 - nx0 < 0.05 or ny1 - ny0 < 0.03:
+                break
+            if (
+                max(abs(nx0 - pos.x0), abs(nx1 - pos.x1), abs(ny0 - pos.y0), abs(ny1 - pos.y1))
+                < 1e-4
+            ):
+                break
+            ax.set_position((nx0, ny0, nx1 - nx0, ny1 - ny0))
+
+
+def _results_table(page: _Page, rep: Report) -> None:
+    """The results table, its font shrunk until it fits between the margins."""
     rows = result_rows(rep)
-    height = 0.022 * (len(rows) + 1)
-    ax = fig.add_axes((0.05, y - height, 0.9, height))
+    height = 0.021 * (len(rows) + 1)
+    ax = page.fig.add_axes((LEFT - 0.02, page.y - height, RIGHT - LEFT + 0.04, height))
     ax.axis("off")
-    table = ax.table(
-        cellText=rows, colLabels=HEADER, loc="upper center", cellLoc="right", colLoc="center"
-    )
-    table.auto_set_font_size(False)
-    table.set_fontsize(7)
-    table.auto_set_column_width(list(range(len(HEADER))))
+    for size in (7.0, 6.5, 6.0, 5.5, 5.0, 4.5):
+        table = ax.table(
+            cellText=rows, colLabels=HEADER, loc="upper center", cellLoc="right", colLoc="center"
+        )
+        table.auto_set_font_size(False)
+        table.set_fontsize(size)
+        table.auto_set_column_width(list(range(len(HEADER))))
+        if page.width(table) <= RIGHT - LEFT + 0.04 or size == 4.5:
+            break
+        table.remove()
     for (r, c), cell in table.get_celld().items():
         if r > 0 and c in (0, 6):
             cell.get_text().set_horizontalalignment("left")
@@ -313,41 +373,178 @@ def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figu
             cell.get_text().set_color(
                 "tab:green" if cell.get_text().get_text() == "PASS" else "tab:red"
             )
-    y -= height + 0.03
-    charts = [
-        k
-        for k in ("e_uni", "spat")
-        if (k == "e_uni" and rep.lengths) or (k == "spat" and rep.seats)
-    ]
+    drawn = page.fig.transFigure.inverted().transform_bbox(table.get_window_extent(page.renderer))
+    page.y = float(drawn.y0) - 0.006
+    page.text(VALUE_NOTE, 6.5, style="italic")
+
+
+def _length_rows(rep: Report) -> list[str]:
+    """Every length position as one fixed-width row (mm)."""
+    w = max([len(m.step_id) for m in rep.lengths] + [4])
+    rows = [f"{'step':<{w}} pos   measured calibrated    error verdict"]
+    for m in rep.lengths:
+        lt = m.test
+        rows.append(
+            f"{m.step_id:<{w}} {m.position + 1:>3} {lt.length:>10.4f} {lt.cal_length:>10.4f} "
+            f"{lt.error:>+8.4f} {m.decision.verdict}"
+        )
+    return rows
+
+
+def _details(page: _Page, rep: Report) -> None:
+    """Every detail line of the text report: prose lines, then the lengths as a
+    table flowing into as many columns as fit; what cannot fit (a plan far larger
+    than a page) is counted and pointed to report.txt."""
+    prose = [line for line in _detail_lines(rep) if not line.startswith("length ")]
+    rows = _length_rows(rep) if rep.lengths else []
+    notes = [f"Note: {n}" for n in rep.notes[:MAX_NOTES]]
+    if len(rep.notes) > MAX_NOTES:
+        notes.append(f"... and {len(rep.notes) - MAX_NOTES} more notes: see report.txt")
+    tail = 3 * page.line_height(6.5) + 0.01  # definitions, assumptions, the pointer
+    page.text(
+        "Details (mm; every value of every test is in report.txt and report.json "
+        "beside this page):",
+        7,
+        weight="bold",
+    )
+    for size in (6.5, 6.0, 5.5, 5.0):
+        lh = page.line_height(size) + 0.0015
+        avail = page.y - FOOT - tail - lh * len(notes)
+        need_prose = sum(len(page.wrap(t, size, RIGHT - LEFT)) for t in prose) * lh
+        if not rows:
+            fits = need_prose <= avail
+            cols, per_col = 1, 0
+        else:
+            probe = page.fig.text(0, 0, max(rows, key=len), fontsize=size, family="monospace")
+            col_w = page.width(probe) + 0.025
+            probe.remove()
+            max_cols = max(1, int((RIGHT - LEFT + 0.02) // col_w))
+            body = len(rows) - 1
+            room = int((avail - need_prose) // lh) - 1  # rows per column below the header
+            cols = min(max_cols, max(1, -(-body // max(room, 1))))
+            per_col = -(-body // cols)
+            fits = room >= 1 and per_col <= room
+        if fits or size == 5.0:
+            break
+    budget = int(avail // lh) - (3 if rows else 0)  # rows: their header, one row, a pointer
+    used = 0
+    for k, t in enumerate(prose):
+        n = len(page.wrap(t, size, RIGHT - LEFT))
+        if used + n > budget - (1 if k < len(prose) - 1 else 0):
+            page.text(
+                f"... and {len(prose) - k} more detail lines, not shown for want of room: see "
+                "report.txt (in the same folder as this PDF)",
+                size,
+                weight="bold",
+            )
+            break
+        page.text(t, size)
+        used += n
+    shown = len(rows) - 1
+    if rows:
+        room = int((page.y - FOOT - tail - lh * len(notes)) // lh) - 1
+        per_col = min(per_col, max(room, 0))
+        shown = min(len(rows) - 1, per_col * cols)
+        top = page.y
+        for c in range(cols):
+            chunk = rows[1 + c * per_col : 1 + min((c + 1) * per_col, shown)]
+            if not chunk:
+                break
+            x = LEFT + c * col_w
+            page.y = top
+            for line in (rows[0], *chunk):
+                page.fig.text(x, page.y, line, fontsize=size, va="top", family="monospace")
+                page.y -= lh
+        page.y = top - lh * (1 + per_col)
+    if shown < len(rows) - 1:
+        page.text(
+            f"... and {len(rows) - 1 - shown} more length positions, not shown for want of "
+            "room: see report.txt (in the same folder as this PDF)",
+            size,
+            weight="bold",
+        )
+    for note in notes:
+        page.text(note, size)
+
+
+def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figure:
+    """An A4 page a lab can file: identification, rule, results, verdict, charts,
+    every detail line (or where the rest is), notes; nothing outside the page.
+
+    Text is measured without font hinting, so that the measured widths are the
+    ones the PDF has (hinting narrows small text on screen by up to 8 %)."""
+    import matplotlib
+
+    with matplotlib.rc_context({"text.hinting": "none", "text.hinting_factor": 1}):
+        return _one_page(rep, source, when)
+
+
+def _one_page(rep: Report, source: str, when: _dt.datetime | None) -> Figure:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(PAGE_W_IN, PAGE_H_IN))
+    page = _Page(fig)
+    when = when or _dt.datetime.now(_dt.UTC)
+    page.text("Arm performance verification", 16, weight="bold")
+    page.y -= 0.008
+    page.text("ISO 10360-12:2016 and ASME B89.4.22-2004 tests, evaluated by aacmm " + __version__)
+    page.text(f"Session: {source}")
+    page.text(
+        f"Plan: {rep.plan_name}"
+        + (f" -- {rep.plan_title}" if rep.plan_title else "")
+        + f" (sha256 {rep.plan_sha256[:16]})"
+    )
+    arm = ", ".join(
+        f"{label} {rep.meta[k]}"
+        for k, label in (
+            ("device", "device"),
+            ("firmware", "firmware"),
+            ("params_crc32", "parameter set"),
+            ("captured", "captured"),
+        )
+        if k in rep.meta
+    )
+    if arm:
+        page.text(f"Arm: {arm}")
+    tc = f", temperature {rep.temperature_c:g} C" if rep.temperature_c is not None else ""
+    page.text(f"Probe ball diameter {rep.probe_diameter_mm:.4f} mm{tc}")
+    page.text(f"Decision rule: {rep.decision_rule} -- {RULE_TEXT[rep.decision_rule]}")
+    page.text(f"Evaluated {when.strftime('%Y-%m-%d %H:%M UTC')}")
+    page.y -= 0.01
+    color = {"PASS": "tab:green", "FAIL": "tab:red"}.get(rep.verdict, "tab:gray")
+    page.text(f"VERDICT: {rep.verdict}", 20, weight="bold", color=color)
+    page.y -= 0.006
+    _results_table(page, rep)
+    page.y -= 0.012
+    charts = [k for k, has in (("e_uni", bool(rep.lengths)), ("spat", bool(rep.seats))) if has]
     if charts:
-        ch = 0.2
+        ch = 0.22
+        w = (RIGHT - LEFT) / len(charts)
         for i, k in enumerate(charts):
-            w = 0.86 / len(charts)
-            cax = fig.add_axes((0.09 + i * w, y - ch, w - 0.08, ch))
+            cax = fig.add_axes((LEFT + i * w, page.y - ch, w, ch))
             if k == "e_uni":
                 _e_uni_axes(cax, rep)
             else:
                 _spat_summary_axes(cax, rep)
-        y -= ch + 0.05
-    for line in _detail_lines(rep)[:14]:
-        text(line, 6.5)
+            gap = 0.02 if i < len(charts) - 1 else 0.0
+            page.fit_axes(cax, (LEFT + i * w, page.y - ch, LEFT + (i + 1) * w - gap, page.y))
+        page.y -= ch + 0.012
+    _details(page, rep)
     assumed = [r for r in rep.results if r.definition.status != "public summary"]
-    y -= 0.005
-    text(
+    page.y -= 0.004
+    page.text(
         "Definitions. The standards' texts are not public; each result states the definition "
         "implemented (docs/verification.md).",
         6.5,
     )
     if assumed:
-        text(
+        page.text(
             "* assumed, not verified against the standard: " + "; ".join(r.name for r in assumed),
             6.5,
         )
-    for n in rep.notes[:4]:
-        text(f"Note: {n}", 6.5)
     fig.text(
-        0.07,
-        0.03,
+        LEFT,
+        0.035,
         "Operator: ____________________    Signature: ____________________    Date: ____________",
         fontsize=8,
     )
@@ -357,15 +554,17 @@ def one_page(rep: Report, source: str, when: _dt.datetime | None = None) -> Figu
 def _spat_summary_axes(ax: Axes, rep: Report) -> None:
     names = [s.step_id for s in rep.seats]
     x = np.arange(len(names))
-    ax.bar(x - 0.2, [s.test.two_sigma * UM for s in rep.seats], 0.4, label="2 sigma")
-    ax.bar(x + 0.2, [s.test.max_half_range * UM for s in rep.seats], 0.4, label="(max-min)/2")
+    vals = [s.test.two_sigma for s in rep.seats] + [s.test.max_half_range for s in rep.seats]
+    scale, unit = _unit(vals)
+    ax.bar(x - 0.2, [s.test.two_sigma * scale for s in rep.seats], 0.4, label="2 sigma")
+    ax.bar(x + 0.2, [s.test.max_half_range * scale for s in rep.seats], 0.4, label="(max-min)/2")
     for key, style in (("spat_2sigma", "C0--"), ("spat_range", "C1--")):
         mpe = rep.result(key).decision.mpe
         if mpe is not None:
-            ax.axhline(mpe * UM, color=style[:2], ls="--", lw=1)
+            ax.axhline(mpe * scale, color=style[:2], ls="--", lw=1)
     ax.set_xticks(x, names, fontsize=7)
-    ax.set_ylabel("um")
-    ax.set_title("single-point articulation (dashed: MPE)", loc="left", fontsize=9)
+    ax.set_ylabel(unit)
+    ax.set_title("Single-point articulation, per seat\n(dashed: MPE)", loc="left", fontsize=8)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3, axis="y")
 

@@ -17,8 +17,15 @@ device's model cannot know:
 The truth file (TOML, ``format = "aacmm-truth-1"``) is a parameter file that
 ``aacmm params set`` accepts (the truth tables are ignored there) plus the
 tables ``[encoder_noise]``, ``[eccentricity]`` and ``[probing]``; ``[origin]``
-records how it was made. :func:`random_truth` perturbs a nominal set by the
-documented :data:`RANDOM_SIZES`.
+records how it was made and ``[arm] serial_number`` which device it is (the
+simulator reports it in its device info). :func:`random_truth` perturbs a
+nominal set by the documented :data:`RANDOM_SIZES`.
+
+**Identity.** Every arm has a serial number of its own: an arm built to
+drawing (the device's built-in set, no error source) is serial 1, as the
+plain simulator; any other truth without an explicit ``[arm] serial_number``
+gets one derived from its content (:attr:`Truth.device_serial`), so the same
+truth is always the same device and two different truths are two devices.
 
 Analysis code never reads a truth: only tests compare results with it.
 """
@@ -38,7 +45,9 @@ from aacmm.errors import AacmmError
 
 FORMAT: Final = "aacmm-truth-1"
 ARCSEC_RAD: Final = math.pi / (180.0 * 3600.0)
-TABLES: Final = ("encoder_noise", "eccentricity", "probing", "origin")
+TABLES: Final = ("encoder_noise", "eccentricity", "probing", "origin", "arm")
+#: serial number of an arm built to drawing (the simulator's default device)
+NOMINAL_SERIAL: Final = 1
 
 
 @dataclass(frozen=True)
@@ -112,10 +121,28 @@ class Truth:
     encoders: EncoderConfig = field(default_factory=EncoderConfig)
     errors: ErrorSources = field(default_factory=ErrorSources)
     origin: dict[str, Any] = field(default_factory=dict, compare=False)
+    serial_number: int | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         self.params.validate()
         self.encoders.to_c()  # raises ValueError if out of range
+        sn = self.serial_number
+        if sn is not None and not (isinstance(sn, int) and 0 <= sn <= 0xFFFFFFFF):
+            raise ValueError(f"serial_number must be an integer 0..2^32-1, got {sn!r}")
+
+    @property
+    def device_serial(self) -> int:
+        """The device serial number of this arm (module doc, "Identity")."""
+        if self.serial_number is not None:
+            return self.serial_number
+        if self.params == Params() and self.errors.perfect:
+            return NOMINAL_SERIAL
+        import json
+        import zlib
+
+        body = {k: v for k, v in self.to_mapping().items() if k not in ("origin", "arm")}
+        crc = zlib.crc32(json.dumps(body, sort_keys=True).encode())
+        return 0x40000000 | (crc & 0x3FFFFFFF)  # never 1, within 31 bits
 
     def model(self) -> Model:
         """The true kinematic model (double precision core)."""
@@ -188,6 +215,8 @@ class Truth:
         }
         if self.origin:
             data["origin"] = dict(self.origin)
+        if self.serial_number is not None:
+            data["arm"] = {"serial_number": self.serial_number}
         return data
 
     def dumps(self) -> str:
@@ -198,7 +227,9 @@ class Truth:
             "# aacmm simulated arm: its TRUE geometry (docs/simulator.md). A parameter file\n"
             "# ('aacmm params set' reads the eight parameter keys) plus error sources.\n"
         )
-        return head + tomli_w.dumps(self.to_mapping())
+        data = self.to_mapping()
+        data["arm"] = {"serial_number": self.device_serial}
+        return head + tomli_w.dumps(data)
 
 
 def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
@@ -250,11 +281,21 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
         probing_sigma_um=float(sigma_um),
     )
     origin = data.get("origin", {})
+    arm = dict(data.get("arm", {}))
+    for k in arm:
+        if k != "serial_number":
+            raise TruthError(f"{src}: unknown key arm.{k}")
+    serial = arm.get("serial_number")
+    if serial is not None and (
+        isinstance(serial, bool) or not isinstance(serial, int) or not 0 <= serial <= 0xFFFFFFFF
+    ):
+        raise TruthError(f"{src}: arm.serial_number must be an integer 0..2^32-1")
     return Truth(
         params=Params(ps.theta_offset_rad, ps.alpha_rad, ps.d_mm, ps.a_mm, ps.l_mm),
         encoders=EncoderConfig(ps.counts_per_rev, ps.zero_offset_counts, ps.direction),
         errors=errors,
         origin=dict(origin) if isinstance(origin, dict) else {},
+        serial_number=serial,
     )
 
 
