@@ -49,7 +49,7 @@ def cmd_list(args: argparse.Namespace) -> int:
 def _limits(lo: float, hi: float) -> str:
     if math.isinf(lo):
         return "no limit"
-    return f"{math.degrees(lo):g} .. {math.degrees(hi):g} deg"
+    return f"{round(math.degrees(lo), 9):g} .. {round(math.degrees(hi), 9):g} deg"
 
 
 def cmd_show(args: argparse.Namespace) -> int:
@@ -82,7 +82,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     values = m.arm.to_vector()
     for name, v, unit in zip(m.arm.param_names, values, m.arm.param_units, strict=True):
         deg = f"  ({math.degrees(float(v)):.10g} deg)" if unit == "rad" else ""
-        print(f"  {name:8s} {float(v):.17g} {unit}{deg}{mark if name in m.assumed else ''}")
+        print(f"  {name:8s} {float(v)!r} {unit}{deg}{mark if name in m.assumed else ''}")
     if m.notes:
         print("notes:")
         for line in m.notes.splitlines():

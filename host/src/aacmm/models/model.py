@@ -138,8 +138,9 @@ class ArmModel:
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready description: ``name``, ``joints`` (N), ``n_params``, every
         parameter (``parameters``: name, value, unit, assumed, in Jacobian column
-        order), per joint the convention, limits (deg; None for no limit) and
-        encoder, the tip, the source and the assumed figures."""
+        order), per joint the convention, limits (``limits_rad`` exact,
+        ``limits_deg`` rounded to 1e-9 deg; None for no limit) and encoder, the
+        tip, the source and the assumed figures."""
         names, units = self.arm.param_names, self.arm.param_units
         values = self.arm.to_vector()
         params = [
@@ -156,9 +157,10 @@ class ArmModel:
                     "convention": j.convention,
                     "convention_assumed": f"convention{i + 1}" in self.assumed,
                     "beta": j.beta_rad is not None,
+                    "limits_rad": None if math.isinf(lo) else [lo, hi],
                     "limits_deg": None
-                    if math.isinf(lo) and math.isinf(hi)
-                    else [math.degrees(lo), math.degrees(hi)],
+                    if math.isinf(lo)
+                    else [round(math.degrees(lo), 9), round(math.degrees(hi), 9)],
                     "limits_assumed": f"limits{i + 1}" in self.assumed,
                     "encoder": {
                         "counts_per_rev": e.counts_per_rev,
