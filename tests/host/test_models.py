@@ -632,3 +632,85 @@ def test_any_value_of_a_number_field(value: Any, field: str, joint: int) -> None
         return
     v = getattr(m.arm.joints[joint], field.replace("_deg", "_rad"))
     assert math.isfinite(v)
+
+
+# ------------------------------------------------------------- writing a model
+
+ANGLE = st.floats(min_value=-2 * math.pi, max_value=2 * math.pi, allow_nan=False)
+LENGTH = st.floats(min_value=-3000.0, max_value=3000.0, allow_nan=False)
+ONE_LINE = st.text(
+    alphabet=st.characters(exclude_categories=["Cs"]), min_size=1, max_size=30
+).filter(lambda s: bool(s.strip()) and "\n" not in s.strip())
+
+
+@st.composite
+def arm_models(draw: st.DrawFn) -> ArmModel:
+    from aacmm.arm import Joint
+    from aacmm.models import Encoder
+
+    n = draw(st.integers(min_value=4, max_value=7))
+    joints, limits, encoders = [], [], []
+    for i in range(n):
+        beta = draw(st.none() | ANGLE) if i > 0 else None
+        joints.append(
+            Joint(
+                draw(st.sampled_from(["standard", "modified"])),
+                draw(ANGLE),
+                draw(ANGLE),
+                draw(LENGTH),
+                draw(LENGTH),
+                beta,
+            )
+        )
+        if draw(st.booleans()):
+            limits.append((-math.inf, math.inf))
+        else:
+            lo = draw(st.floats(min_value=-2 * math.pi, max_value=2 * math.pi - 0.01))
+            span = draw(st.floats(min_value=1e-3, max_value=2 * math.pi - 1e-3))
+            limits.append((lo, min(lo + span, 2 * math.pi)))
+        cpr = draw(st.integers(min_value=2, max_value=1 << 32))
+        encoders.append(
+            Encoder(
+                cpr,
+                draw(st.integers(min_value=0, max_value=cpr - 1)),
+                draw(st.sampled_from([1, -1])),
+                draw(st.sampled_from(["biss", "ssi", "ssi-gray", "counts"])),
+            )
+        )
+    tip = draw(st.sampled_from(["z", "xyz"]))
+    tz = draw(LENGTH)
+    vec = (draw(LENGTH), draw(LENGTH), tz) if tip == "xyz" else (0.0, 0.0, tz)
+    arm = Arm(joints=tuple(joints), tip=tip, tip_mm=vec)
+    figures = [*arm.param_names[: 4 * n + len(arm.beta_joints)]]
+    figures += [f"{k}{j}" for k in ("convention", "limits", "encoder") for j in range(1, n + 1)]
+    assumed = set(draw(st.lists(st.sampled_from(figures), max_size=8)))
+    if draw(st.booleans()):
+        assumed |= set(arm.param_names[4 * n + len(arm.beta_joints) :])
+    return ArmModel(
+        name=draw(st.text(alphabet="abcXYZ019_-.", min_size=1, max_size=12)),
+        description=draw(ONE_LINE).strip(),
+        source=draw(ONE_LINE).strip(),
+        arm=arm,
+        joint_limits_rad=tuple(limits),
+        encoders=tuple(encoders),
+        assumed=frozenset(assumed),
+        notes=draw(st.text(max_size=40).map(str.strip)),
+    )
+
+
+@settings(max_examples=150, deadline=None)
+@given(arm_models())
+def test_a_written_model_reads_back_equal(m: ArmModel) -> None:
+    from aacmm.models import dumps_model
+
+    assert loads_model(dumps_model(m)) == m
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_shipped_models_write_and_read_back(name: str) -> None:
+    from dataclasses import replace
+
+    from aacmm.models import dumps_model
+
+    m = load_model(name)
+    assert loads_model(dumps_model(m)) == replace(m, file=None)

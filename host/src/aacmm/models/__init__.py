@@ -14,6 +14,9 @@ API:
 * :func:`load_model` -- a shipped model by name, or a file by path (a path
   that exists, or any argument with a directory part or a ``.toml``
   suffix), validated; :func:`loads_model` from text.
+* :func:`dumps_model` -- a model as ``aacmm-model-1`` TOML text (angles in
+  radians, numbers exact) that :func:`loads_model` reads back to an equal
+  model: for a model made in code (a calibrated or a random arm).
 * :func:`shipped_models` -- the names of the shipped models, sorted;
   :func:`shipped_model_path` the file of one.
 * :class:`ArmModel` -- frozen: ``name``, ``description``, ``source``,
@@ -43,6 +46,7 @@ from importlib import resources
 from pathlib import Path
 
 from aacmm.errors import ModelError
+from aacmm.models._dump import dumps_model
 from aacmm.models._load import MAX_MODEL_BYTES, loads_model, read_model_file
 from aacmm.models.model import (
     COUNTS_PER_REV_MAX,
@@ -64,6 +68,7 @@ __all__ = [
     "ArmModel",
     "Encoder",
     "ModelError",
+    "dumps_model",
     "load_model",
     "loads_model",
     "shipped_model_path",
