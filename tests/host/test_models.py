@@ -202,10 +202,10 @@ F64_BOUND = 1e-12
 
 
 def test_shipped_models_and_the_default() -> None:
-    assert {"gao2013", "mpe2018", "commercial7", "microscribe5"} <= set(MODELS)
+    assert {"gao2013", "mpe2018", "commercial7", "microscribe5", "desk4"} <= set(MODELS)
     assert DEFAULT_MODEL == "gao2013" and load_model().name == "gao2013"
     counts = {load_model(n).n_joints for n in MODELS}
-    assert {5, 6, 7} <= counts
+    assert counts == {4, 5, 6, 7}
     for name in MODELS:
         m = load_model(name)
         assert m.name == name and shipped_model_path(name).stem == name
@@ -362,8 +362,8 @@ def test_every_shipped_model_says_what_is_assumed() -> None:
         names = set(m.arm.param_names)
         extra = {f"{k}{j}" for k in ("limits", "encoder", "convention") for j in range(1, 8)}
         assert m.assumed <= names | extra, m.assumed - names - extra
-    # the 7-axis and the 5-axis arms publish no figures: every parameter is assumed
-    for name in ("commercial7", "microscribe5"):
+    # the 7-, 5- and 4-axis arms publish no figures: every parameter is assumed
+    for name in ("commercial7", "microscribe5", "desk4"):
         m = load_model(name)
         assert set(m.arm.param_names) <= m.assumed, set(m.arm.param_names) - m.assumed
     # mpe2018's geometry is published, its convention, limits and encoders are not
@@ -374,6 +374,7 @@ def test_every_shipped_model_says_what_is_assumed() -> None:
     ms = load_model("microscribe5")
     assert ms.arm.beta_joints == (2,) and {j.convention for j in ms.arm.joints} == {"modified"}
     assert load_model("commercial7").n_joints == 7
+    assert load_model("desk4").arm.beta_joints == (2, 3)  # its parallel hinges 3 and 4
 
 
 # ------------------------------------------------------------- bad models
@@ -560,7 +561,9 @@ def test_bad_toml_and_files(tmp_path: Path) -> None:
         loads_model(text, "arm.toml")
     with pytest.raises(ModelError, match=r"no such file$"):
         load_model(tmp_path / "none.toml")
-    with pytest.raises(ModelError, match=r"nor a shipped model \(shipped: commercial7, gao2013"):
+    with pytest.raises(
+        ModelError, match=r"nor a shipped model \(shipped: commercial7, desk4, gao2013"
+    ):
         load_model("gao2014")
     (tmp_path / "latin1.toml").write_bytes(BASE.encode() + b"# \xe9\n")
     with pytest.raises(ModelError, match="not UTF-8"):

@@ -119,7 +119,9 @@ def test_missing_file_unknown_name_and_usage(tmp_path: Path) -> None:
     one_error_line(
         run("model", "check", str(tmp_path / "no.toml")), exitcodes.USAGE, "no such file"
     )
-    one_error_line(run("model", "show", "nosuchmodel"), exitcodes.USAGE, "shipped: commercial7")
+    one_error_line(
+        run("model", "show", "nosuchmodel"), exitcodes.USAGE, "shipped: commercial7, desk4"
+    )
     p = run("model")
     assert p.returncode == exitcodes.USAGE and "ACTION" in p.stderr
     p = run("model", "show")
