@@ -511,7 +511,7 @@ BAD: list[tuple[str, str, str, str]] = [
     (
         "assumed unknown",
         BASE.replace('assumed = ["limits"]', 'assumed = ["colour"]', 1),
-        "joint 1 assumed[0]",
+        "joint 1 assumed item 1",
         "not a figure",
     ),
     (

@@ -59,11 +59,18 @@ _JOINT_FIGURES = {
 
 
 def _field(path: KeyPath) -> str:
-    """``joint 3 d_mm``, ``tip.vector_mm[2]``: joints counted from 1, as a person reads them."""
+    """``joint 3 d_mm``, ``tip.vector_mm item 3``: joints and list items counted
+    from 1, as a person reads them."""
+    head = ""
     if len(path) >= 2 and path[0] == "joints" and isinstance(path[1], int):
-        rest = format_path(path[2:])
-        return f"joint {path[1] + 1}" + (f" {rest}" if rest else "")
-    return format_path(path)
+        head, path = f"joint {path[1] + 1}", path[2:]
+    out = ""
+    for part in path:
+        if isinstance(part, int):
+            out += f" item {part + 1}"
+        else:
+            out += f".{format_path((part,))}" if out else format_path((part,))
+    return f"{head} {out}" if head and out else head or out
 
 
 def _kind(v: Any) -> str:
