@@ -717,3 +717,24 @@ def test_shipped_models_write_and_read_back(name: str) -> None:
 
     m = load_model(name)
     assert loads_model(dumps_model(m)) == replace(m, file=None)
+
+
+def test_models_is_a_pure_library() -> None:
+    """No argument parsing, printing or exits in aacmm.models; nothing from commands."""
+    import ast
+
+    import aacmm.models
+
+    found = []
+    for path in sorted(Path(aacmm.models.__file__).parent.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import | ast.ImportFrom):
+                mods = [a.name for a in node.names] + [getattr(node, "module", None) or ""]
+                if any(
+                    m == "argparse" or m.startswith(("aacmm.commands", "aacmm.cli")) for m in mods
+                ):
+                    found.append(f"{path.name}:{node.lineno} imports {mods}")
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+                if node.func.id in ("print", "exit", "input"):
+                    found.append(f"{path.name}:{node.lineno} calls {node.func.id}()")
+    assert not found, found
