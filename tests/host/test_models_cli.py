@@ -126,3 +126,23 @@ def test_missing_file_unknown_name_and_usage(tmp_path: Path) -> None:
     assert p.returncode == exitcodes.USAGE and "ACTION" in p.stderr
     p = run("model", "show")
     assert p.returncode == exitcodes.USAGE
+
+
+def test_example_copies_a_shipped_model_to_edit(tmp_path: Path) -> None:
+    out = tmp_path / "mine.toml"
+    p = run("model", "example", "microscribe5", "-o", str(out))
+    assert p.returncode == exitcodes.OK, p.stderr
+    assert out.read_bytes() == shipped_model_path("microscribe5").read_bytes()
+    one_error_line(run("model", "example", "gao2013", "-o", str(out)), exitcodes.USAGE, "exists")
+    assert out.read_bytes() == shipped_model_path("microscribe5").read_bytes()
+    p = run("model", "example", "gao2013", "-o", str(out), "--force")
+    assert (
+        p.returncode == exitcodes.OK
+        and out.read_bytes() == shipped_model_path("gao2013").read_bytes()
+    )
+    one_error_line(
+        run("model", "example", "nosuch", "-o", str(tmp_path / "x.toml")),
+        exitcodes.USAGE,
+        "no such shipped model",
+    )
+    assert not (tmp_path / "x.toml").exists()

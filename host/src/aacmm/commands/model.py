@@ -10,6 +10,7 @@ import json
 import math
 from typing import Any
 
+from aacmm.commands.common import add_force_option
 from aacmm.commands.exitcodes import OK
 
 
@@ -18,7 +19,8 @@ def register(sub: Any) -> None:
         "model",
         help="list the shipped arm models, show one, or check a model file",
         description="Arm models (docs/models.md): list the shipped models, show a model's "
-        "joints and every parameter, or check a model file (exit 2 with the reason if bad).",
+        "joints and every parameter, check a model file (exit 2 with the reason if bad), or "
+        "copy a shipped model to edit.",
     )
     ps = p.add_subparsers(dest="model_command", metavar="ACTION", required=True)
     ps.add_parser("list", help="the shipped models, one a line, name first").set_defaults(
@@ -31,6 +33,11 @@ def register(sub: Any) -> None:
     check = ps.add_parser("check", help="validate a model file (exit 2 with the reason if bad)")
     check.add_argument("model", metavar="FILE", help="a model file (or a shipped model's name)")
     check.set_defaults(func=cmd_check)
+    ex = ps.add_parser("example", help="write a shipped model to a file, to edit for a new arm")
+    ex.add_argument("name", help="the shipped model")
+    ex.add_argument("-o", "--output", required=True, metavar="FILE", help="the file to write")
+    add_force_option(ex)
+    ex.set_defaults(func=cmd_example)
 
 
 def cmd_list(args: argparse.Namespace) -> int:
@@ -98,4 +105,17 @@ def cmd_check(args: argparse.Namespace) -> int:
         f"{args.model}: ok, model {m.name}, {m.n_joints} joints, {m.n_params} parameters, "
         f"{len(m.assumed)} assumed figures"
     )
+    return OK
+
+
+def cmd_example(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from aacmm.commands.common import check_outputs, write_output
+    from aacmm.models import shipped_model_path
+
+    src = shipped_model_path(args.name)  # ModelError (exit 2) for an unknown name
+    (out,) = check_outputs([Path(args.output)], args.force)
+    write_output(out, src.read_bytes(), force=args.force)
+    print(f"wrote {out}")
     return OK
