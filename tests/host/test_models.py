@@ -515,6 +515,12 @@ BAD: list[tuple[str, str, str, str]] = [
         "not a figure",
     ),
     (
+        "assumed near miss",
+        BASE.replace('assumed = ["limits"]', 'assumed = ["limits_mm"]', 1),
+        "joint 1 assumed item 1",
+        "not a figure",
+    ),
+    (
         "string for number",
         BASE.replace("d_mm = 65.5", 'd_mm = "65.5"', 1),
         "joint 2 d_mm",

@@ -218,8 +218,7 @@ def _assumed(c: _Ctx, table: dict[str, Any], path: KeyPath, allowed: dict[str, s
     out = []
     for i, e in enumerate(v):
         s = c.text((*p, i), e)
-        key = s.removesuffix("_deg").removesuffix("_rad") if s.startswith(_ANGLES) else s
-        key = "limits" if s.startswith("limits") else key
+        key = next((b for b in (*_ANGLES, "limits") if s in (b, f"{b}_deg", f"{b}_rad")), s)
         if key not in allowed:
             c.fail((*p, i), f"{s!r} is not a figure of this table (one of: {', '.join(allowed)})")
         out.append(allowed[key])
