@@ -491,6 +491,18 @@ BAD: list[tuple[str, str, str, str]] = [
         "alpha_rad must be within",
     ),
     (
+        "huge integer",
+        BASE.replace("d_mm = 300.0", "d_mm = " + "9" * 400),
+        "joint 1 d_mm",
+        "beyond TOML's 64 bits",
+    ),
+    (
+        "huge count",
+        BASE.replace("counts_per_rev = 4294967296", "counts_per_rev = " + "9" * 400),
+        "encoder.counts_per_rev",
+        "400 digits",
+    ),
+    (
         "encoder cpr",
         BASE.replace("counts_per_rev = 4294967296", "counts_per_rev = 1"),
         "encoder.counts_per_rev",
@@ -615,7 +627,7 @@ def test_damaged_files_never_escape(pos: int, cut: int, insert: str) -> None:
 @given(
     value=st.one_of(
         st.floats(allow_nan=True, allow_infinity=True),
-        st.integers(min_value=-(10**20), max_value=10**20),
+        st.integers(min_value=-(10**400), max_value=10**400),
         st.text(max_size=5),
         st.booleans(),
     ),

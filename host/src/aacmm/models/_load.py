@@ -107,6 +107,8 @@ class _Ctx:
     def number(self, path: KeyPath, v: Any, allow_inf: bool = False) -> float:
         if isinstance(v, bool) or not isinstance(v, int | float):
             self.fail(path, f"must be a number, got {_kind(v)}")
+        if isinstance(v, int):
+            self.int64(path, v)
         f = float(v)
         if math.isnan(f) or (math.isinf(f) and not allow_inf):
             self.fail(path, "must be finite" if not math.isnan(f) else "must be a number, not nan")
@@ -115,7 +117,13 @@ class _Ctx:
     def integer(self, path: KeyPath, v: Any) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
             self.fail(path, f"must be a whole number, got {_kind(v)}")
+        self.int64(path, v)
         return int(v)
+
+    def int64(self, path: KeyPath, v: int) -> None:
+        """TOML's integers are 64-bit (tomllib reads any size)."""
+        if not -(1 << 63) <= v < (1 << 63):
+            self.fail(path, f"an integer of {len(str(abs(v)))} digits is beyond TOML's 64 bits")
 
     def text(self, path: KeyPath, v: Any, empty: bool = False) -> str:
         if not isinstance(v, str):
