@@ -649,7 +649,9 @@ def test_any_value_of_a_number_field(value: Any, field: str, joint: int) -> None
         m = loads_model(text, "arm.toml")
     except ModelError as e:
         assert "\n" not in str(e) and str(e).startswith("arm.toml:"), str(e)
-        assert e.field in (f"joint {joint + 1} {field}", f"joint {joint + 1}"), str(e)
+        # a string rendered by repr() may be no TOML string at all (a lone backslash)
+        syntax = isinstance(value, str) and e.problem.startswith("not valid TOML")
+        assert syntax or e.field in (f"joint {joint + 1} {field}", f"joint {joint + 1}"), str(e)
         return
     v = getattr(m.arm.joints[joint], field.replace("_deg", "_rad"))
     assert math.isfinite(v)
