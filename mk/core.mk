@@ -11,7 +11,7 @@ SIMD_SRCS := firmware/src/analysis.c firmware/src/simd/simd_dispatch.c \
 CORE_HDRS := $(wildcard firmware/include/aacmm/*.h) firmware/src/aacmm_internal.h \
              firmware/src/kinematics_impl.h firmware/src/sincos_f64.h firmware/src/sincos_f32.h \
              firmware/src/template_end.h firmware/src/sincos_eval.h \
-             firmware/src/chain_impl.h $(wildcard firmware/src/simd/*.h)
+             firmware/src/chain_impl.h firmware/src/errmodel_impl.h firmware/src/errmodel_core.h $(wildcard firmware/src/simd/*.h)
 CORE_TEST_SRCS := tests/core/test_kinematics.c
 CORE_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests/core/reference.h \
                   tests/core/legacy_paths.h tests/core/legacy_golden.h
