@@ -7,7 +7,8 @@ FIXED_SRCS := firmware/src/kinematics_q.c firmware/src/fixed_sincos.c
 # Host / load-time conversion from double parameters (uses double: never in
 # the M0+ build).
 FIXED_CONVERT_SRCS := firmware/src/kinematics_q_convert.c
-FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h
+FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h \
+              firmware/src/errmodel_q_impl.h
 FIXED_TEST_SRCS := tests/fixed/test_fixed.c
 # The general arm model through the fixed path (tests/fixed/test_fixed_arm.c).
 FIXED_ARM_TEST_SRCS := tests/fixed/test_fixed_arm.c
@@ -87,7 +88,8 @@ test-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a $(M0P_DIR)/float_canary.o
 	sh scripts/check-symbols.sh m0-fixed $(M0P_FIXED_OBJS)
 	@bad=$$(for o in $(M0P_FIXED_OBJS); do $(ARM_NM) -u $$o; done | awk '{print $$2}' | grep -E '$(FIXED_FLOAT_EXTRA)' || true); \
 	 if [ -n "$$bad" ]; then echo "test-fixed-m0p: float conversion helpers referenced: $$bad" >&2; exit 1; fi
-	@for f in $(FIXED_SRCS) firmware/src/shape.c firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h; do \
+	@for f in $(FIXED_SRCS) firmware/src/shape.c firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h \
+	         firmware/src/errmodel_q_impl.h; do \
 	   if gcc -fpreprocessed -dD -E -P -x c $$f 2>/dev/null | grep -nwE 'float|double|long double'; then \
 	     echo "test-fixed-m0p: $$f uses a floating type" >&2; exit 1; fi; \
 	 done
