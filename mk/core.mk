@@ -130,3 +130,18 @@ $(BUILD)/core/bench_core: bench/bench_core.c $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HD
 bench-core: $(BUILD)/core/bench_core
 	@$<
 BENCH_TARGETS += bench-core
+
+# ---- the error model's instructions on the Cortex-M4F (issue 27) ----
+# bench/bench_em_cm.c on the -Os M4F objects under QEMU's mps2-an386.
+M4F_BENCH_DIR := $(BUILD)/arm-m4f/bench
+$(M4F_BENCH_DIR)/bench_em_m4f.elf: bench/bench_em_cm.c bench/m4f_mps2.ld $(M4F_CORE_OBJS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M4F_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
+	  -T bench/m4f_mps2.ld bench/bench_em_cm.c $(M4F_CORE_OBJS) -lm -lc -lgcc -o $@
+.PHONY: bench-em-m4f
+bench-em-m4f: $(M4F_BENCH_DIR)/bench_em_m4f.elf
+	@if command -v qemu-system-arm >/dev/null 2>&1; then \
+	   timeout 120 qemu-system-arm -M mps2-an386 -nographic -monitor none -serial none \
+	     -semihosting-config enable=on,target=native -icount shift=0 -kernel $<; \
+	 else echo '{"bench": "em.m4f", "skipped": "qemu-system-arm not installed"}'; fi
+BENCH_TARGETS += bench-em-m4f

@@ -151,3 +151,17 @@ test-fixed-split: $(BUILD)/fixed/test_fixed_split $(BUILD)/fixed/test_fixed_arm_
 	$(BUILD)/fixed/test_fixed_split
 	$(BUILD)/fixed/test_fixed_arm_split
 TEST_SUITES += test-fixed-split
+
+# ---- the error model's instructions on the Cortex-M0 (issue 27) ----
+# bench/bench_em_cm.c on the -Os M0+ objects, as bench-fixed-m0.
+$(M0_BENCH_DIR)/bench_em_m0.elf: bench/bench_em_cm.c bench/m0_microbit.ld $(M0P_FIXED_OBJS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
+	  -T bench/m0_microbit.ld bench/bench_em_cm.c $(M0P_FIXED_OBJS) -lc -lgcc -o $@
+.PHONY: bench-em-m0
+bench-em-m0: $(M0_BENCH_DIR)/bench_em_m0.elf
+	@if command -v qemu-system-arm >/dev/null 2>&1; then \
+	   timeout 120 qemu-system-arm -M microbit -nographic -monitor none -serial none \
+	     -semihosting-config enable=on,target=native -icount shift=0 -kernel $<; \
+	 else echo '{"bench": "em.m0", "skipped": "qemu-system-arm not installed"}'; fi
+BENCH_TARGETS += bench-em-m0

@@ -11,11 +11,17 @@ typedef struct {
     REAL cs[AACMM_JOINTS_MAX][2 * AACMM_HARMONICS_MAX]; /* cos kq at 2(k-1), sin kq at 2(k-1)+1 */
 } EM(em_trig_t);
 
-/* q_out = corrected readings (a valid em of n joints, checked readings);
- * trig, if not NULL, receives cos kq, sin kq. Joints with K = 0 are copied. */
-static inline void EM(em_correct)(const TYPE(aacmm_errmodel) *em, int n, const REAL *theta_rad,
-                                   REAL *q_out, EM(em_trig_t) *trig)
+/* q_out = corrected readings (a structurally checked em of n joints,
+ * checked readings); trig, if not NULL, receives cos kq, sin kq. Joints with
+ * K = 0 are copied. A correction beyond AACMM_HARMONIC_SUM_MAX_RAD, which a
+ * valid em cannot give, or a NaN one (a NaN or infinite coefficient) stops
+ * it: AACMM_ERR_RANGE or AACMM_ERR_NOT_FINITE, the per-pose guard that
+ * stands in for validating every coefficient at every pose. */
+static inline aacmm_status_t EM(em_correct)(const TYPE(aacmm_errmodel) *em, int n,
+                                            const REAL *theta_rad, REAL *q_out,
+                                            EM(em_trig_t) *trig)
 {
+    const REAL hmax = (REAL)AACMM_HARMONIC_SUM_MAX_RAD;
     int i, k;
     for (i = 0; i < n; i++) {
         const int kk = (int)em->harmonics[i];
@@ -49,8 +55,28 @@ static inline void EM(em_correct)(const TYPE(aacmm_errmodel) *em, int n, const R
                 trig->cs[i][2 * k + 1] = sk;
             }
         }
+        if (!(delta <= hmax && delta >= -hmax)) {
+            return (delta > hmax || delta < -hmax) ? AACMM_ERR_RANGE : AACMM_ERR_NOT_FINITE;
+        }
         q_out[i] = q + delta;
     }
+    return AACMM_OK;
+}
+
+/* The fields that size arrays and loops: joints, K_i, cte_columns (the
+ * per-pose check; aacmm_errmodel_validate_* checks the values). */
+static inline aacmm_status_t EM(em_shape_ok)(const TYPE(aacmm_errmodel) *em, int joints)
+{
+    int i;
+    if ((int)em->joints != joints || em->cte_columns > 1u) {
+        return AACMM_ERR_RANGE;
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        if (em->harmonics[i] > (i < joints ? AACMM_HARMONICS_MAX : 0)) {
+            return AACMM_ERR_RANGE;
+        }
+    }
+    return AACMM_OK;
 }
 
 /* The thermal factors 1 + cte (T - tref) of n links (checked temperatures,

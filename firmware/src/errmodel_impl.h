@@ -142,23 +142,29 @@ static aacmm_status_t SFX(em_scale)(TYPE(aacmm_model) *out, const TYPE(aacmm_mod
     return st;
 }
 
-/* The checks shared by every entry point: a valid em of the model's joint
- * count, the readings, the temperatures (if any). */
+/* The checks of every pose: the em's shape (joint count, K, cte_columns;
+ * its values are checked by aacmm_errmodel_validate_*, once, and at each pose
+ * by em_correct's guard on the correction and em_scale's on the lengths),
+ * the readings, the temperatures (if any). */
 static aacmm_status_t SFX(em_check)(const TYPE(aacmm_model) *model,
                                     const TYPE(aacmm_errmodel) *em, const REAL *theta_rad,
                                     const REAL *temp_c)
 {
     const int n = (int)model->arm.shape.joints;
-    aacmm_status_t st = SFX(aacmm_errmodel_validate)(em);
+    aacmm_status_t st = EM(em_shape_ok)(em, n);
     if (st != AACMM_OK) {
         return st;
     }
-    if ((int)em->joints != n) {
-        return AACMM_ERR_RANGE;
-    }
     st = SFX(check_angles)(theta_rad, n);
     if (st == AACMM_OK && temp_c != NULL) {
+        int i;
         st = SFX(check_temps)(temp_c, n);
+        for (i = 0; i < n && st == AACMM_OK; i++) {
+            st = SFX(check_value)(em->cte_per_k[i], (REAL)AACMM_CTE_MAX_PER_K);
+            if (st == AACMM_OK) {
+                st = SFX(check_temp)(em->tref_c[i]);
+            }
+        }
     }
     return st;
 }
@@ -175,7 +181,7 @@ aacmm_status_t SFX(aacmm_errmodel_angles)(const TYPE(aacmm_errmodel) *em, const 
         st = SFX(check_angles)(theta_rad, (int)em->joints);
     }
     if (st == AACMM_OK) {
-        EM(em_correct)(em, (int)em->joints, theta_rad, q_out, NULL);
+        st = EM(em_correct)(em, (int)em->joints, theta_rad, q_out, NULL);
     }
     return st;
 }
@@ -237,7 +243,12 @@ static aacmm_status_t SFX(em_pose)(const TYPE(aacmm_model) *model,
         }
         m = &scaled;
     }
-    EM(em_correct)(em, n, theta_rad, q, jac != NULL ? &trig : NULL);
+    {
+        const aacmm_status_t st = EM(em_correct)(em, n, theta_rad, q, jac != NULL ? &trig : NULL);
+        if (st != AACMM_OK) {
+            return st;
+        }
+    }
     if (jac == NULL) {
         SFX(chain)(m, q, p_mm, NULL);
         return AACMM_OK;
@@ -298,10 +309,13 @@ aacmm_status_t SFX(aacmm_batch_angles_em)(const TYPE(aacmm_model) *model,
     if (model == NULL || (n > 0u && (theta_rad == NULL || p_mm == NULL))) {
         return AACMM_ERR_NULL;
     }
-    e = SFX(aacmm_errmodel_cols)(em);
-    if (e < 0) {
-        return (aacmm_status_t)e;
+    {
+        const aacmm_status_t st = SFX(aacmm_errmodel_validate)(em);
+        if (st != AACMM_OK) {
+            return st;
+        }
     }
+    e = SFX(aacmm_errmodel_cols)(em);
     nj = model->arm.shape.joints;
     jn = (size_t)AACMM_JAC_ROWS * ((size_t)model->n_params + (size_t)e);
     for (k = 0; k < n; k++) {

@@ -193,12 +193,21 @@ static aacmm_status_t check_temps_q(const int32_t *temp_q8, int n)
     return AACMM_OK;
 }
 
+/* The per-pose check: the fields that size loops and arrays (joints, K_i)
+ * and the temperatures; the coefficients' bounds are the precondition
+ * (aacmm_errmodel_q_validate, once, as the model's init). */
 static aacmm_status_t em_check_q(const aacmm_model_q_t *model, const aacmm_errmodel_q_t *em,
                                  const int32_t *temp_q8)
 {
-    aacmm_status_t st = aacmm_errmodel_q_validate(em);
-    if (st == AACMM_OK && em->joints != model->arm.shape.joints) {
-        st = AACMM_ERR_RANGE;
+    aacmm_status_t st = AACMM_OK;
+    int i;
+    if (em->joints != model->arm.shape.joints) {
+        return AACMM_ERR_RANGE;
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        if (em->harmonics[i] > (i < (int)em->joints ? AACMM_HARMONICS_MAX : 0)) {
+            return AACMM_ERR_RANGE;
+        }
     }
     if (st == AACMM_OK && temp_q8 != NULL) {
         st = check_temps_q(temp_q8, (int)em->joints);
@@ -214,7 +223,10 @@ aacmm_status_t aacmm_model_q_at_temperature(aacmm_model_q_t *out, const aacmm_mo
     if (out == NULL || model == NULL || em == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = em_check_q(model, em, temp_q8);
+    st = aacmm_errmodel_q_validate(em);
+    if (st == AACMM_OK) {
+        st = em_check_q(model, em, temp_q8);
+    }
     if (st != AACMM_OK) {
         return st;
     }
@@ -358,7 +370,10 @@ aacmm_status_t aacmm_batch_bam_em_q(const aacmm_model_q_t *model, const aacmm_er
     if (model == NULL || (n > 0u && (theta_bam == NULL || p_q48 == NULL))) {
         return AACMM_ERR_NULL;
     }
-    st = em_check_q(model, em, NULL);
+    st = aacmm_errmodel_q_validate(em); /* once per batch */
+    if (st == AACMM_OK) {
+        st = em_check_q(model, em, NULL);
+    }
     if (st != AACMM_OK) {
         return st;
     }

@@ -349,15 +349,30 @@ def test_bad_error_models_and_temperatures_are_refused() -> None:
         c.c_rad[2][0] = math.nan
         assert point(cm, c, q, ffi.NULL, p) == -3
         c.c_rad[2][0] = 0.0
-        c.s_rad[2][1] = 1e-3  # past K = 1
-        assert point(cm, c, q, ffi.NULL, p) == -2
+        validate = getattr(lib, f"aacmm_errmodel_validate_{suffix}")
+        c.s_rad[2][1] = 1e-3  # past K = 1: ignored by the pose, refused by validation
+        assert validate(c) == -2
         c.s_rad[2][1] = 0.0
         c.harmonics[6] = 1  # past N
         assert point(cm, c, q, ffi.NULL, p) == -2
         c.harmonics[6] = 0
-        c.cte_per_k[0] = 2e-3
+        c.c_rad[2][0] = 0.09
+        c.s_rad[2][0] = 0.09  # a sum beyond 0.1 rad: validation, and the pose's guard
+        assert validate(c) == -2
+        q[2] = math.pi / 4
         assert point(cm, c, q, ffi.NULL, p) == -2
+        q[2] = 0.0
+        c.c_rad[2][0] = c.s_rad[2][0] = 0.0
+        c.cte_per_k[0] = 2e-3
+        assert validate(c) == -2
+        t = ffi.new("float[6]" if single else "double[6]", [20.0] * 6)
+        assert point(cm, c, q, t, p) == -2
+        c.cte_per_k[0] = math.nan
+        assert point(cm, c, q, t, p) == -3
         c.cte_per_k[0] = 0.0
+        t[5] = math.nan
+        assert point(cm, c, q, t, p) == -3
+        t[5] = 20.0
         c.joints = 5
         assert point(cm, c, q, ffi.NULL, p) == -2
         c.joints = 6

@@ -83,7 +83,7 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles_em)(aacmm_kernel_t kernel,
                 ok = k;
                 break;
             }
-            EM(em_correct)(em, (int)nj, th + k * nj, q + k * nj, NULL);
+            (void)EM(em_correct)(em, (int)nj, th + k * nj, q + k * nj, NULL); /* valid em */
         }
         if (ok > 0u) {
             st = PSFX(aacmm_simd_batch_angles)(kernel, &at_t, ok, q, p_mm + base * 3u, jg, &d);
@@ -97,7 +97,7 @@ aacmm_status_t PSFX(aacmm_simd_batch_angles_em)(aacmm_kernel_t kernel,
                 if (jw != jp) {
                     memmove(jk, jg + k * jp, jp * sizeof(REAL));
                 }
-                EM(em_correct)(em, (int)nj, th + k * nj, q, &trig);
+                (void)EM(em_correct)(em, (int)nj, th + k * nj, q, &trig);
                 EM(em_extend)(model, em, &trig, temp_c != NULL ? dt : NULL, f, jk);
             }
         }
