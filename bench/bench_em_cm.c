@@ -115,6 +115,19 @@ static void em2_jac_t(int k)
 {
     (void)aacmm_point_jacobian_em_q(&mq, &em2, bam + 6 * k, temps, pq, jq);
 }
+static volatile int32_t sink;
+static void sincos6(int k)
+{
+    int32_t a, b, i;
+    for (i = 0; i < 6; i++) {
+        aacmm_sincos_q(bam[6 * k + i], &a, &b);
+        sink = a + b;
+    }
+}
+static void em2_jac_p(int k)
+{
+    (void)aacmm_point_jacobian_corrected_q(&mq, &em2, bam + 6 * k, 0, pq, jq);
+}
 #else
 static void plain_point(int k) { (void)aacmm_point_f32(&mf, rad + 6 * k, pf); }
 static void plain_jac(int k) { (void)aacmm_point_jacobian_f32(&mf, rad + 6 * k, pf, jf); }
@@ -226,6 +239,13 @@ int main(void)
     report("em.point_jacobian_k2", "probe point + 3x49 Jacobian, K = 2 on every joint", e2j);
     report("em.point_jacobian_k2_temps",
            "probe point + 3x49 Jacobian, K = 2, link temperatures (28 degC, 23e-6/K)", e2t);
+#if defined(__ARM_ARCH_6M__)
+    report("em.point_jacobian_corrected_k2",
+           "probe point + the 3x25 Jacobian at the corrected readings, K = 2 on every joint",
+           per_pose(em2_jac_p, base));
+    report("em.sincos_q_x6", "6 aacmm_sincos_q (the extra one per corrected joint), for scale",
+           per_pose(sincos6, base));
+#endif
     report("em.correction_per_reading", "the correction of 6 readings, K = 2: point_k2 - point",
            e2p - pp);
     return 0;

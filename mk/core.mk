@@ -76,7 +76,7 @@ $(M4F_DIR)/libaacmm_core.a: $(M4F_CORE_OBJS)
 firmware-core-m4f: $(M4F_DIR)/libaacmm_core.a
 	@echo "core for Cortex-M4F ($(M4F_FLAGS)):"
 	@$(ARM_SIZE) -t $(M4F_CORE_OBJS)
-	@/usr/bin/python3 scripts/stack_usage.py $(M4F_DIR) aacmm_point_jacobian_f32 aacmm_batch_counts_f32 aacmm_encoder_to_angles_f32 aacmm_model_init_f32
+	@/usr/bin/python3 scripts/stack_usage.py $(M4F_DIR) aacmm_point_jacobian_f32 aacmm_batch_counts_f32 aacmm_encoder_to_angles_f32 aacmm_model_init_f32 aacmm_point_em_f32 aacmm_point_jacobian_em_f32
 FIRMWARE_TARGETS += firmware-core-m4f
 
 # The single-precision path must run on the FPU alone: no double-precision

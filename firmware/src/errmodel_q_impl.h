@@ -93,55 +93,94 @@ Q_INLINE int32_t cheb_q30(int32_t a, int32_t b, int32_t c)
 #endif
 }
 
-/* The corrected readings of a valid em of n joints; trig (if not NULL)
- * receives cos kq, sin kq. Joints with K = 0 are copied. */
+/* c x for a coefficient c (Q36 turn) and a Q30 x, summed: ARMv6-M each
+ * rounded half up to Q36 turn (int32 sums, |.| <= 0.1 rad + 8 LSB < 2^31);
+ * elsewhere exact in Q66 turn (int64, |.| < 2^61). */
+#if AACMM_FIXED_SPLIT_MUL
+typedef int32_t hsum_t;
+#define HTERM(c, x) aacmm_fixed_mul_q30((c), (x))
+#define HSUM_TO_BAM(sum) ((uint32_t)(((sum) + 8) >> 4))
+#else
+typedef int64_t hsum_t;
+#define HTERM(c, x) MUL((c), (x))
+#define HSUM_TO_BAM(sum) ((uint32_t)(int32_t)AACMM_FIXED_RND((sum), 34))
+#endif
+
+/* The corrected readings of a valid em of n joints (K = 0: copied), with
+ * cos kq, sin kq by the recurrence; q_out[n .. 6] = 0. */
 static void em_correct_q(const aacmm_errmodel_q_t *em, int n, const uint32_t *theta_bam,
-                         uint32_t *q_out, em_trig_q *trig)
+                         uint32_t *q_out)
 {
     int i, k;
     for (i = 0; i < n; i++) {
         const int kk = (int)em->harmonics[i];
+        const int32_t *cc = em->c_q36[i], *ss = em->s_q36[i];
         int32_t s1, c1, ck, sk, cm, sm;
-#if AACMM_FIXED_SPLIT_MUL
-        int32_t sum; /* Q36 turn: |sum| <= 0.1 rad + 8 LSB < 2^31 */
-#else
-        int64_t sum; /* Q66 turn: |sum| < 2^61 */
-#endif
+        hsum_t sum;
         if (kk == 0) {
             q_out[i] = theta_bam[i];
             continue;
         }
         aacmm_fixed_sincos(theta_bam[i], &s1, &c1);
-        cm = AACMM_Q_ONE_Q30;
-        sm = 0;
+        sum = HTERM(cc[0], c1) + HTERM(ss[0], s1);
         ck = c1;
         sk = s1;
-        sum = 0;
-        for (k = 0; k < kk; k++) {
-            if (k > 0) {
-                const int32_t cn = cheb_q30(c1, ck, cm);
-                const int32_t sn = cheb_q30(c1, sk, sm);
-                cm = ck;
-                sm = sk;
-                ck = cn;
-                sk = sn;
-            }
-#if AACMM_FIXED_SPLIT_MUL
-            sum += aacmm_fixed_mul_q30(em->c_q36[i][k], ck) + aacmm_fixed_mul_q30(em->s_q36[i][k], sk);
-#else
-            sum += MUL(em->c_q36[i][k], ck) + MUL(em->s_q36[i][k], sk);
-#endif
-            if (trig != NULL) {
-                trig->cs[i][2 * k] = ck;
-                trig->cs[i][2 * k + 1] = sk;
-            }
+        cm = AACMM_Q_ONE_Q30;
+        sm = 0;
+        for (k = 1; k < kk; k++) {
+            const int32_t cn = cheb_q30(c1, ck, cm);
+            const int32_t sn = cheb_q30(c1, sk, sm);
+            cm = ck;
+            sm = sk;
+            ck = cn;
+            sk = sn;
+            sum += HTERM(cc[k], ck) + HTERM(ss[k], sk);
         }
         /* to BAM, rounded half up; added mod 2^32 (two's complement) */
-#if AACMM_FIXED_SPLIT_MUL
-        q_out[i] = theta_bam[i] + (uint32_t)((sum + 8) >> 4);
-#else
-        q_out[i] = theta_bam[i] + (uint32_t)(int32_t)AACMM_FIXED_RND(sum, 34);
-#endif
+        q_out[i] = theta_bam[i] + HSUM_TO_BAM(sum);
+    }
+    for (; i < AACMM_JOINTS_MAX; i++) {
+        q_out[i] = 0u;
+    }
+}
+
+/* em_correct_q and, from the same sine and cosine, cos kq, sin kq of each
+ * corrected joint for the harmonic columns (the same operations: the same
+ * corrected readings). */
+static void em_correct_trig_q(const aacmm_errmodel_q_t *em, int n, const uint32_t *theta_bam,
+                              uint32_t *q_out, em_trig_q *trig)
+{
+    int i, k;
+    for (i = 0; i < n; i++) {
+        const int kk = (int)em->harmonics[i];
+        const int32_t *cc = em->c_q36[i], *ss = em->s_q36[i];
+        int32_t s1, c1, ck, sk, cm = AACMM_Q_ONE_Q30, sm = 0;
+        hsum_t sum;
+        if (kk == 0) {
+            q_out[i] = theta_bam[i];
+            continue;
+        }
+        aacmm_fixed_sincos(theta_bam[i], &s1, &c1);
+        sum = HTERM(cc[0], c1) + HTERM(ss[0], s1);
+        ck = c1;
+        sk = s1;
+        trig->cs[i][0] = ck;
+        trig->cs[i][1] = sk;
+        for (k = 1; k < kk; k++) {
+            const int32_t cn = cheb_q30(c1, ck, cm);
+            const int32_t sn = cheb_q30(c1, sk, sm);
+            cm = ck;
+            sm = sk;
+            ck = cn;
+            sk = sn;
+            sum += HTERM(cc[k], ck) + HTERM(ss[k], sk);
+            trig->cs[i][2 * k] = ck;
+            trig->cs[i][2 * k + 1] = sk;
+        }
+        q_out[i] = theta_bam[i] + HSUM_TO_BAM(sum);
+    }
+    for (; i < AACMM_JOINTS_MAX; i++) {
+        q_out[i] = 0u;
     }
 }
 
@@ -257,13 +296,15 @@ static int64_t scale_col_q48(int64_t col, int32_t e30)
     return AACMM_FIXED_RND(MUL(axis, AACMM_Q_ONE_Q30 + e30), 12);
 }
 
+/* One checked pose: the point and, if jac is not NULL, the Jacobian: with
+ * ext the extended 3 x (P + E), else the 3 x P of the corrected pose. */
 static aacmm_status_t em_pose_q(const aacmm_model_q_t *model, const aacmm_errmodel_q_t *em,
                                 const uint32_t *theta_bam, const int32_t *temp_q8,
-                                int64_t p_q48[3], int64_t *jac)
+                                int64_t p_q48[3], int64_t *jac, int ext)
 {
     const int n = (int)model->arm.shape.joints;
     const int np = (int)model->n_params;
-    uint32_t q[AACMM_JOINTS_MAX] = {0u}; /* (gcc cannot see all N are set) */
+    uint32_t q[AACMM_JOINTS_MAX];
     int32_t e30[AACMM_JOINTS_MAX];
     em_trig_q trig;
     aacmm_model_q_t scaled;
@@ -278,12 +319,16 @@ static aacmm_status_t em_pose_q(const aacmm_model_q_t *model, const aacmm_errmod
         }
         m = &scaled;
     }
-    em_correct_q(em, n, theta_bam, q, jac != NULL ? &trig : NULL);
+    w = (jac != NULL && ext) ? np + aacmm_errmodel_q_cols(em) : np;
+    if (w > np) {
+        em_correct_trig_q(em, n, theta_bam, q, &trig);
+    } else {
+        em_correct_q(em, n, theta_bam, q);
+    }
     if (jac == NULL) {
         return aacmm_point_q(m, q, p_q48);
     }
     (void)aacmm_point_jacobian_q(m, q, p_q48, jac);
-    w = np + aacmm_errmodel_q_cols(em);
     /* rows apart, last first (each destination at or after its source) */
     if (w > np) {
         for (r = AACMM_JAC_ROWS - 1; r > 0; r--) {
@@ -293,7 +338,7 @@ static aacmm_status_t em_pose_q(const aacmm_model_q_t *model, const aacmm_errmod
         }
     }
     col = np;
-    for (i = 0; i < n; i++) {
+    for (i = 0; i < n && w > np; i++) {
         const int kk = (int)em->harmonics[i];
         if (kk == 0) {
             continue;
@@ -336,7 +381,7 @@ aacmm_status_t aacmm_point_em_q(const aacmm_model_q_t *model, const aacmm_errmod
         return AACMM_ERR_NULL;
     }
     st = em_check_q(model, em, temp_q8);
-    return (st != AACMM_OK) ? st : em_pose_q(model, em, theta_bam, temp_q8, p_q48, NULL);
+    return (st != AACMM_OK) ? st : em_pose_q(model, em, theta_bam, temp_q8, p_q48, NULL, 0);
 }
 
 aacmm_status_t aacmm_point_jacobian_em_q(const aacmm_model_q_t *model,
@@ -352,7 +397,32 @@ aacmm_status_t aacmm_point_jacobian_em_q(const aacmm_model_q_t *model,
         return AACMM_ERR_NULL;
     }
     st = em_check_q(model, em, temp_q8);
-    return (st != AACMM_OK) ? st : em_pose_q(model, em, theta_bam, temp_q8, p_q48, jac_q48);
+    return (st != AACMM_OK) ? st : em_pose_q(model, em, theta_bam, temp_q8, p_q48, jac_q48, 1);
+}
+
+aacmm_status_t aacmm_point_jacobian_corrected_q(const aacmm_model_q_t *model,
+                                                const aacmm_errmodel_q_t *em,
+                                                const uint32_t *theta_bam, const int32_t *temp_q8,
+                                                int64_t p_q48[3], int64_t *jac_q48)
+{
+    aacmm_status_t st;
+    if (em == NULL) {
+        return aacmm_point_jacobian_q(model, theta_bam, p_q48, jac_q48);
+    }
+    if (model == NULL || theta_bam == NULL || p_q48 == NULL || jac_q48 == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = em_check_q(model, em, temp_q8);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    if (temp_q8 == NULL) {
+        /* the device's case: the corrected readings through the plain path */
+        uint32_t q[AACMM_JOINTS_MAX];
+        em_correct_q(em, (int)em->joints, theta_bam, q);
+        return aacmm_point_jacobian_q(model, q, p_q48, jac_q48);
+    }
+    return em_pose_q(model, em, theta_bam, temp_q8, p_q48, jac_q48, 0);
 }
 
 aacmm_status_t aacmm_batch_bam_em_q(const aacmm_model_q_t *model, const aacmm_errmodel_q_t *em,
@@ -384,7 +454,7 @@ aacmm_status_t aacmm_batch_bam_em_q(const aacmm_model_q_t *model, const aacmm_er
         st = (tc != NULL) ? check_temps_q(tc, (int)nj) : AACMM_OK;
         if (st == AACMM_OK) {
             st = em_pose_q(model, em, theta_bam + k * nj, tc, p_q48 + k * 3u,
-                           jac_q48 != NULL ? jac_q48 + k * jn : NULL);
+                           jac_q48 != NULL ? jac_q48 + k * jn : NULL, 1);
         }
         if (st != AACMM_OK) {
             return st;
@@ -396,5 +466,7 @@ aacmm_status_t aacmm_batch_bam_em_q(const aacmm_model_q_t *model, const aacmm_er
     return AACMM_OK;
 }
 
+#undef HTERM
+#undef HSUM_TO_BAM
 #undef HCOL_NARROW
 #undef HCOL_MUL

@@ -381,6 +381,25 @@ static void test_error_model(void **state)
             assert_int_equal(aacmm_point_em_q(&m.mq, &emq, bam, tq, pq2), AACMM_OK);
             assert_memory_equal(pq, pq2, sizeof pq);
             assert_int_equal(aacmm_point_jacobian_em_f64(&m.md, &emd_q, th, tc, pd, jd), AACMM_OK);
+            /* the 3 x P Jacobian at the corrected readings: the extended one's
+             * first P columns, row by row, bit for bit */
+            assert_int_equal(aacmm_point_jacobian_corrected_q(&m.mq, &emq, bam, tq, pq2, jq2),
+                             AACMM_OK);
+            assert_memory_equal(pq, pq2, sizeof pq);
+            for (i = 0; i < 3; i++) {
+                assert_memory_equal(jq + i * w, jq2 + i * np, sizeof(int64_t) * (size_t)np);
+            }
+            assert_int_equal(aacmm_point_jacobian_corrected_q(&m.mq, &emq, bam, NULL, pq2, jq2),
+                             AACMM_OK);
+            {
+                int64_t pe[3], je[3 * (AACMM_PARAMS_MAX + 56)];
+                assert_int_equal(aacmm_point_jacobian_em_q(&m.mq, &emq, bam, NULL, pe, je),
+                                 AACMM_OK);
+                assert_memory_equal(pe, pq2, sizeof pe);
+                for (i = 0; i < 3; i++) {
+                    assert_memory_equal(je + i * w, jq2 + i * np, sizeof(int64_t) * (size_t)np);
+                }
+            }
             for (i = 0; i < 3; i++) {
                 worst_p = fmax(worst_p, fabs(Q48_TO_MM(pq[i]) - pd[i]) / scale);
             }

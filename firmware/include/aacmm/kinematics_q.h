@@ -477,6 +477,19 @@ aacmm_status_t aacmm_point_jacobian_em_q(const aacmm_model_q_t *model,
                                          const int32_t *temp_q8, int64_t p_q48[3],
                                          int64_t *jac_q48);
 
+/* The point and the 3 x P structural Jacobian (the columns of
+ * aacmm_point_jacobian_q, jac_q48 of 3 P values) at the corrected readings
+ * and the link temperatures: the device's wire format. The harmonic columns
+ * follow from its theta columns (times cos kq, sin kq of the readings) where
+ * they are needed (a calibration on the host); the first 3 P entries of
+ * aacmm_point_jacobian_em_q, row by row, bit for bit. Errors as
+ * aacmm_point_jacobian_em_q. Cost: aacmm_point_jacobian_q + the correction
+ * (docs/fixed-point.md: the paper's arm, K = 2 on every joint, on the M0). */
+aacmm_status_t aacmm_point_jacobian_corrected_q(const aacmm_model_q_t *model,
+                                                const aacmm_errmodel_q_t *em,
+                                                const uint32_t *theta_bam, const int32_t *temp_q8,
+                                                int64_t p_q48[3], int64_t *jac_q48);
+
 /* n poses of aacmm_point_jacobian_em_q (jac_q48 NULL: points only):
  * theta_bam[n N], temp_q8[n N] or NULL, p_q48[n 3], jac_q48[n 3 (P + E)];
  * stops at the first bad pose, *done as aacmm_batch_bam_q. */
