@@ -662,10 +662,11 @@ int aacmm_errmodel_cols_f32(const aacmm_errmodel_f32_t *em);
 
 /*
  * The corrected joint angles: q_out[i] = q'_i (rad) of theta_rad[i] (above),
- * for i < N. Readings are checked as by aacmm_point_*. q_out may equal
- * theta_rad. Errors: AACMM_ERR_NULL, AACMM_ERR_RANGE / NOT_FINITE (the
- * readings; the error model, validated first, and a model / error model
- * joint count mismatch give AACMM_ERR_RANGE). Nothing written on error.
+ * for i < N = em->joints. The error model is validated first
+ * (aacmm_errmodel_validate_*), the readings checked as by aacmm_point_*.
+ * q_out may equal theta_rad. Errors: AACMM_ERR_NULL, AACMM_ERR_RANGE /
+ * AACMM_ERR_NOT_FINITE; on error q_out is not written past the joints
+ * before the refused one.
  * Cost: per joint with K_i > 0 one sine/cosine pair + 4 K flops.
  */
 aacmm_status_t aacmm_errmodel_angles_f64(const aacmm_errmodel_f64_t *em, const double *theta_rad,
@@ -697,8 +698,15 @@ aacmm_status_t aacmm_model_at_temperature_f32(aacmm_model_f32_t *out,
  * (aacmm_errmodel_angles_*) through the model at the link temperatures
  * temp_c[0 .. N-1] (degC; NULL: the reference temperatures). em NULL, or K
  * = 0 everywhere with temp_c NULL: exactly aacmm_point_* (bit for bit).
- * Errors as aacmm_errmodel_angles_* and aacmm_model_at_temperature_*;
- * nothing written on error. Cost: aacmm_point_* + per corrected joint one
+ * Per pose the error model's fields that size loops and arrays are checked
+ * (joints equal to the model's, K_i, cte_columns: AACMM_ERR_RANGE), not
+ * every value: validate it once with aacmm_errmodel_validate_* (the batches
+ * do). What reaches the point is guarded at every pose: a correction beyond
+ * AACMM_HARMONIC_SUM_MAX_RAD (AACMM_ERR_RANGE) or NaN (a NaN coefficient:
+ * AACMM_ERR_NOT_FINITE), and with temperatures the temperatures, CTEs,
+ * reference temperatures and scaled lengths (as
+ * aacmm_model_at_temperature_*); readings as aacmm_point_*. Nothing written
+ * on error. Cost: aacmm_point_* + per corrected joint one
  * sine/cosine pair + 4 K flops (+ a model copy and 2N + 3 multiplies with
  * temperatures).
  */

@@ -462,8 +462,11 @@ aacmm_status_t aacmm_model_q_at_temperature(aacmm_model_q_t *out, const aacmm_mo
  * extended 3 x (P + E) Jacobian (jac_q48 holds 3 (P + E) values, at most
  * 3 (AACMM_PARAMS_MAX + 2 AACMM_HARMONICS_MAX AACMM_JOINTS_MAX) = 279).
  * em NULL, or K = 0 everywhere with temp_q8 NULL: exactly aacmm_point_q /
- * aacmm_point_jacobian_q (bit for bit). AACMM_ERR_NULL; AACMM_ERR_RANGE as
- * aacmm_model_q_at_temperature. Nothing written on error. Integer only.
+ * aacmm_point_jacobian_q (bit for bit). The error model must have passed
+ * aacmm_errmodel_q_validate (as the model its init): per pose the joint
+ * count and every K_i are checked and the temperatures (out of range, or a
+ * scaled reach beyond the limit: AACMM_ERR_RANGE); AACMM_ERR_NULL. Nothing
+ * written on error. Integer only.
  * Cost per corrected joint: one aacmm_sincos_q, 2 (K - 1) + 2 K products for
  * the correction and 6 K for the columns (the paper's arm, K = 2 on every
  * joint: docs/fixed-point.md has the instructions on the Cortex-M0 and M4F);
