@@ -491,9 +491,9 @@ static void test_error_model(void **state)
         assert_int_equal(aacmm_point_em_q(&mq, &e, bam, temps, p), AACMM_ERR_RANGE);
         assert_int_equal(aacmm_errmodel_default_f64(&d, 6), AACMM_OK);
         d.harmonics[0] = 1;
-        d.c_rad[0][0] = NAN;
+        d.c_rad[0][0] = (double)NAN;
         assert_int_equal(aacmm_errmodel_q_from_f64(&e, &d), AACMM_ERR_NOT_FINITE);
-        tc[1] = NAN;
+        tc[1] = (double)NAN;
         assert_int_equal(aacmm_temp_q8_from_f64(tq, tc, 2u), AACMM_ERR_NOT_FINITE);
         tc[1] = 85.01;
         assert_int_equal(aacmm_temp_q8_from_f64(tq, tc, 2u), AACMM_ERR_RANGE);
