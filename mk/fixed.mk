@@ -73,7 +73,7 @@ $(M0P_DIR)/libaacmm_fixed.a: $(M0P_FIXED_OBJS)
 firmware-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a
 	@echo "fixed-point kinematics for Cortex-M0+ ($(M0P_FLAGS)):"
 	@$(ARM_SIZE) -t $(M0P_FIXED_OBJS)
-	@/usr/bin/python3 scripts/stack_usage.py $(M0P_DIR) aacmm_point_q aacmm_point_jacobian_q aacmm_batch_bam_q aacmm_batch_counts_q aacmm_model_q_init aacmm_sincos_q aacmm_point_em_q aacmm_point_jacobian_em_q
+	@/usr/bin/python3 scripts/stack_usage.py $(M0P_DIR) aacmm_point_q aacmm_point_jacobian_q aacmm_batch_bam_q aacmm_batch_counts_q aacmm_model_q_init aacmm_sincos_q aacmm_point_em_q aacmm_point_jacobian_em_q aacmm_point_jacobian_corrected_q
 FIRMWARE_TARGETS += firmware-fixed-m0p
 
 # No floating point of any kind in the M0+ objects:
