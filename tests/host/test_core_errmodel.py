@@ -86,11 +86,7 @@ def reference_point(a: Arm, em: ErrorModel, theta: F, temp: F | None, x: F) -> F
             ms = [_rot("x", al[i]), _trans(0, aa), *ry, _rot("z", ang), _trans(2, d)]
         for m in ms:
             t = t @ m
-    tipv = (
-        np.array([0, 0, tip0[0], 1], dtype=CLD)
-        if a.tip == "z"
-        else np.array([*tip0, 1])
-    )
+    tipv = np.array([0, 0, tip0[0], 1], dtype=CLD) if a.tip == "z" else np.array([*tip0, 1])
     tipv[:3] = tipv[:3] * f[n - 1]
     p: F = (t @ tipv)[:3]
     return p
@@ -120,9 +116,7 @@ def reference(a: Arm, em: ErrorModel, theta: F, temp: F | None) -> tuple[F, F]:
 def random_arm(rng: np.random.Generator, n: int, mode: str, tip: str) -> Arm:
     joints = []
     for i in range(n):
-        conv = (
-            mode if mode != "mixed" else ("standard", "modified")[int(rng.integers(2))]
-        )
+        conv = mode if mode != "mixed" else ("standard", "modified")[int(rng.integers(2))]
         joints.append(
             Joint(
                 convention=conv,
@@ -133,11 +127,7 @@ def random_arm(rng: np.random.Generator, n: int, mode: str, tip: str) -> Arm:
                 beta_rad=float(rng.uniform(-0.02, 0.02)) if i == n - 1 else None,
             )
         )
-    t = (
-        (float(rng.uniform(-80, 80)), float(rng.uniform(-80, 80)))
-        if tip == "xyz"
-        else (0.0, 0.0)
-    )
+    t = (float(rng.uniform(-80, 80)), float(rng.uniform(-80, 80))) if tip == "xyz" else (0.0, 0.0)
     return Arm(joints=tuple(joints), tip=tip, tip_mm=(*t, float(rng.uniform(50, 200))))
 
 
@@ -147,8 +137,7 @@ def random_em(rng: np.random.Generator, n: int, cte_columns: bool = True) -> Err
         k = (4, 2, 0, 1, 3, 2, 4)[i]
         hs.append(
             tuple(
-                (float(rng.uniform(-2e-3, 2e-3)), float(rng.uniform(-2e-3, 2e-3)))
-                for _ in range(k)
+                (float(rng.uniform(-2e-3, 2e-3)), float(rng.uniform(-2e-3, 2e-3))) for _ in range(k)
             )
         )
     return ErrorModel(
@@ -226,9 +215,7 @@ def test_no_error_model_is_bit_for_bit_the_plain_path(scalar_kernel: None) -> No
             for temps in (None, np.array(none.tref_c), np.tile(none.tref_c, (300, 1))):
                 p, j = errmodel.points_jacobians(m, none, th, temps, dtype=dtype)
                 assert np.array_equal(p, p0) and np.array_equal(j, j0)
-                assert np.array_equal(
-                    errmodel.points(m, none, th, temps, dtype=dtype), p0
-                )
+                assert np.array_equal(errmodel.points(m, none, th, temps, dtype=dtype), p0)
         # any CTE at the reference temperature, and K = 0 joints among corrected ones
         em = ErrorModel(
             harmonics=(((1e-3, 0.0),), *(((),) * (n - 1))),
@@ -236,9 +223,7 @@ def test_no_error_model_is_bit_for_bit_the_plain_path(scalar_kernel: None) -> No
         )
         p, j = errmodel.points_jacobians(m, em, th, np.array(em.tref_c))
         q = errmodel.corrected_angles(em, th)
-        assert np.array_equal(q[:, 1:], th[:, 1:]) and not np.array_equal(
-            q[:, 0], th[:, 0]
-        )
+        assert np.array_equal(q[:, 1:], th[:, 1:]) and not np.array_equal(q[:, 0], th[:, 0])
         pq, jq = m.points_jacobians(q)
         assert np.array_equal(p, pq) and np.array_equal(j[:, :, : m.n_params], jq)
 
@@ -254,9 +239,7 @@ def test_every_kernel_gives_the_per_pose_core() -> None:
     try:
         for dtype in (np.float64, np.float32):
             core.set_kernel("scalar")
-            p1, j1 = errmodel.points_jacobians(
-                m, em, th, np.tile(t, (150, 1)), dtype=dtype
-            )
+            p1, j1 = errmodel.points_jacobians(m, em, th, np.tile(t, (150, 1)), dtype=dtype)
             for kern in core.available_kernels():
                 core.set_kernel(kern)
                 p2, j2 = errmodel.points_jacobians(m, em, th, t, dtype=dtype)
@@ -264,9 +247,7 @@ def test_every_kernel_gives_the_per_pose_core() -> None:
                     assert np.array_equal(p1, p2) and np.array_equal(j1, j2), kern
                 else:  # fused multiply-adds: within the core's rounding
                     tol = 1e-9 if dtype == np.float64 else 2e-2
-                    assert (
-                        np.max(np.abs(p1 - p2)) < tol and np.max(np.abs(j1 - j2)) < tol
-                    ), kern
+                    assert np.max(np.abs(p1 - p2)) < tol and np.max(np.abs(j1 - j2)) < tol, kern
     finally:
         core.set_kernel(before)
 
@@ -280,8 +261,7 @@ def test_harmonics_recovered_from_exact_points() -> None:
     truth = ErrorModel(
         harmonics=tuple(
             tuple(
-                (float(rng.uniform(-1e-4, 1e-4)), float(rng.uniform(-1e-4, 1e-4)))
-                for _ in range(2)
+                (float(rng.uniform(-1e-4, 1e-4)), float(rng.uniform(-1e-4, 1e-4))) for _ in range(2)
             )
             for _ in range(6)
         )
