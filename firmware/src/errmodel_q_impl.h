@@ -123,6 +123,12 @@ static void em_correct_q(const aacmm_errmodel_q_t *em, int n, const uint32_t *th
         }
         aacmm_fixed_sincos(theta_bam[i], &s1, &c1);
         sum = HTERM(cc[0], c1) + HTERM(ss[0], s1);
+        if (kk == 2) {
+            /* the loop below for K = 2, straight (the same operations) */
+            sum += HTERM(cc[1], cheb_q30(c1, c1, AACMM_Q_ONE_Q30)) + HTERM(ss[1], cheb_q30(c1, s1, 0));
+            q_out[i] = theta_bam[i] + HSUM_TO_BAM(sum);
+            continue;
+        }
         ck = c1;
         sk = s1;
         cm = AACMM_Q_ONE_Q30;
