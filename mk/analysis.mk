@@ -8,6 +8,7 @@ ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/
                      tests/host/test_core.py tests/host/test_core_oracle.py \
                      tests/host/test_core_kernels.py tests/host/test_core_encoder.py \
                      tests/host/test_core_arm.py tests/host/test_core_binding.py tests/host/test_mc.py \
+                     host/src/aacmm/errmodel.py tests/host/test_core_errmodel.py \
                      tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
                      tests/host/interrupt.py tests/host/portability.py \
                      tests/host/test_packaging.py host/src/aacmm/commands/mc.py \
@@ -23,14 +24,14 @@ test-analysis:
 	$(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_core.py tests/host/test_core_oracle.py tests/host/test_core_kernels.py \
 	    tests/host/test_core_encoder.py tests/host/test_core_arm.py tests/host/test_core_binding.py \
-	    tests/host/test_mc*.py tests/host/test_analysis_api.py tests/host/test_uncertainty*.py
+	    tests/host/test_core_errmodel.py tests/host/test_mc*.py tests/host/test_analysis_api.py tests/host/test_uncertainty*.py
 
 # The core suite again on the scalar kernel, forced as a user on a CPU without
 # the wide kernels would have it (issue 17: the wheel runs without AVX2).
 test-analysis-scalar:
 	AACMM_KERNEL=scalar $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml \
 	    --rootdir=. tests/host/test_core.py tests/host/test_core_oracle.py \
-	    tests/host/test_core_encoder.py tests/host/test_core_arm.py
+	    tests/host/test_core_encoder.py tests/host/test_core_arm.py tests/host/test_core_errmodel.py
 
 # analysis.c and the batch kernels pass the project's warning set with gcc and
 # clang, for this machine and for baseline x86-64 (the wheel's target).

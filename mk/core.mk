@@ -11,7 +11,7 @@ SIMD_SRCS := firmware/src/analysis.c firmware/src/simd/simd_dispatch.c \
 CORE_HDRS := $(wildcard firmware/include/aacmm/*.h) firmware/src/aacmm_internal.h \
              firmware/src/kinematics_impl.h firmware/src/sincos_f64.h firmware/src/sincos_f32.h \
              firmware/src/template_end.h firmware/src/sincos_eval.h \
-             firmware/src/chain_impl.h $(wildcard firmware/src/simd/*.h)
+             firmware/src/chain_impl.h firmware/src/errmodel_impl.h firmware/src/errmodel_core.h $(wildcard firmware/src/simd/*.h)
 CORE_TEST_SRCS := tests/core/test_kinematics.c
 CORE_TEST_DEPS := $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HDRS) $(CORE_TEST_SRCS) tests/core/reference.h \
                   tests/core/legacy_paths.h tests/core/legacy_golden.h
@@ -76,7 +76,7 @@ $(M4F_DIR)/libaacmm_core.a: $(M4F_CORE_OBJS)
 firmware-core-m4f: $(M4F_DIR)/libaacmm_core.a
 	@echo "core for Cortex-M4F ($(M4F_FLAGS)):"
 	@$(ARM_SIZE) -t $(M4F_CORE_OBJS)
-	@/usr/bin/python3 scripts/stack_usage.py $(M4F_DIR) aacmm_point_jacobian_f32 aacmm_batch_counts_f32 aacmm_encoder_to_angles_f32 aacmm_model_init_f32
+	@/usr/bin/python3 scripts/stack_usage.py $(M4F_DIR) aacmm_point_jacobian_f32 aacmm_batch_counts_f32 aacmm_encoder_to_angles_f32 aacmm_model_init_f32 aacmm_point_em_f32 aacmm_point_jacobian_em_f32
 FIRMWARE_TARGETS += firmware-core-m4f
 
 # The single-precision path must run on the FPU alone: no double-precision
@@ -130,3 +130,18 @@ $(BUILD)/core/bench_core: bench/bench_core.c $(CORE_SRCS) $(SIMD_SRCS) $(CORE_HD
 bench-core: $(BUILD)/core/bench_core
 	@$<
 BENCH_TARGETS += bench-core
+
+# ---- the error model's instructions on the Cortex-M4F (issue 27) ----
+# bench/bench_em_cm.c on the -Os M4F objects under QEMU's mps2-an386.
+M4F_BENCH_DIR := $(BUILD)/arm-m4f/bench
+$(M4F_BENCH_DIR)/bench_em_m4f.elf: bench/bench_em_cm.c bench/m4f_mps2.ld $(M4F_CORE_OBJS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M4F_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
+	  -T bench/m4f_mps2.ld bench/bench_em_cm.c $(M4F_CORE_OBJS) -lm -lc -lgcc -o $@
+.PHONY: bench-em-m4f
+bench-em-m4f: $(M4F_BENCH_DIR)/bench_em_m4f.elf
+	@if command -v qemu-system-arm >/dev/null 2>&1; then \
+	   timeout 120 qemu-system-arm -M mps2-an386 -nographic -monitor none -serial none \
+	     -semihosting-config enable=on,target=native -icount shift=0 -kernel $<; \
+	 else echo '{"bench": "em.m4f", "skipped": "qemu-system-arm not installed"}'; fi
+BENCH_TARGETS += bench-em-m4f

@@ -7,7 +7,8 @@ FIXED_SRCS := firmware/src/kinematics_q.c firmware/src/fixed_sincos.c
 # Host / load-time conversion from double parameters (uses double: never in
 # the M0+ build).
 FIXED_CONVERT_SRCS := firmware/src/kinematics_q_convert.c
-FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h
+FIXED_HDRS := firmware/include/aacmm/kinematics_q.h firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h \
+              firmware/src/errmodel_q_impl.h
 FIXED_TEST_SRCS := tests/fixed/test_fixed.c
 # The general arm model through the fixed path (tests/fixed/test_fixed_arm.c).
 FIXED_ARM_TEST_SRCS := tests/fixed/test_fixed_arm.c
@@ -72,7 +73,7 @@ $(M0P_DIR)/libaacmm_fixed.a: $(M0P_FIXED_OBJS)
 firmware-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a
 	@echo "fixed-point kinematics for Cortex-M0+ ($(M0P_FLAGS)):"
 	@$(ARM_SIZE) -t $(M0P_FIXED_OBJS)
-	@/usr/bin/python3 scripts/stack_usage.py $(M0P_DIR) aacmm_point_q aacmm_point_jacobian_q aacmm_batch_bam_q aacmm_batch_counts_q aacmm_model_q_init aacmm_sincos_q
+	@/usr/bin/python3 scripts/stack_usage.py $(M0P_DIR) aacmm_point_q aacmm_point_jacobian_q aacmm_batch_bam_q aacmm_batch_counts_q aacmm_model_q_init aacmm_sincos_q aacmm_point_em_q aacmm_point_jacobian_em_q aacmm_point_jacobian_corrected_q
 FIRMWARE_TARGETS += firmware-fixed-m0p
 
 # No floating point of any kind in the M0+ objects:
@@ -87,7 +88,8 @@ test-fixed-m0p: $(M0P_DIR)/libaacmm_fixed.a $(M0P_DIR)/float_canary.o
 	sh scripts/check-symbols.sh m0-fixed $(M0P_FIXED_OBJS)
 	@bad=$$(for o in $(M0P_FIXED_OBJS); do $(ARM_NM) -u $$o; done | awk '{print $$2}' | grep -E '$(FIXED_FLOAT_EXTRA)' || true); \
 	 if [ -n "$$bad" ]; then echo "test-fixed-m0p: float conversion helpers referenced: $$bad" >&2; exit 1; fi
-	@for f in $(FIXED_SRCS) firmware/src/shape.c firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h; do \
+	@for f in $(FIXED_SRCS) firmware/src/shape.c firmware/src/fixed_sincos.h firmware/src/chain_q_impl.h \
+	         firmware/src/errmodel_q_impl.h; do \
 	   if gcc -fpreprocessed -dD -E -P -x c $$f 2>/dev/null | grep -nwE 'float|double|long double'; then \
 	     echo "test-fixed-m0p: $$f uses a floating type" >&2; exit 1; fi; \
 	 done
@@ -149,3 +151,17 @@ test-fixed-split: $(BUILD)/fixed/test_fixed_split $(BUILD)/fixed/test_fixed_arm_
 	$(BUILD)/fixed/test_fixed_split
 	$(BUILD)/fixed/test_fixed_arm_split
 TEST_SUITES += test-fixed-split
+
+# ---- the error model's instructions on the Cortex-M0 (issue 27) ----
+# bench/bench_em_cm.c on the -Os M0+ objects, as bench-fixed-m0.
+$(M0_BENCH_DIR)/bench_em_m0.elf: bench/bench_em_cm.c bench/m0_microbit.ld $(M0P_FIXED_OBJS)
+	@mkdir -p $(@D)
+	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
+	  -T bench/m0_microbit.ld bench/bench_em_cm.c $(M0P_FIXED_OBJS) -lc -lgcc -o $@
+.PHONY: bench-em-m0
+bench-em-m0: $(M0_BENCH_DIR)/bench_em_m0.elf
+	@if command -v qemu-system-arm >/dev/null 2>&1; then \
+	   timeout 120 qemu-system-arm -M microbit -nographic -monitor none -serial none \
+	     -semihosting-config enable=on,target=native -icount shift=0 -kernel $<; \
+	 else echo '{"bench": "em.m0", "skipped": "qemu-system-arm not installed"}'; fi
+BENCH_TARGETS += bench-em-m0

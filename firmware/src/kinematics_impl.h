@@ -522,3 +522,5 @@ aacmm_status_t SFX(aacmm_batch_counts)(const TYPE(aacmm_model) *model,
     }
     return AACMM_OK;
 }
+
+#include "errmodel_impl.h"

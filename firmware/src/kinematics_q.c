@@ -409,3 +409,5 @@ aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
     }
     return AACMM_OK;
 }
+
+#include "errmodel_q_impl.h"

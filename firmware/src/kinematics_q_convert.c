@@ -4,6 +4,7 @@
  * floating point; it is deliberately NOT part of the Cortex-M0+ integer-only
  * build (see kinematics_q.h and mk/fixed.mk).
  */
+#include <math.h>
 #include <stdint.h>
 
 #include "aacmm/kinematics.h"
@@ -179,6 +180,87 @@ aacmm_status_t aacmm_arm_q_to_f64(aacmm_arm_f64_t *out, const aacmm_arm_q_t *in)
     }
     for (i = 0; i < 3; i++) {
         out->tip_mm[i] = (double)in->tip_q18[i] / TWO_POW_18;
+    }
+    return AACMM_OK;
+}
+
+/* ---- the error model (kinematics_q.h) ---- */
+
+#define TWO_POW_36 68719476736.0
+#define TWO_POW_40 1099511627776.0
+
+/* round(x) for |x| < 2^31 (the callers' validated ranges), half away from 0 */
+static int32_t round_i32(double x)
+{
+    return (int32_t)round_i64(x);
+}
+
+aacmm_status_t aacmm_errmodel_q_from_f64(aacmm_errmodel_q_t *out, const aacmm_errmodel_f64_t *in)
+{
+    aacmm_errmodel_q_t q;
+    aacmm_status_t st;
+    int i, k;
+    if (out == NULL || in == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = aacmm_errmodel_validate_f64(in); /* |c|, |s| <= 0.1 rad, |cte| <= 1e-3 */
+    if (st != AACMM_OK) {
+        return st;
+    }
+    q.joints = in->joints;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        q.harmonics[i] = in->harmonics[i];
+        for (k = 0; k < AACMM_HARMONICS_MAX; k++) {
+            q.c_q36[i][k] = round_i32(in->c_rad[i][k] / TWO_PI * TWO_POW_36);
+            q.s_q36[i][k] = round_i32(in->s_rad[i][k] / TWO_PI * TWO_POW_36);
+        }
+        q.cte_q40[i] = round_i32(in->cte_per_k[i] * TWO_POW_40);
+        q.tref_q8[i] = round_i32(in->tref_c[i] * 256.0);
+    }
+    st = aacmm_errmodel_q_validate(&q); /* the rounded sums */
+    if (st == AACMM_OK) {
+        *out = q;
+    }
+    return st;
+}
+
+aacmm_status_t aacmm_errmodel_q_to_f64(aacmm_errmodel_f64_t *out, const aacmm_errmodel_q_t *in)
+{
+    int i, k;
+    if (out == NULL || in == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    out->joints = in->joints;
+    out->cte_columns = 0u;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        out->harmonics[i] = in->harmonics[i];
+        for (k = 0; k < AACMM_HARMONICS_MAX; k++) {
+            out->c_rad[i][k] = (double)in->c_q36[i][k] / TWO_POW_36 * TWO_PI;
+            out->s_rad[i][k] = (double)in->s_q36[i][k] / TWO_POW_36 * TWO_PI;
+        }
+        out->cte_per_k[i] = (double)in->cte_q40[i] / TWO_POW_40;
+        out->tref_c[i] = (double)in->tref_q8[i] / 256.0;
+    }
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_temp_q8_from_f64(int32_t *out, const double *temp_c, size_t n)
+{
+    size_t i;
+    if (n > 0u && (out == NULL || temp_c == NULL)) {
+        return AACMM_ERR_NULL;
+    }
+    for (i = 0; i < n; i++) {
+        const double t = temp_c[i];
+        if (isnan(t) || isinf(t)) {
+            return AACMM_ERR_NOT_FINITE;
+        }
+        if (!(t >= AACMM_TEMP_MIN_C && t <= AACMM_TEMP_MAX_C)) {
+            return AACMM_ERR_RANGE;
+        }
+    }
+    for (i = 0; i < n; i++) {
+        out[i] = round_i32(temp_c[i] * 256.0);
     }
     return AACMM_OK;
 }

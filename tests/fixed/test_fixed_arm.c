@@ -324,6 +324,186 @@ static void test_validation_and_conversion(void **state)
     }
 }
 
+/* The error model (issue 27) in fixed point against the double error model
+ * on exactly its values (aacmm_errmodel_q_to_f64, Q8 temperatures): points
+ * and the extended Jacobian within the fixed path's class; K = 0 without
+ * temperatures, and every link at its reference temperature, bit for bit
+ * the plain path; the batch equals the single calls; bad input refused. */
+static void test_error_model(void **state)
+{
+    static const uint8_t kpat[AACMM_JOINTS_MAX] = {2, 4, 1, 0, 3, 2, 2};
+    double worst_p = 0.0, worst_j = 0.0;
+    int k;
+    (void)state;
+    for (k = 0; k < N_ARMS; k += 3) {
+        aacmm_arm_f64_t arm;
+        pair_t m;
+        aacmm_errmodel_f64_t emd, emd_q;
+        aacmm_errmodel_q_t emq, none;
+        char label[80];
+        test_rng_t g = {UINT64_C(0xE27) + (uint64_t)k};
+        double scale;
+        int nj, np, w, t, i, h;
+        ref_test_arm(k, &arm, label, sizeof label);
+        make_pair(&m, &arm);
+        scale = reach_scale(&m.ad);
+        nj = (int)arm.shape.joints;
+        np = (int)m.mq.n_params;
+        assert_int_equal(aacmm_errmodel_default_f64(&emd, nj), AACMM_OK);
+        for (i = 0; i < nj; i++) {
+            emd.harmonics[i] = kpat[i];
+            for (h = 0; h < kpat[i]; h++) {
+                emd.c_rad[i][h] = rng_uniform(&g, -2e-3, 2e-3);
+                emd.s_rad[i][h] = rng_uniform(&g, -2e-3, 2e-3);
+            }
+            emd.cte_per_k[i] = rng_uniform(&g, -30e-6, 30e-6);
+            emd.tref_c[i] = rng_uniform(&g, 15.0, 25.0);
+        }
+        assert_int_equal(aacmm_errmodel_q_from_f64(&emq, &emd), AACMM_OK);
+        assert_int_equal(aacmm_errmodel_q_to_f64(&emd_q, &emq), AACMM_OK);
+        assert_int_equal(aacmm_errmodel_q_default(&none, nj), AACMM_OK);
+        w = np + aacmm_errmodel_q_cols(&emq);
+        assert_int_equal(aacmm_errmodel_q_cols(&emq), aacmm_errmodel_cols_f64(&emd_q));
+        for (t = 0; t < POSES_PER_ARM / 10; t++) {
+            uint32_t bam[AACMM_JOINTS_MAX];
+            int32_t tq[AACMM_JOINTS_MAX];
+            double th[AACMM_JOINTS_MAX], tc[AACMM_JOINTS_MAX], pd[3];
+            double jd[3 * (AACMM_PARAMS_MAX + 2 * AACMM_HARMONICS_MAX * AACMM_JOINTS_MAX)];
+            int64_t pq[3], pq2[3], jq[3 * (AACMM_PARAMS_MAX + 2 * AACMM_HARMONICS_MAX * AACMM_JOINTS_MAX)];
+            int64_t jq2[AACMM_JAC_SIZE_MAX];
+            for (i = 0; i < nj; i++) {
+                bam[i] = (uint32_t)(rng_next(&g) >> 32);
+                th[i] = bam_rad(bam[i]);
+                tq[i] = (int32_t)(rng_next(&g) % 32001u) - 10240; /* -40 .. 85 degC */
+                tc[i] = (double)tq[i] / 256.0;
+            }
+            assert_int_equal(aacmm_point_jacobian_em_q(&m.mq, &emq, bam, tq, pq, jq), AACMM_OK);
+            assert_int_equal(aacmm_point_em_q(&m.mq, &emq, bam, tq, pq2), AACMM_OK);
+            assert_memory_equal(pq, pq2, sizeof pq);
+            assert_int_equal(aacmm_point_jacobian_em_f64(&m.md, &emd_q, th, tc, pd, jd), AACMM_OK);
+            /* the 3 x P Jacobian at the corrected readings: the extended one's
+             * first P columns, row by row, bit for bit */
+            assert_int_equal(aacmm_point_jacobian_corrected_q(&m.mq, &emq, bam, tq, pq2, jq2),
+                             AACMM_OK);
+            assert_memory_equal(pq, pq2, sizeof pq);
+            for (i = 0; i < 3; i++) {
+                assert_memory_equal(jq + i * w, jq2 + i * np, sizeof(int64_t) * (size_t)np);
+            }
+            assert_int_equal(aacmm_point_jacobian_corrected_q(&m.mq, &emq, bam, NULL, pq2, jq2),
+                             AACMM_OK);
+            {
+                int64_t pe[3], je[3 * (AACMM_PARAMS_MAX + 56)];
+                assert_int_equal(aacmm_point_jacobian_em_q(&m.mq, &emq, bam, NULL, pe, je),
+                                 AACMM_OK);
+                assert_memory_equal(pe, pq2, sizeof pe);
+                for (i = 0; i < 3; i++) {
+                    assert_memory_equal(je + i * w, jq2 + i * np, sizeof(int64_t) * (size_t)np);
+                }
+            }
+            for (i = 0; i < 3; i++) {
+                worst_p = fmax(worst_p, fabs(Q48_TO_MM(pq[i]) - pd[i]) / scale);
+            }
+            for (i = 0; i < 3 * w; i++) {
+                worst_j = fmax(worst_j, fabs(Q48_TO_MM(jq[i]) - jd[i]) / scale);
+            }
+            /* no correction, no temperatures: the plain path bit for bit */
+            assert_int_equal(aacmm_point_jacobian_em_q(&m.mq, &none, bam, NULL, pq, jq), AACMM_OK);
+            assert_int_equal(aacmm_point_jacobian_q(&m.mq, bam, pq2, jq2), AACMM_OK);
+            assert_memory_equal(pq, pq2, sizeof pq);
+            assert_memory_equal(jq, jq2, sizeof(int64_t) * 3u * (size_t)np);
+            /* every link at its reference temperature: the same */
+            assert_int_equal(aacmm_point_jacobian_em_q(&m.mq, &none, bam, none.tref_q8, pq, jq),
+                             AACMM_OK);
+            assert_memory_equal(pq, pq2, sizeof pq);
+            assert_memory_equal(jq, jq2, sizeof(int64_t) * 3u * (size_t)np);
+        }
+        {
+            /* the batch: the single calls; a bad temperature stops it */
+            enum { B = 9 };
+            static uint32_t thb[B * AACMM_JOINTS_MAX];
+            static int32_t tb[B * AACMM_JOINTS_MAX];
+            static int64_t P[B * 3], J[B * 3 * (AACMM_PARAMS_MAX + 56)];
+            size_t done = 0u, l;
+            for (l = 0; l < (size_t)(B * nj); l++) {
+                thb[l] = (uint32_t)(rng_next(&g) >> 32);
+                tb[l] = 5120 + (int32_t)(l % 7u) * 300;
+            }
+            assert_int_equal(aacmm_batch_bam_em_q(&m.mq, &emq, B, thb, tb, P, J, &done), AACMM_OK);
+            assert_int_equal((int)done, B);
+            for (l = 0; l < B; l++) {
+                int64_t p[3], j[3 * (AACMM_PARAMS_MAX + 56)];
+                assert_int_equal(aacmm_point_jacobian_em_q(&m.mq, &emq, thb + (size_t)nj * l,
+                                                           tb + (size_t)nj * l, p, j),
+                                 AACMM_OK);
+                assert_memory_equal(p, P + 3 * l, sizeof p);
+                assert_memory_equal(j, J + (size_t)(3 * w) * l, sizeof(int64_t) * 3u * (size_t)w);
+            }
+            tb[nj * 5 + 1] = AACMM_Q_TEMP_MAX + 1;
+            assert_int_equal(aacmm_batch_bam_em_q(&m.mq, &emq, B, thb, tb, P, NULL, &done),
+                             AACMM_ERR_RANGE);
+            assert_int_equal((int)done, 5);
+        }
+    }
+    print_message("error model, fixed vs double: worst point %.3g mm, Jacobian %.3g (bounds %g, %g)\n",
+                  worst_p, worst_j, BOUND_POINT_MM, BOUND_JAC);
+    assert_true(worst_p <= BOUND_POINT_MM);
+    assert_true(worst_j <= BOUND_JAC);
+    {
+        /* validation and conversion */
+        aacmm_errmodel_q_t e;
+        aacmm_errmodel_f64_t d;
+        aacmm_model_q_t mq, out;
+        int32_t temps[6] = {5120, 5120, 5120, 5120, 5120, 5120};
+        uint32_t bam[6] = {0u, 1u, 2u, 3u, 4u, 5u};
+        int64_t p[3];
+        double tc[2] = {20.0, 0.0};
+        int32_t tq[2];
+        assert_int_equal(aacmm_model_q_init_arm(&mq, &(aacmm_arm_q_t){0}), AACMM_ERR_RANGE);
+        {
+            aacmm_arm_q_t aq;
+            assert_int_equal(aacmm_arm_default_q(&aq), AACMM_OK);
+            assert_int_equal(aacmm_model_q_init_arm(&mq, &aq), AACMM_OK);
+        }
+        assert_int_equal(aacmm_errmodel_q_default(&e, 3), AACMM_ERR_RANGE);
+        assert_int_equal(aacmm_errmodel_q_default(&e, 6), AACMM_OK);
+        assert_int_equal(aacmm_point_em_q(&mq, &e, bam, temps, p), AACMM_OK);
+        e.harmonics[1] = 5;
+        assert_int_equal(aacmm_errmodel_q_validate(&e), AACMM_ERR_RANGE);
+        assert_int_equal(aacmm_point_em_q(&mq, &e, bam, temps, p), AACMM_ERR_RANGE);
+        e.harmonics[1] = 2;
+        e.c_q36[1][0] = AACMM_Q_HARMONIC_SUM_MAX;
+        assert_int_equal(aacmm_errmodel_q_validate(&e), AACMM_OK);
+        e.s_q36[1][1] = 1;
+        assert_int_equal(aacmm_errmodel_q_validate(&e), AACMM_ERR_RANGE);
+        e.s_q36[1][1] = 0;
+        e.c_q36[1][2] = 1; /* past K */
+        assert_int_equal(aacmm_errmodel_q_validate(&e), AACMM_ERR_RANGE);
+        e.c_q36[1][2] = 0;
+        e.cte_q40[0] = AACMM_Q_CTE_MAX + 1;
+        assert_int_equal(aacmm_errmodel_q_validate(&e), AACMM_ERR_RANGE);
+        e.cte_q40[0] = 0;
+        temps[3] = AACMM_Q_TEMP_MIN - 1;
+        assert_int_equal(aacmm_point_em_q(&mq, &e, bam, temps, p), AACMM_ERR_RANGE);
+        assert_int_equal(aacmm_model_q_at_temperature(&out, &mq, &e, temps), AACMM_ERR_RANGE);
+        temps[3] = AACMM_Q_TEMP_MAX;
+        assert_int_equal(aacmm_model_q_at_temperature(&out, &mq, &e, temps), AACMM_OK);
+        e.joints = 5;
+        assert_int_equal(aacmm_point_em_q(&mq, &e, bam, temps, p), AACMM_ERR_RANGE);
+        assert_int_equal(aacmm_errmodel_default_f64(&d, 6), AACMM_OK);
+        d.harmonics[0] = 1;
+        d.c_rad[0][0] = (double)NAN;
+        assert_int_equal(aacmm_errmodel_q_from_f64(&e, &d), AACMM_ERR_NOT_FINITE);
+        tc[1] = (double)NAN;
+        assert_int_equal(aacmm_temp_q8_from_f64(tq, tc, 2u), AACMM_ERR_NOT_FINITE);
+        tc[1] = 85.01;
+        assert_int_equal(aacmm_temp_q8_from_f64(tq, tc, 2u), AACMM_ERR_RANGE);
+        tc[1] = -12.5;
+        assert_int_equal(aacmm_temp_q8_from_f64(tq, tc, 2u), AACMM_OK);
+        assert_int_equal(tq[0], 5120);
+        assert_int_equal(tq[1], -3200);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -331,6 +511,7 @@ int main(void)
         cmocka_unit_test(test_every_arm),
         cmocka_unit_test(test_shipped_vs_reference),
         cmocka_unit_test(test_batches),
+        cmocka_unit_test(test_error_model),
     };
     return cmocka_run_group_tests_name("fixed point, general arm model", tests, NULL, NULL);
 }

@@ -530,6 +530,223 @@ aacmm_status_t aacmm_batch_counts_f32(const aacmm_model_f32_t *model,
                                       const uint32_t *reading_counts, float *p_mm, float *jac,
                                       size_t *done);
 
+/* ------------------------------------------------------------------------ */
+/* Error model: encoder harmonics and thermal expansion (issue 27)           */
+/* ------------------------------------------------------------------------ */
+
+/*
+ * What DH cannot describe, applied before the kinematics in every path (this
+ * file: f64, f32; kinematics_q.h: fixed point; simd.h: batches). It lives in
+ * a struct of its own, passed by pointer beside the model: the model (and
+ * every structure a device already allocates) is unchanged, and a caller
+ * without an error model calls the functions above.
+ *
+ * 1. Joint angle harmonics (an encoder's eccentricity and its harmonic
+ *    errors). Joint i's reading q_i (rad, before the theta offset) becomes
+ *        q'_i = q_i + sum_{k=1..K_i} (c_ik cos(k q_i) + s_ik sin(k q_i))
+ *    with K_i = harmonics[i] in 0 .. AACMM_HARMONICS_MAX (4), chosen per
+ *    joint (a hinge that never turns far may carry fewer terms). The chain
+ *    then runs on q'_i + theta_offset_i. sin q_i, cos q_i come from one
+ *    aacmm_sincos_* of the reading; sin kq, cos kq for k = 2..K from them by
+ *    the Chebyshev recurrence
+ *        cos(k+1)q = 2 cos q cos kq - cos(k-1)q
+ *        sin(k+1)q = 2 cos q sin kq - sin(k-1)q
+ *    (no further trigonometric call). A joint with K_i = 0 keeps its reading
+ *    untouched (bit for bit: no addition of zero). A constant term would be
+ *    the theta offset, so there is none.
+ *    Derivative of the corrected angle: dq'/dq = 1 + sum_k k (s_ik cos kq -
+ *    c_ik sin kq); the parameter Jacobian does not need it (it differentiates
+ *    with respect to the parameters at a fixed reading); a propagation of
+ *    encoder noise through the correction would (the factor is within
+ *    1 +- 4 AACMM_HARMONIC_SUM_MAX_RAD).
+ *
+ * 2. Thermal expansion. Per link i a coefficient of thermal expansion
+ *    cte_per_k[i] (1/K) and a reference temperature tref_c[i] (degC, default
+ *    20); given the link temperatures T_i (degC, valid
+ *    AACMM_TEMP_MIN_C .. AACMM_TEMP_MAX_C), every length of link i is scaled:
+ *        L = L0 (1 + cte_i (T_i - tref_i))
+ *    where the lengths of link i are d_i and a_i of joint i's transform A_i
+ *    (in either convention: for modified DH a_i is the offset between axes
+ *    i-1 and i, carried by that transform), and the tip (l, or t_x, t_y, t_z)
+ *    belongs to link N. L0 are the model's lengths (its values at the
+ *    reference temperatures). Passing no temperatures (NULL) means every link
+ *    at its reference temperature: nothing is scaled (bit for bit).
+ *
+ * ---- Extended Jacobian columns ---------------------------------------------
+ *
+ * The error model's columns follow the model's P columns (kinematics.h), so
+ * every structural column keeps its index; E = aacmm_errmodel_cols:
+ *     P + 2 (sum of K_j over joints j < i) + 2 (k - 1)      c_ik  mm/rad
+ *     the same + 1                                          s_ik  mm/rad
+ *   (joint after joint, k = 1 .. K_i, c before s; joints with K_i = 0 have
+ *   none), then, if cte_columns is 1, one column per link i = 1 .. N:
+ *     P + 2 sum(K) + i                                      cte_i mm K
+ * Analytically, from the columns of the chain run at the corrected angles:
+ *     d p / d c_ik   = (d p / d theta_i) cos(k q_i)
+ *     d p / d s_ik   = (d p / d theta_i) sin(k q_i)
+ *     d p / d cte_i  = sum over link i's lengths L of (d p / d L) L0 (T_i - tref_i)
+ * With temperatures, the length columns (d, a, tip) are those of the
+ * parameters L0: the chain's d p / d L times (1 + cte_i (T_i - tref_i)).
+ * The extended Jacobian is 3 x (P + E), row-major, jac[r * (P + E) + c];
+ * size it with AACMM_EXT_JAC_SIZE_MAX.
+ */
+#define AACMM_HARMONICS_MAX 4
+/* Per joint, sum over k of |c_ik| + |s_ik| <= 0.1 rad (5.7 deg): more is not
+ * an encoder error, and the bound keeps the fixed path's sums in range. */
+#define AACMM_HARMONIC_SUM_MAX_RAD 0.1
+#define AACMM_TEMP_MIN_C (-40.0)
+#define AACMM_TEMP_MAX_C 85.0
+#define AACMM_TEMP_REF_DEFAULT_C 20.0
+#define AACMM_CTE_MAX_PER_K 1e-3 /* |cte|; aluminium 23e-6, steel 12e-6, CFRP ~ 0 */
+/* Error-model columns of the largest model: 2 * 4 * 7 + 7 = 63. */
+#define AACMM_EM_COLS_MAX (2 * AACMM_HARMONICS_MAX * AACMM_JOINTS_MAX + AACMM_JOINTS_MAX)
+/* Parameters of the largest extended model: 37 + 63 = 100 (300 entries). */
+#define AACMM_EXT_PARAMS_MAX (AACMM_PARAMS_MAX + AACMM_EM_COLS_MAX)
+#define AACMM_EXT_JAC_SIZE_MAX (AACMM_JAC_ROWS * AACMM_EXT_PARAMS_MAX)
+
+/*
+ * The error model, double precision.
+ *   joints       N: must equal the model's joint count
+ *   harmonics    K_i per joint, 0 .. AACMM_HARMONICS_MAX; 0 from index N on
+ *   cte_columns  1: the extended Jacobian carries the N cte columns; 0: not
+ *   c_rad, s_rad [i][k - 1] = c_ik, s_ik (rad); 0 for k > K_i and i >= N;
+ *                per joint sum |c| + |s| <= AACMM_HARMONIC_SUM_MAX_RAD
+ *   cte_per_k    per link (1/K), |x| <= AACMM_CTE_MAX_PER_K; 0 from N on
+ *   tref_c       per link (degC), within AACMM_TEMP_MIN_C .. AACMM_TEMP_MAX_C
+ * Zero-initialise and call aacmm_errmodel_default_*, then set. 520 bytes.
+ */
+typedef struct {
+    uint8_t joints;
+    uint8_t harmonics[AACMM_JOINTS_MAX];
+    uint8_t cte_columns;
+    double c_rad[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX];
+    double s_rad[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX];
+    double cte_per_k[AACMM_JOINTS_MAX];
+    double tref_c[AACMM_JOINTS_MAX];
+} aacmm_errmodel_f64_t;
+
+/* The same in single precision. 264 bytes. */
+typedef struct {
+    uint8_t joints;
+    uint8_t harmonics[AACMM_JOINTS_MAX];
+    uint8_t cte_columns;
+    float c_rad[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX];
+    float s_rad[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX];
+    float cte_per_k[AACMM_JOINTS_MAX];
+    float tref_c[AACMM_JOINTS_MAX];
+} aacmm_errmodel_f32_t;
+
+/* An error model that changes nothing for `joints` joints (4 .. 7, else
+ * AACMM_ERR_RANGE): K = 0, cte 0, tref 20 degC on every link, no cte
+ * columns. AACMM_ERR_NULL or AACMM_OK. Cost: O(1). */
+aacmm_status_t aacmm_errmodel_default_f64(aacmm_errmodel_f64_t *em, int joints);
+aacmm_status_t aacmm_errmodel_default_f32(aacmm_errmodel_f32_t *em, int joints);
+
+/*
+ * AACMM_OK for a valid error model; AACMM_ERR_NULL for NULL; AACMM_ERR_RANGE
+ * for joints outside 4 .. 7, a K_i above AACMM_HARMONICS_MAX, a cte_columns
+ * other than 0/1, a per-joint harmonic sum above AACMM_HARMONIC_SUM_MAX_RAD,
+ * a cte or reference temperature out of range, a non-zero coefficient past
+ * K_i or a non-zero cte from index N on (a tref there must still be in
+ * range);
+ * AACMM_ERR_NOT_FINITE for a NaN or infinite value. Cost: O(N K).
+ */
+aacmm_status_t aacmm_errmodel_validate_f64(const aacmm_errmodel_f64_t *em);
+aacmm_status_t aacmm_errmodel_validate_f32(const aacmm_errmodel_f32_t *em);
+
+/* E, the error model's Jacobian columns: 2 sum(K_i) + N cte_columns, or a
+ * negative status for NULL or invalid joints, K_i or cte_columns (the values
+ * are not checked). Cost: O(N). */
+int aacmm_errmodel_cols_f64(const aacmm_errmodel_f64_t *em);
+int aacmm_errmodel_cols_f32(const aacmm_errmodel_f32_t *em);
+
+/*
+ * The corrected joint angles: q_out[i] = q'_i (rad) of theta_rad[i] (above),
+ * for i < N = em->joints. The error model is validated first
+ * (aacmm_errmodel_validate_*), the readings checked as by aacmm_point_*.
+ * q_out may equal theta_rad. Errors: AACMM_ERR_NULL, AACMM_ERR_RANGE /
+ * AACMM_ERR_NOT_FINITE; on error q_out is not written past the joints
+ * before the refused one.
+ * Cost: per joint with K_i > 0 one sine/cosine pair + 4 K flops.
+ */
+aacmm_status_t aacmm_errmodel_angles_f64(const aacmm_errmodel_f64_t *em, const double *theta_rad,
+                                         double *q_out);
+aacmm_status_t aacmm_errmodel_angles_f32(const aacmm_errmodel_f32_t *em, const float *theta_rad,
+                                         float *q_out);
+
+/*
+ * *out = *model with every length scaled to the link temperatures temp_c[0 ..
+ * N-1] (degC), as in 2. above; the angles' sines and cosines are copied, not
+ * recomputed (cheap: for a device, once per change of temperature, then
+ * aacmm_point_em_* with temp_c NULL). temp_c NULL: a plain copy. Errors:
+ * AACMM_ERR_NULL; AACMM_ERR_NOT_FINITE for a NaN temperature;
+ * AACMM_ERR_RANGE for a temperature outside AACMM_TEMP_MIN_C ..
+ * AACMM_TEMP_MAX_C, an invalid error model or a joint count mismatch, or a
+ * scaled length beyond AACMM_LENGTH_MAX_MM. *out unchanged on error. out
+ * may equal model only when temp_c is NULL. Cost: 2N + 3 multiplies.
+ */
+aacmm_status_t aacmm_model_at_temperature_f64(aacmm_model_f64_t *out,
+                                              const aacmm_model_f64_t *model,
+                                              const aacmm_errmodel_f64_t *em,
+                                              const double *temp_c);
+aacmm_status_t aacmm_model_at_temperature_f32(aacmm_model_f32_t *out,
+                                              const aacmm_model_f32_t *model,
+                                              const aacmm_errmodel_f32_t *em, const float *temp_c);
+
+/*
+ * Probe point of the model with the error model: the corrected angles
+ * (aacmm_errmodel_angles_*) through the model at the link temperatures
+ * temp_c[0 .. N-1] (degC; NULL: the reference temperatures). em NULL, or K
+ * = 0 everywhere with temp_c NULL: exactly aacmm_point_* (bit for bit).
+ * Per pose the error model's fields that size loops and arrays are checked
+ * (joints equal to the model's, K_i, cte_columns: AACMM_ERR_RANGE), not
+ * every value: validate it once with aacmm_errmodel_validate_* (the batches
+ * do). What reaches the point is guarded at every pose: a correction beyond
+ * AACMM_HARMONIC_SUM_MAX_RAD (AACMM_ERR_RANGE) or NaN (a NaN coefficient:
+ * AACMM_ERR_NOT_FINITE), and with temperatures the temperatures, CTEs,
+ * reference temperatures and scaled lengths (as
+ * aacmm_model_at_temperature_*); readings as aacmm_point_*. Nothing written
+ * on error. Cost: aacmm_point_* + per corrected joint one
+ * sine/cosine pair + 4 K flops (+ a model copy and 2N + 3 multiplies with
+ * temperatures).
+ */
+aacmm_status_t aacmm_point_em_f64(const aacmm_model_f64_t *model, const aacmm_errmodel_f64_t *em,
+                                  const double *theta_rad, const double *temp_c, double p_mm[3]);
+aacmm_status_t aacmm_point_em_f32(const aacmm_model_f32_t *model, const aacmm_errmodel_f32_t *em,
+                                  const float *theta_rad, const float *temp_c, float p_mm[3]);
+
+/*
+ * Point and the extended 3 x (P + E) Jacobian (columns above; jac holds
+ * 3 (P + E) values, at most AACMM_EXT_JAC_SIZE_MAX). em NULL: E = 0, exactly
+ * aacmm_point_jacobian_*. The first P columns are those of
+ * aacmm_point_jacobian_* at the corrected angles (the length columns scaled
+ * by the thermal factor when temp_c is given), bit for bit. Errors as
+ * aacmm_point_em_*. Cost: aacmm_point_em_* + the Jacobian + 6 K multiplies
+ * per corrected joint (+ 3 (2N + T) for the length columns and 3 (2N + T)
+ * multiply-adds for the cte columns, with temperatures).
+ */
+aacmm_status_t aacmm_point_jacobian_em_f64(const aacmm_model_f64_t *model,
+                                           const aacmm_errmodel_f64_t *em, const double *theta_rad,
+                                           const double *temp_c, double p_mm[3], double *jac);
+aacmm_status_t aacmm_point_jacobian_em_f32(const aacmm_model_f32_t *model,
+                                           const aacmm_errmodel_f32_t *em, const float *theta_rad,
+                                           const float *temp_c, float p_mm[3], float *jac);
+
+/*
+ * Batches of aacmm_point_jacobian_em_* (jac NULL: points only): n poses
+ * theta_rad[n N], temperatures temp_c[n N] (one set per pose; NULL: the
+ * reference temperatures), points p_mm[n 3], Jacobians jac[n 3 (P + E)].
+ * Stop at the first bad pose, *done as aacmm_batch_angles_*.
+ */
+aacmm_status_t aacmm_batch_angles_em_f64(const aacmm_model_f64_t *model,
+                                         const aacmm_errmodel_f64_t *em, size_t n,
+                                         const double *theta_rad, const double *temp_c,
+                                         double *p_mm, double *jac, size_t *done);
+aacmm_status_t aacmm_batch_angles_em_f32(const aacmm_model_f32_t *model,
+                                         const aacmm_errmodel_f32_t *em, size_t n,
+                                         const float *theta_rad, const float *temp_c, float *p_mm,
+                                         float *jac, size_t *done);
+
 /*
  * Sine and cosine of x in rad, as used by the kinematics (own implementation:
  * Cody-Waite reduction by pi/2 and Taylor polynomials on [-pi/4, pi/4]).

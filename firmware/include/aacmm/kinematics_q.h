@@ -361,6 +361,156 @@ aacmm_status_t aacmm_batch_counts_q(const aacmm_model_q_t *model,
                                     const uint32_t *reading_counts, int64_t *p_q48,
                                     int64_t *jac_q48, size_t *done);
 
+/* ------------------------------------------------------------------------ */
+/* Error model: encoder harmonics and thermal expansion (issue 27)           */
+/* ------------------------------------------------------------------------ */
+
+/*
+ * The error model of kinematics.h (its formulas, column order and the link
+ * each length belongs to) in integer arithmetic, beside the fixed model:
+ * nothing is added to aacmm_model_q_t (the device's structures keep their
+ * size). Formats:
+ *
+ *   what                      type     format        unit     range
+ *   c_ik, s_ik                int32_t  Q36 turn      turn     per joint sum |c| + |s|
+ *                                      (2^-36 turn =          <= AACMM_Q_HARMONIC_SUM_MAX
+ *                                      9.1e-11 rad)           (0.1 rad)
+ *   cte                       int32_t  Q40           1/K      |x| <= AACMM_Q_CTE_MAX (1e-3)
+ *   temperatures, tref        int32_t  Q8            degC     AACMM_Q_TEMP_MIN .. _MAX
+ *                                      (1/256 degC)           (-40 .. 85 degC)
+ *   cos kq, sin kq            int32_t  Q30           1        |x| <= 1 + 2^-27
+ *   harmonic columns          int64_t  Q48           mm/rad   as the theta columns
+ *
+ * Correction of joint i (K_i > 0): s, c = aacmm_sincos_q(reading); cos kq,
+ * sin kq by the recurrence of kinematics.h, each product rounded half up to
+ * Q30 (|error| grows by <= 1 LSB + twice the previous per step: < 8 LSB at
+ * k = 4); the sum of c_ik cos kq + s_ik sin kq is exact in int64 (Q66 turn;
+ * |sum| <= AACMM_Q_HARMONIC_SUM_MAX 2^30 (1 + 2^-27) < 2^61) and rounded
+ * half up once to BAM (>> 34), added to the reading mod 2^32: within 0.5 BAM
+ * (0.73 nrad) plus the Q30 errors times 0.1 rad. ARMv6-M: each product
+ * rounded half up to Q36 turn (aacmm_fixed_mul_q30), summed in int32 (|sum|
+ * <= 0.1 rad + 8 LSB < 2^31), rounded half up to BAM (>> 4): within 4.5 BAM
+ * more.
+ * Harmonic columns: the theta column (Q48) rounded half up to Q18 int32
+ * (|.| <= 8000 mm/rad < 2^31) times cos kq (Q30): Q48, exact; within
+ * 2^-19 mm/rad (1.9e-6) of the product of the column and cos kq. ARMv6-M:
+ * Q17 and aacmm_fixed_mul_q30 (within 2^-17, 7.6e-6).
+ * Thermal: e_i = cte_i (T_i - tref_i), exact in int64 (Q48, |e| <= 0.125),
+ * rounded half up to Q30; each length L0 (Q18) becomes L0 + round(L0 e_i)
+ * (the Q48 product rounded half up to Q18: within 2^-19 mm of the exact
+ * scaling of L0); the scaled arm must pass aacmm_arm_q_validate (the total
+ * reach), else AACMM_ERR_RANGE. With temperatures the length columns are
+ * those of L0: the Q30 axis times (2^30 + e_i), rounded half up to Q48
+ * (within 2^-49). The fixed path has no cte columns (calibration runs in
+ * double; kinematics.h).
+ * Saturation: none is needed: validation bounds every sum above; angles wrap.
+ */
+#define AACMM_Q_HARM_FRAC 36 /* harmonic coefficients: 2^-36 turn */
+#define AACMM_Q_CTE_FRAC 40  /* cte: Q40 1/K */
+#define AACMM_Q_TEMP_FRAC 8  /* temperatures: Q8 degC */
+/* 0.1 rad in 2^-36 turn, rounded down: 0.1 / (2 pi) * 2^36 = 1093704440.9 */
+#define AACMM_Q_HARMONIC_SUM_MAX INT32_C(1093704440)
+/* 1e-3 / K in Q40, rounded down: 1099511627.8 */
+#define AACMM_Q_CTE_MAX INT32_C(1099511627)
+#define AACMM_Q_TEMP_MIN INT32_C(-10240) /* -40 degC in Q8 */
+#define AACMM_Q_TEMP_MAX INT32_C(21760)  /* 85 degC in Q8 */
+#define AACMM_Q_TEMP_REF_DEFAULT INT32_C(5120) /* 20 degC in Q8 */
+
+/*
+ * The error model in fixed point (the fields of aacmm_errmodel_f64_t without
+ * cte_columns). harmonics[i] = K_i 0 .. AACMM_HARMONICS_MAX, 0 from index N
+ * on; c_q36 / s_q36[i][k - 1], 0 past K_i; cte_q40 0 from N on; tref_q8 in
+ * range. 288 bytes.
+ */
+typedef struct {
+    uint8_t joints;
+    uint8_t harmonics[AACMM_JOINTS_MAX];
+    int32_t c_q36[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX];
+    int32_t s_q36[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX];
+    int32_t cte_q40[AACMM_JOINTS_MAX];
+    int32_t tref_q8[AACMM_JOINTS_MAX];
+} aacmm_errmodel_q_t;
+
+/* No correction for `joints` joints (4 .. 7, else AACMM_ERR_RANGE): K = 0,
+ * cte 0, tref 20 degC. AACMM_ERR_NULL or AACMM_OK. Integer only. */
+aacmm_status_t aacmm_errmodel_q_default(aacmm_errmodel_q_t *em, int joints);
+
+/* AACMM_OK, AACMM_ERR_NULL, or AACMM_ERR_RANGE for joints outside 4 .. 7, a
+ * K_i above AACMM_HARMONICS_MAX, a per-joint sum above
+ * AACMM_Q_HARMONIC_SUM_MAX, a coefficient past K_i, a cte above
+ * AACMM_Q_CTE_MAX, a tref out of range, a non-zero entry from N on.
+ * Integer only. Cost: O(N K). */
+aacmm_status_t aacmm_errmodel_q_validate(const aacmm_errmodel_q_t *em);
+
+/* E = 2 sum(K_i) (no cte columns in fixed point), or a negative status for
+ * NULL or invalid joints / K. */
+int aacmm_errmodel_q_cols(const aacmm_errmodel_q_t *em);
+
+/* *out = *model with its lengths at the link temperatures temp_q8[0 .. N-1]
+ * (Q8 degC; NULL: a copy), as above. AACMM_ERR_NULL; AACMM_ERR_RANGE for an
+ * invalid error model, a joint count mismatch, a temperature out of range or
+ * a scaled reach beyond AACMM_Q_REACH_MAX_MM. *out unchanged on error; out
+ * may equal model only with temp_q8 NULL. Integer only. Cost: 2N + 3 64-bit
+ * products (ARMv6-M: aacmm_fixed_mul). */
+aacmm_status_t aacmm_model_q_at_temperature(aacmm_model_q_t *out, const aacmm_model_q_t *model,
+                                            const aacmm_errmodel_q_t *em,
+                                            const int32_t *temp_q8);
+
+/*
+ * aacmm_point_q / aacmm_point_jacobian_q with the error model: the readings
+ * corrected, the lengths at temp_q8 (NULL: the reference temperatures), the
+ * extended 3 x (P + E) Jacobian (jac_q48 holds 3 (P + E) values, at most
+ * 3 (AACMM_PARAMS_MAX + 2 AACMM_HARMONICS_MAX AACMM_JOINTS_MAX) = 279).
+ * em NULL, or K = 0 everywhere with temp_q8 NULL: exactly aacmm_point_q /
+ * aacmm_point_jacobian_q (bit for bit). The error model must have passed
+ * aacmm_errmodel_q_validate (as the model its init): per pose the joint
+ * count and every K_i are checked and the temperatures (out of range, or a
+ * scaled reach beyond the limit: AACMM_ERR_RANGE); AACMM_ERR_NULL. Nothing
+ * written on error. Integer only.
+ * Cost per corrected joint: one aacmm_sincos_q, 2 (K - 1) + 2 K products for
+ * the correction and 6 K for the columns (the paper's arm, K = 2 on every
+ * joint: docs/fixed-point.md has the instructions on the Cortex-M0 and M4F);
+ * with temperatures + a model copy (284 bytes of stack) and the scaling.
+ */
+aacmm_status_t aacmm_point_em_q(const aacmm_model_q_t *model, const aacmm_errmodel_q_t *em,
+                                const uint32_t *theta_bam, const int32_t *temp_q8,
+                                int64_t p_q48[3]);
+aacmm_status_t aacmm_point_jacobian_em_q(const aacmm_model_q_t *model,
+                                         const aacmm_errmodel_q_t *em, const uint32_t *theta_bam,
+                                         const int32_t *temp_q8, int64_t p_q48[3],
+                                         int64_t *jac_q48);
+
+/* The point and the 3 x P structural Jacobian (the columns of
+ * aacmm_point_jacobian_q, jac_q48 of 3 P values) at the corrected readings
+ * and the link temperatures: the device's wire format. The harmonic columns
+ * follow from its theta columns (times cos kq, sin kq of the readings) where
+ * they are needed (a calibration on the host); the first 3 P entries of
+ * aacmm_point_jacobian_em_q, row by row, bit for bit. Errors as
+ * aacmm_point_jacobian_em_q. Cost: aacmm_point_jacobian_q + the correction
+ * (docs/fixed-point.md: the paper's arm, K = 2 on every joint, on the M0). */
+aacmm_status_t aacmm_point_jacobian_corrected_q(const aacmm_model_q_t *model,
+                                                const aacmm_errmodel_q_t *em,
+                                                const uint32_t *theta_bam, const int32_t *temp_q8,
+                                                int64_t p_q48[3], int64_t *jac_q48);
+
+/* n poses of aacmm_point_jacobian_em_q (jac_q48 NULL: points only):
+ * theta_bam[n N], temp_q8[n N] or NULL, p_q48[n 3], jac_q48[n 3 (P + E)];
+ * stops at the first bad pose, *done as aacmm_batch_bam_q. */
+aacmm_status_t aacmm_batch_bam_em_q(const aacmm_model_q_t *model, const aacmm_errmodel_q_t *em,
+                                    size_t n, const uint32_t *theta_bam, const int32_t *temp_q8,
+                                    int64_t *p_q48, int64_t *jac_q48, size_t *done);
+
+/* Host / load time (kinematics_q_convert.c, uses double): the double error
+ * model in fixed point (aacmm_errmodel_validate_f64 first; c, s as round(x /
+ * (2 pi) 2^36), cte round(x 2^40), tref round(x 256), half away from zero;
+ * then aacmm_errmodel_q_validate; its cte_columns is dropped), and back
+ * (exact but for c, s: x 2 pi 2^-36, within 1e-16 relative). Temperatures
+ * for the per-pose calls: aacmm_temp_q8_from_f64 (NaN: AACMM_ERR_NOT_FINITE,
+ * out of range: AACMM_ERR_RANGE), n values. */
+aacmm_status_t aacmm_errmodel_q_from_f64(aacmm_errmodel_q_t *out, const aacmm_errmodel_f64_t *in);
+aacmm_status_t aacmm_errmodel_q_to_f64(aacmm_errmodel_f64_t *out, const aacmm_errmodel_q_t *in);
+aacmm_status_t aacmm_temp_q8_from_f64(int32_t *out, const double *temp_c, size_t n);
+
 #ifdef __cplusplus
 }
 #endif

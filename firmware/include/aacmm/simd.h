@@ -164,6 +164,33 @@ aacmm_status_t aacmm_simd_perturbed_points_f64(aacmm_kernel_t kernel,
                                                const double *theta_rad, double *p_mm,
                                                size_t *done);
 
+/*
+ * aacmm_batch_angles_em_* (kinematics.h: the error model's corrected angles,
+ * the extended 3 x (P + E) Jacobians, jac[n 3 (P + E)]) with the given
+ * kernel. One difference: temp_c holds ONE set of N link temperatures for
+ * the whole batch (NULL: the reference temperatures), since the kernels run
+ * one model (scaled once, aacmm_model_at_temperature_*). em NULL with temp_c
+ * NULL: exactly aacmm_simd_batch_angles_* (em NULL with temperatures:
+ * AACMM_ERR_NULL). Validation, the stop at the first invalid pose (the poses
+ * before it written) and *done as there. Every kernel gives the values of
+ * aacmm_batch_angles_em_* (per pose temperatures all equal to temp_c) run
+ * through that kernel: the error model's own steps are the per-pose core's
+ * source, bit for bit. Cost: the kernel's + per pose the correction (a
+ * sine/cosine pair and 4 K flops per corrected joint) and, with a Jacobian,
+ * one copy of 3 P values and the extension (6 K multiplies per corrected
+ * joint), scalar.
+ */
+aacmm_status_t aacmm_simd_batch_angles_em_f64(aacmm_kernel_t kernel,
+                                              const aacmm_model_f64_t *model,
+                                              const aacmm_errmodel_f64_t *em, size_t n,
+                                              const double *theta_rad, const double *temp_c,
+                                              double *p_mm, double *jac, size_t *done);
+aacmm_status_t aacmm_simd_batch_angles_em_f32(aacmm_kernel_t kernel,
+                                              const aacmm_model_f32_t *model,
+                                              const aacmm_errmodel_f32_t *em, size_t n,
+                                              const float *theta_rad, const float *temp_c,
+                                              float *p_mm, float *jac, size_t *done);
+
 #ifdef __cplusplus
 }
 #endif

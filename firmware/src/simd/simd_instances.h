@@ -311,6 +311,8 @@ aacmm_status_t PSFX(aacmm_simd_perturbed_points)(aacmm_kernel_t kernel,
 
 #undef SIMD_TABLE
 
+#include "simd_em_impl.h"
+
 #if defined(__clang__)
 #pragma float_control(pop)
 #elif defined(__GNUC__)

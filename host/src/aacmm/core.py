@@ -480,6 +480,11 @@ class Model:
         return self._c
 
     @property
+    def c_model32(self) -> Any:
+        """The ``aacmm_model_f32_t *`` of the single-precision core (built on first use)."""
+        return self._model32()
+
+    @property
     def arm(self) -> Arm:
         """The arm of this model (for :class:`Params`, :meth:`Params.to_arm`)."""
         return self._arm
