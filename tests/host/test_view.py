@@ -286,6 +286,8 @@ def test_capture_view(tmp_path: Path) -> None:
                 time.sleep(0.2)
             assert cap.p.wait(30) == 0, cap.err
             assert not b_open and shot, (b_open, shot)
+            # the server said it went away (1001): the page stops, it does not retry
+            a.page.wait_for_function("window.aacmmView.state.stopped", timeout=15_000)
             time.sleep(0.5)
             st = a.state("{cap: s.capture, seen: s.pointSeen, hist: s.history, ev: s.events}")
             a.clean()
