@@ -29,12 +29,13 @@ help:
 setup:
 	@sh scripts/setup.sh
 
-# Suites run one after another; a failing suite does not hide the others.
+# Suites run two at a time (TEST_JOBS; the TEST_ALONE ones after the others,
+# alone); a failing suite does not hide the others.
 # Each suite's output goes to build/test-logs/<suite>.log; the terminal gets
 # one line per suite (name, result, seconds) and, for a failure, the log's
 # tail (scripts/run-suites.sh; TEST_VERBOSE=1 streams everything).
 test:
-	@sh scripts/run-suites.sh --prepare setup $(TEST_SUITES)
+	@sh scripts/run-suites.sh --prepare setup --alone "$(TEST_ALONE)" $(TEST_SUITES)
 
 bench: setup $(BENCH_TARGETS)
 

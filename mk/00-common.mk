@@ -33,6 +33,9 @@ M0P_FLAGS   := -mcpu=cortex-m0plus -mthumb -mfloat-abi=soft
 ARM_CFLAGS  := $(CSTD) $(WARN) -Os -ffunction-sections -fdata-sections -fstack-usage -I$(FW_INC)
 
 TEST_SUITES      :=
+# Suites that run one at a time after the others (scripts/run-suites.sh --alone):
+# their tests measure time against a browser or a VM, so they get the machine.
+TEST_ALONE       :=
 BENCH_TARGETS    :=
 FIRMWARE_TARGETS :=
 

@@ -32,3 +32,4 @@ test-vcan-runner:
 	$(VCAN_PYTEST) tests/vcan/test_runner.py
 
 TEST_SUITES += test-vcan
+TEST_ALONE  += test-vcan

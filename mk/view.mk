@@ -32,6 +32,7 @@ view-figures: sim
 	    -k "live_view_two_pages or capture_view or offline_session or reports_open"
 
 TEST_SUITES += test-view
+TEST_ALONE  += test-view
 
 bench-view: sim
 	@$(PYTHON) bench/bench_view.py

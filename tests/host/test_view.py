@@ -34,8 +34,9 @@ from typing import Any
 import numpy as np
 import pytest
 from aacmm import core
+from aacmm.arm import Arm, Joint
 from aacmm.records import read_session
-from aacmm.view.arm import arm_pose, dh_chain
+from aacmm.view.arm import arm_pose, chain
 from clihelp import AACMM, capture_scenario, cli_env, one_error_line, run, sim_fixture
 from viewbrowser import Watched, figures_dir, launch, playwright
 
@@ -150,11 +151,49 @@ def test_drawn_chain_ends_at_the_cores_tip() -> None:
         np.testing.assert_allclose(pose.path_mm[-1], pose.tip_mm, atol=0)
         assert len(pose.joints_mm) == 6
     # any number of joints: a planar 4-joint arm, every twist 0, lengths along x
-    p4 = dh_chain([0.0, math.pi / 2, 0.0, 0.0], [0.0] * 4, [0.0] * 4, [0.0] * 4, [100.0] * 4, 10.0)
+    planar = Arm(joints=tuple(Joint(a_mm=100.0) for _ in range(4)), tip_mm=(0.0, 0.0, 10.0))
+    p4 = chain(planar, [0.0, math.pi / 2, 0.0, 0.0])
     np.testing.assert_allclose(p4.tip_mm, [100.0, 300.0, 10.0], atol=1e-12)
     assert len(p4.joints_mm) == 4
     with pytest.raises(ValueError):
-        dh_chain([0.0] * 3, [0.0] * 4, [0.0] * 4, [0.0] * 4, [0.0] * 4, 1.0)
+        chain(planar, [0.0] * 3)
+
+
+def test_arm_chain_any_arm() -> None:
+    """The drawn chain of any arm (4 to 7 joints, standard and modified DH, Hayati
+    betas, a tip vector) ends where the C core puts the probe (aacmm.core.Model),
+    and each joint axis is the z column the core turns about (the tip moves
+    perpendicular to it when only that joint turns)."""
+    rng = np.random.default_rng(28)
+    for n in (4, 5, 6, 7):
+        for _ in range(4):
+            joints = []
+            for i in range(n):
+                conv = str(rng.choice(["standard", "modified"]))
+                beta = float(rng.uniform(-0.01, 0.01)) if i > 0 and rng.random() < 0.4 else None
+                joints.append(
+                    Joint(
+                        convention=conv,
+                        theta_offset_rad=float(rng.uniform(-0.1, 0.1)),
+                        alpha_rad=float(rng.choice([0.0, math.pi / 2, -math.pi / 2]))
+                        + float(rng.uniform(-0.01, 0.01)),
+                        d_mm=float(rng.uniform(-300, 300)),
+                        a_mm=float(rng.uniform(-300, 300)),
+                        beta_rad=beta,
+                    )
+                )
+            arm = Arm(joints=tuple(joints), tip="xyz", tip_mm=tuple(rng.uniform(-100, 200, 3)))
+            model = core.Model(arm)
+            for _ in range(10):
+                th = rng.uniform(-math.pi, math.pi, n)
+                pose = chain(arm, th)
+                np.testing.assert_allclose(pose.tip_mm, model.point(th), atol=1e-9)
+                assert len(pose.joints_mm) == n
+                j = int(rng.integers(n))
+                dth = np.zeros(n)
+                dth[j] = 1e-6
+                step = model.point(th + dth) - model.point(th)
+                assert abs(float(np.dot(step, pose.axes[j]))) < 1e-6 * np.linalg.norm(step) + 1e-12
 
 
 # ---------------------------------------------------------------- live
@@ -247,6 +286,8 @@ def test_capture_view(tmp_path: Path) -> None:
                 time.sleep(0.2)
             assert cap.p.wait(30) == 0, cap.err
             assert not b_open and shot, (b_open, shot)
+            # the server said it went away (1001): the page stops, it does not retry
+            a.page.wait_for_function("window.aacmmView.state.stopped", timeout=15_000)
             time.sleep(0.5)
             st = a.state("{cap: s.capture, seen: s.pointSeen, hist: s.history, ev: s.events}")
             a.clean()

@@ -117,6 +117,56 @@ def test_runner_verbose_streams_everything(tmp_path: Path) -> None:
     assert (tmp_path / "logs" / "chatty.log").read_text().count("progress line") == 5000
 
 
+PARALLEL_MAKEFILE = """\
+.PHONY: ping pong solo env1 env2
+# ping and pong each wait (up to 10 s) for the other to start: they pass only side by side
+wait = touch $(1).running; i=0; \\
+    while [ ! -f $(2).running ] && [ $$i -lt 50 ]; do sleep 0.2; i=$$((i+1)); done; \\
+    ok=0; [ -f $(2).running ] || ok=1; sleep 0.5; rm -f $(1).running; exit $$ok
+ping: shared.o
+\t@$(call wait,ping,pong)
+pong: shared.o
+\t@$(call wait,pong,ping)
+# solo runs alone: neither of the others may be running
+solo:
+\t@test ! -f ping.running && test ! -f pong.running && echo solo-ok
+env1 env2:
+\t@echo "$$XDG_RUNTIME_DIR" > $@.xdg; test -d "$$XDG_RUNTIME_DIR"
+shared.o:
+\t@echo built >> build-count; echo x > $@
+"""
+
+
+def test_runner_runs_two_at_a_time_and_alone_last(tmp_path: Path) -> None:
+    """Suites run side by side (two at a time), each with its own XDG_RUNTIME_DIR;
+    what they build first is made once, on the "build" line; --alone suites run
+    after the others; the summary lists the suites in the order they were named."""
+    (tmp_path / "Makefile").write_text(PARALLEL_MAKEFILE)
+    env = {**os.environ, "TEST_LOG_DIR": str(tmp_path / "logs"), "TEST_JOBS": "2"}
+    p = subprocess.run(
+        ["sh", str(RUNNER), "--alone", "solo", "solo", "ping", "env1", "pong", "env2"],
+        cwd=tmp_path, capture_output=True, text=True, env=env,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stdout + p.stderr
+    lines = p.stdout.splitlines()
+    assert lines[0].endswith("5 suites, 2 at a time; the output of each goes to "
+                             f"{tmp_path / 'logs'}/<suite>.log")  # fmt: skip
+    names = [m[1] for m in map(SUITE_LINE.match, lines) if m]
+    assert names[0] == "build" and names[-1] == "solo", names
+    assert sorted(names[1:-1]) == ["env1", "env2", "ping", "pong"]
+    assert (tmp_path / "build-count").read_text() == "built\n"  # once, before the suites
+    xdg1, xdg2 = ((tmp_path / f"env{i}.xdg").read_text().strip() for i in (1, 2))
+    assert xdg1 != xdg2 and xdg1.endswith("/run/env1")
+    tsv = (tmp_path / "logs" / "summary.tsv").read_text().splitlines()
+    assert [r.split("\t")[0] for r in tsv[1:]] == ["build", "solo", "ping", "env1", "pong", "env2"]
+    assert "solo-ok" in (tmp_path / "logs" / "solo.log").read_text()
+    # one at a time, each waits for the other in vain and fails
+    env["TEST_JOBS"] = "1"
+    q = subprocess.run(["sh", str(RUNNER), "ping", "pong"], cwd=tmp_path, capture_output=True,
+                       text=True, env=env, timeout=120)  # fmt: skip
+    assert q.returncode == 1 and "suites: 0 passed, 2 failed" in q.stdout
+
+
 def test_check_format_finds_bad_files(tmp_path: Path) -> None:
     subprocess.run(["git", "init", "-q", str(tmp_path)], check=True)
     (tmp_path / "ok.py").write_text("x = 1\n")

@@ -5,7 +5,7 @@
 stream costs its reader almost nothing) and, on a thread of its own, at
 ``fps`` frames per second takes the newest one, turns its counts into joint
 angles (:func:`aacmm.core.counts_to_angles`) and the joints' frames
-(:mod:`aacmm.view.arm`), appends the tip to the trail and pushes a ``frame``
+(:func:`aacmm.view.arm.chain`), appends the tip to the trail and pushes a ``frame``
 message to every page. Decimation is by time: whatever the device's rate,
 pages get at most ``fps`` frames a second, each the newest sample.
 
@@ -25,6 +25,7 @@ given and files capture wrote.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import deque
@@ -34,7 +35,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.view.arm import arm_pose
+from aacmm.arm import Arm
+from aacmm.view.arm import chain
 from aacmm.view.options import FPS_DEFAULT, FPS_RANGE, TRAIL_DEFAULT
 from aacmm.view.scene import arm_dict, points_scene
 
@@ -52,7 +54,7 @@ RETRIES = 40
 
 
 def _r(a: Any, nd: int = 4) -> list[float]:
-    return [round(float(x), nd) for x in np.asarray(a, dtype=np.float64).reshape(-1)]
+    return [round(x, nd) for x in np.asarray(a, dtype=np.float64).reshape(-1).tolist()]
 
 
 def articulation_advice(theta_rad: npt.ArrayLike, taken_rad: list[list[float]]) -> dict[str, Any]:
@@ -179,9 +181,11 @@ class LiveFeed:
             raise ValueError("the trail cannot be negative")
         self.params = params
         self.encoders = encoders
+        #: The arm drawn (an :class:`aacmm.arm.Arm`; a Params is the paper's arm in 25 values).
+        self.arm: Arm = params if isinstance(params, Arm) else params.to_arm()
         #: The farthest the tip can be from the base (the sum of the lengths): the scene's extent.
         self.reach_mm = float(
-            sum(abs(x) for x in params.d_mm) + sum(abs(x) for x in params.a_mm) + abs(params.l_mm)
+            sum(abs(j.d_mm) + abs(j.a_mm) for j in self.arm.joints) + math.hypot(*self.arm.tip_mm)
         )
         self._push = push
         self.fps = fps
@@ -260,7 +264,7 @@ class LiveFeed:
         from aacmm.core import counts_to_angles
 
         theta = counts_to_angles(np.array([sample.counts], dtype=np.int64), self.encoders)[0]
-        pose = arm_pose(self.params, theta)
+        pose = chain(self.arm, theta)
         valid = bool(sample.status & 1)
         tip = list(sample.point_mm) if valid else _r(pose.tip_mm)
         frame: dict[str, Any] = {

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.view.arm import ArmPose, arm_pose
+from aacmm.view.arm import ArmPose, FloatArray, arm_pose
 from aacmm.view.features import Labelled, point_residuals, step_features
 
 FORMAT = "aacmm-view-1"
@@ -36,15 +36,20 @@ LOG_TRAIL_MAX = 20000
 
 
 def _xyz(a: Any) -> list[float]:
-    return [round(float(x), 5) for x in np.asarray(a, dtype=np.float64).reshape(-1)]
+    # round() of Python floats (tolist) is several times faster than of numpy scalars
+    return [round(x, 5) for x in np.asarray(a, dtype=np.float64).reshape(-1).tolist()]
+
+
+def _rows(a: FloatArray) -> list[list[float]]:
+    return [[round(x, 5) for x in row] for row in a.tolist()]
 
 
 def arm_dict(pose: ArmPose) -> dict[str, Any]:
     """An :class:`ArmPose` as the page draws it."""
     return {
-        "path": [_xyz(p) for p in pose.path_mm],
-        "joints": [_xyz(p) for p in pose.joints_mm],
-        "axes": [_xyz(p) for p in pose.axes],
+        "path": _rows(pose.path_mm),
+        "joints": _rows(pose.joints_mm),
+        "axes": _rows(pose.axes),
         "tip": _xyz(pose.tip_mm),
     }
 

@@ -11,7 +11,7 @@
   const state = {
     // history: every frame received (device time, tip); latencies: per frame drawn, ms
     // from the host reading its sample to the page having drawn it.
-    mode: null, scene: null, ready: false, readyAt: null, liveAt: null, connected: false,
+    mode: null, scene: null, ready: false, readyAt: null, liveAt: null, connected: false, stopped: false,
     frames: 0, renders: 0, lastFrame: null, history: [], latencies: [], drawJs: [],
     capture: null, points: [], fits: 0, pointSeen: {}, captureLog: [], events: [], slowDraws: 0, fastErrors: [], errors: [], trail: [], trailMax: 0,
   };
@@ -344,7 +344,9 @@
     const f = state.lastFrame;
     const e = $("status");
     e.className = "status " + (state.connected ? "live" : "down");
-    e.textContent = state.connected
+    e.textContent = state.stopped
+      ? "aacmm view has stopped (the capture or the command ended): what is shown stays; reload when it runs again"
+      : state.connected
       ? `live · ${rateMark.fps.toFixed(0)} frames/s` + (f ? ` · tip ${f.tip.map((v) => v.toFixed(2)).join(", ")} mm` + (f.valid ? "" : " · NO POINT (encoder fault)") : "")
       : "disconnected from aacmm view: reconnecting";
   }
@@ -361,7 +363,13 @@
       }
       ws.send("ack");
     };
-    ws.onclose = () => { state.connected = false; status(); setTimeout(connect, 1000); };
+    // 1001 "going away": the server stopped on purpose (the capture ended, Ctrl-C), so
+    // there is nothing to reconnect to; anything else (a dropped link) retries.
+    ws.onclose = (ev) => {
+      state.connected = false;
+      if (ev.code === 1001) state.stopped = true; else setTimeout(connect, 1000);
+      status();
+    };
     ws.onerror = () => {};
   }
 
