@@ -11,4 +11,13 @@ dataclasses in, results out; no argument parsing, no printing). The ``aacmm mc``
   uncertainties, by Monte Carlo (JCGM 101) and linear propagation (GUM).
 * :mod:`aacmm.analysis.tolerance` -- the inverse: cost-optimal tolerances and
   encoders for a target accuracy, calibrated or not, checked by Monte Carlo.
+
+Errors (all :class:`aacmm.errors.AacmmError` and ``ValueError``):
+:class:`~aacmm.analysis.uncertainty_spec.SpecError` (a parameter-uncertainty
+or tolerance spec file), :class:`~aacmm.analysis.poselog.PoseLogError` (a pose
+log), :class:`~aacmm.analysis.runlimits.RunLimitError` and its subclass
+:class:`~aacmm.analysis.uncertainty.MemoryLimitError` (a run over its limits);
+:class:`aacmm.errors.InfeasibleError` (no tolerance allocation meets the
+target); :class:`aacmm.core.KinematicsError` from the core; plain
+``ValueError`` for bad arguments.
 """

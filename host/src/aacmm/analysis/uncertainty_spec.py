@@ -46,7 +46,8 @@ DISTRIBUTIONS: tuple[str, ...] = ("normal", "uniform", "triangular", "arcsine")
 
 
 class SpecError(AacmmError, ValueError):
-    """The parameter-uncertainty file is unreadable or invalid."""
+    """A parameter-uncertainty or tolerance spec file is unreadable or invalid
+    (message: file, field, reason)."""
 
 
 @dataclass(frozen=True)

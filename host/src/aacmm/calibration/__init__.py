@@ -15,6 +15,15 @@ A pure library (arrays and dataclasses in, results out; nothing printed):
 * :mod:`~aacmm.calibration.results` -- :class:`CalibrationResult` and its parts.
 
 The method and the figures are in docs/calibration.md.
+
+Errors (all :class:`aacmm.errors.AacmmError` and ``ValueError``):
+:class:`CalibrationError` (a problem that cannot be solved: too few
+observations, unknown parameters, ...) and its subclass
+:class:`~aacmm.calibration.probe.SpreadError` (probe points not spread
+enough); :class:`ObservationError` (bad observations) and its subclass
+:class:`~aacmm.calibration.sessions.SessionDataError` (a session that cannot
+be turned into observations); :class:`aacmm.records.RecordError` from
+the session reader; :class:`aacmm.core.KinematicsError` from the core.
 """
 
 from aacmm.calibration.identifiability import (

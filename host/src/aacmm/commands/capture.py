@@ -29,9 +29,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aacmm.commands.common import add_connection_options, info_dict, is_tty, print_err
-from aacmm.commands.exitcodes import INTERRUPTED, OK, LinkLostError, UsageError
+from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
 from aacmm.commands.stopflag import StopFlag
 from aacmm.commands.view import CAPTURE_VIEW_RATE_HZ, add_bind_options
+from aacmm.errors import LinkLostError
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream

@@ -23,7 +23,7 @@ import time
 from dataclasses import dataclass, field
 from typing import IO, TYPE_CHECKING, Any
 
-from aacmm.commands.exitcodes import UsageError, VersionMismatchError
+from aacmm.commands.exitcodes import UsageError
 
 # The output-file rule, re-exported for the commands (explicit re-exports).
 from aacmm.fileio import OutputExistsError as OutputExistsError
@@ -130,7 +130,7 @@ def check_version(client: Client) -> DeviceInfo:
     Raises:
         VersionMismatchError, DeviceTimeoutError, DeviceError, OperationError.
     """
-    from aacmm.errors import DeviceError, DeviceTimeoutError
+    from aacmm.errors import DeviceError, DeviceTimeoutError, VersionMismatchError
     from aacmm.protocol import PROTOCOL_VERSION
     from aacmm.protocol.status import Status
 

@@ -10,17 +10,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aacmm.commands.common import StatusLine, open_device, print_err, url_kind
-from aacmm.commands.exitcodes import (
-    INTERRUPTED,
-    OK,
-    LinkLostError,
-    UsageError,
-    VersionMismatchError,
-)
+from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
 from aacmm.commands.logwriter import COLUMNS, LogWriter, open_rows
 from aacmm.commands.rawcan import RAW_SUFFIXES, RawCanRecorder
 from aacmm.commands.stopflag import StopFlag
-from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
+from aacmm.errors import (
+    AacmmError,
+    DeviceTimeoutError,
+    InitError,
+    LinkLostError,
+    OperationError,
+    VersionMismatchError,
+)
 from aacmm.records.files import utc_iso
 
 if TYPE_CHECKING:

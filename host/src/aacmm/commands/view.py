@@ -254,8 +254,7 @@ def drain(stream: Any, feed: LiveFeed, stop: Any, stall_s: float) -> None:
     """Hand the newest sample of ``stream`` to ``feed`` every :data:`DRAIN_PERIOD_S`
     until ``stop``. Raises LinkLostError when no sample came for ``stall_s`` or the
     link is lost."""
-    from aacmm.commands.exitcodes import LinkLostError
-    from aacmm.errors import DeviceTimeoutError, OperationError
+    from aacmm.errors import DeviceTimeoutError, LinkLostError, OperationError
 
     last = time.monotonic()
     while not stop.set:

@@ -10,6 +10,10 @@
 - :mod:`aacmm.protocol.can`: CAN sample frames (DBC), :class:`SampleAssembler`,
   ISO-TP address and parameters
 - :mod:`aacmm.protocol.status`: status codes shared with the firmware
+
+Errors: :class:`aacmm.errors.FrameError` (bytes that are not a valid frame or
+message; ``status`` is the firmware's code for the reason) and ``ValueError``
+for values that cannot be encoded.
 """
 
 from aacmm.protocol.can import (

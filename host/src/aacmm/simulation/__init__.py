@@ -19,4 +19,11 @@ The host side of ``aacmm sim --truth`` and ``aacmm sim --scenario``
 * :mod:`aacmm.simulation.control` -- the client of ``aacmm-sim --control``.
 
 Analysis code never imports the truth: only tests compare results with it.
+
+Errors (all :class:`aacmm.errors.AacmmError`):
+:class:`~aacmm.simulation.truth.TruthError` (a truth file, also
+``ValueError``), :class:`~aacmm.simulation.scenario.ScenarioError` (a
+scenario, also ``ValueError``), :class:`~aacmm.simulation.control.ControlError`
+(the control channel failed), :class:`~aacmm.simulation.operator.Stopped` (the
+operator was stopped).
 """

@@ -20,7 +20,7 @@ from scipy import optimize
 
 from aacmm.analysis.tolerance.calibrated import CalibrationModel
 from aacmm.analysis.tolerance.design import Design, build_design
-from aacmm.analysis.tolerance.request import ARCSEC_RAD, Encoder, SpecError, ToleranceSpec
+from aacmm.analysis.tolerance.request import ARCSEC_RAD, Encoder, ToleranceSpec
 from aacmm.analysis.tolerance.solve import (
     Allocated,
     Candidate,
@@ -30,6 +30,7 @@ from aacmm.analysis.tolerance.solve import (
     optimise,
     prune,
 )
+from aacmm.analysis.uncertainty_spec import SpecError
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray
 from aacmm.errors import InfeasibleError
 

@@ -17,16 +17,11 @@ import numpy as np
 
 from aacmm.analysis.uncertainty import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS, TOLERANCE_FACTOR
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray, Params
-from aacmm.errors import AacmmError
 
 ARCSEC_RAD = ANGLE_UNITS["arcsec"]
 DEFAULT_RANDOM_POSES = 200
 DEFAULT_MIN_LENGTH_MM = 100.0
 MAX_POSES = 20_000
-
-
-class SpecError(AacmmError, ValueError):
-    """The tolerance spec is unreadable or invalid (message: file, field, reason)."""
 
 
 @dataclass(frozen=True)

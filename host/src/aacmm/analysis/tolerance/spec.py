@@ -10,9 +10,9 @@ in +-t) in the spec's ``angle_unit`` (default arcsec) and ``length_unit``
 units, so ``c`` reads as "the cost of holding one unit". Inside the package
 angles are in rad and lengths in mm, as everywhere in aacmm.
 
-The request's dataclasses (:class:`ToleranceSpec` and its parts,
-:class:`SpecError`) are in :mod:`aacmm.analysis.tolerance.request`,
-re-exported here.
+The request's dataclasses (:class:`ToleranceSpec` and its parts) are in
+:mod:`aacmm.analysis.tolerance.request`, re-exported here; :class:`SpecError`
+is :mod:`aacmm.analysis.uncertainty_spec`'s.
 """
 
 from __future__ import annotations
@@ -33,13 +33,13 @@ from aacmm.analysis.tolerance.request import (
     CalibrationDesign,
     Encoder,
     ParamCost,
-    SpecError,
     Target,
     ToleranceSpec,
     Workspace,
 )
 from aacmm.analysis.uncertainty import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS
 from aacmm.analysis.uncertainty import _expand as expand_names
+from aacmm.analysis.uncertainty_spec import SpecError
 from aacmm.core import JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray, Params
 
 __all__ = [
