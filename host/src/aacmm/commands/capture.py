@@ -28,7 +28,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aacmm.commands.common import add_connection_options, info_dict, is_tty, print_err
+from aacmm.client.devstate import info_dict
+from aacmm.commands.common import add_connection_options, is_tty, print_err
 from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
 from aacmm.commands.stopflag import StopFlag
 from aacmm.commands.view import CAPTURE_VIEW_RATE_HZ, add_bind_options

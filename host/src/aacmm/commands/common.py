@@ -81,7 +81,7 @@ def port_url(args: argparse.Namespace) -> str:
     """The device URL from ``--port``, the environment, or else the running simulator's.
 
     Without ``--port`` and ``$AACMM_PORT``, the URL an ``aacmm sim`` of this
-    user publishes (:func:`aacmm.commands.sim.published_url`; waited for while
+    user publishes (:func:`aacmm.simulation.process.published_url`; waited for while
     one is starting) is used, and said on stderr.
 
     Raises:
@@ -90,7 +90,7 @@ def port_url(args: argparse.Namespace) -> str:
     url = (args.port or os.environ.get(ENV_PORT, "")).strip()
     if not url:
         # A running (or starting) `aacmm sim` publishes its URL (docs/cli.md, aacmm sim).
-        from aacmm.commands.sim import published_sims, published_url
+        from aacmm.simulation.process import published_sims, published_url
 
         url = published_url() or ""
         if not url:
@@ -233,27 +233,6 @@ def flag_names(status: int) -> str:
     if unknown:
         names.append(f"0x{unknown:x}")
     return "|".join(names) if names else "0"
-
-
-def info_dict(info: DeviceInfo) -> dict[str, Any]:
-    """Device info as JSON-ready data (with readable names beside the codes)."""
-    from dataclasses import asdict
-
-    from aacmm.protocol import BuildFlags, ParamSource, StorageState
-
-    d: dict[str, Any] = asdict(info)
-    d["firmware"] = f"{info.fw_major}.{info.fw_minor}.{info.fw_patch}"
-    d["build_flags_names"] = [f.name for f in BuildFlags if f.name and info.build_flags & f.value]
-    d["param_crc32_hex"] = f"0x{info.param_crc32:08x}"
-    try:
-        d["param_source_name"] = ParamSource(info.param_source).name.lower()
-    except ValueError:
-        d["param_source_name"] = f"unknown ({info.param_source})"
-    try:
-        d["storage_state_name"] = StorageState(info.storage_state).name.lower()
-    except ValueError:
-        d["storage_state_name"] = f"unknown ({info.storage_state})"
-    return d
 
 
 def is_tty(stream: IO[str]) -> bool:

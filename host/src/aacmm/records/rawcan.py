@@ -1,4 +1,9 @@
-"""Raw CAN frames of a node recorded to .blf/.asc/.log (``aacmm log --raw``)."""
+"""Raw CAN frames of a node recorded to .blf/.asc/.log (``aacmm log --raw``).
+
+Errors: :class:`aacmm.errors.InitError` (the interface cannot be opened),
+:class:`aacmm.fileio.OutputExistsError` / :class:`aacmm.fileio.OutputFileError`
+(the file exists or cannot be written).
+"""
 
 from __future__ import annotations
 
@@ -7,8 +12,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from aacmm.commands.exitcodes import UsageError
 from aacmm.errors import InitError
+from aacmm.fileio import OutputExistsError, OutputFileError
 
 RAW_SUFFIXES = (".blf", ".asc", ".log")
 RAW_RCVBUF_BYTES = 8 << 20
@@ -31,7 +36,7 @@ class RawCanRecorder:
         from aacmm.transport.canbus import CanTransport
 
         if path.exists() and not force:
-            raise UsageError(f"{path} exists (use --force to overwrite)")
+            raise OutputExistsError(f"{path} exists (use --force to overwrite)")
         filters = [
             *CanTransport.filters(node),
             {"can_id": ID_ISOTP_REQUEST + node, "can_mask": 0x7FF, "extended": False},
@@ -50,7 +55,7 @@ class RawCanRecorder:
             self.logger: Any = can.Logger(str(path))
         except (OSError, ValueError) as exc:
             self.bus.shutdown()
-            raise UsageError(f"cannot write {path}: {exc}") from None
+            raise OutputFileError(f"cannot write {path}: {exc}") from None
         self._last_rx = time.monotonic()
         self.frames = 0
         self.notifier = can.Notifier(self.bus, [self.logger, self._seen], timeout=0.1)
