@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from aacmm.plans import load_plan
 from aacmm.records import read_session
-from aacmm.records.logs import LOG_COLUMNS, read_log, read_triggers
+from aacmm.records.logs import read_log, read_triggers
+from aacmm.records.schema import LOG_COLUMNS
 from aacmm.simulation.process import SimProcess
 from clihelp import AACMM, cli_env, one_error_line, run
 

@@ -26,6 +26,8 @@ be turned into observations); :class:`aacmm.records.RecordError` from
 the session reader; :class:`aacmm.core.KinematicsError` from the core.
 """
 
+from aacmm.calibration.diagnostics import find_outliers
+from aacmm.calibration.features import CalibrationError
 from aacmm.calibration.identifiability import (
     Identifiability,
     NullDirection,
@@ -41,18 +43,9 @@ from aacmm.calibration.observations import (
     Sphere,
     combine,
 )
-from aacmm.calibration.problem import CalibrationError, Evaluation, Problem
-from aacmm.calibration.solve import (
-    CalibrationResult,
-    ChiSquare,
-    Outlier,
-    Progress,
-    Suspect,
-    calibrate,
-    find_outliers,
-    parse_names,
-    predicted_covariance,
-)
+from aacmm.calibration.problem import Evaluation, Problem
+from aacmm.calibration.results import CalibrationResult, ChiSquare, Outlier, Progress, Suspect
+from aacmm.calibration.solve import calibrate, parse_names, predicted_covariance
 
 __all__ = [
     "CalibrationError",

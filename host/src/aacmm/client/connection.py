@@ -47,7 +47,7 @@ from aacmm.protocol import (
     encode_message,
     status_name,
 )
-from aacmm.protocol.messages import JOINTS, RESPONSE_BIT, STREAM_RATE_MAX_HZ, STREAM_RATE_MIN_HZ
+from aacmm.protocol.constants import JOINTS, RESPONSE_BIT, STREAM_RATE_MAX_HZ, STREAM_RATE_MIN_HZ
 from aacmm.protocol.status import Status
 from aacmm.transport import Transport, open_transport
 

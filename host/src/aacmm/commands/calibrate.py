@@ -509,7 +509,7 @@ def _write(
     import json
 
     from aacmm import __version__
-    from aacmm.analysis import uncertainty as unc
+    from aacmm import uncertainty as unc
     from aacmm.calibration import report
     from aacmm.fileio import write_output
 

@@ -25,15 +25,6 @@ from typing import IO, TYPE_CHECKING, Any
 
 from aacmm.commands.exitcodes import UsageError
 
-# The output-file rule, re-exported for the commands (explicit re-exports).
-from aacmm.fileio import OutputExistsError as OutputExistsError
-from aacmm.fileio import OutputFileError as OutputFileError
-from aacmm.fileio import atomic_output as atomic_output
-from aacmm.fileio import atomic_path as atomic_path
-from aacmm.fileio import check_outputs as check_outputs
-from aacmm.fileio import save_figure as save_figure
-from aacmm.fileio import write_output as write_output
-
 if TYPE_CHECKING:
     from aacmm.client import Client
     from aacmm.protocol import DeviceInfo
@@ -318,7 +309,7 @@ def add_run_limit_options(parser: argparse.ArgumentParser, bar: str) -> None:
 
     ``bar``: what the progress bar counts, for the help text.
     """
-    from aacmm.analysis.runlimits import MAX_RUN_S
+    from aacmm.uncertainty.runlimits import MAX_RUN_S
 
     parser.add_argument(
         "--max-hours",
@@ -351,7 +342,7 @@ class RunProgress:
     """A long analysis run seen from stderr: its estimate first, then its progress.
 
     :meth:`update` goes to the run's progress callback. Once the first half
-    second is measured (:class:`aacmm.analysis.runlimits.RunClock`), a run
+    second is measured (:class:`aacmm.uncertainty.runlimits.RunClock`), a run
     estimated beyond the limit is refused (:class:`RunLimitError`, exit
     status 2); one estimated at :data:`LONG_RUN_S` or more is announced with
     its estimate (``aacmm mc: estimated time about 3 h 10 min (...); Ctrl-C
@@ -371,7 +362,7 @@ class RunProgress:
         what: str,
         hint: str,
     ) -> None:
-        from aacmm.analysis.runlimits import RunClock
+        from aacmm.uncertainty.runlimits import RunClock
 
         self.cmd = cmd
         self.show = show
@@ -402,7 +393,7 @@ class RunProgress:
         self._announce(self.clock.preset(seconds))
 
     def _announce(self, est: Any) -> None:
-        from aacmm.analysis.runlimits import LONG_RUN_S
+        from aacmm.uncertainty.runlimits import LONG_RUN_S
 
         if est is None or est.seconds < LONG_RUN_S:
             return
@@ -427,7 +418,7 @@ class RunProgress:
             self._line()
 
     def _line(self) -> None:
-        from aacmm.analysis.runlimits import format_count, format_duration
+        from aacmm.uncertainty.runlimits import format_count, format_duration
 
         c = self.clock
         pct = int(100 * c.done / c.total)

@@ -19,7 +19,6 @@ from aacmm.client.devstate import info_dict
 from aacmm.commands.common import (
     add_connection_options,
     add_force_option,
-    check_outputs,
     device_from_args,
     flag_names,
     fmt_point,
@@ -27,6 +26,7 @@ from aacmm.commands.common import (
 )
 from aacmm.commands.exitcodes import OK
 from aacmm.errors import DeviceError
+from aacmm.fileio import check_outputs
 
 if TYPE_CHECKING:
     from aacmm.client import Client

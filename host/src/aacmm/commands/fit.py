@@ -215,8 +215,8 @@ def fit_text(fit: Fit[Any], source: str, n_sel: str, mz: Any) -> str:
 
 def run_fit(args: argparse.Namespace) -> int:
     from aacmm import geometry as g
-    from aacmm.commands.common import atomic_output, check_outputs, write_output
     from aacmm.commands.exitcodes import UsageError
+    from aacmm.fileio import atomic_output, check_outputs, write_output
     from aacmm.plans.model import MAX_PROBE_DIAMETER_MM
     from aacmm.records.measured import load_points
 
@@ -346,7 +346,7 @@ def export_format(fmt: str | None, output: str | None) -> str:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from aacmm.commands.common import check_outputs, write_output
+    from aacmm.fileio import check_outputs, write_output
     from aacmm.records.measured import load_points
 
     fmt = export_format(args.format, args.output)

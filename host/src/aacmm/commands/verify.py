@@ -59,8 +59,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run_verify(args: argparse.Namespace) -> int:
     from aacmm.commands import verify_report as vr
-    from aacmm.commands.common import check_outputs, save_figure, write_output
     from aacmm.commands.exitcodes import NOT_MET, UsageError
+    from aacmm.fileio import check_outputs, save_figure, write_output
     from aacmm.records.measured import load_session
     from aacmm.verification.report import evaluate
     from aacmm.verification.rules import FAIL, NO_MPE

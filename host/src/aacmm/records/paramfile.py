@@ -49,7 +49,7 @@ from typing import Any
 
 from aacmm.fileio import InputFileError, load_structured, write_output
 from aacmm.protocol import ParamSet
-from aacmm.protocol.messages import COUNTS_PER_REV_MAX, JOINTS
+from aacmm.protocol.constants import COUNTS_PER_REV_MAX, JOINTS
 from aacmm.records.files import RecordError
 
 KIN_KEYS = ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm", "l_mm")

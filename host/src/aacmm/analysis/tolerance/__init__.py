@@ -1,6 +1,6 @@
 """Tolerance allocation: from a target accuracy to a tolerance for every part.
 
-The inverse of :mod:`aacmm.analysis.uncertainty`: given what the arm must
+The inverse of :mod:`aacmm.uncertainty`: given what the arm must
 reach (the expanded uncertainty of the probe point over a workspace, at its
 worst pose or as an RMS, or a length-measurement MPE), a cost model per
 parameter (c / t^k within process limits) and an encoder catalogue, find the
@@ -59,7 +59,7 @@ from aacmm.analysis.tolerance.request import (
     Workspace,
 )
 from aacmm.analysis.tolerance.spec import load_spec, parse_spec
-from aacmm.analysis.uncertainty_spec import SpecError
+from aacmm.uncertainty.spec import SpecError
 
 __all__ = [
     "STATUSES",

@@ -30,9 +30,9 @@ from aacmm.analysis.tolerance.solve import (
     optimise,
     prune,
 )
-from aacmm.analysis.uncertainty_spec import SpecError
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray
 from aacmm.errors import InfeasibleError
+from aacmm.uncertainty.spec import SpecError
 
 #: statuses of a parameter in the result
 STATUSES = ("allocated", "at min", "at max", "fixed", "calibrated", "no effect")

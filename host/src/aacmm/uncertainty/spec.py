@@ -1,4 +1,4 @@
-"""Parameter-uncertainty specifications for :mod:`aacmm.analysis.uncertainty`.
+"""Parameter-uncertainty specifications for :mod:`aacmm.uncertainty`.
 
 A spec is the nominal arm, one standard uncertainty and distribution per
 structural parameter (or a full 25 x 25 covariance of correlated normal
