@@ -110,46 +110,6 @@ def url_kind(url: str) -> tuple[str, str, int]:
     return u.kind, u.target, u.node
 
 
-def check_version(client: Client) -> DeviceInfo:
-    """Read the device info and check the protocol version.
-
-    A device speaking another version is recognised three ways: its info
-    names another version; it answers with ERR_VERSION; or its answers carry
-    another version byte, so the host drops them (the request then times out
-    with version frame errors counted).
-
-    Raises:
-        VersionMismatchError, DeviceTimeoutError, DeviceError, OperationError.
-    """
-    from aacmm.errors import DeviceError, DeviceTimeoutError, VersionMismatchError
-    from aacmm.protocol import PROTOCOL_VERSION
-    from aacmm.protocol.status import Status
-
-    try:
-        info = client.info()
-    except DeviceTimeoutError:
-        fe = client.last_frame_error
-        if fe is not None and fe.status == int(Status.ERR_VERSION):
-            raise VersionMismatchError(
-                f"{client.transport.description}: the device speaks another protocol "
-                f"version ({fe}); this host speaks {PROTOCOL_VERSION}"
-            ) from None
-        raise
-    except DeviceError as exc:
-        if exc.status == int(Status.ERR_VERSION):
-            raise VersionMismatchError(
-                f"{client.transport.description}: the device refused protocol version "
-                f"{PROTOCOL_VERSION} ({exc})"
-            ) from None
-        raise
-    if info.protocol_version != PROTOCOL_VERSION:
-        raise VersionMismatchError(
-            f"{client.transport.description}: the device speaks protocol version "
-            f"{info.protocol_version}, this host {PROTOCOL_VERSION}"
-        )
-    return info
-
-
 @dataclass
 class Device:
     """An open, checked connection: the URL, the client and the device info.
@@ -193,7 +153,7 @@ def open_device(url: str, timeout: float, retries: int) -> Device:
         raise UsageError(f"--retries must be >= 0, got {retries}")
     client = connect(url, timeout=timeout, retries=retries)
     try:
-        info = check_version(client)
+        info = client.handshake()
     except BaseException:
         client.close()
         raise
