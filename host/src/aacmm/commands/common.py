@@ -28,6 +28,7 @@ from aacmm.commands.exitcodes import UsageError
 if TYPE_CHECKING:
     from aacmm.client import Client
     from aacmm.protocol import DeviceInfo
+    from aacmm.records.paramsets import ParamSetRecord
 
 ENV_PORT = "AACMM_PORT"
 DEFAULT_TIMEOUT = 1.0
@@ -168,13 +169,6 @@ def device_from_args(args: argparse.Namespace) -> Device:
 # ---------------------------------------------------------------- output helpers
 
 
-def fmt_point(v: int) -> str:
-    """A coordinate in 1e-4 mm as an exact decimal string in mm (``-12.3456``)."""
-    sign = "-" if v < 0 else ""
-    q, r = divmod(abs(v), 10000)
-    return f"{sign}{q}.{r:04d}"
-
-
 def flag_names(status: int) -> str:
     """Sample status bits as names (``POINT_VALID|PARAMS_DEFAULT``)."""
     from aacmm.protocol import SampleStatus
@@ -262,6 +256,21 @@ class StatusLine:
 
 def print_err(cmd: str, text: str) -> None:
     print(f"aacmm {cmd}: {text}", file=sys.stderr, flush=True)
+
+
+def device_param_set(cmd: str, dev: Device) -> ParamSetRecord:
+    """The device's parameter set in force, with a warning on stderr when the CRC
+    the device reports (its info) is not the CRC of the set it sends."""
+    from aacmm.records.paramsets import ParamSetRecord
+
+    ps = ParamSetRecord.from_device(dev.client.get_params())
+    if ps.crc32 != dev.info.param_crc32:
+        print_err(
+            cmd,
+            f"warning: the device reports parameter CRC 0x{dev.info.param_crc32:08x}, "
+            f"its parameter set hashes to {ps.crc_hex}",
+        )
+    return ps
 
 
 def add_run_limit_options(parser: argparse.ArgumentParser, bar: str) -> None:

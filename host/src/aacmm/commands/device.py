@@ -21,12 +21,12 @@ from aacmm.commands.common import (
     add_force_option,
     device_from_args,
     flag_names,
-    fmt_point,
     print_err,
 )
 from aacmm.commands.exitcodes import OK
 from aacmm.errors import DeviceError
 from aacmm.fileio import check_outputs
+from aacmm.records.files import fmt_point
 
 if TYPE_CHECKING:
     from aacmm.client import Client

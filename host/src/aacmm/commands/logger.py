@@ -10,7 +10,13 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aacmm.commands.common import StatusLine, open_device, print_err, url_kind
+from aacmm.commands.common import (
+    StatusLine,
+    device_param_set,
+    open_device,
+    print_err,
+    url_kind,
+)
 from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
 from aacmm.commands.stopflag import StopFlag
 from aacmm.commands.summary import format_summary
@@ -263,7 +269,6 @@ class Logger(LogWriter):
                 self.raw.stop()
 
     def _run(self) -> int:
-        from aacmm.records.paramsets import ParamSetRecord
 
         a = self.args
         dev = self.connect()
@@ -271,13 +276,7 @@ class Logger(LogWriter):
         end_status, end_reason = "error", "error"
         error: BaseException | None = None
         try:
-            ps = ParamSetRecord.from_device(dev.client.get_params())
-            if ps.crc32 != dev.info.param_crc32:
-                print_err(
-                    "log",
-                    f"warning: the device reports parameter CRC 0x{dev.info.param_crc32:08x}, "
-                    f"its parameter set hashes to {ps.crc_hex}",
-                )
+            ps = device_param_set("log", dev)
             self.start_wall = time.time()
             self.t0 = time.monotonic()
             self.stop.immediate = False  # from here a signal ends the log cleanly

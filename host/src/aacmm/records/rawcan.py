@@ -16,8 +16,6 @@ from aacmm.errors import InitError
 from aacmm.fileio import OutputExistsError, OutputFileError
 
 RAW_SUFFIXES = (".blf", ".asc", ".log")
-RAW_RCVBUF_BYTES = 8 << 20
-SO_RCVBUFFORCE = 33  # Linux; lets root exceed net.core.rmem_max
 
 
 class RawCanRecorder:
@@ -33,7 +31,7 @@ class RawCanRecorder:
         import can
 
         from aacmm.protocol.can import ID_ISOTP_REQUEST
-        from aacmm.transport.canbus import CanTransport
+        from aacmm.transport.canbus import CanTransport, enlarge_rcvbuf
 
         if path.exists() and not force:
             raise OutputExistsError(f"{path} exists (use --force to overwrite)")
@@ -50,7 +48,7 @@ class RawCanRecorder:
             )
         except (can.CanError, OSError, ValueError, ImportError) as exc:
             raise InitError(f"cannot open CAN interface {channel} for --raw: {exc}") from None
-        self._enlarge_rcvbuf()
+        enlarge_rcvbuf(self.bus)
         try:
             self.logger: Any = can.Logger(str(path))
         except (OSError, ValueError) as exc:
@@ -60,20 +58,6 @@ class RawCanRecorder:
         self.frames = 0
         self.notifier = can.Notifier(self.bus, [self.logger, self._seen], timeout=0.1)
         self.path = path
-
-    def _enlarge_rcvbuf(self) -> None:
-        """A big socket receive buffer (best effort), so a slow writer loses no frames."""
-        import socket
-
-        sock = getattr(self.bus, "socket", None)
-        if not isinstance(sock, socket.socket):
-            return
-        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
-            try:
-                sock.setsockopt(socket.SOL_SOCKET, opt, RAW_RCVBUF_BYTES)
-                return
-            except OSError:
-                continue
 
     def _seen(self, msg: Any) -> None:  # notifier thread
         self._last_rx = time.monotonic()
