@@ -28,7 +28,6 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aacmm.client.devstate import info_dict
 from aacmm.commands.common import add_connection_options, device_param_set, is_tty, print_err
 from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
 from aacmm.commands.stopflag import StopFlag
@@ -147,6 +146,7 @@ class Capture:
     # ---------------------------------------------------------- set-up
 
     def open_session(self, dev: Device, ps: ParamSetRecord) -> SessionWriter:
+        from aacmm.client.devstate import info_dict
         from aacmm.records import SessionWriter
 
         if self.args.resume:

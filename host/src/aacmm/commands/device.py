@@ -15,7 +15,6 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aacmm.client.devstate import info_dict
 from aacmm.commands.common import (
     add_connection_options,
     add_force_option,
@@ -157,7 +156,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     from aacmm.client import devstate
 
     with device_from_args(args) as dev:
-        d = info_dict(dev.info)
+        d = devstate.info_dict(dev.info)
         d["url"] = dev.url
         d["transport"] = dev.client.transport.description
         diag = dev.client.diagnostics()

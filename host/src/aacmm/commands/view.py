@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aacmm.commands.common import add_connection_options, add_force_option, print_err
-from aacmm.view.html import VIEW_JSON
 
 if TYPE_CHECKING:
     from aacmm.commands.common import Device
@@ -152,6 +151,7 @@ def load_scene(source: str) -> dict[str, Any]:
     from aacmm.fileio import load_json
     from aacmm.records import session_exists
     from aacmm.view import scene as sc
+    from aacmm.view.html import VIEW_JSON
 
     p = Path(source)
     if not p.exists():

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aacmm import __version__
-from aacmm.client.devstate import info_dict
 from aacmm.fileio import OutputExistsError, OutputFileError
 from aacmm.records.files import RowFile, utc_iso, write_json_atomic
 from aacmm.records.logsession import Session
@@ -111,6 +110,8 @@ class LogWriter:
             check_writable_dir(d, str(self.csv_path if d == parent else d))
 
     def base_meta(self, client: Client, info: DeviceInfo, ps: ParamSetRecord) -> dict[str, Any]:
+        from aacmm.client.devstate import info_dict
+
         a = self.args
         return {
             "format": FORMAT,

@@ -51,42 +51,84 @@ ValueError) for poses that cannot fit; :class:`aacmm.core.KinematicsError`
 :class:`aacmm.errors.AacmmError`.
 """
 
-from aacmm.uncertainty.propagation import (
-    BYTES_PER_POSE,
-    DEFAULT_TRIALS,
-    DEFAULT_WORKSPACE,
-    HIST_BINS,
-    K95,
-    MEMORY_BUDGET,
-    TRIAL_CHUNK,
-    MemoryLimitError,
-    Progress,
-    draw_deltas,
-    propagate,
-)
-from aacmm.uncertainty.report import (
-    BudgetEntry,
-    PoseResult,
-    UncertaintyResult,
-    csv_text,
-    figure,
-    format_report,
-    to_json,
-)
-from aacmm.uncertainty.spec import (
-    ANGLE_UNITS,
-    DISTRIBUTIONS,
-    EXAMPLE_SPEC,
-    LENGTH_UNITS,
-    TOLERANCE_FACTOR,
-    ParamUncertainty,
-    SpecError,
-    UncertaintySpec,
-    expand_name,
-    load_spec,
-    parse_spec,
-    pose_list,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from aacmm.uncertainty.propagation import BYTES_PER_POSE as BYTES_PER_POSE
+    from aacmm.uncertainty.propagation import DEFAULT_TRIALS as DEFAULT_TRIALS
+    from aacmm.uncertainty.propagation import DEFAULT_WORKSPACE as DEFAULT_WORKSPACE
+    from aacmm.uncertainty.propagation import HIST_BINS as HIST_BINS
+    from aacmm.uncertainty.propagation import K95 as K95
+    from aacmm.uncertainty.propagation import MEMORY_BUDGET as MEMORY_BUDGET
+    from aacmm.uncertainty.propagation import TRIAL_CHUNK as TRIAL_CHUNK
+    from aacmm.uncertainty.propagation import MemoryLimitError as MemoryLimitError
+    from aacmm.uncertainty.propagation import Progress as Progress
+    from aacmm.uncertainty.propagation import draw_deltas as draw_deltas
+    from aacmm.uncertainty.propagation import propagate as propagate
+    from aacmm.uncertainty.report import BudgetEntry as BudgetEntry
+    from aacmm.uncertainty.report import PoseResult as PoseResult
+    from aacmm.uncertainty.report import UncertaintyResult as UncertaintyResult
+    from aacmm.uncertainty.report import csv_text as csv_text
+    from aacmm.uncertainty.report import figure as figure
+    from aacmm.uncertainty.report import format_report as format_report
+    from aacmm.uncertainty.report import to_json as to_json
+    from aacmm.uncertainty.spec import ANGLE_UNITS as ANGLE_UNITS
+    from aacmm.uncertainty.spec import DISTRIBUTIONS as DISTRIBUTIONS
+    from aacmm.uncertainty.spec import EXAMPLE_SPEC as EXAMPLE_SPEC
+    from aacmm.uncertainty.spec import LENGTH_UNITS as LENGTH_UNITS
+    from aacmm.uncertainty.spec import TOLERANCE_FACTOR as TOLERANCE_FACTOR
+    from aacmm.uncertainty.spec import ParamUncertainty as ParamUncertainty
+    from aacmm.uncertainty.spec import SpecError as SpecError
+    from aacmm.uncertainty.spec import UncertaintySpec as UncertaintySpec
+    from aacmm.uncertainty.spec import expand_name as expand_name
+    from aacmm.uncertainty.spec import load_spec as load_spec
+    from aacmm.uncertainty.spec import parse_spec as parse_spec
+    from aacmm.uncertainty.spec import pose_list as pose_list
+
+# Loaded on first use, so that importing a light submodule (aacmm.uncertainty.runlimits,
+# which every command's parser reads) does not pull numpy and the C core in.
+_WHERE = {
+    "BYTES_PER_POSE": "propagation",
+    "DEFAULT_TRIALS": "propagation",
+    "DEFAULT_WORKSPACE": "propagation",
+    "HIST_BINS": "propagation",
+    "K95": "propagation",
+    "MEMORY_BUDGET": "propagation",
+    "MemoryLimitError": "propagation",
+    "Progress": "propagation",
+    "TRIAL_CHUNK": "propagation",
+    "draw_deltas": "propagation",
+    "propagate": "propagation",
+    "BudgetEntry": "report",
+    "PoseResult": "report",
+    "UncertaintyResult": "report",
+    "csv_text": "report",
+    "figure": "report",
+    "format_report": "report",
+    "to_json": "report",
+    "ANGLE_UNITS": "spec",
+    "DISTRIBUTIONS": "spec",
+    "EXAMPLE_SPEC": "spec",
+    "LENGTH_UNITS": "spec",
+    "ParamUncertainty": "spec",
+    "SpecError": "spec",
+    "TOLERANCE_FACTOR": "spec",
+    "UncertaintySpec": "spec",
+    "expand_name": "spec",
+    "load_spec": "spec",
+    "parse_spec": "spec",
+    "pose_list": "spec",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"aacmm.uncertainty.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'aacmm.uncertainty' has no attribute {name!r}")
+
 
 __all__ = [
     "ANGLE_UNITS",
