@@ -4,7 +4,7 @@
   point + Jacobian + |J| and J^2 sums, aacmm_simd_abs_jacobian_sums_f64) on
   pre-drawn poses, on the scalar kernel and on the widest one this CPU runs,
   1 thread and all threads, in 64 chunks on the analysis's own thread pool
-  (aacmm.analysis._parallel: inline for one thread, a pool with the GIL
+  (aacmm.uncertainty.parallel: inline for one thread, a pool with the GIL
   released for more); ns per pose per thread = wall x threads / poses.
 * analysis.mc: error_transfer_coefficients end to end (random poses drawn
   with numpy, accumulation, thread pool, the Eq. 11-13 check on 4096 poses),
@@ -33,11 +33,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from aacmm import core
+from aacmm import uncertainty as unc
 from aacmm.analysis import mc
-from aacmm.analysis import uncertainty as unc
-from aacmm.analysis._parallel import in_order
-from aacmm.analysis._parallel import pool as thread_pool
+from aacmm.analysis.mc_poses import draw_poses
 from aacmm.core import Model
+from aacmm.uncertainty.parallel import in_order
+from aacmm.uncertainty.parallel import pool as thread_pool
 from benchjson import best_of, emit
 
 
@@ -55,7 +56,7 @@ def main() -> None:
     )
     model = Model()
     n = 1 << 20
-    theta = mc.draw_poses(n, seed=1)
+    theta = draw_poses(n, seed=1)
     chunks = np.array_split(theta, 64)
     kernels = sorted({"scalar", core.available_kernels()[-1]}, key=core.KERNELS.index)
     for kern in kernels:

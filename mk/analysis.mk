@@ -4,7 +4,7 @@
 # lint, and the benchmark.
 
 ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/_core.pyi \
-                     host/src/aacmm/core.py host/src/aacmm/arm.py host/src/aacmm/analysis \
+                     host/src/aacmm/core.py host/src/aacmm/arm.py host/src/aacmm/analysis host/src/aacmm/uncertainty \
                      tests/host/test_core.py tests/host/test_core_oracle.py \
                      tests/host/test_core_kernels.py tests/host/test_core_encoder.py \
                      tests/host/test_core_arm.py tests/host/test_core_binding.py tests/host/test_mc.py \

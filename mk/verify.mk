@@ -13,7 +13,7 @@
 
 VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
                    host/src/aacmm/commands/verify.py host/src/aacmm/commands/verify_report.py \
-                   host/src/aacmm/commands/fit.py host/src/aacmm/commands/measured.py \
+                   host/src/aacmm/commands/fit.py host/src/aacmm/records/measured.py \
                    tests/host/test_geometry.py tests/host/selfcert.py \
                    tests/host/test_verification.py tests/host/test_verify_cli.py \
                    tests/host/verify_sessions.py tests/host/verify_predict.py \

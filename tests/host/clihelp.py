@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from aacmm.commands.sim import SimProcess, find_simulator
 from aacmm.errors import AacmmError
+from aacmm.simulation.process import SimProcess, find_simulator
 
 AACMM = Path(sys.executable).with_name("aacmm")
 

@@ -20,7 +20,7 @@ import aacmm.analysis
 import aacmm.core
 import numpy as np
 import pytest
-from aacmm.analysis import uncertainty as unc
+from aacmm import uncertainty as unc
 from aacmm.cli import COMMAND_MODULES, build_parser
 
 pytestmark = pytest.mark.timeout(60)

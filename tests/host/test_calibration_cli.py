@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from aacmm.cli import main
-from aacmm.commands.paramfile import load_param_file
 from aacmm.core import PARAM_NAMES, EncoderConfig, Model, Params
 from aacmm.plans import load_plan
 from aacmm.records import ParamSetRecord, SessionWriter
+from aacmm.records.paramfile import load_param_file
 from calib_synth import perturbed_truth, plan_session
 from test_calibration import SINGLES, combo_cov, combos
 

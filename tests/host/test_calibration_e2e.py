@@ -162,7 +162,7 @@ def test_end_to_end_on_the_simulator(tmp_path: Path) -> None:
     before = load_sessions([s1], SIGMA_UM / 1000)
     after = load_sessions([s2], SIGMA_UM / 1000)
     # the fresh session was taken with the calibrated set, stored in the device
-    from aacmm.commands.paramfile import load_param_file
+    from aacmm.records.paramfile import load_param_file
 
     ps = load_param_file(cal)
     assert after.start.l_mm == ps.l_mm and after.start.d_mm == ps.d_mm

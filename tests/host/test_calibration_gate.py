@@ -44,10 +44,10 @@ from aacmm.calibration.gate import (
 from aacmm.calibration.probe import calibrate_probe, tip_vector
 from aacmm.calibration.validation import Comparison, measure
 from aacmm.commands.exitcodes import REFUSED, USAGE, WRONG_ARM
-from aacmm.commands.paramfile import load_param_file_arm
 from aacmm.core import PARAM_NAMES, Model, Params
 from aacmm.plans import load_plan
 from aacmm.protocol import ParamSet
+from aacmm.records.paramfile import load_param_file_arm
 from aacmm.simulation.truth import random_truth
 from calib_synth import perturbed_truth, synthetic
 from clihelp import one_error_line, run
@@ -404,7 +404,7 @@ def test_refuted_kinematic_model_scaled_uncertainties_cover_the_truth() -> None:
 
 
 def test_params_set_refuses_another_arms_calibration(tmp_path: Path) -> None:
-    from aacmm.commands.sim import SimProcess
+    from aacmm.simulation.process import SimProcess
 
     truth, rng = random_truth(25), np.random.default_rng(25)
     s = sample(load_plan("kinematic-calibration"), truth, record(Params()), rng)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from aacmm.analysis import uncertainty as unc
+from aacmm import uncertainty as unc
 from aacmm.calibration import calibrate, plots, report
 from aacmm.calibration.validation import compare
 from aacmm.core import Model, Params

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from aacmm.commands.sim import SimProcess
 from aacmm.plans import load_plan
 from aacmm.records import read_session
+from aacmm.simulation.process import SimProcess
 from clihelp import AACMM, cli_env, one_error_line, read_only_dir, run
 
 pytestmark = pytest.mark.timeout(120)

@@ -24,8 +24,6 @@ from pathlib import Path
 import pytest
 from aacmm.analysis.poselog import read_pose_log
 from aacmm.commands import exitcodes
-from aacmm.commands.log import COLUMNS, TRIGGER_COLUMNS
-from aacmm.commands.sim import SimProcess, find_simulator
 from aacmm.errors import AacmmError
 from aacmm.protocol import (
     PROTOCOL_VERSION,
@@ -37,6 +35,9 @@ from aacmm.protocol import (
     encode_frame,
     encode_message,
 )
+from aacmm.records.schema import LOG_COLUMNS as COLUMNS
+from aacmm.records.schema import TRIGGER_COLUMNS
+from aacmm.simulation.process import SimProcess, find_simulator
 
 pytestmark = pytest.mark.timeout(60)
 

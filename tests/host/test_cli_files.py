@@ -21,7 +21,7 @@ from typing import Any
 
 import pytest
 from aacmm.commands import exitcodes
-from aacmm.commands.sim import SimProcess
+from aacmm.simulation.process import SimProcess
 from clihelp import AACMM, cli_env, one_error_line, read_only_dir, run, sim_fixture
 
 pytestmark = pytest.mark.timeout(120)
@@ -88,7 +88,7 @@ DEEP_JSON = "[" * 100_000  # the issue's 100,000 brackets
 
 def small_log(directory: Path) -> Path:
     """A log CSV as `aacmm log` writes it (three samples)."""
-    from aacmm.commands.log import COLUMNS
+    from aacmm.records.schema import LOG_COLUMNS as COLUMNS
 
     rows = [",".join(COLUMNS)]
     for i in range(3):

@@ -13,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from aacmm.commands.sim import SimProcess
 from aacmm.plans import load_plan
 from aacmm.records import read_session
-from aacmm.records.logs import LOG_COLUMNS, read_log, read_triggers
+from aacmm.records.logs import read_log, read_triggers
+from aacmm.records.schema import LOG_COLUMNS
+from aacmm.simulation.process import SimProcess
 from clihelp import AACMM, cli_env, one_error_line, run
 
 pytestmark = pytest.mark.timeout(180)

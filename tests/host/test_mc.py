@@ -14,6 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from aacmm.analysis import mc
+from aacmm.analysis.mc_poses import DEFAULT_JOINTS, JointDistribution, draw_poses
+from aacmm.analysis.mc_report import (
+    CoefficientResult,
+    compare_with_paper,
+    figure,
+    max_rel_deviation,
+)
 from aacmm.analysis.poselog import PoseLogError, read_pose_log
 from aacmm.core import EncoderConfig, Params, counts_to_angles
 from interrupt import run_then_interrupt
@@ -24,19 +31,19 @@ AACMM = [sys.executable, "-m", "aacmm.cli"]
 
 
 @pytest.fixture(scope="module")
-def table2_run() -> mc.CoefficientResult:
+def table2_run() -> CoefficientResult:
     return mc.error_transfer_coefficients(100_000, seed=2013)
 
 
-def test_table2_reproduced_within_5_percent(table2_run: mc.CoefficientResult) -> None:
+def test_table2_reproduced_within_5_percent(table2_run: CoefficientResult) -> None:
     r = table2_run
     assert r.n == 100_000
-    for c in mc.compare_with_paper(r):
+    for c in compare_with_paper(r):
         if c.paper == 0.0:  # df_z/dtheta_1: exactly zero, not a ratio
             assert c.ours == 0.0
         else:
             assert c.rel_dev is not None and abs(c.rel_dev) < 0.05, c
-    worst, _ = mc.max_rel_deviation(r)
+    worst, _ = max_rel_deviation(r)
     assert worst < 0.05
 
 
@@ -44,12 +51,12 @@ def test_converged_mean_within_3_1_percent() -> None:
     # The CSV's note: the converged average of |J| is within 3.1 % of every
     # entry. 10^6 poses: sampling noise < 0.5 % (3 standard errors allowed).
     r = mc.error_transfer_coefficients(1_000_000, seed=1)
-    for c in mc.compare_with_paper(r):
+    for c in compare_with_paper(r):
         if c.rel_dev is not None:
             assert abs(c.rel_dev) <= 0.031 + 3 * c.sem / c.paper, c
 
 
-def test_unit_norm_and_dfz_dtheta1_zero(table2_run: mc.CoefficientResult) -> None:
+def test_unit_norm_and_dfz_dtheta1_zero(table2_run: CoefficientResult) -> None:
     r = table2_run
     assert r.checked_poses == mc.CHECK_POSES
     assert r.unit_norm_max_dev < 1e-14  # Eq. 11-13
@@ -63,7 +70,7 @@ def test_unit_norm_and_dfz_dtheta1_zero(table2_run: mc.CoefficientResult) -> Non
 
 def test_matches_numpy_oracle_on_same_poses() -> None:
     r = mc.error_transfer_coefficients(5000, seed=9, threads=1)
-    th = mc.draw_poses(5000, seed=9)
+    th = draw_poses(5000, seed=9)
     _, j = numpy_point_jacobian(Params(), th)
     a = np.abs(j)
     assert np.allclose(r.mean_abs, a.mean(axis=0), rtol=1e-9, atol=1e-12)
@@ -83,10 +90,10 @@ def test_reproducible_and_independent_of_threads() -> None:
 
 
 def test_joint_distributions() -> None:
-    js = list(mc.DEFAULT_JOINTS)
-    js[1] = mc.JointDistribution.uniform(0.2, 0.4)
-    js[4] = mc.JointDistribution.normal(1.0, 0.0)  # joint 5 fixed at 1 rad
-    th = mc.draw_poses(20_000, js, seed=3)
+    js = list(DEFAULT_JOINTS)
+    js[1] = JointDistribution.uniform(0.2, 0.4)
+    js[4] = JointDistribution.normal(1.0, 0.0)  # joint 5 fixed at 1 rad
+    th = draw_poses(20_000, js, seed=3)
     assert th[:, 1].min() >= 0.2 and th[:, 1].max() < 0.4
     assert np.all(th[:, 4] == 1.0)
     assert th[:, 0].min() >= -math.pi and th[:, 0].max() < math.pi
@@ -131,11 +138,11 @@ def test_bad_arguments() -> None:
     with pytest.raises(ValueError, match="threads"):
         mc.error_transfer_coefficients(10, threads=0)
     with pytest.raises(ValueError, match="unknown joint distribution"):
-        mc.JointDistribution("cauchy", 0, 1)  # type: ignore[arg-type]
+        JointDistribution("cauchy", 0, 1)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="low < high"):
-        mc.JointDistribution.uniform(1.0, 1.0)
+        JointDistribution.uniform(1.0, 1.0)
     with pytest.raises(ValueError, match="6 JointDistribution"):
-        mc.error_transfer_coefficients(10, joints=[mc.JointDistribution()])
+        mc.error_transfer_coefficients(10, joints=[JointDistribution()])
     with pytest.raises(ValueError, match="no poses"):
         mc.coefficients_over_poses(np.empty((0, 6)))
 
@@ -196,7 +203,7 @@ def test_logged_poses_theta_columns_and_defaults(tmp_path: Path) -> None:
 
 def test_log_sidecar_params_used_by_cli(tmp_path: Path) -> None:
     log = tmp_path / "p.csv"
-    th = mc.draw_poses(300, seed=12)
+    th = draw_poses(300, seed=12)
     _write_log(log, [f"theta{i}" for i in range(1, 7)], th.tolist())
     prm = Params(l_mm=250.0, a_mm=(0.0, 10.0, 0.0, 0.0, 0.0, 0.0))
     side = {"params": {"l_mm": 250.0, "a_mm": [0, 10, 0, 0, 0, 0]}}
@@ -348,9 +355,9 @@ def test_figure_reads_clearly() -> None:
     r = mc.error_transfer_coefficients(
         3000,
         seed=4,
-        joints=[mc.JointDistribution.normal(0.0, 0.2)] + [mc.JointDistribution()] * 5,
+        joints=[JointDistribution.normal(0.0, 0.2)] + [JointDistribution()] * 5,
     )
-    fig = mc.figure(r)
+    fig = figure(r)
     title = fig.get_suptitle()
     assert "3000 poses" in title and "seed 4" in title
     assert "joint 1 normal(0, 11.4592) deg" in title
@@ -443,7 +450,7 @@ def test_cli_closed_stdout_ends_quietly(tmp_path: Path) -> None:
 def test_run_clock() -> None:
     """The estimate from the run's own progress (a fake clock): nothing before the
     warm-up, then once; beyond the limit a RunLimitError with the estimate."""
-    from aacmm.analysis.runlimits import RunClock, RunLimitError, format_duration
+    from aacmm.uncertainty.runlimits import RunClock, RunLimitError, format_duration
 
     now = [0.0]
     c = RunClock(1000, "poses", limit_s=100.0, what="-n 1000", clock=lambda: now[0])

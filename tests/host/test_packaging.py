@@ -163,7 +163,7 @@ def test_the_wheel_carries_every_data_file(installed: tuple[Path, str], tmp_path
     got = {p.relative_to(inst / "aacmm" / "data") for p in (inst / "aacmm" / "data").rglob("*")}
     assert shipped <= got, sorted(map(str, shipped - got))
     code = (
-        "from aacmm.plans import load_plan; from aacmm.analysis import uncertainty as u; "
+        "from aacmm.plans import load_plan; from aacmm import uncertainty as u; "
         "from aacmm.models import load_model, shipped_models; "
         "print(len(load_plan('iso10360-12').slots), u.load_spec('example').u_vector().size, "
         "' '.join(shipped_models()), load_model('commercial7').n_params)"

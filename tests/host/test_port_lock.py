@@ -22,8 +22,8 @@ from pathlib import Path
 import pytest
 from aacmm.client import connect
 from aacmm.commands import exitcodes
-from aacmm.commands.sim import SimProcess
 from aacmm.errors import InitError, PortBusyError
+from aacmm.simulation.process import SimProcess
 from aacmm.transport import SerialTransport
 from clihelp import AACMM, cli_env, sim_fixture
 

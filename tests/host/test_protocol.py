@@ -17,7 +17,34 @@ import pytest
 from aacmm import errors
 from aacmm.protocol import can as pcan
 from aacmm.protocol import framing, messages
-from aacmm.protocol.messages import (
+from aacmm.protocol.constants import (
+    HEADER_BYTES,
+    MAX_BODY,
+    PROTOCOL_VERSION,
+    BuildFlags,
+    Content,
+    EncoderFault,
+    EncoderInterface,
+    MsgType,
+    ParamSource,
+    ResetCause,
+    SampleStatus,
+    SlotState,
+    StorageFlags,
+    StorageKind,
+)
+from aacmm.protocol.decode import decode_message
+from aacmm.protocol.encode import encode_message
+from aacmm.protocol.layout import (
+    COMPUTE_RSP_BASE_BYTES,
+    DIAG_BYTES,
+    DIAG_JOINT_BYTES,
+    INFO_BYTES,
+    JACOBIAN_BYTES,
+    PARAM_SET_BYTES,
+    SAMPLE_BASE_BYTES,
+)
+from aacmm.protocol.payloads import (
     ComputeRequest,
     ComputeResult,
     DeviceInfo,
@@ -26,7 +53,6 @@ from aacmm.protocol.messages import (
     JointDiagnostics,
     MeasureRequest,
     Message,
-    MsgType,
     ParamCrc,
     ParamSet,
     Ping,
@@ -206,9 +232,9 @@ def test_message_vectors_decode_to_the_named_values() -> None:
     assert {m.type for m in expected.values()} == set(MsgType)  # every type has a vector
     for name, body_hex, wire_hex in rows:
         body, wire = unhex(body_hex), unhex(wire_hex)
-        msg = messages.decode_message(body)
+        msg = decode_message(body)
         assert msg == expected[name], name
-        assert messages.encode_message(expected[name]) == body
+        assert encode_message(expected[name]) == body
         assert framing.encode_frame(body) == wire
         assert messages.frame_message(expected[name]) == wire
         assert framing.decode_frame(wire[1:-1]) == body
@@ -219,7 +245,7 @@ def test_bad_body_vectors_fail_with_the_named_status() -> None:
     assert len(rows) >= 30
     for name, body_hex, status in rows:
         with pytest.raises(errors.FrameError) as info:
-            messages.decode_message(unhex(body_hex))
+            decode_message(unhex(body_hex))
         assert info.value.status == Status[status], name
 
 
@@ -378,33 +404,33 @@ def test_c_message_types_and_sizes_match_python() -> None:
     }
     assert c_types == {t.name: int(t) for t in MsgType}
     d = _c_defines("proto.h")
-    assert d["AACMM_PROTO_VERSION"] == messages.PROTOCOL_VERSION
-    assert d["AACMM_PROTO_MAX_BODY"] == messages.MAX_BODY == framing.MAX_BODY
-    assert d["AACMM_PARAM_SET_BYTES"] == messages.PARAM_SET_BYTES == struct.calcsize("<25d6Q6I6b")
-    assert d["AACMM_INFO_BYTES"] == messages.INFO_BYTES
-    assert d["AACMM_SAMPLE_BASE_BYTES"] == messages.SAMPLE_BASE_BYTES
-    assert d["AACMM_JACOBIAN_BYTES"] == messages.JACOBIAN_BYTES
-    assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == messages.COMPUTE_RSP_BASE_BYTES
-    assert d["AACMM_CONTENT_JACOBIAN"] == messages.Content.JACOBIAN
-    for flag in messages.SampleStatus:
+    assert d["AACMM_PROTO_VERSION"] == PROTOCOL_VERSION
+    assert d["AACMM_PROTO_MAX_BODY"] == MAX_BODY == framing.MAX_BODY
+    assert d["AACMM_PARAM_SET_BYTES"] == PARAM_SET_BYTES == struct.calcsize("<25d6Q6I6b")
+    assert d["AACMM_INFO_BYTES"] == INFO_BYTES
+    assert d["AACMM_SAMPLE_BASE_BYTES"] == SAMPLE_BASE_BYTES
+    assert d["AACMM_JACOBIAN_BYTES"] == JACOBIAN_BYTES
+    assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == COMPUTE_RSP_BASE_BYTES
+    assert d["AACMM_CONTENT_JACOBIAN"] == Content.JACOBIAN
+    for flag in SampleStatus:
         assert d[f"AACMM_SAMPLE_{flag.name}"] == flag.value
-    for build in messages.BuildFlags:
+    for build in BuildFlags:
         assert d[f"AACMM_BUILD_{build.name}"] == build.value
-    assert d["AACMM_DIAG_JOINT_BYTES"] == messages.DIAG_JOINT_BYTES
-    assert messages.DIAG_BYTES == 125  # 59 + 6 * 11 (the C macro is an expression)
+    assert d["AACMM_DIAG_JOINT_BYTES"] == DIAG_JOINT_BYTES
+    assert DIAG_BYTES == 125  # 59 + 6 * 11 (the C macro is an expression)
     enums: list[tuple[str, type[IntEnum], str]] = [
-        ("AACMM_PARAM_SOURCE_", messages.ParamSource, "AACMM_PARAM_SOURCE_MAX"),
-        ("AACMM_STORAGE_KIND_", messages.StorageKind, "AACMM_STORAGE_KIND_MAX"),
-        ("AACMM_SLOT_", messages.SlotState, "AACMM_SLOT_STATE_MAX"),
-        ("AACMM_RESET_", messages.ResetCause, "AACMM_RESET_CAUSE_MAX"),
-        ("AACMM_ENC_", messages.EncoderInterface, "AACMM_ENC_INTERFACE_MAX"),
-        ("AACMM_ENC_FAULT_", messages.EncoderFault, "AACMM_ENC_FAULT_MAX"),
+        ("AACMM_PARAM_SOURCE_", ParamSource, "AACMM_PARAM_SOURCE_MAX"),
+        ("AACMM_STORAGE_KIND_", StorageKind, "AACMM_STORAGE_KIND_MAX"),
+        ("AACMM_SLOT_", SlotState, "AACMM_SLOT_STATE_MAX"),
+        ("AACMM_RESET_", ResetCause, "AACMM_RESET_CAUSE_MAX"),
+        ("AACMM_ENC_", EncoderInterface, "AACMM_ENC_INTERFACE_MAX"),
+        ("AACMM_ENC_FAULT_", EncoderFault, "AACMM_ENC_FAULT_MAX"),
     ]
     for prefix, enum, max_name in enums:
         for member in enum:
             assert d[prefix + member.name] == member.value, prefix + member.name
         assert d[max_name] == max(enum)
-    assert d["AACMM_STORAGE_PERSISTENT"] == messages.StorageFlags.PERSISTENT
+    assert d["AACMM_STORAGE_PERSISTENT"] == StorageFlags.PERSISTENT
     f = _c_defines("frame.h")
     assert f["AACMM_FRAME_MAX_BODY"] == framing.MAX_BODY
     assert _c_defines("crc32.h")["AACMM_CRC32_CHECK"] == framing.CRC32_CHECK
@@ -422,9 +448,9 @@ def test_status_enum_matches_c_header() -> None:
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st_message())
 def test_round_trip(msg: Message) -> None:
-    body = messages.encode_message(msg)
-    assert messages.HEADER_BYTES <= len(body) <= messages.MAX_BODY
-    assert messages.decode_message(body) == msg
+    body = encode_message(msg)
+    assert HEADER_BYTES <= len(body) <= MAX_BODY
+    assert decode_message(body) == msg
     wire = framing.encode_frame(body)
     assert len(wire) <= framing.MAX_WIRE
     assert b"\x00" not in wire[1:-1]
@@ -435,11 +461,11 @@ def test_round_trip(msg: Message) -> None:
 @given(st.binary(max_size=600))
 def test_arbitrary_bodies_raise_only_frame_error(data: bytes) -> None:
     try:
-        msg = messages.decode_message(data)
+        msg = decode_message(data)
     except errors.FrameError as exc:
         assert exc.status < 0
     else:
-        assert messages.encode_message(msg) == data  # canonical
+        assert encode_message(msg) == data  # canonical
 
 
 @settings(max_examples=300, deadline=None)
@@ -448,7 +474,7 @@ def test_mutated_valid_bodies_raise_only_frame_error(prefix: bytes, tail: bytes)
     body = unhex(records("msg")[13][1])
     data = body[: len(prefix)] + prefix + tail
     try:
-        messages.decode_message(data)
+        decode_message(data)
     except errors.FrameError:
         pass
 
@@ -530,9 +556,9 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         bad.append(Message(MsgType.SET_PARAMS_REQ, 0, ParamSet(**{**p.__dict__, **change})))
     for m in bad:
         with pytest.raises(ValueError):
-            messages.encode_message(m)
+            encode_message(m)
     with pytest.raises(ValueError):
-        messages.encode_message(Message(0x3F, 0))  # type: ignore[arg-type]
+        encode_message(Message(0x3F, 0))  # type: ignore[arg-type]
     with pytest.raises(ValueError):
         framing.encode_frame(b"\x01\x02")
     with pytest.raises(ValueError):
@@ -636,7 +662,7 @@ def test_receive_cost_per_frame_does_not_grow_with_its_length(jacobian: bool) ->
     is measured by ``make bench`` (bench/bench_host_rx.py)."""
     jac = tuple(tuple(float(25 * r + c) for c in range(25)) for r in range(3)) if jacobian else None
     sample = Sample(7, 1000, (1, 2, 3, 4, 5, 6), (10, -20, 30), 1, jac)
-    body = messages.encode_message(Message(MsgType.SAMPLE_EVT, 7, sample))
+    body = encode_message(Message(MsgType.SAMPLE_EVT, 7, sample))
     assert len(body) == (356 if jacobian else 56)
     frame = framing.encode_frame(body)
     deframer = framing.Deframer()
@@ -653,5 +679,5 @@ def test_receive_cost_per_frame_does_not_grow_with_its_length(jacobian: bool) ->
         bodies = deframer.feed(frame)
     finally:
         sys.settrace(None)
-    assert messages.decode_message(bodies[0]).payload == sample
+    assert decode_message(bodies[0]).payload == sample
     assert lines < 100, lines

@@ -1,4 +1,4 @@
-"""aacmm.analysis.uncertainty and `aacmm uncertainty`: MC (JCGM 101) vs linear (GUM)."""
+"""aacmm.uncertainty and `aacmm uncertainty`: MC (JCGM 101) vs linear (GUM)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from aacmm.analysis import uncertainty as unc
+from aacmm import uncertainty as unc
 from aacmm.core import PARAM_NAMES, Params, perturbed_points
 from interrupt import run_then_interrupt
 from test_core_oracle import numpy_point_jacobian

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import verify_sessions as vs
-from aacmm.commands.sim import SimProcess
 from aacmm.core import Params
 from aacmm.plans import Plan, loads_plan
+from aacmm.simulation.process import SimProcess
 from clihelp import one_error_line, run, sim_fixture
 
 pytestmark = pytest.mark.timeout(120)

@@ -7,8 +7,8 @@ import itertools
 import os
 from pathlib import Path
 
-from aacmm.commands.sim import SimProcess
 from aacmm.simulation.control import ControlChannel
+from aacmm.simulation.process import SimProcess
 
 REPO = Path(__file__).resolve().parents[2]
 os.environ.setdefault("AACMM_SIM", str(REPO / "build" / "sim" / "aacmm-sim"))

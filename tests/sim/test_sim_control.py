@@ -25,9 +25,9 @@ from pathlib import Path
 
 import pytest
 from aacmm.client import connect
-from aacmm.commands.sim import SimProcess, SimulatorUsageError
 from aacmm.protocol import Button, SampleStatus
 from aacmm.simulation.control import ControlChannel, ControlError
+from aacmm.simulation.process import SimProcess, SimulatorUsageError
 from simctl import ControlledSim, check_stream
 
 pytestmark = pytest.mark.timeout(120)

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from aacmm.commands.paramfile import load_param_file
 from aacmm.core import EncoderConfig, Model, Params, counts_to_angles
+from aacmm.records.paramfile import load_param_file
 from aacmm.simulation.articulation import (
     Approach,
     candidates,

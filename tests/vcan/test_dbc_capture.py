@@ -21,8 +21,8 @@ from typing import Any
 import can
 import cantools
 import pytest
-from aacmm.commands.sim import SimProcess
 from aacmm.protocol.can import node_dbc_path
+from aacmm.simulation.process import SimProcess
 from aacmm.transport import DEFAULT_CAN_NODE
 
 AACMM = Path(sys.executable).with_name("aacmm")

@@ -27,8 +27,10 @@ from pathlib import Path
 
 import isotp
 from aacmm.protocol import can as pcan
+from aacmm.protocol.constants import MsgType
+from aacmm.protocol.encode import encode_message, param_set_crc32
 from aacmm.protocol.framing import crc32, encode_frame
-from aacmm.protocol.messages import (
+from aacmm.protocol.payloads import (
     ComputeRequest,
     ComputeResult,
     DeviceInfo,
@@ -37,15 +39,12 @@ from aacmm.protocol.messages import (
     JointDiagnostics,
     MeasureRequest,
     Message,
-    MsgType,
     ParamCrc,
     ParamSet,
     Ping,
     Sample,
     Stream,
     Trigger,
-    encode_message,
-    param_set_crc32,
 )
 from aacmm.protocol.status import Status
 

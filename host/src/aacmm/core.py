@@ -52,6 +52,7 @@ import numpy.typing as npt
 
 from aacmm._core import ffi, lib
 from aacmm.arm import Arm, Joint
+from aacmm.errors import AacmmError
 
 __all__ = [
     "AXES",
@@ -108,7 +109,7 @@ FloatArray = npt.NDArray[np.float64]
 _PAPER_D_MM = (300.0, 65.5, 792.7, 65.5, 883.2, 0.0)
 
 
-class KinematicsError(ValueError):
+class KinematicsError(AacmmError, ValueError):
     """The C core rejected an input.
 
     ``status`` is the ``aacmm_status_t`` code (e.g. -2 out of range, -3 not

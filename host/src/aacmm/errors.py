@@ -21,8 +21,18 @@ class PortBusyError(InitError):
     it exclusively, so two clients never share a link)."""
 
 
+class VersionMismatchError(InitError):
+    """The device speaks another protocol version, or announces a protocol
+    version its INFO does not match (``aacmm`` exit status 5)."""
+
+
 class OperationError(AacmmError):
     """An operation failed on the host side (I/O error, closed port, ...)."""
+
+
+class LinkLostError(OperationError):
+    """The link went away in the middle of an operation (device gone, port
+    closed, samples stopped; ``aacmm`` exit status 6)."""
 
 
 class DeviceTimeoutError(AacmmError):

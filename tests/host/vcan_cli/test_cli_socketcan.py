@@ -28,9 +28,9 @@ from typing import Any
 
 import can
 import pytest
-from aacmm.commands.log import COLUMNS
-from aacmm.commands.sim import SimProcess
 from aacmm.protocol.can import ID_ISOTP_REQUEST, ID_ISOTP_RESPONSE, ID_SAMPLE_HEADER, load_dbc
+from aacmm.records.schema import LOG_COLUMNS as COLUMNS
+from aacmm.simulation.process import SimProcess
 
 AACMM = Path(sys.executable).with_name("aacmm")
 NODE = 3

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import pytest
 from aacmm.client import connect
-from aacmm.commands.sim import SimProcess
 from aacmm.protocol import Button, Sample, SampleStatus
 from aacmm.simulation.control import ControlChannel
+from aacmm.simulation.process import SimProcess
 from simctl import check_stream
 
 NODE = 6

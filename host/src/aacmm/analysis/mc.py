@@ -14,9 +14,9 @@ depends on the seed only, never on the number of threads.
 
 Main entry points: :func:`error_transfer_coefficients` (fixed N),
 :func:`error_transfer_coefficients_adaptive` (JCGM 101 section 7.9),
-:func:`coefficients_over_poses` (logged poses). Re-exported here: the poses
+:func:`coefficients_over_poses` (logged poses). The poses are in
 (:mod:`aacmm.analysis.mc_poses`: :class:`JointDistribution`,
-:func:`draw_poses`) and the results and reports
+:func:`draw_poses`), the results and reports in
 (:mod:`aacmm.analysis.mc_report`: :class:`CoefficientResult`,
 :func:`compare_with_paper`, :func:`format_report` (text), :func:`csv_text`,
 :func:`to_json` and :func:`figure` (a matplotlib Figure)); the command
@@ -40,60 +40,32 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from aacmm.analysis._parallel import in_order
-from aacmm.analysis._parallel import pool as thread_pool
 from aacmm.analysis.mc_poses import (
     CHUNK,
-    DEFAULT_JOINTS,
     DrawnChunk,
     JointDistribution,
     draw_chunk,
     draw_deviates,
-    draw_poses,
     joint_distributions,
     seed_entropy,
 )
 from aacmm.analysis.mc_report import (
-    TABLE2_COLUMNS,
     CoefficientResult,
-    PaperComparison,
-    compare_with_paper,
-    csv_text,
-    figure,
-    format_report,
-    joints_title,
-    max_rel_deviation,
-    paper_table2,
-    to_json,
 )
 from aacmm.core import JAC_COLS, JAC_ROWS, JOINTS, FloatArray, Model, Params
+from aacmm.uncertainty.parallel import in_order
+from aacmm.uncertainty.parallel import pool as thread_pool
 
 __all__ = [
     "CHECK_POSES",
-    "CHUNK",
     "DEFAULT_BLOCK",
-    "DEFAULT_JOINTS",
     "DEFAULT_N",
     "MAX_THREADS",
-    "TABLE2_COLUMNS",
-    "CoefficientResult",
-    "JointDistribution",
-    "PaperComparison",
     "Progress",
     "coefficients_over_poses",
-    "compare_with_paper",
-    "csv_text",
-    "draw_chunk",
-    "draw_poses",
     "error_transfer_coefficients",
     "error_transfer_coefficients_adaptive",
-    "figure",
-    "format_report",
     "jcgm_tolerance",
-    "joints_title",
-    "max_rel_deviation",
-    "paper_table2",
-    "to_json",
 ]
 
 #: Default number of poses (the paper's study).
@@ -134,7 +106,7 @@ def _accumulate(
     """Run each task (it returns poses), sum |J| and J^2 in task order.
 
     Tasks are drawn from the iterable as they are needed (a bounded number in
-    flight, :func:`aacmm.analysis._parallel.in_order`), so memory does not
+    flight, :func:`aacmm.uncertainty.parallel.in_order`), so memory does not
     depend on their number.
     """
 

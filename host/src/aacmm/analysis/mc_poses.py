@@ -2,8 +2,7 @@
 
 Poses are drawn in chunks of :data:`CHUNK`, each from its own random stream
 (``SeedSequence(seed, spawn_key=(run, chunk))``), so the poses depend on the
-seed only, never on the number of threads. Re-exported by
-:mod:`aacmm.analysis.mc`.
+seed only, never on the number of threads. Used by :mod:`aacmm.analysis.mc`.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 :class:`CoefficientResult` (what :mod:`aacmm.analysis.mc` computes), the
 comparison with the paper (:func:`compare_with_paper`), and the reports
 :func:`format_report` (text), :func:`csv_text`, :func:`to_json` and
-:func:`figure` (a matplotlib Figure). Pure functions, re-exported by
-:mod:`aacmm.analysis.mc`; the ``aacmm mc`` command writes the files.
+:func:`figure` (a matplotlib Figure). Pure functions; the ``aacmm mc``
+command writes the files.
 """
 
 from __future__ import annotations

@@ -25,7 +25,8 @@ from pathlib import Path
 from aacmm.core import EncoderConfig, FloatArray, Params
 from aacmm.errors import AacmmError
 from aacmm.records.files import RecordError
-from aacmm.records.logs import COUNT_ALIASES, COUNT_COLUMNS, THETA_COLUMNS, read_log
+from aacmm.records.logs import read_log
+from aacmm.records.schema import COUNT_ALIASES, COUNT_COLUMNS, THETA_COLUMNS
 
 __all__ = [
     "COUNT_ALIASES",

@@ -15,8 +15,19 @@ A pure library (arrays and dataclasses in, results out; nothing printed):
 * :mod:`~aacmm.calibration.results` -- :class:`CalibrationResult` and its parts.
 
 The method and the figures are in docs/calibration.md.
+
+Errors (all :class:`aacmm.errors.AacmmError` and ``ValueError``):
+:class:`CalibrationError` (a problem that cannot be solved: too few
+observations, unknown parameters, ...) and its subclass
+:class:`~aacmm.calibration.probe.SpreadError` (probe points not spread
+enough); :class:`ObservationError` (bad observations) and its subclass
+:class:`~aacmm.calibration.sessions.SessionDataError` (a session that cannot
+be turned into observations); :class:`aacmm.records.RecordError` from
+the session reader; :class:`aacmm.core.KinematicsError` from the core.
 """
 
+from aacmm.calibration.diagnostics import find_outliers
+from aacmm.calibration.features import CalibrationError
 from aacmm.calibration.identifiability import (
     Identifiability,
     NullDirection,
@@ -32,18 +43,9 @@ from aacmm.calibration.observations import (
     Sphere,
     combine,
 )
-from aacmm.calibration.problem import CalibrationError, Evaluation, Problem
-from aacmm.calibration.solve import (
-    CalibrationResult,
-    ChiSquare,
-    Outlier,
-    Progress,
-    Suspect,
-    calibrate,
-    find_outliers,
-    parse_names,
-    predicted_covariance,
-)
+from aacmm.calibration.problem import Evaluation, Problem
+from aacmm.calibration.results import CalibrationResult, ChiSquare, Outlier, Progress, Suspect
+from aacmm.calibration.solve import calibrate, parse_names, predicted_covariance
 
 __all__ = [
     "CalibrationError",

@@ -5,7 +5,8 @@
 for the unmodelled error (a once-per-revolution angle error of a joint, as
 encoder eccentricity gives); :func:`find_outliers`, the normalised residual
 of each probed point (or length position) against a family-wise false-alarm
-rate. Used by :mod:`aacmm.calibration.solve`, which re-exports them.
+rate. Used by :mod:`aacmm.calibration.solve`; the public ones are in
+:mod:`aacmm.calibration`.
 """
 
 from __future__ import annotations

@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from aacmm.analysis.uncertainty import UncertaintyResult
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.report import unit_residuals
 from aacmm.calibration.results import CalibrationResult
 from aacmm.core import PARAM_NAMES
+from aacmm.uncertainty.report import UncertaintyResult
 
 
 def _figure(w: float, h: float) -> Any:

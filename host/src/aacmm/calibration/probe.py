@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aacmm.calibration.features import CalibrationError
 from aacmm.calibration.identifiability import TIP_PARAMS
 from aacmm.calibration.observations import Cone, ObservationError, Observations
-from aacmm.calibration.problem import CalibrationError
 from aacmm.calibration.results import CalibrationResult, Progress
 from aacmm.calibration.solve import calibrate
 from aacmm.core import PARAM_NAMES, FloatArray, Model, Params

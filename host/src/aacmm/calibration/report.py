@@ -5,7 +5,7 @@ Pure functions of a :class:`~aacmm.calibration.results.CalibrationResult`:
 :func:`to_json` (everything, machine-readable), :func:`unit_residuals` (the
 size of each probed point's or length position's residual, for plots and
 tables) and :func:`point_uncertainty` (the calibrated parameters' covariance
-propagated to the probe point with :func:`aacmm.analysis.uncertainty.propagate`).
+propagated to the probe point with :func:`aacmm.uncertainty.propagate`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from aacmm.analysis import uncertainty as unc
+from aacmm import uncertainty as unc
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
 from aacmm.calibration.results import CalibrationResult, Outlier
@@ -214,7 +214,7 @@ def point_uncertainty(
     """The calibrated parameters' covariance propagated to the probe point.
 
     Linear (J Sigma J^T with the correlations) and Monte Carlo (correlated
-    normal draws) with :func:`aacmm.analysis.uncertainty.propagate`, at
+    normal draws) with :func:`aacmm.uncertainty.propagate`, at
     ``workspace`` random poses (and ``poses_rad``). Held parameters add
     nothing: they are rigid motions of the whole arm (theta1, d1) or leave
     the tip where it is (the tip's split), so distances measured with the

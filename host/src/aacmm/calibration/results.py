@@ -1,7 +1,7 @@
 """What a calibration found: the result, its chi-square check, outliers, suspects, progress.
 
-Plain records, re-exported by :mod:`aacmm.calibration.solve` (which fills
-them) and by :mod:`aacmm.calibration`.
+Plain records, filled by :mod:`aacmm.calibration.solve`; public as names of
+:mod:`aacmm.calibration`.
 """
 
 from __future__ import annotations

@@ -24,7 +24,9 @@
    are only excluded (and the solve repeated) when ``reject=True``.
 
 The result types (:class:`CalibrationResult` and its parts) are in
-:mod:`aacmm.calibration.results`; both modules' names are re-exported here.
+:mod:`aacmm.calibration.results`, the checks in
+:mod:`aacmm.calibration.diagnostics`; the public names of all three are in
+:mod:`aacmm.calibration`.
 Nothing here prints: progress goes to an optional callback.
 """
 
@@ -44,32 +46,21 @@ from aacmm.calibration.diagnostics import (
     find_outliers,
     parameter_covariance,
 )
+from aacmm.calibration.features import CalibrationError
 from aacmm.calibration.identifiability import DEFAULT_KAPPA, Identifiability, analyse
 from aacmm.calibration.observations import LengthSet, Observations
-from aacmm.calibration.problem import CalibrationError, Evaluation, Problem, Residuals
+from aacmm.calibration.problem import Evaluation, Problem, Residuals
 from aacmm.calibration.results import (
     CalibrationResult,
-    ChiSquare,
     Outlier,
     Progress,
-    Suspect,
 )
 from aacmm.core import JOINTS, PARAM_GROUPS, PARAM_NAMES, FloatArray, Params
 
 __all__ = [
-    "DEFAULT_ALPHA_CHI2",
-    "DEFAULT_ALPHA_OUTLIER",
     "STRATEGIES",
-    "CalibrationResult",
-    "ChiSquare",
-    "Outlier",
-    "Progress",
-    "Suspect",
     "calibrate",
-    "chi_square_check",
-    "find_outliers",
     "length_observations",
-    "parameter_covariance",
     "parse_names",
     "predicted_covariance",
 ]

@@ -24,8 +24,11 @@ restore parameters) never, so they are not applied twice.
 Errors (all but ``ValueError``/``TypeError`` derive from
 :class:`aacmm.errors.AacmmError`):
 
-- :class:`~aacmm.errors.InitError`: the port or bus cannot be opened, or the
-  handshake found an incompatible device;
+- :class:`~aacmm.errors.InitError`: the port or bus cannot be opened; its
+  subclass :class:`~aacmm.errors.VersionMismatchError`: the handshake
+  (:meth:`Client.handshake`, ``connect(handshake=True)``) found another
+  protocol version (in the info, as ERR_VERSION, or as answers the host drops
+  for their version byte);
 - :class:`~aacmm.errors.DeviceTimeoutError`: no answer in time (after retries);
 - :class:`~aacmm.errors.DeviceError`: the device answered with an error
   response (``status`` is its ``aacmm_status_t``);
@@ -38,7 +41,8 @@ Errors (all but ``ValueError``/``TypeError`` derive from
 The parts: :mod:`aacmm.client.connection` (:class:`Client`, :func:`connect`),
 :mod:`aacmm.client.stream` (:class:`SampleStream`) and
 :mod:`aacmm.client.options` (defaults, limits, :func:`check_timeout`); import
-them from here.
+them from here. :mod:`aacmm.client.devstate` puts a device's state (info and
+diagnostics) in words and JSON-ready data (``aacmm info``, log sidecars).
 """
 
 from aacmm.client.connection import Client, ClientStats, connect

@@ -25,8 +25,8 @@ from aacmm.errors import (
     DeviceError,
     DeviceTimeoutError,
     FrameError,
-    InitError,
     OperationError,
+    VersionMismatchError,
 )
 from aacmm.protocol import (
     PROTOCOL_VERSION,
@@ -47,7 +47,7 @@ from aacmm.protocol import (
     encode_message,
     status_name,
 )
-from aacmm.protocol.messages import JOINTS, RESPONSE_BIT, STREAM_RATE_MAX_HZ, STREAM_RATE_MIN_HZ
+from aacmm.protocol.constants import JOINTS, RESPONSE_BIT, STREAM_RATE_MAX_HZ, STREAM_RATE_MIN_HZ
 from aacmm.protocol.status import Status
 from aacmm.transport import Transport, open_transport
 
@@ -158,7 +158,7 @@ class Client:
         if t == MsgType.SAMPLE_EVT:
             stream = self._stream
             if stream is not None and isinstance(msg.payload, Sample):
-                stream._push(msg.payload)
+                stream.deliver(msg.payload)
             else:
                 self.stats.unsolicited_samples += 1
             return
@@ -188,7 +188,7 @@ class Client:
         if pending is not None:
             pending.event.set()
         if stream is not None:
-            stream._end(err)
+            stream.finish(err)
         with self._trigger_cond:
             self._trigger_cond.notify_all()
 
@@ -394,7 +394,7 @@ class Client:
         if max_queue < 1:
             raise ValueError("max_queue must be at least 1")
         wait = self.timeout + max(1.0, 2.0 / rate_hz) if timeout is None else check_timeout(timeout)
-        stream = SampleStream(self, rate_hz, _flag("jacobian", jacobian), wait, max_queue)
+        content = _flag("jacobian", jacobian)
         with self._lock:
             if self._stream is not None:
                 raise OperationError("a stream is already open on this client")
@@ -405,10 +405,12 @@ class Client:
         # sample of the old stream was read before that instant, every sample of the
         # new one after it; the stream takes only samples newer than this fence.
         self.request(MsgType.STREAM_STOP_REQ)
+        fence_us: int | None
         try:
-            stream._fence_us = self.measure().timestamp_us
+            fence_us = self.measure().timestamp_us
         except DeviceError:
-            stream._fence_us = None  # no clock reading: the stop alone must do
+            fence_us = None  # no clock reading: the stop alone must do
+        stream = SampleStream(self, rate_hz, content, wait, max_queue, fence_us)
         with self._lock:
             if self._stream is not None:
                 raise OperationError("a stream is already open on this client")
@@ -418,13 +420,15 @@ class Client:
         except BaseException:
             with self._lock:
                 self._stream = None
-            stream._end()
+            stream.finish()
             raise
         assert isinstance(rsp.payload, Stream)
         stream.accepted = rsp.payload
         return stream
 
-    def _stop_stream(self, stream: SampleStream) -> None:
+    def stop_stream(self, stream: SampleStream) -> None:
+        """Stop ``stream`` on the device if it is this client's open stream, and end
+        it on the host side (what :meth:`SampleStream.stop` calls; idempotent)."""
         with self._lock:
             if self._stream is not stream:
                 return
@@ -435,7 +439,7 @@ class Client:
             with self._lock:
                 if self._stream is stream:
                     self._stream = None
-            stream._end()
+            stream.finish()
 
     @property
     def streaming(self) -> SampleStream | None:
@@ -483,13 +487,37 @@ class Client:
     def handshake(self) -> DeviceInfo:
         """Read the device info and check the protocol version.
 
+        A device speaking another version is recognised three ways: its info
+        names another version; it answers with ERR_VERSION; or its answers carry
+        another version byte, so the host drops them (the request then times out
+        with version frame errors counted).
+
         Raises:
-            InitError: the device speaks another protocol version.
+            VersionMismatchError: the device speaks another protocol version (an
+                :class:`~aacmm.errors.InitError`).
+            DeviceTimeoutError, DeviceError, OperationError: the info request failed.
         """
-        info = self.info()
+        try:
+            info = self.info()
+        except DeviceTimeoutError:
+            fe = self.last_frame_error
+            if fe is not None and fe.status == int(Status.ERR_VERSION):
+                raise VersionMismatchError(
+                    f"{self.transport.description}: the device speaks another protocol "
+                    f"version ({fe}); this host speaks {PROTOCOL_VERSION}"
+                ) from None
+            raise
+        except DeviceError as exc:
+            if exc.status == int(Status.ERR_VERSION):
+                raise VersionMismatchError(
+                    f"{self.transport.description}: the device refused protocol version "
+                    f"{PROTOCOL_VERSION} ({exc})"
+                ) from None
+            raise
         if info.protocol_version != PROTOCOL_VERSION:
-            raise InitError(
-                f"device speaks protocol {info.protocol_version}, host {PROTOCOL_VERSION}"
+            raise VersionMismatchError(
+                f"{self.transport.description}: the device speaks protocol version "
+                f"{info.protocol_version}, this host {PROTOCOL_VERSION}"
             )
         return info
 
@@ -533,9 +561,10 @@ def connect(
 
     Raises:
         ValueError: no URL given nor in the environment, or a malformed URL.
-        InitError: the port or bus cannot be opened (or the handshake failed
-            on the protocol version).
-        DeviceTimeoutError: handshake without an answer.
+        InitError: the port or bus cannot be opened; its subclass
+            VersionMismatchError: the handshake found another protocol version
+            (:meth:`Client.handshake`).
+        DeviceTimeoutError, DeviceError: the handshake's info request failed.
     """
     if url is None:
         url = os.environ.get(ENV_PORT, "").strip()

@@ -50,7 +50,13 @@ class SampleStream:
     """
 
     def __init__(
-        self, client: Client, rate_hz: int, jacobian: bool, timeout: float, max_queue: int
+        self,
+        client: Client,
+        rate_hz: int,
+        jacobian: bool,
+        timeout: float,
+        max_queue: int,
+        fence_us: int | None = None,
     ) -> None:
         self._client = client
         self.rate_hz = rate_hz
@@ -61,13 +67,15 @@ class SampleStream:
         """The device's STREAM_START_RSP (rate and content it runs with)."""
         self.stats = StreamStats()
         self._queue: deque[Sample] = deque()
-        self._fence_us: int | None = None  # device time after the previous stream stopped
+        # device time after the previous stream stopped (None: no clock reading)
+        self._fence_us = fence_us
         self._cond = threading.Condition()
         self._ended = False
         self._error: BaseException | None = None
 
-    # called from the transport's reader thread
-    def _push(self, sample: Sample) -> None:
+    def deliver(self, sample: Sample) -> None:
+        """Take one received sample (the client calls this from the transport's
+        reader thread): counted, and queued unless it predates the stream."""
         st = self.stats
         with self._cond:
             if self._ended:
@@ -95,7 +103,9 @@ class SampleStream:
             self._queue.append(sample)
             self._cond.notify()
 
-    def _end(self, error: BaseException | None = None) -> None:
+    def finish(self, error: BaseException | None = None) -> None:
+        """End the stream on the host side (the client calls this when the stream
+        is stopped or the link is lost with ``error``); queued samples stay readable."""
         with self._cond:
             self._ended = True
             if error is not None and self._error is None:
@@ -147,7 +157,7 @@ class SampleStream:
             DeviceTimeoutError, DeviceError, OperationError: the stop request failed
                 (the stream is ended on the host side regardless).
         """
-        self._client._stop_stream(self)
+        self._client.stop_stream(self)
 
     def __enter__(self) -> SampleStream:
         return self

@@ -6,6 +6,6 @@
 - :mod:`aacmm.commands.sim`: ``sim``
 - :mod:`aacmm.commands.view`: ``view`` (on :mod:`aacmm.view`), and ``capture --view``
 - :mod:`aacmm.commands.mc`: ``mc`` (on :mod:`aacmm.analysis.mc`)
-- :mod:`aacmm.commands.uncertainty`: ``uncertainty`` (on :mod:`aacmm.analysis.uncertainty`)
+- :mod:`aacmm.commands.uncertainty`: ``uncertainty`` (on :mod:`aacmm.uncertainty`)
 - :mod:`aacmm.commands.exitcodes`: the exit statuses of every command
 """

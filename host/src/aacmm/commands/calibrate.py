@@ -240,7 +240,7 @@ def _check_outputs(args: argparse.Namespace, step_names: tuple[str, ...]) -> Non
         if args.workspace:
             names.append("uncertainty.png")
         names += [_step_png(i, n) for i, n in enumerate(step_names)]
-        from aacmm.commands.view import report_names
+        from aacmm.view.html import report_names
 
         names += report_names()
         check_output_dir(
@@ -475,9 +475,9 @@ def _arm_table(data: Any) -> dict[str, Any]:
 
 
 def _param_file_text(data: Any, res: Any, args: argparse.Namespace, gate: Any) -> str:
-    from aacmm.commands.paramfile import dump_param_set, param_set_dict, param_set_from_mapping
     from aacmm.protocol import param_set_crc32
     from aacmm.records import ParamSetRecord
+    from aacmm.records.paramfile import dump_param_set, param_set_dict, param_set_from_mapping
 
     ps = ParamSetRecord(0, res.params, data.encoders).to_device()
     param_set_from_mapping(param_set_dict(ps), args.output)  # the loader's own checks
@@ -509,7 +509,7 @@ def _write(
     import json
 
     from aacmm import __version__
-    from aacmm.analysis import uncertainty as unc
+    from aacmm import uncertainty as unc
     from aacmm.calibration import report
     from aacmm.fileio import write_output
 
@@ -628,7 +628,7 @@ def _write_report(
         figs[_step_png(step, names[step] if step < len(names) else "")] = fig
     for name, fig in figs.items():
         save_figure(fig, d / name, force=args.force, dpi=110)
-    from aacmm.commands.view import report_names, write_report
+    from aacmm.view.html import report_names, write_report
     from aacmm.view.scene import calibration_scene
 
     sources = ", ".join(Path(s["path"]).name for s in prov["sessions"])

@@ -28,10 +28,11 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aacmm.commands.common import add_connection_options, info_dict, is_tty, print_err
-from aacmm.commands.exitcodes import INTERRUPTED, OK, LinkLostError, UsageError
+from aacmm.commands.common import add_connection_options, device_param_set, is_tty, print_err
+from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
 from aacmm.commands.stopflag import StopFlag
 from aacmm.commands.view import CAPTURE_VIEW_RATE_HZ, add_bind_options
+from aacmm.errors import LinkLostError
 
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
@@ -145,6 +146,7 @@ class Capture:
     # ---------------------------------------------------------- set-up
 
     def open_session(self, dev: Device, ps: ParamSetRecord) -> SessionWriter:
+        from aacmm.client.devstate import info_dict
         from aacmm.records import SessionWriter
 
         if self.args.resume:
@@ -339,7 +341,6 @@ class Capture:
     def run(self) -> int:
         from aacmm.commands.common import device_from_args
         from aacmm.commands.view import open_capture_server, start_capture_view
-        from aacmm.records import ParamSetRecord
 
         stop = StopFlag()
         srv = open_capture_server(self.args) if self.args.view else None  # busy: before the device
@@ -352,13 +353,7 @@ class Capture:
         status, reason, code = "error", "error", 1
         w: SessionWriter | None = None
         try:
-            ps = ParamSetRecord.from_device(dev.client.get_params())
-            if ps.crc32 != dev.info.param_crc32:
-                print_err(
-                    "capture",
-                    f"warning: the device reports parameter CRC 0x{dev.info.param_crc32:08x}, "
-                    f"its parameter set hashes to {ps.crc_hex}",
-                )
+            ps = device_param_set("capture", dev)
             w = self.open_session(dev, ps)
             # A session whose points are all taken but whose end was never confirmed
             # (killed while capture waited) waits for the confirmation again.

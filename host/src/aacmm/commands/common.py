@@ -23,20 +23,12 @@ import time
 from dataclasses import dataclass, field
 from typing import IO, TYPE_CHECKING, Any
 
-from aacmm.commands.exitcodes import UsageError, VersionMismatchError
-
-# The output-file rule, re-exported for the commands (explicit re-exports).
-from aacmm.fileio import OutputExistsError as OutputExistsError
-from aacmm.fileio import OutputFileError as OutputFileError
-from aacmm.fileio import atomic_output as atomic_output
-from aacmm.fileio import atomic_path as atomic_path
-from aacmm.fileio import check_outputs as check_outputs
-from aacmm.fileio import save_figure as save_figure
-from aacmm.fileio import write_output as write_output
+from aacmm.commands.exitcodes import UsageError
 
 if TYPE_CHECKING:
     from aacmm.client import Client
     from aacmm.protocol import DeviceInfo
+    from aacmm.records.paramsets import ParamSetRecord
 
 ENV_PORT = "AACMM_PORT"
 DEFAULT_TIMEOUT = 1.0
@@ -81,7 +73,7 @@ def port_url(args: argparse.Namespace) -> str:
     """The device URL from ``--port``, the environment, or else the running simulator's.
 
     Without ``--port`` and ``$AACMM_PORT``, the URL an ``aacmm sim`` of this
-    user publishes (:func:`aacmm.commands.sim.published_url`; waited for while
+    user publishes (:func:`aacmm.simulation.process.published_url`; waited for while
     one is starting) is used, and said on stderr.
 
     Raises:
@@ -90,7 +82,7 @@ def port_url(args: argparse.Namespace) -> str:
     url = (args.port or os.environ.get(ENV_PORT, "")).strip()
     if not url:
         # A running (or starting) `aacmm sim` publishes its URL (docs/cli.md, aacmm sim).
-        from aacmm.commands.sim import published_sims, published_url
+        from aacmm.simulation.process import published_sims, published_url
 
         url = published_url() or ""
         if not url:
@@ -117,46 +109,6 @@ def url_kind(url: str) -> tuple[str, str, int]:
 
     u = parse_url(url)
     return u.kind, u.target, u.node
-
-
-def check_version(client: Client) -> DeviceInfo:
-    """Read the device info and check the protocol version.
-
-    A device speaking another version is recognised three ways: its info
-    names another version; it answers with ERR_VERSION; or its answers carry
-    another version byte, so the host drops them (the request then times out
-    with version frame errors counted).
-
-    Raises:
-        VersionMismatchError, DeviceTimeoutError, DeviceError, OperationError.
-    """
-    from aacmm.errors import DeviceError, DeviceTimeoutError
-    from aacmm.protocol import PROTOCOL_VERSION
-    from aacmm.protocol.status import Status
-
-    try:
-        info = client.info()
-    except DeviceTimeoutError:
-        fe = client.last_frame_error
-        if fe is not None and fe.status == int(Status.ERR_VERSION):
-            raise VersionMismatchError(
-                f"{client.transport.description}: the device speaks another protocol "
-                f"version ({fe}); this host speaks {PROTOCOL_VERSION}"
-            ) from None
-        raise
-    except DeviceError as exc:
-        if exc.status == int(Status.ERR_VERSION):
-            raise VersionMismatchError(
-                f"{client.transport.description}: the device refused protocol version "
-                f"{PROTOCOL_VERSION} ({exc})"
-            ) from None
-        raise
-    if info.protocol_version != PROTOCOL_VERSION:
-        raise VersionMismatchError(
-            f"{client.transport.description}: the device speaks protocol version "
-            f"{info.protocol_version}, this host {PROTOCOL_VERSION}"
-        )
-    return info
 
 
 @dataclass
@@ -202,7 +154,7 @@ def open_device(url: str, timeout: float, retries: int) -> Device:
         raise UsageError(f"--retries must be >= 0, got {retries}")
     client = connect(url, timeout=timeout, retries=retries)
     try:
-        info = check_version(client)
+        info = client.handshake()
     except BaseException:
         client.close()
         raise
@@ -217,13 +169,6 @@ def device_from_args(args: argparse.Namespace) -> Device:
 # ---------------------------------------------------------------- output helpers
 
 
-def fmt_point(v: int) -> str:
-    """A coordinate in 1e-4 mm as an exact decimal string in mm (``-12.3456``)."""
-    sign = "-" if v < 0 else ""
-    q, r = divmod(abs(v), 10000)
-    return f"{sign}{q}.{r:04d}"
-
-
 def flag_names(status: int) -> str:
     """Sample status bits as names (``POINT_VALID|PARAMS_DEFAULT``)."""
     from aacmm.protocol import SampleStatus
@@ -233,27 +178,6 @@ def flag_names(status: int) -> str:
     if unknown:
         names.append(f"0x{unknown:x}")
     return "|".join(names) if names else "0"
-
-
-def info_dict(info: DeviceInfo) -> dict[str, Any]:
-    """Device info as JSON-ready data (with readable names beside the codes)."""
-    from dataclasses import asdict
-
-    from aacmm.protocol import BuildFlags, ParamSource, StorageState
-
-    d: dict[str, Any] = asdict(info)
-    d["firmware"] = f"{info.fw_major}.{info.fw_minor}.{info.fw_patch}"
-    d["build_flags_names"] = [f.name for f in BuildFlags if f.name and info.build_flags & f.value]
-    d["param_crc32_hex"] = f"0x{info.param_crc32:08x}"
-    try:
-        d["param_source_name"] = ParamSource(info.param_source).name.lower()
-    except ValueError:
-        d["param_source_name"] = f"unknown ({info.param_source})"
-    try:
-        d["storage_state_name"] = StorageState(info.storage_state).name.lower()
-    except ValueError:
-        d["storage_state_name"] = f"unknown ({info.storage_state})"
-    return d
 
 
 def is_tty(stream: IO[str]) -> bool:
@@ -334,12 +258,27 @@ def print_err(cmd: str, text: str) -> None:
     print(f"aacmm {cmd}: {text}", file=sys.stderr, flush=True)
 
 
+def device_param_set(cmd: str, dev: Device) -> ParamSetRecord:
+    """The device's parameter set in force, with a warning on stderr when the CRC
+    the device reports (its info) is not the CRC of the set it sends."""
+    from aacmm.records.paramsets import ParamSetRecord
+
+    ps = ParamSetRecord.from_device(dev.client.get_params())
+    if ps.crc32 != dev.info.param_crc32:
+        print_err(
+            cmd,
+            f"warning: the device reports parameter CRC 0x{dev.info.param_crc32:08x}, "
+            f"its parameter set hashes to {ps.crc_hex}",
+        )
+    return ps
+
+
 def add_run_limit_options(parser: argparse.ArgumentParser, bar: str) -> None:
     """``--max-hours`` and ``--progress``/``--no-progress`` of a long analysis run.
 
     ``bar``: what the progress bar counts, for the help text.
     """
-    from aacmm.analysis.runlimits import MAX_RUN_S
+    from aacmm.uncertainty.runlimits import MAX_RUN_S
 
     parser.add_argument(
         "--max-hours",
@@ -372,7 +311,7 @@ class RunProgress:
     """A long analysis run seen from stderr: its estimate first, then its progress.
 
     :meth:`update` goes to the run's progress callback. Once the first half
-    second is measured (:class:`aacmm.analysis.runlimits.RunClock`), a run
+    second is measured (:class:`aacmm.uncertainty.runlimits.RunClock`), a run
     estimated beyond the limit is refused (:class:`RunLimitError`, exit
     status 2); one estimated at :data:`LONG_RUN_S` or more is announced with
     its estimate (``aacmm mc: estimated time about 3 h 10 min (...); Ctrl-C
@@ -392,7 +331,7 @@ class RunProgress:
         what: str,
         hint: str,
     ) -> None:
-        from aacmm.analysis.runlimits import RunClock
+        from aacmm.uncertainty.runlimits import RunClock
 
         self.cmd = cmd
         self.show = show
@@ -423,7 +362,7 @@ class RunProgress:
         self._announce(self.clock.preset(seconds))
 
     def _announce(self, est: Any) -> None:
-        from aacmm.analysis.runlimits import LONG_RUN_S
+        from aacmm.uncertainty.runlimits import LONG_RUN_S
 
         if est is None or est.seconds < LONG_RUN_S:
             return
@@ -448,7 +387,7 @@ class RunProgress:
             self._line()
 
     def _line(self) -> None:
-        from aacmm.analysis.runlimits import format_count, format_duration
+        from aacmm.uncertainty.runlimits import format_count, format_duration
 
         c = self.clock
         pct = int(100 * c.done / c.total)

@@ -14,8 +14,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from aacmm.commands.common import add_force_option, check_outputs, write_output
+from aacmm.commands.common import add_force_option
 from aacmm.commands.exitcodes import OK, UsageError
+from aacmm.fileio import check_outputs, write_output
 
 NODES = range(16)
 

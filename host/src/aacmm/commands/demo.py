@@ -317,7 +317,7 @@ def run_demo(args: argparse.Namespace) -> int:
         return dr.print_before_after(Path(args.compare), force=args.force)
     if args.check is not None:
         return dr.print_truth_check(Path(args.check), force=args.force)
-    from aacmm.commands.sim import find_simulator, repo_root
+    from aacmm.simulation.process import find_simulator, repo_root
 
     # Every argument and the output folder are checked before anything runs or is
     # written: a refusal is one line on stderr, exit status 2, and no file.

@@ -18,15 +18,14 @@ from typing import TYPE_CHECKING, Any
 from aacmm.commands.common import (
     add_connection_options,
     add_force_option,
-    check_outputs,
     device_from_args,
     flag_names,
-    fmt_point,
-    info_dict,
     print_err,
 )
 from aacmm.commands.exitcodes import OK
 from aacmm.errors import DeviceError
+from aacmm.fileio import check_outputs
+from aacmm.records.files import fmt_point
 
 if TYPE_CHECKING:
     from aacmm.client import Client
@@ -154,10 +153,10 @@ def _jacobian_rows(jac: Jacobian) -> list[list[float]]:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from aacmm.commands import devstate
+    from aacmm.client import devstate
 
     with device_from_args(args) as dev:
-        d = info_dict(dev.info)
+        d = devstate.info_dict(dev.info)
         d["url"] = dev.url
         d["transport"] = dev.client.transport.description
         diag = dev.client.diagnostics()
@@ -204,7 +203,7 @@ def _local_crc(ps: ParamSet) -> int:
 
 
 def cmd_params_get(args: argparse.Namespace) -> int:
-    from aacmm.commands.paramfile import dump_param_set, file_format, write_param_file
+    from aacmm.records.paramfile import dump_param_set, file_format, write_param_file
 
     if args.output:  # refused before the device is touched
         file_format(Path(args.output))
@@ -222,7 +221,7 @@ def cmd_params_get(args: argparse.Namespace) -> int:
 
 def _verify(dev_params: ParamSet, sent: ParamSet, what: str) -> None:
     if dev_params != sent:
-        from aacmm.commands.paramfile import param_set_dict
+        from aacmm.records.paramfile import param_set_dict
 
         a, b = param_set_dict(sent), param_set_dict(dev_params)
         diff = [k for k in a if a[k] != b[k]]
@@ -244,8 +243,8 @@ def _check_arm(file: str, arm: Any, serial: int, override: bool) -> str:
 
 
 def cmd_params_set(args: argparse.Namespace) -> int:
-    from aacmm.commands.paramfile import load_param_file_arm
     from aacmm.protocol import ParamSource
+    from aacmm.records.paramfile import load_param_file_arm
 
     ps, arm = load_param_file_arm(args.file)  # validated before anything is sent
     want = _local_crc(ps)
@@ -288,7 +287,7 @@ def cmd_params_set(args: argparse.Namespace) -> int:
 
 def _warn_if_volatile(client: Client, cmd: str) -> None:
     """Warn on stderr when the device's store does not survive power-off."""
-    from aacmm.commands import devstate
+    from aacmm.client import devstate
     from aacmm.protocol import StorageKind
 
     diag = client.diagnostics()
@@ -329,7 +328,7 @@ def cmd_params_defaults(args: argparse.Namespace) -> int:
             msg += "; saved"
             _warn_if_volatile(c, "params defaults")
         else:
-            from aacmm.commands.devstate import has_saved_set
+            from aacmm.client.devstate import has_saved_set
 
             if has_saved_set(c.diagnostics()):
                 msg += "; not saved: a restart loads the stored set (add --save to replace it)"

@@ -14,8 +14,9 @@ from aacmm.errors import (
     DeviceTimeoutError,
     InfeasibleError,
     InitError,
+    LinkLostError,
     OperationError,
-    PortBusyError,
+    VersionMismatchError,
 )
 
 OK: Final = 0
@@ -83,10 +84,7 @@ __all__ = [
     "WORSE",
     "WRONG_ARM",
     "CalibrationRefusedError",
-    "LinkLostError",
-    "PortBusyError",
     "UsageError",
-    "VersionMismatchError",
     "WrongArmError",
     "exit_code",
 ]
@@ -94,14 +92,6 @@ __all__ = [
 
 class UsageError(AacmmError, ValueError):
     """Bad arguments or a bad input file (exit status 2)."""
-
-
-class VersionMismatchError(InitError):
-    """The device speaks another protocol version (exit status 5)."""
-
-
-class LinkLostError(OperationError):
-    """The link went away in the middle of an operation (exit status 6)."""
 
 
 class CalibrationRefusedError(AacmmError):

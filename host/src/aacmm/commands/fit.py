@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any
 from aacmm.commands.common import add_force_option
 
 if TYPE_CHECKING:
-    from aacmm.commands.measured import Measured
     from aacmm.geometry import Fit
+    from aacmm.records.measured import Measured
 
 FEATURES: tuple[str, ...] = ("point", "line", "plane", "circle", "sphere", "cylinder")
 FORMATS: tuple[str, ...] = ("xyz", "ply", "csv")
@@ -215,10 +215,10 @@ def fit_text(fit: Fit[Any], source: str, n_sel: str, mz: Any) -> str:
 
 def run_fit(args: argparse.Namespace) -> int:
     from aacmm import geometry as g
-    from aacmm.commands.common import atomic_output, check_outputs, write_output
     from aacmm.commands.exitcodes import UsageError
-    from aacmm.commands.measured import load_points
+    from aacmm.fileio import atomic_output, check_outputs, write_output
     from aacmm.plans.model import MAX_PROBE_DIAMETER_MM
+    from aacmm.records.measured import load_points
 
     json_out = None if args.json in (None, "-") else Path(args.json)
     check_outputs([json_out, args.csv], args.force)
@@ -346,8 +346,8 @@ def export_format(fmt: str | None, output: str | None) -> str:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from aacmm.commands.common import check_outputs, write_output
-    from aacmm.commands.measured import load_points
+    from aacmm.fileio import check_outputs, write_output
+    from aacmm.records.measured import load_points
 
     fmt = export_format(args.format, args.output)
     check_outputs([args.output], args.force)

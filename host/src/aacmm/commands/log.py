@@ -2,7 +2,7 @@
 
 Files of a log ``run.csv`` (format in docs/cli.md):
 
-- ``run.csv``: one row per streamed sample, columns :data:`COLUMNS`;
+- ``run.csv``: one row per streamed sample, columns :data:`aacmm.records.schema.LOG_COLUMNS`;
   readable by ``aacmm mc --log`` (:mod:`aacmm.analysis.poselog`);
 - ``run.csv.json``: the sidecar (device info, parameter set and its CRC,
   units, start and end times, counters, gaps); written when the log starts
@@ -11,16 +11,16 @@ Files of a log ``run.csv`` (format in docs/cli.md):
 - ``run.triggers.csv``: probe-button captures (created at the first one);
 - with ``--raw FILE`` over CAN: the raw frames in python-can's log formats.
 
-Flush policy: rows go to the operating system every :data:`FLUSH_INTERVAL_S`
-seconds or :data:`FLUSH_ROWS` rows, whichever comes first, in single
+Flush policy: rows go to the operating system every :data:`aacmm.records.logwriter.FLUSH_INTERVAL_S`
+seconds or :data:`~aacmm.records.logwriter.FLUSH_ROWS` rows, whichever comes first, in single
 ``write`` calls of whole rows; so a logger killed with SIGKILL leaves a CSV
 whose every line up to the last flush is complete. The files are fsynced
 when the log ends.
 
 Here: the command line and its checks. The run is :class:`aacmm.commands.logger.Logger`
-(device, stream, reconnects) on :class:`aacmm.commands.logwriter.LogWriter` (rows,
-sidecar, summary), with :mod:`~aacmm.commands.logsession` (counters),
-:mod:`~aacmm.commands.rawcan` (``--raw``) and :mod:`~aacmm.commands.stopflag` (signals).
+(device, stream, reconnects) on :class:`aacmm.records.logwriter.LogWriter` (rows,
+sidecar, summary), with :mod:`~aacmm.records.logsession` (counters),
+:mod:`~aacmm.records.rawcan` (``--raw``) and :mod:`~aacmm.commands.stopflag` (signals).
 """
 
 from __future__ import annotations
@@ -32,11 +32,6 @@ from typing import Any
 from aacmm.commands.common import add_connection_options, port_url
 from aacmm.commands.exitcodes import UsageError
 from aacmm.commands.logger import Logger
-from aacmm.commands.logwriter import COLUMNS as COLUMNS
-from aacmm.commands.logwriter import FLUSH_INTERVAL_S as FLUSH_INTERVAL_S
-from aacmm.commands.logwriter import FLUSH_ROWS as FLUSH_ROWS
-from aacmm.commands.stopflag import StopFlag as StopFlag  # re-exported
-from aacmm.records.schema import TRIGGER_COLUMNS as TRIGGER_COLUMNS  # re-exported
 
 DEFAULT_RATE_HZ = 100
 

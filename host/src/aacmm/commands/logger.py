@@ -5,23 +5,32 @@ from __future__ import annotations
 import argparse
 import contextlib
 import signal
+import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aacmm.commands.common import StatusLine, open_device, print_err, url_kind
-from aacmm.commands.exitcodes import (
-    INTERRUPTED,
-    OK,
+from aacmm.commands.common import (
+    StatusLine,
+    device_param_set,
+    open_device,
+    print_err,
+    url_kind,
+)
+from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
+from aacmm.commands.stopflag import StopFlag
+from aacmm.commands.summary import format_summary
+from aacmm.errors import (
+    AacmmError,
+    DeviceTimeoutError,
+    InitError,
     LinkLostError,
-    UsageError,
+    OperationError,
     VersionMismatchError,
 )
-from aacmm.commands.logwriter import COLUMNS, LogWriter, open_rows
-from aacmm.commands.rawcan import RAW_SUFFIXES, RawCanRecorder
-from aacmm.commands.stopflag import StopFlag
-from aacmm.errors import AacmmError, DeviceTimeoutError, InitError, OperationError
 from aacmm.records.files import utc_iso
+from aacmm.records.logwriter import COLUMNS, LogWriter, open_rows
+from aacmm.records.rawcan import RAW_SUFFIXES, RawCanRecorder
 
 if TYPE_CHECKING:
     from aacmm.commands.common import Device
@@ -32,6 +41,12 @@ RECONNECT_PAUSE_S = 0.5
 
 class Logger(LogWriter):
     """One ``aacmm log`` run (see :func:`aacmm.commands.log.cmd_log`)."""
+
+    def print_summary(self, error: BaseException | None) -> None:
+        """The summary lines, on stdout (stderr after an error or a lost link)."""
+        summary, files = self.summary()
+        out = sys.stdout if error is None and self.lost_error is None else sys.stderr
+        print(format_summary(summary, files), file=out, flush=True)
 
     def __init__(self, args: argparse.Namespace, url: str) -> None:
         super().__init__(args, url)
@@ -254,7 +269,6 @@ class Logger(LogWriter):
                 self.raw.stop()
 
     def _run(self) -> int:
-        from aacmm.records.paramsets import ParamSetRecord
 
         a = self.args
         dev = self.connect()
@@ -262,18 +276,12 @@ class Logger(LogWriter):
         end_status, end_reason = "error", "error"
         error: BaseException | None = None
         try:
-            ps = ParamSetRecord.from_device(dev.client.get_params())
-            if ps.crc32 != dev.info.param_crc32:
-                print_err(
-                    "log",
-                    f"warning: the device reports parameter CRC 0x{dev.info.param_crc32:08x}, "
-                    f"its parameter set hashes to {ps.crc_hex}",
-                )
+            ps = device_param_set("log", dev)
             self.start_wall = time.time()
             self.t0 = time.monotonic()
             self.stop.immediate = False  # from here a signal ends the log cleanly
             self.rows = open_rows(self.csv_path, COLUMNS, a.force)
-            self.meta = self.base_meta(dev, ps)
+            self.meta = self.base_meta(dev.client, dev.info, ps)
             self.use_param_set(ps)
             self.write_meta("running")
             self.dev = dev

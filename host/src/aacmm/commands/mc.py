@@ -118,7 +118,7 @@ def register(sub: Any) -> None:
 
 
 def _joints(args: argparse.Namespace) -> Any:
-    from aacmm.analysis.mc import DEFAULT_JOINTS, JointDistribution
+    from aacmm.analysis.mc_poses import DEFAULT_JOINTS, JointDistribution
 
     js = list(DEFAULT_JOINTS)
     for j, lo, hi in args.range:
@@ -135,9 +135,10 @@ def run_mc(args: argparse.Namespace) -> int:
     import json
 
     from aacmm.analysis import mc
-    from aacmm.analysis.runlimits import format_count
+    from aacmm.analysis.mc_report import csv_text, figure, format_report, to_json
     from aacmm.errors import AacmmError
     from aacmm.fileio import atomic_output, check_outputs, save_figure, write_output
+    from aacmm.uncertainty.runlimits import format_count
 
     bar: RunProgress | None = None
     try:
@@ -196,13 +197,13 @@ def run_mc(args: argparse.Namespace) -> int:
         # the files first: a closed stdout (mc | head) must not cost them
         if args.csv:
             with atomic_output(args.csv, force=args.force, newline="") as f:
-                f.write(mc.csv_text(res))
+                f.write(csv_text(res))
         if args.json:
-            write_output(args.json, json.dumps(mc.to_json(res), indent=2) + "\n", force=args.force)
+            write_output(args.json, json.dumps(to_json(res), indent=2) + "\n", force=args.force)
         if args.png:
-            save_figure(mc.figure(res), args.png, force=args.force, dpi=120)
+            save_figure(figure(res), args.png, force=args.force, dpi=120)
         if not args.quiet:
-            print(mc.format_report(res), flush=True)
+            print(format_report(res), flush=True)
     except BrokenPipeError:
         raise
     except (AacmmError, ValueError, OSError) as e:

@@ -110,7 +110,7 @@ def cmd_example(args: argparse.Namespace) -> int:
         raise UsageError(
             f"no shipped plan {args.name!r} (shipped: {', '.join(shipped_plans())})"
         ) from None
-    from aacmm.commands.common import check_outputs, write_output
+    from aacmm.fileio import check_outputs, write_output
 
     (out,) = check_outputs([Path(args.output)], args.force)
     write_output(out, src.read_bytes(), force=args.force)

@@ -137,14 +137,26 @@ def parse_misprobes(specs: list[str], plan: Any) -> tuple[Any, ...]:
     return tuple(out)
 
 
+def note_others(others: list[tuple[str, int]]) -> None:
+    """Say that commands without ``--port`` now use this simulator, not the others."""
+    if others:
+        urls = ", ".join(f"{u} (pid {p})" for u, p in others)
+        print(
+            f"aacmm sim: note: commands without --port now use this simulator; "
+            f"also running: {urls}, used again when this one stops",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
 def run(args: argparse.Namespace, sim_args: list[str]) -> int:
     """The command (see the module doc). ``sim_args``: the simulator's own options."""
     import numpy as np
 
-    from aacmm.commands.sim import SimProcess, note_others, publish_urls, unpublish_urls
     from aacmm.fileio import check_outputs, write_output
     from aacmm.simulation.control import ControlChannel
     from aacmm.simulation.operator import FAST, Operator, Pace, Stopped
+    from aacmm.simulation.process import SimProcess, publish_urls, unpublish_urls
     from aacmm.simulation.truth import parse_truth
 
     check_args(args)

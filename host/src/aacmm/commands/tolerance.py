@@ -85,8 +85,8 @@ def run_tolerance(args: argparse.Namespace) -> int:
     """``aacmm tolerance``: returns the exit status (errors raise; aacmm.cli prints them)."""
     import json
 
-    from aacmm.commands.common import check_outputs, write_output
     from aacmm.commands.exitcodes import NOT_MET, UsageError
+    from aacmm.fileio import check_outputs, write_output
 
     if args.trials != 0 and args.trials < 100:
         raise UsageError(f"--trials must be 0 (no check) or >= 100, got {args.trials}")
@@ -107,7 +107,7 @@ def run_tolerance(args: argparse.Namespace) -> int:
     alloc = tl.allocate(spec)
     check = None
     if args.trials:
-        from aacmm.analysis.runlimits import format_count
+        from aacmm.uncertainty.runlimits import format_count
 
         rows = alloc.design.limit_mm.size
         if args.check_rows is not None:

@@ -1,6 +1,6 @@
 """``aacmm uncertainty``: probe-point uncertainty from parameter uncertainties.
 
-The computation lives in :mod:`aacmm.analysis.uncertainty`; this module
+The computation lives in :mod:`aacmm.uncertainty`; this module
 parses the arguments, prints the report, shows the progress and writes the
 outputs. User errors (bad arguments, unreadable or invalid files, an
 existing output file without ``--force``, poses that cannot fit in memory)
@@ -97,7 +97,7 @@ class _Progress:
 
     def update(self, n: int, total: int) -> None:
         if self.run is None:
-            from aacmm.analysis.runlimits import format_count
+            from aacmm.uncertainty.runlimits import format_count
 
             self.run = RunProgress(
                 "uncertainty",
@@ -122,7 +122,7 @@ def run_uncertainty(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from aacmm.analysis import uncertainty as unc
+    from aacmm import uncertainty as unc
     from aacmm.errors import AacmmError
     from aacmm.fileio import atomic_output, check_outputs, save_figure, write_output
 

@@ -59,17 +59,17 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run_verify(args: argparse.Namespace) -> int:
     from aacmm.commands import verify_report as vr
-    from aacmm.commands.common import check_outputs, save_figure, write_output
     from aacmm.commands.exitcodes import NOT_MET, UsageError
-    from aacmm.commands.measured import load_session
+    from aacmm.fileio import check_outputs, save_figure, write_output
+    from aacmm.records.measured import load_session
     from aacmm.verification.report import evaluate
     from aacmm.verification.rules import FAIL, NO_MPE
 
     json_out = None if args.json in (None, "-") else Path(args.json)
     check_outputs([json_out], args.force)
     if args.report is not None:  # before the work: the report's folder and its fixed files
-        from aacmm.commands.view import report_names
         from aacmm.fileio import check_output_dir
+        from aacmm.view.html import report_names
 
         check_output_dir(
             args.report,
@@ -98,7 +98,7 @@ def run_verify(args: argparse.Namespace) -> int:
             raise UsageError(
                 f"--report {out}: cannot create the directory: {exc.strerror}"
             ) from None
-        from aacmm.commands.view import report_names, write_report
+        from aacmm.view.html import report_names, write_report
         from aacmm.view.scene import verification_scene
 
         names = [REPORT_TEXT, REPORT_JSON, REPORT_PDF, *vr.figure_names(rep), *report_names()]

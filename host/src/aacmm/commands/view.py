@@ -30,8 +30,6 @@ RATE_DEFAULT = 200
 RATE_MAX = 1000
 #: The stream ``aacmm capture --view`` listens with (instead of its 20 Hz).
 CAPTURE_VIEW_RATE_HZ = 200
-VIEW_JSON = "view.json"
-REPORT_HTML = "report.html"
 
 
 def add_bind_options(p: argparse.ArgumentParser) -> None:
@@ -153,6 +151,7 @@ def load_scene(source: str) -> dict[str, Any]:
     from aacmm.fileio import load_json
     from aacmm.records import session_exists
     from aacmm.view import scene as sc
+    from aacmm.view.html import VIEW_JSON
 
     p = Path(source)
     if not p.exists():
@@ -218,7 +217,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 def make_feed(dev: Device, srv: ViewServer, fps: int, trail: int, title: str) -> LiveFeed:
     """A :class:`LiveFeed` for the device's parameter set, pushing to ``srv``."""
-    from aacmm.commands.common import info_dict
+    from aacmm.client.devstate import info_dict
     from aacmm.view.live import LiveFeed
 
     params, encoders = dev.client.get_params().to_core()
@@ -254,8 +253,7 @@ def drain(stream: Any, feed: LiveFeed, stop: Any, stall_s: float) -> None:
     """Hand the newest sample of ``stream`` to ``feed`` every :data:`DRAIN_PERIOD_S`
     until ``stop``. Raises LinkLostError when no sample came for ``stall_s`` or the
     link is lost."""
-    from aacmm.commands.exitcodes import LinkLostError
-    from aacmm.errors import DeviceTimeoutError, OperationError
+    from aacmm.errors import DeviceTimeoutError, LinkLostError, OperationError
 
     last = time.monotonic()
     while not stop.set:
@@ -309,23 +307,6 @@ def live(args: argparse.Namespace) -> int:
         stop.restore()
         srv.close()
     return 0
-
-
-def report_names() -> list[str]:
-    """The files :func:`write_report` adds to a report folder."""
-    return [VIEW_JSON, REPORT_HTML]
-
-
-def write_report(folder: Path, scene: dict[str, Any], force: bool) -> None:
-    """``view.json`` (what ``aacmm view FOLDER`` shows) and the self-contained
-    ``report.html`` beside a report's other files."""
-    import json
-
-    from aacmm.fileio import write_output
-    from aacmm.view.html import standalone_html
-
-    write_output(folder / VIEW_JSON, json.dumps(scene, allow_nan=False) + "\n", force=force)
-    write_output(folder / REPORT_HTML, standalone_html(scene), force=force)
 
 
 class CaptureView:

@@ -10,6 +10,10 @@
 - :mod:`aacmm.protocol.can`: CAN sample frames (DBC), :class:`SampleAssembler`,
   ISO-TP address and parameters
 - :mod:`aacmm.protocol.status`: status codes shared with the firmware
+
+Errors: :class:`aacmm.errors.FrameError` (bytes that are not a valid frame or
+message; ``status`` is the firmware's code for the reason) and ``ValueError``
+for values that cannot be encoded.
 """
 
 from aacmm.protocol.can import (
@@ -21,45 +25,42 @@ from aacmm.protocol.can import (
     load_dbc,
     make_isotp_stack,
 )
-from aacmm.protocol.framing import Deframer, crc32, decode_frame, encode_frame
-from aacmm.protocol.messages import (
+from aacmm.protocol.constants import (
     PROTOCOL_VERSION,
     BuildFlags,
     Button,
-    ComputeRequest,
-    ComputeResult,
     Content,
-    DeviceInfo,
-    Diagnostics,
     EncoderFault,
     EncoderInterface,
-    ErrorReply,
-    Jacobian,
-    JointDiagnostics,
-    MeasureRequest,
-    Message,
     MsgType,
-    ParamCrc,
-    ParamSet,
     ParamSource,
-    Ping,
     ResetCause,
-    Sample,
     SampleStatus,
     SlotState,
     StorageFlags,
     StorageKind,
     StorageState,
+)
+from aacmm.protocol.decode import decode_message, decode_param_set
+from aacmm.protocol.encode import encode_message, encode_param_set, param_set_crc32
+from aacmm.protocol.framing import Deframer, crc32, decode_frame, encode_frame
+from aacmm.protocol.messages import device_error, frame_message, response_type
+from aacmm.protocol.payloads import (
+    ComputeRequest,
+    ComputeResult,
+    DeviceInfo,
+    Diagnostics,
+    ErrorReply,
+    Jacobian,
+    JointDiagnostics,
+    MeasureRequest,
+    Message,
+    ParamCrc,
+    ParamSet,
+    Ping,
+    Sample,
     Stream,
     Trigger,
-    decode_message,
-    decode_param_set,
-    device_error,
-    encode_message,
-    encode_param_set,
-    frame_message,
-    param_set_crc32,
-    response_type,
 )
 from aacmm.protocol.status import Status, status_name
 

@@ -25,7 +25,7 @@ import cantools.database
 import isotp
 
 from aacmm.errors import FrameError
-from aacmm.protocol.messages import Sample
+from aacmm.protocol.payloads import Sample
 from aacmm.protocol.status import Status
 
 NODE_ID_MAX: Final = 15

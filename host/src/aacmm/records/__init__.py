@@ -32,14 +32,14 @@ if TYPE_CHECKING:
     from aacmm.records.files import fmt_point as fmt_point
     from aacmm.records.paramsets import ParamSetRecord as ParamSetRecord
     from aacmm.records.rows import Recorded as Recorded
-    from aacmm.records.sessions import EVENT_COLUMNS as EVENT_COLUMNS
-    from aacmm.records.sessions import POINT_COLUMNS as POINT_COLUMNS
-    from aacmm.records.sessions import SESSION_FORMAT as SESSION_FORMAT
-    from aacmm.records.sessions import CapturedPoint as CapturedPoint
-    from aacmm.records.sessions import Session as Session
-    from aacmm.records.sessions import SessionWriter as SessionWriter
-    from aacmm.records.sessions import read_session as read_session
-    from aacmm.records.sessions import session_exists as session_exists
+    from aacmm.records.session_format import EVENT_COLUMNS as EVENT_COLUMNS
+    from aacmm.records.session_format import POINT_COLUMNS as POINT_COLUMNS
+    from aacmm.records.session_format import SESSION_FORMAT as SESSION_FORMAT
+    from aacmm.records.session_reader import CapturedPoint as CapturedPoint
+    from aacmm.records.session_reader import Session as Session
+    from aacmm.records.session_reader import read_session as read_session
+    from aacmm.records.session_reader import session_exists as session_exists
+    from aacmm.records.session_writer import SessionWriter as SessionWriter
 
 # Loaded on first use, so that importing a light submodule (aacmm.records.files,
 # .schema) from a command's top level does not pull numpy and the C core in.
@@ -49,14 +49,14 @@ _WHERE = {
     "fmt_point": "files",
     "ParamSetRecord": "paramsets",
     "Recorded": "rows",
-    "EVENT_COLUMNS": "sessions",
-    "POINT_COLUMNS": "sessions",
-    "SESSION_FORMAT": "sessions",
-    "CapturedPoint": "sessions",
-    "Session": "sessions",
-    "SessionWriter": "sessions",
-    "read_session": "sessions",
-    "session_exists": "sessions",
+    "EVENT_COLUMNS": "session_format",
+    "POINT_COLUMNS": "session_format",
+    "SESSION_FORMAT": "session_format",
+    "CapturedPoint": "session_reader",
+    "Session": "session_reader",
+    "SessionWriter": "session_writer",
+    "read_session": "session_reader",
+    "session_exists": "session_reader",
 }
 
 

@@ -32,40 +32,22 @@ from aacmm.records.rows import Recorded
 from aacmm.records.schema import (
     COUNT_ALIASES,
     COUNT_COLUMNS,
-    LOG_COLUMNS,
     LOG_FORMAT,
     LOG_FORMATS_READ,
-    LOG_UNITS,
     POINT_COLUMNS,
     THETA_COLUMNS,
-    TRIGGER_COLUMNS,
     default_triggers_path,
-    param_set_entry,
-    sample_row,
     sidecar_path,
 )
 
 __all__ = [
-    "COUNT_ALIASES",
-    "COUNT_COLUMNS",
-    "LOG_COLUMNS",
-    "LOG_FORMAT",
-    "LOG_FORMATS_READ",
-    "LOG_UNITS",
-    "POINT_COLUMNS",
-    "THETA_COLUMNS",
-    "TRIGGER_COLUMNS",
     "Log",
     "LoggedTrigger",
     "column",
     "connected_segments",
-    "default_triggers_path",
     "log_summary",
-    "param_set_entry",
     "read_log",
     "read_triggers",
-    "sample_row",
-    "sidecar_path",
 ]
 
 # ---------------------------------------------------------------- reader

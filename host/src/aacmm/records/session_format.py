@@ -1,8 +1,25 @@
 """The session folder's format: file names, columns and units, and a point's row fields.
 
 Shared by :mod:`aacmm.records.session_writer` and
-:mod:`aacmm.records.session_reader`; the folder is described in
-:mod:`aacmm.records.sessions` and docs/plans.md.
+:mod:`aacmm.records.session_reader` (docs/plans.md). A capture session is one
+folder (format ``aacmm-session-1``)::
+
+
+    SESSION/
+      session.json   the sidecar: plan (its full text), device identity, port,
+                     every parameter set in force (with CRC and encoder
+                     configuration), status, runs (capture, resume, ...)
+      points.csv     the accepted points, one row per point in plan order, labelled
+      events.csv     the journal: every button event, undo and run, append-only
+      progress.json  the slot expected next (replaced atomically after every change)
+
+:class:`~aacmm.records.session_writer.SessionWriter` makes and extends
+sessions (``aacmm capture`` uses it; tests may feed it synthetic samples);
+:func:`~aacmm.records.session_reader.read_session` reads one into a
+:class:`~aacmm.records.session_reader.Session`. Every accepted point is
+durable (written and fsynced) before ``SessionWriter.record`` returns, so a
+capture killed at any moment loses no acknowledged point; an undo rewrites
+``points.csv`` atomically.
 """
 
 from __future__ import annotations

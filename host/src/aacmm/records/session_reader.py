@@ -1,7 +1,8 @@
 """Reading a capture session: :func:`read_session` checks every row into a :class:`Session`.
 
-Re-exported by :mod:`aacmm.records.sessions` (the folder's layout) and
-:mod:`aacmm.records`.
+The folder's layout: :mod:`aacmm.records.session_format`; the public names
+are ``aacmm.records.read_session``, ``Session``, ``CapturedPoint``,
+``session_exists``.
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 Every accepted point is written and fsynced before
 :meth:`SessionWriter.record` returns; an undo rewrites ``points.csv``
-atomically. Re-exported by :mod:`aacmm.records.sessions` and
-:mod:`aacmm.records`.
+atomically. The folder's layout: :mod:`aacmm.records.session_format`;
+:class:`SessionWriter` is public as ``aacmm.records.SessionWriter``.
 """
 
 from __future__ import annotations

@@ -16,7 +16,20 @@ The host side of ``aacmm sim --truth`` and ``aacmm sim --scenario``
 * :mod:`aacmm.simulation.operator` -- moving the true arm and pressing buttons;
 * :mod:`aacmm.simulation.run` -- performing a plan in step with a capture
   client, or wandering;
-* :mod:`aacmm.simulation.control` -- the client of ``aacmm-sim --control``.
+* :mod:`aacmm.simulation.control` -- the client of ``aacmm-sim --control``;
+* :mod:`aacmm.simulation.process` -- ``aacmm-sim`` as a child process
+  (:class:`~aacmm.simulation.process.SimProcess`) and the rendezvous file of
+  a running ``aacmm sim``.
 
 Analysis code never imports the truth: only tests compare results with it.
+
+Errors (all :class:`aacmm.errors.AacmmError`):
+:class:`~aacmm.simulation.truth.TruthError` (a truth file, also
+``ValueError``), :class:`~aacmm.simulation.scenario.ScenarioError` (a
+scenario, also ``ValueError``), :class:`~aacmm.simulation.control.ControlError`
+(the control channel failed), :class:`~aacmm.simulation.operator.Stopped` (the
+operator was stopped), :class:`~aacmm.simulation.process.SimulatorError` (an
+:class:`aacmm.errors.InitError`: the simulator did not start) and
+:class:`~aacmm.simulation.process.SimulatorUsageError` (it refused its
+options, also ``ValueError``).
 """

@@ -238,7 +238,7 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
     Raises:
         TruthError: a missing, unknown or bad key (the message names ``src`` and the key).
     """
-    from aacmm.commands.paramfile import ParamFileError, param_set_from_mapping
+    from aacmm.records.paramfile import ParamFileError, param_set_from_mapping
 
     if not isinstance(data, dict):
         raise TruthError(f"{src}: expected a table")

@@ -21,6 +21,13 @@ CAN URLs take ``node`` (default 1, the simulator's default) and
 ``isotp_timeout_ms`` (default 1000) in the query; SocketCAN URLs also
 ``isotp=auto|kernel|user`` (default ``auto``: the kernel's ISO-TP sockets
 when the kernel has them, else the user-space ``can-isotp`` stack).
+
+Errors (:mod:`aacmm.errors`): :class:`~aacmm.errors.InitError` (cannot open
+or configure the port or bus) and its subclass
+:class:`~aacmm.errors.PortBusyError`, :class:`~aacmm.errors.OperationError`
+(I/O on a closed or failed link), :class:`~aacmm.errors.DeviceTimeoutError`
+(no ISO-TP answer in time), :class:`~aacmm.errors.FrameError` (bytes that are
+not a valid frame); ``ValueError`` for a bad URL or argument.
 """
 
 from __future__ import annotations

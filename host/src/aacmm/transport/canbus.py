@@ -530,7 +530,10 @@ def _raw_socketcan(bus: Any) -> socket.socket | None:
     return None
 
 
-def _enlarge_rcvbuf(bus: Any) -> None:
+def enlarge_rcvbuf(bus: Any) -> None:
+    """Give a python-can SocketCAN bus's socket a big receive buffer (8 MiB; best
+    effort: SO_RCVBUFFORCE, which lets root exceed net.core.rmem_max, else
+    SO_RCVBUF), so a slow reader loses no frames. Other buses are left alone."""
     sock = _raw_socketcan(bus)
     if sock is None:
         return
@@ -576,7 +579,7 @@ class SocketCanTransport(CanTransport):
             )
         except (can.CanError, OSError, ValueError, ImportError) as exc:
             raise InitError(f"cannot open SocketCAN interface {channel}: {exc}") from exc
-        _enlarge_rcvbuf(bus)
+        enlarge_rcvbuf(bus)
         try:
             super().__init__(bus, node_id, kernel_isotp=channel if kernel else None, **kwargs)
         except BaseException:

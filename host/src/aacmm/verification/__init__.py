@@ -9,6 +9,11 @@ A pure library (arrays, plans and sessions in; dataclasses out).
   articulation, volumetric statistics) and :data:`DEFINITIONS`, the
   definition implemented for each with its source and status.
 
+Errors: :class:`VerificationError` (a session that cannot be verified: no
+MPE, points outside the plan, nothing to evaluate) and the
+:class:`aacmm.geometry.GeometryError` family from the fits (too few or
+degenerate points), both :class:`aacmm.errors.AacmmError` and ``ValueError``.
+
 See docs/verification.md.
 """
 

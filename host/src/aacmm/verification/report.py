@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from aacmm.errors import AacmmError
 from aacmm.geometry import Fit, GeometryError, MinZone, Plane, fit_plane, minimum_zone_plane
 from aacmm.geometry._base import FloatArray
 from aacmm.verification.evaluations import (
@@ -64,7 +65,7 @@ if TYPE_CHECKING:
 L_DIA_FITS: tuple[str, ...] = ("free", "fixed")
 
 
-class VerificationError(GeometryError):
+class VerificationError(AacmmError, ValueError):
     """A session that cannot be verified (no MPE, missing points, degenerate data)."""
 
 
@@ -364,7 +365,7 @@ def evaluate(
                 planes.append(PlaneStep(step.id, fit_plane(p), minimum_zone_plane(p)))
             else:
                 notes.append(f"step {step.id}: {step.procedure} points are not a verification test")
-        except GeometryError as exc:
+        except (GeometryError, VerificationError) as exc:
             raise type(exc)(f"step {step.id}: {exc}") from None
 
     results = _results(plan, spheres, locations, lengths, seats, rule, l_dia_fit)

@@ -20,4 +20,9 @@ capture --view`` (docs/view.md) are its commands.
 
 The page is plotly.js (docs/view.md says why) and the page's own script in
 ``static/``; nothing is loaded from the network.
+
+Errors (:mod:`aacmm.view.server`): :class:`~aacmm.view.server.ViewError` (an
+:class:`aacmm.errors.AacmmError`: the view cannot be served) and
+:class:`~aacmm.view.server.BindError` (an :class:`aacmm.errors.InitError`: the
+address cannot be bound).
 """

@@ -5,14 +5,23 @@ inlined and the scene embedded as JSON, in one file: it opens from disk in
 any browser, offline, and shows what ``aacmm view`` shows for the same
 source. plotly.js is most of its size (about 4.8 MB, as the ``plotly``
 wheel ships it).
+
+:func:`write_report` puts ``view.json`` and ``report.html`` beside a report's
+other files (``aacmm verify``, ``aacmm calibrate``); :func:`report_names`
+names them.
 """
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
+from aacmm.fileio import write_output
 from aacmm.view.server import plotly_js_path, static_path
+
+VIEW_JSON = "view.json"
+REPORT_HTML = "report.html"
 
 
 def _script(text: str) -> str:
@@ -48,3 +57,15 @@ def standalone_html(scene: dict[str, Any]) -> str:
         head, _, tail = page.partition(tag)
         page = head + inline + tail
     return page
+
+
+def report_names() -> list[str]:
+    """The files :func:`write_report` adds to a report folder."""
+    return [VIEW_JSON, REPORT_HTML]
+
+
+def write_report(folder: Path, scene: dict[str, Any], force: bool) -> None:
+    """``view.json`` (what ``aacmm view FOLDER`` shows) and the self-contained
+    ``report.html`` beside a report's other files."""
+    write_output(folder / VIEW_JSON, json.dumps(scene, allow_nan=False) + "\n", force=force)
+    write_output(folder / REPORT_HTML, standalone_html(scene), force=force)

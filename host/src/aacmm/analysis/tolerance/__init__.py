@@ -1,6 +1,6 @@
 """Tolerance allocation: from a target accuracy to a tolerance for every part.
 
-The inverse of :mod:`aacmm.analysis.uncertainty`: given what the arm must
+The inverse of :mod:`aacmm.uncertainty`: given what the arm must
 reach (the expanded uncertainty of the probe point over a workspace, at its
 worst pose or as an RMS, or a length-measurement MPE), a cost model per
 parameter (c / t^k within process limits) and an encoder catalogue, find the
@@ -19,6 +19,12 @@ manufacturing tolerance. Method and example: docs/tolerance.md.
 * :class:`CalibrationModel` -- what a calibration identifies (calibrated.py).
 * :func:`format_report`, :func:`summary_lines`, :func:`to_json`,
   :func:`to_csv`, :func:`budget_png` (report.py).
+
+Errors: :class:`SpecError` (the spec file; the same class as
+:class:`aacmm.analysis.SpecError`), :class:`aacmm.errors.InfeasibleError`
+(no allocation meets the target), :class:`RunLimitError` /
+:class:`MemoryLimitError` (a check over its limits), ``ValueError`` for bad
+arguments.
 """
 
 from aacmm.analysis.tolerance.allocation import (
@@ -48,12 +54,12 @@ from aacmm.analysis.tolerance.request import (
     CalibrationDesign,
     Encoder,
     ParamCost,
-    SpecError,
     Target,
     ToleranceSpec,
     Workspace,
 )
 from aacmm.analysis.tolerance.spec import load_spec, parse_spec
+from aacmm.uncertainty.spec import SpecError
 
 __all__ = [
     "STATUSES",

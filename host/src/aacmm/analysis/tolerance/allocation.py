@@ -20,7 +20,7 @@ from scipy import optimize
 
 from aacmm.analysis.tolerance.calibrated import CalibrationModel
 from aacmm.analysis.tolerance.design import Design, build_design
-from aacmm.analysis.tolerance.request import ARCSEC_RAD, Encoder, SpecError, ToleranceSpec
+from aacmm.analysis.tolerance.request import ARCSEC_RAD, Encoder, ToleranceSpec
 from aacmm.analysis.tolerance.solve import (
     Allocated,
     Candidate,
@@ -32,6 +32,7 @@ from aacmm.analysis.tolerance.solve import (
 )
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray
 from aacmm.errors import InfeasibleError
+from aacmm.uncertainty.spec import SpecError
 
 #: statuses of a parameter in the result
 STATUSES = ("allocated", "at min", "at max", "fixed", "calibrated", "no effect")

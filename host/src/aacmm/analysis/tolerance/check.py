@@ -33,11 +33,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aacmm.analysis.runlimits import check_memory, format_count
 from aacmm.analysis.tolerance.allocation import Allocation
 from aacmm.analysis.tolerance.request import ToleranceSpec
-from aacmm.analysis.uncertainty import ParamUncertainty
 from aacmm.core import JAC_COLS, PARAM_NAMES, FloatArray, perturbed_points
+from aacmm.uncertainty.runlimits import check_memory, format_count
+from aacmm.uncertainty.spec import ParamUncertainty
 
 DEFAULT_TRIALS = 100_000
 _BLOCK_VALUES = 2_000_000  # trials x rows per block at most
@@ -107,7 +107,7 @@ def _readings(alloc: Allocation, trials: int, rng: np.random.Generator) -> Float
 
 
 def _factor(dist: str) -> float:
-    from aacmm.analysis.uncertainty import TOLERANCE_FACTOR
+    from aacmm.uncertainty.spec import TOLERANCE_FACTOR
 
     return TOLERANCE_FACTOR[dist]
 
@@ -184,7 +184,7 @@ def monte_carlo_check(
     (default: every row); ``progress`` is called with the fraction done
     after every block of rows (it may raise to stop the check). Raises
     ValueError for trials < 100, rows < 1, a bad seed or threads < 1;
-    :class:`~aacmm.analysis.runlimits.RunLimitError` (a ValueError) when
+    :class:`~aacmm.uncertainty.runlimits.RunLimitError` (a ValueError) when
     the check would need more than half the memory available
     (:func:`check_memory_bytes`); KinematicsError if a drawn arm is invalid.
     """

@@ -4,7 +4,7 @@ The dataclasses :func:`aacmm.analysis.tolerance.spec.parse_spec` builds from
 a spec file, each checking its own values (ValueError), and
 :class:`SpecError`. Angles are in rad and lengths in mm here, as everywhere
 in aacmm; a parameter's tolerance ``t`` is in its ``unit`` (``scale`` rad or
-mm per unit). Re-exported by :mod:`aacmm.analysis.tolerance.spec`.
+mm per unit). Public through :mod:`aacmm.analysis.tolerance`.
 """
 
 from __future__ import annotations
@@ -15,18 +15,13 @@ from typing import Literal
 
 import numpy as np
 
-from aacmm.analysis.uncertainty import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS, TOLERANCE_FACTOR
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray, Params
-from aacmm.errors import AacmmError
+from aacmm.uncertainty.spec import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS, TOLERANCE_FACTOR
 
 ARCSEC_RAD = ANGLE_UNITS["arcsec"]
 DEFAULT_RANDOM_POSES = 200
 DEFAULT_MIN_LENGTH_MM = 100.0
 MAX_POSES = 20_000
-
-
-class SpecError(AacmmError, ValueError):
-    """The tolerance spec is unreadable or invalid (message: file, field, reason)."""
 
 
 @dataclass(frozen=True)

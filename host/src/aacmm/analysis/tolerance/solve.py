@@ -42,13 +42,15 @@ import numpy.typing as npt
 from scipy import optimize
 
 from aacmm.core import FloatArray
+from aacmm.errors import InfeasibleError
 
 MAX_COMBINATIONS = 1_000_000
 _FEAS_TOL = 1e-12
 
 
-class Infeasible(Exception):
-    """No tolerance within the limits meets the rows (internal signal)."""
+class Infeasible(InfeasibleError):
+    """No tolerance within the limits meets the rows (internal signal, always
+    caught in this package)."""
 
 
 @dataclass(frozen=True)

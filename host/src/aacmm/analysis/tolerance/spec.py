@@ -10,9 +10,9 @@ in +-t) in the spec's ``angle_unit`` (default arcsec) and ``length_unit``
 units, so ``c`` reads as "the cost of holding one unit". Inside the package
 angles are in rad and lengths in mm, as everywhere in aacmm.
 
-The request's dataclasses (:class:`ToleranceSpec` and its parts,
-:class:`SpecError`) are in :mod:`aacmm.analysis.tolerance.request`,
-re-exported here.
+The request's dataclasses (:class:`ToleranceSpec` and its parts) are in
+:mod:`aacmm.analysis.tolerance.request`; :class:`SpecError` is
+:mod:`aacmm.uncertainty.spec`'s (both: :mod:`aacmm.analysis.tolerance`).
 """
 
 from __future__ import annotations
@@ -26,35 +26,26 @@ from typing import Any
 import numpy as np
 
 from aacmm.analysis.tolerance.request import (
-    ARCSEC_RAD,
     DEFAULT_MIN_LENGTH_MM,
     DEFAULT_RANDOM_POSES,
-    MAX_POSES,
     CalibrationDesign,
     Encoder,
     ParamCost,
-    SpecError,
     Target,
     ToleranceSpec,
     Workspace,
 )
-from aacmm.analysis.uncertainty import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS
-from aacmm.analysis.uncertainty import _expand as expand_names
 from aacmm.core import JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray, Params
+from aacmm.uncertainty.spec import (
+    ANGLE_UNITS,
+    DISTRIBUTIONS,
+    LENGTH_UNITS,
+    SpecError,
+    expand_name,
+)
 
 __all__ = [
-    "ARCSEC_RAD",
-    "DEFAULT_MIN_LENGTH_MM",
-    "DEFAULT_RANDOM_POSES",
     "FULL_TURN_ARCSEC",
-    "MAX_POSES",
-    "CalibrationDesign",
-    "Encoder",
-    "ParamCost",
-    "SpecError",
-    "Target",
-    "ToleranceSpec",
-    "Workspace",
     "load_spec",
     "parse_spec",
 ]
@@ -143,7 +134,7 @@ def _str(t: Mapping[str, Any], key: str, where: str, default: str, allowed: tupl
 def _expand(key: str) -> tuple[str, ...]:
     # the same names and groups as the uncertainty spec (one definition)
     try:
-        return expand_names(key)
+        return expand_name(key)
     except ValueError as e:
         raise SpecError(f"[parameters] {key}: {e}") from e
 

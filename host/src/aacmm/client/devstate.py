@@ -2,7 +2,8 @@
 and whether that survives power-off, why the device last started, and the
 encoder inputs (device info + diagnostics, docs/protocol.md 2.2 and 2.6).
 
-Used by ``aacmm info`` (text and ``--json``) and the ``params`` commands.
+Used by ``aacmm info`` (text and ``--json``), the ``params`` commands and the
+log's sidecar (:func:`info_dict`).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from dataclasses import asdict
 from typing import Any
 
 from aacmm.protocol import (
+    BuildFlags,
     DeviceInfo,
     Diagnostics,
     EncoderFault,
@@ -20,6 +22,7 @@ from aacmm.protocol import (
     SlotState,
     StorageFlags,
     StorageKind,
+    StorageState,
 )
 
 PARAM_SOURCE_TEXT = {
@@ -201,3 +204,20 @@ def diag_dict(d: Diagnostics) -> dict[str, Any]:
     if warning:
         out["storage_warning"] = warning
     return out
+
+
+def info_dict(info: DeviceInfo) -> dict[str, Any]:
+    """Device info as JSON-ready data (with readable names beside the codes)."""
+    d: dict[str, Any] = asdict(info)
+    d["firmware"] = f"{info.fw_major}.{info.fw_minor}.{info.fw_patch}"
+    d["build_flags_names"] = [f.name for f in BuildFlags if f.name and info.build_flags & f.value]
+    d["param_crc32_hex"] = f"0x{info.param_crc32:08x}"
+    try:
+        d["param_source_name"] = ParamSource(info.param_source).name.lower()
+    except ValueError:
+        d["param_source_name"] = f"unknown ({info.param_source})"
+    try:
+        d["storage_state_name"] = StorageState(info.storage_state).name.lower()
+    except ValueError:
+        d["storage_state_name"] = f"unknown ({info.storage_state})"
+    return d

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from aacmm.commands.common import fmt_point
+from aacmm.records.files import fmt_point
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""Parameter-uncertainty specifications for :mod:`aacmm.analysis.uncertainty`.
+"""Parameter-uncertainty specifications for :mod:`aacmm.uncertainty`.
 
 A spec is the nominal arm, one standard uncertainty and distribution per
 structural parameter (or a full 25 x 25 covariance of correlated normal
@@ -46,7 +46,8 @@ DISTRIBUTIONS: tuple[str, ...] = ("normal", "uniform", "triangular", "arcsine")
 
 
 class SpecError(AacmmError, ValueError):
-    """The parameter-uncertainty file is unreadable or invalid."""
+    """A parameter-uncertainty or tolerance spec file is unreadable or invalid
+    (message: file, field, reason)."""
 
 
 @dataclass(frozen=True)

@@ -3,6 +3,9 @@
 Points are always recomputed from the raw counts with the parameter set in
 force for each row (:meth:`aacmm.records.Recorded.points_mm`, the C core in
 double precision), never taken from the device's rounded point.
+
+Errors: :class:`aacmm.records.RecordError` (a ``ValueError``; ``aacmm`` exit
+status 2) for a missing, unreadable or unusable input, naming the file.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aacmm.commands.exitcodes import UsageError
+from aacmm.records.files import RecordError
 
 if TYPE_CHECKING:
     from aacmm.geometry._base import FloatArray
@@ -111,7 +114,7 @@ def load_session(path: Path, partial: bool = False) -> Measured:
     """A capture session's points (recomputed from counts), labels and plan.
 
     Raises:
-        UsageError: not a session (a log was given), or an incomplete session
+        RecordError: not a session (a log was given), or an incomplete session
             without ``partial``.
         RecordError: a damaged session (one line naming the file and line).
     """
@@ -119,12 +122,12 @@ def load_session(path: Path, partial: bool = False) -> Measured:
 
     if not session_exists(path):
         what = "a file, not a session folder" if path.is_file() else "not a session folder"
-        raise UsageError(f"{path}: {what} (verify needs a session written by aacmm capture)")
+        raise RecordError(f"{path}: {what} (verify needs a session written by aacmm capture)")
     s = read_session(path)
     if not s.points:
-        raise UsageError(f"{path}: the session has no points")
+        raise RecordError(f"{path}: the session has no points")
     if not s.complete and not partial:
-        raise UsageError(
+        raise RecordError(
             f"{path}: the session is incomplete ({len(s.points)} of {len(s.plan.slots)} points, "
             f"status {s.status}): finish it with aacmm capture --resume, or use --partial"
         )
@@ -147,20 +150,20 @@ def load_points(path: Path, triggers: bool = False) -> Measured:
     in mm measured by any instrument (:func:`load_point_file`).
 
     Raises:
-        UsageError: no such file, ``triggers`` with a session, an empty selection.
+        RecordError: no such file, ``triggers`` with a session, an empty selection.
         RecordError: a damaged file.
     """
     from aacmm.records import session_exists
 
     if session_exists(path):
         if triggers:
-            raise UsageError("--triggers applies to a log; a session's points are its captures")
+            raise RecordError("--triggers applies to a log; a session's points are its captures")
         return load_session(path, partial=True)
     if not path.is_file():
-        raise UsageError(f"{path}: no such session folder or log file")
+        raise RecordError(f"{path}: no such session folder or log file")
     if not _has_joint_columns(path):
         if triggers:
-            raise UsageError(f"--triggers applies to a log; {path} holds points")
+            raise RecordError(f"--triggers applies to a log; {path} holds points")
         return load_point_file(path)
     from aacmm.protocol import SampleStatus
     from aacmm.records import Recorded
@@ -170,7 +173,7 @@ def load_points(path: Path, triggers: bool = False) -> Measured:
     if triggers:
         presses = [t for t in read_triggers(log) if t.pressed and t.button == 0]
         if not presses:
-            raise UsageError(f"{path}: no capture-button presses in the log's trigger file")
+            raise RecordError(f"{path}: no capture-button presses in the log's trigger file")
         rec = Recorded(
             log.path,
             np.array([t.sample.counts for t in presses], dtype=np.uint64),
@@ -188,7 +191,7 @@ def load_points(path: Path, triggers: bool = False) -> Measured:
             names = [n for n, v in zip(names, valid, strict=True) if v]
     meta = {} if log.params_given else {"note": "no parameter set in the log: default parameters"}
     if len(pts) == 0:
-        raise UsageError(f"{path}: no points")
+        raise RecordError(f"{path}: no points")
     return Measured(
         source=path,
         kind="log",
@@ -213,7 +216,7 @@ def _first_line(path: Path) -> str:
         with open(path, "rb") as f:
             head = f.read(min(MAX_INPUT_BYTES, 1 << 16))
     except OSError as exc:
-        raise UsageError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        raise RecordError(f"{path}: cannot read: {exc.strerror or exc}") from None
     for raw in head.decode("utf-8", "replace").splitlines():
         if raw.strip() and not raw.lstrip().startswith("#"):
             return raw
@@ -243,7 +246,7 @@ def load_point_file(path: Path) -> Measured:
     centres for ``--probe-diameter``, which defaults to 0 here.
 
     Raises:
-        UsageError: unreadable, too large, not UTF-8, no x, y, z columns, a value
+        RecordError: unreadable, too large, not UTF-8, no x, y, z columns, a value
             that is not a finite number (with its line), or no points.
     """
     from aacmm.fileio import read_text
@@ -255,7 +258,7 @@ def load_point_file(path: Path) -> Measured:
         if line.strip() and not line.lstrip().startswith("#")
     ]
     if not rows:
-        raise UsageError(f"{path}: no points")
+        raise RecordError(f"{path}: no points")
     cols = (0, 1, 2)
     first = [f.lower() for f in _fields(rows[0][1])]
     try:
@@ -266,7 +269,7 @@ def load_point_file(path: Path) -> Measured:
     if header:
         found = next((c for c in XYZ_COLUMNS if all(n in first for n in c)), None)
         if found is None:
-            raise UsageError(
+            raise RecordError(
                 f"{path}: header has neither joint columns (count1..count6 or theta1..theta6: "
                 "a log) nor x, y, z columns (points in mm); got " + ",".join(first)
             )
@@ -279,13 +282,13 @@ def load_point_file(path: Path) -> Measured:
         try:
             x, y, z = (float(fields[c]) for c in cols)
         except (ValueError, IndexError):
-            raise UsageError(f"{path}:{line}: x, y, z must be numbers (mm)") from None
+            raise RecordError(f"{path}:{line}: x, y, z must be numbers (mm)") from None
         if not all(math.isfinite(v) for v in (x, y, z)):
-            raise UsageError(f"{path}:{line}: x, y, z must be finite numbers (mm)")
+            raise RecordError(f"{path}:{line}: x, y, z must be finite numbers (mm)")
         pts.append((x, y, z))
         names.append(f"point {len(pts)} (line {line})")
     if not pts:
-        raise UsageError(f"{path}: no points")
+        raise RecordError(f"{path}: no points")
     return Measured(
         source=path,
         kind="points",

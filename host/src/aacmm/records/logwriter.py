@@ -1,21 +1,22 @@
-"""What an ``aacmm log`` run writes: the sample and trigger rows, the sidecar, the summary."""
+"""What an ``aacmm log`` run writes: the sample and trigger rows, the sidecar,
+and the figures of its summary.
+
+Errors: :class:`aacmm.fileio.OutputExistsError` (a file exists, no ``force``)
+and :class:`aacmm.fileio.OutputFileError` (a file cannot be created).
+"""
 
 from __future__ import annotations
 
-import argparse
 import collections
 import platform
-import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aacmm import __version__
-from aacmm.commands.common import info_dict
-from aacmm.commands.exitcodes import UsageError
-from aacmm.commands.logsession import Session
-from aacmm.commands.summary import format_summary
+from aacmm.fileio import OutputExistsError, OutputFileError
 from aacmm.records.files import RowFile, utc_iso, write_json_atomic
+from aacmm.records.logsession import Session
 from aacmm.records.schema import (
     LOG_COLUMNS,
     LOG_FORMAT,
@@ -28,11 +29,12 @@ from aacmm.records.schema import (
 )
 
 if TYPE_CHECKING:
-    from aacmm.client import SampleStream
-    from aacmm.commands.common import Device
-    from aacmm.commands.rawcan import RawCanRecorder
-    from aacmm.protocol import Sample, Trigger
+    import argparse
+
+    from aacmm.client import Client, SampleStream
+    from aacmm.protocol import DeviceInfo, Sample, Trigger
     from aacmm.records.paramsets import ParamSetRecord
+    from aacmm.records.rawcan import RawCanRecorder
 
 FORMAT = LOG_FORMAT
 COLUMNS = LOG_COLUMNS
@@ -46,14 +48,15 @@ def open_rows(path: Path, columns: tuple[str, ...], force: bool) -> RowFile:
     """A :class:`aacmm.records.files.RowFile` with the log's flush policy.
 
     Raises:
-        UsageError: the file exists (without ``force``) or cannot be created.
+        OutputExistsError: the file exists (without ``force``).
+        OutputFileError: it cannot be created.
     """
     try:
         return RowFile(path, columns, force, FLUSH_INTERVAL_S, FLUSH_ROWS)
     except FileExistsError:
-        raise UsageError(f"{path} exists (use --force to overwrite)") from None
+        raise OutputExistsError(f"{path} exists (use --force to overwrite)") from None
     except OSError as exc:
-        raise UsageError(f"cannot create {path}: {exc.strerror}") from None
+        raise OutputFileError(f"cannot create {path}: {exc.strerror}") from None
 
 
 class LogWriter:
@@ -93,20 +96,22 @@ class LogWriter:
         if a.raw:
             paths.append(Path(a.raw))
         if len({p.resolve() for p in paths}) != len(paths):
-            raise UsageError("the log, trigger and raw files must be different files")
+            raise OutputFileError("the log, trigger and raw files must be different files")
         if not a.force:
             for p in paths:
                 if p.exists():
-                    raise UsageError(f"{p} exists (use --force to overwrite)")
+                    raise OutputExistsError(f"{p} exists (use --force to overwrite)")
         parent = self.csv_path.resolve().parent
         if not parent.is_dir():
-            raise UsageError(f"directory {parent} does not exist")
+            raise OutputFileError(f"directory {parent} does not exist")
         from aacmm.fileio import check_writable_dir
 
         for d in dict.fromkeys(p.resolve().parent for p in paths):  # before the device
             check_writable_dir(d, str(self.csv_path if d == parent else d))
 
-    def base_meta(self, dev: Device, ps: ParamSetRecord) -> dict[str, Any]:
+    def base_meta(self, client: Client, info: DeviceInfo, ps: ParamSetRecord) -> dict[str, Any]:
+        from aacmm.client.devstate import info_dict
+
         a = self.args
         return {
             "format": FORMAT,
@@ -118,8 +123,8 @@ class LogWriter:
             "trigger_columns": list(TRIGGER_COLUMNS),
             "raw_can": Path(a.raw).name if a.raw else None,
             "port": self.url,
-            "transport": dev.client.transport.description,
-            "device": info_dict(dev.info),
+            "transport": client.transport.description,
+            "device": info_dict(info),
             # the first set (what `aacmm params set run.csv.json` restores) ...
             "param_crc32": ps.crc32,
             "param_crc32_hex": ps.crc_hex,
@@ -230,7 +235,9 @@ class LogWriter:
             text += f", reconnects {self.s.reconnects}"
         return text
 
-    def print_summary(self, error: BaseException | None) -> None:
+    def summary(self) -> tuple[dict[str, Any], list[Path]]:
+        """The run's summary figures (:func:`aacmm.commands.summary.format_summary`
+        prints them) and the files it wrote."""
         s = self.s
         elapsed = (s.last_host - s.first_host) if s.first_host and s.last_host else 0.0
         summary = {
@@ -249,5 +256,4 @@ class LogWriter:
             files.append(self.trig_rows.path)
         if self.raw is not None:
             files.append(self.raw.path)
-        out = sys.stdout if error is None and self.lost_error is None else sys.stderr
-        print(format_summary(summary, files), file=out, flush=True)
+        return summary, files

@@ -1,46 +1,6 @@
-"""Probe-point uncertainty from structural-parameter uncertainties.
-
-Two methods, side by side:
-
-* **Monte Carlo** (JCGM 101, GUM Supplement 1): draw every parameter from its
-  distribution (normal, uniform, triangular, arcsine, or correlated normal
-  from a covariance), build one model per trial with the firmware's C core
-  and compute the probe point at each pose (on the batch kernel across SIMD
-  lanes, :func:`aacmm.core.perturbed_points`); the spread of the points is the
-  uncertainty, the 2.5 % and 97.5 % quantiles give the probabilistically
-  symmetric 95 % coverage interval.
-* **Linear propagation** (GUM, law of propagation of uncertainty):
-  Sigma_p = J Sigma_q J^T with the 3x25 Jacobian at the nominal parameters,
-  and the 95 % interval +-1.96 u (normal output assumed).
-
-Their agreement is judged as in JCGM 101 section 8 (the endpoints of the two
-95 % intervals differ by at most the numerical tolerance delta for ``ndig``
-significant digits of u) and by the ratio of the standard uncertainties. The
-budget ranks each parameter's share of the variance.
-
-**Memory does not grow with the number of trials.** Trials are drawn in
-chunks of :data:`TRIAL_CHUNK`, each from its own random stream
-(``SeedSequence(seed, spawn_key=(chunk,))``), so a result depends on the seed
-only, never on the number of threads. While the deviations of a pose fit the
-memory budget (``trials x 32 bytes <= memory_budget``, 8 million trials at
-the default 256 MiB) the statistics are exact (``numpy.std``,
-``numpy.quantile``); beyond, two passes over the same chunks give the
-moments and the extremes, then histograms of :data:`HIST_BINS` bins between
-them, and the quantiles are read from the histograms (within one bin,
-range / 16384, of the exact order statistic). Poses are processed in blocks
-that fit the same budget; per pose the result itself takes about
-:data:`BYTES_PER_POSE` bytes, and :func:`propagate` refuses
-(:class:`MemoryLimitError`) a request whose poses would not fit in the
-memory available.
-
-Input: :mod:`aacmm.analysis.uncertainty_spec` (:func:`load_spec`,
-:func:`parse_spec`, re-exported here). Entry point: :func:`propagate`;
-reports (:mod:`aacmm.analysis.uncertainty_report`, re-exported):
-:func:`format_report`, :func:`to_json`, :func:`csv_text`, :func:`figure`.
-
-Errors: ValueError (:class:`SpecError` for the file) for bad specs and
-arguments; :class:`MemoryLimitError` (a ValueError) for poses that cannot
-fit; KinematicsError (a ValueError) if a perturbed arm is invalid.
+"""Probe-point uncertainty by Monte Carlo (JCGM 101) and linear propagation
+(GUM): :func:`propagate` and its helpers. The method, the memory rules and the
+errors are described in the package's docstring (:mod:`aacmm.uncertainty`).
 """
 
 from __future__ import annotations
@@ -55,32 +15,6 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from aacmm.analysis._parallel import in_order
-from aacmm.analysis._parallel import pool as parallel_pool
-from aacmm.analysis.runlimits import RunLimitError, available_memory
-from aacmm.analysis.uncertainty_report import (
-    BudgetEntry,
-    PoseResult,
-    UncertaintyResult,
-    csv_text,
-    figure,
-    format_report,
-    to_json,
-)
-from aacmm.analysis.uncertainty_spec import (
-    ANGLE_UNITS,
-    DISTRIBUTIONS,
-    EXAMPLE_SPEC,
-    LENGTH_UNITS,
-    TOLERANCE_FACTOR,
-    ParamUncertainty,
-    SpecError,
-    UncertaintySpec,
-    expand_name,
-    load_spec,
-    parse_spec,
-    pose_list,
-)
 from aacmm.core import (
     JAC_COLS,
     JOINTS,
@@ -91,41 +25,30 @@ from aacmm.core import (
     Model,
     perturbed_points,
 )
-
-# the private name aacmm.analysis.tolerance imported before the split
-_expand = expand_name
+from aacmm.uncertainty.parallel import in_order
+from aacmm.uncertainty.parallel import pool as parallel_pool
+from aacmm.uncertainty.report import (
+    BudgetEntry,
+    PoseResult,
+    UncertaintyResult,
+)
+from aacmm.uncertainty.runlimits import RunLimitError, available_memory
+from aacmm.uncertainty.spec import (
+    UncertaintySpec,
+)
 
 __all__ = [
-    "ANGLE_UNITS",
     "BYTES_PER_POSE",
     "DEFAULT_TRIALS",
     "DEFAULT_WORKSPACE",
-    "DISTRIBUTIONS",
-    "EXAMPLE_SPEC",
     "HIST_BINS",
     "K95",
-    "LENGTH_UNITS",
     "MEMORY_BUDGET",
-    "TOLERANCE_FACTOR",
     "TRIAL_CHUNK",
-    "BudgetEntry",
     "MemoryLimitError",
-    "ParamUncertainty",
-    "PoseResult",
     "Progress",
-    "SpecError",
-    "UncertaintyResult",
-    "UncertaintySpec",
-    "csv_text",
     "draw_deltas",
-    "expand_name",
-    "figure",
-    "format_report",
-    "load_spec",
-    "parse_spec",
-    "pose_list",
     "propagate",
-    "to_json",
 ]
 
 #: 95 % coverage factor of a normal distribution.
@@ -206,7 +129,7 @@ class _Run:
     tick: Callable[[int], None]
 
     def map(self, fn: Callable[[int], T], items: Iterable[int]) -> Iterator[T]:
-        """fn over the items in order, on the threads (aacmm.analysis._parallel)."""
+        """fn over the items in order, on the threads (aacmm.uncertainty.parallel)."""
         return in_order(self.pool, fn, items, self.threads)
 
 

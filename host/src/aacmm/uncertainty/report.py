@@ -1,4 +1,4 @@
-"""Results of :func:`aacmm.analysis.uncertainty.propagate` and their reports.
+"""Results of :func:`aacmm.uncertainty.propagate` and their reports.
 
 :class:`UncertaintyResult` holds one :class:`PoseResult` per pose and the
 budget (:class:`BudgetEntry`); :func:`format_report` (terminal text),
@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from aacmm.analysis.uncertainty_spec import ANGLE_UNITS, UncertaintySpec
 from aacmm.core import AXES, PARAM_UNITS, FloatArray
+from aacmm.uncertainty.spec import ANGLE_UNITS, UncertaintySpec
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,9 @@
-"""Raw CAN frames of a node recorded to .blf/.asc/.log (``aacmm log --raw``)."""
+"""Raw CAN frames of a node recorded to .blf/.asc/.log (``aacmm log --raw``).
+
+Errors: :class:`aacmm.errors.InitError` (the interface cannot be opened),
+:class:`aacmm.fileio.OutputExistsError` / :class:`aacmm.fileio.OutputFileError`
+(the file exists or cannot be written).
+"""
 
 from __future__ import annotations
 
@@ -7,12 +12,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from aacmm.commands.exitcodes import UsageError
 from aacmm.errors import InitError
+from aacmm.fileio import OutputExistsError, OutputFileError
 
 RAW_SUFFIXES = (".blf", ".asc", ".log")
-RAW_RCVBUF_BYTES = 8 << 20
-SO_RCVBUFFORCE = 33  # Linux; lets root exceed net.core.rmem_max
 
 
 class RawCanRecorder:
@@ -28,10 +31,10 @@ class RawCanRecorder:
         import can
 
         from aacmm.protocol.can import ID_ISOTP_REQUEST
-        from aacmm.transport.canbus import CanTransport
+        from aacmm.transport.canbus import CanTransport, enlarge_rcvbuf
 
         if path.exists() and not force:
-            raise UsageError(f"{path} exists (use --force to overwrite)")
+            raise OutputExistsError(f"{path} exists (use --force to overwrite)")
         filters = [
             *CanTransport.filters(node),
             {"can_id": ID_ISOTP_REQUEST + node, "can_mask": 0x7FF, "extended": False},
@@ -45,30 +48,16 @@ class RawCanRecorder:
             )
         except (can.CanError, OSError, ValueError, ImportError) as exc:
             raise InitError(f"cannot open CAN interface {channel} for --raw: {exc}") from None
-        self._enlarge_rcvbuf()
+        enlarge_rcvbuf(self.bus)
         try:
             self.logger: Any = can.Logger(str(path))
         except (OSError, ValueError) as exc:
             self.bus.shutdown()
-            raise UsageError(f"cannot write {path}: {exc}") from None
+            raise OutputFileError(f"cannot write {path}: {exc}") from None
         self._last_rx = time.monotonic()
         self.frames = 0
         self.notifier = can.Notifier(self.bus, [self.logger, self._seen], timeout=0.1)
         self.path = path
-
-    def _enlarge_rcvbuf(self) -> None:
-        """A big socket receive buffer (best effort), so a slow writer loses no frames."""
-        import socket
-
-        sock = getattr(self.bus, "socket", None)
-        if not isinstance(sock, socket.socket):
-            return
-        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
-            try:
-                sock.setsockopt(socket.SOL_SOCKET, opt, RAW_RCVBUF_BYTES)
-                return
-            except OSError:
-                continue
 
     def _seen(self, msg: Any) -> None:  # notifier thread
         self._last_rx = time.monotonic()

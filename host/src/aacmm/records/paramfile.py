@@ -47,10 +47,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from aacmm.commands.exitcodes import UsageError
 from aacmm.fileio import InputFileError, load_structured, write_output
 from aacmm.protocol import ParamSet
-from aacmm.protocol.messages import COUNTS_PER_REV_MAX, JOINTS
+from aacmm.protocol.constants import COUNTS_PER_REV_MAX, JOINTS
+from aacmm.records.files import RecordError
 
 KIN_KEYS = ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm", "l_mm")
 ENC_KEYS = ("counts_per_rev", "zero_offset_counts", "direction")
@@ -64,8 +64,9 @@ ARM_TABLE = "arm"
 ARM_KEYS = ("serial_number", "firmware", "start_param_crc32")
 
 
-class ParamFileError(UsageError):
-    """A parameter file cannot be read or is not a valid parameter set."""
+class ParamFileError(RecordError):
+    """A parameter file cannot be read or is not a valid parameter set (a
+    ``ValueError``; ``aacmm`` exit status 2)."""
 
 
 @dataclass(frozen=True)
