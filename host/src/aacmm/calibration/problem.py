@@ -2,7 +2,8 @@
 
 :class:`Problem` compiles an :class:`~aacmm.calibration.observations.Observations`
 once; :meth:`Problem.evaluate` then gives, for one parameter set, the whitened
-residual vector and its Jacobian with respect to the 25 arm parameters, the
+residual vector and its Jacobian with respect to the arm's P parameters (25 for
+the paper's arm; any :class:`~aacmm.arm.Arm` as well), the
 probe points and Jacobians coming from the C core in one batch call (analytic,
 no finite differences).
 
@@ -50,7 +51,8 @@ from aacmm.calibration.observations import (
     ReferencePoints,
     Sphere,
 )
-from aacmm.core import JAC_COLS, FloatArray, KinematicsError, Model, Params
+from aacmm.calibration.parameters import ArmParams, n_joints
+from aacmm.core import JAC_COLS, FloatArray, KinematicsError, Model
 
 __all__ = ["CalibrationError", "Evaluation", "Problem", "Residuals", "Unit"]
 
@@ -77,7 +79,7 @@ class Unit:
 class Residuals:
     """The whitened residuals (m,) at one parameter set, with the tip points (n, 3)."""
 
-    params: Params
+    params: ArmParams
     r: FloatArray
     points: FloatArray
     nuisance: dict[int, dict[str, FloatArray]] = field(default_factory=dict)
@@ -89,13 +91,13 @@ class Residuals:
 
 @dataclass
 class Evaluation(Residuals):
-    """Residuals and projected Jacobian (m, 25) at one parameter set.
+    """Residuals and projected Jacobian (m, P) at one parameter set (P = 25 for the paper's arm).
 
     ``sigma`` (m,): standard uncertainty of each row (residual in mm = r * sigma);
     ``h`` (m,): leverage of the row on the nuisance unknowns; ``unit`` (m,):
     index of the row's unit (:meth:`Problem.unit`; -1 for prior rows);
-    ``point_jac`` (n, 3, 25): tip Jacobians of every pose;
-    ``raw_norm2`` (25,): sum over the poses used of ||dp/dq_k||^2 / sigma^2;
+    ``point_jac`` (n, 3, P): tip Jacobians of every pose;
+    ``raw_norm2`` (P,): sum over the poses used of ||dp/dq_k||^2 / sigma^2;
     ``pose_sigma`` (n,): probing uncertainty of each pose a constraint uses (0
     for unused poses); ``nuisance``: fitted nuisance values of references,
     spheres and planes by constraint index.
@@ -388,7 +390,13 @@ class Problem:
 
     # ------------------------------------------------------------------ evaluation
 
-    def _model(self, params: Params) -> Model:
+    def _model(self, params: ArmParams) -> Model:
+        joints = n_joints(params)
+        if joints != self.obs.n_joints:
+            raise CalibrationError(
+                f"the observations have {self.obs.n_joints} joint readings per pose, "
+                f"the arm {joints} joints"
+            )
         try:
             return Model(params)
         except KinematicsError as e:
@@ -406,11 +414,11 @@ class Problem:
         if not jacobian:
             pts[u] = model.points(th[u])
             return pts, None
-        pj = np.zeros((n, 3, JAC_COLS))
+        pj = np.zeros((n, 3, model.n_params))
         pts[u], pj[u] = model.points_jacobians(th[u])
         return pts, pj
 
-    def residuals(self, params: Params) -> Residuals:
+    def residuals(self, params: ArmParams) -> Residuals:
         """Whitened residuals only (the tip points alone, no Jacobian: cheaper).
 
         Raises CalibrationError as :meth:`evaluate`.
@@ -420,15 +428,16 @@ class Problem:
         nuis = self._fill(pts, None, r, None, None)
         return Residuals(params, r, pts, nuis)
 
-    def evaluate(self, params: Params, extra_point_jac: FloatArray | None = None) -> Evaluation:
+    def evaluate(self, params: ArmParams, extra_point_jac: FloatArray | None = None) -> Evaluation:
         """Residuals and projected Jacobian at ``params``.
 
         ``extra_point_jac`` (n, 3, E): derivatives of each pose's tip point
         with respect to E further unknowns (an error model being tested);
-        their projected columns are appended to the Jacobian (m, 25 + E).
+        their projected columns are appended to the Jacobian (m, P + E).
 
-        Raises CalibrationError if the parameters are invalid for the core or
-        a constraint degenerates (both ends of a length at one point, ...).
+        Raises CalibrationError if the parameters are invalid for the core, the
+        arm's joint count is not the observations', or a constraint degenerates
+        (both ends of a length at one point, ...).
         """
         pts, pj0 = self._points(self._model(params), True)
         assert pj0 is not None

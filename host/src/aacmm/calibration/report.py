@@ -21,7 +21,7 @@ from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
 from aacmm.calibration.results import CalibrationResult, Outlier
 from aacmm.calibration.validation import Comparison, describe_change, is_worse
-from aacmm.core import PARAM_NAMES, PARAM_UNITS, FloatArray
+from aacmm.core import PARAM_NAMES, PARAM_UNITS, FloatArray, Params
 
 ARCSEC = math.pi / 648000.0
 
@@ -221,6 +221,11 @@ def point_uncertainty(
     arm do not depend on them. The covariance is the reported one
     (:attr:`~aacmm.calibration.results.CalibrationResult.scaled_covariance`).
     """
+    if not isinstance(res.params, Params):
+        raise ValueError(
+            "point uncertainty of a calibration: the paper's arm only (aacmm.analysis.uncertainty "
+            "takes its 25 parameters)"
+        )
     spec = unc.UncertaintySpec.from_covariance(res.scaled_covariance, res.params, poses_rad)
     return unc.propagate(spec, trials=trials, workspace=workspace, seed=seed)
 
