@@ -326,6 +326,25 @@ def _components(vec_scaled: FloatArray, names: Sequence[str]) -> tuple[tuple[str
     )
 
 
+def _scaled_orthonormal(
+    vecs: list[FloatArray], cols: Sequence[int], scale: FloatArray
+) -> list[FloatArray]:
+    """One subspace's directions made orthonormal in the scaled coordinates of
+    ``cols`` (returned in parameter units), so that none looks like a combination
+    of the others once the columns are scaled (the tip's split of a general arm)."""
+    if not vecs:
+        return vecs
+    s = np.column_stack([v[list(cols)] * scale for v in vecs])
+    q, r = np.linalg.qr(s)
+    keep = np.abs(np.diag(r)) > 1e-12 * max(float(np.abs(r).max()), 1e-300)
+    out = []
+    for j in np.flatnonzero(keep):
+        e = np.zeros(vecs[0].size)
+        e[list(cols)] = q[:, j] / scale
+        out.append(e)
+    return out
+
+
 def _name_null(
     null: FloatArray, scale: FloatArray, columns: Sequence[int], params: ArmParams
 ) -> tuple[NullDirection, ...]:
@@ -342,6 +361,8 @@ def _name_null(
     found: list[tuple[str, FloatArray]] = []
     accepted = np.zeros((len(cols), 0))
     for kind, vecs in _symmetries(params):
+        if isinstance(params, Arm) and kind == "tip":
+            vecs = _scaled_orthonormal(vecs, cols, scale)
         for v in vecs:
             if accepted.shape[1] == k:
                 break
