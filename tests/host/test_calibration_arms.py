@@ -126,7 +126,7 @@ class Capture:
     spread_deg: dict[str, list[float]]
 
 
-def capture(truth: Truth, plan: Plan, limits: JointLimits, seed: int) -> Capture:
+def capture(truth: Truth[Arm], plan: Plan, limits: JointLimits, seed: int) -> Capture:
     """The simulated operator probing ``plan`` on the true arm, no device."""
     rng = np.random.default_rng(seed)
     choreo = choreograph(plan, IkArm(truth.params), rng, limits)
@@ -145,7 +145,7 @@ def capture(truth: Truth, plan: Plan, limits: JointLimits, seed: int) -> Capture
 class Case:
     nominal: Arm
     limits: JointLimits
-    truth: Truth
+    truth: Truth[Arm]
     cal: Capture
     check: Capture
 

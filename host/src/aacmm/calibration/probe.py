@@ -34,6 +34,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -142,7 +143,7 @@ class ProbeResult:
     every point from its seat after (``_before``: with the start tip).
     """
 
-    result: CalibrationResult
+    result: CalibrationResult[Any]
     tip_before: FloatArray
     tip_after: FloatArray
     tip_cov: FloatArray

@@ -8,14 +8,27 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Generic
 
 import numpy as np
 
+from aacmm.arm import Arm
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.observations import Observations
-from aacmm.calibration.parameters import ArmParams, param_names
+from aacmm.calibration.parameters import param_names
 from aacmm.calibration.problem import Evaluation, Problem
-from aacmm.core import FloatArray
+from aacmm.core import FloatArray, Params
+
+if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
+    from typing_extensions import TypeVar
+
+    #: The kind of parameters a calibration works on: the paper's Params
+    #: (the default) or an Arm.
+    P = TypeVar("P", Params, Arm, default=Params)
+else:
+    from typing import TypeVar
+
+    P = TypeVar("P", Params, Arm)
 
 
 @dataclass(frozen=True)
@@ -130,10 +143,12 @@ class ChiSquare:
 
 
 @dataclass(frozen=True)
-class CalibrationResult:
+class CalibrationResult(Generic[P]):
     """Everything a calibration found.
 
-    ``params``: calibrated parameters; ``start``: where it began.
+    ``params``: calibrated parameters; ``start``: where it began (both the
+    paper's :class:`~aacmm.core.Params` or both an :class:`~aacmm.arm.Arm`:
+    ``CalibrationResult[Params]``, the default, or ``CalibrationResult[Arm]``).
     ``free``: parameters that were estimated; ``held``: parameters held at
     their start values because the data cannot observe them (auto, 'fix'
     strategy) and ``fixed``: those the caller fixed. ``identifiability`` (at
@@ -146,8 +161,8 @@ class CalibrationResult:
     solution; ``observations``: the data finally used.
     """
 
-    params: ArmParams
-    start: ArmParams
+    params: P
+    start: P
     strategy: str
     free: tuple[str, ...]
     held: tuple[str, ...]

@@ -33,10 +33,12 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Sequence
+from typing import Any, overload
 
 import numpy as np
 from scipy import optimize
 
+from aacmm.arm import Arm
 from aacmm.calibration.diagnostics import (
     DEFAULT_ALPHA_CHI2,
     DEFAULT_ALPHA_OUTLIER,
@@ -247,6 +249,37 @@ def _candidates(free: Sequence[str] | None, fix: Sequence[str], params: ArmParam
     return cols
 
 
+@overload
+def calibrate(
+    obs: Observations,
+    start: Params | None = None,
+    *,
+    free: Sequence[str] | None = None,
+    fix: Sequence[str] = (),
+    strategy: str = "fix",
+    reject: bool = False,
+    kappa: float = DEFAULT_KAPPA,
+    alpha_chi2: float = DEFAULT_ALPHA_CHI2,
+    alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
+    max_nfev: int = 200,
+    progress: Callable[[Progress], None] | None = None,
+) -> CalibrationResult[Params]: ...
+@overload
+def calibrate(
+    obs: Observations,
+    start: Arm,
+    *,
+    free: Sequence[str] | None = None,
+    fix: Sequence[str] = (),
+    strategy: str = "fix",
+    reject: bool = False,
+    kappa: float = DEFAULT_KAPPA,
+    alpha_chi2: float = DEFAULT_ALPHA_CHI2,
+    alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
+    max_nfev: int = 200,
+    progress: Callable[[Progress], None] | None = None,
+) -> CalibrationResult[Arm]: ...
+@overload
 def calibrate(
     obs: Observations,
     start: ArmParams | None = None,
@@ -260,7 +293,21 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
-) -> CalibrationResult:
+) -> CalibrationResult[Any]: ...
+def calibrate(
+    obs: Observations,
+    start: ArmParams | None = None,
+    *,
+    free: Sequence[str] | None = None,
+    fix: Sequence[str] = (),
+    strategy: str = "fix",
+    reject: bool = False,
+    kappa: float = DEFAULT_KAPPA,
+    alpha_chi2: float = DEFAULT_ALPHA_CHI2,
+    alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
+    max_nfev: int = 200,
+    progress: Callable[[Progress], None] | None = None,
+) -> CalibrationResult[Any]:
     """Identify the arm's parameters from ``obs``, starting at ``start`` (default Table 1).
 
     ``start`` is a :class:`~aacmm.core.Params` (the paper's arm; the result's
@@ -322,7 +369,7 @@ def _solve(
     max_nfev: int,
     progress: Callable[[Progress], None] | None,
     history: list[Progress],
-) -> CalibrationResult:
+) -> CalibrationResult[Any]:
     problem = Problem(obs)
     before = problem.evaluate(p0)
     ident0 = analyse(before, cand, kappa)
@@ -373,7 +420,7 @@ def _solve(
     cov = parameter_covariance(after, basis)
     chi = chi_square_check(problem, after, basis, ident.rank, alpha_chi2)
     free = [names[c] for c in cand if strategy != "fix" or names[c] not in held]
-    return CalibrationResult(
+    return CalibrationResult[Any](
         params=params,
         start=p0,
         strategy=strategy,

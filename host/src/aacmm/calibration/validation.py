@@ -273,7 +273,7 @@ def kfold(
     for f in range(k):
         train = obs.subset([u for u, g in zip(units, fold_of, strict=True) if g != f])
         test = obs.subset([u for u, g in zip(units, fold_of, strict=True) if g == f])
-        res = calibrate(train, p0, **calibrate_args)  # type: ignore[arg-type]
+        res = calibrate(train, p0, **calibrate_args)  # type: ignore[call-overload]
         comps.append(compare(test, p0, res.params))
     pooled = Comparison(_pool([c.before for c in comps]), _pool([c.after for c in comps]))
     return KFold(k, tuple(comps), pooled)

@@ -36,7 +36,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -143,7 +143,7 @@ def min_jerk(s: npt.ArrayLike) -> FloatArray:
     return out
 
 
-def home_posture(truth: Truth, limits: JointLimits) -> FloatArray:
+def home_posture(truth: Truth[Any], limits: JointLimits) -> FloatArray:
     """Where the operator starts: :data:`PAPER_HOME_DEG` for the paper's arm, else
     each joint at the centre of its range."""
     if isinstance(truth.params, Params) and limits.joints == len(PAPER_HOME_DEG):
@@ -161,7 +161,7 @@ class Operator:
     def __init__(
         self,
         chan: Channel,
-        truth: Truth,
+        truth: Truth[Any],
         rng: np.random.Generator,
         pace: Pace = Pace(),
         limits: JointLimits = ARM_LIMITS,

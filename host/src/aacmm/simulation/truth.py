@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final, Generic, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -50,6 +50,16 @@ import numpy.typing as npt
 from aacmm.arm import Arm
 from aacmm.core import JOINTS, EncoderConfig, Model, Params
 from aacmm.errors import AacmmError
+
+if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
+    from typing_extensions import TypeVar
+
+    #: The kind of a truth's geometry: the paper's Params (the default) or an Arm.
+    P = TypeVar("P", Params, Arm, default=Params)
+else:
+    from typing import TypeVar
+
+    P = TypeVar("P", Params, Arm)
 
 FORMAT: Final = "aacmm-truth-1"
 ARCSEC_RAD: Final = math.pi / (180.0 * 3600.0)
@@ -140,15 +150,16 @@ class ErrorSources:
 
 
 @dataclass(frozen=True)
-class Truth:
+class Truth(Generic[P]):
     """An arm's true geometry, encoders and error sources.
 
-    ``params``: the paper's 25-parameter form or any :class:`aacmm.arm.Arm`;
+    ``params``: the paper's 25-parameter form or any :class:`aacmm.arm.Arm`
+    (``Truth[Params]``, the default, or ``Truth[Arm]``);
     ``encoders`` and ``errors`` have one entry per joint of it. Raises
     ValueError (KinematicsError for values the core rejects) if not.
     """
 
-    params: Params | Arm = field(default_factory=Params)
+    params: P = field(default_factory=Params)  # type: ignore[assignment]
     encoders: EncoderConfig = field(default_factory=EncoderConfig)
     errors: ErrorSources = field(default_factory=ErrorSources)
     origin: dict[str, Any] = field(default_factory=dict, compare=False)
@@ -375,13 +386,17 @@ def load_truth(path: str | Path) -> Truth:
     return replace(truth, origin={"kind": "file", "path": str(path), **truth.origin})
 
 
-def nominal_truth(params: Params | Arm | None = None, cpr: int = 1 << 32) -> Truth:
+@overload
+def nominal_truth(params: Params | None = None, cpr: int = 1 << 32) -> Truth[Params]: ...
+@overload
+def nominal_truth(params: Arm, cpr: int = 1 << 32) -> Truth[Arm]: ...
+def nominal_truth(params: Params | Arm | None = None, cpr: int = 1 << 32) -> Truth[Any]:
     """A perfect arm equal to ``params`` (default: the paper's Table 1, the
     simulator's default set; or any arm) with ``cpr`` counts per revolution,
     zero offsets 0 and direction +1: the device's built-in set, no error source."""
     p: Params | Arm = params or Params()
     joints = len(p.d_mm) if isinstance(p, Params) else p.n_joints
-    return Truth(
+    return Truth[Any](
         params=p,
         encoders=EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints),
         errors=ErrorSources.none(joints),
@@ -415,12 +430,23 @@ def perturbed(
     return nominal.with_vector(nominal.to_vector() + delta)
 
 
+@overload
+def random_truth(
+    seed: int,
+    nominal: Params | None = None,
+    cpr: int = 1 << 32,
+    sizes: RandomSizes = RANDOM_SIZES,
+) -> Truth[Params]: ...
+@overload
+def random_truth(
+    seed: int, nominal: Arm, cpr: int = 1 << 32, sizes: RandomSizes = RANDOM_SIZES
+) -> Truth[Arm]: ...
 def random_truth(
     seed: int,
     nominal: Params | Arm | None = None,
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
-) -> Truth:
+) -> Truth[Any]:
     """A random arm near ``nominal`` (default Table 1, or any arm): every
     structural parameter perturbed uniformly by ``sizes`` (:func:`perturbed`),
     encoder noise, eccentricity and probing noise of ``sizes`` on each joint.
@@ -439,7 +465,7 @@ def random_truth(
         eccentricity_phase_rad=tuple(float(v) for v in rng.uniform(0.0, 2.0 * math.pi, joints)),
         probing_sigma_um=sizes.probing_sigma_um,
     )
-    return Truth(
+    return Truth[Any](
         params=params,
         encoders=EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints),
         errors=errors,
