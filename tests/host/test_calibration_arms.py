@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 from aacmm.arm import Arm, Joint
-from aacmm.calibration import Observations, calibrate
+from aacmm.calibration import Observations, calibrate, report
 from aacmm.calibration.observations import Cone, LengthSet
 from aacmm.calibration.probe import calibrate_probe
 from aacmm.calibration.sessions import observations_from_plan
@@ -332,6 +332,13 @@ def test_rank_and_named_null_space_against_an_independent_svd(
     free = [k for k in cols if names[k] not in res.held]
     sf = np.linalg.svd(a[:, free] / scale[free], compute_uv=False)
     assert sf[-1] > 1e-4 * s[0]
+    # the reports use the arm's own parameters
+    data = report.to_json(res)
+    assert list(data["calibrated"]) == list(names) and list(data["units"].values()) == list(
+        arm.param_units
+    )
+    text = report.format_parameters(res)
+    assert all(f"  {n} " in text for n in names)
     assert len(free) == rank
 
 
