@@ -309,6 +309,7 @@ READ_ONLY_OUTPUTS = [
     ["dbc", "-o", "{ro}/arm.dbc"],
     ["dbc", "--all", "-o", "{ro}"],
     ["plan", "example", PLAN, "-o", "{ro}/plan.toml"],
+    ["model", "example", "gao2013", "-o", "{ro}/model.toml"],
     ["demo", "--out", "{ro}/demo"],
     ["demo", "--compare", "{ro}"],
     ["demo", "--check", "{ro}"],

@@ -155,8 +155,8 @@ def test_the_wheel_runs_far_from_the_repository(
 
 
 def test_the_wheel_carries_every_data_file(installed: tuple[Path, str], tmp_path: Path) -> None:
-    """The shipped data (plans, DBCs, examples, the paper's table) are in the
-    wheel, and the shipped plans load from the installed package."""
+    """The shipped data (plans, models, DBCs, examples, the paper's table) are in
+    the wheel, and the shipped plans and models load from the installed package."""
     inst, _ = installed
     src = HOST / "src" / "aacmm" / "data"
     shipped = {p.relative_to(src) for p in src.rglob("*") if p.is_file()}
@@ -164,12 +164,16 @@ def test_the_wheel_carries_every_data_file(installed: tuple[Path, str], tmp_path
     assert shipped <= got, sorted(map(str, shipped - got))
     code = (
         "from aacmm.plans import load_plan; from aacmm.analysis import uncertainty as u; "
-        "print(len(load_plan('iso10360-12').slots), u.load_spec('example').u_vector().size)"
+        "from aacmm.models import load_model, shipped_models; "
+        "print(len(load_plan('iso10360-12').slots), u.load_spec('example').u_vector().size, "
+        "' '.join(shipped_models()), load_model('commercial7').n_params)"
     )
     out = _run([sys.executable, "-c", code], tmp_path, _env(inst))
-    from aacmm.plans import load_plan  # the source tree's, for the expected size
+    from aacmm.models import load_model, shipped_models  # the source tree's
+    from aacmm.plans import load_plan
 
     assert out.split()[:2] == [str(len(load_plan("iso10360-12").slots)), "25"], out
+    assert out.split()[2:] == [*shipped_models(), str(load_model("commercial7").n_params)], out
 
 
 def test_sim_without_a_simulator_says_how_to_get_one(

@@ -15,6 +15,7 @@ from aacmm import __version__
 COMMAND_MODULES: tuple[str, ...] = (  # the order of `aacmm --help`: the arm owner's workflow
     "aacmm.commands.device",
     "aacmm.commands.sim",
+    "aacmm.commands.model",
     "aacmm.commands.log",
     "aacmm.commands.summary",
     "aacmm.commands.plan",
@@ -38,7 +39,7 @@ calibrate the arm, and analyse its error budget."""
 EPILOG = """\
 by task:
   start here       demo (the whole job on the simulator, in about a minute)
-  the arm          info, params, measure, compute, log, summary, sim
+  the arm          info, params, measure, compute, log, summary, sim, model
   measuring        plan, capture, view, fit, export
   the arm's state  verify (ISO 10360-12, ASME B89.4.22), calibrate
   error budgets    mc, uncertainty, tolerance

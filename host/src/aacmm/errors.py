@@ -57,3 +57,22 @@ class DeviceError(AacmmError):
 class InfeasibleError(AacmmError):
     """The request is valid but no solution meets it (e.g. a tolerance target
     tighter than the best parts and encoders allow); exit status 8."""
+
+
+class ModelError(AacmmError, ValueError):
+    """An arm model (``aacmm.models``, schema ``aacmm-model-1``) that cannot be
+    read, breaks the schema, or does not match the data it is used with.
+
+    The message is one line, ``FILE:LINE: FIELD: problem`` (the line and the
+    field where known); the parts are also in :attr:`file`, :attr:`line`
+    (None if unknown) and :attr:`field` (``""`` if none). Exit status 2
+    (a bad input file).
+    """
+
+    def __init__(self, file: str, line: int | None, field: str, problem: str) -> None:
+        where = f"{file}:{line}" if line is not None else file
+        super().__init__(f"{where}: {field}: {problem}" if field else f"{where}: {problem}")
+        self.file = file
+        self.line = line
+        self.field = field
+        self.problem = problem
