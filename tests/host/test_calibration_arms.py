@@ -42,12 +42,13 @@ from aacmm.calibration.probe import calibrate_probe
 from aacmm.calibration.sessions import observations_from_plan
 from aacmm.calibration.validation import measure
 from aacmm.core import Model, counts_to_angles
+from aacmm.models import load_model
 from aacmm.plans import Plan, loads_plan
 from aacmm.simulation.ik import Arm as IkArm
 from aacmm.simulation.ik import JointLimits
 from aacmm.simulation.operator import FAST, Operator, RecordingChannel
 from aacmm.simulation.scenario import choreograph
-from aacmm.simulation.truth import Truth, random_truth
+from aacmm.simulation.truth import Truth, model_truth, random_truth
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -410,3 +411,25 @@ def test_probe_calibration_of_a_general_arm(seven: Case) -> None:
     after = np.linalg.norm(pr.tip_after - tip_frame(truth))
     assert before > 0.1
     assert after < 0.02 and after < before / 20
+
+
+@pytest.mark.parametrize("name", ["commercial7", "mpe2018", "gao2013"])
+def test_shipped_models_end_to_end(name: str) -> None:
+    """A shipped model (aacmm.models) through the simulation library: its random
+    truth (its encoders), its joint limits, the plan scaled to its reach;
+    calibrated from its nominal arm, then checked against the truth."""
+    model = load_model(name)
+    limits = JointLimits.from_ranges(model.joint_limits_rad)
+    truth = model_truth(3, model)
+    assert truth.encoders == model.encoder_config()
+    plan = scaled_plan(model.reach_mm / load_model("gao2013").reach_mm)
+    cal, check = capture(truth, plan, limits, 4), capture(truth, plan, limits, 5)
+    assert cal.within_limits and check.within_limits
+    assert all(model.within_limits(q) for q in cal.theta_true)
+    res = calibrate(cal.obs, model.arm)
+    assert sorted(d.kind for d in res.identifiability.null) == expected_null(model.arm)
+    before, after = measure(check.obs, model.arm), measure(check.obs, res.params)
+    length_fall = before.length_rms / after.length_rms
+    spat_fall = before.cone_spat.max() / after.cone_spat.max()
+    print(f"{name}: length error falls {length_fall:.0f}x, SPAT {spat_fall:.0f}x")
+    assert length_fall >= 20 and spat_fall >= 20

@@ -74,6 +74,20 @@ class JointLimits:
             tuple(math.inf if h is None else math.radians(h) for h in half_range_deg),
         )
 
+    @classmethod
+    def from_ranges(cls, ranges_rad: tuple[tuple[float, float], ...]) -> JointLimits:
+        """Limits from (lowest, highest) pairs in rad, one per joint; ``(-inf, inf)``:
+        no limit (an arm model's ``joint_limits_rad``, :mod:`aacmm.models`)."""
+        centre, half = [], []
+        for lo, hi in ranges_rad:
+            if math.isinf(lo) or math.isinf(hi):
+                centre.append(0.0)
+                half.append(math.inf)
+            else:
+                centre.append(0.5 * (lo + hi))
+                half.append(0.5 * (hi - lo))
+        return cls(tuple(centre), tuple(half))
+
     @property
     def joints(self) -> int:
         """The number of joints limited."""

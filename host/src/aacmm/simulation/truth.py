@@ -50,6 +50,7 @@ import numpy.typing as npt
 from aacmm.arm import Arm
 from aacmm.core import JOINTS, EncoderConfig, Model, Params
 from aacmm.errors import AacmmError
+from aacmm.models import ArmModel
 
 if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
     from typing_extensions import TypeVar
@@ -436,21 +437,30 @@ def random_truth(
     nominal: Params | None = None,
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
+    encoders: EncoderConfig | None = None,
 ) -> Truth[Params]: ...
 @overload
 def random_truth(
-    seed: int, nominal: Arm, cpr: int = 1 << 32, sizes: RandomSizes = RANDOM_SIZES
+    seed: int,
+    nominal: Arm,
+    cpr: int = 1 << 32,
+    sizes: RandomSizes = RANDOM_SIZES,
+    encoders: EncoderConfig | None = None,
 ) -> Truth[Arm]: ...
 def random_truth(
     seed: int,
     nominal: Params | Arm | None = None,
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
+    encoders: EncoderConfig | None = None,
 ) -> Truth[Any]:
     """A random arm near ``nominal`` (default Table 1, or any arm): every
     structural parameter perturbed uniformly by ``sizes`` (:func:`perturbed`),
     encoder noise, eccentricity and probing noise of ``sizes`` on each joint.
-    Same seed, same arm (numpy PCG64)."""
+    Same seed, same arm (numpy PCG64). ``encoders``: the arm's encoders (an
+    arm model's, :func:`model_truth`) instead of ``cpr`` counts on every joint,
+    zero offset 0, direction +1; the noise in counts follows each joint's
+    resolution."""
     if not 0 <= seed < 1 << 64:
         raise TruthError(f"random truth seed {seed} outside 0 .. 2^64-1")
     nom: Params | Arm = nominal or Params()
@@ -458,16 +468,21 @@ def random_truth(
     rng = np.random.Generator(np.random.PCG64(seed))
     params = perturbed(nom, rng, sizes)
     lo, hi = sizes.eccentricity_arcsec
-    noise_counts = sizes.encoder_noise_arcsec * ARCSEC_RAD * cpr / (2.0 * math.pi)
+    enc = encoders or EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints)
+    if enc.joints != joints:
+        raise TruthError(f"the encoders describe {enc.joints} joints, the arm has {joints}")
+    noise = tuple(
+        sizes.encoder_noise_arcsec * ARCSEC_RAD * c / (2.0 * math.pi) for c in enc.counts_per_rev
+    )
     errors = ErrorSources(
-        encoder_noise_counts=(noise_counts,) * joints,
+        encoder_noise_counts=noise,
         eccentricity_arcsec=tuple(float(v) for v in rng.uniform(lo, hi, joints)),
         eccentricity_phase_rad=tuple(float(v) for v in rng.uniform(0.0, 2.0 * math.pi, joints)),
         probing_sigma_um=sizes.probing_sigma_um,
     )
     return Truth[Any](
         params=params,
-        encoders=EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints),
+        encoders=enc,
         errors=errors,
         origin={
             "kind": "random",
@@ -479,6 +494,13 @@ def random_truth(
             "probing_sigma_um": sizes.probing_sigma_um,
         },
     )
+
+
+def model_truth(seed: int, model: ArmModel, sizes: RandomSizes = RANDOM_SIZES) -> Truth[Arm]:
+    """A random true arm of an arm model (:mod:`aacmm.models`): its arm perturbed as
+    :func:`random_truth`, its own encoders. Same seed, same arm."""
+    truth = random_truth(seed, model.arm, sizes=sizes, encoders=model.encoder_config())
+    return replace(truth, origin={**truth.origin, "model": model.name})
 
 
 def parse_truth(spec: str, cpr: int = 1 << 32) -> Truth:
