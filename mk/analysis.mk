@@ -9,6 +9,7 @@ ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/
                      tests/host/test_core_kernels.py tests/host/test_core_encoder.py \
                      tests/host/test_core_arm.py tests/host/test_core_binding.py tests/host/test_mc.py \
                      host/src/aacmm/errmodel.py tests/host/test_core_errmodel.py \
+                     tests/host/test_mc_arms.py \
                      tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
                      tests/host/interrupt.py tests/host/portability.py \
                      tests/host/test_packaging.py host/src/aacmm/commands/mc.py \

@@ -16,6 +16,7 @@ $(MODELS_FIXED_TOOL): $(MODELS_FIXED_SRCS) $(CORE_HDRS) $(FIXED_HDRS) | $(BUILD)
 	gcc $(CSTD) $(WARN) $(HOST_OPT) -I$(FW_INC) -Ifirmware/src $(MODELS_FIXED_SRCS) -lm -o $@
 
 .PHONY: test-models test-models-lint models-fixed-tool
+#> models-fixed-tool    the fixed-point path over stdin/stdout that test-models drives (a test tool)
 models-fixed-tool: $(MODELS_FIXED_TOOL)
 
 test-models: $(MODELS_FIXED_TOOL)

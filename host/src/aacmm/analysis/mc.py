@@ -22,6 +22,11 @@ Main entry points: :func:`error_transfer_coefficients` (fixed N),
 :func:`to_json` and :func:`figure` (a matplotlib Figure)); the command
 ``aacmm mc`` (:mod:`aacmm.commands.mc`) writes them to files.
 
+Any arm (issue 26): ``params`` may be an :class:`aacmm.arm.Arm`; the joint
+distributions are then one per joint of it, the result has its P columns
+(:attr:`CoefficientResult.param_names`) and the checks look at its length
+columns (d, a, tip). The paper's arm is computed as before, bit for bit.
+
 Errors: ValueError for bad arguments (N <= 0, bad distributions, bad
 tolerances, bad thread counts); :class:`aacmm.core.KinematicsError` (a
 ValueError) if a pose is rejected by the core.
@@ -52,7 +57,8 @@ from aacmm.analysis.mc_poses import (
 from aacmm.analysis.mc_report import (
     CoefficientResult,
 )
-from aacmm.core import JAC_COLS, JAC_ROWS, JOINTS, FloatArray, Model, Params
+from aacmm.arm import Arm
+from aacmm.core import JAC_ROWS, FloatArray, Model, Params
 from aacmm.uncertainty.parallel import in_order
 from aacmm.uncertainty.parallel import pool as thread_pool
 
@@ -115,8 +121,8 @@ def _accumulate(
         s, q = model.abs_jacobian_sums(th, scale, offset)
         return s, q, th.shape[0]
 
-    s_tot = np.zeros((JAC_ROWS, JAC_COLS))
-    q_tot = np.zeros((JAC_ROWS, JAC_COLS))
+    s_tot = np.zeros((JAC_ROWS, model.n_params))
+    q_tot = np.zeros((JAC_ROWS, model.n_params))
     n_tot = 0
     for s, q, n in in_order(ex, one, tasks, threads):  # in order: the sum ignores threads
         s_tot += s
@@ -153,7 +159,10 @@ def _checks(model: Model, theta: FloatArray) -> tuple[float, float, int]:
     if th.shape[0] == 0:
         return 0.0, 0.0, 0
     _, j = model.points_jacobians(th)
-    norms = np.linalg.norm(j[:, :, 12:25], axis=1)
+    lengths = [k for k, u in enumerate(model.arm.param_units) if u == "mm"]
+    if isinstance(model.params, Params):
+        lengths = list(range(12, 25))
+    norms = np.linalg.norm(j[:, :, lengths], axis=1)
     return float(np.max(np.abs(norms - 1.0))), float(np.max(np.abs(j[:, 2, 0]))), th.shape[0]
 
 
@@ -163,19 +172,28 @@ def _positive_n(n: int, what: str = "number of poses N") -> int:
     return int(n)
 
 
+def _model(params: Params | Arm | None) -> Model:
+    return Model(params or Params())
+
+
+def _names(model: Model) -> tuple[str, ...]:
+    return model.param_names
+
+
 def error_transfer_coefficients(
     n: int = DEFAULT_N,
     joints: Sequence[JointDistribution] | None = None,
     seed: int | None = None,
-    params: Params | None = None,
+    params: Params | Arm | None = None,
     threads: int | None = None,
     progress: Progress | None = None,
 ) -> CoefficientResult:
     """Mean |J| over ``n`` random poses (the paper's Monte Carlo study).
 
-    ``joints``: six :class:`JointDistribution` (default: all uniform in
-    [-pi, pi)); ``seed``: non-negative integer (``None``: a fresh one, recorded
-    in the result); ``params``: the arm (default: paper Table 1); ``threads``:
+    ``joints``: one :class:`JointDistribution` per joint of the arm (default:
+    all uniform in [-pi, pi)); ``seed``: non-negative integer (``None``: a
+    fresh one, recorded in the result); ``params``: the arm (default: paper
+    Table 1; any :class:`aacmm.arm.Arm`); ``threads``:
     worker threads (default: all cores; the result does not depend on it);
     ``progress``: called with the number of poses of each finished chunk.
     Memory does not grow with n: chunks of :data:`CHUNK` poses are drawn as
@@ -184,10 +202,10 @@ def error_transfer_coefficients(
     Raises ValueError for n <= 0 or any bad argument.
     """
     n = _positive_n(n)
-    js = joint_distributions(joints)
+    model = _model(params)
+    js = joint_distributions(joints, model.joints)
     e = seed_entropy(seed)
     nt = _threads(threads)
-    model = Model(params or Params())
     t0 = time.perf_counter()
     tasks = _chunk_tasks(e, 0, n, js)
     workers = min(nt, -(-n // CHUNK))
@@ -209,6 +227,7 @@ def error_transfer_coefficients(
         checked,
         elapsed,
         nt,
+        param_names=_names(model),
     )
 
 
@@ -244,14 +263,14 @@ def error_transfer_coefficients_adaptive(
     max_trials: int = 100_000_000,
     joints: Sequence[JointDistribution] | None = None,
     seed: int | None = None,
-    params: Params | None = None,
+    params: Params | Arm | None = None,
     threads: int | None = None,
     progress: Progress | None = None,
 ) -> CoefficientResult:
     """Adaptive Monte Carlo, JCGM 101 (GUM Supplement 1) section 7.9.
 
     Runs of ``block`` poses (M = 10^4 by default, as 7.9.4 a) are drawn
-    until, for every one of the 75 mean |J| entries, twice the standard
+    until, for every one of the 3 P mean |J| entries (75 for the paper's arm), twice the standard
     deviation of the average of the h run means is at most the numerical
     tolerance delta: an absolute ``tolerance`` (mm/rad or mm/mm, same for all
     entries) if given, else the 7.9.2 rule for ``ndig`` significant digits
@@ -269,19 +288,20 @@ def error_transfer_coefficients_adaptive(
         jcgm_tolerance(np.ones(1), ndig)  # validates ndig
     block = _positive_n(block, "block size")
     max_trials = _positive_n(max_trials, "max_trials")
-    js = joint_distributions(joints)
+    model = _model(params)
+    js = joint_distributions(joints, model.joints)
     e = seed_entropy(seed)
     nt = _threads(threads)
-    model = Model(params or Params())
     t0 = time.perf_counter()
     runs = 0
-    ybar = np.zeros((JAC_ROWS, JAC_COLS))
-    m2 = np.zeros((JAC_ROWS, JAC_COLS))
-    s_tot = np.zeros((JAC_ROWS, JAC_COLS))
-    q_tot = np.zeros((JAC_ROWS, JAC_COLS))
+    shape = (JAC_ROWS, model.n_params)
+    ybar = np.zeros(shape)
+    m2 = np.zeros(shape)
+    s_tot = np.zeros(shape)
+    q_tot = np.zeros(shape)
     n_tot = 0
     converged = False
-    delta = np.zeros((JAC_ROWS, JAC_COLS))
+    delta = np.zeros(shape)
     report = progress or _no_progress
 
     # Set when the loop below ends by an exception (Ctrl-C, a progress callback
@@ -344,29 +364,32 @@ def error_transfer_coefficients_adaptive(
         runs=runs,
         converged=converged,
         tolerance=delta,
+        param_names=_names(model),
     )
 
 
 def coefficients_over_poses(
     theta_rad: FloatArray,
-    params: Params | None = None,
+    params: Params | Arm | None = None,
     threads: int | None = None,
     source: str = "poses",
     progress: Progress | None = None,
 ) -> CoefficientResult:
-    """Mean |J| over given poses (n, 6) in rad, e.g. from a measurement log.
+    """Mean |J| over given poses (n, N) in rad, e.g. from a measurement log (N: the
+    arm's joints, six for the paper's).
 
     Raises ValueError for an empty or mis-shaped array, KinematicsError for a
     pose the core rejects.
     """
+    model = _model(params)
+    joints = model.joints
     th = np.ascontiguousarray(theta_rad, dtype=np.float64)
-    if th.ndim != 2 or th.shape[1] != JOINTS:
-        raise ValueError(f"poses must have shape (n, {JOINTS}), got {th.shape}")
+    if th.ndim != 2 or th.shape[1] != joints:
+        raise ValueError(f"poses must have shape (n, {joints}), got {th.shape}")
     n = th.shape[0]
     if n == 0:
         raise ValueError("no poses to analyse")
     nt = _threads(threads)
-    model = Model(params or Params())
     t0 = time.perf_counter()
 
     def make(k: int) -> Callable[[], DrawnChunk]:
@@ -380,5 +403,17 @@ def coefficients_over_poses(
     mean, std, sem = _stats(s, q, got)
     dev, dz, checked = _checks(model, th)
     return CoefficientResult(
-        got, mean, std, sem, source, None, ("logged",) * JOINTS, dev, dz, checked, elapsed, nt
+        got,
+        mean,
+        std,
+        sem,
+        source,
+        None,
+        ("logged",) * joints,
+        dev,
+        dz,
+        checked,
+        elapsed,
+        nt,
+        param_names=_names(model),
     )

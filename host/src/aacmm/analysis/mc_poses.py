@@ -74,14 +74,15 @@ DEFAULT_JOINTS: tuple[JointDistribution, ...] = (JointDistribution(),) * JOINTS
 
 
 def joint_distributions(
-    joints: Sequence[JointDistribution] | None,
+    joints: Sequence[JointDistribution] | None, count: int = JOINTS
 ) -> tuple[JointDistribution, ...]:
-    """Six joint distributions, checked (``None``: all uniform in [-pi, pi)); ValueError if not."""
+    """``count`` joint distributions (six: the paper's arm), checked (``None``: all
+    uniform in [-pi, pi)); ValueError if not."""
     if joints is None:
-        return DEFAULT_JOINTS
+        return DEFAULT_JOINTS if count == JOINTS else (JointDistribution(),) * count
     out = tuple(joints)
-    if len(out) != JOINTS or not all(isinstance(j, JointDistribution) for j in out):
-        raise ValueError(f"need {JOINTS} JointDistribution values, got {len(out)}")
+    if len(out) != count or not all(isinstance(j, JointDistribution) for j in out):
+        raise ValueError(f"need {count} JointDistribution values, got {len(out)}")
     return out
 
 
@@ -109,10 +110,10 @@ def draw_deviates(
         np.random.PCG64(np.random.SeedSequence(entropy, spawn_key=(run, chunk)))
     )
     if all(j.kind == "uniform" for j in joints):  # fast path: deviates, scaled later
-        u = np.empty((n, JOINTS), dtype=np.float64)
+        u = np.empty((n, len(joints)), dtype=np.float64)
         rng.random(out=u)
         return u, np.array([j.b - j.a for j in joints]), np.array([j.a for j in joints])
-    out = np.empty((n, JOINTS), dtype=np.float64)
+    out = np.empty((n, len(joints)), dtype=np.float64)
     uni = [i for i, j in enumerate(joints) if j.kind == "uniform"]
     nor = [i for i, j in enumerate(joints) if j.kind == "normal"]
     if uni:
@@ -132,7 +133,7 @@ def draw_deviates(
 def draw_chunk(
     entropy: int, run: int, chunk: int, n: int, joints: Sequence[JointDistribution]
 ) -> FloatArray:
-    """The poses (n, 6) of one chunk: a pure function of its arguments."""
+    """The poses (n, N) of one chunk (N = ``len(joints)``): a pure function of its arguments."""
     th, scale, offset = draw_deviates(entropy, run, chunk, n, joints)
     if scale is not None and offset is not None:
         th *= scale
@@ -145,14 +146,16 @@ def draw_poses(
     joints: Sequence[JointDistribution] | None = None,
     seed: int = 0,
     run: int = 0,
+    count: int = JOINTS,
 ) -> FloatArray:
-    """The n poses (n, 6) that a Monte Carlo run with this seed uses (rad).
+    """The n poses (n, N) that a Monte Carlo run with this seed uses (rad); N =
+    ``count`` joints (six: the paper's arm).
 
     Raises ValueError for n < 0 or a bad seed.
     """
     if n < 0:
         raise ValueError(f"number of poses must be >= 0, got {n}")
-    js = joint_distributions(joints)
+    js = joint_distributions(joints, count)
     e = seed_entropy(seed)
     parts = [draw_chunk(e, run, k, min(CHUNK, n - k * CHUNK), js) for k in range(-(-n // CHUNK))]
-    return np.concatenate(parts) if parts else np.empty((0, JOINTS))
+    return np.concatenate(parts) if parts else np.empty((0, count))

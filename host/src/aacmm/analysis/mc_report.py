@@ -36,12 +36,14 @@ TABLE2_COLUMNS: tuple[tuple[int, int, str], ...] = (
 class CoefficientResult:
     """Mean absolute error-transfer coefficients over a set of poses.
 
-    Arrays are (3, 25): rows x, y, z; columns :data:`aacmm.core.PARAM_NAMES`.
+    Arrays are (3, P): rows x, y, z; columns :attr:`param_names` (the paper's
+    arm: :data:`aacmm.core.PARAM_NAMES`, P = 25; any arm: its own, issue 26).
     ``mean_abs`` is the mean of |J| (mm/rad for theta, alpha; mm/mm for d,
     a, l), ``std_abs`` its sample standard deviation over the poses and
     ``sem`` the standard error of the mean. ``unit_norm_max_dev`` is the
     largest | ||J[:, k]|| - 1 | over the d, a, l columns and
-    ``dfz_dtheta1_max`` the largest |df_z/dtheta_1|, both over the first
+    ``dfz_dtheta1_max`` the largest |df_z/dtheta_1| (any arm: the length columns,
+    d, a and the tip, and theta1), both over the first
     ``checked_poses`` poses. Adaptive runs fill ``runs``, ``converged`` and
     ``tolerance`` (the JCGM 101 numerical tolerance delta per entry).
     """
@@ -61,13 +63,21 @@ class CoefficientResult:
     runs: int = 1
     converged: bool | None = None
     tolerance: FloatArray | None = field(default=None)
+    param_names: tuple[str, ...] = PARAM_NAMES
 
     def table2(self) -> FloatArray:
-        """The (6, 6) Table 2 layout: rows joints 1..6, columns :data:`TABLE2_COLUMNS`."""
+        """The (6, 6) Table 2 layout: rows joints 1..6, columns :data:`TABLE2_COLUMNS`.
+
+        Raises ValueError for a result of another arm than the paper's shape.
+        """
+        if self.param_names != PARAM_NAMES:
+            raise ValueError("Table 2 is the layout of the paper's arm (25 parameters)")
         return _table2(self.mean_abs)
 
     def table2_sem(self) -> FloatArray:
-        """Standard errors in the Table 2 layout."""
+        """Standard errors in the Table 2 layout (the paper's arm only, as :meth:`table2`)."""
+        if self.param_names != PARAM_NAMES:
+            raise ValueError("Table 2 is the layout of the paper's arm (25 parameters)")
         return _table2(self.sem)
 
 

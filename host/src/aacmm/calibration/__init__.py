@@ -12,7 +12,9 @@ A pure library (arrays and dataclasses in, results out; nothing printed):
   the identifiable subspace;
 * :mod:`~aacmm.calibration.diagnostics` -- covariance, chi-square check,
   outliers at the solution;
-* :mod:`~aacmm.calibration.results` -- :class:`CalibrationResult` and its parts.
+* :mod:`~aacmm.calibration.results` -- :class:`CalibrationResult` and its parts;
+* :mod:`~aacmm.calibration.parameters` -- the paper's ``Params`` or any
+  :class:`aacmm.arm.Arm` (issue 26): names, vectors, the tip's parameters.
 
 The method and the figures are in docs/calibration.md.
 

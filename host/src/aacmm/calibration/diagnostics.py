@@ -18,21 +18,21 @@ from scipy import stats
 
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
 from aacmm.calibration.results import ChiSquare, Outlier, Suspect
-from aacmm.core import JOINTS, FloatArray
+from aacmm.core import FloatArray
 
 DEFAULT_ALPHA_CHI2 = 0.001
 DEFAULT_ALPHA_OUTLIER = 0.01
 
 
 def parameter_covariance(ev: Evaluation, basis: FloatArray) -> FloatArray:
-    """(25, 25) covariance of basis @ x from the whitened Jacobian (zero outside the basis).
+    """(P, P) covariance of basis @ x from the whitened Jacobian (zero outside the basis).
 
     From the normal matrix: the basis spans identifiable directions only, so
     it is well conditioned (its condition number squares that of the scaled
     Jacobian, ~1e4, far from rounding trouble).
     """
     if basis.shape[1] == 0:
-        return np.zeros((25, 25))
+        return np.zeros((basis.shape[0], basis.shape[0]))
     a = ev.jac @ basis
     cov: FloatArray = basis @ np.linalg.inv(a.T @ a) @ basis.T
     return cov
@@ -70,14 +70,15 @@ def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> 
     the extended model explains at least half of the excess chi^2 - dof.
     """
     theta = problem.obs.theta_rad
-    extra = np.zeros((theta.shape[0], 3, 2 * JOINTS))
-    for k in range(JOINTS):
+    joints = theta.shape[1]
+    extra = np.zeros((theta.shape[0], 3, 2 * joints))
+    for k in range(joints):
         col = ev.point_jac[:, :, k]  # dp/dq_k
         extra[:, :, 2 * k] = col * np.sin(theta[:, k])[:, None]
         extra[:, :, 2 * k + 1] = col * np.cos(theta[:, k])[:, None]
     ext = problem.evaluate(ev.params, extra_point_jac=extra)
     a = ev.jac @ basis
-    b = ext.jac[:, 25:]
+    b = ext.jac[:, ev.jac.shape[1] :]
     if a.shape[1]:
         q, _ = np.linalg.qr(a)
         b = b - q @ (q.T @ b)
@@ -90,7 +91,7 @@ def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> 
     cov = np.linalg.pinv(b.T @ b)
     limit = float(stats.chi2.isf(1e-6, 2))
     out = []
-    for k in range(JOINTS):
+    for k in range(joints):
         ck = coef[2 * k : 2 * k + 2]
         vk = cov[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
         wald = float(ck @ np.linalg.pinv(vk) @ ck)

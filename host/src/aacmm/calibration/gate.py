@@ -72,6 +72,7 @@ from typing import Any
 
 import numpy as np
 
+from aacmm.calibration.parameters import ArmParams, n_joints
 from aacmm.calibration.results import CalibrationResult
 from aacmm.calibration.validation import Comparison
 from aacmm.core import JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray, Model, Params
@@ -248,16 +249,17 @@ class GateResult:
 # ------------------------------------------------------------------ prediction
 
 
-def workspace_pairs(pairs: int, seed: int) -> FloatArray:
-    """Joint angles (2 pairs, 6) of random workspace poses, consecutive rows a pair."""
+def workspace_pairs(pairs: int, seed: int, joints: int = JOINTS) -> FloatArray:
+    """Joint angles (2 pairs, N) of random workspace poses, consecutive rows a pair
+    (N = ``joints``, 6 for the paper's arm)."""
     rng = np.random.default_rng(seed)
-    out: FloatArray = rng.uniform(-math.pi, math.pi, (2 * pairs, JOINTS))
+    out: FloatArray = rng.uniform(-math.pi, math.pi, (2 * pairs, joints))
     return out
 
 
-def length_gradients(params: Params, theta_rad: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Distances (n,) between consecutive pose pairs of ``theta_rad`` (2n, 6) and their
-    gradients (n, 25) with respect to the 25 parameters (rad, mm)."""
+def length_gradients(params: ArmParams, theta_rad: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Distances (n,) between consecutive pose pairs of ``theta_rad`` (2n, N) and their
+    gradients (n, P) with respect to the P parameters (rad, mm; 25 for the paper's arm)."""
     p, j = Model(params).points_jacobians(theta_rad)
     d = p[0::2] - p[1::2]
     length = np.linalg.norm(d, axis=1)
@@ -267,7 +269,7 @@ def length_gradients(params: Params, theta_rad: FloatArray) -> tuple[FloatArray,
 
 
 def length_uncertainty(
-    params: Params, covariance: FloatArray, theta_rad: FloatArray
+    params: ArmParams, covariance: FloatArray, theta_rad: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """Distances (n,) between consecutive pose pairs of ``theta_rad`` (2n, 6) and
     their standard uncertainties (n,) from ``covariance`` (25, 25)."""
@@ -308,7 +310,7 @@ def predict(
     """
     from scipy import stats
 
-    theta = workspace_pairs(pairs, seed)
+    theta = workspace_pairs(pairs, seed, n_joints(res.params))
     cov = res.scaled_covariance
     l_cal, g = length_gradients(res.params, theta)
     u = np.sqrt(np.clip(np.einsum("nk,kl,nl->n", g, cov, g), 0.0, None))

@@ -24,6 +24,18 @@ d1), the split of the tip vector between theta6 offset, alpha6, d6, a6 and l
 combinations of 5), and global scale (every length multiplied by one factor).
 Anything else is reported by its largest parameter components.
 
+Any :class:`~aacmm.arm.Arm` (issue 26) gets the same candidates derived from
+its shape: theta1 and d1; for a modified first joint also alpha1 and a1 (its
+Rx(alpha1) Tx(a1) come before the first rotation: a rotation about and a
+shift along the base x axis); the tip's split between the last joint's
+theta offset, the parameters applied after its rotation and the tip
+(:func:`~aacmm.calibration.parameters.tip_in_last_frame`: the null space of
+that 3 x k map, e.g. the tip's component along the last axis against d_N);
+``parallel``: d of two consecutive joints against each other, the position
+of the common normal along two parallel axes (exact where the axes are
+parallel: Hayati's beta replaces the second d, which the solve then holds);
+and scale, every length (d, a, tip).
+
 Observability indices (Borm and Menq; Driels and Pathre; Nahvi and Hollerbach
 1996) are computed over the identifiable singular values.
 """
@@ -36,6 +48,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aacmm.arm import Arm
+from aacmm.calibration.parameters import (
+    ArmParams,
+    param_names,
+    tip_columns,
+    tip_in_last_frame,
+)
 from aacmm.calibration.problem import Evaluation
 from aacmm.core import PARAM_NAMES, FloatArray, Params
 
@@ -53,10 +72,12 @@ _COMPONENT_MIN = 0.1
 class NullDirection:
     """One unobservable direction, named.
 
-    ``kind``: ``theta1``, ``d1``, ``tip``, ``scale`` or ``other``;
+    ``kind``: ``theta1``, ``d1``, ``tip``, ``scale`` or ``other`` (any arm
+    also ``alpha1``, ``a1``: a modified first joint's base motions, and
+    ``parallel``: two parallel axes' common normal);
     ``components``: (parameter name, weight) with |weight| >= 0.1 in scaled
     units (the direction has unit norm there), largest first; ``vector``
-    (25,): the direction in parameter units (rad, mm); ``meaning``: what it
+    (P,): the direction in parameter units (rad, mm); ``meaning``: what it
     does to the arm; ``remedy``: which data would make it observable.
     """
 
@@ -148,8 +169,59 @@ class Identifiability:
         return float(s[self.rank - 1] / max(s[self.rank], 1e-300))
 
 
-def _symmetries(params: Params) -> list[tuple[str, list[FloatArray]]]:
-    """Known exact symmetries of point data at ``params`` (parameter units, 25 each)."""
+def preferred_held(params: ArmParams) -> tuple[str, ...]:
+    """The parameters the 'fix' strategy tries first to hold (:data:`PREFERRED_HELD`
+    for the paper's arm): the base's (theta1, d1, and alpha1, a1 for a modified
+    first joint), then the last joint's tip parameters but the tip itself."""
+    if isinstance(params, Params):
+        return PREFERRED_HELD
+    base = ("theta1", "d1", "alpha1", "a1") if params.joints[0].convention == "modified" else ()
+    tip = tuple(n for n in tip_columns(params) if n not in ("l", "tx", "ty", "tz"))
+    return (*(base or ("theta1", "d1")), *tip)
+
+
+def _unit(p: int, k: int) -> FloatArray:
+    e = np.zeros(p)
+    e[k] = 1.0
+    return e
+
+
+def _arm_symmetries(arm: Arm) -> list[tuple[str, list[FloatArray]]]:
+    """The named candidates of a general arm (module doc), parameter units, P each."""
+    v = arm.to_vector()
+    names = arm.param_names
+    p = v.size
+    k = {n: i for i, n in enumerate(names)}
+    out: list[tuple[str, list[FloatArray]]] = [
+        ("theta1", [_unit(p, k["theta1"])]),
+        ("d1", [_unit(p, k["d1"])]),
+    ]
+    if arm.joints[0].convention == "modified":
+        out += [("alpha1", [_unit(p, k["alpha1"])]), ("a1", [_unit(p, k["a1"])])]
+    _, g = tip_in_last_frame(arm)
+    _, sv, vt = np.linalg.svd(g)
+    rank = int(np.sum(sv > 1e-9 * max(float(sv[0]), 1e-300)))
+    tip = []
+    for row in vt[rank:]:
+        e = np.zeros(p)
+        e[[k[n] for n in tip_columns(arm)]] = row
+        tip.append(e)
+    out.append(("tip", tip))
+    parallel = []
+    for j in range(2, arm.n_joints + 1):
+        e = np.zeros(p)
+        e[k[f"d{j - 1}"]], e[k[f"d{j}"]] = 1.0, -1.0
+        parallel.append(e)
+    out.append(("parallel", parallel))
+    scale = np.where(np.array(arm.param_units) == "mm", v, 0.0)
+    out.append(("scale", [scale]))
+    return out
+
+
+def _symmetries(params: ArmParams) -> list[tuple[str, list[FloatArray]]]:
+    """Known exact symmetries of point data at ``params`` (parameter units, P each)."""
+    if isinstance(params, Arm):
+        return _arm_symmetries(params)
     v = params.to_vector()
     k = {n: i for i, n in enumerate(PARAM_NAMES)}
     out: list[tuple[str, list[FloatArray]]] = []
@@ -213,6 +285,36 @@ _MEANING = {
 }
 
 
+def _meaning(kind: str, params: ArmParams) -> tuple[str, str]:
+    """What a named direction does and what would observe it (for a general arm,
+    the tip's parameters by name)."""
+    if isinstance(params, Params) or kind not in ("tip", "alpha1", "a1", "parallel"):
+        return _MEANING[kind]
+    if kind == "tip":
+        cols = tip_columns(params)
+        return (
+            f"splits the tip between {', '.join(cols)} without moving the probe point (e.g. "
+            f"the tip's component along axis {params.n_joints} against d{params.n_joints}): "
+            "only the tip's position in the last joint's frame (3 combinations) is observable",
+            "no probing data can observe it (held by convention)",
+        )
+    if kind == "parallel":
+        return (
+            "moves the common normal of two parallel axes along them (d of the one joint "
+            "against d of the next): a free choice of the model where the axes are parallel",
+            "declare a Hayati beta on the second joint (its d is then held)",
+        )
+    axis = (
+        "rotation of the whole arm about the base x axis (x0)"
+        if kind == "alpha1"
+        else ("shift of the whole arm along the base x axis (x0)")
+    )
+    return (
+        f"{axis}: a modified first joint's {kind} comes before its rotation",
+        "observable only from reference points in the arm's base frame (a known base datum)",
+    )
+
+
 def _components(vec_scaled: FloatArray, names: Sequence[str]) -> tuple[tuple[str, float], ...]:
     order = np.argsort(-np.abs(vec_scaled))
     big = vec_scaled[order[0]]
@@ -224,8 +326,27 @@ def _components(vec_scaled: FloatArray, names: Sequence[str]) -> tuple[tuple[str
     )
 
 
+def _scaled_orthonormal(
+    vecs: list[FloatArray], cols: Sequence[int], scale: FloatArray
+) -> list[FloatArray]:
+    """One subspace's directions made orthonormal in the scaled coordinates of
+    ``cols`` (returned in parameter units), so that none looks like a combination
+    of the others once the columns are scaled (the tip's split of a general arm)."""
+    if not vecs:
+        return vecs
+    s = np.column_stack([v[list(cols)] * scale for v in vecs])
+    q, r = np.linalg.qr(s)
+    keep = np.abs(np.diag(r)) > 1e-12 * max(float(np.abs(r).max()), 1e-300)
+    out = []
+    for j in np.flatnonzero(keep):
+        e = np.zeros(vecs[0].size)
+        e[list(cols)] = q[:, j] / scale
+        out.append(e)
+    return out
+
+
 def _name_null(
-    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: Params
+    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: ArmParams
 ) -> tuple[NullDirection, ...]:
     """Named directions spanning the null space (scaled coords, columns = ``columns``).
 
@@ -233,12 +354,15 @@ def _name_null(
     scale, ...) when it lies in the null space and is independent of those
     already named; what is left is reported as orthonormal 'other' directions.
     """
-    names = [PARAM_NAMES[c] for c in columns]
+    all_names = param_names(params)
+    names = [all_names[c] for c in columns]
     cols = list(columns)
     k = null.shape[1]
     found: list[tuple[str, FloatArray]] = []
     accepted = np.zeros((len(cols), 0))
     for kind, vecs in _symmetries(params):
+        if isinstance(params, Arm) and kind == "tip":
+            vecs = _scaled_orthonormal(vecs, cols, scale)
         for v in vecs:
             if accepted.shape[1] == k:
                 break
@@ -264,20 +388,22 @@ def _name_null(
             found.append(("other", u[:, j]))
     out = []
     for kind, s in found:
-        vec = np.zeros(25)
+        vec = np.zeros(len(all_names))
         vec[cols] = s / scale
-        meaning, remedy = _MEANING[kind]
+        meaning, remedy = _meaning(kind, params)
         out.append(NullDirection(kind, _components(s, names), vec, meaning, remedy))
     return tuple(out)
 
 
-def _held(null: FloatArray, names: Sequence[str]) -> tuple[str, ...]:
+def _held(
+    null: FloatArray, names: Sequence[str], preferred: Sequence[str] = PREFERRED_HELD
+) -> tuple[str, ...]:
     """Parameters to hold so that the rest are identifiable (``null``: scaled basis)."""
     k = null.shape[1]
     if k == 0:
         return ()
     lev = np.linalg.norm(null, axis=1)
-    order = [names.index(n) for n in PREFERRED_HELD if n in names]
+    order = [names.index(n) for n in preferred if n in names]
     order += [i for i in np.argsort(-lev, kind="stable") if i not in order]
     chosen: list[int] = []
     for i in order:
@@ -297,14 +423,17 @@ def analyse(
     columns: Sequence[int] | None = None,
     kappa: float = DEFAULT_KAPPA,
 ) -> Identifiability:
-    """Identifiability of the parameters ``columns`` (default all 25) at ``ev``.
+    """Identifiability of the parameters ``columns`` (default all P: 25 for the
+    paper's arm) at ``ev``.
 
     Raises ValueError for an empty or bad column list.
     """
-    cols = tuple(range(25)) if columns is None else tuple(int(c) for c in columns)
-    if not cols or min(cols) < 0 or max(cols) >= 25 or len(set(cols)) != len(cols):
-        raise ValueError("columns must be distinct parameter indices 0..24")
-    names = tuple(PARAM_NAMES[c] for c in cols)
+    all_names = param_names(ev.params)
+    p = len(all_names)
+    cols = tuple(range(p)) if columns is None else tuple(int(c) for c in columns)
+    if not cols or min(cols) < 0 or max(cols) >= p or len(set(cols)) != len(cols):
+        raise ValueError(f"columns must be distinct parameter indices 0..{p - 1}")
+    names = tuple(all_names[c] for c in cols)
     raw = np.sqrt(ev.raw_norm2[list(cols)])
     if np.any(raw <= 0):
         dead = [n for n, r in zip(names, raw, strict=True) if r <= 0]
@@ -338,7 +467,7 @@ def analyse(
         basis,
         null,
         named,
-        _held(null, list(names)),
+        _held(null, list(names), preferred_held(ev.params)),
         m,
         ratio,
     )

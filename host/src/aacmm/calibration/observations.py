@@ -17,8 +17,8 @@ index it came from) and a list of constraints on them:
 * :class:`Plane` -- tip centres on an unknown plane.
 
 Every unknown of a constraint (a seat, a sphere centre, a registration) is a
-nuisance parameter: the solver eliminates it exactly, so only the 25 arm
-parameters remain (see :mod:`aacmm.calibration.problem`).
+nuisance parameter: the solver eliminates it exactly, so only the arm's
+parameters remain (25 for the paper's arm) (see :mod:`aacmm.calibration.problem`).
 
 Errors: :class:`ObservationError` (a ValueError) names the constraint and
 what is wrong (too few poses, NaN, an index out of range, ...).
@@ -34,7 +34,8 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.core import JOINTS, FloatArray
+from aacmm.arm import JOINTS_MAX, JOINTS_MIN
+from aacmm.core import FloatArray
 from aacmm.errors import AacmmError
 
 IntArray = npt.NDArray[np.intp]
@@ -225,7 +226,8 @@ Constraint = Cone | LengthSet | ReferencePoints | Sphere | Plane
 class Observations:
     """Poses and constraints for a calibration.
 
-    ``theta_rad`` (n, 6): joint readings (the model adds the theta offsets).
+    ``theta_rad`` (n, N): joint readings (the model adds the theta offsets), N
+    the arm's joints (6 for the paper's arm; 4..7).
     ``sigma_mm`` (n,): probing standard uncertainty per axis of each pose's
     tip point. ``step`` and ``index`` (n,): where each pose came from (plan
     step number and point index within the step), for reports and outliers.
@@ -241,8 +243,11 @@ class Observations:
 
     def __post_init__(self) -> None:
         th = np.ascontiguousarray(self.theta_rad, dtype=np.float64)
-        if th.ndim != 2 or th.shape[1] != JOINTS:
-            raise ObservationError(f"joint readings must have shape (n, {JOINTS}), got {th.shape}")
+        if th.ndim != 2 or not JOINTS_MIN <= th.shape[1] <= JOINTS_MAX:
+            raise ObservationError(
+                f"joint readings must have shape (n, N), N = {JOINTS_MIN}..{JOINTS_MAX} joints, "
+                f"got {th.shape}"
+            )
         n = th.shape[0]
         sig = np.asarray(self.sigma_mm, dtype=np.float64)
         sig = np.full(n, float(sig)) if sig.ndim == 0 else sig
@@ -263,6 +268,11 @@ class Observations:
     @property
     def n_poses(self) -> int:
         return int(self.theta_rad.shape[0])
+
+    @property
+    def n_joints(self) -> int:
+        """N, the joint readings per pose."""
+        return int(self.theta_rad.shape[1])
 
     def label(self, pose: int) -> str:
         """``step 3 (cone-A) point 7`` for a pose index (numbers from 1, as people count;

@@ -19,6 +19,13 @@ through rotations about the other two, so the spread is measured as the RMS
 rotation seen by the worst-determined tip direction (the smallest eigenvalue
 of mean((R_k - R_mean)^T (R_k - R_mean)) over each seat's flange rotations);
 and the RMS pivot error (distance of each point from its seat) is reported.
+
+Any :class:`~aacmm.arm.Arm` (issue 26) works the same way: its tip
+parameters are :func:`~aacmm.calibration.parameters.tip_columns` (the last
+joint's theta offset, what its convention applies after the rotation, and the
+tip l or tx, ty, tz), the tip vector the one of
+:func:`~aacmm.calibration.parameters.tip_in_last_frame`, and the flange
+rotations the tip-vector columns of the same arm with its tip as a vector.
 """
 
 from __future__ import annotations
@@ -27,12 +34,19 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from aacmm.arm import Arm
 from aacmm.calibration.features import CalibrationError
-from aacmm.calibration.identifiability import TIP_PARAMS
 from aacmm.calibration.observations import Cone, ObservationError, Observations
+from aacmm.calibration.parameters import (
+    ArmParams,
+    param_names,
+    tip_columns,
+    tip_in_last_frame,
+)
 from aacmm.calibration.results import CalibrationResult, Progress
 from aacmm.calibration.solve import calibrate
 from aacmm.core import PARAM_NAMES, FloatArray, Model, Params
@@ -46,8 +60,10 @@ class SpreadError(CalibrationError):
     """The seats were not probed with enough orientation change to find the tip."""
 
 
-def tip_vector(params: Params) -> FloatArray:
+def tip_vector(params: ArmParams) -> FloatArray:
     """The tip position (3,) in the flange frame, mm (see the module doc)."""
+    if isinstance(params, Arm):
+        return tip_in_last_frame(params)[0]
     th, al = params.theta_offset_rad[5], params.alpha_rad[5]
     d6, a6, ll = params.d_mm[5], params.a_mm[5], params.l_mm
     u = np.array([a6, -ll * math.sin(al), d6 + ll * math.cos(al)])
@@ -55,8 +71,11 @@ def tip_vector(params: Params) -> FloatArray:
     return np.array([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2]])
 
 
-def tip_jacobian(params: Params) -> FloatArray:
-    """d(tip vector)/d(theta6, alpha6, d6, a6, l), (3, 5)."""
+def tip_jacobian(params: ArmParams) -> FloatArray:
+    """d(tip vector)/d(theta6, alpha6, d6, a6, l), (3, 5); for an arm, with respect
+    to its :func:`~aacmm.calibration.parameters.tip_columns`."""
+    if isinstance(params, Arm):
+        return tip_in_last_frame(params)[1]
     th, al = params.theta_offset_rad[5], params.alpha_rad[5]
     d6, a6, ll = params.d_mm[5], params.a_mm[5], params.l_mm
     ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
@@ -74,13 +93,21 @@ def tip_jacobian(params: Params) -> FloatArray:
     )
 
 
-def flange_rotations(params: Params, theta_rad: FloatArray) -> FloatArray:
+def flange_rotations(params: ArmParams, theta_rad: FloatArray) -> FloatArray:
     """Rotation matrices (n, 3, 3) of frame 6 in the base frame, from the core's Jacobian.
 
     dp/da6 is x6 and dp/dl is z6 (docs/kinematics.md), so no second
     kinematic model is needed. Frame 6 differs from the flange frame by a
-    constant rotation, which leaves the spread measure unchanged.
+    constant rotation, which leaves the spread measure unchanged. For an arm,
+    the last frame's axes are dp/dtx, dp/dty, dp/dtz of the same arm with its
+    tip as a vector.
     """
+    if isinstance(params, Arm):
+        as_vector = Arm(joints=params.joints, tip="xyz", tip_mm=params.tip_mm)
+        names = as_vector.param_names
+        _, jv = Model(as_vector).points_jacobians(theta_rad)
+        cols = [names.index(n) for n in ("tx", "ty", "tz")]
+        return np.stack([jv[:, :, c] for c in cols], axis=2)
     _, j = Model(params).points_jacobians(theta_rad)
     x = j[:, :, _COL_A6]
     z = j[:, :, _COL_L]
@@ -88,7 +115,7 @@ def flange_rotations(params: Params, theta_rad: FloatArray) -> FloatArray:
     return np.stack([x, y, z], axis=2)
 
 
-def orientation_spread_rad(params: Params, obs: Observations) -> float:
+def orientation_spread_rad(params: ArmParams, obs: Observations) -> float:
     """RMS rotation (rad) seen by the worst-determined tip direction, pooled over the seats."""
     m = np.zeros((3, 3))
     n = 0
@@ -116,7 +143,7 @@ class ProbeResult:
     every point from its seat after (``_before``: with the start tip).
     """
 
-    result: CalibrationResult
+    result: CalibrationResult[Any]
     tip_before: FloatArray
     tip_after: FloatArray
     tip_cov: FloatArray
@@ -127,7 +154,7 @@ class ProbeResult:
     elapsed_s: float
 
 
-def _pivot(params: Params, obs: Observations) -> tuple[float, float]:
+def _pivot(params: ArmParams, obs: Observations) -> tuple[float, float]:
     pts = Model(params).points(obs.theta_rad)
     d = []
     for c in obs.constraints:
@@ -140,7 +167,7 @@ def _pivot(params: Params, obs: Observations) -> tuple[float, float]:
 
 def calibrate_probe(
     obs: Observations,
-    start: Params | None = None,
+    start: ArmParams | None = None,
     *,
     min_spread_deg: float = DEFAULT_MIN_SPREAD_DEG,
     reject: bool = False,
@@ -153,7 +180,7 @@ def calibrate_probe(
     :func:`calibrate` raises.
     """
     t0 = time.perf_counter()
-    p0 = start or Params()
+    p0: ArmParams = start or Params()
     if not any(isinstance(c, Cone) for c in obs.constraints):
         raise ObservationError(
             "a probe calibration needs seats (cone steps) probed from many articulations"
@@ -166,9 +193,10 @@ def calibrate_probe(
             f"of rotation (need >= {min_spread_deg:g}); tilt the probe further in every "
             "direction while keeping the tip in the seat"
         )
-    res = calibrate(obs, p0, free=TIP_PARAMS, reject=reject, progress=progress)
+    tip = tip_columns(p0)
+    res = calibrate(obs, p0, free=tip, reject=reject, progress=progress)
     g = tip_jacobian(res.params)
-    idx = [PARAM_NAMES.index(n) for n in TIP_PARAMS]
+    idx = [param_names(p0).index(n) for n in tip]
     cov = g @ res.scaled_covariance[np.ix_(idx, idx)] @ g.T
     before, _ = _pivot(p0, res.observations)
     rms, mx = _pivot(res.params, res.observations)

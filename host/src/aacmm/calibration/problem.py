@@ -2,7 +2,8 @@
 
 :class:`Problem` compiles an :class:`~aacmm.calibration.observations.Observations`
 once; :meth:`Problem.evaluate` then gives, for one parameter set, the whitened
-residual vector and its Jacobian with respect to the 25 arm parameters, the
+residual vector and its Jacobian with respect to the arm's P parameters (25 for
+the paper's arm; any :class:`~aacmm.arm.Arm` as well), the
 probe points and Jacobians coming from the C core in one batch call (analytic,
 no finite differences).
 
@@ -50,7 +51,8 @@ from aacmm.calibration.observations import (
     ReferencePoints,
     Sphere,
 )
-from aacmm.core import JAC_COLS, FloatArray, KinematicsError, Model, Params
+from aacmm.calibration.parameters import ArmParams, n_joints
+from aacmm.core import JAC_COLS, FloatArray, KinematicsError, Model
 
 __all__ = ["CalibrationError", "Evaluation", "Problem", "Residuals", "Unit"]
 
@@ -77,7 +79,7 @@ class Unit:
 class Residuals:
     """The whitened residuals (m,) at one parameter set, with the tip points (n, 3)."""
 
-    params: Params
+    params: ArmParams
     r: FloatArray
     points: FloatArray
     nuisance: dict[int, dict[str, FloatArray]] = field(default_factory=dict)
@@ -89,13 +91,13 @@ class Residuals:
 
 @dataclass
 class Evaluation(Residuals):
-    """Residuals and projected Jacobian (m, 25) at one parameter set.
+    """Residuals and projected Jacobian (m, P) at one parameter set (P = 25 for the paper's arm).
 
     ``sigma`` (m,): standard uncertainty of each row (residual in mm = r * sigma);
     ``h`` (m,): leverage of the row on the nuisance unknowns; ``unit`` (m,):
     index of the row's unit (:meth:`Problem.unit`; -1 for prior rows);
-    ``point_jac`` (n, 3, 25): tip Jacobians of every pose;
-    ``raw_norm2`` (25,): sum over the poses used of ||dp/dq_k||^2 / sigma^2;
+    ``point_jac`` (n, 3, P): tip Jacobians of every pose;
+    ``raw_norm2`` (P,): sum over the poses used of ||dp/dq_k||^2 / sigma^2;
     ``pose_sigma`` (n,): probing uncertainty of each pose a constraint uses (0
     for unused poses); ``nuisance``: fitted nuisance values of references,
     spheres and planes by constraint index.
@@ -110,6 +112,14 @@ class Evaluation(Residuals):
     pose_sigma: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
+def _end_means(ends: list[IntArray], positions: int, poses: int) -> sp.csr_matrix:
+    """(positions, poses): row k averages the poses of end ``ends[k]``."""
+    rows = np.repeat(np.arange(positions, dtype=np.intp), [e.size for e in ends])
+    cols = np.concatenate(ends) if ends else np.zeros(0, dtype=np.intp)
+    vals = np.concatenate([np.full(e.size, 1.0 / e.size) for e in ends]) if ends else np.zeros(0)
+    return sp.csr_matrix((vals, (rows, cols)), shape=(positions, poses))
+
+
 @dataclass(frozen=True)
 class _Other:
     """A reference, sphere or plane constraint and where its rows go."""
@@ -118,6 +128,51 @@ class _Other:
     c: ReferencePoints | Sphere | Plane | LengthSet
     rows: slice
     sigma: FloatArray  # per point
+
+
+@dataclass
+class _Layout:
+    """The residual rows and outlier units laid out so far, in row order.
+
+    Per row: its standard uncertainty, its unit, its static leverage; per
+    unit: its constraint, kind, first pose and length position. Filled by the
+    ``_lay_out_*`` steps of :class:`Problem`, read once by :meth:`finish`.
+    """
+
+    rows: int = 0
+    units: int = 0
+    nuisance: int = 0
+    row_sigma: list[FloatArray] = field(default_factory=list)
+    row_unit: list[IntArray] = field(default_factory=list)
+    row_leverage: list[FloatArray] = field(default_factory=list)
+    unit_constraint: list[IntArray] = field(default_factory=list)
+    unit_kind: list[str] = field(default_factory=list)
+    unit_kind_count: list[int] = field(default_factory=list)
+    unit_pose: list[IntArray] = field(default_factory=list)
+    unit_position: list[IntArray] = field(default_factory=list)
+
+    def add_rows(
+        self, count: int, sigma: FloatArray, unit: npt.ArrayLike, leverage: FloatArray
+    ) -> slice:
+        """Reserve ``count`` rows with their uncertainties, units and leverages."""
+        rows = slice(self.rows, self.rows + count)
+        self.rows += count
+        self.row_sigma.append(sigma)
+        self.row_unit.append(np.asarray(unit, dtype=np.intp))
+        self.row_leverage.append(leverage)
+        return rows
+
+    def add_units(
+        self, kind: str, constraint: IntArray, pose: IntArray, position: npt.ArrayLike
+    ) -> None:
+        """Append ``constraint.size`` units of one kind (first pose, length position each)."""
+        count = int(constraint.size)
+        self.unit_constraint.append(constraint.astype(np.intp))
+        self.unit_kind.append(kind)
+        self.unit_kind_count.append(count)
+        self.unit_pose.append(pose.astype(np.intp))
+        self.unit_position.append(np.asarray(position, dtype=np.intp))
+        self.units += count
 
 
 class Problem:
@@ -133,188 +188,195 @@ class Problem:
     def __init__(self, obs: Observations) -> None:
         obs.validate()
         self.obs = obs
-        n = obs.n_poses
-        used = np.zeros(n, dtype=bool)
-        for c in obs.constraints:
+        self._index_used_poses()
+        layout = _Layout()
+        self._lay_out_seats(layout)
+        self._lay_out_lengths(layout)
+        self._lay_out_uncertain_lengths(layout)
+        self._lay_out_blocks(layout)
+        self._finish(layout)
+        self._sphere_state: dict[int, FloatArray] = {}
+
+    # ------------------------------------------------------------------ layout steps
+
+    def _index_used_poses(self) -> None:
+        """Which poses some constraint uses, and their probing uncertainty (0 elsewhere)."""
+        used = np.zeros(self.obs.n_poses, dtype=bool)
+        for c in self.obs.constraints:
             used[c.poses] = True
         self.used = np.flatnonzero(used)
         self.all_used = bool(used.all())
-        self.pose_sigma = np.where(used, obs.sigma_mm, 0.0)
-        sig_rows: list[FloatArray] = []
-        unit_rows: list[IntArray] = []
-        h_rows: list[FloatArray] = []
-        u_con: list[IntArray] = []
-        u_kind: list[str] = []
-        u_kind_n: list[int] = []
-        u_pose: list[IntArray] = []
-        u_pos: list[IntArray] = []
-        self.n_nuisance = 0
-        nu = 0  # units so far
-        m = 0  # rows so far
+        self.pose_sigma = np.where(used, self.obs.sigma_mm, 0.0)
 
-        # seats: entries grouped by seat; a sparse matrix gives the weighted means
-        cones = [(i, c) for i, c in enumerate(obs.constraints) if isinstance(c, Cone)]
-        idx = np.concatenate([c.poses for _, c in cones]) if cones else np.zeros(0, dtype=np.intp)
-        sizes = np.array([c.poses.size for _, c in cones], dtype=np.intp)
-        gid = np.repeat(np.arange(len(cones)), sizes)
-        w = 1.0 / obs.sigma_mm[idx] ** 2
-        sw = np.bincount(gid, weights=w, minlength=len(cones))
-        self.cone_pose = idx
-        self.cone_gid = gid
-        self.cone_sq = np.sqrt(w)
-        self.cone_avg = sp.csr_matrix(
-            (w / sw[gid] if idx.size else w, (gid, np.arange(idx.size))),
-            shape=(len(cones), idx.size),
-        )
-        lo = int(idx[0]) if idx.size else 0
-        self.cone_slice = (
-            slice(lo, lo + idx.size)
-            if idx.size and np.array_equal(idx, np.arange(lo, lo + idx.size))
-            else None
-        )
-        self.cone_rows = slice(m, m + 3 * idx.size)
-        m += 3 * idx.size
-        sig_rows.append(np.repeat(obs.sigma_mm[idx], 3))
-        unit_rows.append(np.repeat(nu + np.arange(idx.size), 3))
-        h_rows.append(np.repeat(w / sw[gid] if idx.size else w, 3))
-        u_con.append(np.repeat(np.array([i for i, _ in cones], dtype=np.intp), sizes))
-        u_kind.append(KIND_CONE)
-        u_kind_n.append(idx.size)
-        u_pose.append(idx)
-        u_pos.append(np.full(idx.size, -1, dtype=np.intp))
-        nu += idx.size
-        self.n_nuisance += 3 * len(cones)
+    def _lay_out_seats(self, layout: _Layout) -> None:
+        """Every seat point's 3 rows; a sparse matrix gives each seat's weighted mean.
 
-        # lengths: sparse averaging matrices for the two ends of every position
+        The seat's centre (3 nuisance unknowns, linear) is eliminated exactly by
+        centring its points on their weighted mean; a point's leverage is its
+        share of the seat's weight.
+        """
+        obs = self.obs
+        seats = [(i, c) for i, c in enumerate(obs.constraints) if isinstance(c, Cone)]
+        entry_pose = (
+            np.concatenate([c.poses for _, c in seats]) if seats else np.zeros(0, dtype=np.intp)
+        )
+        seat_sizes = np.array([c.poses.size for _, c in seats], dtype=np.intp)
+        seat_of_entry = np.repeat(np.arange(len(seats)), seat_sizes)
+        weight = 1.0 / obs.sigma_mm[entry_pose] ** 2
+        seat_weight = np.bincount(seat_of_entry, weights=weight, minlength=len(seats))
+        share = weight / seat_weight[seat_of_entry] if entry_pose.size else weight
+        n = entry_pose.size
+        self.cone_pose = entry_pose
+        self.cone_gid = seat_of_entry
+        self.cone_sq = np.sqrt(weight)
+        self.cone_avg = sp.csr_matrix((share, (seat_of_entry, np.arange(n))), shape=(len(seats), n))
+        first = int(entry_pose[0]) if n else 0
+        contiguous = n and np.array_equal(entry_pose, np.arange(first, first + n))
+        self.cone_slice = slice(first, first + n) if contiguous else None
+        self.cone_rows = layout.add_rows(
+            3 * n,
+            np.repeat(obs.sigma_mm[entry_pose], 3),
+            np.repeat(layout.units + np.arange(n), 3),
+            np.repeat(share, 3),
+        )
+        seat_index = np.array([i for i, _ in seats], dtype=np.intp)
+        layout.add_units(KIND_CONE, np.repeat(seat_index, seat_sizes), entry_pose, np.full(n, -1))
+        layout.nuisance += 3 * len(seats)
+
+    def _lay_out_lengths(self, layout: _Layout) -> None:
+        """The calibrated lengths (not ball-ended): averaging matrices for the two ends
+        of every position, their uncertainties, and the rows of the exact ones."""
+        obs = self.obs
         self.len_sets = [
             (i, c)
             for i, c in enumerate(obs.constraints)
             if isinstance(c, LengthSet) and not c.ball_ends
         ]
-        ra: list[int] = []
-        ca: list[int] = []
-        va: list[float] = []
-        rb: list[int] = []
-        cb: list[int] = []
-        vb: list[float] = []
-        target: list[float] = []
-        exact: list[bool] = []
-        con: list[int] = []
-        pos: list[int] = []
-        first: list[int] = []
-        self.len_ends: list[tuple[IntArray, IntArray]] = []
-        k = 0
-        for i, c in self.len_sets:
-            for p_i, (ea, eb) in enumerate(zip(c.ends_a, c.ends_b, strict=True)):
-                ra += [k] * ea.size
-                ca += ea.tolist()
-                va += [1.0 / ea.size] * ea.size
-                rb += [k] * eb.size
-                cb += eb.tolist()
-                vb += [1.0 / eb.size] * eb.size
-                target.append(c.length_mm)
-                exact.append(c.u_length_mm == 0)
-                con.append(i)
-                pos.append(p_i)
-                first.append(int(ea[0]))
-                self.len_ends.append((ea, eb))
-                k += 1
-            if c.u_length_mm > 0:
-                self.n_nuisance += 1
+        positions = [
+            (i, c, p, ea, eb)
+            for i, c in self.len_sets
+            for p, (ea, eb) in enumerate(zip(c.ends_a, c.ends_b, strict=True))
+        ]
+        self.len_ends: list[tuple[IntArray, IntArray]] = [(ea, eb) for *_, ea, eb in positions]
+        k = len(positions)
         self.n_len = k
-        self.mean_a = sp.csr_matrix((va, (ra, ca)), shape=(k, n))
-        self.mean_b = sp.csr_matrix((vb, (rb, cb)), shape=(k, n))
-        self.len_target = np.array(target)
+        self.mean_a = _end_means([ea for ea, _ in self.len_ends], k, obs.n_poses)
+        self.mean_b = _end_means([eb for _, eb in self.len_ends], k, obs.n_poses)
+        self.len_target = np.array([c.length_mm for _, c, *_ in positions])
         var = obs.sigma_mm**2
         self.len_sigma = np.sqrt(
             self.mean_a.multiply(self.mean_a) @ var + self.mean_b.multiply(self.mean_b) @ var
         )
-        self.len_unit0 = nu
-        ex = np.array(exact, dtype=bool)
-        self.len_exact = np.flatnonzero(ex)
-        self.len_exact_rows = slice(m, m + self.len_exact.size)
-        m += self.len_exact.size
-        sig_rows.append(self.len_sigma[self.len_exact])
-        unit_rows.append(nu + self.len_exact)
-        h_rows.append(np.zeros(self.len_exact.size))
-        # uncertain lengths: the true length is a nuisance unknown with a prior row
+        self.len_unit0 = layout.units
+        exact = np.array([c.u_length_mm == 0 for _, c, *_ in positions], dtype=bool)
+        self.len_exact = np.flatnonzero(exact)
+        self.len_exact_rows = layout.add_rows(
+            self.len_exact.size,
+            self.len_sigma[self.len_exact],
+            layout.units + self.len_exact,
+            np.zeros(self.len_exact.size),
+        )
+        layout.nuisance += sum(1 for _, c in self.len_sets if c.u_length_mm > 0)
+        # the units are laid out now, the rows of the uncertain ones next
+        layout.add_units(
+            KIND_LENGTH,
+            np.array([i for i, *_ in positions], dtype=np.intp),
+            np.array([int(ea[0]) for *_, ea, _ in positions], dtype=np.intp),
+            np.array([p for _, _, p, _, _ in positions], dtype=np.intp),
+        )
+
+    def _lay_out_uncertain_lengths(self, layout: _Layout) -> None:
+        """Each uncertain length set: its positions' rows and the prior row of its true
+        length (a nuisance unknown shared by the positions)."""
         self.len_prior: list[tuple[LengthSet, IntArray, slice]] = []
         start = 0
         for _i, c in self.len_sets:
-            npos = len(c.ends_a)
-            sel = np.arange(start, start + npos)
-            start += npos
+            sel = np.arange(start, start + len(c.ends_a))
+            start += sel.size
             if c.u_length_mm == 0:
                 continue
-            self.len_prior.append((c, sel, slice(m, m + npos + 1)))
-            m += npos + 1
             sk = self.len_sigma[sel]
             wk = 1.0 / sk**2
-            tot = wk.sum() + 1.0 / c.u_length_mm**2
-            sig_rows.append(np.append(sk, c.u_length_mm))
-            unit_rows.append(np.append(nu + sel, -1))
-            h_rows.append(np.append(wk / tot, 1.0 / (c.u_length_mm**2 * tot)))
-        u_con.append(np.array(con, dtype=np.intp))
-        u_kind.append(KIND_LENGTH)
-        u_kind_n.append(k)
-        u_pose.append(np.array(first, dtype=np.intp))
-        u_pos.append(np.array(pos, dtype=np.intp))
-        nu += k
+            total = wk.sum() + 1.0 / c.u_length_mm**2
+            rows = layout.add_rows(
+                sel.size + 1,
+                np.append(sk, c.u_length_mm),
+                np.append(self.len_unit0 + sel, -1),
+                np.append(wk / total, 1.0 / (c.u_length_mm**2 * total)),
+            )
+            self.len_prior.append((c, sel, rows))
 
-        # references, spheres, planes, ball-ended lengths: one block each
+    def _lay_out_blocks(self, layout: _Layout) -> None:
+        """References, spheres, planes and ball-ended lengths: one block of rows each,
+        its leverages filled per evaluation."""
         self.others: list[_Other] = []
-        kinds = {ReferencePoints: KIND_REFERENCE, Sphere: KIND_SPHERE, Plane: KIND_PLANE}
-        for i, c in enumerate(obs.constraints):
-            if isinstance(c, LengthSet) and c.ball_ends:
-                idx, pos_of = ballbar_order(c)
-                s = obs.sigma_mm[idx]
-                rows, npts = ballbar_rows(c), idx.size
-                sig, un = s, nu + np.arange(npts)
-                if rows > npts:  # the length prior's row
-                    sig, un = np.append(s, c.u_length_mm), np.append(un, -1)
-                self.n_nuisance += 5 * len(c.ends_a) + (1 if c.u_length_mm > 0 else 0)
-                kind, u_poses, u_position = KIND_BALL_END, idx, pos_of
-            elif isinstance(c, (ReferencePoints, Sphere, Plane)):
-                npts = c.poses.size
-                kind, u_poses, u_position = kinds[type(c)], c.poses, np.full(npts, -1)
-                if isinstance(c, ReferencePoints):
-                    s = reference_sigma(c, obs.sigma_mm)
-                    rows, sig, un = 3 * npts, np.repeat(s, 3), np.repeat(nu + np.arange(npts), 3)
-                    self.n_nuisance += 0 if c.base_known else 6
-                else:
-                    s = obs.sigma_mm[c.poses]
-                    rows, sig, un = npts, s, nu + np.arange(npts)
-                    if isinstance(c, Sphere):
-                        rows = sphere_rows(c)
-                        if rows > npts:  # the radius prior's row
-                            sig, un = np.append(s, c.u_radius_mm), np.append(un, -1)
-                        self.n_nuisance += 4 if (c.free_radius or c.u_radius_mm > 0) else 3
-                    else:
-                        self.n_nuisance += 3
-            else:
+        for i, c in enumerate(self.obs.constraints):
+            if isinstance(c, Cone):
                 continue
-            self.others.append(_Other(i, c, slice(m, m + rows), s))
-            m += rows
-            sig_rows.append(sig)
-            unit_rows.append(un)
-            h_rows.append(np.zeros(rows))  # filled per evaluation
-            u_con.append(np.full(npts, i, dtype=np.intp))
-            u_kind.append(kind)
-            u_kind_n.append(npts)
-            u_pose.append(u_poses)
-            u_pos.append(u_position.astype(np.intp))
-            nu += npts
+            block = self._block_rows(c, layout.units)
+            if block is None:
+                continue
+            kind, sigma, rows_sigma, rows_unit, poses, positions, nuisance = block
+            rows = layout.add_rows(
+                rows_sigma.size, rows_sigma, rows_unit, np.zeros(rows_sigma.size)
+            )
+            self.others.append(_Other(i, c, rows, sigma))
+            layout.add_units(kind, np.full(poses.size, i, dtype=np.intp), poses, positions)
+            layout.nuisance += nuisance
 
-        self.m = m
-        self.sigma = np.concatenate(sig_rows)
-        self.unit_of_row = np.concatenate(unit_rows).astype(np.intp)
-        self.h_static = np.concatenate(h_rows)
-        self.unit_constraint = np.concatenate(u_con).astype(np.intp)
-        self.unit_kind = np.repeat(np.array(u_kind, dtype=object), u_kind_n)
-        self.unit_pose = np.concatenate(u_pose).astype(np.intp)
-        self.unit_position = np.concatenate(u_pos).astype(np.intp)
-        self.n_units = nu
-        self._sphere_state: dict[int, FloatArray] = {}
+    def _block_rows(
+        self, c: LengthSet | ReferencePoints | Sphere | Plane, unit0: int
+    ) -> tuple[str, FloatArray, FloatArray, IntArray, IntArray, IntArray, int] | None:
+        """A block constraint's kind, per-point sigma, row sigmas and units, unit poses
+        and positions, and nuisance count; ``None`` for a plain (not ball-ended) length."""
+        sigma_mm = self.obs.sigma_mm
+        if isinstance(c, LengthSet) and c.ball_ends:
+            poses, position = ballbar_order(c)
+            s = sigma_mm[poses]
+            units = unit0 + np.arange(poses.size)
+            row_sigma = s
+            if ballbar_rows(c) > poses.size:  # the length prior's row
+                row_sigma, units = np.append(s, c.u_length_mm), np.append(units, -1)
+            nuisance = 5 * len(c.ends_a) + (1 if c.u_length_mm > 0 else 0)
+            return KIND_BALL_END, s, row_sigma, units, poses, position, nuisance
+        if isinstance(c, LengthSet):
+            return None
+        no_position = np.full(c.poses.size, -1, dtype=np.intp)
+        points = unit0 + np.arange(c.poses.size)
+        if isinstance(c, ReferencePoints):
+            s = reference_sigma(c, sigma_mm)
+            nuisance = 0 if c.base_known else 6
+            return (
+                KIND_REFERENCE,
+                s,
+                np.repeat(s, 3),
+                np.repeat(points, 3),
+                c.poses,
+                no_position,
+                nuisance,
+            )
+        if isinstance(c, Sphere):
+            s = sigma_mm[c.poses]
+            row_sigma, units = s, points
+            if sphere_rows(c) > c.poses.size:  # the radius prior's row
+                row_sigma, units = np.append(s, c.u_radius_mm), np.append(points, -1)
+            nuisance = 4 if (c.free_radius or c.u_radius_mm > 0) else 3
+            return KIND_SPHERE, s, row_sigma, units, c.poses, no_position, nuisance
+        s = sigma_mm[c.poses]
+        return KIND_PLANE, s, s, points, c.poses, no_position, 3
+
+    def _finish(self, layout: _Layout) -> None:
+        """The per-row and per-unit tables as arrays."""
+        self.m = layout.rows
+        self.n_nuisance = layout.nuisance
+        self.n_units = layout.units
+        self.sigma = np.concatenate(layout.row_sigma)
+        self.unit_of_row = np.concatenate(layout.row_unit).astype(np.intp)
+        self.h_static = np.concatenate(layout.row_leverage)
+        self.unit_constraint = np.concatenate(layout.unit_constraint).astype(np.intp)
+        self.unit_kind = np.repeat(np.array(layout.unit_kind, dtype=object), layout.unit_kind_count)
+        self.unit_pose = np.concatenate(layout.unit_pose).astype(np.intp)
+        self.unit_position = np.concatenate(layout.unit_position).astype(np.intp)
 
     def unit(self, i: int) -> Unit:
         """The unit ``i``: its constraint, kind and poses."""
@@ -328,7 +390,13 @@ class Problem:
 
     # ------------------------------------------------------------------ evaluation
 
-    def _model(self, params: Params) -> Model:
+    def _model(self, params: ArmParams) -> Model:
+        joints = n_joints(params)
+        if joints != self.obs.n_joints:
+            raise CalibrationError(
+                f"the observations have {self.obs.n_joints} joint readings per pose, "
+                f"the arm {joints} joints"
+            )
         try:
             return Model(params)
         except KinematicsError as e:
@@ -346,11 +414,11 @@ class Problem:
         if not jacobian:
             pts[u] = model.points(th[u])
             return pts, None
-        pj = np.zeros((n, 3, JAC_COLS))
+        pj = np.zeros((n, 3, model.n_params))
         pts[u], pj[u] = model.points_jacobians(th[u])
         return pts, pj
 
-    def residuals(self, params: Params) -> Residuals:
+    def residuals(self, params: ArmParams) -> Residuals:
         """Whitened residuals only (the tip points alone, no Jacobian: cheaper).
 
         Raises CalibrationError as :meth:`evaluate`.
@@ -360,15 +428,16 @@ class Problem:
         nuis = self._fill(pts, None, r, None, None)
         return Residuals(params, r, pts, nuis)
 
-    def evaluate(self, params: Params, extra_point_jac: FloatArray | None = None) -> Evaluation:
+    def evaluate(self, params: ArmParams, extra_point_jac: FloatArray | None = None) -> Evaluation:
         """Residuals and projected Jacobian at ``params``.
 
         ``extra_point_jac`` (n, 3, E): derivatives of each pose's tip point
         with respect to E further unknowns (an error model being tested);
-        their projected columns are appended to the Jacobian (m, 25 + E).
+        their projected columns are appended to the Jacobian (m, P + E).
 
-        Raises CalibrationError if the parameters are invalid for the core or
-        a constraint degenerates (both ends of a length at one point, ...).
+        Raises CalibrationError if the parameters are invalid for the core, the
+        arm's joint count is not the observations', or a constraint degenerates
+        (both ends of a length at one point, ...).
         """
         pts, pj0 = self._points(self._model(params), True)
         assert pj0 is not None

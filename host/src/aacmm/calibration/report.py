@@ -18,10 +18,11 @@ import numpy as np
 
 from aacmm import uncertainty as unc
 from aacmm.calibration.identifiability import Identifiability
+from aacmm.calibration.parameters import param_names, param_units
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
 from aacmm.calibration.results import CalibrationResult, Outlier
 from aacmm.calibration.validation import Comparison, describe_change, is_worse
-from aacmm.core import PARAM_NAMES, PARAM_UNITS, FloatArray
+from aacmm.core import PARAM_NAMES, FloatArray, Params
 
 ARCSEC = math.pi / 648000.0
 
@@ -66,17 +67,17 @@ def unit_residuals(problem: Problem, ev: Evaluation) -> UnitResiduals:
     )
 
 
-def _fmt_param(k: int, v: float) -> str:
-    return f"{math.degrees(v):.6f} deg" if PARAM_UNITS[k] == "rad" else f"{v:.4f} mm"
+def _fmt_param(unit: str, v: float) -> str:
+    return f"{math.degrees(v):.6f} deg" if unit == "rad" else f"{v:.4f} mm"
 
 
-def _fmt_small(k: int, v: float) -> str:
+def _fmt_small(unit: str, v: float) -> str:
     """A change or an uncertainty: arcsec for angles, um for lengths."""
-    return f'{v / ARCSEC:+.2f}"' if PARAM_UNITS[k] == "rad" else f"{v * 1e3:+.2f} um"
+    return f'{v / ARCSEC:+.2f}"' if unit == "rad" else f"{v * 1e3:+.2f} um"
 
 
-def _fmt_u(k: int, v: float) -> str:
-    return f'{v / ARCSEC:.2f}"' if PARAM_UNITS[k] == "rad" else f"{v * 1e3:.2f} um"
+def _fmt_u(unit: str, v: float) -> str:
+    return f'{v / ARCSEC:.2f}"' if unit == "rad" else f"{v * 1e3:.2f} um"
 
 
 def format_identifiability(idn: Identifiability, title: str = "Identifiability") -> str:
@@ -112,22 +113,24 @@ def format_identifiability(idn: Identifiability, title: str = "Identifiability")
     return "\n".join(lines)
 
 
-def format_parameters(res: CalibrationResult) -> str:
-    """Start and calibrated values, change and standard uncertainty of every parameter."""
+def format_parameters(res: CalibrationResult[Any]) -> str:
+    """Start and calibrated values, change and standard uncertainty of every parameter
+    (the arm's own, for any arm)."""
     v0, v1, sd = res.start.to_vector(), res.params.to_vector(), res.scaled_std
+    units = param_units(res.params)
     lines = [
         f"  {'param':<7} {'start':>17} {'calibrated':>17} {'change':>12} {'u (k=1)':>10}",
     ]
-    for k, n in enumerate(PARAM_NAMES):
+    for k, n in enumerate(param_names(res.params)):
         if n in res.held:
             note = "held (unobservable)"
         elif n in res.fixed:
             note = "fixed"
         else:
-            note = _fmt_u(k, sd[k])
+            note = _fmt_u(units[k], sd[k])
         lines.append(
-            f"  {n:<7} {_fmt_param(k, v0[k]):>17} {_fmt_param(k, v1[k]):>17} "
-            f"{_fmt_small(k, v1[k] - v0[k]):>12} {note:>10}"
+            f"  {n:<7} {_fmt_param(units[k], v0[k]):>17} {_fmt_param(units[k], v1[k]):>17} "
+            f"{_fmt_small(units[k], v1[k] - v0[k]):>12} {note:>10}"
         )
     return "\n".join(lines)
 
@@ -221,6 +224,11 @@ def point_uncertainty(
     arm do not depend on them. The covariance is the reported one
     (:attr:`~aacmm.calibration.results.CalibrationResult.scaled_covariance`).
     """
+    if not isinstance(res.params, Params):
+        raise ValueError(
+            "point uncertainty of a calibration: the paper's arm only (aacmm.uncertainty "
+            "takes its 25 parameters)"
+        )
     spec = unc.UncertaintySpec.from_covariance(res.scaled_covariance, res.params, poses_rad)
     return unc.propagate(spec, trials=trials, workspace=workspace, seed=seed)
 
@@ -267,8 +275,8 @@ def _outlier_json(o: Outlier) -> dict[str, Any]:
     }
 
 
-def _params_json(v: FloatArray) -> dict[str, float]:
-    return {n: float(v[k]) for k, n in enumerate(PARAM_NAMES)}
+def _params_json(v: FloatArray, names: tuple[str, ...] = PARAM_NAMES) -> dict[str, float]:
+    return {n: float(v[k]) for k, n in enumerate(names)}
 
 
 def comparison_json(cmp_: Comparison) -> list[dict[str, Any]]:
@@ -287,8 +295,9 @@ def comparison_json(cmp_: Comparison) -> list[dict[str, Any]]:
     ]
 
 
-def to_json(res: CalibrationResult, cmp_: Comparison | None = None) -> dict[str, Any]:
-    """Everything about a calibration as JSON-ready data (mm, rad)."""
+def to_json(res: CalibrationResult[Any], cmp_: Comparison | None = None) -> dict[str, Any]:
+    """Everything about a calibration as JSON-ready data (mm, rad; any arm: its names)."""
+    names = param_names(res.params)
     chi = res.chi_square
     corr = res.correlation
     out: dict[str, Any] = {
@@ -296,11 +305,11 @@ def to_json(res: CalibrationResult, cmp_: Comparison | None = None) -> dict[str,
         "free": list(res.free),
         "held": list(res.held),
         "fixed": list(res.fixed),
-        "start": _params_json(res.start.to_vector()),
-        "calibrated": _params_json(res.params.to_vector()),
-        "std": _params_json(res.scaled_std),
-        "std_a_priori": _params_json(res.std),
-        "units": dict(zip(PARAM_NAMES, PARAM_UNITS, strict=True)),
+        "start": _params_json(res.start.to_vector(), names),
+        "calibrated": _params_json(res.params.to_vector(), names),
+        "std": _params_json(res.scaled_std, names),
+        "std_a_priori": _params_json(res.std, names),
+        "units": dict(zip(names, param_units(res.params), strict=True)),
         "variance_factor": res.variance_factor,
         "uncertainty_scale": res.uncertainty_scale,
         "covariance": res.scaled_covariance.tolist(),

@@ -8,13 +8,27 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Generic
 
 import numpy as np
 
+from aacmm.arm import Arm
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.observations import Observations
+from aacmm.calibration.parameters import param_names
 from aacmm.calibration.problem import Evaluation, Problem
-from aacmm.core import PARAM_NAMES, FloatArray, Params
+from aacmm.core import FloatArray, Params
+
+if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
+    from typing_extensions import TypeVar
+
+    #: The kind of parameters a calibration works on: the paper's Params
+    #: (the default) or an Arm.
+    P = TypeVar("P", Params, Arm, default=Params)
+else:
+    from typing import TypeVar
+
+    P = TypeVar("P", Params, Arm)
 
 
 @dataclass(frozen=True)
@@ -129,14 +143,16 @@ class ChiSquare:
 
 
 @dataclass(frozen=True)
-class CalibrationResult:
+class CalibrationResult(Generic[P]):
     """Everything a calibration found.
 
-    ``params``: calibrated parameters; ``start``: where it began.
+    ``params``: calibrated parameters; ``start``: where it began (both the
+    paper's :class:`~aacmm.core.Params` or both an :class:`~aacmm.arm.Arm`:
+    ``CalibrationResult[Params]``, the default, or ``CalibrationResult[Arm]``).
     ``free``: parameters that were estimated; ``held``: parameters held at
     their start values because the data cannot observe them (auto, 'fix'
     strategy) and ``fixed``: those the caller fixed. ``identifiability`` (at
-    the solution) and ``identifiability_start``; ``covariance`` (25, 25),
+    the solution) and ``identifiability_start``; ``covariance`` (P, P; 25 for the paper's arm),
     rad and mm, from the stated uncertainties (a priori), zero for held and
     fixed parameters (:attr:`scaled_covariance` is the one to report: scaled
     by chi^2/dof when the check refutes the model); ``chi_square``;
@@ -145,8 +161,8 @@ class CalibrationResult:
     solution; ``observations``: the data finally used.
     """
 
-    params: Params
-    start: Params
+    params: P
+    start: P
     strategy: str
     free: tuple[str, ...]
     held: tuple[str, ...]
@@ -169,12 +185,12 @@ class CalibrationResult:
 
     @property
     def std(self) -> FloatArray:
-        """Standard uncertainties (25,) of the parameters (0 for held/fixed)."""
+        """Standard uncertainties (P,) of the parameters (0 for held/fixed)."""
         return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
 
     @property
     def correlation(self) -> FloatArray:
-        """Correlation matrix (25, 25); NaN rows/columns for held or fixed parameters."""
+        """Correlation matrix (P, P); NaN rows/columns for held or fixed parameters."""
         sd = self.std
         with np.errstate(invalid="ignore", divide="ignore"):
             c = self.covariance / np.outer(sd, sd)
@@ -210,21 +226,22 @@ class CalibrationResult:
 
     @property
     def scaled_std(self) -> FloatArray:
-        """The reported standard uncertainties (25,): :attr:`std` times
+        """The reported standard uncertainties (P,): :attr:`std` times
         :attr:`uncertainty_scale` (0 for held/fixed)."""
         return self.std * self.uncertainty_scale
 
     def delta(self) -> FloatArray:
-        """Calibrated minus start parameters (25,)."""
+        """Calibrated minus start parameters (P,)."""
         return self.params.to_vector() - self.start.to_vector()
 
     def strongest_correlations(self, k: int = 5) -> list[tuple[str, str, float]]:
         """The ``k`` largest |correlations| between free parameters."""
         c = self.correlation
+        names = param_names(self.params)
         pairs = []
-        for i in range(25):
-            for j in range(i + 1, 25):
+        for i in range(len(names)):
+            for j in range(i + 1, len(names)):
                 if np.isfinite(c[i, j]):
-                    pairs.append((PARAM_NAMES[i], PARAM_NAMES[j], float(c[i, j])))
+                    pairs.append((names[i], names[j], float(c[i, j])))
         pairs.sort(key=lambda t: -abs(t[2]))
         return pairs[:k]

@@ -35,10 +35,12 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Sequence
+from typing import Any, overload
 
 import numpy as np
 from scipy import optimize
 
+from aacmm.arm import Arm
 from aacmm.calibration.diagnostics import (
     DEFAULT_ALPHA_CHI2,
     DEFAULT_ALPHA_OUTLIER,
@@ -49,13 +51,21 @@ from aacmm.calibration.diagnostics import (
 from aacmm.calibration.features import CalibrationError
 from aacmm.calibration.identifiability import DEFAULT_KAPPA, Identifiability, analyse
 from aacmm.calibration.observations import LengthSet, Observations
+from aacmm.calibration.parameters import (
+    ArmParams,
+    hayati_held,
+    param_names,
+    tip_columns,
+    validate,
+    with_vector,
+)
 from aacmm.calibration.problem import Evaluation, Problem, Residuals
 from aacmm.calibration.results import (
     CalibrationResult,
     Outlier,
     Progress,
 )
-from aacmm.core import JOINTS, PARAM_GROUPS, PARAM_NAMES, FloatArray, Params
+from aacmm.core import PARAM_GROUPS, FloatArray, Params
 
 __all__ = [
     "STRATEGIES",
@@ -70,41 +80,57 @@ _MAX_STAGES = 5
 _MAX_REJECT_ROUNDS = 4
 
 
-def parse_names(names: Sequence[str]) -> tuple[str, ...]:
+def parse_names(names: Sequence[str], params: ArmParams | None = None) -> tuple[str, ...]:
     """Parameter names from names and groups (``theta``, ``alpha``, ``d``, ``a``,
-    ``tip`` = theta6 alpha6 d6 a6 l, ``all``), comma lists allowed; in column order.
+    ``beta``, ``tip`` = theta6 alpha6 d6 a6 l, ``all``), comma lists allowed; in
+    column order. The names are those of ``params`` (default: the paper's arm;
+    for any arm ``tip`` is :func:`~aacmm.calibration.parameters.tip_columns`).
 
     Raises ValueError for an unknown name.
     """
-    from aacmm.calibration.identifiability import TIP_PARAMS
-
+    p = params if params is not None else Params()
+    all_names = param_names(p)
+    tip = set(tip_columns(p))
+    groups = {g: {n for n in all_names if n.rstrip("0123456789") == g} for g in PARAM_GROUPS[:4]}
+    groups["beta"] = {n for n in all_names if n.startswith("beta")}
     out: set[str] = set()
     for item in names:
         for n in (x.strip() for x in str(item).split(",")):
             if not n:
                 continue
-            if n in PARAM_NAMES:
+            if n in all_names:
                 out.add(n)
-            elif n in PARAM_GROUPS[:4]:
-                out |= {f"{n}{i}" for i in range(1, JOINTS + 1)}
+            elif n in groups and (groups[n] or n != "beta"):
+                out |= groups[n]
             elif n == "tip":
-                out |= set(TIP_PARAMS)
+                out |= tip
             elif n == "all":
-                out |= set(PARAM_NAMES)
+                out |= set(all_names)
             else:
-                raise ValueError(
-                    f"unknown parameter {n!r} (theta1..6, alpha1..6, d1..6, a1..6, l, or a "
-                    "group: theta, alpha, d, a, tip, all)"
-                )
-    return tuple(n for n in PARAM_NAMES if n in out)
+                raise ValueError(f"unknown parameter {n!r} ({_name_help(p)})")
+    return tuple(n for n in all_names if n in out)
+
+
+def _name_help(p: ArmParams) -> str:
+    if isinstance(p, Params):
+        return "theta1..6, alpha1..6, d1..6, a1..6, l, or a group: theta, alpha, d, a, tip, all"
+    n = len(p.joints)
+    tip = "tx, ty, tz" if p.tip == "xyz" else "l"
+    betas = "".join(f", beta{j + 1}" for j in p.beta_joints)
+    beta = ", beta" if betas else ""
+    return (
+        f"theta1..{n}, alpha1..{n}, d1..{n}, a1..{n}{betas}, {tip}, or a group: theta, "
+        f"alpha, d, a{beta}, tip, all"
+    )
 
 
 class _Solver:
-    """One least-squares run over a parametrisation x -> 25 parameters."""
+    """One least-squares run over a parametrisation x -> P parameters (of ``template``'s kind)."""
 
     def __init__(
         self,
         problem: Problem,
+        template: ArmParams,
         base: FloatArray,
         basis: FloatArray,
         stage: int,
@@ -112,8 +138,9 @@ class _Solver:
         history: list[Progress],
     ) -> None:
         self.problem = problem
-        self.base = base  # (25,)
-        self.basis = basis  # (25, k): dp = basis @ x
+        self.template = template
+        self.base = base  # (P,)
+        self.basis = basis  # (P, k): dp = basis @ x
         self.stage = stage
         self.progress = progress
         self.history = history
@@ -123,8 +150,8 @@ class _Solver:
         self._res: Residuals | None = None
         self.nfev = 0
 
-    def params(self, x: FloatArray) -> Params:
-        return Params.from_vector(self.base + self.basis @ x)
+    def params(self, x: FloatArray) -> ArmParams:
+        return with_vector(self.template, self.base + self.basis @ x)
 
     def _note(self, res: Residuals) -> None:
         self.nfev += 1
@@ -179,32 +206,41 @@ class _Solver:
 
 
 def _stage_basis(
-    ident: Identifiability, candidates: Sequence[int], strategy: str
+    ident: Identifiability, candidates: Sequence[int], strategy: str, names: Sequence[str]
 ) -> tuple[FloatArray, tuple[str, ...]]:
-    """The parametrisation (25, k) of a stage and the parameters it holds."""
-    scale = np.zeros(25)
+    """The parametrisation (P, k) of a stage and the parameters it holds (``names``: all P)."""
+    p = len(names)
+    scale = np.zeros(p)
     scale[list(ident.columns)] = ident.scale
     if strategy == "fix":
         held = set(ident.held)
-        cols = [c for c in candidates if PARAM_NAMES[c] not in held]
-        b = np.zeros((25, len(cols)))
+        cols = [c for c in candidates if names[c] not in held]
+        b = np.zeros((p, len(cols)))
         for j, c in enumerate(cols):
             b[c, j] = 1.0 / scale[c]  # x in mm at the tip
         return b, ident.held
-    b = np.zeros((25, ident.rank))
+    b = np.zeros((p, ident.rank))
     b[list(ident.columns), :] = ident.basis / ident.scale[:, None]
     return b, ()
 
 
-def _candidates(free: Sequence[str] | None, fix: Sequence[str]) -> list[int]:
-    names = parse_names(free) if free is not None else PARAM_NAMES
-    fixed = set(parse_names(fix))
-    cols = [PARAM_NAMES.index(n) for n in names if n not in fixed]
+def _candidates(free: Sequence[str] | None, fix: Sequence[str], params: ArmParams) -> list[int]:
+    """The columns to estimate: ``free`` (default all but the d a Hayati beta replaces,
+    :func:`~aacmm.calibration.parameters.hayati_held`) less ``fix``."""
+    all_names = param_names(params)
+    names = (
+        parse_names(free, params)
+        if free is not None
+        else tuple(n for n in all_names if n not in hayati_held(params))
+    )
+    fixed = set(parse_names(fix, params))
+    cols = [all_names.index(n) for n in names if n not in fixed]
     if not cols:
         raise ValueError("no parameter left free to calibrate")
     return cols
 
 
+@overload
 def calibrate(
     obs: Observations,
     start: Params | None = None,
@@ -218,11 +254,59 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
-) -> CalibrationResult:
+) -> CalibrationResult[Params]: ...
+@overload
+def calibrate(
+    obs: Observations,
+    start: Arm,
+    *,
+    free: Sequence[str] | None = None,
+    fix: Sequence[str] = (),
+    strategy: str = "fix",
+    reject: bool = False,
+    kappa: float = DEFAULT_KAPPA,
+    alpha_chi2: float = DEFAULT_ALPHA_CHI2,
+    alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
+    max_nfev: int = 200,
+    progress: Callable[[Progress], None] | None = None,
+) -> CalibrationResult[Arm]: ...
+@overload
+def calibrate(
+    obs: Observations,
+    start: ArmParams | None = None,
+    *,
+    free: Sequence[str] | None = None,
+    fix: Sequence[str] = (),
+    strategy: str = "fix",
+    reject: bool = False,
+    kappa: float = DEFAULT_KAPPA,
+    alpha_chi2: float = DEFAULT_ALPHA_CHI2,
+    alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
+    max_nfev: int = 200,
+    progress: Callable[[Progress], None] | None = None,
+) -> CalibrationResult[Any]: ...
+def calibrate(
+    obs: Observations,
+    start: ArmParams | None = None,
+    *,
+    free: Sequence[str] | None = None,
+    fix: Sequence[str] = (),
+    strategy: str = "fix",
+    reject: bool = False,
+    kappa: float = DEFAULT_KAPPA,
+    alpha_chi2: float = DEFAULT_ALPHA_CHI2,
+    alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
+    max_nfev: int = 200,
+    progress: Callable[[Progress], None] | None = None,
+) -> CalibrationResult[Any]:
     """Identify the arm's parameters from ``obs``, starting at ``start`` (default Table 1).
 
+    ``start`` is a :class:`~aacmm.core.Params` (the paper's arm; the result's
+    parameters are Params) or any :class:`~aacmm.arm.Arm` (the result is an
+    arm of the same shape; its joint count must be the observations').
     ``free``/``fix``: parameter names or groups to estimate / hold (default:
-    all 25 free); ``strategy``: ``fix`` or ``min-norm`` for the unobservable
+    all P free but the d of each joint that declares a Hayati beta, which the
+    beta replaces); ``strategy``: ``fix`` or ``min-norm`` for the unobservable
     directions (see the module doc); ``reject``: exclude outliers and solve
     again (otherwise they are only reported).
 
@@ -232,9 +316,9 @@ def calibrate(
     """
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy must be one of {', '.join(STRATEGIES)}, got {strategy!r}")
-    p0 = start or Params()
-    p0.validate()
-    cand = _candidates(free, fix)
+    p0: ArmParams = start or Params()
+    validate(p0)
+    cand = _candidates(free, fix, p0)
     t0 = time.perf_counter()
     history: list[Progress] = []
     rejected: list[Outlier] = []
@@ -268,7 +352,7 @@ def calibrate(
 
 def _solve(
     obs: Observations,
-    p0: Params,
+    p0: ArmParams,
     cand: list[int],
     strategy: str,
     kappa: float,
@@ -276,29 +360,30 @@ def _solve(
     max_nfev: int,
     progress: Callable[[Progress], None] | None,
     history: list[Progress],
-) -> CalibrationResult:
+) -> CalibrationResult[Any]:
     problem = Problem(obs)
     before = problem.evaluate(p0)
     ident0 = analyse(before, cand, kappa)
     if ident0.rank == 0:
         raise CalibrationError("the data identify no parameter (rank 0)")
     ident = ident0
+    names = param_names(p0)
     v0 = p0.to_vector()
     p = v0.copy()
     status = ""
     stages = 0
-    basis = np.zeros((25, 0))
+    basis = np.zeros((len(names), 0))
     for stage in range(1, _MAX_STAGES + 1):
         stages = stage
-        basis, held = _stage_basis(ident, cand, strategy)
+        basis, held = _stage_basis(ident, cand, strategy, names)
         if strategy == "fix":
             for n in held:
-                k = PARAM_NAMES.index(n)
+                k = names.index(n)
                 p[k] = v0[k]  # never move an unobservable parameter
-        solver = _Solver(problem, p, basis, stage, progress, history)
+        solver = _Solver(problem, p0, p, basis, stage, progress, history)
         x, status = solver.run(max_nfev)
         p = solver.base + basis @ x
-        ev = problem.evaluate(Params.from_vector(p))
+        ev = problem.evaluate(with_vector(p0, p))
         new = analyse(ev, cand, kappa)
         settled = new.rank == ident.rank and (strategy != "fix" or new.held == ident.held)
         ident = new
@@ -314,25 +399,25 @@ def _solve(
             if np.linalg.norm(drift) <= 1e-13 * max(float(np.linalg.norm(dz)), 1e-300):
                 break
             p[cols] -= drift / ident.scale
-            basis, _ = _stage_basis(ident, cand, strategy)
+            basis, _ = _stage_basis(ident, cand, strategy, names)
             stages += 1
-            solver = _Solver(problem, p, basis, stages, progress, history)
+            solver = _Solver(problem, p0, p, basis, stages, progress, history)
             x, status = solver.run(max_nfev)
             p = solver.base + basis @ x
-            ident = analyse(problem.evaluate(Params.from_vector(p)), cand, kappa)
-    params = Params.from_vector(p)
+            ident = analyse(problem.evaluate(with_vector(p0, p)), cand, kappa)
+    params = with_vector(p0, p)
     after = problem.evaluate(params)
-    basis, held = _stage_basis(ident, cand, strategy)
+    basis, held = _stage_basis(ident, cand, strategy, names)
     cov = parameter_covariance(after, basis)
     chi = chi_square_check(problem, after, basis, ident.rank, alpha_chi2)
-    free = [PARAM_NAMES[c] for c in cand if strategy != "fix" or PARAM_NAMES[c] not in held]
-    return CalibrationResult(
+    free = [names[c] for c in cand if strategy != "fix" or names[c] not in held]
+    return CalibrationResult[Any](
         params=params,
         start=p0,
         strategy=strategy,
         free=tuple(free),
         held=held,
-        fixed=tuple(n for n in PARAM_NAMES if PARAM_NAMES.index(n) not in cand),
+        fixed=tuple(n for k, n in enumerate(names) if k not in cand),
         identifiability=ident,
         identifiability_start=ident0,
         covariance=cov,
@@ -351,20 +436,22 @@ def _solve(
 
 
 def predicted_covariance(
-    obs: Observations, params: Params | None = None, free: Sequence[str] | None = None
+    obs: Observations, params: ArmParams | None = None, free: Sequence[str] | None = None
 ) -> tuple[FloatArray, Identifiability]:
     """The covariance a calibration on ``obs`` would give, without solving.
 
     Evaluated at ``params`` (default Table 1) as if the data were consistent
     with it (the rank judged with the rounding floor only): for planning
-    poses and for tolerance allocation. Returns the (25, 25) covariance (held
-    parameters zero) and the identifiability it rests on.
+    poses and for tolerance allocation. Returns the (P, P) covariance (held
+    parameters zero; 25 for the paper's arm) and the identifiability it rests on.
     """
+    p0: ArmParams = params or Params()
     problem = Problem(obs)
-    ev = problem.evaluate(params or Params())
+    ev = problem.evaluate(p0)
     ev_ideal = dataclasses.replace(ev, r=np.zeros_like(ev.r))
-    ident = analyse(ev_ideal, _candidates(free, ()))
-    basis, _ = _stage_basis(ident, _candidates(free, ()), "fix")
+    cand = _candidates(free, (), p0)
+    ident = analyse(ev_ideal, cand)
+    basis, _ = _stage_basis(ident, cand, "fix", param_names(p0))
     return parameter_covariance(ev, basis), ident
 
 

@@ -30,6 +30,7 @@ from aacmm.calibration.observations import (
     ReferencePoints,
     Sphere,
 )
+from aacmm.calibration.parameters import ArmParams
 from aacmm.calibration.problem import Problem
 from aacmm.core import FloatArray, Params
 
@@ -94,7 +95,7 @@ class Metrics:
         }
 
 
-def measure(obs: Observations, params: Params) -> Metrics:
+def measure(obs: Observations, params: ArmParams) -> Metrics:
     """The figures of :class:`Metrics` for ``params`` on ``obs``.
 
     Raises ObservationError for bad data, CalibrationError if a fitted
@@ -196,7 +197,7 @@ class Comparison:
         return out
 
 
-def compare(obs: Observations, before: Params, after: Params) -> Comparison:
+def compare(obs: Observations, before: ArmParams, after: ArmParams) -> Comparison:
     """:func:`measure` with both parameter sets."""
     return Comparison(measure(obs, before), measure(obs, after))
 
@@ -236,7 +237,7 @@ def _split_units(obs: Observations) -> list[Constraint]:
 
 def kfold(
     obs: Observations,
-    start: Params | None = None,
+    start: ArmParams | None = None,
     k: int = 5,
     seed: int = 0,
     **calibrate_args: object,
@@ -267,12 +268,12 @@ def kfold(
         for j, p in enumerate(perm):
             fold_of[idx[p]] = (offset + j) % k
         offset += len(idx)
-    p0 = start or Params()
+    p0: ArmParams = start or Params()
     comps = []
     for f in range(k):
         train = obs.subset([u for u, g in zip(units, fold_of, strict=True) if g != f])
         test = obs.subset([u for u, g in zip(units, fold_of, strict=True) if g == f])
-        res = calibrate(train, p0, **calibrate_args)  # type: ignore[arg-type]
+        res = calibrate(train, p0, **calibrate_args)  # type: ignore[call-overload]
         comps.append(compare(test, p0, res.params))
     pooled = Comparison(_pool([c.before for c in comps]), _pool([c.after for c in comps]))
     return KFold(k, tuple(comps), pooled)

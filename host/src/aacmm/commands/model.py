@@ -111,7 +111,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_example(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from aacmm.commands.common import check_outputs, write_output
+    from aacmm.fileio import check_outputs, write_output
     from aacmm.models import shipped_model_path
 
     src = shipped_model_path(args.name)  # ModelError (exit 2) for an unknown name

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.core import JOINTS
 from aacmm.simulation.ik import ARM_LIMITS, Arm, JointLimits, Solution, solve, wrap
 
 FloatArray = npt.NDArray[np.float64]
@@ -70,7 +69,8 @@ class Approach:
 def facing_posture(
     target: npt.ArrayLike, rng: np.random.Generator, limits: JointLimits
 ) -> FloatArray:
-    """A random posture inside the limits with the base turned towards the target."""
+    """A random posture inside the limits with the base turned towards the target
+    (joint 1 turns about the base z axis, as in every arm aacmm models)."""
     q = limits.sample(rng)
     t = np.asarray(target, dtype=np.float64)
     q[0] = math.atan2(t[1], t[0]) + rng.normal(0.0, 0.6)
@@ -130,8 +130,8 @@ def most_different(thetas: Sequence[npt.ArrayLike], count: int) -> list[int]:
 def joint_spread_deg(thetas: npt.ArrayLike) -> FloatArray:
     """Per joint, the shortest arc (deg) that holds all its angles (0 for one pose)."""
     th = np.atleast_2d(np.asarray(thetas, dtype=np.float64))
-    out = np.zeros(JOINTS)
-    for j in range(JOINTS):
+    out = np.zeros(th.shape[1])
+    for j in range(th.shape[1]):
         a = np.sort(np.mod(th[:, j], 2.0 * math.pi))
         if a.size < 2:
             continue

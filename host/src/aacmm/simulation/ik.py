@@ -5,6 +5,10 @@ so with the core's models for probe lengths ``l`` and ``l + 1`` the stylus
 direction is ``u = p_{l+1} - p_l`` and its joint Jacobian the difference of
 the two models' theta columns; the theta columns of the core's 3x25 Jacobian
 are the positional joint Jacobian. No other kinematics code is involved.
+Any :class:`aacmm.arm.Arm` (issue 26) works the same way: N joints, the
+stylus the unit vector of its tip (the second model's tip 1 mm further along
+it), the first N Jacobian columns the joint Jacobian;
+:meth:`JointLimits.around` gives limits for any joint count.
 
 :func:`solve` moves the tip onto a target by damped least squares
 (Levenberg-Marquardt steps) with a soft stylus direction and a
@@ -27,7 +31,8 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.core import JOINTS, Model, Params
+from aacmm.arm import Arm as ArmModel
+from aacmm.core import Model, Params
 
 FloatArray = npt.NDArray[np.float64]
 TWO_PI: Final = 2.0 * math.pi
@@ -45,6 +50,48 @@ class JointLimits:
 
     centre_rad: tuple[float, ...]
     half_range_rad: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        c = tuple(float(x) for x in self.centre_rad)
+        h = tuple(float(x) for x in self.half_range_rad)
+        if len(c) != len(h) or not c:
+            raise ValueError(
+                f"joint limits need one centre and one half range per joint, got "
+                f"{len(c)} and {len(h)}"
+            )
+        if not all(math.isfinite(x) for x in c) or any(math.isnan(x) or x <= 0 for x in h):
+            raise ValueError("joint limits need finite centres and half ranges > 0 (inf: none)")
+        object.__setattr__(self, "centre_rad", c)
+        object.__setattr__(self, "half_range_rad", h)
+
+    @classmethod
+    def around(
+        cls, centre_deg: tuple[float, ...], half_range_deg: tuple[float | None, ...]
+    ) -> JointLimits:
+        """Limits from degrees, one per joint; ``None`` half range: no limit (a roll)."""
+        return cls(
+            tuple(math.radians(c) for c in centre_deg),
+            tuple(math.inf if h is None else math.radians(h) for h in half_range_deg),
+        )
+
+    @classmethod
+    def from_ranges(cls, ranges_rad: tuple[tuple[float, float], ...]) -> JointLimits:
+        """Limits from (lowest, highest) pairs in rad, one per joint; ``(-inf, inf)``:
+        no limit (an arm model's ``joint_limits_rad``, :mod:`aacmm.models`)."""
+        centre, half = [], []
+        for lo, hi in ranges_rad:
+            if math.isinf(lo) or math.isinf(hi):
+                centre.append(0.0)
+                half.append(math.inf)
+            else:
+                centre.append(0.5 * (lo + hi))
+                half.append(0.5 * (hi - lo))
+        return cls(tuple(centre), tuple(half))
+
+    @property
+    def joints(self) -> int:
+        """The number of joints limited."""
+        return len(self.centre_rad)
 
     def canonical(self, theta: npt.ArrayLike) -> FloatArray:
         """The angles in each joint's own interval: centre + wrap(theta - centre)."""
@@ -66,7 +113,7 @@ class JointLimits:
     def sample(self, rng: np.random.Generator, shrink: float = 0.9) -> FloatArray:
         """A random posture inside ``shrink`` times the ranges (rolls: any angle)."""
         half = np.minimum(np.asarray(self.half_range_rad), math.pi) * shrink
-        out: FloatArray = np.asarray(self.centre_rad) + rng.uniform(-1.0, 1.0, JOINTS) * half
+        out: FloatArray = np.asarray(self.centre_rad) + rng.uniform(-1.0, 1.0, self.joints) * half
         return wrap(out)
 
 
@@ -84,29 +131,44 @@ ARM_LIMITS: Final = JointLimits(
 )
 
 
-class Arm:
-    """Tip, stylus direction and their joint Jacobians of one arm (core, double)."""
+def _longer(params: Params | ArmModel) -> Params | ArmModel:
+    """The same arm with its tip 1 mm further along the stylus (the tip's direction)."""
+    if isinstance(params, Params):
+        return replace(params, l_mm=params.l_mm + 1.0)
+    t = np.asarray(params.tip_mm)
+    norm = float(np.linalg.norm(t))
+    if norm == 0.0:
+        raise ValueError("an arm whose tip is at the last frame's origin has no stylus direction")
+    longer = t + t / norm
+    return replace(params, tip_mm=(float(longer[0]), float(longer[1]), float(longer[2])))
 
-    def __init__(self, params: Params) -> None:
+
+class Arm:
+    """Tip, stylus direction and their joint Jacobians of one arm (core, double):
+    the paper's :class:`~aacmm.core.Params` or any :class:`aacmm.arm.Arm`."""
+
+    def __init__(self, params: Params | ArmModel) -> None:
         self.params = params
         self.model = Model(params)
-        self._longer = Model(replace(params, l_mm=params.l_mm + 1.0))
+        self._longer = Model(_longer(params))
+        self.joints = self.model.joints
 
     def tip(self, theta: npt.ArrayLike) -> FloatArray:
-        """Probe tip (3,) in mm at joint angles ``theta`` (6,)."""
+        """Probe tip (3,) in mm at joint angles ``theta`` (N,)."""
         return self.model.point(np.asarray(theta, dtype=np.float64))
 
     def tip_jacobian(self, theta: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """Tip (3,) and d tip / d theta (3, 6)."""
+        """Tip (3,) and d tip / d theta (3, N)."""
         p, j = self.model.point_jacobian(np.asarray(theta, dtype=np.float64))
-        return p, j[:, :JOINTS]
+        return p, j[:, : self.joints]
 
     def pose(self, theta: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Tip, d tip/d theta, stylus direction u (unit, base to tip) and d u/d theta."""
         th = np.asarray(theta, dtype=np.float64)
+        n = self.joints
         p, j = self.model.point_jacobian(th)
         p1, j1 = self._longer.point_jacobian(th)
-        return p, j[:, :JOINTS], p1 - p, (j1 - j)[:, :JOINTS]
+        return p, j[:, :n], p1 - p, (j1 - j)[:, :n]
 
     def stylus(self, theta: npt.ArrayLike) -> FloatArray:
         """The stylus direction (3,), a unit vector from the wrist towards the tip."""
@@ -119,7 +181,7 @@ class Arm:
 class Solution:
     """A result of :func:`solve`."""
 
-    theta: FloatArray  #: joint angles (6,), canonical in the limits' intervals
+    theta: FloatArray  #: joint angles (N,), canonical in the limits' intervals
     error_mm: float  #: |tip - target| at ``theta``
     stylus_error_rad: float  #: angle between the stylus and the wanted direction (0 if none)
     iterations: int
@@ -153,15 +215,21 @@ def solve(
 ) -> Solution:
     """Joint angles that put the tip of ``arm`` on ``target_mm``.
 
+    ``limits`` must have the arm's joint count (:data:`ARM_LIMITS`: the
+    paper's arm); raises ValueError if not.
+
     Starting from ``theta0``, damped least-squares steps on the tip position
     and, if given, on the stylus direction ``stylus`` (weighted by
     ``stylus_weight_mm``: a soft goal), pulling the remaining freedom towards
     ``posture`` (default ``theta0``); then undamped minimum-norm steps on the
     position alone until ``|tip - target| <= tol_mm``.
     """
+    n = arm.joints
+    if limits.joints != n:
+        raise ValueError(f"the joint limits are for {limits.joints} joints, the arm has {n}")
     target = np.asarray(target_mm, dtype=np.float64).reshape(3)
-    th = np.asarray(theta0, dtype=np.float64).reshape(JOINTS).copy()
-    pref = th.copy() if posture is None else np.asarray(posture, dtype=np.float64).reshape(JOINTS)
+    th = np.asarray(theta0, dtype=np.float64).reshape(n).copy()
+    pref = th.copy() if posture is None else np.asarray(posture, dtype=np.float64).reshape(n)
     want = None
     if stylus is not None:
         want = np.asarray(stylus, dtype=np.float64).reshape(3)

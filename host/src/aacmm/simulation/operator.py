@@ -20,6 +20,13 @@ What is true and what is measured at a probed point:
 
 :class:`Pace` sets the timing: about 1 s per point by default; ``fast``
 sends each move's end pose only and never sleeps (tests).
+
+The operator talks to anything with the :class:`Channel` methods: the
+simulator's :class:`~aacmm.simulation.control.ControlChannel`, or a
+:class:`RecordingChannel` (no device: it keeps the counts in force at each
+press), with which a library user or a test runs the operator of any arm
+(issue 26: N joints, the truth's encoders, the given joint limits) without
+the device simulator.
 """
 
 from __future__ import annotations
@@ -27,17 +34,17 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.core import JOINTS
+from aacmm.core import Params
 from aacmm.errors import AacmmError
 from aacmm.protocol import Button
 from aacmm.simulation.articulation import Approach
-from aacmm.simulation.control import ControlChannel
 from aacmm.simulation.ik import ARM_LIMITS, Arm, JointLimits, solve, wrap
 from aacmm.simulation.truth import Truth
 
@@ -68,6 +75,47 @@ class Pace:
 FAST = Pace(fast=True, reaction_s=0.3)
 
 
+class Channel(Protocol):
+    """What the operator needs of the device's encoder and button inputs."""
+
+    @property
+    def closed(self) -> bool: ...
+
+    def set_counts(self, counts: Sequence[int]) -> None: ...
+
+    def press(self, button: int = 0) -> None: ...
+
+    def release(self, button: int = 0) -> None: ...
+
+
+@dataclass
+class RecordingChannel:
+    """A :class:`Channel` without a device: it keeps the counts in force and, per
+    press, the button and those counts (what a device would read at the edge)."""
+
+    counts: tuple[int, ...] = ()
+    presses: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
+    updates: int = 0
+
+    @property
+    def closed(self) -> bool:
+        return False
+
+    def set_counts(self, counts: Sequence[int]) -> None:
+        self.counts = tuple(int(c) for c in counts)
+        self.updates += 1
+
+    def press(self, button: int = 0) -> None:
+        self.presses.append((button, self.counts))
+
+    def release(self, button: int = 0) -> None:
+        pass
+
+
+#: The paper's arm's start posture (deg): upper arm up, forearm level, wrist down.
+PAPER_HOME_DEG: tuple[float, ...] = (0.0, 135.0, 0.0, 90.0, 0.0, 180.0)
+
+
 class Stopped(AacmmError):
     """The operator was asked to stop (a signal) or the simulator went away."""
 
@@ -95,19 +143,35 @@ def min_jerk(s: npt.ArrayLike) -> FloatArray:
     return out
 
 
+def home_posture(truth: Truth[Any], limits: JointLimits) -> FloatArray:
+    """Where the operator starts: :data:`PAPER_HOME_DEG` for the paper's arm, else
+    each joint at the centre of its range."""
+    if isinstance(truth.params, Params) and limits.joints == len(PAPER_HOME_DEG):
+        return np.array([math.radians(d) for d in PAPER_HOME_DEG])
+    return np.asarray(limits.centre_rad, dtype=np.float64)
+
+
 class Operator:
-    """Drives the true arm through a :class:`ControlChannel` (see the module doc)."""
+    """Drives the true arm through a :class:`Channel` (see the module doc).
+
+    ``limits`` must have the truth's joint count (:data:`ARM_LIMITS`: the
+    paper's arm); raises ValueError if not.
+    """
 
     def __init__(
         self,
-        chan: ControlChannel,
-        truth: Truth,
+        chan: Channel,
+        truth: Truth[Any],
         rng: np.random.Generator,
         pace: Pace = Pace(),
         limits: JointLimits = ARM_LIMITS,
         start: npt.ArrayLike | None = None,
         stop: threading.Event | None = None,
     ) -> None:
+        if limits.joints != truth.joints:
+            raise ValueError(
+                f"the joint limits are for {limits.joints} joints, the arm has {truth.joints}"
+            )
         self.chan = chan
         self.truth = truth
         self.arm = Arm(truth.params)
@@ -116,8 +180,8 @@ class Operator:
         self.limits = limits
         self.stop = stop or threading.Event()
         self.tick: Callable[[], None] | None = None  #: called at every update while moving
-        home = (0.0, math.radians(135.0), 0.0, math.radians(90.0), 0.0, math.pi)
-        self.theta = limits.canonical(np.asarray(start if start is not None else home))
+        home = home_posture(truth, limits) if start is None else np.asarray(start)
+        self.theta = limits.canonical(home)
         self.presses: list[Press] = []
         self.buttons = 0
         self.last_counts: tuple[int, ...] = ()
@@ -224,7 +288,7 @@ class Operator:
         a deliberate bad point), dwell, press, hold, release, back off.
         """
         target = np.asarray(target_mm, dtype=np.float64).reshape(3)
-        th = np.asarray(theta, dtype=np.float64).reshape(JOINTS)
+        th = np.asarray(theta, dtype=np.float64).reshape(self.truth.joints)
         stylus = self.arm.stylus(th)
         back = th
         if not self.pace.fast:  # the approach along the stylus (no time to see it at --fast)

@@ -39,6 +39,7 @@ import numpy as np
 from aacmm.errors import AacmmError
 from aacmm.protocol import Button
 from aacmm.simulation.articulation import joint_spread_deg
+from aacmm.simulation.control import ControlChannel
 from aacmm.simulation.operator import Operator, Press, Stopped
 from aacmm.simulation.scenario import Choreography, PlannedPoint
 
@@ -101,8 +102,12 @@ class ScenarioRun:
         say_press: Callable[[str], None] | None = None,
         ack_timeout_s: float = 30.0,
     ) -> None:
+        if not isinstance(operator.chan, ControlChannel):
+            raise ValueError(
+                "a scenario run follows a capture client: it needs the simulator's control channel"
+            )
         self.op = operator
-        self.chan = operator.chan
+        self.chan: ControlChannel = operator.chan
         self.points = choreography.points
         self.choreography = choreography
         self.plan_sha256 = plan_sha256

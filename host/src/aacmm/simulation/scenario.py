@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from aacmm.arm import Arm as ArmModel
 from aacmm.core import Params
 from aacmm.errors import AacmmError
 from aacmm.plans import Plan, Slot
@@ -63,7 +64,7 @@ class Choreography:
     """Every slot's articulation, and each step's joint spread (deg)."""
 
     points: tuple[PlannedPoint, ...]
-    spread_deg: dict[str, list[float]]  #: step id -> spread of joints 1..6
+    spread_deg: dict[str, list[float]]  #: step id -> spread of joints 1..N
 
 
 def _target(plan: Plan, slot: Slot) -> FloatArray:
@@ -83,12 +84,18 @@ def choreograph(
     limits: JointLimits = ARM_LIMITS,
     progress: Callable[[int, int], None] | None = None,
 ) -> Choreography:
-    """The articulation of every slot of ``plan`` on ``arm`` (module doc).
+    """The articulation of every slot of ``plan`` on ``arm`` (module doc), within
+    ``limits`` (one per joint of the arm: :data:`~aacmm.simulation.ik.ARM_LIMITS`
+    for the paper's arm, any :class:`~aacmm.simulation.ik.JointLimits` for another).
 
     Raises:
         ScenarioError: a slot without a nominal target, or a target the arm
             cannot reach within its limits.
     """
+    if limits.joints != arm.joints:
+        raise ValueError(
+            f"the joint limits are for {limits.joints} joints, the arm has {arm.joints}"
+        )
     out: dict[int, PlannedPoint] = {}
     total = len(plan.slots)
 
@@ -182,14 +189,20 @@ def _tour(thetas: list[FloatArray]) -> list[FloatArray]:
     return out
 
 
-def plan_poses(plan: Plan, params: Params, seed: int = 0) -> FloatArray:
-    """The joint angles (n_slots, 6) in rad the simulated operator probes every
-    slot of ``plan`` with, on an arm of structural parameters ``params``, with no
-    noise: the articulations of ``aacmm sim --scenario PLAN --seed SEED`` on that
-    arm (a pure function of its arguments).
+def plan_poses(
+    plan: Plan,
+    params: Params | ArmModel,
+    seed: int = 0,
+    limits: JointLimits = ARM_LIMITS,
+) -> FloatArray:
+    """The joint angles (n_slots, N) in rad the simulated operator probes every
+    slot of ``plan`` with, on an arm of structural parameters ``params`` (the
+    paper's form or any arm, with its ``limits``), with no noise: the
+    articulations of ``aacmm sim --scenario PLAN --seed SEED`` on that arm (a
+    pure function of its arguments).
 
     Raises:
         ScenarioError: as :func:`choreograph`.
     """
-    choreo = choreograph(plan, Arm(params), np.random.default_rng(seed))
+    choreo = choreograph(plan, Arm(params), np.random.default_rng(seed), limits)
     return np.array([p.theta for p in choreo.points])

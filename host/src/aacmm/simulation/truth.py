@@ -27,6 +27,13 @@ plain simulator; any other truth without an explicit ``[arm] serial_number``
 gets one derived from its content (:attr:`Truth.device_serial`), so the same
 truth is always the same device and two different truths are two devices.
 
+**Any arm** (issue 26): ``params`` may be an :class:`aacmm.arm.Arm` of 4 to 7
+joints (its encoders and error sources one entry per joint);
+:func:`random_truth` of an arm perturbs every parameter of it, betas and tip
+included, by the same sizes (angles: theta offsets, alphas, betas; lengths:
+d, a and the tip). The truth file holds the paper's 25-parameter form only
+(the arm model file is the device side's, docs/kinematics.md).
+
 Analysis code never reads a truth: only tests compare results with it.
 """
 
@@ -35,13 +42,25 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final, Generic, overload
 
 import numpy as np
 import numpy.typing as npt
 
+from aacmm.arm import Arm
 from aacmm.core import JOINTS, EncoderConfig, Model, Params
 from aacmm.errors import AacmmError
+from aacmm.models import ArmModel
+
+if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
+    from typing_extensions import TypeVar
+
+    #: The kind of a truth's geometry: the paper's Params (the default) or an Arm.
+    P = TypeVar("P", Params, Arm, default=Params)
+else:
+    from typing import TypeVar
+
+    P = TypeVar("P", Params, Arm)
 
 FORMAT: Final = "aacmm-truth-1"
 ARCSEC_RAD: Final = math.pi / (180.0 * 3600.0)
@@ -54,8 +73,8 @@ NOMINAL_SERIAL: Final = 1
 class RandomSizes:
     """Perturbation sizes of :func:`random_truth` (uniform on +-size unless stated)."""
 
-    length_mm: float = 0.5  #: d, a (each joint) and l
-    angle_deg: float = 0.05  #: alpha and theta offset of each joint
+    length_mm: float = 0.5  #: d, a (each joint) and l (an arm: each tip component)
+    angle_deg: float = 0.05  #: alpha and theta offset of each joint (an arm: each beta too)
     encoder_noise_arcsec: float = 0.3  #: sigma of the encoder noise (same on every joint)
     eccentricity_arcsec: tuple[float, float] = (0.5, 2.0)  #: amplitude, uniform in this range
     probing_sigma_um: float = 2.0  #: probing noise sigma per axis
@@ -84,7 +103,11 @@ def _six(name: str, values: Any, src: str, lo: float = -math.inf) -> tuple[float
 
 @dataclass(frozen=True)
 class ErrorSources:
-    """The truth's error sources; all zero = a perfect arm (see the module doc)."""
+    """The truth's error sources; all zero = a perfect arm (see the module doc).
+
+    One value per joint (six by default, the paper's arm; 1 to 7, all three
+    tuples of one length); :meth:`none` for another joint count.
+    """
 
     encoder_noise_counts: tuple[float, ...] = (0.0,) * JOINTS  #: Gaussian sigma, per reading
     eccentricity_arcsec: tuple[float, ...] = (0.0,) * JOINTS  #: once-per-rev amplitude
@@ -92,15 +115,29 @@ class ErrorSources:
     probing_sigma_um: float = 0.0  #: isotropic Gaussian on the tip, per axis
 
     def __post_init__(self) -> None:
+        joints = len(tuple(self.encoder_noise_counts))
+        if not 1 <= joints <= 7:
+            raise ValueError(f"encoder_noise_counts needs 1 to 7 values, got {joints}")
         for name in ("encoder_noise_counts", "eccentricity_arcsec", "eccentricity_phase_rad"):
             v = tuple(float(x) for x in getattr(self, name))
-            if len(v) != JOINTS or not all(math.isfinite(x) for x in v):
-                raise ValueError(f"{name} needs {JOINTS} finite values")
+            if len(v) != joints or not all(math.isfinite(x) for x in v):
+                raise ValueError(f"{name} needs {joints} finite values")
             object.__setattr__(self, name, v)
         if min(self.encoder_noise_counts) < 0 or min(self.eccentricity_arcsec) < 0:
             raise ValueError("noise and eccentricity amplitudes must be >= 0")
         if not (math.isfinite(self.probing_sigma_um) and self.probing_sigma_um >= 0):
             raise ValueError("probing_sigma_um must be a finite number >= 0")
+
+    @classmethod
+    def none(cls, joints: int = JOINTS) -> ErrorSources:
+        """No error source on ``joints`` joints."""
+        zeros = (0.0,) * joints
+        return cls(zeros, zeros, zeros)
+
+    @property
+    def joints(self) -> int:
+        """The number of joints described."""
+        return len(self.encoder_noise_counts)
 
     @property
     def noise_free(self) -> bool:
@@ -114,17 +151,32 @@ class ErrorSources:
 
 
 @dataclass(frozen=True)
-class Truth:
-    """An arm's true geometry, encoders and error sources."""
+class Truth(Generic[P]):
+    """An arm's true geometry, encoders and error sources.
 
-    params: Params = field(default_factory=Params)
+    ``params``: the paper's 25-parameter form or any :class:`aacmm.arm.Arm`
+    (``Truth[Params]``, the default, or ``Truth[Arm]``);
+    ``encoders`` and ``errors`` have one entry per joint of it. Raises
+    ValueError (KinematicsError for values the core rejects) if not.
+    """
+
+    params: P = field(default_factory=Params)  # type: ignore[assignment]
     encoders: EncoderConfig = field(default_factory=EncoderConfig)
     errors: ErrorSources = field(default_factory=ErrorSources)
     origin: dict[str, Any] = field(default_factory=dict, compare=False)
     serial_number: int | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
-        self.params.validate()
+        if isinstance(self.params, Params):
+            self.params.validate()
+        else:
+            Model(self.params)  # raises KinematicsError if the core rejects the arm
+        joints = self.joints
+        if self.encoders.joints != joints or self.errors.joints != joints:
+            raise ValueError(
+                f"the arm has {joints} joints, the encoders {self.encoders.joints}, "
+                f"the error sources {self.errors.joints}"
+            )
         self.encoders.to_c()  # raises ValueError if out of range
         sn = self.serial_number
         if sn is not None and not (isinstance(sn, int) and 0 <= sn <= 0xFFFFFFFF):
@@ -140,9 +192,21 @@ class Truth:
         import json
         import zlib
 
-        body = {k: v for k, v in self.to_mapping().items() if k not in ("origin", "arm")}
+        if isinstance(self.params, Params):
+            body = {k: v for k, v in self.to_mapping().items() if k not in ("origin", "arm")}
+        else:
+            body = {
+                "arm": repr(self.params),
+                "encoders": repr(self.encoders),
+                "errors": repr(self.errors),
+            }
         crc = zlib.crc32(json.dumps(body, sort_keys=True).encode())
         return 0x40000000 | (crc & 0x3FFFFFFF)  # never 1, within 31 bits
+
+    @property
+    def joints(self) -> int:
+        """N, the arm's joint count."""
+        return len(self.params.d_mm) if isinstance(self.params, Params) else self.params.n_joints
 
     def model(self) -> Model:
         """The true kinematic model (double precision core)."""
@@ -151,7 +215,7 @@ class Truth:
     # ------------------------------------------------------------ encoders
 
     def reading_error_rad(self, theta_rad: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """The eccentricity error (n, 6) in rad of readings at joint angles ``theta_rad``."""
+        """The eccentricity error (n, N) in rad of readings at joint angles ``theta_rad``."""
         th = np.asarray(theta_rad, dtype=np.float64)
         amp = np.asarray(self.errors.eccentricity_arcsec) * ARCSEC_RAD
         phase = np.asarray(self.errors.eccentricity_phase_rad)
@@ -161,7 +225,7 @@ class Truth:
     def counts(
         self, theta_rad: npt.ArrayLike, rng: np.random.Generator | None = None
     ) -> npt.NDArray[np.int64]:
-        """Raw readings (n, 6) of the true encoders at joint angles ``theta_rad`` (n, 6).
+        """Raw readings (n, N) of the true encoders at joint angles ``theta_rad`` (n, N).
 
         ``theta_rad`` are the angles the core's encoder conversion would
         return for perfect encoders (the DH angle minus the theta offset).
@@ -170,8 +234,8 @@ class Truth:
         given, Gaussian noise of ``encoder_noise_counts``.
         """
         th = np.atleast_2d(np.asarray(theta_rad, dtype=np.float64))
-        if th.shape[-1] != JOINTS:
-            raise ValueError(f"joint angles must have shape (n, {JOINTS})")
+        if th.shape[-1] != self.joints:
+            raise ValueError(f"joint angles must have shape (n, {self.joints})")
         cpr = np.asarray(self.encoders.counts_per_rev, dtype=np.float64)
         steps = (th + self.reading_error_rad(th)) * cpr / (2.0 * math.pi)
         if rng is not None and max(self.errors.encoder_noise_counts) > 0:
@@ -194,8 +258,16 @@ class Truth:
     # ------------------------------------------------------------ file form
 
     def to_mapping(self) -> dict[str, Any]:
-        """The truth file's content (TOML-ready)."""
+        """The truth file's content (TOML-ready).
+
+        Raises TruthError for a general arm (the file holds the paper's form).
+        """
         p, e, x = self.params, self.encoders, self.errors
+        if not isinstance(p, Params):
+            raise TruthError(
+                "a truth file holds the paper's 25-parameter arm; this truth is an arm of "
+                f"{self.joints} joints"
+            )
         data: dict[str, Any] = {
             "format": FORMAT,
             "theta_offset_rad": list(p.theta_offset_rad),
@@ -315,50 +387,102 @@ def load_truth(path: str | Path) -> Truth:
     return replace(truth, origin={"kind": "file", "path": str(path), **truth.origin})
 
 
-def nominal_truth(params: Params | None = None, cpr: int = 1 << 32) -> Truth:
+@overload
+def nominal_truth(params: Params | None = None, cpr: int = 1 << 32) -> Truth[Params]: ...
+@overload
+def nominal_truth(params: Arm, cpr: int = 1 << 32) -> Truth[Arm]: ...
+def nominal_truth(params: Params | Arm | None = None, cpr: int = 1 << 32) -> Truth[Any]:
     """A perfect arm equal to ``params`` (default: the paper's Table 1, the
-    simulator's default set) with ``cpr`` counts per revolution, zero offsets 0
-    and direction +1: the device's built-in set, no error source."""
-    return Truth(
-        params=params or Params(),
-        encoders=EncoderConfig((cpr,) * JOINTS),
+    simulator's default set; or any arm) with ``cpr`` counts per revolution,
+    zero offsets 0 and direction +1: the device's built-in set, no error source."""
+    p: Params | Arm = params or Params()
+    joints = len(p.d_mm) if isinstance(p, Params) else p.n_joints
+    return Truth[Any](
+        params=p,
+        encoders=EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints),
+        errors=ErrorSources.none(joints),
         origin={"kind": "nominal"},
     )
 
 
+def perturbed(
+    nominal: Params | Arm, rng: np.random.Generator, sizes: RandomSizes = RANDOM_SIZES
+) -> Params | Arm:
+    """Every structural parameter of ``nominal`` off by a uniform draw: angles
+    (theta offsets, alphas) by +-angle_deg, lengths (d, a, tip) by +-length_mm;
+    an arm's declared betas by +-angle_deg, drawn last (so an arm of the
+    paper's shape draws what its Params form draws)."""
+    ang = math.radians(sizes.angle_deg)
+    if isinstance(nominal, Params):
+        delta = np.concatenate(
+            [
+                rng.uniform(-ang, ang, 12),  # theta offsets, alpha
+                rng.uniform(-sizes.length_mm, sizes.length_mm, 13),  # d, a, l
+            ]
+        )
+        return Params.from_vector(nominal.to_vector() + delta)
+    n, b = nominal.n_joints, len(nominal.beta_joints)
+    lengths = nominal.n_params - 2 * n - b
+    angles = rng.uniform(-ang, ang, 2 * n)
+    mm = rng.uniform(-sizes.length_mm, sizes.length_mm, lengths)
+    betas = rng.uniform(-ang, ang, b)
+    # column order: thetas, alphas, ds, as, betas, tip
+    delta = np.concatenate([angles, mm[: 2 * n], betas, mm[2 * n :]])
+    return nominal.with_vector(nominal.to_vector() + delta)
+
+
+@overload
 def random_truth(
     seed: int,
     nominal: Params | None = None,
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
-) -> Truth:
-    """A random arm near ``nominal``: every structural parameter perturbed
-    uniformly by ``sizes`` (lengths +-length_mm, angles +-angle_deg), encoder
-    noise, eccentricity and probing noise of ``sizes``. Same seed, same arm
-    (numpy PCG64)."""
+    encoders: EncoderConfig | None = None,
+) -> Truth[Params]: ...
+@overload
+def random_truth(
+    seed: int,
+    nominal: Arm,
+    cpr: int = 1 << 32,
+    sizes: RandomSizes = RANDOM_SIZES,
+    encoders: EncoderConfig | None = None,
+) -> Truth[Arm]: ...
+def random_truth(
+    seed: int,
+    nominal: Params | Arm | None = None,
+    cpr: int = 1 << 32,
+    sizes: RandomSizes = RANDOM_SIZES,
+    encoders: EncoderConfig | None = None,
+) -> Truth[Any]:
+    """A random arm near ``nominal`` (default Table 1, or any arm): every
+    structural parameter perturbed uniformly by ``sizes`` (:func:`perturbed`),
+    encoder noise, eccentricity and probing noise of ``sizes`` on each joint.
+    Same seed, same arm (numpy PCG64). ``encoders``: the arm's encoders (an
+    arm model's, :func:`model_truth`) instead of ``cpr`` counts on every joint,
+    zero offset 0, direction +1; the noise in counts follows each joint's
+    resolution."""
     if not 0 <= seed < 1 << 64:
         raise TruthError(f"random truth seed {seed} outside 0 .. 2^64-1")
-    nom = nominal or Params()
+    nom: Params | Arm = nominal or Params()
+    joints = len(nom.d_mm) if isinstance(nom, Params) else nom.n_joints
     rng = np.random.Generator(np.random.PCG64(seed))
-    ang = math.radians(sizes.angle_deg)
-    delta = np.concatenate(
-        [
-            rng.uniform(-ang, ang, 12),  # theta offsets, alpha
-            rng.uniform(-sizes.length_mm, sizes.length_mm, 13),  # d, a, l
-        ]
-    )
-    params = Params.from_vector(nom.to_vector() + delta)
+    params = perturbed(nom, rng, sizes)
     lo, hi = sizes.eccentricity_arcsec
-    noise_counts = sizes.encoder_noise_arcsec * ARCSEC_RAD * cpr / (2.0 * math.pi)
+    enc = encoders or EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints)
+    if enc.joints != joints:
+        raise TruthError(f"the encoders describe {enc.joints} joints, the arm has {joints}")
+    noise = tuple(
+        sizes.encoder_noise_arcsec * ARCSEC_RAD * c / (2.0 * math.pi) for c in enc.counts_per_rev
+    )
     errors = ErrorSources(
-        encoder_noise_counts=(noise_counts,) * JOINTS,
-        eccentricity_arcsec=tuple(float(v) for v in rng.uniform(lo, hi, JOINTS)),
-        eccentricity_phase_rad=tuple(float(v) for v in rng.uniform(0.0, 2.0 * math.pi, JOINTS)),
+        encoder_noise_counts=noise,
+        eccentricity_arcsec=tuple(float(v) for v in rng.uniform(lo, hi, joints)),
+        eccentricity_phase_rad=tuple(float(v) for v in rng.uniform(0.0, 2.0 * math.pi, joints)),
         probing_sigma_um=sizes.probing_sigma_um,
     )
-    return Truth(
+    return Truth[Any](
         params=params,
-        encoders=EncoderConfig((cpr,) * JOINTS),
+        encoders=enc,
         errors=errors,
         origin={
             "kind": "random",
@@ -370,6 +494,13 @@ def random_truth(
             "probing_sigma_um": sizes.probing_sigma_um,
         },
     )
+
+
+def model_truth(seed: int, model: ArmModel, sizes: RandomSizes = RANDOM_SIZES) -> Truth[Arm]:
+    """A random true arm of an arm model (:mod:`aacmm.models`): its arm perturbed as
+    :func:`random_truth`, its own encoders. Same seed, same arm."""
+    truth = random_truth(seed, model.arm, sizes=sizes, encoders=model.encoder_config())
+    return replace(truth, origin={**truth.origin, "model": model.name})
 
 
 def parse_truth(spec: str, cpr: int = 1 << 32) -> Truth:
