@@ -17,7 +17,7 @@
 #define OFF_LEN 6u
 #define OFF_GEN 8u
 #define OFF_PAYLOAD 12u
-#define OFF_CRC (OFF_PAYLOAD + AACMM_PARAM_SET_BYTES)
+#define OFF_CRC(len) (OFF_PAYLOAD + (len)) /* after a payload of len bytes */
 
 #define NO_SLOT 0xFFu
 
@@ -40,14 +40,14 @@ static int all_bytes(const uint8_t *rec, uint8_t b)
 }
 
 /* Decode and range-check the payload of a record whose CRC is good. */
-static aacmm_status_t decode_payload(const uint8_t *rec, aacmm_param_set_t *set)
+static aacmm_status_t decode_payload(const uint8_t *rec, size_t len, aacmm_param_set_t *set)
 {
-    aacmm_status_t st = aacmm_param_set_decode(rec + OFF_PAYLOAD, AACMM_PARAM_SET_BYTES, set);
+    aacmm_status_t st = aacmm_param_set_decode(rec + OFF_PAYLOAD, len, set);
     if (st == AACMM_OK) {
-        st = aacmm_params_validate_f64(&set->kin);
+        st = aacmm_arm_validate_f64(&set->arm);
     }
     if (st == AACMM_OK) {
-        st = aacmm_encoder_validate(&set->enc);
+        st = aacmm_arm_encoders_validate(&set->enc);
     }
     return st;
 }
@@ -59,6 +59,7 @@ static aacmm_status_t decode_payload(const uint8_t *rec, aacmm_param_set_t *set)
 static uint8_t classify(const uint8_t *rec, uint32_t *generation, aacmm_param_set_t *set)
 {
     uint16_t version;
+    size_t len;
     *generation = 0u;
     if (all_bytes(rec, 0xFFu) || all_bytes(rec, 0x00u)) {
         return AACMM_SLOT_ERASED;
@@ -74,13 +75,14 @@ static uint8_t classify(const uint8_t *rec, uint32_t *generation, aacmm_param_se
         return AACMM_SLOT_VERSION;
     }
     *generation = aacmm_le_get_u32(rec + OFF_GEN);
-    if (aacmm_le_get_u16(rec + OFF_LEN) != AACMM_PARAM_SET_BYTES) {
+    len = aacmm_le_get_u16(rec + OFF_LEN);
+    if (len < AACMM_PARAM_SET_HEADER_BYTES || len > AACMM_PARAM_SET_MAX_BYTES) {
         return AACMM_SLOT_BAD_LENGTH;
     }
-    if (aacmm_crc32(rec, OFF_CRC) != aacmm_le_get_u32(rec + OFF_CRC)) {
+    if (aacmm_crc32(rec, OFF_CRC(len)) != aacmm_le_get_u32(rec + OFF_CRC(len))) {
         return AACMM_SLOT_BAD_CRC;
     }
-    if (decode_payload(rec, set) != AACMM_OK) {
+    if (decode_payload(rec, len, set) != AACMM_OK) {
         return AACMM_SLOT_BAD_CONTENTS;
     }
     return AACMM_SLOT_OLDER;
@@ -205,12 +207,18 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     uint32_t gen;
     uint32_t crc;
     uint32_t offset;
+    size_t len = 0u;
+    size_t i;
     aacmm_status_t st;
     if (pf == NULL || set == NULL || record == NULL) {
         return AACMM_ERR_NULL;
     }
     if (!storage_usable(pf)) {
         return AACMM_ERR_UNSUPPORTED;
+    }
+    st = aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_MAX_BYTES, &len);
+    if (st != AACMM_OK) {
+        return st;
     }
     if (scan(pf, record, &tmp, &r)) {
         if (report != NULL) {
@@ -223,14 +231,14 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
 
     aacmm_le_put_u32(record + OFF_MAGIC, AACMM_STORE_MAGIC);
     aacmm_le_put_u16(record + OFF_VERSION, (uint16_t)AACMM_STORE_VERSION);
-    aacmm_le_put_u16(record + OFF_LEN, (uint16_t)AACMM_PARAM_SET_BYTES);
+    aacmm_le_put_u16(record + OFF_LEN, (uint16_t)len);
     aacmm_le_put_u32(record + OFF_GEN, gen);
-    st = aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_BYTES);
-    if (st != AACMM_OK) {
-        return st;
+    (void)aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_MAX_BYTES, &len);
+    crc = aacmm_crc32(record, OFF_CRC(len));
+    aacmm_le_put_u32(record + OFF_CRC(len), crc);
+    for (i = OFF_CRC(len) + 4u; i < AACMM_STORE_RECORD_BYTES; i++) {
+        record[i] = 0xFFu; /* the rest of the record as erased flash reads */
     }
-    crc = aacmm_crc32(record, OFF_CRC);
-    aacmm_le_put_u32(record + OFF_CRC, crc);
 
     offset = (uint32_t)target * AACMM_STORE_SLOT_BYTES;
     /* From here on the target slot is neither its old contents nor the new
@@ -254,7 +262,7 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     {
         uint32_t g = 0u;
         if (classify(record, &g, &tmp) != AACMM_SLOT_OLDER || g != gen ||
-            aacmm_le_get_u32(record + OFF_CRC) != crc) {
+            aacmm_le_get_u32(record + OFF_CRC(len)) != crc) {
             return AACMM_ERR_STORAGE;
         }
     }
