@@ -292,9 +292,10 @@ def decode_message(body: bytes | bytearray | memoryview) -> Message:
         raise _fail("body longer than 512 bytes", Status.ERR_LENGTH)
     if body[0] != PROTOCOL_VERSION:
         old = " (six joints, before arm models)" if body[0] == PROTOCOL_VERSION_PREVIOUS else ""
-        raise _fail(
+        raise FrameError(
             f"protocol version {body[0]}{old}; this host speaks version {PROTOCOL_VERSION}",
-            Status.ERR_VERSION,
+            int(Status.ERR_VERSION),
+            body[0],
         )
     try:
         t = MsgType(body[1])
