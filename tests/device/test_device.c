@@ -132,15 +132,14 @@ static void expect_error(aacmm_status_t st, uint8_t req_type, uint8_t seq)
 
 static void default_set(aacmm_param_set_t *s)
 {
-    assert_int_equal(aacmm_params_default_f64(&s->kin), AACMM_OK);
-    assert_int_equal(aacmm_encoder_default(&s->enc), AACMM_OK);
+    assert_int_equal(aacmm_param_set_default(s), AACMM_OK);
 }
 
 static void other_set(aacmm_param_set_t *s, double l_mm)
 {
     default_set(s);
-    s->kin.l_mm = l_mm;
-    s->kin.d_mm[2] = 790.0;
+    s->arm.tip_mm[2] = l_mm;
+    s->arm.d_mm[2] = 790.0;
     s->enc.zero_offset_counts[1] = 12345u;
 }
 
@@ -186,10 +185,10 @@ static void test_init_errors(void **state)
     assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
     CFG.can_node_id = 15u;
     default_set(&bad);
-    bad.kin.d_mm[0] = 20000.0;
+    bad.arm.d_mm[0] = 20000.0;
     CFG.defaults = &bad;
     assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
-    bad.kin.d_mm[0] = 300.0;
+    bad.arm.d_mm[0] = 300.0;
     bad.enc.direction[0] = 0;
     assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
     CFG.defaults = NULL;
@@ -257,7 +256,7 @@ static void test_params_set_get_restore(void **state)
     send_simple(AACMM_MSG_GET_PARAMS_REQ, 2);
     expect_response(AACMM_MSG_GET_PARAMS_RSP, 2);
     assert_int_equal(set_crc(&M.u.params), set_crc(&s));
-    assert_true(M.u.params.kin.l_mm > 149.9 && M.u.params.kin.l_mm < 150.1);
+    assert_true(M.u.params.arm.tip_mm[2] > 149.9 && M.u.params.arm.tip_mm[2] < 150.1);
 
     send_simple(AACMM_MSG_INFO_REQ, 3);
     expect_response(AACMM_MSG_INFO_RSP, 3);
@@ -463,15 +462,15 @@ static void test_bad_requests(void **state)
     m.type = AACMM_MSG_SET_PARAMS_REQ;
     m.seq = 46;
     default_set(&m.u.params);
-    m.u.params.kin.d_mm[1] = 20000.0;
+    m.u.params.arm.d_mm[1] = 20000.0;
     send_msg(&m);
     expect_error(AACMM_ERR_RANGE, AACMM_MSG_SET_PARAMS_REQ, 46);
     /* NaN in a parameter (raw). */
     default_set(&m.u.params);
-    m.u.params.kin.d_mm[1] = 65.5;
+    m.u.params.arm.d_mm[1] = 65.5;
     assert_int_equal(aacmm_msg_encode(&m, body, sizeof body, &n), AACMM_OK);
     body[2] = 47;
-    memset(body + 3 + 8 * 13, 0xFF, 8); /* d_2 := NaN */
+    memset(body + 3 + 8 + 8 * 13, 0xFF, 8); /* d_2 := NaN (after the set's 8-byte header) */
     send_body(body, n);
     expect_error(AACMM_ERR_NOT_FINITE, AACMM_MSG_SET_PARAMS_REQ, 47);
     /* COMPUTE with a count >= cpr after a 12-bit encoder set. */
@@ -956,29 +955,32 @@ static void test_power_cut_via_request(void **state)
     assert_int_equal(D.counters.storage_bad_records, 1u); /* the torn slot */
 }
 
+/* A record written by hand as docs (aacmm/device.h) lay it out: magic,
+ * version, payload length, generation, the set, CRC over all before it. */
 static void write_raw_record(uint8_t slot, uint16_t version, uint32_t gen, const aacmm_param_set_t *s,
                              int corrupt)
 {
     uint8_t *r = F.storage + (size_t)slot * AACMM_STORE_SLOT_BYTES;
     uint32_t crc;
+    size_t len = 0u;
+    assert_int_equal(aacmm_param_set_encode(s, r + 12, AACMM_PARAM_SET_MAX_BYTES, &len), AACMM_OK);
     r[0] = 0x41;
     r[1] = 0x41;
     r[2] = 0x43;
     r[3] = 0x4D;
     r[4] = (uint8_t)version;
     r[5] = (uint8_t)(version >> 8);
-    r[6] = (uint8_t)(AACMM_PARAM_SET_BYTES & 0xFF);
-    r[7] = (uint8_t)(AACMM_PARAM_SET_BYTES >> 8);
+    r[6] = (uint8_t)(len & 0xFFu);
+    r[7] = (uint8_t)(len >> 8);
     r[8] = (uint8_t)gen;
     r[9] = (uint8_t)(gen >> 8);
     r[10] = (uint8_t)(gen >> 16);
     r[11] = (uint8_t)(gen >> 24);
-    assert_int_equal(aacmm_param_set_encode(s, r + 12, AACMM_PARAM_SET_BYTES), AACMM_OK);
-    crc = aacmm_crc32(r, 290);
-    r[290] = (uint8_t)crc;
-    r[291] = (uint8_t)(crc >> 8);
-    r[292] = (uint8_t)(crc >> 16);
-    r[293] = (uint8_t)(crc >> 24);
+    crc = aacmm_crc32(r, 12u + len);
+    r[12u + len] = (uint8_t)crc;
+    r[13u + len] = (uint8_t)(crc >> 8);
+    r[14u + len] = (uint8_t)(crc >> 16);
+    r[15u + len] = (uint8_t)(crc >> 24);
     if (corrupt) {
         r[100] ^= 0x01;
     }
@@ -1005,7 +1007,7 @@ static void test_store_generation_wraps(void **state)
     assert_int_equal(rep.newest, 1u);
     assert_int_equal(aacmm_store_load(&PF, &got, &st, &rep, NULL, rec), AACMM_OK);
     assert_int_equal(rep.newest, 1u); /* 0 is newer than 0xFFFFFFFF */
-    assert_true(got.kin.l_mm > 332.9 && got.kin.l_mm < 333.1);
+    assert_true(got.arm.tip_mm[2] > 332.9 && got.arm.tip_mm[2] < 333.1);
     other_set(&s, 444.0);
     assert_int_equal(aacmm_store_save(&PF, &s, &rep, rec), AACMM_OK);
     assert_int_equal(rep.slot_generation[0], 1u);
@@ -1100,7 +1102,7 @@ static void test_diag_request(void **state)
     assert_int_equal(M.u.diag.boot_count, 4u);
     assert_int_equal(M.u.diag.watchdog_ms, 1000u);
     assert_int_equal(M.u.diag.uptime_us, 2500u);
-    assert_int_equal(M.u.diag.joints[0].interface, AACMM_ENC_COUNTS);
+    assert_int_equal(M.u.diag.joint[0].interface, AACMM_ENC_COUNTS);
     set_via_request(&a, 2);
     save_via_request(3);
     save_via_request(4);
@@ -1143,10 +1145,10 @@ static void test_diag_request(void **state)
     diag(10);
     assert_int_equal(M.u.diag.serial_frames_bad, 1u);
     assert_int_equal(M.u.diag.encoder_faults, 2u);
-    assert_int_equal(M.u.diag.joints[2].faults, 2u);
-    assert_int_equal(M.u.diag.joints[2].last_fault, AACMM_ENC_FAULT_READ);
-    assert_int_equal(M.u.diag.joints[0].faults, 1u);
-    assert_int_equal(M.u.diag.joints[0].last_fault, AACMM_ENC_FAULT_READ);
+    assert_int_equal(M.u.diag.joint[2].faults, 2u);
+    assert_int_equal(M.u.diag.joint[2].last_fault, AACMM_ENC_FAULT_READ);
+    assert_int_equal(M.u.diag.joint[0].faults, 1u);
+    assert_int_equal(M.u.diag.joint[0].last_fault, AACMM_ENC_FAULT_READ);
 }
 
 static void boot_on_storage_and_check(uint8_t state, uint8_t source, uint32_t bad)
@@ -1197,7 +1199,7 @@ static void test_corrupt_and_foreign_records(void **state)
     assert_int_equal(M.u.info.param_crc32, set_crc(&def));
     /* A record with a good CRC but parameters out of range is corrupt. */
     memset(F.storage, 0xFF, sizeof F.storage);
-    s.kin.a_mm[0] = 50000.0;
+    s.arm.a_mm[0] = 50000.0;
     write_raw_record(0, AACMM_STORE_VERSION, 1, &s, 0);
     boot_on_storage_and_check(AACMM_STORAGE_CORRUPT, AACMM_PARAM_SOURCE_DEFAULTS, 1);
     /* Read errors: defaults, counted. */
@@ -1854,7 +1856,7 @@ static void test_device_decodes_frames(void **state)
 {
     aacmm_sim_encoders_t enc;
     aacmm_sim_encoders_config_t ec;
-    uint32_t counts[AACMM_JOINTS] = {0x01000000u, 0x40000000u, 0x7FFFFF00u, 5u, 0xFFFFFFFFu, 0u};
+    uint32_t counts[AACMM_JOINTS_MAX] = {0x01000000u, 0x40000000u, 0x7FFFFF00u, 5u, 0xFFFFFFFFu, 0u};
     uint32_t faults = 0u;
     uint32_t points = 0u;
     uint32_t seen_warnings = 0u;
@@ -1915,14 +1917,14 @@ static void test_device_decodes_frames(void **state)
             }
         }
         for (j = 0; j < AACMM_JOINTS; j++) {
-            sum += M.u.diag.joints[j].faults;
-            assert_int_equal(M.u.diag.joints[j].interface, ec.joint[j].interface);
-            assert_int_equal(M.u.diag.joints[j].bits, 32u);
-            assert_true(M.u.diag.joints[j].faults > 0u);
+            sum += M.u.diag.joint[j].faults;
+            assert_int_equal(M.u.diag.joint[j].interface, ec.joint[j].interface);
+            assert_int_equal(M.u.diag.joint[j].bits, 32u);
+            assert_true(M.u.diag.joint[j].faults > 0u);
         }
         assert_int_equal(injected_faults + enc.injected[AACMM_SIM_ENC_WARNING], 1800u / 13u);
         assert_int_equal(sum, injected_faults);
-        assert_int_equal(M.u.diag.joints[0].warnings + M.u.diag.joints[1].warnings,
+        assert_int_equal(M.u.diag.joint[0].warnings + M.u.diag.joint[1].warnings,
                          enc.injected[AACMM_SIM_ENC_WARNING]);
         assert_int_equal(seen_warnings, enc.injected[AACMM_SIM_ENC_WARNING]);
         assert_int_equal(M.u.diag.encoder_faults, faults);
@@ -1935,7 +1937,7 @@ static void test_device_decodes_frames(void **state)
     expect_response(AACMM_MSG_MEASURE_RSP, 1);
     assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT_FAULTS);
     diag(2);
-    assert_int_equal(M.u.diag.joints[3].last_fault, AACMM_ENC_FAULT_READ);
+    assert_int_equal(M.u.diag.joint[3].last_fault, AACMM_ENC_FAULT_READ);
     /* A count the sim cannot send in the configured width is refused. */
     ec.joint[0].bits = 8u;
     assert_int_equal(aacmm_sim_encoders_init(&enc, &ec), AACMM_OK);
@@ -2021,8 +2023,8 @@ static void test_sim_static_repeatable(void **state)
     aacmm_sim_t a;
     aacmm_sim_t b;
     aacmm_sim_config_t c;
-    uint32_t x[AACMM_JOINTS];
-    uint32_t y[AACMM_JOINTS];
+    uint32_t x[AACMM_JOINTS_MAX];
+    uint32_t y[AACMM_JOINTS_MAX];
     (void)state;
     sim_cfg(&c, AACMM_SIM_STATIC, UINT64_C(1) << 20);
     assert_int_equal(aacmm_sim_init(&a, &c), AACMM_OK);
@@ -2122,8 +2124,8 @@ static void test_sim_noise_bounds(void **state)
 {
     aacmm_sim_t s;
     aacmm_sim_config_t c;
-    uint32_t clean[AACMM_JOINTS];
-    uint32_t noisy[AACMM_JOINTS];
+    uint32_t clean[AACMM_JOINTS_MAX];
+    uint32_t noisy[AACMM_JOINTS_MAX];
     uint32_t maxd = 0;
     int k;
     int j;
@@ -2153,7 +2155,7 @@ static void test_sim_replay_loops(void **state)
     aacmm_sim_config_t c;
     static const uint32_t poses[18] = {1, 2, 3, 4, 5, 6, 10, 20, 30, 40, 50, 60,
                                        100, 200, 300, 400, 500, 600};
-    uint32_t got[AACMM_JOINTS];
+    uint32_t got[AACMM_JOINTS_MAX];
     float th[AACMM_JOINTS];
     int k;
     (void)state;
@@ -2163,7 +2165,7 @@ static void test_sim_replay_loops(void **state)
     assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
     for (k = 0; k < 7; k++) {
         assert_int_equal(aacmm_sim_read(&s, 0, got), AACMM_OK);
-        assert_memory_equal(got, poses + (k % 3) * 6, sizeof got);
+        assert_memory_equal(got, poses + (k % 3) * 6, AACMM_JOINTS * sizeof got[0]);
     }
     assert_int_equal(aacmm_sim_angles(&s, 0, th), AACMM_ERR_UNSUPPORTED);
 }
@@ -2217,7 +2219,7 @@ static void test_sim_button(void **state)
 /* The simulated arm as the device's encoders: the counts it produces are
  * valid for the device's default encoder configuration. */
 static aacmm_sim_t sim_for_device;
-static aacmm_status_t sim_read(void *ctx, uint32_t counts[AACMM_JOINTS])
+static aacmm_status_t sim_read(void *ctx, uint32_t counts[AACMM_JOINTS_MAX])
 {
     (void)ctx;
     return aacmm_sim_read(&sim_for_device, F.now_us, counts);

@@ -16,7 +16,7 @@ import isotp
 import pytest
 from aacmm import errors
 from aacmm.protocol import can as pcan
-from aacmm.protocol import framing, messages
+from aacmm.protocol import constants, framing, layout, messages
 from aacmm.protocol.messages import (
     ComputeRequest,
     ComputeResult,
@@ -86,52 +86,93 @@ def tup(s: st.SearchStrategy[object], n: int) -> st.SearchStrategy[tuple[object,
     return st.tuples(*([s] * n))
 
 
-jacobians = st.none() | tup(tup(f32, 25), 3)
+i16 = st.integers(-0x8000, 0x7FFF)
+joints_ = st.integers(4, 7)
+
+
+def jacobians(p: int) -> st.SearchStrategy[object]:
+    return st.none() | tup(tup(f32, p), 3)
 
 
 @st.composite
 def param_sets(draw: st.DrawFn) -> ParamSet:
-    cpr = draw(tup(st.integers(2, 2**32), 6))
+    """Arm models of 4 to 7 joints: conventions, betas (never joint 1), a tip
+    vector or l, and sometimes issue 27's error model."""
+    n = draw(joints_)
+    cpr = draw(tup(st.integers(2, 2**32), n))
     zero = tuple(draw(st.integers(0, min(c, 2**32) - 1)) for c in cpr)  # type: ignore[call-overload]
+    conv = draw(st.just(()) | tup(st.integers(0, 1), n))
+    beta = draw(st.just(()) | st.tuples(st.none(), *([st.none() | f64] * (n - 1))))
+    k = draw(st.sampled_from([0, 0, 1, 4]))
+    harm = tuple(tuple(draw(tup(i16, k))) for _ in range(n)) if k else ()
+    harm_s = tuple(tuple(draw(tup(i16, k))) for _ in range(n)) if k else ()
+    thermal = draw(st.booleans())
     return ParamSet(
-        theta_offset_rad=draw(tup(f64, 6)),  # type: ignore[arg-type]
-        alpha_rad=draw(tup(f64, 6)),  # type: ignore[arg-type]
-        d_mm=draw(tup(f64, 6)),  # type: ignore[arg-type]
-        a_mm=draw(tup(f64, 6)),  # type: ignore[arg-type]
+        theta_offset_rad=draw(tup(f64, n)),  # type: ignore[arg-type]
+        alpha_rad=draw(tup(f64, n)),  # type: ignore[arg-type]
+        d_mm=draw(tup(f64, n)),  # type: ignore[arg-type]
+        a_mm=draw(tup(f64, n)),  # type: ignore[arg-type]
         l_mm=draw(f64),
         counts_per_rev=cpr,  # type: ignore[arg-type]
         zero_offset_counts=zero,
-        direction=draw(tup(st.sampled_from([1, -1]), 6)),  # type: ignore[arg-type]
+        direction=draw(tup(st.sampled_from([1, -1]), n)),  # type: ignore[arg-type]
+        convention=conv,  # type: ignore[arg-type]
+        beta_rad=beta,
+        tip_xy_mm=draw(st.none() | st.tuples(f64, f64)),
+        harm_cos=harm,  # type: ignore[arg-type]
+        harm_sin=harm_s,  # type: ignore[arg-type]
+        cte=draw(tup(i16, n)) if thermal else (),  # type: ignore[arg-type]
+        ref_temp=draw(i16) if thermal else 0,
     )
 
 
-samples = st.builds(
-    Sample,
-    seq=u32,
-    timestamp_us=u64,
-    counts=tup(u32, 6),
-    point_100nm=tup(i32, 3),
-    status=u32,
-    jacobian=jacobians,
-)
+@st.composite
+def samples_(draw: st.DrawFn) -> Sample:
+    n = draw(joints_)
+    p = draw(st.integers(4 * n + 1, 5 * n + 2))
+    return Sample(
+        seq=draw(u32),
+        timestamp_us=draw(u64),
+        counts=draw(tup(u32, n)),  # type: ignore[arg-type]
+        point_100nm=draw(tup(i32, 3)),  # type: ignore[arg-type]
+        status=draw(u32),
+        jacobian=draw(jacobians(p)),  # type: ignore[arg-type]
+        params=p,
+    )
+
+
+@st.composite
+def compute_results(draw: st.DrawFn) -> ComputeResult:
+    p = draw(st.integers(17, 37))
+    return ComputeResult(draw(u32), draw(tup(f64, 3)), draw(jacobians(p)), p)  # type: ignore[arg-type]
+
+
+@st.composite
+def infos(draw: st.DrawFn) -> DeviceInfo:
+    n = draw(joints_)
+    return DeviceInfo(
+        draw(u16),
+        draw(u8),
+        draw(u8),
+        draw(u16),
+        draw(u32),
+        draw(u32),
+        draw(st.integers(0, 2)),
+        draw(st.integers(0, 3)),
+        draw(u16),
+        draw(u32),
+        draw(st.integers(0, 15)),
+        n,
+        draw(st.integers(4 * n + 1, 5 * n + 2)),
+    )
+
+
+samples = samples_()
 
 PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
     MsgType.PING_REQ: st.builds(Ping, u32),
     MsgType.PING_RSP: st.builds(Ping, u32),
-    MsgType.INFO_RSP: st.builds(
-        DeviceInfo,
-        u16,
-        u8,
-        u8,
-        u16,
-        u32,
-        u32,
-        st.integers(0, 2),
-        st.integers(0, 3),
-        u16,
-        u32,
-        st.integers(0, 15),
-    ),
+    MsgType.INFO_RSP: infos(),
     MsgType.SET_PARAMS_REQ: param_sets(),
     MsgType.GET_PARAMS_RSP: param_sets(),
     MsgType.SET_PARAMS_RSP: st.builds(ParamCrc, u32),
@@ -140,8 +181,10 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
     MsgType.MEASURE_REQ: st.builds(MeasureRequest, st.booleans()),
     MsgType.MEASURE_RSP: samples,
     MsgType.SAMPLE_EVT: samples,
-    MsgType.COMPUTE_REQ: st.builds(ComputeRequest, tup(u32, 6), st.booleans()),
-    MsgType.COMPUTE_RSP: st.builds(ComputeResult, u32, tup(f64, 3), jacobians),
+    MsgType.COMPUTE_REQ: st.builds(
+        ComputeRequest, joints_.flatmap(lambda n: tup(u32, n)), st.booleans()
+    ),
+    MsgType.COMPUTE_RSP: compute_results(),
     MsgType.STREAM_START_REQ: st.builds(Stream, st.integers(1, 1000), st.booleans()),
     MsgType.STREAM_START_RSP: st.builds(Stream, st.integers(1, 1000), st.booleans()),
     MsgType.TRIGGER_EVT: st.builds(Trigger, u8, st.booleans(), samples),
@@ -164,11 +207,18 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
         serial_frames_bad=u32,
         samples_dropped=u32,
         samples_late=u32,
-        joints=tup(
-            st.builds(
-                JointDiagnostics, st.integers(0, 3), st.integers(0, 32), st.integers(0, 8), u32, u32
-            ),
-            6,
+        joints=joints_.flatmap(
+            lambda n: tup(
+                st.builds(
+                    JointDiagnostics,
+                    st.integers(0, 3),
+                    st.integers(0, 32),
+                    st.integers(0, 8),
+                    u32,
+                    u32,
+                ),
+                n,
+            )
         ),
     ),
 }
@@ -202,7 +252,7 @@ def test_vector_file_is_up_to_date() -> None:
 def test_message_vectors_decode_to_the_named_values() -> None:
     expected = GEN.messages()
     rows = records("msg")
-    assert len(rows) == len(expected) == 25
+    assert len(rows) == len(expected) == 32
     assert {m.type for m in expected.values()} == set(MsgType)  # every type has a vector
     for name, body_hex, wire_hex in rows:
         body, wire = unhex(body_hex), unhex(wire_hex)
@@ -303,7 +353,7 @@ def test_assembler_drops_incomplete_and_foreign() -> None:
 
 def test_isotp_vectors_reassemble_with_can_isotp() -> None:
     rows = records("isotp")
-    assert len(rows) == 4
+    assert len(rows) == 5
     for name, tx_hex, msg_hex, frames_hex in rows:
         tx = int(tx_hex, 16)
         rx = tx - 0x80 if tx >= pcan.ID_ISOTP_RESPONSE else tx + 0x80
@@ -348,6 +398,7 @@ def test_c_can_ids_match_dbc_and_python() -> None:
         "AACMM_CAN_ID_COUNTS_12": ("AACMM_Counts12", pcan.ID_COUNTS_12),
         "AACMM_CAN_ID_COUNTS_34": ("AACMM_Counts34", pcan.ID_COUNTS_34),
         "AACMM_CAN_ID_COUNTS_56": ("AACMM_Counts56", pcan.ID_COUNTS_56),
+        "AACMM_CAN_ID_COUNTS_7": ("AACMM_Counts7", pcan.ID_COUNTS_7),
         "AACMM_CAN_ID_POINT_XY": ("AACMM_PointXY", pcan.ID_POINT_XY),
         "AACMM_CAN_ID_POINT_Z": ("AACMM_PointZ", pcan.ID_POINT_Z),
         "AACMM_CAN_ID_TRIGGER": ("AACMM_Trigger", pcan.ID_TRIGGER),
@@ -358,7 +409,11 @@ def test_c_can_ids_match_dbc_and_python() -> None:
         assert d[cname] == db.get_message_by_name(dbc_name).frame_id == py_id, cname
     assert len(db.messages) == len(pairs)
     assert d["AACMM_CAN_NODE_ID_MAX"] == pcan.NODE_ID_MAX
-    assert d["AACMM_CAN_SAMPLE_FRAMES"] == len(pcan.SAMPLE_FRAME_IDS)
+    assert d["AACMM_CAN_SAMPLE_FRAMES_MAX"] == len(pcan.SAMPLE_FRAME_IDS)
+    # the C macro AACMM_CAN_SAMPLE_FRAMES(n) = 3 + (n + 1) / 2, as the Python sequence
+    assert [len(pcan.sample_frame_ids(n)) for n in range(4, 8)] == [
+        3 + (n + 1) // 2 for n in range(4, 8)
+    ]
     # node ids never collide: 16 nodes fit between consecutive bases
     bases = sorted(p[1] for p in pairs.values())
     assert all(b - a >= 16 for a, b in itertools.pairwise(bases))
@@ -380,18 +435,31 @@ def test_c_message_types_and_sizes_match_python() -> None:
     d = _c_defines("proto.h")
     assert d["AACMM_PROTO_VERSION"] == messages.PROTOCOL_VERSION
     assert d["AACMM_PROTO_MAX_BODY"] == messages.MAX_BODY == framing.MAX_BODY
-    assert d["AACMM_PARAM_SET_BYTES"] == messages.PARAM_SET_BYTES == struct.calcsize("<25d6Q6I6b")
-    assert d["AACMM_INFO_BYTES"] == messages.INFO_BYTES
-    assert d["AACMM_SAMPLE_BASE_BYTES"] == messages.SAMPLE_BASE_BYTES
-    assert d["AACMM_JACOBIAN_BYTES"] == messages.JACOBIAN_BYTES
-    assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == messages.COMPUTE_RSP_BASE_BYTES
+    assert d["AACMM_PROTO_VERSION_PREVIOUS"] == constants.PROTOCOL_VERSION_PREVIOUS == 1
+    # the paper's set: header, 25 f64, then u32 cpr - 1, u32 zero, i8 direction per joint
+    paper = struct.calcsize("<8B25d6I6I6b")
+    assert d["AACMM_PARAM_SET_PAPER_BYTES"] == layout.PARAM_SET_BYTES == paper
+    assert (
+        d["AACMM_PARAM_SET_MAX_BYTES"]
+        == layout.PARAM_SET_MAX_BYTES
+        == layout.param_set_bytes(7, 37, 4, 1)
+    )
+    assert layout.PARAM_SET_MAX_BYTES <= messages.MAX_BODY - messages.HEADER_BYTES
+    assert d["AACMM_PARAM_SET_HEADER_BYTES"] == layout.PARAM_SET_HEADER_BYTES
+    assert d["AACMM_HARMONICS_MAX"] == layout.HARMONICS_MAX
+    assert d["AACMM_INFO_BYTES"] == layout.INFO_BYTES == layout.INFO_LAYOUT.size
+    assert d["AACMM_SAMPLE_BASE_BYTES"] == layout.SAMPLE_BASE_BYTES == layout.SAMPLE_LAYOUT.size
+    assert d["AACMM_SAMPLE_MAX_BYTES"] == layout.sample_bytes(7, 37, True)
+    assert 2 + layout.sample_bytes(7, 37, True) <= messages.MAX_BODY - messages.HEADER_BYTES
+    assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == layout.COMPUTE_RSP_BASE_BYTES
+    assert d["AACMM_DIAG_BASE_BYTES"] == layout.DIAG_BASE_BYTES == layout.DIAG_LAYOUT.size
     assert d["AACMM_CONTENT_JACOBIAN"] == messages.Content.JACOBIAN
     for flag in messages.SampleStatus:
         assert d[f"AACMM_SAMPLE_{flag.name}"] == flag.value
     for build in messages.BuildFlags:
         assert d[f"AACMM_BUILD_{build.name}"] == build.value
     assert d["AACMM_DIAG_JOINT_BYTES"] == messages.DIAG_JOINT_BYTES
-    assert messages.DIAG_BYTES == 125  # 59 + 6 * 11 (the C macro is an expression)
+    assert layout.DIAG_BYTES == 126  # 60 + 6 * 11 (the C macro is an expression)
     enums: list[tuple[str, type[IntEnum], str]] = [
         ("AACMM_PARAM_SOURCE_", messages.ParamSource, "AACMM_PARAM_SOURCE_MAX"),
         ("AACMM_STORAGE_KIND_", messages.StorageKind, "AACMM_STORAGE_KIND_MAX"),
@@ -497,6 +565,7 @@ def test_can_sample_round_trip(sample: Sample, node: int) -> None:
         sample.counts,
         sample.point_100nm,
         sample.status & 0xFFFF,
+        params=4 * len(sample.counts) + 1,  # the frames carry no P
     )
 
 
@@ -513,8 +582,21 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         Message(MsgType.STREAM_START_REQ, 0, Stream(0)),
         Message(MsgType.ERROR_RSP, 0, ErrorReply(0, 1)),
         Message(MsgType.COMPUTE_RSP, 0, ComputeResult(0, (math.nan, 0.0, 0.0))),
-        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 6, (0, 0, 0), 0, ((1e39,) * 25,) * 3)),
-        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 5, (0, 0, 0), 0)),
+        Message(
+            MsgType.MEASURE_RSP,
+            0,
+            Sample(0, 0, (0,) * 6, (0, 0, 0), 0, ((1e39,) * 25,) * 3),
+        ),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 3, (0, 0, 0), 0, params=13)),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 8, (0, 0, 0), 0, params=33)),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 7, (0, 0, 0), 0)),  # P 25 < 29
+        Message(
+            MsgType.MEASURE_RSP,
+            0,
+            Sample(0, 0, (0,) * 7, (0, 0, 0), 0, ((1.0,) * 25,) * 3, params=29),  # 3 x 25 != 3 x P
+        ),
+        Message(MsgType.COMPUTE_REQ, 0, ComputeRequest((0,) * 8)),
+        Message(MsgType.COMPUTE_RSP, 0, ComputeResult(0, (0.0, 0.0, 0.0), None, params=38)),
         Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 6, (2**31, 0, 0), 0)),
         Message(MsgType.TRIGGER_EVT, 0, Trigger(0, 2, GEN.SAMPLE_A)),  # type: ignore[arg-type]
     ]
@@ -526,6 +608,12 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         {"zero_offset_counts": (0, 16777216, 0, 0, 0, 0)},
         {"l_mm": math.inf},
         {"d_mm": (0.0,) * 5},
+        {"beta_rad": (0.1, None, None, None, None, None)},  # joint 1
+        {"convention": (2, 0, 0, 0, 0, 0)},
+        {"harm_cos": ((1,),) * 6},  # harm_sin missing
+        {"harm_cos": ((1,) * 5,) * 6, "harm_sin": ((1,) * 5,) * 6},  # K 5
+        {"ref_temp": 1},  # no thermal block
+        {"cte": (40000, 0, 0, 0, 0, 0)},
     ):
         bad.append(Message(MsgType.SET_PARAMS_REQ, 0, ParamSet(**{**p.__dict__, **change})))
     for m in bad:
@@ -637,7 +725,7 @@ def test_receive_cost_per_frame_does_not_grow_with_its_length(jacobian: bool) ->
     jac = tuple(tuple(float(25 * r + c) for c in range(25)) for r in range(3)) if jacobian else None
     sample = Sample(7, 1000, (1, 2, 3, 4, 5, 6), (10, -20, 30), 1, jac)
     body = messages.encode_message(Message(MsgType.SAMPLE_EVT, 7, sample))
-    assert len(body) == (356 if jacobian else 56)
+    assert len(body) == (358 if jacobian else 58)
     frame = framing.encode_frame(body)
     deframer = framing.Deframer()
     lines = 0

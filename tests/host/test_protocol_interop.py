@@ -209,10 +209,11 @@ def test_c_and_python_deframers_deliver_the_same_bodies(stream: bytes) -> None:
 def test_c_can_sample_frames_equal_python_and_decode_with_dbc(sample: object, node: int) -> None:
     assert isinstance(sample, messages.Sample)
     body = messages.encode_message(Message(MsgType.SAMPLE_EVT, 0, sample))
-    ids = (ctypes.c_uint32 * 6)()
-    data = (ctypes.c_uint8 * 48)()
-    assert LIB.shim_can_sample(body, len(body), node, ids, data) == 0
-    c_frames = [(ids[i], bytes(data[8 * i : 8 * i + 8])) for i in range(6)]
+    ids = (ctypes.c_uint32 * 7)()
+    data = (ctypes.c_uint8 * 56)()
+    n = LIB.shim_can_sample(body, len(body), node, ids, data)
+    assert n == (5, 6, 6, 7)[len(sample.counts) - 4]
+    c_frames = [(ids[i], bytes(data[8 * i : 8 * i + 8])) for i in range(n)]
     py_frames = [(f.arbitration_id, f.data) for f in pcan.encode_sample_frames(sample, node)]
     assert c_frames == py_frames
     asm = pcan.SampleAssembler(node)

@@ -222,9 +222,7 @@ def messages() -> dict[str, Message]:
         "info_rsp7": Message(
             MsgType.INFO_RSP,
             13,
-            DeviceInfo(
-                2, 0, 1, 0, 0x0C, param_set_crc32(PARAMS7), 2, 1, 512, 77, 15, 7, 33
-            ),
+            DeviceInfo(2, 0, 1, 0, 0x0C, param_set_crc32(PARAMS7), 2, 1, 512, 77, 15, 7, 33),
         ),
         "get_params_rsp7": Message(MsgType.GET_PARAMS_RSP, 14, PARAMS7),
         "set_params_req5e": Message(MsgType.SET_PARAMS_REQ, 15, PARAMS5E),
@@ -247,17 +245,13 @@ def messages() -> dict[str, Message]:
         "save_params_req": Message(MsgType.SAVE_PARAMS_REQ, 4),
         "save_params_rsp": Message(MsgType.SAVE_PARAMS_RSP, 4, ParamCrc(crc)),
         "restore_defaults_req": Message(MsgType.RESTORE_DEFAULTS_REQ, 5),
-        "restore_defaults_rsp": Message(
-            MsgType.RESTORE_DEFAULTS_RSP, 5, ParamCrc(0x12345678)
-        ),
+        "restore_defaults_rsp": Message(MsgType.RESTORE_DEFAULTS_RSP, 5, ParamCrc(0x12345678)),
         "measure_req": Message(MsgType.MEASURE_REQ, 6, MeasureRequest(jacobian=True)),
         "measure_rsp": Message(MsgType.MEASURE_RSP, 6, SAMPLE_J),
         "compute_req": Message(
             MsgType.COMPUTE_REQ,
             7,
-            ComputeRequest(
-                counts=tuple(k * 0x01010101 for k in range(1, 7)), jacobian=True
-            ),
+            ComputeRequest(counts=tuple(k * 0x01010101 for k in range(1, 7)), jacobian=True),
         ),
         "compute_rsp": Message(MsgType.COMPUTE_RSP, 7, COMPUTE_RSP),
         "stream_start_req": Message(MsgType.STREAM_START_REQ, 8, Stream(1000, False)),
@@ -268,9 +262,7 @@ def messages() -> dict[str, Message]:
         "trigger_evt": Message(MsgType.TRIGGER_EVT, 11, Trigger(0, True, SAMPLE_A)),
         "diag_req": Message(MsgType.DIAG_REQ, 12),
         "diag_rsp": Message(MsgType.DIAG_RSP, 12, DIAG),
-        "error_rsp": Message(
-            MsgType.ERROR_RSP, 3, ErrorReply(int(Status.ERR_RANGE), 0x04)
-        ),
+        "error_rsp": Message(MsgType.ERROR_RSP, 3, ErrorReply(int(Status.ERR_RANGE), 0x04)),
     }
 
 
@@ -286,11 +278,7 @@ def _params_bytes(
     f/cpr/zero/dir; cpr as counts per revolution, sent as cpr - 1)."""
     fields: dict[str, list[float]] = {
         "f": list(
-            PARAMS.theta_offset_rad
-            + PARAMS.alpha_rad
-            + PARAMS.d_mm
-            + PARAMS.a_mm
-            + (PARAMS.l_mm,)
+            PARAMS.theta_offset_rad + PARAMS.alpha_rad + PARAMS.d_mm + PARAMS.a_mm + (PARAMS.l_mm,)
         ),
         "cpr": [float(v) for v in PARAMS.counts_per_rev],
         "zero": [float(v) for v in PARAMS.zero_offset_counts],
@@ -501,32 +489,27 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
         ),
         (
             "info_storage_4",
-            _hdr(0x82)
-            + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 4, 512, 0, 0, 6, 25),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 4, 512, 0, 0, 6, 25),
             Status.ERR_RANGE,
         ),
         (
             "info_node_16",
-            _hdr(0x82)
-            + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 16, 6, 25),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 16, 6, 25),
             Status.ERR_RANGE,
         ),
         (
             "info_source_3",
-            _hdr(0x82)
-            + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 3, 0, 512, 0, 0, 6, 25),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 3, 0, 512, 0, 0, 6, 25),
             Status.ERR_RANGE,
         ),
         (
             "info_joints_8",
-            _hdr(0x82)
-            + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 0, 8, 33),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 0, 8, 33),
             Status.ERR_RANGE,
         ),
         (
             "info_params_31",
-            _hdr(0x82)
-            + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 0, 5, 31),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 0, 5, 31),
             Status.ERR_RANGE,
         ),
         ("diag_req_payload", _hdr(0x0B) + b"\x00", Status.ERR_LENGTH),
@@ -584,9 +567,7 @@ def bad_frames() -> list[tuple[str, bytes, str]]:
         ("crc_flipped", bytes(flipped), "crc_errors"),
         (
             "crc_zeroed",
-            b"\x00"
-            + cobs.encode(encode_message(messages()["ping_req"]) + b"\x00" * 4)
-            + b"\x00",
+            b"\x00" + cobs.encode(encode_message(messages()["ping_req"]) + b"\x00" * 4) + b"\x00",
             "crc_errors",
         ),
         ("torn_code_runs_past", b"\x00" + inner[:-3] + b"\x00", "cobs_errors"),
@@ -607,14 +588,10 @@ def _isotp_segment(txid: int, rxid: int, payload: bytes) -> list[bytes]:
     def txfn(msg: isotp.CanMessage) -> None:
         sent.append(msg)
         if (msg.data[0] >> 4) == 1:  # first frame: grant all (CTS, BS 0, STmin 0)
-            pending.append(
-                isotp.CanMessage(arbitration_id=rxid, dlc=3, data=b"\x30\x00\x00")
-            )
+            pending.append(isotp.CanMessage(arbitration_id=rxid, dlc=3, data=b"\x30\x00\x00"))
 
     addr = isotp.Address(isotp.AddressingMode.Normal_11bits, txid=txid, rxid=rxid)
-    tp = isotp.TransportLayerLogic(
-        rxfn=rxfn, txfn=txfn, address=addr, params=pcan.isotp_params()
-    )
+    tp = isotp.TransportLayerLogic(rxfn=rxfn, txfn=txfn, address=addr, params=pcan.isotp_params())
     tp.send(payload)
     for _ in range(1000):
         tp.process()
@@ -670,9 +647,7 @@ def render() -> str:
     )
     lines.append(f"can trigger_n5 {pcan.ID_TRIGGER + 5:03x} {bytes(trig).hex()}")
     for name, tx, body, frames in isotp_cases():
-        lines.append(
-            f"isotp {name} {tx:03x} {body.hex()} {','.join(f.hex() for f in frames)}"
-        )
+        lines.append(f"isotp {name} {tx:03x} {body.hex()} {','.join(f.hex() for f in frames)}")
     for name, body, status in bad_bodies():
         lines.append(f"badbody {name} {body.hex() or '-'} {status.name}")
     for name, wire, counter in bad_frames():

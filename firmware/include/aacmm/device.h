@@ -163,8 +163,9 @@ typedef struct {
     uint16_t watchdog_ms;              /* the watchdog the port feeds; 0 = none */
     /* Each joint's encoder interface and position bits, used when the
      * platform provides read_encoder_frames (then every joint must be a
-     * valid frame interface, aacmm_enc_config_validate; all
-     * AACMM_JOINTS_MAX, whatever the arm's N, as a parameter set may change N). */
+     * valid frame interface, aacmm_enc_config_validate). encoders[6] left
+     * zero (interface COUNTS, bits 0) says the port has six encoders: a
+     * 7-joint set is then refused with AACMM_ERR_UNSUPPORTED. */
     aacmm_enc_joint_config_t encoders[AACMM_JOINTS_MAX];
 } aacmm_device_config_t;
 
@@ -278,6 +279,7 @@ typedef struct {
     uint8_t buttons;       /* last button levels, bit i = button i held */
     uint8_t event_seq;     /* header seq of device events */
     uint8_t reply_version; /* non-zero: the version byte of the ERROR_RSP being sent */
+    uint8_t frame_joints;  /* encoders the port decodes frames of: 6 or 7 */
     uint8_t have_stored;   /* a valid record exists; stored_crc32 is its set's CRC */
     uint32_t stored_crc32;
     aacmm_store_report_t store; /* the slots as last read or written */
@@ -399,6 +401,11 @@ aacmm_status_t aacmm_device_diag(const aacmm_device_t *dev, aacmm_msg_diag_t *di
 uint32_t aacmm_device_build_flags(const aacmm_device_t *dev);
 
 /* ---- parameter storage, usable alone (tools, tests, boards) -------------- */
+
+/* The built-in default set of a device without config->defaults: the
+ * paper's arm (Table 1) with 2^32-count encoders and no error model.
+ * AACMM_ERR_NULL or AACMM_OK. */
+aacmm_status_t aacmm_param_set_default(aacmm_param_set_t *set);
 
 /*
  * Load the newest valid record from the platform's storage into *set (decoded

@@ -21,12 +21,15 @@
  *   - every floating-point field is finite (AACMM_ERR_NOT_FINITE)
  *   - content/flag bytes have no unknown bits, reserved bytes are zero,
  *     enumerations are in range (AACMM_ERR_RANGE)
- *   - a parameter set's encoder configuration passes aacmm_encoder_validate
- *     (AACMM_ERR_RANGE): the encoder layer owns that rule (aacmm/kinematics.h,
- *     encoder.c), so the codec, the device and the core apply one check. It is
- *     the codec's one dependency beyond the protocol folder and status.c:
- *     encoder.c is integer-only and stateless, with no floating point and no
- *     other unit behind it.
+ *   - a parameter set's shape passes aacmm_shape_validate and its encoders
+ *     aacmm_arm_encoders_validate (AACMM_ERR_RANGE): the core owns those rules
+ *     (aacmm/kinematics.h, shape.c, encoder.c), so the codec, the device and
+ *     the core apply one check. They are the codec's only dependencies beyond
+ *     the protocol folder and status.c: integer-only and stateless, with no
+ *     floating point and no other unit behind them.
+ *   - the length of a payload follows from its own bytes (content, N, P, and
+ *     for a parameter set K and the thermal flag), read before any range is
+ *     checked: a wrong length is AACMM_ERR_LENGTH whatever those bytes hold.
  *   - an unknown type gives AACMM_ERR_UNKNOWN_TYPE, another version
  *     AACMM_ERR_VERSION (in both cases msg->type and msg->seq are still set
  *     from the header, so the device can answer with an error response).
@@ -435,8 +438,9 @@ aacmm_status_t aacmm_msg_make_error(aacmm_msg_t *msg, uint8_t seq, uint8_t reque
  * Payload length of a message body's type as its bytes define it: the
  * content byte, N, P (and for a parameter set K and the thermal flag) are
  * read from payload[0 .. len-1] where the type has them, as raw values
- * (ranges are checked after the length). Returns 0 for unknown types and
- * for a payload too short to hold those fields (a valid empty payload also
+ * (ranges are checked after the length). For a payload too short to hold
+ * those fields, the length of the fields that define it (so a short payload
+ * never matches). Returns 0 for unknown types (a valid empty payload also
  * gives 0: check aacmm_msg_type_known). O(1).
  */
 size_t aacmm_msg_payload_len(uint8_t type, const uint8_t *payload, size_t len);
@@ -468,10 +472,6 @@ aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param
  * Errors as aacmm_param_set_encode (then *crc32 is 0). O(size).
  */
 aacmm_status_t aacmm_param_set_crc32(const aacmm_param_set_t *set, uint32_t *crc32);
-
-/* The paper's arm (Table 1) with 2^32-count encoders and no error model:
- * the devices' built-in default set. AACMM_ERR_NULL or AACMM_OK. */
-aacmm_status_t aacmm_param_set_default(aacmm_param_set_t *set);
 
 /*
  * Convert a point in mm to the wire unit (1e-4 mm), rounding to nearest and

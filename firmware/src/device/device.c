@@ -106,10 +106,16 @@ static uint64_t stream_deadline(const aacmm_device_stream_t *s, uint64_t index)
 /* parameters                                                                */
 /* ------------------------------------------------------------------------ */
 
+/* A joint configuration left zero: the port has no such encoder. */
+static int enc_absent(const aacmm_enc_joint_config_t *c)
+{
+    return c->interface == (uint8_t)AACMM_ENC_COUNTS && c->bits == 0u;
+}
+
 /* Check a parameter set completely: ranges, encoders, encodable, and the
  * backend can build a model from it (into *model). */
-static aacmm_status_t check_set(const aacmm_param_set_t *set, aacmm_device_model_t *model,
-                                uint32_t *crc)
+static aacmm_status_t check_set(const aacmm_device_t *dev, const aacmm_param_set_t *set,
+                                aacmm_device_model_t *model, uint32_t *crc)
 {
     aacmm_status_t st = aacmm_arm_validate_f64(&set->arm);
     if (st == AACMM_OK) {
@@ -123,6 +129,9 @@ static aacmm_status_t check_set(const aacmm_param_set_t *set, aacmm_device_model
     }
     if (st == AACMM_OK && (set->err.harmonics != 0u || set->err.thermal != 0u)) {
         st = AACMM_ERR_UNSUPPORTED; /* the error model (issue 27): not computed yet */
+    }
+    if (st == AACMM_OK && set->arm.shape.joints > dev->frame_joints) {
+        st = AACMM_ERR_UNSUPPORTED; /* more joints than the port has encoders */
     }
     if (st == AACMM_OK) {
         st = aacmm_device_kin_load(model, &set->arm);
@@ -404,7 +413,7 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     case AACMM_MSG_SET_PARAMS_REQ: {
         aacmm_device_model_t model;
         uint32_t crc = 0u;
-        st = check_set(&req->u.params, &model, &crc);
+        st = check_set(dev, &req->u.params, &model, &crc);
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
             break;
@@ -438,7 +447,7 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     case AACMM_MSG_RESTORE_DEFAULTS_REQ: {
         aacmm_device_model_t model;
         uint32_t crc = 0u;
-        st = check_set(&dev->defaults, &model, &crc); /* checked at init: cannot fail */
+        st = check_set(dev, &dev->defaults, &model, &crc); /* checked at init: cannot fail */
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
             break;
@@ -989,6 +998,9 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     if (platform->read_encoder_frames != NULL) {
         int j;
         for (j = 0; j < AACMM_JOINTS_MAX; j++) {
+            if (j == AACMM_JOINTS && enc_absent(&config->encoders[j])) {
+                continue; /* six encoders: 7-joint sets are refused */
+            }
             if (aacmm_enc_config_validate(&config->encoders[j]) != AACMM_OK) {
                 return AACMM_ERR_RANGE;
             }
@@ -1023,8 +1035,12 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     dev->fault_pc = config->fault_pc;
     dev->boot_count = config->boot_count;
     dev->watchdog_ms = config->watchdog_ms;
+    dev->frame_joints = (uint8_t)AACMM_JOINTS_MAX;
     if (platform->read_encoder_frames != NULL) {
         int j;
+        if (enc_absent(&config->encoders[AACMM_JOINTS])) {
+            dev->frame_joints = (uint8_t)AACMM_JOINTS;
+        }
         for (j = 0; j < AACMM_JOINTS_MAX; j++) {
             dev->encoders[j] = config->encoders[j];
             dev->joints[j].interface = config->encoders[j].interface;
@@ -1041,7 +1057,7 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     } else {
         (void)aacmm_param_set_default(&dev->defaults);
     }
-    st = check_set(&dev->defaults, &model, &crc);
+    st = check_set(dev, &dev->defaults, &model, &crc);
     if (st != AACMM_OK) {
         return st == AACMM_ERR_NULL ? AACMM_ERR_NULL : AACMM_ERR_RANGE;
     }
@@ -1061,7 +1077,7 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
         }
         dev->storage_state = state;
         if (st == AACMM_OK) {
-            if (check_set(&stored, &model, &crc) == AACMM_OK) {
+            if (check_set(dev, &stored, &model, &crc) == AACMM_OK) {
                 activate(dev, &stored, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_STORAGE);
                 dev->have_stored = 1u;
                 dev->stored_crc32 = crc;

@@ -7,6 +7,7 @@
  */
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "aacmm/crc32.h"
 #include "aacmm/device.h"
@@ -20,6 +21,17 @@
 #define OFF_CRC(len) (OFF_PAYLOAD + (len)) /* after a payload of len bytes */
 
 #define NO_SLOT 0xFFu
+
+aacmm_status_t aacmm_param_set_default(aacmm_param_set_t *set)
+{
+    if (set == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    memset(set, 0, sizeof *set);
+    (void)aacmm_arm_default_f64(&set->arm);
+    (void)aacmm_arm_encoders_default(&set->enc, AACMM_JOINTS);
+    return AACMM_OK;
+}
 
 static int storage_usable(const aacmm_platform_t *pf)
 {

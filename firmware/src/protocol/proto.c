@@ -675,7 +675,7 @@ int aacmm_msg_type_known(uint8_t type)
 static size_t sample_len_raw(const uint8_t *s, size_t n)
 {
     if (n < AACMM_SAMPLE_BASE_BYTES) {
-        return 0u;
+        return AACMM_SAMPLE_BASE_BYTES;
     }
     return AACMM_SAMPLE_BYTES((size_t)s[29], (size_t)s[30], (s[28] & AACMM_CONTENT_JACOBIAN) != 0u);
 }
@@ -696,11 +696,12 @@ size_t aacmm_msg_payload_len(uint8_t type, const uint8_t *payload, size_t len)
         return AACMM_INFO_BYTES;
     case AACMM_MSG_SET_PARAMS_REQ:
     case AACMM_MSG_GET_PARAMS_RSP:
-        return len < AACMM_PARAM_SET_HEADER_BYTES ? 0u : param_set_len_raw(payload);
+        return len < AACMM_PARAM_SET_HEADER_BYTES ? AACMM_PARAM_SET_HEADER_BYTES
+                                                  : param_set_len_raw(payload);
     case AACMM_MSG_MEASURE_REQ:
         return 1u;
     case AACMM_MSG_COMPUTE_REQ:
-        return len < 2u ? 0u : AACMM_COMPUTE_REQ_BYTES((size_t)payload[1]);
+        return len < 2u ? 2u : AACMM_COMPUTE_REQ_BYTES((size_t)payload[1]);
     case AACMM_MSG_STREAM_START_REQ:
     case AACMM_MSG_STREAM_START_RSP:
     case AACMM_MSG_ERROR_RSP:
@@ -710,17 +711,18 @@ size_t aacmm_msg_payload_len(uint8_t type, const uint8_t *payload, size_t len)
         return sample_len_raw(payload, len);
     case AACMM_MSG_TRIGGER_EVT:
         if (len < AACMM_TRIGGER_EXTRA_BYTES) {
-            return 0u;
+            return AACMM_TRIGGER_EXTRA_BYTES + AACMM_SAMPLE_BASE_BYTES;
         }
-        len = sample_len_raw(payload + AACMM_TRIGGER_EXTRA_BYTES, len - AACMM_TRIGGER_EXTRA_BYTES);
-        return len == 0u ? 0u : AACMM_TRIGGER_EXTRA_BYTES + len;
+        return AACMM_TRIGGER_EXTRA_BYTES +
+               sample_len_raw(payload + AACMM_TRIGGER_EXTRA_BYTES, len - AACMM_TRIGGER_EXTRA_BYTES);
     case AACMM_MSG_COMPUTE_RSP:
         return len < AACMM_COMPUTE_RSP_BASE_BYTES
-                   ? 0u
+                   ? AACMM_COMPUTE_RSP_BASE_BYTES
                    : AACMM_COMPUTE_RSP_BYTES((size_t)payload[29],
                                              (payload[28] & AACMM_CONTENT_JACOBIAN) != 0u);
     case AACMM_MSG_DIAG_RSP:
-        return len < AACMM_DIAG_BASE_BYTES ? 0u : AACMM_DIAG_BYTES((size_t)payload[59]);
+        return len < AACMM_DIAG_BASE_BYTES ? AACMM_DIAG_BASE_BYTES
+                                           : AACMM_DIAG_BYTES((size_t)payload[59]);
     default:
         return 0u;
     }
@@ -1101,17 +1103,6 @@ aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param
     r.err = AACMM_OK;
     rd_params(&r, set);
     return r.err;
-}
-
-aacmm_status_t aacmm_param_set_default(aacmm_param_set_t *set)
-{
-    if (set == NULL) {
-        return AACMM_ERR_NULL;
-    }
-    memset(set, 0, sizeof *set);
-    (void)aacmm_arm_default_f64(&set->arm);
-    (void)aacmm_arm_encoders_default(&set->enc, AACMM_JOINTS);
-    return AACMM_OK;
 }
 
 aacmm_status_t aacmm_param_set_crc32(const aacmm_param_set_t *set, uint32_t *crc32)

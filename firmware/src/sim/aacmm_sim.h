@@ -159,7 +159,9 @@ aacmm_status_t aacmm_sim_encoders_init(aacmm_sim_encoders_t *enc,
 
 /* The seven frames for the seven positions (each < 2^bits of its joint,
  * else AACMM_ERR_RANGE and no frames), with the configured corruption on
- * joints 1..6 (the seventh, for 7-joint arm models, is never corrupted).
+ * joints 1..6 (the seventh, for 7-joint arm models, is never corrupted; a
+ * seventh joint left zero in the configuration has no encoder: its frame is
+ * empty).
  * AACMM_ERR_NULL, AACMM_ERR_RANGE or AACMM_OK. Cost: O(total clocks). */
 aacmm_status_t aacmm_sim_encoders_frames(aacmm_sim_encoders_t *enc,
                                          const uint32_t counts[AACMM_JOINTS_MAX],

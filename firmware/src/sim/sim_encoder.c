@@ -206,6 +206,10 @@ aacmm_status_t aacmm_sim_encoders_init(aacmm_sim_encoders_t *enc,
         return AACMM_ERR_NULL;
     }
     for (j = 0; j < AACMM_JOINTS_MAX; j++) {
+        if (j == AACMM_JOINTS && cfg->joint[j].interface == (uint8_t)AACMM_ENC_COUNTS &&
+            cfg->joint[j].bits == 0u) {
+            continue; /* no seventh encoder */
+        }
         if (aacmm_enc_config_validate(&cfg->joint[j]) != AACMM_OK) {
             return AACMM_ERR_RANGE;
         }
@@ -233,6 +237,9 @@ aacmm_status_t aacmm_sim_encoders_frames(aacmm_sim_encoders_t *enc,
     }
     for (j = 0; j < AACMM_JOINTS_MAX; j++) {
         uint8_t bits = enc->cfg.joint[j].bits;
+        if (bits == 0u) {
+            continue; /* no seventh encoder */
+        }
         if (bits < 32u && counts[j] >= (UINT32_C(1) << bits)) {
             return AACMM_ERR_RANGE; /* would be sent truncated: a wrong reading */
         }
@@ -254,8 +261,12 @@ aacmm_status_t aacmm_sim_encoders_frames(aacmm_sim_encoders_t *enc,
     }
     /* The seventh joint (7-joint arm models): clean frames that leave the
      * first six joints' frame count, faults and random sequence as before. */
-    aacmm_sim_encoder_frame(&enc->cfg.joint[AACMM_JOINTS], counts[AACMM_JOINTS],
-                            AACMM_SIM_ENC_OK, 0u, &frames[AACMM_JOINTS]);
+    if (enc->cfg.joint[AACMM_JOINTS].bits != 0u) {
+        aacmm_sim_encoder_frame(&enc->cfg.joint[AACMM_JOINTS], counts[AACMM_JOINTS],
+                                AACMM_SIM_ENC_OK, 0u, &frames[AACMM_JOINTS]);
+    } else {
+        frames[AACMM_JOINTS].n_bits = 0u; /* no seventh encoder: nothing answers */
+    }
     return AACMM_OK;
 }
 

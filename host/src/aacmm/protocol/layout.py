@@ -60,37 +60,38 @@ def _popcount(v: int) -> int:
 
 
 def param_set_len_raw(b: bytes) -> int:
-    """A parameter set's length as its (unchecked) header bytes define it; 0 if too short."""
+    """A parameter set's length as its (unchecked) header bytes define it (the header's
+    own length if ``b`` is shorter)."""
     if len(b) < PARAM_SET_HEADER_BYTES:
-        return 0
+        return PARAM_SET_HEADER_BYTES
     n, tip, _conv, beta, k, h = b[0], b[1], b[2], b[3], b[4], b[5]
     return param_set_bytes(n, 4 * n + _popcount(beta) + tip, k, h)
 
 
 def _sample_len_raw(b: bytes) -> int:
     if len(b) < SAMPLE_BASE_BYTES:
-        return 0
+        return SAMPLE_BASE_BYTES
     return sample_bytes(b[29], b[30], bool(b[28] & 1))
 
 
 def payload_length(t: MsgType, payload: bytes = b"") -> int:
     """Payload bytes of a message of type ``t`` as the payload's own bytes (content, N, P,
-    K, H, read unchecked) define it; 0 when the payload is too short to hold them."""
+    K, H, read unchecked) define it; when the payload is too short to hold them, the
+    length of the fields that define it (so a short payload never matches)."""
     if t in (MsgType.SET_PARAMS_REQ, MsgType.GET_PARAMS_RSP):
         return param_set_len_raw(payload)
     if t == MsgType.COMPUTE_REQ:
-        return 2 + 4 * payload[1] if len(payload) >= 2 else 0
+        return 2 + 4 * payload[1] if len(payload) >= 2 else 2
     if t in (MsgType.MEASURE_RSP, MsgType.SAMPLE_EVT):
         return _sample_len_raw(payload)
     if t == MsgType.TRIGGER_EVT:
-        n = _sample_len_raw(payload[TRIGGER_EXTRA_BYTES:])
-        return TRIGGER_EXTRA_BYTES + n if n else 0
+        return TRIGGER_EXTRA_BYTES + _sample_len_raw(payload[TRIGGER_EXTRA_BYTES:])
     if t == MsgType.COMPUTE_RSP:
         if len(payload) < COMPUTE_RSP_BASE_BYTES:
-            return 0
+            return COMPUTE_RSP_BASE_BYTES
         return COMPUTE_RSP_BASE_BYTES + (12 * payload[29] if payload[28] & 1 else 0)
     if t == MsgType.DIAG_RSP:
-        return diag_bytes(payload[59]) if len(payload) >= DIAG_BASE_BYTES else 0
+        return diag_bytes(payload[59]) if len(payload) >= DIAG_BASE_BYTES else DIAG_BASE_BYTES
     sizes: dict[MsgType, int] = {
         MsgType.PING_REQ: 4,
         MsgType.PING_RSP: 4,

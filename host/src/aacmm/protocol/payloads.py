@@ -79,6 +79,13 @@ class ParamSet:
     cte: tuple[int, ...] = ()
     ref_temp: int = 0
 
+    def __post_init__(self) -> None:
+        # One form per set (as on the wire): all standard is (), no beta is ().
+        conv = tuple(self.convention)
+        beta = tuple(self.beta_rad)
+        object.__setattr__(self, "convention", conv if any(conv) else ())
+        object.__setattr__(self, "beta_rad", beta if any(b is not None for b in beta) else ())
+
     @property
     def joints(self) -> int:
         """N, the number of joints."""
@@ -194,8 +201,8 @@ class ParamSet:
             enc.counts_per_rev,
             enc.zero_offset_counts,
             enc.direction,
-            convention=conv if any(conv) else (),
-            beta_rad=beta if any(b is not None for b in beta) else (),
+            convention=conv,
+            beta_rad=beta,
             tip_xy_mm=None if arm.tip == "z" else (arm.tip_mm[0], arm.tip_mm[1]),
         )
 
