@@ -368,6 +368,7 @@ static void test_measure_and_compute(void **state)
     m.type = AACMM_MSG_COMPUTE_REQ;
     m.seq = 22;
     m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+    m.u.compute_req.joints = AACMM_JOINTS;
     memcpy(m.u.compute_req.counts, counts, sizeof counts);
     send_msg(&m);
     expect_response(AACMM_MSG_COMPUTE_RSP, 22);
@@ -420,14 +421,34 @@ static void test_bad_requests(void **state)
     size_t n = 0;
     (void)state;
     /* Wrong version. */
-    body[0] = 2;
+    body[0] = 3;
     body[1] = AACMM_MSG_PING_REQ;
     body[2] = 40;
     memset(body + 3, 0, 4);
     send_body(body, 7);
     expect_error(AACMM_ERR_VERSION, AACMM_MSG_PING_REQ, 40);
-    /* Unknown type. */
+    /* The previous version (six joints): the answer is an ERROR_RSP in
+     * version 1, which a version 1 host can read (read raw here). */
     body[0] = 1;
+    body[2] = 39;
+    send_body(body, 7);
+    aacmm_device_poll(&D);
+    {
+        const uint8_t *b = NULL;
+        size_t bl = 0;
+        while (b == NULL && host_pos < F.tx_len) {
+            host_pos += aacmm_deframer_feed(&host_rx, F.tx + host_pos, F.tx_len - host_pos, &b, &bl);
+        }
+        assert_non_null(b);
+        assert_int_equal(bl, 6);
+        assert_int_equal(b[0], 1);
+        assert_int_equal(b[1], AACMM_MSG_ERROR_RSP);
+        assert_int_equal(b[2], 39);
+        assert_int_equal((int16_t)(b[3] | (b[4] << 8)), AACMM_ERR_VERSION);
+        assert_int_equal(b[5], AACMM_MSG_PING_REQ);
+    }
+    /* Unknown type. */
+    body[0] = 2;
     body[1] = 0x3E;
     body[2] = 41;
     send_body(body, 3);
@@ -489,6 +510,7 @@ static void test_bad_requests(void **state)
     memset(&m, 0, sizeof m);
     m.type = AACMM_MSG_COMPUTE_REQ;
     m.seq = 49;
+    m.u.compute_req.joints = AACMM_JOINTS;
     m.u.compute_req.counts[3] = 4096u;
     send_msg(&m);
     expect_error(AACMM_ERR_RANGE, AACMM_MSG_COMPUTE_REQ, 49);
@@ -502,7 +524,7 @@ static void test_bad_requests(void **state)
     assert_true((M.u.sample.status & AACMM_SAMPLE_ENCODER_FAULT) != 0u);
     assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) == 0u);
     assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 1u);
-    assert_int_equal(aacmm_device_counters(&D)->error_responses, 9u);
+    assert_int_equal(aacmm_device_counters(&D)->error_responses, 10u);
     assert_false(next_msg());
 }
 
@@ -510,7 +532,7 @@ static void test_garbage_and_crc_errors(void **state)
 {
     static const uint8_t garbage[] = {0x13, 0x37, 0x00, 0x05, 0x11, 0x22, 0x33, 0x44, 0x00,
                                       0xFF, 0xFE, 0x01, 0x02};
-    uint8_t body[7] = {1, AACMM_MSG_PING_REQ, 60, 1, 2, 3, 4};
+    uint8_t body[7] = {2, AACMM_MSG_PING_REQ, 60, 1, 2, 3, 4};
     size_t start;
     (void)state;
     memcpy(F.rx + F.rx_len, garbage, sizeof garbage);
@@ -874,6 +896,9 @@ static void test_store_alternates_slots(void **state)
     }
 }
 
+/* The bytes a save writes for a set of the paper's shape (other_set). */
+#define PAPER_RECORD_LEN ((long)AACMM_STORE_RECORD_LEN(AACMM_PARAM_SET_PAPER_BYTES))
+
 /* The heart of it: cut the power after every byte of a save. The device
  * always comes back with either the previous good set or the new one. */
 static void test_power_cut_at_every_byte(void **state)
@@ -897,13 +922,13 @@ static void test_power_cut_at_every_byte(void **state)
         assert_int_equal(aacmm_store_save(&PF, &old_set, NULL, rec), AACMM_OK);
         memcpy(before, F.storage, sizeof before);
         other_set(&new_set, 222.0);
-        for (cut = 0; cut <= (long)AACMM_STORE_RECORD_BYTES; cut++) {
+        for (cut = 0; cut <= PAPER_RECORD_LEN; cut++) {
             aacmm_status_t st;
             memcpy(F.storage, before, sizeof before);
             F.write_budget = cut;
             st = aacmm_store_save(&PF, &new_set, NULL, rec);
             F.write_budget = -1;
-            if (cut < (long)AACMM_STORE_RECORD_BYTES) {
+            if (cut < PAPER_RECORD_LEN) {
                 assert_int_not_equal(st, AACMM_OK);
             } else {
                 assert_int_equal(st, AACMM_OK);
@@ -913,7 +938,7 @@ static void test_power_cut_at_every_byte(void **state)
             boot();
             assert_int_equal(D.storage_state, AACMM_STORAGE_OK);
             assert_int_equal(D.param_source, AACMM_PARAM_SOURCE_STORAGE);
-            if (cut < (long)AACMM_STORE_RECORD_BYTES) {
+            if (cut < PAPER_RECORD_LEN) {
                 assert_int_equal(D.active_crc32, set_crc(&old_set));
             } else {
                 assert_int_equal(D.active_crc32, set_crc(&new_set));
@@ -1141,7 +1166,7 @@ static void test_diag_request(void **state)
     F.encoder_status = AACMM_ERR_IO;
     send_simple(AACMM_MSG_MEASURE_REQ, 9);
     expect_response(AACMM_MSG_MEASURE_RSP, 9);
-    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT_FAULTS);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, 0x3F00u); /* joints 1..6 */
     diag(10);
     assert_int_equal(M.u.diag.serial_frames_bad, 1u);
     assert_int_equal(M.u.diag.encoder_faults, 2u);
@@ -1185,8 +1210,14 @@ static void test_corrupt_and_foreign_records(void **state)
     assert_true((M.u.sample.status & AACMM_SAMPLE_PARAMS_DEFAULT) != 0u);
     /* A record of a future format. */
     memset(F.storage, 0xFF, sizeof F.storage);
-    write_raw_record(1, 2, 1, &s, 0);
+    write_raw_record(1, 3, 1, &s, 0);
     boot_on_storage_and_check(AACMM_STORAGE_VERSION, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    /* A record of format 1 (the six-joint set before arm models): another
+     * version, not used; the device says so. */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    write_raw_record(0, 1, 5, &s, 0);
+    boot_on_storage_and_check(AACMM_STORAGE_VERSION, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    assert_int_equal(D.store.slot_state[0], AACMM_SLOT_VERSION);
     /* A good record beside a corrupt newer one: the good one wins. */
     memset(F.storage, 0xFF, sizeof F.storage);
     write_raw_record(0, AACMM_STORE_VERSION, 7, &s, 0);
@@ -1544,7 +1575,7 @@ static void test_can_requests(void **state)
     assert_int_equal(M.u.info.can_node_id, 3);
     /* Errors come back over ISO-TP as well. */
     {
-        uint8_t body[3] = {1, 0x3D, 5};
+        uint8_t body[3] = {2, 0x3D, 5};
         assert_int_equal(aacmm_isotp_send(&host_tp, body, 3, (uint32_t)(F.now_us / 1000u)), AACMM_OK);
         assert_true(can_exchange(10));
         assert_int_equal(M.type, AACMM_MSG_ERROR_RSP);
@@ -1935,7 +1966,7 @@ static void test_device_decodes_frames(void **state)
     F.encoder_status = AACMM_ERR_IO;
     send_simple(AACMM_MSG_MEASURE_REQ, 1);
     expect_response(AACMM_MSG_MEASURE_RSP, 1);
-    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT_FAULTS);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, 0x3F00u); /* joints 1..6 */
     diag(2);
     assert_int_equal(M.u.diag.joint[3].last_fault, AACMM_ENC_FAULT_READ);
     /* A count the sim cannot send in the configured width is refused. */
@@ -1956,7 +1987,7 @@ static void test_power_cut_flash_erase_and_write(void **state)
     uint8_t rec[AACMM_STORE_RECORD_BYTES];
     uint8_t before[AACMM_STORE_BYTES];
     long cut;
-    long total = (long)AACMM_STORE_SLOT_BYTES + (long)AACMM_STORE_RECORD_BYTES;
+    long total = (long)AACMM_STORE_SLOT_BYTES + PAPER_RECORD_LEN;
     unsigned olds = 0u;
     (void)state;
     setup_links(1, 0, 1, 0, 0);

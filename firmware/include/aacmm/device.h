@@ -72,7 +72,10 @@
  *                   docs/protocol.md 2.3: the arm model, its encoders and
  *                   the error model)
  *    12+L      4    CRC-32/ISO-HDLC of bytes 0 .. 11+L
- *    16+L      -    up to AACMM_STORE_RECORD_BYTES: 0xFF
+ *
+ * A save writes the AACMM_STORE_RECORD_LEN(L) bytes of its record; a load
+ * reads AACMM_STORE_RECORD_BYTES (the largest record) and takes a record
+ * only if L is the length its set's header defines (else BAD_LENGTH).
  *
  * Format version 2 (the arm model); a version 1 record (the six-joint set of
  * protocol version 1) reads as AACMM_SLOT_VERSION and is not used.
@@ -115,7 +118,8 @@ extern "C" {
 /* ---- parameter storage record ---------------------------------------- */
 #define AACMM_STORE_MAGIC 0x4D434141u /* "AACM" as little-endian bytes */
 #define AACMM_STORE_VERSION 2u
-#define AACMM_STORE_RECORD_BYTES (12u + AACMM_PARAM_SET_MAX_BYTES + 4u) /* 511 */
+#define AACMM_STORE_RECORD_BYTES (12u + AACMM_PARAM_SET_MAX_BYTES + 4u) /* 511: read */
+#define AACMM_STORE_RECORD_LEN(len) (16u + (len)) /* written: a set of len bytes */
 #define AACMM_STORE_SLOT_BYTES 512u
 #define AACMM_STORE_BYTES (2u * AACMM_STORE_SLOT_BYTES) /* storage the device needs */
 

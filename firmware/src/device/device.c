@@ -602,8 +602,9 @@ static int serial_stage_next(aacmm_device_t *dev)
         }
         txq_take(s, dev->body, n);
         if (type == (uint8_t)AACMM_MSG_SAMPLE_EVT && s->stale_overrun) {
-            /* status: u32 at sample offset 48, OVERRUN in its low byte */
-            dev->body[AACMM_PROTO_HEADER_BYTES + 48u] |= (uint8_t)AACMM_SAMPLE_OVERRUN;
+            /* status: u32 at sample offset 24 (after seq, timestamp and the
+             * point: docs/protocol.md 2.4), OVERRUN in its low byte */
+            dev->body[AACMM_PROTO_HEADER_BYTES + 24u] |= (uint8_t)AACMM_SAMPLE_OVERRUN;
             s->stale_overrun = 0u;
         }
         if (aacmm_frame_encode(dev->body, n, dev->wire, sizeof dev->wire, &wl) != AACMM_OK) {

@@ -88,8 +88,9 @@ static uint8_t classify(const uint8_t *rec, uint32_t *generation, aacmm_param_se
     }
     *generation = aacmm_le_get_u32(rec + OFF_GEN);
     len = aacmm_le_get_u16(rec + OFF_LEN);
-    if (len < AACMM_PARAM_SET_HEADER_BYTES || len > AACMM_PARAM_SET_MAX_BYTES) {
-        return AACMM_SLOT_BAD_LENGTH;
+    if (len < AACMM_PARAM_SET_HEADER_BYTES || len > AACMM_PARAM_SET_MAX_BYTES ||
+        len != aacmm_msg_payload_len((uint8_t)AACMM_MSG_SET_PARAMS_REQ, rec + OFF_PAYLOAD, len)) {
+        return AACMM_SLOT_BAD_LENGTH; /* not the length its set's header defines */
     }
     if (aacmm_crc32(rec, OFF_CRC(len)) != aacmm_le_get_u32(rec + OFF_CRC(len))) {
         return AACMM_SLOT_BAD_CRC;
@@ -220,7 +221,6 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     uint32_t crc;
     uint32_t offset;
     size_t len = 0u;
-    size_t i;
     aacmm_status_t st;
     if (pf == NULL || set == NULL || record == NULL) {
         return AACMM_ERR_NULL;
@@ -248,9 +248,6 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     (void)aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_MAX_BYTES, &len);
     crc = aacmm_crc32(record, OFF_CRC(len));
     aacmm_le_put_u32(record + OFF_CRC(len), crc);
-    for (i = OFF_CRC(len) + 4u; i < AACMM_STORE_RECORD_BYTES; i++) {
-        record[i] = 0xFFu; /* the rest of the record as erased flash reads */
-    }
 
     offset = (uint32_t)target * AACMM_STORE_SLOT_BYTES;
     /* From here on the target slot is neither its old contents nor the new
@@ -264,7 +261,7 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
         pf->storage_erase(pf->ctx, offset, AACMM_STORE_SLOT_BYTES) != AACMM_OK) {
         return AACMM_ERR_IO;
     }
-    if (pf->storage_write(pf->ctx, offset, record, AACMM_STORE_RECORD_BYTES) != AACMM_OK) {
+    if (pf->storage_write(pf->ctx, offset, record, AACMM_STORE_RECORD_LEN(len)) != AACMM_OK) {
         return AACMM_ERR_IO;
     }
     /* Read back and check. */
