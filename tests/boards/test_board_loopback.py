@@ -41,7 +41,7 @@ import test_loopback_arms as arms
 import test_loopback_pty as pty_suite
 from aacmm.boards import BOARDS, default_image, start_board, stop_board
 from aacmm.client import Client, connect
-from aacmm.protocol import BuildFlags, SampleStatus
+from aacmm.protocol import BuildFlags, ParamSet, SampleStatus
 from streamclock import schedule_drift_us, schedule_rate_hz
 
 REPO = Path(__file__).resolve().parents[2]
@@ -178,7 +178,7 @@ def test_arm_models_via_compute(board: tuple[str, str], client: Client, make: An
     fixed = BOARDS[board[0]].kinematics == "q"
     arm = make()
     enc = arms.encoders(arm)
-    client.set_params(arms.ParamSet.from_arm(arm, enc))
+    client.set_params(ParamSet.from_arm(arm, enc))
     info = client.info()
     assert (info.joints, info.params) == (arm.n_joints, arm.n_params)
     rng = random.Random(arm.n_joints)

@@ -94,6 +94,7 @@ def test_seven_axis_sample_frames_decode_with_cantools() -> None:
     ]
     assert len(rows) == 7
     db = cantools.database.load_file(pcan.node_dbc_path(2))
+    assert isinstance(db, cantools.database.can.Database)
     got: dict[str, Any] = {}
     names = []
     for frame_id, data in rows:
