@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -138,12 +139,19 @@ def _print_json(data: Any) -> None:
     print(json.dumps(data, indent=2))
 
 
-def _jacobian_text(jac: Jacobian) -> str:
+def _jacobian_text(jac: Jacobian, names: Sequence[str] = PARAM_COLUMN_NAMES) -> str:
+    """The 3 x P Jacobian, one line per column named by the device's arm model."""
     lines = ["jacobian (mm per parameter unit; rows x, y, z):"]
-    for c in range(JAC_COLS):
+    for c, name in enumerate(names):
         vals = "  ".join(f"{jac[r][c]:+.6e}" for r in range(JAC_ROWS))
-        lines.append(f"  {PARAM_COLUMN_NAMES[c]:<7} {vals}")
+        lines.append(f"  {name:<7} {vals}")
     return "\n".join(lines)
+
+
+def _column_names(dev: Any) -> tuple[str, ...]:
+    """The Jacobian's column names of the device's arm model (the paper's 25 for it)."""
+    arm, _ = dev.client.get_params().to_arm()
+    return tuple(arm.param_names)
 
 
 def _jacobian_rows(jac: Jacobian) -> list[list[float]]:
@@ -357,6 +365,7 @@ def sample_dict(s: Sample) -> dict[str, Any]:
 def cmd_measure(args: argparse.Namespace) -> int:
     with device_from_args(args) as dev:
         s = dev.client.measure(jacobian=args.jacobian)
+        names = _column_names(dev) if s.jacobian is not None else ()
     if args.json:
         _print_json(sample_dict(s))
         return OK
@@ -367,7 +376,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
     print(f"point       x {x}  y {y}  z {z} mm")
     print(f"flags       0x{s.status:04x} {flag_names(s.status)}")
     if s.jacobian is not None:
-        print(_jacobian_text(s.jacobian))
+        print(_jacobian_text(s.jacobian, names))
     return OK
 
 
@@ -386,6 +395,7 @@ def compute_dict(counts: list[int], r: ComputeResult) -> dict[str, Any]:
 def cmd_compute(args: argparse.Namespace) -> int:
     with device_from_args(args) as dev:
         r = dev.client.compute(args.counts, jacobian=args.jacobian)
+        names = _column_names(dev) if r.jacobian is not None else ()
     if args.json:
         _print_json(compute_dict(args.counts, r))
         return OK
@@ -394,5 +404,5 @@ def cmd_compute(args: argparse.Namespace) -> int:
     print(f"point       x {x:.6f}  y {y:.6f}  z {z:.6f} mm")
     print(f"flags       0x{r.status:04x} {flag_names(r.status)}")
     if r.jacobian is not None:
-        print(_jacobian_text(r.jacobian))
+        print(_jacobian_text(r.jacobian, names))
     return OK

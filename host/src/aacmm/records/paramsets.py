@@ -43,7 +43,17 @@ class ParamSetRecord:
 
     @classmethod
     def from_device(cls, ps: ParamSet) -> ParamSetRecord:
-        """From a device's GET_PARAMS answer (CRC computed as the device does)."""
+        """From a device's GET_PARAMS answer (CRC computed as the device does).
+
+        Raises:
+            RecordError: the device's arm model is not of the paper's shape (six
+                standard joints, tip l): logs and sessions do not hold other models yet.
+        """
+        if not ps.is_paper_shape:
+            raise RecordError(
+                f"the device's arm model has {ps.joints} joints and {ps.n_params} parameters: "
+                "logs and sessions hold the paper's six-joint arm only so far"
+            )
         params, encoders = ps.to_core()
         return cls(param_set_crc32(ps), params, encoders)
 
