@@ -26,7 +26,7 @@ from aacmm.commands.common import (
     info_dict,
     print_err,
 )
-from aacmm.commands.exitcodes import OK
+from aacmm.commands.exitcodes import OK, UsageError
 from aacmm.errors import DeviceError
 
 if TYPE_CHECKING:
@@ -107,20 +107,34 @@ def register(sub: Any) -> None:
         description="Ask the device for one sample now.",
     )
     add_connection_options(meas)
-    meas.add_argument("-j", "--jacobian", action="store_true", help="include the 3x25 Jacobian")
+    meas.add_argument(
+        "-j",
+        "--jacobian",
+        action="store_true",
+        help="include the 3 x P Jacobian (P = 25: the paper's arm)",
+    )
     meas.add_argument("--json", action="store_true", help="print JSON")
     meas.set_defaults(func=cmd_measure)
 
     comp = sub.add_parser(
         "compute",
-        help="have the device compute the point (and Jacobian) for six encoder counts",
+        help="have the device compute the point (and Jacobian) for its N encoder counts",
         description="Send six encoder readings; print the device's point and optional Jacobian.",
     )
     add_connection_options(comp)
     comp.add_argument(
-        "counts", nargs=6, type=_count, metavar="COUNT", help="six encoder counts 0..2^32-1"
+        "counts",
+        nargs="+",
+        type=_count,
+        metavar="COUNT",
+        help="the arm model's N (4..7; the paper's arm: 6) encoder counts 0..2^32-1",
     )
-    comp.add_argument("-j", "--jacobian", action="store_true", help="include the 3x25 Jacobian")
+    comp.add_argument(
+        "-j",
+        "--jacobian",
+        action="store_true",
+        help="include the 3 x P Jacobian (P = 25: the paper's arm)",
+    )
     comp.add_argument("--json", action="store_true", help="print JSON")
     comp.set_defaults(func=cmd_compute)
 
@@ -393,6 +407,11 @@ def compute_dict(counts: list[int], r: ComputeResult) -> dict[str, Any]:
 
 
 def cmd_compute(args: argparse.Namespace) -> int:
+    if not 4 <= len(args.counts) <= 7:
+        raise UsageError(
+            f"compute needs the arm model's 4 to 7 encoder counts (its joints: `aacmm info`), "
+            f"got {len(args.counts)}"
+        )
     with device_from_args(args) as dev:
         r = dev.client.compute(args.counts, jacobian=args.jacobian)
         names = _column_names(dev) if r.jacobian is not None else ()
