@@ -195,6 +195,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"firmware    {d['firmware']}, protocol {d['protocol_version']}")
     print(f"build       {' '.join(d['build_flags_names']) or '-'}")
     print(f"parameters  crc {d['param_crc32_hex']}, {d['param_source_text']}")
+    print(f"arm model   {dev.info.joints} joints, {dev.info.params} parameters")
     if diag is None:
         print(f"storage     {d['storage_state_name']}")
     else:
