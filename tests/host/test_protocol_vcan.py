@@ -114,9 +114,9 @@ def test_c_sample_frames_decode_with_the_dbc_on_socketcan() -> None:
         0x01020304, 0x1122334455, (1, 2, 3, 0xFFFFFFFF, 5, 6), (-22000000, 7, 12345678), 0x25
     )
     body = messages.encode_message(Message(MsgType.SAMPLE_EVT, 0, sample))
-    ids = (ctypes.c_uint32 * 6)()
-    data = (ctypes.c_uint8 * 48)()
-    assert LIB.shim_can_sample(body, len(body), NODE, ids, data) == 0
+    ids = (ctypes.c_uint32 * 7)()
+    data = (ctypes.c_uint8 * 56)()
+    assert LIB.shim_can_sample(body, len(body), NODE, ids, data) == 6
     with (
         can.Bus(interface="socketcan", channel=iface) as tx,
         can.Bus(interface="socketcan", channel=iface) as rx,
