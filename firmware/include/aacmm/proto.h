@@ -224,7 +224,9 @@ typedef enum {
  * of thermal expansion and one reference temperature. Stored as i16 in the
  * units below. A version 2 device computes without them and refuses a set
  * that has any (K > 0 or the thermal block: AACMM_ERR_UNSUPPORTED); the
- * codecs carry them already, so the format does not change for them. */
+ * codecs carry them already. Laid out before issue 27's core was merged
+ * (aacmm_errmodel_*_t: K per joint, a reference temperature per link, wider
+ * ranges), which does not fit this block as it stands: docs/protocol.md 2.3. */
 #define AACMM_HARMONICS_MAX 4
 #define AACMM_HARMONIC_UNIT_RAD 1e-7   /* c_k, s_k: +-3.3 mrad in 0.1 urad */
 #define AACMM_CTE_UNIT_PER_K 1e-8      /* +-3.3e-4 / K in 1e-8 / K */
