@@ -3,8 +3,9 @@
 # through a test-only shared library), mypy/ruff on the Python codec, and a
 # Cortex-M build of the codec.
 
-# encoder.c: aacmm_encoder_validate, the parameter set's encoder check (aacmm/proto.h).
-PROTO_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/protocol/crc32.c \
+# encoder.c: aacmm_arm_encoders_validate, the parameter set's encoder check; shape.c:
+# aacmm_shape_validate, its shape check (aacmm/proto.h; both integer only).
+PROTO_SRCS := firmware/src/status.c firmware/src/encoder.c firmware/src/shape.c firmware/src/protocol/crc32.c \
               firmware/src/protocol/cobs.c firmware/src/protocol/frame.c firmware/src/protocol/proto.c \
               firmware/src/protocol/proto_can.c firmware/src/protocol/isotp.c
 PROTO_HDRS := $(addprefix firmware/include/aacmm/,status.h kinematics.h crc32.h le_bytes.h cobs.h frame.h \

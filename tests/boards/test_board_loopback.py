@@ -37,10 +37,11 @@ from typing import Any
 import hostref
 import numpy as np
 import pytest
+import test_loopback_arms as arms
 import test_loopback_pty as pty_suite
 from aacmm.boards import BOARDS, default_image, start_board, stop_board
 from aacmm.client import Client, connect
-from aacmm.protocol import BuildFlags, SampleStatus
+from aacmm.protocol import BuildFlags, ParamSet, SampleStatus
 from streamclock import schedule_drift_us, schedule_rate_hz
 
 REPO = Path(__file__).resolve().parents[2]
@@ -166,6 +167,41 @@ def test_golden_vectors_via_compute(board: tuple[str, str], client: Client) -> N
     else:
         assert worst_p <= 1e-3
         assert worst_j <= 2e-3
+
+
+@pytest.mark.parametrize("make", [arms.arm7, arms.arm5], ids=["7-axis", "5-axis"])
+def test_arm_models_via_compute(board: tuple[str, str], client: Client, make: Any) -> None:
+    """Issue 26 over the wire on the boards: a 7-axis and a 5-axis arm (modified
+    DH, betas, a tip vector; built with aacmm.arm.Arm in tests/host/test_loopback_arms.py)
+    set on the device, its points and 3 x P Jacobians against aacmm.core in double
+    precision, to the board path's bounds (those of the paper's arm above)."""
+    fixed = BOARDS[board[0]].kinematics == "q"
+    arm = make()
+    enc = arms.encoders(arm)
+    client.set_params(ParamSet.from_arm(arm, enc))
+    info = client.info()
+    assert (info.joints, info.params) == (arm.n_joints, arm.n_params)
+    rng = random.Random(arm.n_joints)
+    worst_p = worst_j = 0.0
+    for _ in range(20):
+        counts = tuple(rng.randrange(c) for c in enc.counts_per_rev)
+        r = client.compute(counts, jacobian=True)
+        assert r.status & SampleStatus.POINT_VALID and r.jacobian is not None
+        ref_p, ref_j = arms.reference(arm, enc, counts)
+        jac = np.array(r.jacobian, dtype=np.float64)
+        assert jac.shape == (3, arm.n_params)
+        half_ulp = np.spacing(np.abs(ref_j).astype(np.float32)).astype(np.float64) / 2
+        worst_p = max(worst_p, float(np.max(np.abs(np.array(r.point_mm) - ref_p))))
+        worst_j = max(worst_j, float(np.max(np.abs(jac - ref_j) - (half_ulp if fixed else 0.0))))
+    _record(
+        board[0], f"arm{arm.n_joints}_compute", {"point_max_mm": worst_p, "jacobian_max": worst_j}
+    )
+    if fixed:
+        assert worst_p <= 1e-4 and worst_j <= 1e-4
+    else:
+        assert worst_p <= 1e-3 and worst_j <= 2e-3
+    s = client.measure(jacobian=True)  # the board's simulated arm has 2^32-count encoders
+    assert len(s.counts) == arm.n_joints and s.params == arm.n_params
 
 
 # ---------------------------------------------------------------- streaming

@@ -65,7 +65,7 @@ static aacmm_status_t f_can_receive(void *ctx, aacmm_can_frame_t *frame, int *go
     return AACMM_OK;
 }
 
-static aacmm_status_t f_read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
+static aacmm_status_t f_read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS_MAX])
 {
     fake_t *f = ctx;
     f->encoder_reads++;
@@ -76,7 +76,7 @@ static aacmm_status_t f_read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
     return AACMM_OK;
 }
 
-static aacmm_status_t f_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS])
+static aacmm_status_t f_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS_MAX])
 {
     fake_t *f = ctx;
     f->encoder_reads++;

@@ -35,7 +35,7 @@ typedef struct {
     int can_busy;      /* can_send answers AACMM_ERR_BUSY */
     /* encoders and button */
     uint32_t counts[AACMM_JOINTS];
-    aacmm_enc_frame_t frames[AACMM_JOINTS]; /* read_encoder_frames (fake_use_frames) */
+    aacmm_enc_frame_t frames[AACMM_JOINTS_MAX]; /* read_encoder_frames (fake_use_frames) */
     aacmm_status_t encoder_status;
     unsigned encoder_reads;
     uint8_t button; /* button levels, bit i = button i held */

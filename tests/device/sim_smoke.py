@@ -32,9 +32,12 @@ from collections.abc import Iterator
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "host"))
-from streamclock import schedule_drift_us, schedule_rate_hz  # stdlib only, like this file
+from streamclock import (
+    schedule_drift_us,
+    schedule_rate_hz,
+)  # stdlib only, like this file
 
-PROTO = 1
+PROTO = 2
 PING, INFO, GET_PARAMS, SET_PARAMS, SAVE, RESTORE, MEASURE, COMPUTE, START, STOP = range(1, 11)
 SAMPLE_EVT, TRIGGER_EVT, ERROR_RSP = 0x40, 0x41, 0xFF
 
@@ -162,7 +165,8 @@ def start(sim: str, *extra: str) -> tuple[subprocess.Popen[str], str]:
     first = p.stdout.readline().strip()
     second = p.stdout.readline().strip()
     check(
-        first.startswith("aacmm-sim: serial /dev/"), f"first stdout line names the pty: {first!r}"
+        first.startswith("aacmm-sim: serial /dev/"),
+        f"first stdout line names the pty: {first!r}",
     )
     check(second == "aacmm-sim: ready", f"then 'aacmm-sim: ready': {second!r}")
     return p, first.split(" ", 2)[2]
@@ -216,7 +220,8 @@ def test_arguments(sim: str, tmp: str) -> None:
     )
     r = run([sim, "--serial", "/dev/null"])
     check(
-        r.returncode == 3 and "not a tty" in r.stderr, f"not a tty: exit 3 ({r.stderr.strip()!r})"
+        r.returncode == 3 and "not a tty" in r.stderr,
+        f"not a tty: exit 3 ({r.stderr.strip()!r})",
     )
     r = run([sim, "--can", "aacmmnosuch0"])
     check(
@@ -237,23 +242,42 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
         "PING after garbage answered with the token",
     )
     rsp = link.request(INFO)
-    ok = rsp is not None and rsp[1] == INFO | 0x80 and len(rsp) == 3 + 23
-    check(ok, "INFO answered (23-byte payload)")
+    ok = rsp is not None and rsp[1] == INFO | 0x80 and len(rsp) == 3 + 25
+    check(ok, "INFO answered (25-byte payload)")
     if ok:
         assert rsp is not None
-        (pv, _maj, _min, _pat, flags, _crc, source, state, maxb, serial, _node) = struct.unpack(
-            "<HBBHIIBBHIB", rsp[3:]
-        )
+        (
+            pv,
+            _maj,
+            _min,
+            _pat,
+            flags,
+            _crc,
+            source,
+            state,
+            maxb,
+            serial,
+            _node,
+            nj,
+            np_,
+        ) = struct.unpack("<HBBHIIBBHIBBB", rsp[3:])
         check(
-            pv == 1 and source == 0 and state == 1 and maxb == 512 and serial == 4242,
+            pv == 2 and source == 0 and state == 1 and maxb == 512 and serial == 4242,
             f"INFO: defaults, empty storage, serial number (src {source}, state {state})",
         )
         check(
             flags & 0x0001 == EXPECT_FIXED and flags & 0x0008 != 0,
             "INFO: kinematics backend as expected, serial link built in",
         )
+        check(
+            (nj, np_) == (6, 25),
+            f"INFO: the paper's arm, 6 joints and 25 parameters ({nj}, {np_})",
+        )
     rsp = link.request(0x7E)
-    check(rsp is not None and rsp[1] == ERROR_RSP, "unknown request type answered with ERROR_RSP")
+    check(
+        rsp is not None and rsp[1] == ERROR_RSP,
+        "unknown request type answered with ERROR_RSP",
+    )
     # 1 kHz stream.
     rsp = link.request(START, struct.pack("<HB", 1000, content))
     check(
@@ -267,7 +291,7 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
     for body in link.frames(0.5):
         if body[1] == SAMPLE_EVT:
             seq, ts = struct.unpack_from("<IQ", body, 3)
-            if len(body) != 3 + 53 + (300 if content else 0):
+            if len(body) != 3 + 55 + (300 if content else 0):
                 link.bad += 1
             seqs.append(seq)
             stamps.append(ts)
@@ -307,7 +331,7 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
     p, path = start(sim, "--storage", store)
     link = Link(path)
     rsp = link.request(INFO)
-    if rsp is not None and len(rsp) == 26:
+    if rsp is not None and len(rsp) == 3 + 25:
         source, state = struct.unpack_from("<BB", rsp, 3 + 14)
         check(
             source == 1 and state == 0,
@@ -350,8 +374,8 @@ def test_encoder_faults(sim: str) -> dict[str, int]:
         if rsp is None or rsp[1] != MEASURE | 0x80:
             check(False, "MEASURE answered")
             break
-        counts = struct.unpack_from("<6I", rsp, 3 + 12)
-        status = struct.unpack_from("<I", rsp, 3 + 48)[0]
+        counts = struct.unpack_from("<6I", rsp, 3 + 31)
+        status = struct.unpack_from("<I", rsp, 3 + 24)[0]
         bad = status & JOINT_FAULTS
         if bad:
             faulty_readings += bin(bad).count("1")
@@ -359,16 +383,22 @@ def test_encoder_faults(sim: str) -> dict[str, int]:
         else:
             good_counts.add(counts)
     check(point_from_bad_frame == 0, "no sample with a faulty joint has a point")
-    check(len(good_counts) == 1, f"the clean samples of a static arm agree ({len(good_counts)})")
+    check(
+        len(good_counts) == 1,
+        f"the clean samples of a static arm agree ({len(good_counts)})",
+    )
     rsp = link.request(DIAG)
-    ok = rsp is not None and rsp[1] == DIAG | 0x80 and len(rsp) == 3 + 125
-    check(ok, "DIAG answered (125-byte payload)")
+    ok = rsp is not None and rsp[1] == DIAG | 0x80 and len(rsp) == 3 + 126
+    check(ok, "DIAG answered (126-byte payload)")
     joint_faults = 0
     if ok:
         assert rsp is not None
-        joints = [struct.unpack_from("<BBBII", rsp, 3 + 59 + 11 * j) for j in range(6)]
+        joints = [struct.unpack_from("<BBBII", rsp, 3 + 60 + 11 * j) for j in range(6)]
         joint_faults = sum(j[3] for j in joints)
-        check(all(j[0] == 3 and j[1] == 20 for j in joints), "DIAG: six SSI Gray 20-bit joints")
+        check(
+            all(j[0] == 3 and j[1] == 20 for j in joints),
+            "DIAG: six SSI Gray 20-bit joints",
+        )
         check(
             joint_faults == faulty_readings == n * 6 // 9,
             f"DIAG: {joint_faults} joint faults = {faulty_readings} flagged = one frame in 9",

@@ -132,15 +132,14 @@ static void expect_error(aacmm_status_t st, uint8_t req_type, uint8_t seq)
 
 static void default_set(aacmm_param_set_t *s)
 {
-    assert_int_equal(aacmm_params_default_f64(&s->kin), AACMM_OK);
-    assert_int_equal(aacmm_encoder_default(&s->enc), AACMM_OK);
+    assert_int_equal(aacmm_param_set_default(s), AACMM_OK);
 }
 
 static void other_set(aacmm_param_set_t *s, double l_mm)
 {
     default_set(s);
-    s->kin.l_mm = l_mm;
-    s->kin.d_mm[2] = 790.0;
+    s->arm.tip_mm[2] = l_mm;
+    s->arm.d_mm[2] = 790.0;
     s->enc.zero_offset_counts[1] = 12345u;
 }
 
@@ -186,10 +185,10 @@ static void test_init_errors(void **state)
     assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
     CFG.can_node_id = 15u;
     default_set(&bad);
-    bad.kin.d_mm[0] = 20000.0;
+    bad.arm.d_mm[0] = 20000.0;
     CFG.defaults = &bad;
     assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
-    bad.kin.d_mm[0] = 300.0;
+    bad.arm.d_mm[0] = 300.0;
     bad.enc.direction[0] = 0;
     assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
     CFG.defaults = NULL;
@@ -257,7 +256,7 @@ static void test_params_set_get_restore(void **state)
     send_simple(AACMM_MSG_GET_PARAMS_REQ, 2);
     expect_response(AACMM_MSG_GET_PARAMS_RSP, 2);
     assert_int_equal(set_crc(&M.u.params), set_crc(&s));
-    assert_true(M.u.params.kin.l_mm > 149.9 && M.u.params.kin.l_mm < 150.1);
+    assert_true(M.u.params.arm.tip_mm[2] > 149.9 && M.u.params.arm.tip_mm[2] < 150.1);
 
     send_simple(AACMM_MSG_INFO_REQ, 3);
     expect_response(AACMM_MSG_INFO_RSP, 3);
@@ -326,6 +325,126 @@ static void check_point_and_jacobian(const int32_t *wire, const double *mm, cons
 #endif
 }
 
+/* Issue 26: a 7-joint arm model (modified DH on the wrist, a beta, a tip
+ * vector) set with SET_PARAMS: INFO reports N and P, samples and COMPUTE carry
+ * 7 counts and the 3 x P Jacobian, equal to the core's own evaluation of the
+ * same arm (the float backend bit for bit in single precision; the fixed
+ * backend within the fixed path's bounds of the double-precision core). */
+static void test_seven_joint_arm_model(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_param_set_t set;
+    static const uint32_t counts[7] = {0x12345678u, 0xE0000000u, 0x30000000u, 0xF0000000u,
+                                       0x2AAAAAABu, 0x9ABCDEF0u, 0x40000000u};
+    int i;
+    int p_cols;
+    (void)state;
+    memset(&set, 0, sizeof set);
+    set.arm.shape.joints = 7u;
+    set.arm.shape.tip = (uint8_t)AACMM_TIP_XYZ;
+    set.arm.shape.convention[4] = set.arm.shape.convention[5] = set.arm.shape.convention[6] =
+        (uint8_t)AACMM_DH_MODIFIED;
+    set.arm.shape.beta[2] = 1u;
+    for (i = 0; i < 7; i++) {
+        set.arm.alpha_rad[i] = (i % 2 == 0) ? 1.5707963267948966 : -1.5707963267948966;
+        set.arm.d_mm[i] = 100.0 + 50.0 * i;
+        set.arm.a_mm[i] = 10.0 * i;
+        set.arm.theta_offset_rad[i] = 0.01 * i;
+    }
+    set.arm.beta_rad[2] = 0.0015;
+    set.arm.tip_mm[0] = 1.5;
+    set.arm.tip_mm[1] = -2.0;
+    set.arm.tip_mm[2] = 110.0;
+    assert_int_equal(aacmm_arm_encoders_default(&set.enc, 7), AACMM_OK);
+    p_cols = aacmm_shape_params(&set.arm.shape);
+    assert_int_equal(p_cols, 28 + 1 + 3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 30;
+    m.u.params = set;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 30);
+    send_simple(AACMM_MSG_INFO_REQ, 31);
+    expect_response(AACMM_MSG_INFO_RSP, 31);
+    assert_int_equal(M.u.info.joints, 7);
+    assert_int_equal(M.u.info.params, p_cols);
+
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 32;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+    m.u.compute_req.joints = 7;
+    memcpy(m.u.compute_req.counts, counts, sizeof counts);
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 32);
+    assert_int_equal(M.u.compute_rsp.params, p_cols);
+    {
+#ifndef AACMM_DEVICE_KIN_FIXED
+        aacmm_arm_f32_t a32;
+        aacmm_model_f32_t m32;
+        aacmm_arm_encoders_t e;
+        float th[7];
+        float pt[3];
+        float jac[AACMM_JAC_SIZE_MAX];
+        a32.shape = set.arm.shape;
+        for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+            a32.theta_offset_rad[i] = (float)set.arm.theta_offset_rad[i];
+            a32.alpha_rad[i] = (float)set.arm.alpha_rad[i];
+            a32.d_mm[i] = (float)set.arm.d_mm[i];
+            a32.a_mm[i] = (float)set.arm.a_mm[i];
+            a32.beta_rad[i] = (float)set.arm.beta_rad[i];
+        }
+        for (i = 0; i < 3; i++) {
+            a32.tip_mm[i] = (float)set.arm.tip_mm[i];
+        }
+        assert_int_equal(aacmm_model_init_arm_f32(&m32, &a32), AACMM_OK);
+        e = set.enc;
+        assert_int_equal(aacmm_arm_encoders_to_angles_f32(&e, counts, th), AACMM_OK);
+        assert_int_equal(aacmm_point_jacobian_f32(&m32, th, pt, jac), AACMM_OK);
+        for (i = 0; i < 3; i++) {
+            double want = (double)pt[i];
+            assert_memory_equal(&M.u.compute_rsp.point_mm[i], &want, sizeof want);
+        }
+        assert_memory_equal(M.u.compute_rsp.jacobian, jac, (size_t)(3 * p_cols) * sizeof(float));
+#else
+        aacmm_model_f64_t m64;
+        double th[7];
+        double pt[3];
+        double jac[AACMM_JAC_SIZE_MAX];
+        assert_int_equal(aacmm_model_init_arm_f64(&m64, &set.arm), AACMM_OK);
+        assert_int_equal(aacmm_arm_encoders_to_angles_f64(&set.enc, counts, th), AACMM_OK);
+        assert_int_equal(aacmm_point_jacobian_f64(&m64, th, pt, jac), AACMM_OK);
+        for (i = 0; i < 3; i++) {
+            double d = M.u.compute_rsp.point_mm[i] - pt[i];
+            assert_true(d < 1e-4 && d > -1e-4);
+        }
+        for (i = 0; i < 3 * p_cols; i++) {
+            double d = (double)M.u.compute_rsp.jacobian[i] - jac[i];
+            assert_true(d < 1e-3 && d > -1e-3);
+        }
+#endif
+    }
+    /* the paper's six counts are refused: another arm's */
+    m.seq = 33;
+    m.u.compute_req.joints = 6;
+    send_msg(&m);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_COMPUTE_REQ, 33);
+    /* samples carry the model's 7 counts and P */
+    memset(F.counts, 0, sizeof F.counts);
+    send_simple(AACMM_MSG_MEASURE_REQ, 34);
+    expect_response(AACMM_MSG_MEASURE_RSP, 34);
+    assert_int_equal(M.u.sample.joints, 7);
+    assert_int_equal(M.u.sample.params, p_cols);
+    /* an error model (issue 27) is not computed yet: refused */
+    set.err.harmonics = 1u;
+    set.err.harm_cos[0][0] = 5;
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 35;
+    m.u.params = set;
+    send_msg(&m);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SET_PARAMS_REQ, 35);
+}
+
 static void test_measure_and_compute(void **state)
 {
     aacmm_msg_t m;
@@ -369,6 +488,7 @@ static void test_measure_and_compute(void **state)
     m.type = AACMM_MSG_COMPUTE_REQ;
     m.seq = 22;
     m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+    m.u.compute_req.joints = AACMM_JOINTS;
     memcpy(m.u.compute_req.counts, counts, sizeof counts);
     send_msg(&m);
     expect_response(AACMM_MSG_COMPUTE_RSP, 22);
@@ -421,14 +541,34 @@ static void test_bad_requests(void **state)
     size_t n = 0;
     (void)state;
     /* Wrong version. */
-    body[0] = 2;
+    body[0] = 3;
     body[1] = AACMM_MSG_PING_REQ;
     body[2] = 40;
     memset(body + 3, 0, 4);
     send_body(body, 7);
     expect_error(AACMM_ERR_VERSION, AACMM_MSG_PING_REQ, 40);
-    /* Unknown type. */
+    /* The previous version (six joints): the answer is an ERROR_RSP in
+     * version 1, which a version 1 host can read (read raw here). */
     body[0] = 1;
+    body[2] = 39;
+    send_body(body, 7);
+    aacmm_device_poll(&D);
+    {
+        const uint8_t *b = NULL;
+        size_t bl = 0;
+        while (b == NULL && host_pos < F.tx_len) {
+            host_pos += aacmm_deframer_feed(&host_rx, F.tx + host_pos, F.tx_len - host_pos, &b, &bl);
+        }
+        assert_non_null(b);
+        assert_int_equal(bl, 6);
+        assert_int_equal(b[0], 1);
+        assert_int_equal(b[1], AACMM_MSG_ERROR_RSP);
+        assert_int_equal(b[2], 39);
+        assert_int_equal((int16_t)(b[3] | (b[4] << 8)), AACMM_ERR_VERSION);
+        assert_int_equal(b[5], AACMM_MSG_PING_REQ);
+    }
+    /* Unknown type. */
+    body[0] = 2;
     body[1] = 0x3E;
     body[2] = 41;
     send_body(body, 3);
@@ -463,15 +603,15 @@ static void test_bad_requests(void **state)
     m.type = AACMM_MSG_SET_PARAMS_REQ;
     m.seq = 46;
     default_set(&m.u.params);
-    m.u.params.kin.d_mm[1] = 20000.0;
+    m.u.params.arm.d_mm[1] = 20000.0;
     send_msg(&m);
     expect_error(AACMM_ERR_RANGE, AACMM_MSG_SET_PARAMS_REQ, 46);
     /* NaN in a parameter (raw). */
     default_set(&m.u.params);
-    m.u.params.kin.d_mm[1] = 65.5;
+    m.u.params.arm.d_mm[1] = 65.5;
     assert_int_equal(aacmm_msg_encode(&m, body, sizeof body, &n), AACMM_OK);
     body[2] = 47;
-    memset(body + 3 + 8 * 13, 0xFF, 8); /* d_2 := NaN */
+    memset(body + 3 + 8 + 8 * 13, 0xFF, 8); /* d_2 := NaN (after the set's 8-byte header) */
     send_body(body, n);
     expect_error(AACMM_ERR_NOT_FINITE, AACMM_MSG_SET_PARAMS_REQ, 47);
     /* COMPUTE with a count >= cpr after a 12-bit encoder set. */
@@ -490,6 +630,7 @@ static void test_bad_requests(void **state)
     memset(&m, 0, sizeof m);
     m.type = AACMM_MSG_COMPUTE_REQ;
     m.seq = 49;
+    m.u.compute_req.joints = AACMM_JOINTS;
     m.u.compute_req.counts[3] = 4096u;
     send_msg(&m);
     expect_error(AACMM_ERR_RANGE, AACMM_MSG_COMPUTE_REQ, 49);
@@ -503,7 +644,7 @@ static void test_bad_requests(void **state)
     assert_true((M.u.sample.status & AACMM_SAMPLE_ENCODER_FAULT) != 0u);
     assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) == 0u);
     assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 1u);
-    assert_int_equal(aacmm_device_counters(&D)->error_responses, 9u);
+    assert_int_equal(aacmm_device_counters(&D)->error_responses, 10u);
     assert_false(next_msg());
 }
 
@@ -511,7 +652,7 @@ static void test_garbage_and_crc_errors(void **state)
 {
     static const uint8_t garbage[] = {0x13, 0x37, 0x00, 0x05, 0x11, 0x22, 0x33, 0x44, 0x00,
                                       0xFF, 0xFE, 0x01, 0x02};
-    uint8_t body[7] = {1, AACMM_MSG_PING_REQ, 60, 1, 2, 3, 4};
+    uint8_t body[7] = {2, AACMM_MSG_PING_REQ, 60, 1, 2, 3, 4};
     size_t start;
     (void)state;
     memcpy(F.rx + F.rx_len, garbage, sizeof garbage);
@@ -875,6 +1016,9 @@ static void test_store_alternates_slots(void **state)
     }
 }
 
+/* The bytes a save writes for a set of the paper's shape (other_set). */
+#define PAPER_RECORD_LEN ((long)AACMM_STORE_RECORD_LEN(AACMM_PARAM_SET_PAPER_BYTES))
+
 /* The heart of it: cut the power after every byte of a save. The device
  * always comes back with either the previous good set or the new one. */
 static void test_power_cut_at_every_byte(void **state)
@@ -898,13 +1042,13 @@ static void test_power_cut_at_every_byte(void **state)
         assert_int_equal(aacmm_store_save(&PF, &old_set, NULL, rec), AACMM_OK);
         memcpy(before, F.storage, sizeof before);
         other_set(&new_set, 222.0);
-        for (cut = 0; cut <= (long)AACMM_STORE_RECORD_BYTES; cut++) {
+        for (cut = 0; cut <= PAPER_RECORD_LEN; cut++) {
             aacmm_status_t st;
             memcpy(F.storage, before, sizeof before);
             F.write_budget = cut;
             st = aacmm_store_save(&PF, &new_set, NULL, rec);
             F.write_budget = -1;
-            if (cut < (long)AACMM_STORE_RECORD_BYTES) {
+            if (cut < PAPER_RECORD_LEN) {
                 assert_int_not_equal(st, AACMM_OK);
             } else {
                 assert_int_equal(st, AACMM_OK);
@@ -914,7 +1058,7 @@ static void test_power_cut_at_every_byte(void **state)
             boot();
             assert_int_equal(D.storage_state, AACMM_STORAGE_OK);
             assert_int_equal(D.param_source, AACMM_PARAM_SOURCE_STORAGE);
-            if (cut < (long)AACMM_STORE_RECORD_BYTES) {
+            if (cut < PAPER_RECORD_LEN) {
                 assert_int_equal(D.active_crc32, set_crc(&old_set));
             } else {
                 assert_int_equal(D.active_crc32, set_crc(&new_set));
@@ -956,29 +1100,32 @@ static void test_power_cut_via_request(void **state)
     assert_int_equal(D.counters.storage_bad_records, 1u); /* the torn slot */
 }
 
+/* A record written by hand as docs (aacmm/device.h) lay it out: magic,
+ * version, payload length, generation, the set, CRC over all before it. */
 static void write_raw_record(uint8_t slot, uint16_t version, uint32_t gen, const aacmm_param_set_t *s,
                              int corrupt)
 {
     uint8_t *r = F.storage + (size_t)slot * AACMM_STORE_SLOT_BYTES;
     uint32_t crc;
+    size_t len = 0u;
+    assert_int_equal(aacmm_param_set_encode(s, r + 12, AACMM_PARAM_SET_MAX_BYTES, &len), AACMM_OK);
     r[0] = 0x41;
     r[1] = 0x41;
     r[2] = 0x43;
     r[3] = 0x4D;
     r[4] = (uint8_t)version;
     r[5] = (uint8_t)(version >> 8);
-    r[6] = (uint8_t)(AACMM_PARAM_SET_BYTES & 0xFF);
-    r[7] = (uint8_t)(AACMM_PARAM_SET_BYTES >> 8);
+    r[6] = (uint8_t)(len & 0xFFu);
+    r[7] = (uint8_t)(len >> 8);
     r[8] = (uint8_t)gen;
     r[9] = (uint8_t)(gen >> 8);
     r[10] = (uint8_t)(gen >> 16);
     r[11] = (uint8_t)(gen >> 24);
-    assert_int_equal(aacmm_param_set_encode(s, r + 12, AACMM_PARAM_SET_BYTES), AACMM_OK);
-    crc = aacmm_crc32(r, 290);
-    r[290] = (uint8_t)crc;
-    r[291] = (uint8_t)(crc >> 8);
-    r[292] = (uint8_t)(crc >> 16);
-    r[293] = (uint8_t)(crc >> 24);
+    crc = aacmm_crc32(r, 12u + len);
+    r[12u + len] = (uint8_t)crc;
+    r[13u + len] = (uint8_t)(crc >> 8);
+    r[14u + len] = (uint8_t)(crc >> 16);
+    r[15u + len] = (uint8_t)(crc >> 24);
     if (corrupt) {
         r[100] ^= 0x01;
     }
@@ -1005,7 +1152,7 @@ static void test_store_generation_wraps(void **state)
     assert_int_equal(rep.newest, 1u);
     assert_int_equal(aacmm_store_load(&PF, &got, &st, &rep, NULL, rec), AACMM_OK);
     assert_int_equal(rep.newest, 1u); /* 0 is newer than 0xFFFFFFFF */
-    assert_true(got.kin.l_mm > 332.9 && got.kin.l_mm < 333.1);
+    assert_true(got.arm.tip_mm[2] > 332.9 && got.arm.tip_mm[2] < 333.1);
     other_set(&s, 444.0);
     assert_int_equal(aacmm_store_save(&PF, &s, &rep, rec), AACMM_OK);
     assert_int_equal(rep.slot_generation[0], 1u);
@@ -1100,7 +1247,7 @@ static void test_diag_request(void **state)
     assert_int_equal(M.u.diag.boot_count, 4u);
     assert_int_equal(M.u.diag.watchdog_ms, 1000u);
     assert_int_equal(M.u.diag.uptime_us, 2500u);
-    assert_int_equal(M.u.diag.joints[0].interface, AACMM_ENC_COUNTS);
+    assert_int_equal(M.u.diag.joint[0].interface, AACMM_ENC_COUNTS);
     set_via_request(&a, 2);
     save_via_request(3);
     save_via_request(4);
@@ -1139,14 +1286,14 @@ static void test_diag_request(void **state)
     F.encoder_status = AACMM_ERR_IO;
     send_simple(AACMM_MSG_MEASURE_REQ, 9);
     expect_response(AACMM_MSG_MEASURE_RSP, 9);
-    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT_FAULTS);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, 0x3F00u); /* joints 1..6 */
     diag(10);
     assert_int_equal(M.u.diag.serial_frames_bad, 1u);
     assert_int_equal(M.u.diag.encoder_faults, 2u);
-    assert_int_equal(M.u.diag.joints[2].faults, 2u);
-    assert_int_equal(M.u.diag.joints[2].last_fault, AACMM_ENC_FAULT_READ);
-    assert_int_equal(M.u.diag.joints[0].faults, 1u);
-    assert_int_equal(M.u.diag.joints[0].last_fault, AACMM_ENC_FAULT_READ);
+    assert_int_equal(M.u.diag.joint[2].faults, 2u);
+    assert_int_equal(M.u.diag.joint[2].last_fault, AACMM_ENC_FAULT_READ);
+    assert_int_equal(M.u.diag.joint[0].faults, 1u);
+    assert_int_equal(M.u.diag.joint[0].last_fault, AACMM_ENC_FAULT_READ);
 }
 
 static void boot_on_storage_and_check(uint8_t state, uint8_t source, uint32_t bad)
@@ -1183,8 +1330,14 @@ static void test_corrupt_and_foreign_records(void **state)
     assert_true((M.u.sample.status & AACMM_SAMPLE_PARAMS_DEFAULT) != 0u);
     /* A record of a future format. */
     memset(F.storage, 0xFF, sizeof F.storage);
-    write_raw_record(1, 2, 1, &s, 0);
+    write_raw_record(1, 3, 1, &s, 0);
     boot_on_storage_and_check(AACMM_STORAGE_VERSION, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    /* A record of format 1 (the six-joint set before arm models): another
+     * version, not used; the device says so. */
+    memset(F.storage, 0xFF, sizeof F.storage);
+    write_raw_record(0, 1, 5, &s, 0);
+    boot_on_storage_and_check(AACMM_STORAGE_VERSION, AACMM_PARAM_SOURCE_DEFAULTS, 1);
+    assert_int_equal(D.store.slot_state[0], AACMM_SLOT_VERSION);
     /* A good record beside a corrupt newer one: the good one wins. */
     memset(F.storage, 0xFF, sizeof F.storage);
     write_raw_record(0, AACMM_STORE_VERSION, 7, &s, 0);
@@ -1197,7 +1350,7 @@ static void test_corrupt_and_foreign_records(void **state)
     assert_int_equal(M.u.info.param_crc32, set_crc(&def));
     /* A record with a good CRC but parameters out of range is corrupt. */
     memset(F.storage, 0xFF, sizeof F.storage);
-    s.kin.a_mm[0] = 50000.0;
+    s.arm.a_mm[0] = 50000.0;
     write_raw_record(0, AACMM_STORE_VERSION, 1, &s, 0);
     boot_on_storage_and_check(AACMM_STORAGE_CORRUPT, AACMM_PARAM_SOURCE_DEFAULTS, 1);
     /* Read errors: defaults, counted. */
@@ -1542,7 +1695,7 @@ static void test_can_requests(void **state)
     assert_int_equal(M.u.info.can_node_id, 3);
     /* Errors come back over ISO-TP as well. */
     {
-        uint8_t body[3] = {1, 0x3D, 5};
+        uint8_t body[3] = {2, 0x3D, 5};
         assert_int_equal(aacmm_isotp_send(&host_tp, body, 3, (uint32_t)(F.now_us / 1000u)), AACMM_OK);
         assert_true(can_exchange(10));
         assert_int_equal(M.type, AACMM_MSG_ERROR_RSP);
@@ -1854,7 +2007,7 @@ static void test_device_decodes_frames(void **state)
 {
     aacmm_sim_encoders_t enc;
     aacmm_sim_encoders_config_t ec;
-    uint32_t counts[AACMM_JOINTS] = {0x01000000u, 0x40000000u, 0x7FFFFF00u, 5u, 0xFFFFFFFFu, 0u};
+    uint32_t counts[AACMM_JOINTS_MAX] = {0x01000000u, 0x40000000u, 0x7FFFFF00u, 5u, 0xFFFFFFFFu, 0u};
     uint32_t faults = 0u;
     uint32_t points = 0u;
     uint32_t seen_warnings = 0u;
@@ -1915,14 +2068,14 @@ static void test_device_decodes_frames(void **state)
             }
         }
         for (j = 0; j < AACMM_JOINTS; j++) {
-            sum += M.u.diag.joints[j].faults;
-            assert_int_equal(M.u.diag.joints[j].interface, ec.joint[j].interface);
-            assert_int_equal(M.u.diag.joints[j].bits, 32u);
-            assert_true(M.u.diag.joints[j].faults > 0u);
+            sum += M.u.diag.joint[j].faults;
+            assert_int_equal(M.u.diag.joint[j].interface, ec.joint[j].interface);
+            assert_int_equal(M.u.diag.joint[j].bits, 32u);
+            assert_true(M.u.diag.joint[j].faults > 0u);
         }
         assert_int_equal(injected_faults + enc.injected[AACMM_SIM_ENC_WARNING], 1800u / 13u);
         assert_int_equal(sum, injected_faults);
-        assert_int_equal(M.u.diag.joints[0].warnings + M.u.diag.joints[1].warnings,
+        assert_int_equal(M.u.diag.joint[0].warnings + M.u.diag.joint[1].warnings,
                          enc.injected[AACMM_SIM_ENC_WARNING]);
         assert_int_equal(seen_warnings, enc.injected[AACMM_SIM_ENC_WARNING]);
         assert_int_equal(M.u.diag.encoder_faults, faults);
@@ -1933,9 +2086,9 @@ static void test_device_decodes_frames(void **state)
     F.encoder_status = AACMM_ERR_IO;
     send_simple(AACMM_MSG_MEASURE_REQ, 1);
     expect_response(AACMM_MSG_MEASURE_RSP, 1);
-    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, AACMM_SAMPLE_JOINT_FAULTS);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_JOINT_FAULTS, 0x3F00u); /* joints 1..6 */
     diag(2);
-    assert_int_equal(M.u.diag.joints[3].last_fault, AACMM_ENC_FAULT_READ);
+    assert_int_equal(M.u.diag.joint[3].last_fault, AACMM_ENC_FAULT_READ);
     /* A count the sim cannot send in the configured width is refused. */
     ec.joint[0].bits = 8u;
     assert_int_equal(aacmm_sim_encoders_init(&enc, &ec), AACMM_OK);
@@ -1954,7 +2107,7 @@ static void test_power_cut_flash_erase_and_write(void **state)
     uint8_t rec[AACMM_STORE_RECORD_BYTES];
     uint8_t before[AACMM_STORE_BYTES];
     long cut;
-    long total = (long)AACMM_STORE_SLOT_BYTES + (long)AACMM_STORE_RECORD_BYTES;
+    long total = (long)AACMM_STORE_SLOT_BYTES + PAPER_RECORD_LEN;
     unsigned olds = 0u;
     (void)state;
     setup_links(1, 0, 1, 0, 0);
@@ -2021,8 +2174,8 @@ static void test_sim_static_repeatable(void **state)
     aacmm_sim_t a;
     aacmm_sim_t b;
     aacmm_sim_config_t c;
-    uint32_t x[AACMM_JOINTS];
-    uint32_t y[AACMM_JOINTS];
+    uint32_t x[AACMM_JOINTS_MAX];
+    uint32_t y[AACMM_JOINTS_MAX];
     (void)state;
     sim_cfg(&c, AACMM_SIM_STATIC, UINT64_C(1) << 20);
     assert_int_equal(aacmm_sim_init(&a, &c), AACMM_OK);
@@ -2122,8 +2275,8 @@ static void test_sim_noise_bounds(void **state)
 {
     aacmm_sim_t s;
     aacmm_sim_config_t c;
-    uint32_t clean[AACMM_JOINTS];
-    uint32_t noisy[AACMM_JOINTS];
+    uint32_t clean[AACMM_JOINTS_MAX];
+    uint32_t noisy[AACMM_JOINTS_MAX];
     uint32_t maxd = 0;
     int k;
     int j;
@@ -2153,7 +2306,7 @@ static void test_sim_replay_loops(void **state)
     aacmm_sim_config_t c;
     static const uint32_t poses[18] = {1, 2, 3, 4, 5, 6, 10, 20, 30, 40, 50, 60,
                                        100, 200, 300, 400, 500, 600};
-    uint32_t got[AACMM_JOINTS];
+    uint32_t got[AACMM_JOINTS_MAX];
     float th[AACMM_JOINTS];
     int k;
     (void)state;
@@ -2163,7 +2316,7 @@ static void test_sim_replay_loops(void **state)
     assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
     for (k = 0; k < 7; k++) {
         assert_int_equal(aacmm_sim_read(&s, 0, got), AACMM_OK);
-        assert_memory_equal(got, poses + (k % 3) * 6, sizeof got);
+        assert_memory_equal(got, poses + (k % 3) * 6, AACMM_JOINTS * sizeof got[0]);
     }
     assert_int_equal(aacmm_sim_angles(&s, 0, th), AACMM_ERR_UNSUPPORTED);
 }
@@ -2217,7 +2370,7 @@ static void test_sim_button(void **state)
 /* The simulated arm as the device's encoders: the counts it produces are
  * valid for the device's default encoder configuration. */
 static aacmm_sim_t sim_for_device;
-static aacmm_status_t sim_read(void *ctx, uint32_t counts[AACMM_JOINTS])
+static aacmm_status_t sim_read(void *ctx, uint32_t counts[AACMM_JOINTS_MAX])
 {
     (void)ctx;
     return aacmm_sim_read(&sim_for_device, F.now_us, counts);
@@ -2261,6 +2414,7 @@ int main(void)
         cmocka_unit_test(test_init_errors),
         cmocka_unit_test_setup(test_ping_info, setup_default),
         cmocka_unit_test_setup(test_params_set_get_restore, setup_default),
+        cmocka_unit_test_setup(test_seven_joint_arm_model, setup_default),
         cmocka_unit_test_setup(test_measure_and_compute, setup_default),
         cmocka_unit_test_setup(test_stream_start_stop, setup_default),
         cmocka_unit_test_setup(test_bad_requests, setup_default),

@@ -24,7 +24,7 @@ from aacmm.errors import (
     InitError,
     OperationError,
 )
-from aacmm.protocol import MsgType, ParamSet, Ping, Sample, Trigger
+from aacmm.protocol import PROTOCOL_VERSION, MsgType, ParamSet, Ping, Sample, Trigger
 from aacmm.protocol.status import Status
 from aacmm.transport import SerialTransport
 from fakedevice import (
@@ -78,7 +78,7 @@ def test_ping_and_info(client: Client, fake: Fake) -> None:
     rtt = client.ping()
     assert 0 < rtt < 0.5
     info = client.info()
-    assert info.protocol_version == 1
+    assert info.protocol_version == PROTOCOL_VERSION == 2
     assert info.serial_number == 4242
     assert info.can_node_id == 3
     assert info.param_crc32 == param_crc(DEFAULT_PARAMS)

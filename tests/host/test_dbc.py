@@ -33,6 +33,7 @@ BASE_IDS = {
     "AACMM_PointXY": 0x140,
     "AACMM_PointZ": 0x150,
     "AACMM_Trigger": 0x160,
+    "AACMM_Counts7": 0x170,
     "AACMM_IsoTpRequest": 0x600,
     "AACMM_IsoTpResponse": 0x680,
 }
@@ -77,7 +78,54 @@ def test_dbc_of_each_node(node: int) -> None:
     assert got["Seq"] == SAMPLE.seq and got["TimestampUs"] == 123456
     assert [got[f"Count{i}"] for i in range(1, 7)] == list(SAMPLE.counts)
     assert [got[a] for a in "XYZ"] == pytest.approx([530.0295, -580.6323, -850.8455], abs=1e-9)
-    assert got["Status"] == 9 and got["SeqTag"] == 4
+    assert got["Status"] == 9 and got["SeqTag"] == 4 and got["Joints"] == 6
+
+
+def test_seven_axis_sample_frames_decode_with_cantools() -> None:
+    """Issue 26: the frames of a 7-axis arm's sample (the C encoder's, from the
+    shared vectors, checked against C in tests/protocol) decode with cantools from
+    the shipped DBC of their node: seven frames, Count1..Count7, Joints 7; and a
+    4-axis sample is five frames."""
+    vectors = Path(__file__).resolve().parents[1] / "vectors" / "protocol_vectors.txt"
+    rows = [
+        line.split()[2:]
+        for line in vectors.read_text().splitlines()
+        if line.startswith("can sample_7_n2_")
+    ]
+    assert len(rows) == 7
+    db = cantools.database.load_file(pcan.node_dbc_path(2))
+    assert isinstance(db, cantools.database.can.Database)
+    got: dict[str, Any] = {}
+    names = []
+    for frame_id, data in rows:
+        msg = db.get_message_by_frame_id(int(frame_id, 16))
+        names.append(msg.name)
+        decoded = db.decode_message(int(frame_id, 16), bytes.fromhex(data))
+        assert isinstance(decoded, dict)
+        got.update(decoded)
+    assert names == [
+        "AACMM_SampleHeader",
+        "AACMM_Counts12",
+        "AACMM_Counts34",
+        "AACMM_Counts56",
+        "AACMM_Counts7",
+        "AACMM_PointXY",
+        "AACMM_PointZ",
+    ]
+    # the values of SAMPLE_7 in tests/vectors/gen_protocol_vectors.py, typed in here
+    assert [got[f"Count{i}"] for i in range(1, 8)] == [7, 6, 5, 4, 3, 2, 0xFFFFFFFF]
+    assert got["Joints"] == 7 and got["Seq"] == 7 and got["SeqTag"] == 7
+    assert got["Status"] == 0x4001
+    assert [got[a] for a in "XYZ"] == pytest.approx([-0.0005, 214748.3647, 0.0], abs=1e-9)
+    four = Sample(9, 0, (1, 2, 3, 4), (0, 0, 0), 0, params=17)
+    frames = pcan.encode_sample_frames(four, node_id=2)
+    assert [db.get_message_by_frame_id(f.arbitration_id).name for f in frames] == [
+        "AACMM_SampleHeader",
+        "AACMM_Counts12",
+        "AACMM_Counts34",
+        "AACMM_PointXY",
+        "AACMM_PointZ",
+    ]
 
 
 def test_cantools_decode_of_a_default_session() -> None:

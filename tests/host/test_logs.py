@@ -224,3 +224,50 @@ def test_presses_crc_columns_and_damage_noticed(tmp_path: Path) -> None:
     line = one_error_line(s, 2, f"{ses}: damaged", "status complete, but points.csv holds 2")
     assert f"counts {side['accepted']} accepted points" in line
     assert s.stdout.startswith(f"session {ses} (complete, damaged): 2 of 30 points")
+
+
+def test_a_log_written_with_protocol_version_1_still_reads(tmp_path: Path) -> None:
+    """Issue 26: logs written before protocol version 2 name their parameter set by
+    version 1's CRC (over its 278-byte six-joint layout). Such a log (made here from
+    a new one: every CRC in its CSV and sidecar replaced by the version 1 CRC,
+    computed in the test from the sidecar's values) reads, with the same points; a
+    set that matches neither CRC is still refused as edited."""
+    import struct
+    import zlib
+
+    with SimProcess(["--serial", "pty", "--quiet", "--motion", "static"]) as sim:
+        out = tmp_path / "run.csv"
+        p = run("log", str(out), "-r", "100", "-d", "0.6", "-p", sim.url)
+        assert p.returncode == 0, p.stderr
+    new = read_log(out)
+    side = tmp_path / "run.csv.json"
+    meta = json.loads(side.read_text())
+    (ps,) = meta["param_sets"]
+    k, e = ps["params"], ps["encoders"]
+    v1 = zlib.crc32(
+        struct.pack(
+            "<25d6Q6I6b",
+            *k["theta_offset_rad"],
+            *k["alpha_rad"],
+            *k["d_mm"],
+            *k["a_mm"],
+            k["l_mm"],
+            *e["counts_per_rev"],
+            *e["zero_offset_counts"],
+            *e["direction"],
+        )
+    )
+    v2_hex, v1_hex = f"0x{ps['param_crc32']:08x}", f"0x{v1:08x}"
+    assert v1_hex != v2_hex
+    text = side.read_text().replace(str(ps["param_crc32"]), str(v1)).replace(v2_hex, v1_hex)
+    side.write_text(text)
+    for f in (out, tmp_path / "run.triggers.csv"):
+        if f.exists():
+            f.write_text(f.read_text().replace(v2_hex, v1_hex))
+    old = read_log(out)
+    assert [c for _, c in old.set_changes()] == [v1]
+    assert np.array_equal(old.points_mm(), new.points_mm())
+    # an edited set matches neither CRC
+    side.write_text(text.replace('"l_mm": 183.5', '"l_mm": 183.6'))
+    with pytest.raises(Exception, match="does not match its CRC"):
+        read_log(out)

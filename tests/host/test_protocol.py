@@ -14,37 +14,8 @@ from types import ModuleType
 
 import isotp
 import pytest
-from aacmm import errors
-from aacmm.protocol import can as pcan
-from aacmm.protocol import framing, messages
-from aacmm.protocol.constants import (
-    HEADER_BYTES,
-    MAX_BODY,
-    PROTOCOL_VERSION,
-    BuildFlags,
-    Content,
-    EncoderFault,
-    EncoderInterface,
-    MsgType,
-    ParamSource,
-    ResetCause,
-    SampleStatus,
-    SlotState,
-    StorageFlags,
-    StorageKind,
-)
-from aacmm.protocol.decode import decode_message
-from aacmm.protocol.encode import encode_message
-from aacmm.protocol.layout import (
-    COMPUTE_RSP_BASE_BYTES,
-    DIAG_BYTES,
-    DIAG_JOINT_BYTES,
-    INFO_BYTES,
-    JACOBIAN_BYTES,
-    PARAM_SET_BYTES,
-    SAMPLE_BASE_BYTES,
-)
-from aacmm.protocol.payloads import (
+from aacmm import errors, protocol
+from aacmm.protocol import (
     ComputeRequest,
     ComputeResult,
     DeviceInfo,
@@ -53,13 +24,19 @@ from aacmm.protocol.payloads import (
     JointDiagnostics,
     MeasureRequest,
     Message,
+    MsgType,
     ParamCrc,
     ParamSet,
     Ping,
     Sample,
     Stream,
     Trigger,
+    constants,
+    framing,
+    layout,
+    messages,
 )
+from aacmm.protocol import can as pcan
 from aacmm.protocol.status import Status
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -112,52 +89,93 @@ def tup(s: st.SearchStrategy[object], n: int) -> st.SearchStrategy[tuple[object,
     return st.tuples(*([s] * n))
 
 
-jacobians = st.none() | tup(tup(f32, 25), 3)
+i16 = st.integers(-0x8000, 0x7FFF)
+joints_ = st.integers(4, 7)
+
+
+def jacobians(p: int) -> st.SearchStrategy[object]:
+    return st.none() | tup(tup(f32, p), 3)
 
 
 @st.composite
 def param_sets(draw: st.DrawFn) -> ParamSet:
-    cpr = draw(tup(st.integers(2, 2**32), 6))
+    """Arm models of 4 to 7 joints: conventions, betas (never joint 1), a tip
+    vector or l, and sometimes issue 27's error model."""
+    n = draw(joints_)
+    cpr = draw(tup(st.integers(2, 2**32), n))
     zero = tuple(draw(st.integers(0, min(c, 2**32) - 1)) for c in cpr)  # type: ignore[call-overload]
+    conv = draw(st.just(()) | tup(st.integers(0, 1), n))
+    beta = draw(st.just(()) | st.tuples(st.none(), *([st.none() | f64] * (n - 1))))
+    k = draw(st.sampled_from([0, 0, 1, 4]))
+    harm = tuple(tuple(draw(tup(i16, k))) for _ in range(n)) if k else ()
+    harm_s = tuple(tuple(draw(tup(i16, k))) for _ in range(n)) if k else ()
+    thermal = draw(st.booleans())
     return ParamSet(
-        theta_offset_rad=draw(tup(f64, 6)),  # type: ignore[arg-type]
-        alpha_rad=draw(tup(f64, 6)),  # type: ignore[arg-type]
-        d_mm=draw(tup(f64, 6)),  # type: ignore[arg-type]
-        a_mm=draw(tup(f64, 6)),  # type: ignore[arg-type]
+        theta_offset_rad=draw(tup(f64, n)),  # type: ignore[arg-type]
+        alpha_rad=draw(tup(f64, n)),  # type: ignore[arg-type]
+        d_mm=draw(tup(f64, n)),  # type: ignore[arg-type]
+        a_mm=draw(tup(f64, n)),  # type: ignore[arg-type]
         l_mm=draw(f64),
         counts_per_rev=cpr,  # type: ignore[arg-type]
         zero_offset_counts=zero,
-        direction=draw(tup(st.sampled_from([1, -1]), 6)),  # type: ignore[arg-type]
+        direction=draw(tup(st.sampled_from([1, -1]), n)),  # type: ignore[arg-type]
+        convention=conv,  # type: ignore[arg-type]
+        beta_rad=beta,
+        tip_xy_mm=draw(st.none() | st.tuples(f64, f64)),
+        harm_cos=harm,  # type: ignore[arg-type]
+        harm_sin=harm_s,  # type: ignore[arg-type]
+        cte=draw(tup(i16, n)) if thermal else (),  # type: ignore[arg-type]
+        ref_temp=draw(i16) if thermal else 0,
     )
 
 
-samples = st.builds(
-    Sample,
-    seq=u32,
-    timestamp_us=u64,
-    counts=tup(u32, 6),
-    point_100nm=tup(i32, 3),
-    status=u32,
-    jacobian=jacobians,
-)
+@st.composite
+def samples_(draw: st.DrawFn) -> Sample:
+    n = draw(joints_)
+    p = draw(st.integers(4 * n + 1, 5 * n + 2))
+    return Sample(
+        seq=draw(u32),
+        timestamp_us=draw(u64),
+        counts=draw(tup(u32, n)),  # type: ignore[arg-type]
+        point_100nm=draw(tup(i32, 3)),  # type: ignore[arg-type]
+        status=draw(u32),
+        jacobian=draw(jacobians(p)),  # type: ignore[arg-type]
+        params=p,
+    )
+
+
+@st.composite
+def compute_results(draw: st.DrawFn) -> ComputeResult:
+    p = draw(st.integers(17, 37))
+    return ComputeResult(draw(u32), draw(tup(f64, 3)), draw(jacobians(p)), p)  # type: ignore[arg-type]
+
+
+@st.composite
+def infos(draw: st.DrawFn) -> DeviceInfo:
+    n = draw(joints_)
+    return DeviceInfo(
+        draw(u16),
+        draw(u8),
+        draw(u8),
+        draw(u16),
+        draw(u32),
+        draw(u32),
+        draw(st.integers(0, 2)),
+        draw(st.integers(0, 3)),
+        draw(u16),
+        draw(u32),
+        draw(st.integers(0, 15)),
+        n,
+        draw(st.integers(4 * n + 1, 5 * n + 2)),
+    )
+
+
+samples = samples_()
 
 PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
     MsgType.PING_REQ: st.builds(Ping, u32),
     MsgType.PING_RSP: st.builds(Ping, u32),
-    MsgType.INFO_RSP: st.builds(
-        DeviceInfo,
-        u16,
-        u8,
-        u8,
-        u16,
-        u32,
-        u32,
-        st.integers(0, 2),
-        st.integers(0, 3),
-        u16,
-        u32,
-        st.integers(0, 15),
-    ),
+    MsgType.INFO_RSP: infos(),
     MsgType.SET_PARAMS_REQ: param_sets(),
     MsgType.GET_PARAMS_RSP: param_sets(),
     MsgType.SET_PARAMS_RSP: st.builds(ParamCrc, u32),
@@ -166,8 +184,10 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
     MsgType.MEASURE_REQ: st.builds(MeasureRequest, st.booleans()),
     MsgType.MEASURE_RSP: samples,
     MsgType.SAMPLE_EVT: samples,
-    MsgType.COMPUTE_REQ: st.builds(ComputeRequest, tup(u32, 6), st.booleans()),
-    MsgType.COMPUTE_RSP: st.builds(ComputeResult, u32, tup(f64, 3), jacobians),
+    MsgType.COMPUTE_REQ: st.builds(
+        ComputeRequest, joints_.flatmap(lambda n: tup(u32, n)), st.booleans()
+    ),
+    MsgType.COMPUTE_RSP: compute_results(),
     MsgType.STREAM_START_REQ: st.builds(Stream, st.integers(1, 1000), st.booleans()),
     MsgType.STREAM_START_RSP: st.builds(Stream, st.integers(1, 1000), st.booleans()),
     MsgType.TRIGGER_EVT: st.builds(Trigger, u8, st.booleans(), samples),
@@ -190,11 +210,18 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
         serial_frames_bad=u32,
         samples_dropped=u32,
         samples_late=u32,
-        joints=tup(
-            st.builds(
-                JointDiagnostics, st.integers(0, 3), st.integers(0, 32), st.integers(0, 8), u32, u32
-            ),
-            6,
+        joints=joints_.flatmap(
+            lambda n: tup(
+                st.builds(
+                    JointDiagnostics,
+                    st.integers(0, 3),
+                    st.integers(0, 32),
+                    st.integers(0, 8),
+                    u32,
+                    u32,
+                ),
+                n,
+            )
         ),
     ),
 }
@@ -228,13 +255,13 @@ def test_vector_file_is_up_to_date() -> None:
 def test_message_vectors_decode_to_the_named_values() -> None:
     expected = GEN.messages()
     rows = records("msg")
-    assert len(rows) == len(expected) == 25
+    assert len(rows) == len(expected) == 32
     assert {m.type for m in expected.values()} == set(MsgType)  # every type has a vector
     for name, body_hex, wire_hex in rows:
         body, wire = unhex(body_hex), unhex(wire_hex)
-        msg = decode_message(body)
+        msg = protocol.decode_message(body)
         assert msg == expected[name], name
-        assert encode_message(expected[name]) == body
+        assert protocol.encode_message(expected[name]) == body
         assert framing.encode_frame(body) == wire
         assert messages.frame_message(expected[name]) == wire
         assert framing.decode_frame(wire[1:-1]) == body
@@ -245,7 +272,7 @@ def test_bad_body_vectors_fail_with_the_named_status() -> None:
     assert len(rows) >= 30
     for name, body_hex, status in rows:
         with pytest.raises(errors.FrameError) as info:
-            decode_message(unhex(body_hex))
+            protocol.decode_message(unhex(body_hex))
         assert info.value.status == Status[status], name
 
 
@@ -329,7 +356,7 @@ def test_assembler_drops_incomplete_and_foreign() -> None:
 
 def test_isotp_vectors_reassemble_with_can_isotp() -> None:
     rows = records("isotp")
-    assert len(rows) == 4
+    assert len(rows) == 5
     for name, tx_hex, msg_hex, frames_hex in rows:
         tx = int(tx_hex, 16)
         rx = tx - 0x80 if tx >= pcan.ID_ISOTP_RESPONSE else tx + 0x80
@@ -374,6 +401,7 @@ def test_c_can_ids_match_dbc_and_python() -> None:
         "AACMM_CAN_ID_COUNTS_12": ("AACMM_Counts12", pcan.ID_COUNTS_12),
         "AACMM_CAN_ID_COUNTS_34": ("AACMM_Counts34", pcan.ID_COUNTS_34),
         "AACMM_CAN_ID_COUNTS_56": ("AACMM_Counts56", pcan.ID_COUNTS_56),
+        "AACMM_CAN_ID_COUNTS_7": ("AACMM_Counts7", pcan.ID_COUNTS_7),
         "AACMM_CAN_ID_POINT_XY": ("AACMM_PointXY", pcan.ID_POINT_XY),
         "AACMM_CAN_ID_POINT_Z": ("AACMM_PointZ", pcan.ID_POINT_Z),
         "AACMM_CAN_ID_TRIGGER": ("AACMM_Trigger", pcan.ID_TRIGGER),
@@ -384,7 +412,11 @@ def test_c_can_ids_match_dbc_and_python() -> None:
         assert d[cname] == db.get_message_by_name(dbc_name).frame_id == py_id, cname
     assert len(db.messages) == len(pairs)
     assert d["AACMM_CAN_NODE_ID_MAX"] == pcan.NODE_ID_MAX
-    assert d["AACMM_CAN_SAMPLE_FRAMES"] == len(pcan.SAMPLE_FRAME_IDS)
+    assert d["AACMM_CAN_SAMPLE_FRAMES_MAX"] == len(pcan.SAMPLE_FRAME_IDS)
+    # the C macro AACMM_CAN_SAMPLE_FRAMES(n) = 3 + (n + 1) / 2, as the Python sequence
+    assert [len(pcan.sample_frame_ids(n)) for n in range(4, 8)] == [
+        3 + (n + 1) // 2 for n in range(4, 8)
+    ]
     # node ids never collide: 16 nodes fit between consecutive bases
     bases = sorted(p[1] for p in pairs.values())
     assert all(b - a >= 16 for a, b in itertools.pairwise(bases))
@@ -404,33 +436,46 @@ def test_c_message_types_and_sizes_match_python() -> None:
     }
     assert c_types == {t.name: int(t) for t in MsgType}
     d = _c_defines("proto.h")
-    assert d["AACMM_PROTO_VERSION"] == PROTOCOL_VERSION
-    assert d["AACMM_PROTO_MAX_BODY"] == MAX_BODY == framing.MAX_BODY
-    assert d["AACMM_PARAM_SET_BYTES"] == PARAM_SET_BYTES == struct.calcsize("<25d6Q6I6b")
-    assert d["AACMM_INFO_BYTES"] == INFO_BYTES
-    assert d["AACMM_SAMPLE_BASE_BYTES"] == SAMPLE_BASE_BYTES
-    assert d["AACMM_JACOBIAN_BYTES"] == JACOBIAN_BYTES
-    assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == COMPUTE_RSP_BASE_BYTES
-    assert d["AACMM_CONTENT_JACOBIAN"] == Content.JACOBIAN
-    for flag in SampleStatus:
+    assert d["AACMM_PROTO_VERSION"] == protocol.PROTOCOL_VERSION
+    assert d["AACMM_PROTO_MAX_BODY"] == constants.MAX_BODY == framing.MAX_BODY
+    assert d["AACMM_PROTO_VERSION_PREVIOUS"] == constants.PROTOCOL_VERSION_PREVIOUS == 1
+    # the paper's set: header, 25 f64, then u32 cpr - 1, u32 zero, i8 direction per joint
+    paper = struct.calcsize("<8B25d6I6I6b")
+    assert d["AACMM_PARAM_SET_PAPER_BYTES"] == layout.PARAM_SET_BYTES == paper
+    assert (
+        d["AACMM_PARAM_SET_MAX_BYTES"]
+        == layout.PARAM_SET_MAX_BYTES
+        == layout.param_set_bytes(7, 37, 4, 1)
+    )
+    assert layout.PARAM_SET_MAX_BYTES <= constants.MAX_BODY - constants.HEADER_BYTES
+    assert d["AACMM_PARAM_SET_HEADER_BYTES"] == layout.PARAM_SET_HEADER_BYTES
+    assert d["AACMM_HARMONICS_MAX"] == layout.HARMONICS_MAX
+    assert d["AACMM_INFO_BYTES"] == layout.INFO_BYTES == layout.INFO_LAYOUT.size
+    assert d["AACMM_SAMPLE_BASE_BYTES"] == layout.SAMPLE_BASE_BYTES == layout.SAMPLE_LAYOUT.size
+    assert d["AACMM_SAMPLE_MAX_BYTES"] == layout.sample_bytes(7, 37, True)
+    assert 2 + layout.sample_bytes(7, 37, True) <= constants.MAX_BODY - constants.HEADER_BYTES
+    assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == layout.COMPUTE_RSP_BASE_BYTES
+    assert d["AACMM_DIAG_BASE_BYTES"] == layout.DIAG_BASE_BYTES == layout.DIAG_LAYOUT.size
+    assert d["AACMM_CONTENT_JACOBIAN"] == protocol.Content.JACOBIAN
+    for flag in protocol.SampleStatus:
         assert d[f"AACMM_SAMPLE_{flag.name}"] == flag.value
-    for build in BuildFlags:
+    for build in protocol.BuildFlags:
         assert d[f"AACMM_BUILD_{build.name}"] == build.value
-    assert d["AACMM_DIAG_JOINT_BYTES"] == DIAG_JOINT_BYTES
-    assert DIAG_BYTES == 125  # 59 + 6 * 11 (the C macro is an expression)
+    assert d["AACMM_DIAG_JOINT_BYTES"] == layout.DIAG_JOINT_BYTES
+    assert layout.DIAG_BYTES == 126  # 60 + 6 * 11 (the C macro is an expression)
     enums: list[tuple[str, type[IntEnum], str]] = [
-        ("AACMM_PARAM_SOURCE_", ParamSource, "AACMM_PARAM_SOURCE_MAX"),
-        ("AACMM_STORAGE_KIND_", StorageKind, "AACMM_STORAGE_KIND_MAX"),
-        ("AACMM_SLOT_", SlotState, "AACMM_SLOT_STATE_MAX"),
-        ("AACMM_RESET_", ResetCause, "AACMM_RESET_CAUSE_MAX"),
-        ("AACMM_ENC_", EncoderInterface, "AACMM_ENC_INTERFACE_MAX"),
-        ("AACMM_ENC_FAULT_", EncoderFault, "AACMM_ENC_FAULT_MAX"),
+        ("AACMM_PARAM_SOURCE_", protocol.ParamSource, "AACMM_PARAM_SOURCE_MAX"),
+        ("AACMM_STORAGE_KIND_", protocol.StorageKind, "AACMM_STORAGE_KIND_MAX"),
+        ("AACMM_SLOT_", protocol.SlotState, "AACMM_SLOT_STATE_MAX"),
+        ("AACMM_RESET_", protocol.ResetCause, "AACMM_RESET_CAUSE_MAX"),
+        ("AACMM_ENC_", protocol.EncoderInterface, "AACMM_ENC_INTERFACE_MAX"),
+        ("AACMM_ENC_FAULT_", protocol.EncoderFault, "AACMM_ENC_FAULT_MAX"),
     ]
     for prefix, enum, max_name in enums:
         for member in enum:
             assert d[prefix + member.name] == member.value, prefix + member.name
         assert d[max_name] == max(enum)
-    assert d["AACMM_STORAGE_PERSISTENT"] == StorageFlags.PERSISTENT
+    assert d["AACMM_STORAGE_PERSISTENT"] == protocol.StorageFlags.PERSISTENT
     f = _c_defines("frame.h")
     assert f["AACMM_FRAME_MAX_BODY"] == framing.MAX_BODY
     assert _c_defines("crc32.h")["AACMM_CRC32_CHECK"] == framing.CRC32_CHECK
@@ -448,9 +493,9 @@ def test_status_enum_matches_c_header() -> None:
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st_message())
 def test_round_trip(msg: Message) -> None:
-    body = encode_message(msg)
-    assert HEADER_BYTES <= len(body) <= MAX_BODY
-    assert decode_message(body) == msg
+    body = protocol.encode_message(msg)
+    assert constants.HEADER_BYTES <= len(body) <= constants.MAX_BODY
+    assert protocol.decode_message(body) == msg
     wire = framing.encode_frame(body)
     assert len(wire) <= framing.MAX_WIRE
     assert b"\x00" not in wire[1:-1]
@@ -461,11 +506,11 @@ def test_round_trip(msg: Message) -> None:
 @given(st.binary(max_size=600))
 def test_arbitrary_bodies_raise_only_frame_error(data: bytes) -> None:
     try:
-        msg = decode_message(data)
+        msg = protocol.decode_message(data)
     except errors.FrameError as exc:
         assert exc.status < 0
     else:
-        assert encode_message(msg) == data  # canonical
+        assert protocol.encode_message(msg) == data  # canonical
 
 
 @settings(max_examples=300, deadline=None)
@@ -474,7 +519,7 @@ def test_mutated_valid_bodies_raise_only_frame_error(prefix: bytes, tail: bytes)
     body = unhex(records("msg")[13][1])
     data = body[: len(prefix)] + prefix + tail
     try:
-        decode_message(data)
+        protocol.decode_message(data)
     except errors.FrameError:
         pass
 
@@ -523,6 +568,7 @@ def test_can_sample_round_trip(sample: Sample, node: int) -> None:
         sample.counts,
         sample.point_100nm,
         sample.status & 0xFFFF,
+        params=4 * len(sample.counts) + 1,  # the frames carry no P
     )
 
 
@@ -539,8 +585,21 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         Message(MsgType.STREAM_START_REQ, 0, Stream(0)),
         Message(MsgType.ERROR_RSP, 0, ErrorReply(0, 1)),
         Message(MsgType.COMPUTE_RSP, 0, ComputeResult(0, (math.nan, 0.0, 0.0))),
-        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 6, (0, 0, 0), 0, ((1e39,) * 25,) * 3)),
-        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 5, (0, 0, 0), 0)),
+        Message(
+            MsgType.MEASURE_RSP,
+            0,
+            Sample(0, 0, (0,) * 6, (0, 0, 0), 0, ((1e39,) * 25,) * 3),
+        ),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 3, (0, 0, 0), 0, params=13)),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 8, (0, 0, 0), 0, params=33)),
+        Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 7, (0, 0, 0), 0)),  # P 25 < 29
+        Message(
+            MsgType.MEASURE_RSP,
+            0,
+            Sample(0, 0, (0,) * 7, (0, 0, 0), 0, ((1.0,) * 25,) * 3, params=29),  # 3 x 25 != 3 x P
+        ),
+        Message(MsgType.COMPUTE_REQ, 0, ComputeRequest((0,) * 8)),
+        Message(MsgType.COMPUTE_RSP, 0, ComputeResult(0, (0.0, 0.0, 0.0), None, params=38)),
         Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 6, (2**31, 0, 0), 0)),
         Message(MsgType.TRIGGER_EVT, 0, Trigger(0, 2, GEN.SAMPLE_A)),  # type: ignore[arg-type]
     ]
@@ -552,13 +611,19 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         {"zero_offset_counts": (0, 16777216, 0, 0, 0, 0)},
         {"l_mm": math.inf},
         {"d_mm": (0.0,) * 5},
+        {"beta_rad": (0.1, None, None, None, None, None)},  # joint 1
+        {"convention": (2, 0, 0, 0, 0, 0)},
+        {"harm_cos": ((1,),) * 6},  # harm_sin missing
+        {"harm_cos": ((1,) * 5,) * 6, "harm_sin": ((1,) * 5,) * 6},  # K 5
+        {"ref_temp": 1},  # no thermal block
+        {"cte": (40000, 0, 0, 0, 0, 0)},
     ):
         bad.append(Message(MsgType.SET_PARAMS_REQ, 0, ParamSet(**{**p.__dict__, **change})))
     for m in bad:
         with pytest.raises(ValueError):
-            encode_message(m)
+            protocol.encode_message(m)
     with pytest.raises(ValueError):
-        encode_message(Message(0x3F, 0))  # type: ignore[arg-type]
+        protocol.encode_message(Message(0x3F, 0))  # type: ignore[arg-type]
     with pytest.raises(ValueError):
         framing.encode_frame(b"\x01\x02")
     with pytest.raises(ValueError):
@@ -662,8 +727,8 @@ def test_receive_cost_per_frame_does_not_grow_with_its_length(jacobian: bool) ->
     is measured by ``make bench`` (bench/bench_host_rx.py)."""
     jac = tuple(tuple(float(25 * r + c) for c in range(25)) for r in range(3)) if jacobian else None
     sample = Sample(7, 1000, (1, 2, 3, 4, 5, 6), (10, -20, 30), 1, jac)
-    body = encode_message(Message(MsgType.SAMPLE_EVT, 7, sample))
-    assert len(body) == (356 if jacobian else 56)
+    body = protocol.encode_message(Message(MsgType.SAMPLE_EVT, 7, sample))
+    assert len(body) == (358 if jacobian else 58)
     frame = framing.encode_frame(body)
     deframer = framing.Deframer()
     lines = 0
@@ -679,5 +744,5 @@ def test_receive_cost_per_frame_does_not_grow_with_its_length(jacobian: bool) ->
         bodies = deframer.feed(frame)
     finally:
         sys.settrace(None)
-    assert decode_message(bodies[0]).payload == sample
+    assert protocol.decode_message(bodies[0]).payload == sample
     assert lines < 100, lines

@@ -18,13 +18,9 @@ from pathlib import Path
 
 import isotp
 import pytest
-from aacmm import errors
+from aacmm import errors, protocol
+from aacmm.protocol import Message, MsgType, framing, messages
 from aacmm.protocol import can as pcan
-from aacmm.protocol import framing, messages
-from aacmm.protocol.constants import MsgType
-from aacmm.protocol.decode import decode_message
-from aacmm.protocol.encode import encode_message, encode_param_set, param_set_crc32
-from aacmm.protocol.payloads import Message, Sample
 from aacmm.protocol.status import Status
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -133,7 +129,7 @@ def c_deframe(wire: bytes) -> tuple[list[bytes], list[int]]:
 
 def py_status(body: bytes) -> int:
     try:
-        decode_message(body)
+        protocol.decode_message(body)
     except errors.FrameError as exc:
         return exc.status
     return 0
@@ -145,11 +141,11 @@ def py_status(body: bytes) -> int:
 @settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st_message())
 def test_python_encoder_c_decoder_c_encoder_python_decoder(msg: Message) -> None:
-    body = encode_message(msg)
+    body = protocol.encode_message(msg)
     status, again = c_reencode(body)
     assert status == 0
     assert again == body  # C decoded every field and encoded it back identically
-    assert decode_message(again) == msg
+    assert protocol.decode_message(again) == msg
     assert c_frame(body) == framing.encode_frame(body)
 
 
@@ -210,12 +206,13 @@ def test_c_and_python_deframers_deliver_the_same_bodies(stream: bytes) -> None:
 @settings(max_examples=200, deadline=None)
 @given(samples, st.integers(0, 15))
 def test_c_can_sample_frames_equal_python_and_decode_with_dbc(sample: object, node: int) -> None:
-    assert isinstance(sample, Sample)
-    body = encode_message(Message(MsgType.SAMPLE_EVT, 0, sample))
-    ids = (ctypes.c_uint32 * 6)()
-    data = (ctypes.c_uint8 * 48)()
-    assert LIB.shim_can_sample(body, len(body), node, ids, data) == 0
-    c_frames = [(ids[i], bytes(data[8 * i : 8 * i + 8])) for i in range(6)]
+    assert isinstance(sample, protocol.Sample)
+    body = protocol.encode_message(Message(MsgType.SAMPLE_EVT, 0, sample))
+    ids = (ctypes.c_uint32 * 7)()
+    data = (ctypes.c_uint8 * 56)()
+    n = LIB.shim_can_sample(body, len(body), node, ids, data)
+    assert n == (5, 6, 6, 7)[len(sample.counts) - 4]
+    c_frames = [(ids[i], bytes(data[8 * i : 8 * i + 8])) for i in range(n)]
     py_frames = [(f.arbitration_id, f.data) for f in pcan.encode_sample_frames(sample, node)]
     assert c_frames == py_frames
     asm = pcan.SampleAssembler(node)
@@ -226,10 +223,10 @@ def test_c_can_sample_frames_equal_python_and_decode_with_dbc(sample: object, no
 def test_param_set_crc_agrees() -> None:
     import gen_protocol_vectors as gen
 
-    payload = encode_param_set(gen.PARAMS)
+    payload = protocol.encode_param_set(gen.PARAMS)
     crc = ctypes.c_uint32(0)
     assert LIB.shim_param_crc(payload, len(payload), ctypes.byref(crc)) == 0
-    assert crc.value == param_set_crc32(gen.PARAMS)
+    assert crc.value == protocol.param_set_crc32(gen.PARAMS)
 
 
 # ------------------------------------------------------------------ ISO-TP against can-isotp
@@ -319,7 +316,7 @@ def test_c_device_to_host_can_isotp(size: int) -> None:
 @settings(max_examples=60, deadline=None)
 @given(st_message())
 def test_messages_over_isotp_both_ways(msg: Message) -> None:
-    body = encode_message(msg)
+    body = protocol.encode_message(msg)
     link = Link(node=0, bs=2, stmin=0)
     link.host.send(body)
     got = None
@@ -329,7 +326,7 @@ def test_messages_over_isotp_both_ways(msg: Message) -> None:
         got = got or link.device_receive()
         if got is not None:
             break
-    assert got is not None and decode_message(got) == msg
+    assert got is not None and protocol.decode_message(got) == msg
     assert LIB.shim_isotp_send(body, len(body), link.now) == 0
     back = None
     deadline = time.monotonic() + 20
@@ -338,7 +335,7 @@ def test_messages_over_isotp_both_ways(msg: Message) -> None:
         if link.host.available():
             back = link.host.recv()
             break
-    assert back is not None and decode_message(back) == msg
+    assert back is not None and protocol.decode_message(back) == msg
 
 
 def test_c_device_refuses_oversize_with_flow_control_overflow() -> None:

@@ -17,11 +17,9 @@ from pathlib import Path
 
 import can
 import pytest
+from aacmm import protocol
+from aacmm.protocol import Message, MsgType, Ping, Sample
 from aacmm.protocol import can as pcan
-from aacmm.protocol.constants import MsgType
-from aacmm.protocol.decode import decode_message
-from aacmm.protocol.encode import encode_message
-from aacmm.protocol.payloads import Message, Ping, Sample
 from test_protocol_interop import LIB
 
 NODE = 6
@@ -66,9 +64,9 @@ class Device(threading.Thread):
                 data = bytes(msg.data)
                 LIB.shim_isotp_on_frame(msg.arbitration_id, len(data), data.ljust(8, b"\0"), now)
             if LIB.shim_isotp_receive(out, len(out), ctypes.byref(n)):
-                req = decode_message(bytes(out[: n.value]))
+                req = protocol.decode_message(bytes(out[: n.value]))
                 if isinstance(req.payload, Ping):
-                    rsp = encode_message(Message(MsgType.PING_RSP, req.seq, req.payload))
+                    rsp = protocol.encode_message(Message(MsgType.PING_RSP, req.seq, req.payload))
                     assert LIB.shim_isotp_send(rsp, len(rsp), now) == 0
                     self.answered += 1
             while LIB.shim_isotp_poll(now, ctypes.byref(fid), ctypes.byref(dlc), buf):
@@ -90,18 +88,18 @@ def test_ping_over_isotp_on_socketcan() -> None:
     stack.start()
     try:
         for seq, token in enumerate((1, 0xDEADBEEF, 0x12345678)):
-            stack.send(encode_message(Message(MsgType.PING_REQ, seq, Ping(token))))
+            stack.send(protocol.encode_message(Message(MsgType.PING_REQ, seq, Ping(token))))
             reply = stack.recv(block=True, timeout=10)
             assert reply is not None
-            assert decode_message(reply) == Message(MsgType.PING_RSP, seq, Ping(token))
+            assert protocol.decode_message(reply) == Message(MsgType.PING_RSP, seq, Ping(token))
         # a long body too: the parameter-set response size, both ways through FC/CF
-        long_body = encode_message(
+        long_body = protocol.encode_message(
             Message(MsgType.SAMPLE_EVT, 9, Sample(1, 2, (3,) * 6, (4, 5, 6), 7, ((0.5,) * 25,) * 3))
         )
         stack.send(long_body)  # the device ignores it (not a ping) but must reassemble it
-        stack.send(encode_message(Message(MsgType.PING_REQ, 77, Ping(77))))
+        stack.send(protocol.encode_message(Message(MsgType.PING_REQ, 77, Ping(77))))
         reply = stack.recv(block=True, timeout=10)
-        assert reply is not None and decode_message(reply).seq == 77
+        assert reply is not None and protocol.decode_message(reply).seq == 77
     finally:
         stack.stop()
         bus.shutdown()
@@ -115,10 +113,10 @@ def test_c_sample_frames_decode_with_the_dbc_on_socketcan() -> None:
     sample = Sample(
         0x01020304, 0x1122334455, (1, 2, 3, 0xFFFFFFFF, 5, 6), (-22000000, 7, 12345678), 0x25
     )
-    body = encode_message(Message(MsgType.SAMPLE_EVT, 0, sample))
-    ids = (ctypes.c_uint32 * 6)()
-    data = (ctypes.c_uint8 * 48)()
-    assert LIB.shim_can_sample(body, len(body), NODE, ids, data) == 0
+    body = protocol.encode_message(Message(MsgType.SAMPLE_EVT, 0, sample))
+    ids = (ctypes.c_uint32 * 7)()
+    data = (ctypes.c_uint8 * 56)()
+    assert LIB.shim_can_sample(body, len(body), NODE, ids, data) == 6
     with (
         can.Bus(interface="socketcan", channel=iface) as tx,
         can.Bus(interface="socketcan", channel=iface) as rx,

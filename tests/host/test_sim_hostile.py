@@ -29,6 +29,7 @@ from pathlib import Path
 
 import pytest
 from aacmm.protocol import (
+    PROTOCOL_VERSION,
     Deframer,
     Message,
     MsgType,
@@ -46,7 +47,12 @@ BINARIES = {
     "f32": os.environ.get("AACMM_SIM_SAN", str(ROOT / "build" / "sim-san" / "aacmm-sim")),
     "q": os.environ.get("AACMM_SIM_SAN_Q", str(ROOT / "build" / "sim-q-san" / "aacmm-sim")),
 }
-SANITIZER_WORDS = ("AddressSanitizer", "LeakSanitizer", "runtime error", "UndefinedBehavior")
+SANITIZER_WORDS = (
+    "AddressSanitizer",
+    "LeakSanitizer",
+    "runtime error",
+    "UndefinedBehavior",
+)
 
 
 class Link:
@@ -79,7 +85,7 @@ class Link:
                 except BlockingIOError:
                     continue
                 for body in self.deframer.feed(data):
-                    decode_message(body)  # everything the device sends decodes
+                    check_body(body)  # everything the device sends decodes
                     bodies += 1
 
     def ping(self, token: int) -> bool:
@@ -92,8 +98,12 @@ class Link:
                 except BlockingIOError:
                     continue
                 for body in self.deframer.feed(data):
-                    msg = decode_message(body)
-                    if msg.type == MsgType.PING_RSP and msg.payload == Ping(token):
+                    msg = check_body(body)
+                    if (
+                        msg is not None
+                        and msg.type == MsgType.PING_RSP
+                        and msg.payload == Ping(token)
+                    ):
                         return True
         return False
 
@@ -101,12 +111,25 @@ class Link:
         os.close(self.fd)
 
 
+V = PROTOCOL_VERSION
+
+
+def check_body(body: bytes) -> Message | None:
+    """A body the device sent: a message of this version, or (the answer to a
+    version 1 request) a version 1 ERROR_RSP ERR_VERSION, which is None here."""
+    if body[:1] == b"\x01":
+        assert len(body) == 6 and body[1] == 0xFF, body.hex()
+        assert struct.unpack_from("<h", body, 3)[0] == -16, body.hex()  # ERR_VERSION
+        return None
+    return decode_message(body)
+
+
 VALID_BODIES = [
-    bytes([1, 0x01, 1]) + struct.pack("<I", 99),  # ping
-    bytes([1, 0x07, 2, 1]),  # measure with the Jacobian
-    bytes([1, 0x08, 3, 0]) + struct.pack("<6I", 1, 2, 3, 4, 5, 6),  # compute
-    bytes([1, 0x09, 4]) + struct.pack("<HB", 100, 0),  # stream start
-    bytes([1, 0x0B, 5]),  # diagnostics
+    bytes([V, 0x01, 1]) + struct.pack("<I", 99),  # ping
+    bytes([V, 0x07, 2, 1]),  # measure with the Jacobian
+    bytes([V, 0x08, 3, 0, 6]) + struct.pack("<6I", 1, 2, 3, 4, 5, 6),  # compute
+    bytes([V, 0x09, 4]) + struct.pack("<HB", 100, 0),  # stream start
+    bytes([V, 0x0B, 5]),  # diagnostics
 ]
 
 
@@ -123,27 +146,40 @@ def hostile_frames(rng: random.Random) -> Iterator[bytes]:
             yield rng.randbytes(rng.randrange(1, 700))
         elif kind == 1:  # a good CRC around a random body of any type and length
             t = rng.choice(types)
-            body = bytes([1, t, rng.randrange(256)]) + rng.randbytes(rng.randrange(0, 509))
+            v = rng.choice([V, V, 1])  # and the six-joint version before arm models
+            body = bytes([v, t, rng.randrange(256)]) + rng.randbytes(rng.randrange(0, 509))
             yield framed(body)
         elif kind == 2:  # the right length for a request type, random payload
             t = rng.randrange(1, 0x0C)
-            n = {1: 4, 4: 278, 7: 1, 8: 25, 9: 3}.get(t, 0)
-            yield framed(bytes([1, t, rng.randrange(256)]) + rng.randbytes(n))
-        elif kind == 3:  # parameter sets with extreme values, some beyond the limits
+            n = {1: 4, 4: 262, 7: 1, 8: 26, 9: 3}.get(t, 0)
+            yield framed(bytes([V, t, rng.randrange(256)]) + rng.randbytes(n))
+        elif kind == 3:  # arm models of 3..8 joints, extreme values, some beyond the limits
+            nj = rng.choice([3, 4, 5, 6, 6, 7, 7, 8])
+            tip = rng.choice([1, 1, 3, 2])
+            conv = rng.randrange(1 << nj) if rng.random() < 0.5 else 0
+            beta = (rng.randrange(1 << nj) & ~1) if rng.random() < 0.5 else 0
+            beta |= rng.random() < 0.05  # a beta on joint 1
+            k = rng.choice([0, 0, 0, 1, 4, 5])
+            h = rng.choice([0, 0, 1, 2])
+            nf = 4 * nj + bin(beta).count("1") + tip
             vals = [rng.choice([0.0, -0.0, 6.283185307179586, 1e4, -1e4, 1e300, 5e-324, 7.0])
-                    for _ in range(25)]  # fmt: skip
-            cpr = [rng.choice([2, 3, 1 << 32, (1 << 32) - 1, 1, 0]) for _ in range(6)]
-            zero = [rng.choice([0, 1, (1 << 32) - 1]) for _ in range(6)]
-            dirs = [rng.choice([1, -1, 0, 2]) for _ in range(6)]
-            payload = struct.pack("<25d6Q6I6b", *vals, *cpr, *zero, *dirs)
-            yield framed(bytes([1, 0x04, rng.randrange(256)]) + payload)
+                    for _ in range(nf)]  # fmt: skip
+            cpr = [rng.choice([1, 2, 1 << 32, (1 << 32) - 1, 0]) - 1 for _ in range(nj)]
+            zero = [rng.choice([0, 1, (1 << 32) - 1]) for _ in range(nj)]
+            dirs = [rng.choice([1, -1, 0, 2]) for _ in range(nj)]
+            payload = bytes([nj, tip, conv, beta, k, h, 0, 0])
+            payload += struct.pack(f"<{nf}d", *vals)
+            payload += struct.pack(f"<{nj}I{nj}I{nj}b", *(c % (1 << 32) for c in cpr), *zero, *dirs)
+            payload += rng.randbytes(4 * nj * k + 2 * (nj + 1) * min(h, 1))
+            yield framed(bytes([V, 0x04, rng.randrange(256)]) + payload[:509])
         elif kind == 4:  # compute with edge counts, with and without the Jacobian
-            counts = [rng.choice([0, 1, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF]) for _ in range(6)]
-            body = bytes([1, 0x08, 1, rng.randrange(2)]) + struct.pack("<6I", *counts)
+            nj = rng.choice([3, 4, 6, 6, 7, 8])  # the device's is 6: the others are refused
+            counts = [rng.choice([0, 1, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF]) for _ in range(nj)]
+            body = bytes([V, 0x08, 1, rng.randrange(2), nj]) + struct.pack(f"<{nj}I", *counts)
             yield framed(body)
         elif kind == 5:  # stream start at any rate (0 and > 1000 refused)
             rate = rng.choice([0, 1, 7, 999, 1000, 1001, 65535])
-            yield framed(bytes([1, 0x09, 2]) + struct.pack("<HB", rate, rng.randrange(3)))
+            yield framed(bytes([V, 0x09, 2]) + struct.pack("<HB", rate, rng.randrange(3)))
         elif kind == 6:  # a valid request with one byte mutated, CRC recomputed
             base = bytearray(rng.choice(VALID_BODIES))
             base[rng.randrange(len(base))] = rng.randrange(256)
@@ -189,12 +225,12 @@ def test_hostile_link_input(sim_bin: str, tmp_path: Path) -> None:
                 link.drain(0.01)
         link.drain(0.5)
         # a Jacobian stream with the host stalled, then hostile input again
-        link.send(framed(bytes([1, 0x09, 9]) + struct.pack("<HB", 1000, 1)))
+        link.send(framed(bytes([V, 0x09, 9]) + struct.pack("<HB", 1000, 1)))
         time.sleep(1.2)
         for chunk in hostile_frames(random.Random(16)):
             link.send(chunk)
-        link.send(framed(bytes([1, 0x0A, 10])))  # stop the stream
-        link.send(framed(bytes([1, 0x05, 11])))  # save whatever set is active
+        link.send(framed(bytes([V, 0x0A, 10])))  # stop the stream
+        link.send(framed(bytes([V, 0x05, 11])))  # save whatever set is active
         link.drain(1.0)
         assert link.ping(0x1234ABCD), "the device stopped answering"
         link.close()
@@ -232,7 +268,7 @@ def test_hostile_storage_files(sim_bin: str, tmp_path: Path, content: bytes) -> 
         assert sim.serial_path is not None
         link = Link(sim.serial_path)
         assert link.ping(7)
-        link.send(framed(bytes([1, 0x05, 1])))  # save over it
+        link.send(framed(bytes([V, 0x05, 1])))  # save over it
         link.drain(0.3)
         link.close()
         check_clean_exit(sim)

@@ -75,27 +75,29 @@ size_t shim_deframe(const uint8_t *wire, size_t len, uint8_t *bodies, size_t cap
     return count;
 }
 
+/* The sample frames of a sample body: returns their number (5..7) or a
+ * negative status. ids and data hold AACMM_CAN_SAMPLE_FRAMES_MAX entries. */
 int shim_can_sample(const uint8_t *body, size_t len, uint8_t node, uint32_t *ids, uint8_t *data)
 {
     aacmm_msg_t m;
-    aacmm_can_frame_t f[AACMM_CAN_SAMPLE_FRAMES];
+    aacmm_can_frame_t f[AACMM_CAN_SAMPLE_FRAMES_MAX];
     aacmm_status_t st = aacmm_msg_decode(body, len, &m);
-    size_t i;
+    size_t i, n = 0;
     if (st != AACMM_OK) {
         return (int)st;
     }
     if (m.type != AACMM_MSG_SAMPLE_EVT && m.type != AACMM_MSG_MEASURE_RSP) {
         return (int)AACMM_ERR_UNKNOWN_TYPE;
     }
-    st = aacmm_can_sample_encode(&m.u.sample, node, f);
+    st = aacmm_can_sample_encode(&m.u.sample, node, f, &n);
     if (st != AACMM_OK) {
         return (int)st;
     }
-    for (i = 0; i < AACMM_CAN_SAMPLE_FRAMES; i++) {
+    for (i = 0; i < n; i++) {
         ids[i] = f[i].id;
         memcpy(data + 8 * i, f[i].data, 8);
     }
-    return 0;
+    return (int)n;
 }
 
 int shim_param_crc(const uint8_t *payload, size_t len, uint32_t *crc)

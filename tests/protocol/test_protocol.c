@@ -179,7 +179,7 @@ static void test_vectors_encode_decode(void **state)
         }
         checked++;
     }
-    assert_int_equal(checked, 25);
+    assert_int_equal(checked, 32);
 }
 
 static void test_vectors_bad_bodies(void **state)
@@ -231,7 +231,7 @@ static void test_truncated_and_extended(void **state)
 static void test_unknown_types_and_version(void **state)
 {
     unsigned t;
-    uint8_t body[8] = {1, 0, 0, 0, 0, 0, 0, 0};
+    uint8_t body[8] = {2, 0, 0, 0, 0, 0, 0, 0};
     aacmm_msg_t m;
     (void)state;
     for (t = 0; t < 256; t++) {
@@ -247,19 +247,23 @@ static void test_unknown_types_and_version(void **state)
         assert_int_equal(m.type, t); /* header is reported for the error response */
         assert_int_equal(m.seq, 0x77);
     }
-    body[0] = 2;
+    body[0] = 1; /* the six-joint version: type and seq still reported */
     body[1] = AACMM_MSG_INFO_REQ;
     assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
     assert_int_equal(m.type, AACMM_MSG_INFO_REQ);
+    assert_int_equal(m.seq, 0x77);
+    body[0] = 3;
+    assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
     assert_int_equal(aacmm_msg_decode(NULL, 3, &m), AACMM_ERR_NULL);
     assert_int_equal(aacmm_msg_decode(body, 3, NULL), AACMM_ERR_NULL);
 }
 
 /* The parameter set's encoder rule at every boundary, both ways: the wire
- * layout (docs/protocol.md: kin 200 bytes, then u64 cpr[6], u32 zero[6],
- * i8 direction[6]) patched on a valid encoding for the decoder, the same
- * values set in the struct for the encoder, and the same verdict from
- * aacmm_encoder_validate (the one check both use). */
+ * layout (docs/protocol.md 2.3, the paper's arm: header 8 bytes, 25 f64,
+ * then u32 cpr - 1 [6], u32 zero[6], i8 direction[6]) patched on a valid
+ * encoding for the decoder (where the wire can hold the value: cpr 1 ..
+ * 2^32), the same values set in the struct for the encoder, and the same
+ * verdict from aacmm_arm_encoders_validate (the one check both use). */
 static void test_param_set_encoder_rule(void **state)
 {
     static const struct {
@@ -276,44 +280,97 @@ static void test_param_set_encoder_rule(void **state)
         {1000u, 4294967295u, 0x01u, 0}, {1000u, 0u, 0x00u, 0},
         {1000u, 0u, 0x02u, 0},        {1000u, 0u, 0xFEu, 0},
     };
-    const size_t cpr_at = 200u, zero_at = 248u, dir_at = 272u;
+    const size_t cpr_at = 208u, zero_at = 232u, dir_at = 256u;
     aacmm_msg_t m;
     aacmm_param_set_t valid, set, back;
-    uint8_t wire[AACMM_PARAM_SET_BYTES];
-    uint8_t patched[AACMM_PARAM_SET_BYTES];
-    size_t c, j, k;
+    uint8_t wire[AACMM_PARAM_SET_PAPER_BYTES];
+    uint8_t patched[AACMM_PARAM_SET_PAPER_BYTES];
+    size_t c, j, k, len = 0;
     (void)state;
     assert_true(vec_expected_msg("set_params_req", &m));
     valid = m.u.params;
-    assert_int_equal(aacmm_param_set_encode(&valid, wire, sizeof wire), AACMM_OK);
+    assert_int_equal(aacmm_param_set_encode(&valid, wire, sizeof wire, &len), AACMM_OK);
+    assert_int_equal(len, AACMM_PARAM_SET_PAPER_BYTES);
+    assert_int_equal(AACMM_PARAM_SET_BYTES(6u, 25u, 0u, 0u), AACMM_PARAM_SET_PAPER_BYTES);
+    assert_int_equal(AACMM_PARAM_SET_BYTES(7u, 37u, 4u, 1u), AACMM_PARAM_SET_MAX_BYTES);
     for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        const int on_wire = cases[c].cpr >= 1u && cases[c].cpr <= 4294967296ull;
         for (j = 0; j < AACMM_JOINTS; j++) {
             const aacmm_status_t want = cases[c].ok ? AACMM_OK : AACMM_ERR_RANGE;
             memcpy(patched, wire, sizeof wire);
-            for (k = 0; k < 8u; k++) {
-                patched[cpr_at + 8u * j + k] = (uint8_t)(cases[c].cpr >> (8u * k));
+            if (on_wire) {
+                for (k = 0; k < 4u; k++) {
+                    patched[cpr_at + 4u * j + k] = (uint8_t)((cases[c].cpr - 1u) >> (8u * k));
+                }
+                for (k = 0; k < 4u; k++) {
+                    patched[zero_at + 4u * j + k] = (uint8_t)(cases[c].zero >> (8u * k));
+                }
+                patched[dir_at + j] = cases[c].dir_byte;
+                assert_int_equal(aacmm_param_set_decode(patched, sizeof patched, &back), want);
             }
-            for (k = 0; k < 4u; k++) {
-                patched[zero_at + 4u * j + k] = (uint8_t)(cases[c].zero >> (8u * k));
-            }
-            patched[dir_at + j] = cases[c].dir_byte;
-            assert_int_equal(aacmm_param_set_decode(patched, sizeof patched, &back), want);
 
             set = valid;
             set.enc.counts_per_rev[j] = cases[c].cpr;
             set.enc.zero_offset_counts[j] = cases[c].zero;
             set.enc.direction[j] = (int8_t)cases[c].dir_byte;
-            assert_int_equal(aacmm_encoder_validate(&set.enc), want);
-            assert_int_equal(aacmm_param_set_encode(&set, wire, sizeof wire), want);
+            assert_int_equal(aacmm_arm_encoders_validate(&set.enc), want);
+            assert_int_equal(aacmm_param_set_encode(&set, wire, sizeof wire, &len), want);
             if (cases[c].ok) {
                 assert_memory_equal(wire, patched, sizeof wire);
                 assert_int_equal(back.enc.counts_per_rev[j], cases[c].cpr);
                 assert_int_equal(back.enc.zero_offset_counts[j], cases[c].zero);
                 assert_int_equal(back.enc.direction[j], set.enc.direction[j]);
             }
-            assert_int_equal(aacmm_param_set_encode(&valid, wire, sizeof wire), AACMM_OK);
+            assert_int_equal(aacmm_param_set_encode(&valid, wire, sizeof wire, &len), AACMM_OK);
         }
     }
+}
+
+/* What the parameter set layout does not carry must be 0 (canonical
+ * encoding), and the shape rules of the header. */
+static void test_param_set_shape_rules(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_param_set_t p;
+    uint8_t buf[AACMM_PARAM_SET_MAX_BYTES];
+    size_t len = 0;
+    (void)state;
+    assert_true(vec_expected_msg("get_params_rsp7", &m));
+    p = m.u.params;
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_OK);
+    assert_int_equal(len, AACMM_PARAM_SET_BYTES(7u, 33u, 0u, 0u));
+    p.arm.beta_rad[1] = 0.5; /* joint 2 declares no beta */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    assert_int_equal(len, 0);
+    p = m.u.params;
+    p.arm.shape.beta[0] = 1u; /* joint 1 */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    p.enc.joints = 6u;
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    p.arm.shape.tip = (uint8_t)AACMM_TIP_Z; /* t_x, t_y not carried */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    p.err.harm_cos[0][0] = 1; /* K = 0 */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    p.err.ref_temp = 1; /* no thermal block */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    p.err.harmonics = 5u;
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("set_params_req5e", &m));
+    p = m.u.params;
+    p.err.harm_sin[1][2] = 3; /* past K = 2 */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    p.arm.d_mm[5] = 1.0; /* past N = 5 */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_OK);
+    assert_int_equal(len, AACMM_PARAM_SET_BYTES(5u, 23u, 2u, 1u));
+    assert_int_equal(aacmm_param_set_encode(&p, buf, len - 1u, &len), AACMM_ERR_BUFFER);
 }
 
 static void test_helpers_counted_decode_error_reply(void **state)
@@ -335,10 +392,10 @@ static void test_helpers_counted_decode_error_reply(void **state)
             assert_int_equal(aacmm_msg_decode_counted(g_vec[i].a, g_vec[i].a_len, &m, &stats), AACMM_OK);
         }
     }
-    assert_int_equal(stats.ok, 25);
+    assert_int_equal(stats.ok, 32);
     assert_int_equal(stats.length + stats.version + stats.unknown_type + stats.range +
                          stats.not_finite, bad);
-    assert_int_equal(stats.version, 2);
+    assert_int_equal(stats.version, 3);
     assert_int_equal(stats.unknown_type, 3);
     assert_int_equal(stats.other, 0);
     for (t = 0; t < 256; t++) {
@@ -368,11 +425,11 @@ static void test_encode_rejects(void **state)
     const uint32_t fnan = 0x7FC00000u;
     (void)state;
     assert_true(vec_expected_msg("set_params_req", &m));
-    memcpy(&m.u.params.kin.d_mm[2], &nan_bits, sizeof nan_bits);
+    memcpy(&m.u.params.arm.d_mm[2], &nan_bits, sizeof nan_bits);
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_NOT_FINITE);
     assert_int_equal(n, 0);
     assert_true(vec_expected_msg("set_params_req", &m));
-    memcpy(&m.u.params.kin.l_mm, &inf_bits, sizeof inf_bits);
+    memcpy(&m.u.params.arm.tip_mm[2], &inf_bits, sizeof inf_bits);
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_NOT_FINITE);
     assert_true(vec_expected_msg("set_params_req", &m));
     m.u.params.enc.direction[4] = 0;
@@ -406,8 +463,23 @@ static void test_encode_rejects(void **state)
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
     m.u.info.param_source = AACMM_PARAM_SOURCE_MAX + 1u;
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("info_rsp", &m));
+    m.u.info.params = 33u; /* not a 6-joint shape's P */
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("sample_evt7", &m));
+    m.u.sample.joints = 8u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("compute_req5", &m));
+    m.u.compute_req.joints = 3u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("compute_rsp5", &m));
+    m.u.compute_rsp.params = 38u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_true(vec_expected_msg("diag_rsp7", &m));
+    m.u.diag.joints = 8u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
     assert_true(vec_expected_msg("diag_rsp", &m));
-    m.u.diag.joints[5].bits = 33u;
+    m.u.diag.joint[5].bits = 33u;
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
     assert_true(vec_expected_msg("diag_rsp", &m));
     m.u.diag.storage_flags = 2u;
@@ -418,7 +490,7 @@ static void test_encode_rejects(void **state)
     /* every too-small buffer is refused without overrun */
     assert_true(vec_expected_msg("get_params_rsp", &m));
     assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &need), AACMM_OK);
-    assert_int_equal(need, 3 + AACMM_PARAM_SET_BYTES);
+    assert_int_equal(need, 3 + AACMM_PARAM_SET_PAPER_BYTES);
     for (cap = 0; cap < need; cap++) {
         assert_int_equal(aacmm_msg_encode(&m, out + sizeof out - cap, cap, &n), AACMM_ERR_BUFFER);
     }
@@ -428,12 +500,12 @@ static void test_encode_rejects(void **state)
 static void test_param_set_crc(void **state)
 {
     aacmm_param_set_t p, q;
-    uint8_t buf[AACMM_PARAM_SET_BYTES];
+    uint8_t buf[AACMM_PARAM_SET_PAPER_BYTES];
     uint32_t crc = 0;
-    size_t i;
+    size_t i, len = 0;
     (void)state;
     vec_params(&p);
-    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf), AACMM_OK);
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_OK);
     assert_int_equal(aacmm_param_set_decode(buf, sizeof buf, &q), AACMM_OK);
     assert_int_equal(aacmm_param_set_crc32(&p, &crc), AACMM_OK);
     assert_int_equal(crc, aacmm_crc32(buf, sizeof buf));
@@ -445,7 +517,7 @@ static void test_param_set_crc(void **state)
             assert_memory_equal(buf, g_vec[i].a, sizeof buf);
         }
     }
-    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf - 1), AACMM_ERR_BUFFER);
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf - 1, &len), AACMM_ERR_BUFFER);
     assert_int_equal(aacmm_param_set_decode(buf, sizeof buf - 1, &q), AACMM_ERR_LENGTH);
 }
 
@@ -674,23 +746,41 @@ static void test_deframer_long_garbage_and_null(void **state)
 static void test_can_sample_frames(void **state)
 {
     aacmm_sample_t s;
-    aacmm_can_frame_t f[AACMM_CAN_SAMPLE_FRAMES], t;
-    size_t i, k = 0;
+    aacmm_msg_t m7;
+    aacmm_can_frame_t f[AACMM_CAN_SAMPLE_FRAMES_MAX], t;
+    size_t i, k = 0, nf = 0;
     (void)state;
+    /* the 7-joint sample: seven frames, as the vectors (and the DBC) say */
+    assert_true(vec_expected_msg("sample_evt7", &m7));
+    assert_int_equal(aacmm_can_sample_encode(&m7.u.sample, 2, f, &nf), AACMM_OK);
+    assert_int_equal(nf, AACMM_CAN_SAMPLE_FRAMES(7u));
+    for (i = 0; i < g_nvec; i++) {
+        const vec_record_t *r = &g_vec[i];
+        if (strcmp(r->kind, "can") != 0 || strncmp(r->name, "sample_7_n2_", 12) != 0) {
+            continue;
+        }
+        assert_true(k < nf);
+        assert_int_equal(f[k].id, r->id);
+        assert_memory_equal(f[k].data, r->b, 8);
+        k++;
+    }
+    assert_int_equal(k, 7);
+    k = 0;
     vec_sample_a(&s);
-    assert_int_equal(aacmm_can_sample_encode(&s, 5, f), AACMM_OK);
+    assert_int_equal(aacmm_can_sample_encode(&s, 5, f, &nf), AACMM_OK);
+    assert_int_equal(nf, 6);
     for (i = 0; i < g_nvec; i++) {
         const vec_record_t *r = &g_vec[i];
         if (strcmp(r->kind, "can") != 0 || strncmp(r->name, "sample_a_n5_", 12) != 0) {
             continue;
         }
-        assert_true(k < AACMM_CAN_SAMPLE_FRAMES);
+        assert_true(k < nf);
         assert_int_equal(f[k].id, r->id);
         assert_int_equal(f[k].dlc, r->b_len);
         assert_memory_equal(f[k].data, r->b, 8);
         k++;
     }
-    assert_int_equal(k, AACMM_CAN_SAMPLE_FRAMES);
+    assert_int_equal(k, AACMM_CAN_SAMPLE_FRAMES(6u));
     assert_int_equal(aacmm_can_trigger_encode(s.seq, 0, 1, 5, &t), AACMM_OK);
     for (i = 0; i < g_nvec; i++) {
         if (strcmp(g_vec[i].kind, "can") == 0 && strcmp(g_vec[i].name, "trigger_n5") == 0) {
@@ -699,10 +789,15 @@ static void test_can_sample_frames(void **state)
             k++;
         }
     }
-    assert_int_equal(k, AACMM_CAN_SAMPLE_FRAMES + 1);
-    assert_int_equal(aacmm_can_sample_encode(&s, 16, f), AACMM_ERR_RANGE);
+    assert_int_equal(k, AACMM_CAN_SAMPLE_FRAMES(6u) + 1);
+    assert_int_equal(aacmm_can_sample_encode(&s, 16, f, &nf), AACMM_ERR_RANGE);
+    s.joints = 3u;
+    assert_int_equal(aacmm_can_sample_encode(&s, 0, f, &nf), AACMM_ERR_RANGE);
+    s.joints = 4u;
+    assert_int_equal(aacmm_can_sample_encode(&s, 0, f, &nf), AACMM_OK);
+    assert_int_equal(nf, 5);
     assert_int_equal(aacmm_can_trigger_encode(1, 0, 2, 0, &t), AACMM_ERR_RANGE);
-    assert_int_equal(aacmm_can_sample_encode(NULL, 0, f), AACMM_ERR_NULL);
+    assert_int_equal(aacmm_can_sample_encode(NULL, 0, f, &nf), AACMM_ERR_NULL);
 }
 
 /* ---------------------------------------------------------------- ISO-TP */
@@ -792,7 +887,7 @@ static void test_isotp_matches_can_isotp_vectors(void **state)
         assert_int_equal(aacmm_isotp_receive(&rx.tp, &msg, &n), 0);
         checked++;
     }
-    assert_int_equal(checked, 4);
+    assert_int_equal(checked, 5);
 }
 
 /* Run two endpoints against each other on a simulated bus. */
@@ -1050,6 +1145,7 @@ int main(void)
         cmocka_unit_test(test_unknown_types_and_version),
         cmocka_unit_test(test_encode_rejects),
         cmocka_unit_test(test_param_set_encoder_rule),
+        cmocka_unit_test(test_param_set_shape_rules),
         cmocka_unit_test(test_helpers_counted_decode_error_reply),
         cmocka_unit_test(test_param_set_crc),
         cmocka_unit_test(test_point_to_wire),

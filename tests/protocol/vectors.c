@@ -105,14 +105,93 @@ void vec_params(aacmm_param_set_t *p)
     static const uint32_t zero[6] = {0u, 16777215u, 65536u, 1u, 4294967294u, 999999u};
     static const int8_t dir[6] = {1, -1, 1, -1, 1, -1};
     memset(p, 0, sizeof *p);
-    memcpy(p->kin.theta_offset_rad, theta, sizeof theta);
-    memcpy(p->kin.alpha_rad, alpha, sizeof alpha);
-    memcpy(p->kin.d_mm, d, sizeof d);
-    memcpy(p->kin.a_mm, a, sizeof a);
-    p->kin.l_mm = 183.5;
+    (void)aacmm_shape_paper(&p->arm.shape);
+    memcpy(p->arm.theta_offset_rad, theta, sizeof theta);
+    memcpy(p->arm.alpha_rad, alpha, sizeof alpha);
+    memcpy(p->arm.d_mm, d, sizeof d);
+    memcpy(p->arm.a_mm, a, sizeof a);
+    p->arm.tip_mm[2] = 183.5;
+    p->enc.joints = 6u;
     memcpy(p->enc.counts_per_rev, cpr, sizeof cpr);
     memcpy(p->enc.zero_offset_counts, zero, sizeof zero);
     memcpy(p->enc.direction, dir, sizeof dir);
+}
+
+/* The 7-joint arm model: modified DH on joints 5..7, betas on 3 and 7, a tip
+ * vector (P 33); the same values as PARAMS7 of gen_protocol_vectors.py. */
+static void vec_params7(aacmm_param_set_t *p)
+{
+    static const double theta[7] = {0.0, 0.01, -0.02, 0.0, 0.125, -0.5, 1.0};
+    static const double alpha[7] = {1.5707963267948966, 0.002, 1.5707963267948966,
+                                    -1.5707963267948966, 0.0, 3.0, -0.25};
+    static const double d[7] = {250.0, 0.0, 5.0, 550.0, 2.0, 120.0, 60.0};
+    static const double a[7] = {0.0, 600.0, 40.0, 0.0, 30.0, 0.0, 3.0};
+    static const uint64_t cpr[7] = {4294967296ull, 16777216u, 3600000u, 2u,
+                                    4294967295u,   262144u,   1048576u};
+    static const uint32_t zero[7] = {0u, 12345u, 3599999u, 1u, 5u, 99u, 524288u};
+    static const int8_t dir[7] = {1, -1, 1, 1, -1, 1, -1};
+    int i;
+    memset(p, 0, sizeof *p);
+    p->arm.shape.joints = 7u;
+    p->arm.shape.tip = (uint8_t)AACMM_TIP_XYZ;
+    for (i = 4; i < 7; i++) {
+        p->arm.shape.convention[i] = (uint8_t)AACMM_DH_MODIFIED;
+    }
+    p->arm.shape.beta[2] = 1u;
+    p->arm.shape.beta[6] = 1u;
+    memcpy(p->arm.theta_offset_rad, theta, sizeof theta);
+    memcpy(p->arm.alpha_rad, alpha, sizeof alpha);
+    memcpy(p->arm.d_mm, d, sizeof d);
+    memcpy(p->arm.a_mm, a, sizeof a);
+    p->arm.beta_rad[2] = 0.0015;
+    p->arm.beta_rad[6] = -0.001;
+    p->arm.tip_mm[0] = 1.5;
+    p->arm.tip_mm[1] = -2.0;
+    p->arm.tip_mm[2] = 110.0;
+    p->enc.joints = 7u;
+    memcpy(p->enc.counts_per_rev, cpr, sizeof cpr);
+    memcpy(p->enc.zero_offset_counts, zero, sizeof zero);
+    memcpy(p->enc.direction, dir, sizeof dir);
+}
+
+/* A 5-joint set with an error model (K 2, the thermal block): PARAMS5E. */
+static void vec_params5e(aacmm_param_set_t *p)
+{
+    static const double theta[5] = {0.0, 0.001, 0.0, -0.001, 0.0};
+    static const double alpha[5] = {0.0, 1.5707963267948966, 0.001, -0.0005, 1.5707963267948966};
+    static const double d[5] = {210.0, 0.0, 0.5, 1.0, 80.0};
+    static const double a[5] = {0.0, 24.0, 260.0, 260.0, 12.0};
+    static const int16_t hc[5][2] = {{1, -2}, {3, -4}, {32767, -32768}, {0, 0}, {5, 6}};
+    static const int16_t hs[5][2] = {{-7, 8}, {0, 9}, {-32768, 32767}, {10, 0}, {11, -12}};
+    static const int16_t cte[5] = {2300, 1200, -1, 0, 32767};
+    int i;
+    memset(p, 0, sizeof *p);
+    p->arm.shape.joints = 5u;
+    p->arm.shape.tip = (uint8_t)AACMM_TIP_Z;
+    for (i = 0; i < 5; i++) {
+        p->arm.shape.convention[i] = (uint8_t)AACMM_DH_MODIFIED;
+        p->enc.counts_per_rev[i] = 4294967296ull;
+        p->enc.zero_offset_counts[i] = (uint32_t)i;
+        p->enc.direction[i] = (int8_t)(i == 2 || i == 3 ? -1 : 1);
+        p->err.harm_cos[i][0] = hc[i][0];
+        p->err.harm_cos[i][1] = hc[i][1];
+        p->err.harm_sin[i][0] = hs[i][0];
+        p->err.harm_sin[i][1] = hs[i][1];
+        p->err.cte[i] = cte[i];
+    }
+    p->arm.shape.beta[2] = 1u;
+    p->arm.shape.beta[3] = 1u;
+    memcpy(p->arm.theta_offset_rad, theta, sizeof theta);
+    memcpy(p->arm.alpha_rad, alpha, sizeof alpha);
+    memcpy(p->arm.d_mm, d, sizeof d);
+    memcpy(p->arm.a_mm, a, sizeof a);
+    p->arm.beta_rad[2] = 0.002;
+    p->arm.beta_rad[3] = -0.001;
+    p->arm.tip_mm[2] = 95.0;
+    p->enc.joints = 5u;
+    p->err.harmonics = 2u;
+    p->err.thermal = 1u;
+    p->err.ref_temp = 2000;
 }
 
 void vec_sample_a(aacmm_sample_t *s)
@@ -127,6 +206,8 @@ void vec_sample_a(aacmm_sample_t *s)
     s->point_100nm[2] = -1;
     s->status = 0x80000005u;
     s->content = 0u;
+    s->joints = 6u;
+    s->params = 25u;
 }
 
 static void sample_j(aacmm_sample_t *s)
@@ -143,6 +224,8 @@ static void sample_j(aacmm_sample_t *s)
     s->point_100nm[2] = INT32_MIN;
     s->status = 1u;
     s->content = AACMM_CONTENT_JACOBIAN;
+    s->joints = 6u;
+    s->params = 25u;
     for (i = 0; i < 74; i++) {
         s->jacobian[i] = (float)(i - 37) * 0.25f;
     }
@@ -166,10 +249,54 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         m->type = AACMM_MSG_INFO_REQ; m->seq = 1;
     } else if (IS("info_rsp")) {
         m->type = AACMM_MSG_INFO_RSP; m->seq = 1;
-        m->u.info.protocol_version = 1; m->u.info.fw_major = 0; m->u.info.fw_minor = 3;
+        m->u.info.protocol_version = 2; m->u.info.fw_major = 0; m->u.info.fw_minor = 3;
         m->u.info.fw_patch = 17; m->u.info.build_flags = 0x1Eu; m->u.info.param_crc32 = crc;
         m->u.info.param_source = 1; m->u.info.storage_state = 0; m->u.info.max_body_bytes = 512;
         m->u.info.serial_number = 0xA5C3E001u; m->u.info.can_node_id = 5;
+        m->u.info.joints = 6; m->u.info.params = 25;
+    } else if (IS("info_rsp7")) {
+        aacmm_param_set_t p7;
+        uint32_t crc7 = 0;
+        vec_params7(&p7);
+        (void)aacmm_param_set_crc32(&p7, &crc7);
+        m->type = AACMM_MSG_INFO_RSP; m->seq = 13;
+        m->u.info.protocol_version = 2; m->u.info.fw_major = 0; m->u.info.fw_minor = 1;
+        m->u.info.fw_patch = 0; m->u.info.build_flags = 0x0Cu; m->u.info.param_crc32 = crc7;
+        m->u.info.param_source = 2; m->u.info.storage_state = 1; m->u.info.max_body_bytes = 512;
+        m->u.info.serial_number = 77u; m->u.info.can_node_id = 15;
+        m->u.info.joints = 7; m->u.info.params = 33;
+    } else if (IS("get_params_rsp7")) {
+        m->type = AACMM_MSG_GET_PARAMS_RSP; m->seq = 14; vec_params7(&m->u.params);
+    } else if (IS("set_params_req5e")) {
+        m->type = AACMM_MSG_SET_PARAMS_REQ; m->seq = 15; vec_params5e(&m->u.params);
+    } else if (IS("sample_evt7")) {
+        static const uint32_t c7[7] = {7u, 6u, 5u, 4u, 3u, 2u, 0xFFFFFFFFu};
+        aacmm_sample_t *s = &m->u.sample;
+        m->type = AACMM_MSG_SAMPLE_EVT; m->seq = 16;
+        s->seq = 7u; s->timestamp_us = 0xFFFFFFFFFFFFull;
+        memcpy(s->counts, c7, sizeof c7);
+        s->point_100nm[0] = -5; s->point_100nm[1] = INT32_MAX; s->point_100nm[2] = 0;
+        s->status = 0x4001u; s->content = AACMM_CONTENT_JACOBIAN; s->joints = 7; s->params = 33;
+        for (i = 0; i < 99; i++) {
+            s->jacobian[i] = (float)(i % 17 - 8) * 0.125f;
+        }
+    } else if (IS("compute_req5")) {
+        m->type = AACMM_MSG_COMPUTE_REQ; m->seq = 17;
+        m->u.compute_req.content = AACMM_CONTENT_JACOBIAN; m->u.compute_req.joints = 5;
+        m->u.compute_req.counts[0] = 1u; m->u.compute_req.counts[1] = 0xFFFFFFFFu;
+        m->u.compute_req.counts[2] = 3u; m->u.compute_req.counts[3] = 4u;
+        m->u.compute_req.counts[4] = 5u;
+    } else if (IS("compute_rsp5")) {
+        m->type = AACMM_MSG_COMPUTE_RSP; m->seq = 17;
+        m->u.compute_rsp.status = 1;
+        m->u.compute_rsp.point_mm[0] = -1.0;
+        m->u.compute_rsp.point_mm[1] = 2.5;
+        m->u.compute_rsp.point_mm[2] = 1e-9;
+        m->u.compute_rsp.content = AACMM_CONTENT_JACOBIAN;
+        m->u.compute_rsp.params = 23;
+        for (i = 0; i < 69; i++) {
+            m->u.compute_rsp.jacobian[i] = (float)i * -0.5f;
+        }
     } else if (IS("get_params_req")) {
         m->type = AACMM_MSG_GET_PARAMS_REQ; m->seq = 2;
     } else if (IS("get_params_rsp")) {
@@ -194,6 +321,7 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
     } else if (IS("compute_req")) {
         m->type = AACMM_MSG_COMPUTE_REQ; m->seq = 7;
         m->u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+        m->u.compute_req.joints = 6;
         for (i = 0; i < 6; i++) {
             m->u.compute_req.counts[i] = (uint32_t)(i + 1) * 0x01010101u;
         }
@@ -204,6 +332,7 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         m->u.compute_rsp.point_mm[1] = -0.0001;
         m->u.compute_rsp.point_mm[2] = 2200.0;
         m->u.compute_rsp.content = AACMM_CONTENT_JACOBIAN;
+        m->u.compute_rsp.params = 25;
         for (i = 0; i < 75; i++) {
             m->u.compute_rsp.jacobian[i] = (float)i * 0.5f;
         }
@@ -224,13 +353,13 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         m->u.trigger.button = 0; m->u.trigger.pressed = 1; vec_sample_a(&m->u.trigger.sample);
     } else if (IS("diag_req")) {
         m->type = AACMM_MSG_DIAG_REQ; m->seq = 12;
-    } else if (IS("diag_rsp")) {
+    } else if (IS("diag_rsp") || IS("diag_rsp7")) {
         static const aacmm_diag_joint_t joints[6] = {
             {1, 32, 0, 0u, 0u},         {1, 26, 1, 12u, 3u}, {2, 20, 6, 1u, 0u},
             {3, 13, 3, 0xFFFFFFFFu, 0u}, {0, 0, 7, 2u, 0u},  {1, 1, 8, 1u, 0xFFFFFFFFu},
         };
         aacmm_msg_diag_t *d = &m->u.diag;
-        m->type = AACMM_MSG_DIAG_RSP; m->seq = 12;
+        m->type = AACMM_MSG_DIAG_RSP; m->seq = IS("diag_rsp") ? 12 : 18;
         d->storage_kind = AACMM_STORAGE_KIND_FLASH; d->storage_flags = AACMM_STORAGE_PERSISTENT;
         d->slot_state[0] = AACMM_SLOT_NEWEST; d->slot_state[1] = AACMM_SLOT_BAD_CRC;
         d->slot_generation[0] = 0x01020304u; d->slot_generation[1] = 0xFFFFFFFFu;
@@ -239,7 +368,13 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         d->boot_count = 3u; d->watchdog_ms = 1000u; d->uptime_us = 0x123456789ull;
         d->encoder_faults = 17u; d->serial_frames_bad = 0x80000000u;
         d->samples_dropped = 5u; d->samples_late = 6u;
-        memcpy(d->joints, joints, sizeof joints);
+        memcpy(d->joint, joints, sizeof joints);
+        d->joints = 6;
+        if (IS("diag_rsp7")) {
+            d->joints = 7;
+            d->joint[6].interface = 2; d->joint[6].bits = 24; d->joint[6].last_fault = 5;
+            d->joint[6].faults = 9u; d->joint[6].warnings = 10u;
+        }
     } else if (IS("error_rsp")) {
         m->type = AACMM_MSG_ERROR_RSP; m->seq = 3;
         m->u.error.status = (int16_t)AACMM_ERR_RANGE; m->u.error.request_type = 0x04;
@@ -253,7 +388,8 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
 static int sample_equal(const aacmm_sample_t *a, const aacmm_sample_t *b)
 {
     if (a->seq != b->seq || a->timestamp_us != b->timestamp_us || a->status != b->status ||
-        a->content != b->content || memcmp(a->counts, b->counts, sizeof a->counts) != 0 ||
+        a->content != b->content || a->joints != b->joints || a->params != b->params ||
+        memcmp(a->counts, b->counts, sizeof a->counts) != 0 ||
         memcmp(a->point_100nm, b->point_100nm, sizeof a->point_100nm) != 0) {
         return 0;
     }
@@ -281,17 +417,21 @@ int vec_msg_equal(const aacmm_msg_t *x, const aacmm_msg_t *y)
                a->build_flags == b->build_flags && a->param_crc32 == b->param_crc32 &&
                a->param_source == b->param_source && a->storage_state == b->storage_state &&
                a->max_body_bytes == b->max_body_bytes && a->serial_number == b->serial_number &&
-               a->can_node_id == b->can_node_id;
+               a->can_node_id == b->can_node_id && a->joints == b->joints &&
+               a->params == b->params;
     }
     case AACMM_MSG_SET_PARAMS_REQ:
     case AACMM_MSG_GET_PARAMS_RSP: {
         const aacmm_param_set_t *a = &x->u.params;
         const aacmm_param_set_t *b = &y->u.params;
-        return memcmp(&a->kin, &b->kin, sizeof a->kin) == 0 &&
-               memcmp(a->enc.counts_per_rev, b->enc.counts_per_rev, sizeof a->enc.counts_per_rev) == 0 &&
+        size_t n = a->enc.joints;
+        return memcmp(&a->arm, &b->arm, sizeof a->arm) == 0 && a->enc.joints == b->enc.joints &&
+               n <= (size_t)AACMM_JOINTS_MAX &&
+               memcmp(a->enc.counts_per_rev, b->enc.counts_per_rev, n * sizeof(uint64_t)) == 0 &&
                memcmp(a->enc.zero_offset_counts, b->enc.zero_offset_counts,
-                      sizeof a->enc.zero_offset_counts) == 0 &&
-               memcmp(a->enc.direction, b->enc.direction, sizeof a->enc.direction) == 0;
+                      n * sizeof(uint32_t)) == 0 &&
+               memcmp(a->enc.direction, b->enc.direction, n) == 0 &&
+               memcmp(&a->err, &b->err, sizeof a->err) == 0;
     }
     case AACMM_MSG_SET_PARAMS_RSP:
     case AACMM_MSG_SAVE_PARAMS_RSP:
@@ -301,12 +441,13 @@ int vec_msg_equal(const aacmm_msg_t *x, const aacmm_msg_t *y)
         return x->u.measure.content == y->u.measure.content;
     case AACMM_MSG_COMPUTE_REQ:
         return x->u.compute_req.content == y->u.compute_req.content &&
+               x->u.compute_req.joints == y->u.compute_req.joints &&
                memcmp(x->u.compute_req.counts, y->u.compute_req.counts,
                       sizeof x->u.compute_req.counts) == 0;
     case AACMM_MSG_COMPUTE_RSP: {
         const aacmm_msg_compute_rsp_t *a = &x->u.compute_rsp;
         const aacmm_msg_compute_rsp_t *b = &y->u.compute_rsp;
-        if (a->status != b->status || a->content != b->content ||
+        if (a->status != b->status || a->content != b->content || a->params != b->params ||
             memcmp(a->point_mm, b->point_mm, sizeof a->point_mm) != 0) {
             return 0;
         }
@@ -340,9 +481,12 @@ int vec_msg_equal(const aacmm_msg_t *x, const aacmm_msg_t *y)
             a->samples_dropped != b->samples_dropped || a->samples_late != b->samples_late) {
             return 0;
         }
-        for (k = 0; k < 6; k++) {
-            const aacmm_diag_joint_t *p = &a->joints[k];
-            const aacmm_diag_joint_t *q = &b->joints[k];
+        if (a->joints != b->joints || a->joints > AACMM_JOINTS_MAX) {
+            return 0;
+        }
+        for (k = 0; k < a->joints; k++) {
+            const aacmm_diag_joint_t *p = &a->joint[k];
+            const aacmm_diag_joint_t *q = &b->joint[k];
             if (p->interface != q->interface || p->bits != q->bits ||
                 p->last_fault != q->last_fault || p->faults != q->faults ||
                 p->warnings != q->warnings) {

@@ -11,9 +11,9 @@
 
 #include "aacmm/proto.h"
 
-#define VEC_MAX_RECORDS 128
+#define VEC_MAX_RECORDS 256
 #define VEC_MAX_BYTES 1100
-#define VEC_MAX_FRAMES 64
+#define VEC_MAX_FRAMES 80
 
 typedef struct {
     char kind[16];

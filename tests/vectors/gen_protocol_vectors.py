@@ -1,7 +1,7 @@
 """Generate tests/vectors/protocol_vectors.txt, the shared link-protocol test vectors.
 
 The expected *values* of every named case are written out twice on purpose:
-here (Python) and in tests/protocol/test_protocol.c (C). Each side encodes its
+here (Python) and in tests/protocol/vectors.c (C). Each side encodes its
 own values and must produce exactly the bytes in the vector file, and each side
 decodes the file's bytes back to its own values. ISO-TP segmentations are
 produced with the ``can-isotp`` package as the reference implementation.
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import struct
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import isotp
@@ -91,6 +92,72 @@ SAMPLE_J = Sample(
     jacobian=rows3x25((*((i - 37) * 0.25 for i in range(74)), 3.0 * 2.0**-20)),
 )
 
+# An arm model of 7 joints: modified DH on joints 5..7, betas on joints 3 and
+# 7, a tip vector (P = 28 + 2 + 3 = 33), assorted encoders.
+PARAMS7 = ParamSet(
+    theta_offset_rad=(0.0, 0.01, -0.02, 0.0, 0.125, -0.5, 1.0),
+    alpha_rad=(
+        1.5707963267948966,
+        0.002,
+        1.5707963267948966,
+        -1.5707963267948966,
+        0.0,
+        3.0,
+        -0.25,
+    ),
+    d_mm=(250.0, 0.0, 5.0, 550.0, 2.0, 120.0, 60.0),
+    a_mm=(0.0, 600.0, 40.0, 0.0, 30.0, 0.0, 3.0),
+    l_mm=110.0,
+    counts_per_rev=(4294967296, 16777216, 3600000, 2, 4294967295, 262144, 1048576),
+    zero_offset_counts=(0, 12345, 3599999, 1, 5, 99, 524288),
+    direction=(1, -1, 1, 1, -1, 1, -1),
+    convention=(0, 0, 0, 0, 1, 1, 1),
+    beta_rad=(None, None, 0.0015, None, None, None, -0.001),
+    tip_xy_mm=(1.5, -2.0),
+)
+
+# A 5-joint set with issue 27's error model: K = 2 harmonics and the thermal block.
+PARAMS5E = ParamSet(
+    theta_offset_rad=(0.0, 0.001, 0.0, -0.001, 0.0),
+    alpha_rad=(0.0, 1.5707963267948966, 0.001, -0.0005, 1.5707963267948966),
+    d_mm=(210.0, 0.0, 0.5, 1.0, 80.0),
+    a_mm=(0.0, 24.0, 260.0, 260.0, 12.0),
+    l_mm=95.0,
+    counts_per_rev=(1 << 32,) * 5,
+    zero_offset_counts=(0, 1, 2, 3, 4),
+    direction=(1, 1, -1, -1, 1),
+    convention=(1, 1, 1, 1, 1),
+    beta_rad=(None, None, 0.002, -0.001, None),
+    harm_cos=((1, -2), (3, -4), (32767, -32768), (0, 0), (5, 6)),
+    harm_sin=((-7, 8), (0, 9), (-32768, 32767), (10, 0), (11, -12)),
+    cte=(2300, 1200, -1, 0, 32767),
+    ref_temp=2000,
+)
+
+
+def rows3(flat: tuple[float, ...], p: int) -> tuple[tuple[float, ...], ...]:
+    """The codec's Jacobian shape (3 rows of P) from the 3P wire values."""
+    return tuple(flat[p * r : p * (r + 1)] for r in range(3))
+
+
+# A 7-joint sample with its 3 x 33 Jacobian, and a 5-joint compute (P 23).
+SAMPLE_7 = Sample(
+    seq=7,
+    timestamp_us=0xFFFFFFFFFFFF,
+    counts=(7, 6, 5, 4, 3, 2, 0xFFFFFFFF),
+    point_100nm=(-5, 2147483647, 0),
+    status=0x4001,
+    jacobian=rows3(tuple((i % 17 - 8) * 0.125 for i in range(99)), 33),
+    params=33,
+)
+
+COMPUTE_RSP5 = ComputeResult(
+    status=1,
+    point_mm=(-1.0, 2.5, 1e-9),
+    jacobian=rows3(tuple(i * -0.5 for i in range(69)), 23),
+    params=23,
+)
+
 DIAG = Diagnostics(
     storage_kind=4,
     storage_flags=1,
@@ -136,7 +203,7 @@ def messages() -> dict[str, Message]:
             MsgType.INFO_RSP,
             1,
             DeviceInfo(
-                protocol_version=1,
+                protocol_version=2,
                 fw_major=0,
                 fw_minor=3,
                 fw_patch=17,
@@ -147,7 +214,28 @@ def messages() -> dict[str, Message]:
                 max_body_bytes=512,
                 serial_number=0xA5C3E001,
                 can_node_id=5,
+                joints=6,
+                params=25,
             ),
+        ),
+        "info_rsp7": Message(
+            MsgType.INFO_RSP,
+            13,
+            DeviceInfo(2, 0, 1, 0, 0x0C, param_set_crc32(PARAMS7), 2, 1, 512, 77, 15, 7, 33),
+        ),
+        "get_params_rsp7": Message(MsgType.GET_PARAMS_RSP, 14, PARAMS7),
+        "set_params_req5e": Message(MsgType.SET_PARAMS_REQ, 15, PARAMS5E),
+        "sample_evt7": Message(MsgType.SAMPLE_EVT, 16, SAMPLE_7),
+        "compute_req5": Message(
+            MsgType.COMPUTE_REQ,
+            17,
+            ComputeRequest(counts=(1, 0xFFFFFFFF, 3, 4, 5), jacobian=True),
+        ),
+        "compute_rsp5": Message(MsgType.COMPUTE_RSP, 17, COMPUTE_RSP5),
+        "diag_rsp7": Message(
+            MsgType.DIAG_RSP,
+            18,
+            replace(DIAG, joints=(*DIAG.joints, JointDiagnostics(2, 24, 5, 9, 10))),
         ),
         "get_params_req": Message(MsgType.GET_PARAMS_REQ, 2),
         "get_params_rsp": Message(MsgType.GET_PARAMS_RSP, 2, PARAMS),
@@ -178,11 +266,15 @@ def messages() -> dict[str, Message]:
 
 
 def _hdr(t: int, seq: int = 0) -> bytes:
-    return bytes([1, t, seq])
+    return bytes([2, t, seq])
 
 
-def _params_bytes(**change: tuple[int, float]) -> bytes:
-    """The parameter set's 278 wire bytes with some fields replaced (key: f/cpr/zero/dir)."""
+def _params_bytes(
+    header: bytes = bytes([6, 1, 0, 0, 0, 0, 0, 0]), **change: tuple[int, float]
+) -> bytes:
+    """The paper-shaped parameter set's wire bytes (docs/protocol.md 2.3, packed here
+    with struct, independently of the codec) with some fields replaced (key:
+    f/cpr/zero/dir; cpr as counts per revolution, sent as cpr - 1)."""
     fields: dict[str, list[float]] = {
         "f": list(
             PARAMS.theta_offset_rad + PARAMS.alpha_rad + PARAMS.d_mm + PARAMS.a_mm + (PARAMS.l_mm,)
@@ -193,23 +285,33 @@ def _params_bytes(**change: tuple[int, float]) -> bytes:
     }
     for key, (index, value) in change.items():
         fields[key][index] = value
-    ints = [int(v) for v in fields["cpr"] + fields["zero"] + fields["dir"]]
-    return struct.pack("<25d6Q6I6b", *fields["f"], *ints)
+    cpr = [int(v) - 1 for v in fields["cpr"]]
+    ints = [int(v) for v in fields["zero"] + fields["dir"]]
+    return header + struct.pack("<25d6I6I6b", *fields["f"], *cpr, *ints)
 
 
 def bad_bodies() -> list[tuple[str, bytes, Status]]:
     """Bodies both decoders must reject, with the status they must report."""
     s = SAMPLE_A
     sample53 = struct.pack(
-        "<IQ6I3iIB", s.seq, s.timestamp_us, *s.counts, *s.point_100nm, s.status, 0
-    )
+        "<IQ3iIBBB6I",
+        s.seq,
+        s.timestamp_us,
+        *s.point_100nm,
+        s.status,
+        0,
+        6,
+        25,
+        *s.counts,
+    )  # the paper's sample without Jacobian: 55 bytes
     good_ping = encode_message(messages()["ping_req"])
     diag = encode_message(messages()["diag_rsp"])[3:]
     return [
         ("empty", b"", Status.ERR_LENGTH),
         ("header_short", bytes([1, 1]), Status.ERR_LENGTH),
         ("version_0", bytes([0]) + good_ping[1:], Status.ERR_VERSION),
-        ("version_2", bytes([2]) + good_ping[1:], Status.ERR_VERSION),
+        ("version_1", bytes([1]) + good_ping[1:], Status.ERR_VERSION),
+        ("version_3", bytes([3]) + good_ping[1:], Status.ERR_VERSION),
         ("type_unknown_0c", _hdr(0x0C), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_00", _hdr(0x00), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_c1", _hdr(0xC1, 9) + b"\x00" * 4, Status.ERR_UNKNOWN_TYPE),
@@ -246,52 +348,167 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
             Status.ERR_RANGE,
         ),
         (
-            "params_cpr_big",
-            _hdr(0x04) + _params_bytes(cpr=(1, 2**32 + 1)),
-            Status.ERR_RANGE,
-        ),
-        (
             "params_zero_ge_cpr",
             _hdr(0x04) + _params_bytes(zero=(3, 2)),
             Status.ERR_RANGE,
         ),
         ("params_short", _hdr(0x04) + _params_bytes()[:-1], Status.ERR_LENGTH),
+        (
+            "params_header_short",
+            _hdr(0x04) + bytes([6, 1, 0, 0, 0, 0, 0]),
+            Status.ERR_LENGTH,
+        ),
+        (
+            "params_joints_3",
+            _hdr(0x04) + bytes([3, 1, 0, 0, 0, 0, 0, 0]) + bytes(8 * 13 + 27),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_joints_8",
+            _hdr(0x04) + bytes([8, 1, 0, 0, 0, 0, 0, 0]) + bytes(8 * 33 + 72),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_tip_2",
+            _hdr(0x04) + _params_bytes(bytes([6, 2, 0, 0, 0, 0, 0, 0])) + bytes(8),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_beta_joint1",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 1, 0, 0, 0, 0])) + bytes(8),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_conv_joint7",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0x40, 0, 0, 0, 0, 0])),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_k_5",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 5, 0, 0, 0])) + bytes(120),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_thermal_2",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 0, 2, 0, 0])) + bytes(28),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_reserved",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 0, 0, 0, 1])),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_beta_missing",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 2, 0, 0, 0, 0])),
+            Status.ERR_LENGTH,
+        ),
+        (
+            "params_k_missing",
+            _hdr(0x83) + _params_bytes(bytes([6, 1, 0, 0, 1, 0, 0, 0])),
+            Status.ERR_LENGTH,
+        ),
         ("error_status_0", _hdr(0xFF) + struct.pack("<hB", 0, 1), Status.ERR_RANGE),
         ("error_status_pos", _hdr(0xFF) + struct.pack("<hB", 7, 1), Status.ERR_RANGE),
-        ("sample_jac_missing", _hdr(0x87) + sample53[:-1] + b"\x01", Status.ERR_LENGTH),
+        (
+            "sample_jac_missing",
+            _hdr(0x87) + sample53[:28] + b"\x01" + sample53[29:],
+            Status.ERR_LENGTH,
+        ),
         (
             "sample_no_jac_extra",
             _hdr(0x40) + sample53 + b"\x00" * 300,
             Status.ERR_LENGTH,
         ),
-        ("sample_content_2", _hdr(0x40) + sample53[:-1] + b"\x02", Status.ERR_RANGE),
+        (
+            "sample_content_2",
+            _hdr(0x40) + sample53[:28] + b"\x02" + sample53[29:],
+            Status.ERR_RANGE,
+        ),
+        (
+            "sample_joints_3",
+            _hdr(0x40) + sample53[:29] + bytes([3, 13]) + sample53[31:-12],
+            Status.ERR_RANGE,
+        ),
+        (
+            "sample_joints_8",
+            _hdr(0x40) + sample53[:29] + bytes([8, 33]) + sample53[31:] + bytes(8),
+            Status.ERR_RANGE,
+        ),
+        (
+            "sample_params_24",
+            _hdr(0x40) + sample53[:30] + bytes([24]) + sample53[31:],
+            Status.ERR_RANGE,
+        ),
+        (
+            "sample_params_33",
+            _hdr(0x40) + sample53[:30] + bytes([33]) + sample53[31:],
+            Status.ERR_RANGE,
+        ),
+        ("sample_counts_short", _hdr(0x40) + sample53[:-1], Status.ERR_LENGTH),
         (
             "sample_jac_nan",
             _hdr(0x87)
-            + sample53[:-1]
+            + sample53[:28]
             + b"\x01"
+            + sample53[29:]
             + struct.pack("<f", 1.0) * 74
             + b"\x00\x00\xc0\x7f",
             Status.ERR_NOT_FINITE,
         ),
         (
             "compute_rsp_inf",
-            _hdr(0x88) + struct.pack("<I3dB", 1, 1.0, float("inf"), 0.0, 0),
+            _hdr(0x88) + struct.pack("<I3dBB", 1, 1.0, float("inf"), 0.0, 0, 25),
             Status.ERR_NOT_FINITE,
         ),
         (
+            "compute_rsp_params_16",
+            _hdr(0x88) + struct.pack("<I3dBB", 1, 1.0, 2.0, 0.0, 0, 16),
+            Status.ERR_RANGE,
+        ),
+        (
+            "compute_rsp_params_38",
+            _hdr(0x88) + struct.pack("<I3dBB", 1, 1.0, 2.0, 0.0, 0, 38),
+            Status.ERR_RANGE,
+        ),
+        (
+            "compute_req_joints_3",
+            _hdr(0x08) + struct.pack("<BB3I", 0, 3, 1, 2, 3),
+            Status.ERR_RANGE,
+        ),
+        (
+            "compute_req_joints_8",
+            _hdr(0x08) + struct.pack("<BB8I", 0, 8, *range(8)),
+            Status.ERR_RANGE,
+        ),
+        (
+            "compute_req_short",
+            _hdr(0x08) + struct.pack("<BB5I", 0, 6, *range(5)),
+            Status.ERR_LENGTH,
+        ),
+        (
             "info_storage_4",
-            _hdr(0x82) + struct.pack("<HBBHIIBBHIB", 1, 0, 0, 0, 0, 0, 0, 4, 512, 0, 0),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 4, 512, 0, 0, 6, 25),
             Status.ERR_RANGE,
         ),
         (
             "info_node_16",
-            _hdr(0x82) + struct.pack("<HBBHIIBBHIB", 1, 0, 0, 0, 0, 0, 0, 0, 512, 0, 16),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 16, 6, 25),
             Status.ERR_RANGE,
         ),
         (
             "info_source_3",
-            _hdr(0x82) + struct.pack("<HBBHIIBBHIB", 1, 0, 0, 0, 0, 0, 3, 0, 512, 0, 0),
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 3, 0, 512, 0, 0, 6, 25),
+            Status.ERR_RANGE,
+        ),
+        (
+            "info_joints_8",
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 0, 8, 33),
+            Status.ERR_RANGE,
+        ),
+        (
+            "info_params_31",
+            _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 0, 512, 0, 0, 5, 31),
             Status.ERR_RANGE,
         ),
         ("diag_req_payload", _hdr(0x0B) + b"\x00", Status.ERR_LENGTH),
@@ -299,10 +516,36 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
         ("diag_kind_6", _hdr(0x8B) + b"\x06" + diag[1:], Status.ERR_RANGE),
         ("diag_flags_2", _hdr(0x8B) + diag[:1] + b"\x02" + diag[2:], Status.ERR_RANGE),
         ("diag_slot_10", _hdr(0x8B) + diag[:3] + b"\x0a" + diag[4:], Status.ERR_RANGE),
-        ("diag_reset_6", _hdr(0x8B) + diag[:20] + b"\x06" + diag[21:], Status.ERR_RANGE),
-        ("diag_interface_4", _hdr(0x8B) + diag[:59] + b"\x04" + diag[60:], Status.ERR_RANGE),
-        ("diag_bits_33", _hdr(0x8B) + diag[:71] + b"\x21" + diag[72:], Status.ERR_RANGE),
-        ("diag_fault_9", _hdr(0x8B) + diag[:-9] + b"\x09" + diag[-8:], Status.ERR_RANGE),
+        (
+            "diag_reset_6",
+            _hdr(0x8B) + diag[:20] + b"\x06" + diag[21:],
+            Status.ERR_RANGE,
+        ),
+        (
+            "diag_interface_4",
+            _hdr(0x8B) + diag[:60] + b"\x04" + diag[61:],
+            Status.ERR_RANGE,
+        ),
+        (
+            "diag_bits_33",
+            _hdr(0x8B) + diag[:72] + b"\x21" + diag[73:],
+            Status.ERR_RANGE,
+        ),
+        (
+            "diag_joints_3",
+            _hdr(0x8B) + diag[:59] + b"\x03" + diag[60:-33],
+            Status.ERR_RANGE,
+        ),
+        (
+            "diag_joints_8",
+            _hdr(0x8B) + diag[:59] + b"\x08" + diag[60:] + bytes(22),
+            Status.ERR_RANGE,
+        ),
+        (
+            "diag_fault_9",
+            _hdr(0x8B) + diag[:-9] + b"\x09" + diag[-8:],
+            Status.ERR_RANGE,
+        ),
         ("trigger_pressed_2", _hdr(0x41) + b"\x00\x02" + sample53, Status.ERR_RANGE),
         ("trigger_short", _hdr(0x41) + b"\x00\x01" + sample53[:-2], Status.ERR_LENGTH),
     ]
@@ -366,6 +609,7 @@ def isotp_cases() -> list[tuple[str, int, bytes, list[bytes]]]:
         ("get_params_rsp", 5, "rsp"),
         ("measure_rsp", 0, "rsp"),
         ("info_rsp", 15, "rsp"),
+        ("sample_evt7", 3, "rsp"),
     ):
         body = encode_message(msgs[name])
         if direction == "req":
@@ -393,6 +637,8 @@ def render() -> str:
         lines.append(f"msg {name} {body.hex()} {encode_frame(body).hex()}")
     for i, fr in enumerate(pcan.encode_sample_frames(SAMPLE_A, node_id=5)):
         lines.append(f"can sample_a_n5_{i} {fr.arbitration_id:03x} {fr.data.hex()}")
+    for i, fr in enumerate(pcan.encode_sample_frames(SAMPLE_7, node_id=2)):
+        lines.append(f"can sample_7_n2_{i} {fr.arbitration_id:03x} {fr.data.hex()}")
     trig = pcan.load_dbc().encode_message(
         pcan.ID_TRIGGER,
         {"Seq": SAMPLE_A.seq, "Button": 0, "Pressed": 1, "Reserved": 0},

@@ -269,9 +269,9 @@ static aacmm_status_t pf_serial_write(void *ctx, const uint8_t *data, size_t len
 /* The joints: the simulated arm's counts go out of the simulated BiSS-C
  * encoders frame by frame, clock by clock, and the device decodes them as it
  * would a real encoder's frames. */
-static aacmm_status_t pf_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS])
+static aacmm_status_t pf_read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS_MAX])
 {
-    uint32_t counts[AACMM_JOINTS];
+    uint32_t counts[AACMM_JOINTS_MAX];
     (void)ctx;
     if (aacmm_sim_read(&sim, board_time_us(), counts) != AACMM_OK ||
         aacmm_sim_encoders_frames(&encoders, counts, frames) != AACMM_OK) {
@@ -340,7 +340,7 @@ int main(void)
         fail();
     }
     memset(&ec, 0, sizeof ec);
-    for (j = 0; j < AACMM_JOINTS; j++) {
+    for (j = 0; j < AACMM_JOINTS_MAX; j++) {
         ec.joint[j].interface = (uint8_t)AACMM_ENC_BISS_C;
         ec.joint[j].bits = 32u;
     }
@@ -373,7 +373,7 @@ int main(void)
     dc.reset_raw = board_reset_register();
     dc.fault_pc = fault_pc;
     dc.boot_count = rec.boot_count;
-    for (j = 0; j < AACMM_JOINTS; j++) {
+    for (j = 0; j < AACMM_JOINTS_MAX; j++) {
         dc.encoders[j] = ec.joint[j];
     }
     dc.watchdog_ms = (uint16_t)board_watchdog_start(BOARD_WATCHDOG_MS);

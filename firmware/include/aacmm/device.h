@@ -65,10 +65,20 @@
  *     offset  size  field
  *       0      4    magic AACMM_STORE_MAGIC, little-endian ("AACM")
  *       4      2    record format version AACMM_STORE_VERSION
- *       6      2    payload length (AACMM_PARAM_SET_BYTES)
+ *       6      2    payload length L (8 .. AACMM_PARAM_SET_MAX_BYTES; 262 for
+ *                   the paper's arm)
  *       8      4    generation, incremented by each save (wraps)
- *      12    278    parameter set, wire encoding (aacmm_param_set_encode)
- *     290      4    CRC-32/ISO-HDLC of bytes 0 .. 289
+ *      12      L    parameter set, wire encoding (aacmm_param_set_encode,
+ *                   docs/protocol.md 2.3: the arm model, its encoders and
+ *                   the error model)
+ *    12+L      4    CRC-32/ISO-HDLC of bytes 0 .. 11+L
+ *
+ * A save writes the AACMM_STORE_RECORD_LEN(L) bytes of its record; a load
+ * reads AACMM_STORE_RECORD_BYTES (the largest record) and takes a record
+ * only if L is the length its set's header defines (else BAD_LENGTH).
+ *
+ * Format version 2 (the arm model); a version 1 record (the six-joint set of
+ * protocol version 1) reads as AACMM_SLOT_VERSION and is not used.
  *
  * A save writes the slot that does not hold the newest valid record, then
  * reads it back. A power cut at any byte leaves the other slot, the previous
@@ -107,8 +117,9 @@ extern "C" {
 
 /* ---- parameter storage record ---------------------------------------- */
 #define AACMM_STORE_MAGIC 0x4D434141u /* "AACM" as little-endian bytes */
-#define AACMM_STORE_VERSION 1u
-#define AACMM_STORE_RECORD_BYTES (12u + AACMM_PARAM_SET_BYTES + 4u) /* 294 */
+#define AACMM_STORE_VERSION 2u
+#define AACMM_STORE_RECORD_BYTES (12u + AACMM_PARAM_SET_MAX_BYTES + 4u) /* 511: read */
+#define AACMM_STORE_RECORD_LEN(len) (16u + (len)) /* written: a set of len bytes */
 #define AACMM_STORE_SLOT_BYTES 512u
 #define AACMM_STORE_BYTES (2u * AACMM_STORE_SLOT_BYTES) /* storage the device needs */
 
@@ -137,7 +148,8 @@ typedef struct {
     uint32_t serial_number;            /* reported in device info */
     uint8_t can_node_id;               /* 0 .. AACMM_CAN_NODE_ID_MAX */
     const aacmm_param_set_t *defaults; /* built-in defaults (copied); NULL = the
-                                          core's Table 1 arm with 2^32-count encoders */
+                                          core's Table 1 arm with 2^32-count encoders
+                                          (aacmm_param_set_default) */
     uint8_t *serial_txq;               /* serial output queue, caller owned, lives as
                                           long as the device; NULL if no serial link */
     size_t serial_txq_bytes;           /* >= AACMM_DEVICE_SERIAL_TXQ_MIN */
@@ -155,8 +167,10 @@ typedef struct {
     uint16_t watchdog_ms;              /* the watchdog the port feeds; 0 = none */
     /* Each joint's encoder interface and position bits, used when the
      * platform provides read_encoder_frames (then every joint must be a
-     * valid frame interface, aacmm_enc_config_validate). */
-    aacmm_enc_joint_config_t encoders[AACMM_JOINTS];
+     * valid frame interface, aacmm_enc_config_validate). encoders[6] left
+     * zero (interface COUNTS, bits 0) says the port has six encoders: a
+     * 7-joint set is then refused with AACMM_ERR_UNSUPPORTED. */
+    aacmm_enc_joint_config_t encoders[AACMM_JOINTS_MAX];
 } aacmm_device_config_t;
 
 /* What the two record slots held when last read (aacmm_store_load,
@@ -268,6 +282,8 @@ typedef struct {
     uint8_t storage_ok;    /* platform storage usable */
     uint8_t buttons;       /* last button levels, bit i = button i held */
     uint8_t event_seq;     /* header seq of device events */
+    uint8_t reply_version; /* non-zero: the version byte of the ERROR_RSP being sent */
+    uint8_t frame_joints;  /* encoders the port decodes frames of: 6 or 7 */
     uint8_t have_stored;   /* a valid record exists; stored_crc32 is its set's CRC */
     uint32_t stored_crc32;
     aacmm_store_report_t store; /* the slots as last read or written */
@@ -277,9 +293,9 @@ typedef struct {
     uint32_t reset_raw;
     uint32_t fault_pc;
     uint32_t boot_count;
-    aacmm_device_joint_t joints[AACMM_JOINTS];
-    aacmm_enc_joint_config_t encoders[AACMM_JOINTS];
-    aacmm_enc_frame_t frames[AACMM_JOINTS]; /* scratch of read_encoder_frames */
+    aacmm_device_joint_t joints[AACMM_JOINTS_MAX];
+    aacmm_enc_joint_config_t encoders[AACMM_JOINTS_MAX];
+    aacmm_enc_frame_t frames[AACMM_JOINTS_MAX]; /* scratch of read_encoder_frames */
     uint32_t measure_seq;
     uint32_t max_catch_up;
     uint32_t max_sample_age_ms;
@@ -390,9 +406,15 @@ uint32_t aacmm_device_build_flags(const aacmm_device_t *dev);
 
 /* ---- parameter storage, usable alone (tools, tests, boards) -------------- */
 
+/* The built-in default set of a device without config->defaults: the
+ * paper's arm (Table 1) with 2^32-count encoders and no error model.
+ * AACMM_ERR_NULL or AACMM_OK. */
+aacmm_status_t aacmm_param_set_default(aacmm_param_set_t *set);
+
 /*
  * Load the newest valid record from the platform's storage into *set (decoded
- * and range-checked: aacmm_param_set_decode and aacmm_params_validate_f64).
+ * and range-checked: aacmm_param_set_decode, aacmm_arm_validate_f64 and
+ * aacmm_arm_encoders_validate).
  * *state (AACMM_STORAGE_*) sums up what was found: OK, EMPTY (both slots
  * erased), CORRUPT (no valid record, and a slot holds something that is not
  * one: damaged, cut, unrecognised or unreadable), VERSION (no valid record,

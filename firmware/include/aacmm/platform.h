@@ -62,18 +62,21 @@ typedef struct {
 
     /* The joints, one of two ways (at least one is required; frames win when
      * both are set):
-     * read_encoders: the six raw readings as counts (a port that decodes
+     * The device reads AACMM_JOINTS_MAX (7) joints and uses the first N of
+     * its arm model; a port with fewer encoders fills the rest (count 0,
+     * or a frame of count 0).
+     * read_encoders: the raw readings as counts (a port that decodes
      * its encoders itself, or quadrature counters). A reading at or above the
      * joint's counts per revolution is a fault of that joint.
-     * read_encoder_frames: the six frames as the port's encoder interfaces
+     * read_encoder_frames: the frames as the port's encoder interfaces
      * sampled them (aacmm/encoder_frame.h; one frame per joint, n_bits 0 for
      * a joint that did not answer), decoded by the device with the joint
      * configuration of aacmm_device_config_t.encoders: BiSS-C CRC, error and
      * warning bits, SSI framing, stuck lines and timeouts are checked there.
      * Either way a failed call (AACMM_ERR_IO) is a READ fault of every joint,
      * and a sample with a faulty joint has no point (ENCODER_FAULT). */
-    aacmm_status_t (*read_encoders)(void *ctx, uint32_t counts[AACMM_JOINTS]);
-    aacmm_status_t (*read_encoder_frames)(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS]);
+    aacmm_status_t (*read_encoders)(void *ctx, uint32_t counts[AACMM_JOINTS_MAX]);
+    aacmm_status_t (*read_encoder_frames)(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS_MAX]);
 
     /* The buttons' levels: bit i of *pressed is 1 while button i is held
      * (bit AACMM_BUTTON_CAPTURE = 0: the probe button that takes a point; bit

@@ -1,5 +1,5 @@
 /*
- * aacmm link protocol, version 1: the message set shared by the device and
+ * aacmm link protocol, version 2: the message set shared by the device and
  * the host (docs/protocol.md is the specification; this header is its C form).
  *
  * A message body is a 3-byte header followed by a type-specific payload, all
@@ -21,12 +21,15 @@
  *   - every floating-point field is finite (AACMM_ERR_NOT_FINITE)
  *   - content/flag bytes have no unknown bits, reserved bytes are zero,
  *     enumerations are in range (AACMM_ERR_RANGE)
- *   - a parameter set's encoder configuration passes aacmm_encoder_validate
- *     (AACMM_ERR_RANGE): the encoder layer owns that rule (aacmm/kinematics.h,
- *     encoder.c), so the codec, the device and the core apply one check. It is
- *     the codec's one dependency beyond the protocol folder and status.c:
- *     encoder.c is integer-only and stateless, with no floating point and no
- *     other unit behind it.
+ *   - a parameter set's shape passes aacmm_shape_validate and its encoders
+ *     aacmm_arm_encoders_validate (AACMM_ERR_RANGE): the core owns those rules
+ *     (aacmm/kinematics.h, shape.c, encoder.c), so the codec, the device and
+ *     the core apply one check. They are the codec's only dependencies beyond
+ *     the protocol folder and status.c: integer-only and stateless, with no
+ *     floating point and no other unit behind them.
+ *   - the length of a payload follows from its own bytes (content, N, P, and
+ *     for a parameter set K and the thermal flag), read before any range is
+ *     checked: a wrong length is AACMM_ERR_LENGTH whatever those bytes hold.
  *   - an unknown type gives AACMM_ERR_UNKNOWN_TYPE, another version
  *     AACMM_ERR_VERSION (in both cases msg->type and msg->seq are still set
  *     from the header, so the device can answer with an error response).
@@ -46,7 +49,12 @@
 extern "C" {
 #endif
 
-#define AACMM_PROTO_VERSION 1u
+#define AACMM_PROTO_VERSION 2u
+/* The version before the arm model (six joints, 25 parameters). A body of
+ * this version is answered with ERROR_RSP ERR_VERSION encoded in version 1
+ * (ERROR_RSP has the same layout in both), so an old host reads a clear
+ * version error instead of a body it cannot decode (docs/protocol.md 6). */
+#define AACMM_PROTO_VERSION_PREVIOUS 1u
 #define AACMM_PROTO_HEADER_BYTES 3u
 #define AACMM_PROTO_MAX_BODY 512u /* equals AACMM_FRAME_MAX_BODY */
 
@@ -55,11 +63,11 @@ typedef enum {
     AACMM_MSG_PING_REQ = 0x01,             /* u32 token */
     AACMM_MSG_INFO_REQ = 0x02,             /* empty */
     AACMM_MSG_GET_PARAMS_REQ = 0x03,       /* empty */
-    AACMM_MSG_SET_PARAMS_REQ = 0x04,       /* parameter set (278 bytes) */
+    AACMM_MSG_SET_PARAMS_REQ = 0x04,       /* parameter set (8 + 8P + 9N bytes, 2.3) */
     AACMM_MSG_SAVE_PARAMS_REQ = 0x05,      /* empty: store the active set */
     AACMM_MSG_RESTORE_DEFAULTS_REQ = 0x06, /* empty: activate the built-in defaults */
     AACMM_MSG_MEASURE_REQ = 0x07,          /* u8 content */
-    AACMM_MSG_COMPUTE_REQ = 0x08,          /* u8 content, u32 counts[6] */
+    AACMM_MSG_COMPUTE_REQ = 0x08,          /* u8 content, u8 N, u32 counts[N] */
     AACMM_MSG_STREAM_START_REQ = 0x09,     /* u16 rate_hz, u8 content */
     AACMM_MSG_STREAM_STOP_REQ = 0x0A,      /* empty */
     AACMM_MSG_DIAG_REQ = 0x0B,             /* empty: device diagnostics */
@@ -68,16 +76,16 @@ typedef enum {
     AACMM_MSG_TRIGGER_EVT = 0x41, /* probe button edge with the sample taken at it */
 
     AACMM_MSG_PING_RSP = 0x81,             /* u32 token (echo) */
-    AACMM_MSG_INFO_RSP = 0x82,             /* device info (23 bytes) */
-    AACMM_MSG_GET_PARAMS_RSP = 0x83,       /* parameter set (278 bytes) */
+    AACMM_MSG_INFO_RSP = 0x82,             /* device info (25 bytes) */
+    AACMM_MSG_GET_PARAMS_RSP = 0x83,       /* parameter set (8 + 8P + 9N bytes) */
     AACMM_MSG_SET_PARAMS_RSP = 0x84,       /* u32 param_crc32 of the now active set */
     AACMM_MSG_SAVE_PARAMS_RSP = 0x85,      /* u32 param_crc32 of the stored set */
     AACMM_MSG_RESTORE_DEFAULTS_RSP = 0x86, /* u32 param_crc32 of the now active set */
-    AACMM_MSG_MEASURE_RSP = 0x87,          /* sample (53 or 353 bytes) */
-    AACMM_MSG_COMPUTE_RSP = 0x88,          /* compute result (29 or 329 bytes) */
+    AACMM_MSG_MEASURE_RSP = 0x87,          /* sample (31 + 4N, + 12P with Jacobian) */
+    AACMM_MSG_COMPUTE_RSP = 0x88,          /* compute result (30, + 12P with Jacobian) */
     AACMM_MSG_STREAM_START_RSP = 0x89,     /* u16 rate_hz accepted, u8 content */
     AACMM_MSG_STREAM_STOP_RSP = 0x8A,      /* empty */
-    AACMM_MSG_DIAG_RSP = 0x8B,             /* diagnostics (125 bytes) */
+    AACMM_MSG_DIAG_RSP = 0x8B,             /* diagnostics (60 + 11N bytes) */
 
     AACMM_MSG_ERROR_RSP = 0xFF /* i16 status (aacmm_status_t), u8 request type */
 } aacmm_msg_type_t;
@@ -85,7 +93,7 @@ typedef enum {
 #define AACMM_MSG_RESPONSE_BIT 0x80u
 
 /* Content flags (MEASURE_REQ, COMPUTE_REQ, STREAM_START_REQ, samples). */
-#define AACMM_CONTENT_JACOBIAN 0x01u /* append the 3x25 Jacobian (float32) */
+#define AACMM_CONTENT_JACOBIAN 0x01u /* append the 3 x P Jacobian (float32) */
 #define AACMM_CONTENT_KNOWN 0x01u
 
 /* Sample status flags (u32; unknown bits are passed through, not rejected). */
@@ -96,15 +104,16 @@ typedef enum {
 #define AACMM_SAMPLE_POINT_CLIPPED 0x0010u  /* point outside the int32 range; clamped */
 #define AACMM_SAMPLE_OVERRUN 0x0020u        /* samples were dropped before this one */
 #define AACMM_SAMPLE_ENCODER_WARNING 0x0040u /* an encoder flagged a warning; point valid */
-/* Joint 1..6 gave no reading (its fault kind is counted in the diagnostics). */
+/* Joint 1..7 gave no reading (its fault kind is counted in the diagnostics). */
 #define AACMM_SAMPLE_JOINT1_FAULT 0x0100u
 #define AACMM_SAMPLE_JOINT2_FAULT 0x0200u
 #define AACMM_SAMPLE_JOINT3_FAULT 0x0400u
 #define AACMM_SAMPLE_JOINT4_FAULT 0x0800u
 #define AACMM_SAMPLE_JOINT5_FAULT 0x1000u
 #define AACMM_SAMPLE_JOINT6_FAULT 0x2000u
-#define AACMM_SAMPLE_JOINT_FAULT(j) (AACMM_SAMPLE_JOINT1_FAULT << (j)) /* j = 0..5 */
-#define AACMM_SAMPLE_JOINT_FAULTS 0x3F00u /* any joint */
+#define AACMM_SAMPLE_JOINT7_FAULT 0x4000u
+#define AACMM_SAMPLE_JOINT_FAULT(j) (AACMM_SAMPLE_JOINT1_FAULT << (j)) /* j = 0..6 */
+#define AACMM_SAMPLE_JOINT_FAULTS 0x7F00u /* any joint */
 #define AACMM_SAMPLE_TRIGGER_EVENT 0x0080u /* read at a button edge: the sample of a trigger
                                               event, never a stream sample (docs/protocol.md 2.7) */
 
@@ -188,15 +197,49 @@ typedef enum {
 /* Point on the wire: int32 in units of 100 nm (1e-4 mm), range +-214.7 m. */
 #define AACMM_POINT_UNIT_MM 1e-4
 
-/* Payload sizes in bytes. */
-#define AACMM_PARAM_SET_BYTES 278u       /* 25 f64 + 6 u64 + 6 u32 + 6 i8 */
-#define AACMM_INFO_BYTES 23u
-#define AACMM_SAMPLE_BASE_BYTES 53u      /* without Jacobian */
-#define AACMM_JACOBIAN_BYTES 300u        /* 75 float32 */
-#define AACMM_COMPUTE_RSP_BASE_BYTES 29u /* without Jacobian */
+/* Payload sizes in bytes. N joints (4..7), P parameters (Jacobian columns,
+ * P = 4N + B + T, aacmm/kinematics.h), K encoder harmonics per joint (0..4),
+ * H = 1 with the thermal block, else 0. Every size is at most
+ * AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES (509). */
+#define AACMM_PARAM_SET_HEADER_BYTES 8u
+#define AACMM_PARAM_SET_BYTES(n, p, k, h)                                                   \
+    (AACMM_PARAM_SET_HEADER_BYTES + 8u * (p) + 9u * (n) + 4u * (n) * (k) + 2u * ((n) + 1u) * (h))
+#define AACMM_PARAM_SET_PAPER_BYTES 262u /* the paper's arm: N 6, P 25, K 0, H 0 */
+#define AACMM_PARAM_SET_MAX_BYTES 495u   /* N 7, P 37, K 4, H 1 */
+#define AACMM_INFO_BYTES 25u
+#define AACMM_SAMPLE_BASE_BYTES 31u             /* before the N counts */
+#define AACMM_SAMPLE_BYTES(n, p, jac) (AACMM_SAMPLE_BASE_BYTES + 4u * (n) + ((jac) ? 12u * (p) : 0u))
+#define AACMM_SAMPLE_MAX_BYTES 503u             /* N 7, P 37, with Jacobian */
+#define AACMM_COMPUTE_REQ_BYTES(n) (2u + 4u * (n))
+#define AACMM_COMPUTE_RSP_BASE_BYTES 30u /* without Jacobian */
+#define AACMM_COMPUTE_RSP_BYTES(p, jac) (AACMM_COMPUTE_RSP_BASE_BYTES + ((jac) ? 12u * (p) : 0u))
 #define AACMM_TRIGGER_EXTRA_BYTES 2u     /* before the embedded sample */
 #define AACMM_DIAG_JOINT_BYTES 11u
-#define AACMM_DIAG_BYTES (59u + AACMM_JOINTS * AACMM_DIAG_JOINT_BYTES) /* 125 */
+#define AACMM_DIAG_BASE_BYTES 60u
+#define AACMM_DIAG_BYTES(n) (AACMM_DIAG_BASE_BYTES + (n) * AACMM_DIAG_JOINT_BYTES)
+
+/* ---- the parameter set's error model (issue 27; version 2 reserves it) ----
+ * Per joint K <= AACMM_HARMONICS_MAX encoder harmonics: the joint angle
+ * error sum_k c_k cos(k q) + s_k sin(k q); per link i = 1..N a coefficient
+ * of thermal expansion and one reference temperature. Stored as i16 in the
+ * units below. A version 2 device computes without them and refuses a set
+ * that has any (K > 0 or the thermal block: AACMM_ERR_UNSUPPORTED); the
+ * codecs carry them already. Laid out before issue 27's core was merged
+ * (aacmm_errmodel_*_t: K per joint, a reference temperature per link, wider
+ * ranges), which does not fit this block as it stands: docs/protocol.md 2.3. */
+#define AACMM_HARMONICS_MAX 4
+#define AACMM_HARMONIC_UNIT_RAD 1e-7   /* c_k, s_k: +-3.3 mrad in 0.1 urad */
+#define AACMM_CTE_UNIT_PER_K 1e-8      /* +-3.3e-4 / K in 1e-8 / K */
+#define AACMM_TEMP_UNIT_C 0.01         /* reference temperature, +-327 degC */
+
+typedef struct {
+    uint8_t harmonics; /* K, 0 .. AACMM_HARMONICS_MAX; 0 = none */
+    uint8_t thermal;   /* 1 if cte and ref_temp are present, else 0 */
+    int16_t harm_cos[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX]; /* c_k of joint i, k = 1..K */
+    int16_t harm_sin[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX]; /* s_k */
+    int16_t cte[AACMM_JOINTS_MAX]; /* link i */
+    int16_t ref_temp;              /* the temperature the lengths hold at */
+} aacmm_error_model_t;
 
 typedef struct {
     uint32_t token; /* any value; echoed unchanged */
@@ -214,12 +257,17 @@ typedef struct {
     uint16_t max_body_bytes; /* largest body the device accepts (<= 512) */
     uint32_t serial_number;
     uint8_t can_node_id; /* 0..15 */
+    uint8_t joints;      /* N of the active arm model, 4..7 */
+    uint8_t params;      /* P of the active arm model: Jacobian columns */
 } aacmm_msg_info_t;
 
-/* The parameter set carried by GET/SET_PARAMS. */
+/* The parameter set carried by GET/SET_PARAMS and stored by the device: the
+ * arm model (shape and values), its encoders and the error model. Layout:
+ * docs/protocol.md 2.3. Entries past N (and past K) are 0; enc.joints is N. */
 typedef struct {
-    aacmm_params_f64_t kin;     /* kinematic parameters, mm and rad, all finite */
-    aacmm_encoder_config_t enc; /* cpr 2..2^32, zero offset < cpr, direction +-1 */
+    aacmm_arm_f64_t arm;      /* shape and values, mm and rad, all finite */
+    aacmm_arm_encoders_t enc; /* cpr 2..2^32, zero offset < cpr, direction +-1 */
+    aacmm_error_model_t err;  /* K = 0 and no thermal block in version 2 devices */
 } aacmm_param_set_t;
 
 typedef struct {
@@ -228,13 +276,15 @@ typedef struct {
 
 /* MEASURE_RSP and SAMPLE_EVT. */
 typedef struct {
-    uint32_t seq;                     /* sample counter, wraps */
-    uint64_t timestamp_us;            /* device monotonic clock, us */
-    uint32_t counts[AACMM_JOINTS];    /* raw encoder readings */
-    int32_t point_100nm[3];           /* probe x, y, z in units of 1e-4 mm */
-    uint32_t status;                  /* AACMM_SAMPLE_* */
-    uint8_t content;                  /* AACMM_CONTENT_* present in this sample */
-    float jacobian[AACMM_JAC_SIZE];   /* row-major 3x25 if content has JACOBIAN */
+    uint32_t seq;                      /* sample counter, wraps */
+    uint64_t timestamp_us;             /* device monotonic clock, us */
+    int32_t point_100nm[3];            /* probe x, y, z in units of 1e-4 mm */
+    uint32_t status;                   /* AACMM_SAMPLE_* */
+    uint8_t content;                   /* AACMM_CONTENT_* present in this sample */
+    uint8_t joints;                    /* N, 4..7 */
+    uint8_t params;                    /* P, 4N + 1 .. 5N + 2 */
+    uint32_t counts[AACMM_JOINTS_MAX]; /* raw encoder readings, joints 1..N */
+    float jacobian[AACMM_JAC_SIZE_MAX]; /* row-major 3 x P if content has JACOBIAN */
 } aacmm_sample_t;
 
 typedef struct {
@@ -243,14 +293,16 @@ typedef struct {
 
 typedef struct {
     uint8_t content;
-    uint32_t counts[AACMM_JOINTS];
+    uint8_t joints; /* N, 4..7: must be the device's (else ERR_RANGE from the device) */
+    uint32_t counts[AACMM_JOINTS_MAX];
 } aacmm_msg_compute_req_t;
 
 typedef struct {
     uint32_t status;                /* AACMM_SAMPLE_* (POINT_VALID etc.) */
     double point_mm[3];             /* the device's own result, mm, float64 */
     uint8_t content;                /* AACMM_CONTENT_* present */
-    float jacobian[AACMM_JAC_SIZE]; /* if content has JACOBIAN */
+    uint8_t params;                 /* P of the device's arm model */
+    float jacobian[AACMM_JAC_SIZE_MAX]; /* row-major 3 x P if content has JACOBIAN */
 } aacmm_msg_compute_rsp_t;
 
 typedef struct {
@@ -292,7 +344,8 @@ typedef struct {
     uint32_t serial_frames_bad;  /* serial frames dropped: CRC, COBS, runts, oversize */
     uint32_t samples_dropped;    /* stream samples lost: output queue full or stale */
     uint32_t samples_late;       /* stream samples skipped: the device fell behind */
-    aacmm_diag_joint_t joints[AACMM_JOINTS];
+    uint8_t joints;              /* N, 4..7 */
+    aacmm_diag_joint_t joint[AACMM_JOINTS_MAX];
 } aacmm_msg_diag_t;
 
 typedef struct {
@@ -383,27 +436,42 @@ uint8_t aacmm_msg_response_type(uint8_t request_type);
 aacmm_status_t aacmm_msg_make_error(aacmm_msg_t *msg, uint8_t seq, uint8_t request_type,
                                     aacmm_status_t status);
 
-/* Payload length of a type for the given content flags; 0 for unknown types
- * (a valid empty payload also gives 0: check aacmm_msg_type_known). O(1). */
-size_t aacmm_msg_payload_len(uint8_t type, uint8_t content);
+/*
+ * Payload length of a message body's type as its bytes define it: the
+ * content byte, N, P (and for a parameter set K and the thermal flag) are
+ * read from payload[0 .. len-1] where the type has them, as raw values
+ * (ranges are checked after the length). For a payload too short to hold
+ * those fields, the length of the fields that define it (so a short payload
+ * never matches). Returns 0 for unknown types (a valid empty payload also
+ * gives 0: check aacmm_msg_type_known). O(1).
+ */
+size_t aacmm_msg_payload_len(uint8_t type, const uint8_t *payload, size_t len);
 
 /* 1 if type is a message type of this protocol version, else 0. O(1). */
 int aacmm_msg_type_known(uint8_t type);
 
 /*
- * Encode a parameter set payload alone (278 bytes) into out.
- * AACMM_ERR_NULL, AACMM_ERR_BUFFER, AACMM_ERR_NOT_FINITE, AACMM_ERR_RANGE or
- * AACMM_OK. O(1).
+ * Encode a parameter set payload alone into out (*out_len bytes,
+ * AACMM_PARAM_SET_BYTES of its N, P, K, H; at most
+ * AACMM_PARAM_SET_MAX_BYTES). AACMM_ERR_NULL, AACMM_ERR_BUFFER,
+ * AACMM_ERR_NOT_FINITE, AACMM_ERR_RANGE (an invalid shape, an encoder out
+ * of range, enc.joints not N, a value the layout does not carry that is not
+ * 0: entries past N or K, a beta where none is declared, t_x or t_y with
+ * AACMM_TIP_Z) or AACMM_OK. O(size).
  */
-aacmm_status_t aacmm_param_set_encode(const aacmm_param_set_t *set, uint8_t *out, size_t out_cap);
+aacmm_status_t aacmm_param_set_encode(const aacmm_param_set_t *set, uint8_t *out, size_t out_cap,
+                                      size_t *out_len);
 
-/* Decode and check a 278-byte parameter set payload (same rules). O(1). */
+/* Decode and check a parameter set payload of len bytes: AACMM_ERR_LENGTH
+ * (shorter than its header or not the size its header defines), then
+ * AACMM_ERR_RANGE (header fields), AACMM_ERR_NOT_FINITE, AACMM_ERR_RANGE
+ * (encoders). Values the layout does not carry are 0. O(len). */
 aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param_set_t *set);
 
 /*
  * The parameter-set CRC reported in device info and the *_PARAMS_RSP
- * messages: CRC-32/ISO-HDLC over the 278-byte wire encoding of *set.
- * Errors as aacmm_param_set_encode (then *crc32 is 0). O(278).
+ * messages: CRC-32/ISO-HDLC over the wire encoding of *set.
+ * Errors as aacmm_param_set_encode (then *crc32 is 0). O(size).
  */
 aacmm_status_t aacmm_param_set_crc32(const aacmm_param_set_t *set, uint32_t *crc32);
 

@@ -485,7 +485,7 @@ static uint64_t time_us(void *ctx)
 }
 
 aacmm_status_t posix_joint_counts(posix_port_t *port, uint64_t t_us,
-                                  uint32_t counts[AACMM_JOINTS])
+                                  uint32_t counts[AACMM_JOINTS_MAX])
 {
     if (port->control.fd >= 0) {
         memcpy(counts, port->control.counts, sizeof port->control.counts);
@@ -494,7 +494,7 @@ aacmm_status_t posix_joint_counts(posix_port_t *port, uint64_t t_us,
     return aacmm_sim_read(&port->sim, t_us, counts);
 }
 
-static aacmm_status_t read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
+static aacmm_status_t read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS_MAX])
 {
     posix_port_t *p = ctx;
     return posix_joint_counts(p, posix_time_us() - p->t0_us, counts);
@@ -502,10 +502,10 @@ static aacmm_status_t read_encoders(void *ctx, uint32_t counts[AACMM_JOINTS])
 
 /* The encoder interfaces: each joint's count goes out as a frame, clock by
  * clock, from the simulated encoder (with the corruption asked for). */
-static aacmm_status_t read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS])
+static aacmm_status_t read_encoder_frames(void *ctx, aacmm_enc_frame_t frames[AACMM_JOINTS_MAX])
 {
     posix_port_t *p = ctx;
-    uint32_t counts[AACMM_JOINTS];
+    uint32_t counts[AACMM_JOINTS_MAX];
     if (posix_joint_counts(p, posix_time_us() - p->t0_us, counts) != AACMM_OK ||
         aacmm_sim_encoders_frames(&p->enc, counts, frames) != AACMM_OK) {
         return AACMM_ERR_IO;

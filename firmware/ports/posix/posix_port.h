@@ -37,7 +37,7 @@ typedef struct {
  * place the simulated arm's joints come from. The encoder callback turns them
  * into frames (use_frames) that the device decodes. */
 aacmm_status_t posix_joint_counts(posix_port_t *port, uint64_t t_us,
-                                  uint32_t counts[AACMM_JOINTS]);
+                                  uint32_t counts[AACMM_JOINTS_MAX]);
 
 /* CLOCK_MONOTONIC in us. */
 uint64_t posix_time_us(void);

@@ -116,20 +116,20 @@ static int split(char *line, char **words, int max)
 /* Apply one command line (NUL-terminated, no '\n'). */
 static void command(sim_control_t *c, char *line)
 {
-    char *w[8];
-    int n = split(line, w, 7);
+    char *w[9];
+    int n = split(line, w, 8);
     int i;
     uint64_t v;
     if (n == 0) {
         return;
     }
     if (strcmp(w[0], "counts") == 0) {
-        uint32_t counts[AACMM_JOINTS];
-        if (n != 1 + AACMM_JOINTS) {
-            emit(c, "error counts needs %d values", AACMM_JOINTS);
+        uint32_t counts[AACMM_JOINTS_MAX] = {0u};
+        if (n != 1 + AACMM_JOINTS && n != 1 + AACMM_JOINTS_MAX) {
+            emit(c, "error counts needs %d or %d values", AACMM_JOINTS, AACMM_JOINTS_MAX);
             return;
         }
-        for (i = 0; i < AACMM_JOINTS; i++) {
+        for (i = 0; i < n - 1; i++) {
             if (parse_u64(w[1 + i], &v) != 0 || v >= c->cpr) {
                 emit(c, "error counts: '%.24s' is not a count below %llu", w[1 + i],
                      (unsigned long long)c->cpr);

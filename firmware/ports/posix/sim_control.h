@@ -42,7 +42,7 @@
 typedef struct {
     int fd;                 /* -1: no control channel */
     uint64_t cpr;           /* counts must be below this */
-    uint32_t counts[AACMM_JOINTS];
+    uint32_t counts[AACMM_JOINTS_MAX]; /* a 7th joint only for 7-joint arm models */
     uint8_t buttons;
     /* input: bytes received, not yet applied */
     char in[2u * SIM_CONTROL_LINE_MAX];

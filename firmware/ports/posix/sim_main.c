@@ -42,7 +42,7 @@ static void usage(FILE *f)
           "                 [--noise-counts N] [--encoder-bits B | --cpr N]\n"
           "                 [--encoder biss|ssi|ssi-gray|counts] [--encoder-faults N]\n"
           "                 [--button-every SECONDS] [--control FD] [--serial-number N]\n"
-          "                 [--quiet]\n"
+          "                 [--param-set FILE] [--quiet]\n"
           "At least one of --serial and --can. See docs/simulator.md.\n",
           f);
 }
@@ -78,6 +78,7 @@ typedef struct {
     const char *can;
     uint64_t node;
     const char *storage;
+    const char *param_set; /* built-in defaults: a parameter set's wire bytes */
     aacmm_sim_motion_t motion;
     const char *replay_path;
     uint64_t seed;
@@ -93,6 +94,37 @@ typedef struct {
     uint64_t encoder_faults;
     int quiet;
 } options_t;
+
+/* Read a parameter set in its wire encoding (docs/protocol.md 2.3) from
+ * path into *set, checked as SET_PARAMS checks it. 0, or -1 with err. */
+static int load_param_set(const char *path, aacmm_param_set_t *set, char *err, size_t err_cap)
+{
+    uint8_t buf[AACMM_PARAM_SET_MAX_BYTES + 1u];
+    size_t n;
+    aacmm_status_t st;
+    aacmm_param_set_t p;
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        snprintf(err, err_cap, "--param-set %s: %s", path, strerror(errno));
+        return -1;
+    }
+    n = fread(buf, 1u, sizeof buf, f);
+    fclose(f);
+    st = n > AACMM_PARAM_SET_MAX_BYTES ? AACMM_ERR_LENGTH : aacmm_param_set_decode(buf, n, &p);
+    if (st == AACMM_OK) {
+        st = aacmm_arm_validate_f64(&p.arm);
+    }
+    if (st == AACMM_OK && (p.err.harmonics != 0u || p.err.thermal != 0u)) {
+        st = AACMM_ERR_UNSUPPORTED;
+    }
+    if (st != AACMM_OK) {
+        snprintf(err, err_cap, "--param-set %s: not a parameter set this device takes (%s)", path,
+                 aacmm_status_str(st));
+        return -1;
+    }
+    *set = p;
+    return 0;
+}
 
 static int parse_args(int argc, char **argv, options_t *o)
 {
@@ -143,6 +175,8 @@ static int parse_args(int argc, char **argv, options_t *o)
             }
         } else if (strcmp(name, "--storage") == 0) {
             o->storage = v;
+        } else if (strcmp(name, "--param-set") == 0) {
+            o->param_set = v;
         } else if (strcmp(name, "--motion") == 0) {
             if (strcmp(v, "sweep") == 0) {
                 o->motion = AACMM_SIM_SWEEP;
@@ -311,7 +345,7 @@ int main(int argc, char **argv)
     if (o.encoder != AACMM_ENC_COUNTS) {
         aacmm_sim_encoders_config_t ec;
         memset(&ec, 0, sizeof ec);
-        for (i = 0; i < AACMM_JOINTS; i++) {
+        for (i = 0; i < AACMM_JOINTS_MAX; i++) {
             ec.joint[i].interface = o.encoder;
             ec.joint[i].bits = aacmm_sim_bits_for_cpr(o.cpr);
         }
@@ -348,12 +382,16 @@ int main(int argc, char **argv)
         return SIM_EXIT_LINK;
     }
 
-    /* The device: its default encoder configuration is the simulated one. */
-    (void)aacmm_params_default_f64(&defaults.kin);
+    /* The device: its defaults are the paper's arm with the simulated
+     * encoders, or the parameter set given. */
+    (void)aacmm_param_set_default(&defaults);
     for (i = 0; i < AACMM_JOINTS; i++) {
         defaults.enc.counts_per_rev[i] = o.cpr;
-        defaults.enc.zero_offset_counts[i] = 0u;
-        defaults.enc.direction[i] = 1;
+    }
+    if (o.param_set != NULL && load_param_set(o.param_set, &defaults, err, sizeof err) != 0) {
+        fprintf(stderr, "aacmm-sim: %s\n", err);
+        posix_close(&port);
+        return SIM_EXIT_USAGE;
     }
     memset(&dc, 0, sizeof dc);
     dc.serial_number = (uint32_t)o.serial_number;
@@ -364,7 +402,7 @@ int main(int argc, char **argv)
     dc.max_catch_up = 1000u; /* a loaded host may deschedule us for a while: up to 1 s at 1 kHz */
     dc.reset_cause = (uint8_t)AACMM_RESET_POWER_ON; /* a process start is a power-up */
     dc.boot_count = 1u;
-    for (i = 0; i < AACMM_JOINTS; i++) {
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
         dc.encoders[i] = port.enc.cfg.joint[i];
     }
     port.t0_us = posix_time_us();

@@ -106,22 +106,48 @@ static uint64_t stream_deadline(const aacmm_device_stream_t *s, uint64_t index)
 /* parameters                                                                */
 /* ------------------------------------------------------------------------ */
 
+/* A joint configuration left zero: the port has no such encoder. */
+static int enc_absent(const aacmm_enc_joint_config_t *c)
+{
+    return c->interface == (uint8_t)AACMM_ENC_COUNTS && c->bits == 0u;
+}
+
 /* Check a parameter set completely: ranges, encoders, encodable, and the
  * backend can build a model from it (into *model). */
-static aacmm_status_t check_set(const aacmm_param_set_t *set, aacmm_device_model_t *model,
-                                uint32_t *crc)
+static aacmm_status_t check_set(const aacmm_device_t *dev, const aacmm_param_set_t *set,
+                                aacmm_device_model_t *model, uint32_t *crc)
 {
-    aacmm_status_t st = aacmm_params_validate_f64(&set->kin);
+    aacmm_status_t st = aacmm_arm_validate_f64(&set->arm);
     if (st == AACMM_OK) {
-        st = aacmm_encoder_validate(&set->enc);
+        st = aacmm_arm_encoders_validate(&set->enc);
+    }
+    if (st == AACMM_OK && set->enc.joints != set->arm.shape.joints) {
+        st = AACMM_ERR_RANGE;
     }
     if (st == AACMM_OK) {
         st = aacmm_param_set_crc32(set, crc);
     }
+    if (st == AACMM_OK && (set->err.harmonics != 0u || set->err.thermal != 0u)) {
+        st = AACMM_ERR_UNSUPPORTED; /* the error model (issue 27): not computed yet */
+    }
+    if (st == AACMM_OK && set->arm.shape.joints > dev->frame_joints) {
+        st = AACMM_ERR_UNSUPPORTED; /* more joints than the port has encoders */
+    }
     if (st == AACMM_OK) {
-        st = aacmm_device_kin_load(model, &set->kin);
+        st = aacmm_device_kin_load(model, &set->arm);
     }
     return st;
+}
+
+/* N and P of the active arm model. */
+static uint8_t active_joints(const aacmm_device_t *dev)
+{
+    return dev->active.arm.shape.joints;
+}
+
+static uint8_t active_params(const aacmm_device_t *dev)
+{
+    return (uint8_t)aacmm_shape_params(&dev->active.arm.shape);
 }
 
 /* Make *set the active set (already checked into model/crc). */
@@ -150,28 +176,38 @@ static void joint_fault(aacmm_device_t *dev, int j, uint8_t kind)
     dev->joints[j].last_fault = kind;
 }
 
-/* Read the six joints into counts[]; returns the AACMM_SAMPLE_JOINT*_FAULT
- * and ENCODER_WARNING bits. A faulty joint's count is 0 (a reading beyond
- * the resolution keeps its raw value) and counted. */
-static uint32_t read_joints(aacmm_device_t *dev, uint32_t counts[AACMM_JOINTS])
+/* Read the joints of the arm model (N) into counts[] (AACMM_JOINTS_MAX
+ * entries; those past N are 0); returns the AACMM_SAMPLE_JOINT*_FAULT and
+ * ENCODER_WARNING bits. A faulty joint's count is 0 (a reading beyond the
+ * resolution keeps its raw value) and counted. */
+static uint32_t read_joints(aacmm_device_t *dev, uint32_t counts[AACMM_JOINTS_MAX])
 {
     uint32_t flags = 0u;
     int i;
+    int n = (int)active_joints(dev);
     aacmm_status_t st;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        counts[i] = 0u;
+    }
     if (dev->pf.read_encoder_frames != NULL) {
         st = dev->pf.read_encoder_frames(dev->pf.ctx, dev->frames);
     } else {
         st = dev->pf.read_encoders(dev->pf.ctx, counts);
     }
     if (st != AACMM_OK) {
-        for (i = 0; i < AACMM_JOINTS; i++) {
+        for (i = 0; i < AACMM_JOINTS_MAX; i++) {
             counts[i] = 0u;
+        }
+        for (i = 0; i < n; i++) {
             joint_fault(dev, i, (uint8_t)AACMM_ENC_FAULT_READ);
             flags |= AACMM_SAMPLE_JOINT_FAULT(i);
         }
         return flags;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
+    for (i = n; i < AACMM_JOINTS_MAX; i++) {
+        counts[i] = 0u; /* joints the arm model does not have */
+    }
+    for (i = 0; i < n; i++) {
         if (dev->pf.read_encoder_frames != NULL) {
             uint8_t warning = 0u;
             uint8_t fault = aacmm_enc_decode(&dev->encoders[i], &dev->frames[i], &counts[i],
@@ -203,6 +239,8 @@ static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
     int i;
     s->timestamp_us = now_us(dev);
     s->content = content;
+    s->joints = active_joints(dev);
+    s->params = active_params(dev);
     joint_flags = read_joints(dev, s->counts);
     s->status = joint_flags;
     if ((joint_flags & AACMM_SAMPLE_JOINT_FAULTS) == 0u) {
@@ -224,7 +262,7 @@ static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
             s->point_100nm[i] = 0;
         }
         if ((content & AACMM_CONTENT_JACOBIAN) != 0u) {
-            for (i = 0; i < AACMM_JAC_SIZE; i++) {
+            for (i = 0; i < AACMM_JAC_SIZE_MAX; i++) {
                 s->jacobian[i] = 0.0f;
             }
         }
@@ -272,6 +310,8 @@ aacmm_status_t aacmm_device_info(const aacmm_device_t *dev, aacmm_msg_info_t *in
     info->max_body_bytes = (uint16_t)AACMM_PROTO_MAX_BODY;
     info->serial_number = dev->serial_number;
     info->can_node_id = dev->can.node_id;
+    info->joints = active_joints(dev);
+    info->params = active_params(dev);
     return AACMM_OK;
 }
 
@@ -303,13 +343,15 @@ aacmm_status_t aacmm_device_diag(const aacmm_device_t *dev, aacmm_msg_diag_t *di
     diag->serial_frames_bad = d->crc_errors + d->cobs_errors + d->runts + d->oversize;
     diag->samples_dropped = dev->counters.samples_dropped;
     diag->samples_late = dev->counters.samples_late;
-    for (i = 0; i < AACMM_JOINTS; i++) {
+    diag->joints = active_joints(dev);
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
         const aacmm_device_joint_t *j = &dev->joints[i];
-        diag->joints[i].interface = j->interface;
-        diag->joints[i].bits = j->bits;
-        diag->joints[i].last_fault = j->last_fault;
-        diag->joints[i].faults = j->faults;
-        diag->joints[i].warnings = j->warnings;
+        int on = i < (int)diag->joints;
+        diag->joint[i].interface = on ? j->interface : 0u;
+        diag->joint[i].bits = on ? j->bits : 0u;
+        diag->joint[i].last_fault = on ? j->last_fault : 0u;
+        diag->joint[i].faults = on ? j->faults : 0u;
+        diag->joint[i].warnings = on ? j->warnings : 0u;
     }
     return AACMM_OK;
 }
@@ -347,6 +389,10 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     aacmm_msg_t *req = &dev->msg_in;
     aacmm_msg_t *rsp = &dev->msg_out;
     aacmm_status_t st = aacmm_msg_decode(body, len, req);
+    dev->reply_version = (uint8_t)(st == AACMM_ERR_VERSION && len > 0u &&
+                                           body[0] == (uint8_t)AACMM_PROTO_VERSION_PREVIOUS
+                                       ? AACMM_PROTO_VERSION_PREVIOUS
+                                       : 0u);
     rsp->seq = req->seq;
     rsp->type = (uint8_t)(req->type | AACMM_MSG_RESPONSE_BIT);
     dev->counters.requests++;
@@ -367,7 +413,7 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     case AACMM_MSG_SET_PARAMS_REQ: {
         aacmm_device_model_t model;
         uint32_t crc = 0u;
-        st = check_set(&req->u.params, &model, &crc);
+        st = check_set(dev, &req->u.params, &model, &crc);
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
             break;
@@ -401,7 +447,7 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     case AACMM_MSG_RESTORE_DEFAULTS_REQ: {
         aacmm_device_model_t model;
         uint32_t crc = 0u;
-        st = check_set(&dev->defaults, &model, &crc); /* checked at init: cannot fail */
+        st = check_set(dev, &dev->defaults, &model, &crc); /* checked at init: cannot fail */
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
             break;
@@ -419,6 +465,10 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
         uint8_t content = req->u.compute_req.content;
         aacmm_device_point_t pt;
         int i;
+        if (req->u.compute_req.joints != active_joints(dev)) {
+            set_error(rsp, AACMM_ERR_RANGE, req->type); /* counts of another arm model */
+            break;
+        }
         st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, req->u.compute_req.counts, 1,
                                       &pt,
                                       (content & AACMM_CONTENT_JACOBIAN) != 0u ? c->jacobian : NULL);
@@ -434,6 +484,7 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
             c->status |= AACMM_SAMPLE_PARAMS_DEFAULT;
         }
         c->content = content;
+        c->params = active_params(dev);
         break;
     }
     case AACMM_MSG_STREAM_START_REQ: {
@@ -470,11 +521,24 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
 /* ------------------------------------------------------------------------ */
 
 /* Frame msg into dev->wire; returns the wire length or 0 on error. */
+/* The version byte of an answer: a request of the previous version gets
+ * its ERR_VERSION answer in that version (ERROR_RSP is laid out alike). */
+static void patch_version(const aacmm_device_t *dev, const aacmm_msg_t *msg, uint8_t *body)
+{
+    if (msg->type == (uint8_t)AACMM_MSG_ERROR_RSP && dev->reply_version != 0u) {
+        body[0] = dev->reply_version;
+    }
+}
+
 static size_t frame_msg(aacmm_device_t *dev, const aacmm_msg_t *msg)
 {
+    size_t body_len = 0u;
     size_t n = 0u;
-    if (aacmm_msg_encode_frame(msg, dev->body, sizeof dev->body, dev->wire, sizeof dev->wire, &n) !=
-        AACMM_OK) {
+    if (aacmm_msg_encode(msg, dev->body, sizeof dev->body, &body_len) != AACMM_OK) {
+        return 0u;
+    }
+    patch_version(dev, msg, dev->body);
+    if (aacmm_frame_encode(dev->body, body_len, dev->wire, sizeof dev->wire, &n) != AACMM_OK) {
         return 0u;
     }
     return n;
@@ -538,8 +602,9 @@ static int serial_stage_next(aacmm_device_t *dev)
         }
         txq_take(s, dev->body, n);
         if (type == (uint8_t)AACMM_MSG_SAMPLE_EVT && s->stale_overrun) {
-            /* status: u32 at sample offset 48, OVERRUN in its low byte */
-            dev->body[AACMM_PROTO_HEADER_BYTES + 48u] |= (uint8_t)AACMM_SAMPLE_OVERRUN;
+            /* status: u32 at sample offset 24 (after seq, timestamp and the
+             * point: docs/protocol.md 2.4), OVERRUN in its low byte */
+            dev->body[AACMM_PROTO_HEADER_BYTES + 24u] |= (uint8_t)AACMM_SAMPLE_OVERRUN;
             s->stale_overrun = 0u;
         }
         if (aacmm_frame_encode(dev->body, n, dev->wire, sizeof dev->wire, &wl) != AACMM_OK) {
@@ -589,9 +654,13 @@ static void serial_send_response(aacmm_device_t *dev, const aacmm_msg_t *msg)
 static int serial_send_droppable(aacmm_device_t *dev, const aacmm_msg_t *msg)
 {
     aacmm_device_serial_t *s = &dev->serial;
-    uint8_t content = msg->type == (uint8_t)AACMM_MSG_TRIGGER_EVT ? msg->u.trigger.sample.content
-                                                                   : msg->u.sample.content;
-    size_t need = AACMM_PROTO_HEADER_BYTES + aacmm_msg_payload_len(msg->type, content);
+    const aacmm_sample_t *smp = msg->type == (uint8_t)AACMM_MSG_TRIGGER_EVT
+                                    ? &msg->u.trigger.sample
+                                    : &msg->u.sample;
+    size_t need = AACMM_PROTO_HEADER_BYTES +
+                  (msg->type == (uint8_t)AACMM_MSG_TRIGGER_EVT ? AACMM_TRIGGER_EXTRA_BYTES : 0u) +
+                  AACMM_SAMPLE_BYTES((size_t)smp->joints, (size_t)smp->params,
+                                     (smp->content & AACMM_CONTENT_JACOBIAN) != 0u);
     size_t n = 0u;
     uint8_t hdr[TXQ_HDR];
     uint32_t t = now_ms32(now_us(dev));
@@ -703,6 +772,7 @@ static void can_send_response(aacmm_device_t *dev, const aacmm_msg_t *msg)
     if (aacmm_msg_encode(msg, c->rsp, sizeof c->rsp, &n) != AACMM_OK) {
         return;
     }
+    patch_version(dev, msg, c->rsp);
     c->rsp_len = n;
     if (msg->type == (uint8_t)AACMM_MSG_ERROR_RSP) {
         dev->counters.error_responses++;
@@ -741,20 +811,22 @@ static void can_receive(aacmm_device_t *dev)
 /* streams and events                                                        */
 /* ------------------------------------------------------------------------ */
 
-/* Queue the six frames of a sample (all or none, keeping room for ISO-TP).
- * Returns 1 if queued. */
+/* Queue the 5 to 7 frames of a sample (all or none, keeping room for
+ * ISO-TP). Returns 1 if queued. */
 static int can_queue_sample(aacmm_device_t *dev, const aacmm_sample_t *sample)
 {
-    aacmm_can_frame_t frames[AACMM_CAN_SAMPLE_FRAMES];
+    aacmm_can_frame_t frames[AACMM_CAN_SAMPLE_FRAMES_MAX];
+    size_t n = 0u;
+    size_t need = AACMM_CAN_SAMPLE_FRAMES((size_t)sample->joints) + CAN_SAMPLE_RESERVE;
     size_t i;
-    if (canq_free(&dev->can) < AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE) {
+    if (canq_free(&dev->can) < need) {
         can_flush(dev);
     }
-    if (canq_free(&dev->can) < AACMM_CAN_SAMPLE_FRAMES + CAN_SAMPLE_RESERVE ||
-        aacmm_can_sample_encode(sample, dev->can.node_id, frames) != AACMM_OK) {
+    if (canq_free(&dev->can) < need ||
+        aacmm_can_sample_encode(sample, dev->can.node_id, frames, &n) != AACMM_OK) {
         return 0;
     }
-    for (i = 0; i < AACMM_CAN_SAMPLE_FRAMES; i++) {
+    for (i = 0; i < n; i++) {
         canq_put(&dev->can, &frames[i]);
     }
     return 1;
@@ -867,10 +939,11 @@ static void button_edge(aacmm_device_t *dev, uint8_t button, uint8_t pressed)
         aacmm_sample_t *smp = &m->u.trigger.sample;
         smp->seq = c->stream.seq;
         smp->content = 0u;
-        if (canq_free(c) < AACMM_CAN_SAMPLE_FRAMES + 1u) {
+        if (canq_free(c) < AACMM_CAN_SAMPLE_FRAMES((size_t)smp->joints) + 1u) {
             can_flush(dev);
         }
-        if (canq_free(c) >= AACMM_CAN_SAMPLE_FRAMES + 1u && can_queue_sample(dev, smp) &&
+        if (canq_free(c) >= AACMM_CAN_SAMPLE_FRAMES((size_t)smp->joints) + 1u &&
+            can_queue_sample(dev, smp) &&
             aacmm_can_trigger_encode(smp->seq, button, pressed, c->node_id, &f) == AACMM_OK) {
             canq_put(c, &f);
             dev->counters.events_sent++;
@@ -925,7 +998,10 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     }
     if (platform->read_encoder_frames != NULL) {
         int j;
-        for (j = 0; j < AACMM_JOINTS; j++) {
+        for (j = 0; j < AACMM_JOINTS_MAX; j++) {
+            if (j == AACMM_JOINTS && enc_absent(&config->encoders[j])) {
+                continue; /* six encoders: 7-joint sets are refused */
+            }
             if (aacmm_enc_config_validate(&config->encoders[j]) != AACMM_OK) {
                 return AACMM_ERR_RANGE;
             }
@@ -960,9 +1036,13 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     dev->fault_pc = config->fault_pc;
     dev->boot_count = config->boot_count;
     dev->watchdog_ms = config->watchdog_ms;
+    dev->frame_joints = (uint8_t)AACMM_JOINTS_MAX;
     if (platform->read_encoder_frames != NULL) {
         int j;
-        for (j = 0; j < AACMM_JOINTS; j++) {
+        if (enc_absent(&config->encoders[AACMM_JOINTS])) {
+            dev->frame_joints = (uint8_t)AACMM_JOINTS;
+        }
+        for (j = 0; j < AACMM_JOINTS_MAX; j++) {
             dev->encoders[j] = config->encoders[j];
             dev->joints[j].interface = config->encoders[j].interface;
             dev->joints[j].bits = config->encoders[j].bits;
@@ -976,10 +1056,9 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     if (config->defaults != NULL) {
         dev->defaults = *config->defaults;
     } else {
-        (void)aacmm_params_default_f64(&dev->defaults.kin);
-        (void)aacmm_encoder_default(&dev->defaults.enc);
+        (void)aacmm_param_set_default(&dev->defaults);
     }
-    st = check_set(&dev->defaults, &model, &crc);
+    st = check_set(dev, &dev->defaults, &model, &crc);
     if (st != AACMM_OK) {
         return st == AACMM_ERR_NULL ? AACMM_ERR_NULL : AACMM_ERR_RANGE;
     }
@@ -999,7 +1078,7 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
         }
         dev->storage_state = state;
         if (st == AACMM_OK) {
-            if (check_set(&stored, &model, &crc) == AACMM_OK) {
+            if (check_set(dev, &stored, &model, &crc) == AACMM_OK) {
                 activate(dev, &stored, &model, crc, (uint8_t)AACMM_PARAM_SOURCE_STORAGE);
                 dev->have_stored = 1u;
                 dev->stored_crc32 = crc;

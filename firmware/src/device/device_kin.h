@@ -21,11 +21,11 @@
 uint32_t aacmm_device_kin_flags(void);
 
 /*
- * Prepare *model from a double-precision parameter set (already range
- * checked by aacmm_params_validate_f64). On error *model is unchanged.
- * Returns AACMM_OK or the core's error. Cost: one model set-up.
+ * Prepare *model from a double-precision arm (already range checked by
+ * aacmm_arm_validate_f64). On error *model is unchanged. Returns AACMM_OK
+ * or the core's error. Cost: one model set-up.
  */
-aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_params_f64_t *params);
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm);
 
 /* A computed point in the forms the device sends. */
 typedef struct {
@@ -35,16 +35,17 @@ typedef struct {
 } aacmm_device_point_t;
 
 /*
- * Point and, if jac is not NULL, the 3x25 Jacobian (float32, as on the wire)
- * for raw readings, with the encoder configuration enc. point_mm is filled
+ * Point and, if jac is not NULL, the 3 x P Jacobian (float32, as on the
+ * wire; P = the model's parameters) for the model's N raw readings, with
+ * the encoders enc (enc->joints = N). point_mm is filled
  * only when want_mm is non-zero (COMPUTE; the fixed-point backend avoids
  * double arithmetic otherwise). Errors: AACMM_ERR_RANGE (a reading >= its
  * counts per revolution) or the core's; *out and jac are not written on
  * error. Cost: one encoder conversion + one point (+ Jacobian) evaluation.
  */
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
-                                        const aacmm_encoder_config_t *enc,
-                                        const uint32_t counts[AACMM_JOINTS], int want_mm,
-                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE]);
+                                        const aacmm_arm_encoders_t *enc,
+                                        const uint32_t *counts, int want_mm,
+                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE_MAX]);
 
 #endif /* AACMM_DEVICE_KIN_H */

@@ -10,36 +10,40 @@ uint32_t aacmm_device_kin_flags(void)
     return 0u; /* floating point, single precision */
 }
 
-aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_params_f64_t *params)
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm)
 {
-    aacmm_params_f32_t p;
+    aacmm_arm_f32_t a;
     int i;
-    if (model == NULL || params == NULL) {
+    if (model == NULL || arm == NULL) {
         return AACMM_ERR_NULL;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        p.theta_offset_rad[i] = (float)params->theta_offset_rad[i];
-        p.alpha_rad[i] = (float)params->alpha_rad[i];
-        p.d_mm[i] = (float)params->d_mm[i];
-        p.a_mm[i] = (float)params->a_mm[i];
+    a.shape = arm->shape;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        a.theta_offset_rad[i] = (float)arm->theta_offset_rad[i];
+        a.alpha_rad[i] = (float)arm->alpha_rad[i];
+        a.d_mm[i] = (float)arm->d_mm[i];
+        a.a_mm[i] = (float)arm->a_mm[i];
+        a.beta_rad[i] = (float)arm->beta_rad[i];
     }
-    p.l_mm = (float)params->l_mm;
-    return aacmm_model_init_f32(model, &p);
+    for (i = 0; i < 3; i++) {
+        a.tip_mm[i] = (float)arm->tip_mm[i];
+    }
+    return aacmm_model_init_arm_f32(model, &a);
 }
 
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
-                                        const aacmm_encoder_config_t *enc,
-                                        const uint32_t counts[AACMM_JOINTS], int want_mm,
-                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE])
+                                        const aacmm_arm_encoders_t *enc,
+                                        const uint32_t *counts, int want_mm,
+                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE_MAX])
 {
-    float theta[AACMM_JOINTS];
+    float theta[AACMM_JOINTS_MAX];
     float p[3];
     aacmm_status_t st;
     int i;
     if (model == NULL || enc == NULL || counts == NULL || out == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_encoder_to_angles_f32(enc, counts, theta);
+    st = aacmm_arm_encoders_to_angles_f32(enc, counts, theta);
     if (st != AACMM_OK) {
         return st;
     }

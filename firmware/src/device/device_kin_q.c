@@ -27,18 +27,18 @@ uint32_t aacmm_device_kin_flags(void)
     return AACMM_BUILD_KIN_FIXED;
 }
 
-aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_params_f64_t *params)
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm)
 {
-    aacmm_params_q_t q;
+    aacmm_arm_q_t q;
     aacmm_status_t st;
-    if (model == NULL || params == NULL) {
+    if (model == NULL || arm == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_params_q_from_f64(&q, params);
+    st = aacmm_arm_q_from_f64(&q, arm);
     if (st != AACMM_OK) {
         return st;
     }
-    return aacmm_model_q_init(model, &q);
+    return aacmm_model_q_init_arm(model, &q);
 }
 
 /* round(v * 10^4 / 2^48), half away from zero, exactly, for |v| < 2^62.
@@ -59,28 +59,28 @@ static int32_t q48_to_100nm(int64_t v)
 }
 
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
-                                        const aacmm_encoder_config_t *enc,
-                                        const uint32_t counts[AACMM_JOINTS], int want_mm,
-                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE])
+                                        const aacmm_arm_encoders_t *enc,
+                                        const uint32_t *counts, int want_mm,
+                                        aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE_MAX])
 {
-    uint32_t bam[AACMM_JOINTS];
+    uint32_t bam[AACMM_JOINTS_MAX];
     int64_t p[3];
     aacmm_status_t st;
     int i;
     if (model == NULL || enc == NULL || counts == NULL || out == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_encoder_to_bam(enc, counts, bam);
+    st = aacmm_arm_encoders_to_bam(enc, counts, bam);
     if (st != AACMM_OK) {
         return st;
     }
     if (jac != NULL) {
-        int64_t jq[AACMM_JAC_SIZE];
+        int64_t jq[AACMM_JAC_SIZE_MAX];
         st = aacmm_point_jacobian_q(model, bam, p, jq);
         if (st != AACMM_OK) {
             return st;
         }
-        for (i = 0; i < AACMM_JAC_SIZE; i++) {
+        for (i = 0; i < 3 * (int)model->n_params; i++) {
             jac[i] = (float)jq[i] * Q48_TO_MM_F;
         }
     } else {

@@ -7,6 +7,7 @@
  */
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "aacmm/crc32.h"
 #include "aacmm/device.h"
@@ -17,9 +18,20 @@
 #define OFF_LEN 6u
 #define OFF_GEN 8u
 #define OFF_PAYLOAD 12u
-#define OFF_CRC (OFF_PAYLOAD + AACMM_PARAM_SET_BYTES)
+#define OFF_CRC(len) (OFF_PAYLOAD + (len)) /* after a payload of len bytes */
 
 #define NO_SLOT 0xFFu
+
+aacmm_status_t aacmm_param_set_default(aacmm_param_set_t *set)
+{
+    if (set == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    memset(set, 0, sizeof *set);
+    (void)aacmm_arm_default_f64(&set->arm);
+    (void)aacmm_arm_encoders_default(&set->enc, AACMM_JOINTS);
+    return AACMM_OK;
+}
 
 static int storage_usable(const aacmm_platform_t *pf)
 {
@@ -40,14 +52,14 @@ static int all_bytes(const uint8_t *rec, uint8_t b)
 }
 
 /* Decode and range-check the payload of a record whose CRC is good. */
-static aacmm_status_t decode_payload(const uint8_t *rec, aacmm_param_set_t *set)
+static aacmm_status_t decode_payload(const uint8_t *rec, size_t len, aacmm_param_set_t *set)
 {
-    aacmm_status_t st = aacmm_param_set_decode(rec + OFF_PAYLOAD, AACMM_PARAM_SET_BYTES, set);
+    aacmm_status_t st = aacmm_param_set_decode(rec + OFF_PAYLOAD, len, set);
     if (st == AACMM_OK) {
-        st = aacmm_params_validate_f64(&set->kin);
+        st = aacmm_arm_validate_f64(&set->arm);
     }
     if (st == AACMM_OK) {
-        st = aacmm_encoder_validate(&set->enc);
+        st = aacmm_arm_encoders_validate(&set->enc);
     }
     return st;
 }
@@ -59,6 +71,7 @@ static aacmm_status_t decode_payload(const uint8_t *rec, aacmm_param_set_t *set)
 static uint8_t classify(const uint8_t *rec, uint32_t *generation, aacmm_param_set_t *set)
 {
     uint16_t version;
+    size_t len;
     *generation = 0u;
     if (all_bytes(rec, 0xFFu) || all_bytes(rec, 0x00u)) {
         return AACMM_SLOT_ERASED;
@@ -74,13 +87,15 @@ static uint8_t classify(const uint8_t *rec, uint32_t *generation, aacmm_param_se
         return AACMM_SLOT_VERSION;
     }
     *generation = aacmm_le_get_u32(rec + OFF_GEN);
-    if (aacmm_le_get_u16(rec + OFF_LEN) != AACMM_PARAM_SET_BYTES) {
-        return AACMM_SLOT_BAD_LENGTH;
+    len = aacmm_le_get_u16(rec + OFF_LEN);
+    if (len < AACMM_PARAM_SET_HEADER_BYTES || len > AACMM_PARAM_SET_MAX_BYTES ||
+        len != aacmm_msg_payload_len((uint8_t)AACMM_MSG_SET_PARAMS_REQ, rec + OFF_PAYLOAD, len)) {
+        return AACMM_SLOT_BAD_LENGTH; /* not the length its set's header defines */
     }
-    if (aacmm_crc32(rec, OFF_CRC) != aacmm_le_get_u32(rec + OFF_CRC)) {
+    if (aacmm_crc32(rec, OFF_CRC(len)) != aacmm_le_get_u32(rec + OFF_CRC(len))) {
         return AACMM_SLOT_BAD_CRC;
     }
-    if (decode_payload(rec, set) != AACMM_OK) {
+    if (decode_payload(rec, len, set) != AACMM_OK) {
         return AACMM_SLOT_BAD_CONTENTS;
     }
     return AACMM_SLOT_OLDER;
@@ -205,12 +220,17 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     uint32_t gen;
     uint32_t crc;
     uint32_t offset;
+    size_t len = 0u;
     aacmm_status_t st;
     if (pf == NULL || set == NULL || record == NULL) {
         return AACMM_ERR_NULL;
     }
     if (!storage_usable(pf)) {
         return AACMM_ERR_UNSUPPORTED;
+    }
+    st = aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_MAX_BYTES, &len);
+    if (st != AACMM_OK) {
+        return st;
     }
     if (scan(pf, record, &tmp, &r)) {
         if (report != NULL) {
@@ -223,14 +243,11 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
 
     aacmm_le_put_u32(record + OFF_MAGIC, AACMM_STORE_MAGIC);
     aacmm_le_put_u16(record + OFF_VERSION, (uint16_t)AACMM_STORE_VERSION);
-    aacmm_le_put_u16(record + OFF_LEN, (uint16_t)AACMM_PARAM_SET_BYTES);
+    aacmm_le_put_u16(record + OFF_LEN, (uint16_t)len);
     aacmm_le_put_u32(record + OFF_GEN, gen);
-    st = aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_BYTES);
-    if (st != AACMM_OK) {
-        return st;
-    }
-    crc = aacmm_crc32(record, OFF_CRC);
-    aacmm_le_put_u32(record + OFF_CRC, crc);
+    (void)aacmm_param_set_encode(set, record + OFF_PAYLOAD, AACMM_PARAM_SET_MAX_BYTES, &len);
+    crc = aacmm_crc32(record, OFF_CRC(len));
+    aacmm_le_put_u32(record + OFF_CRC(len), crc);
 
     offset = (uint32_t)target * AACMM_STORE_SLOT_BYTES;
     /* From here on the target slot is neither its old contents nor the new
@@ -244,7 +261,7 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
         pf->storage_erase(pf->ctx, offset, AACMM_STORE_SLOT_BYTES) != AACMM_OK) {
         return AACMM_ERR_IO;
     }
-    if (pf->storage_write(pf->ctx, offset, record, AACMM_STORE_RECORD_BYTES) != AACMM_OK) {
+    if (pf->storage_write(pf->ctx, offset, record, AACMM_STORE_RECORD_LEN(len)) != AACMM_OK) {
         return AACMM_ERR_IO;
     }
     /* Read back and check. */
@@ -254,7 +271,7 @@ aacmm_status_t aacmm_store_save(const aacmm_platform_t *pf, const aacmm_param_se
     {
         uint32_t g = 0u;
         if (classify(record, &g, &tmp) != AACMM_SLOT_OLDER || g != gen ||
-            aacmm_le_get_u32(record + OFF_CRC) != crc) {
+            aacmm_le_get_u32(record + OFF_CRC(len)) != crc) {
             return AACMM_ERR_STORAGE;
         }
     }

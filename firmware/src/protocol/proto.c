@@ -188,69 +188,283 @@ static void rd_f64_array(rd_t *r, double *v, size_t n)
     }
 }
 
+static void wr_i16(wr_t *w, int16_t v)
+{
+    wr_u16(w, (uint16_t)v);
+}
+
+static int16_t u16_to_i16(uint16_t u)
+{
+    int32_t v = (u >= 0x8000u) ? (int32_t)u - 0x10000 : (int32_t)u;
+    return (int16_t)v;
+}
+
+static int16_t rd_i16(rd_t *r)
+{
+    return u16_to_i16(rd_u16(r));
+}
+
+static unsigned popcount8(unsigned v)
+{
+    unsigned n = 0u;
+    while (v != 0u) {
+        n += v & 1u;
+        v >>= 1;
+    }
+    return n;
+}
+
+/* Size of a parameter set from its raw header bytes (any values). */
+static size_t param_set_len_raw(const uint8_t *h)
+{
+    size_t n = h[0];
+    size_t p = 4u * n + popcount8(h[3]) + h[1];
+    return AACMM_PARAM_SET_BYTES(n, p, (size_t)h[4], (size_t)h[5]);
+}
+
+/* The header rule: N 4..7, tip 1 or 3, convention and beta bits only for
+ * joints 1..N (no beta on joint 1), K <= 4, thermal 0/1, reserved 0. */
+static int param_header_ok(const uint8_t *h)
+{
+    unsigned n = h[0];
+    unsigned mask;
+    if (n < (unsigned)AACMM_JOINTS_MIN || n > (unsigned)AACMM_JOINTS_MAX) {
+        return 0;
+    }
+    mask = (1u << n) - 1u;
+    return (h[1] == (uint8_t)AACMM_TIP_Z || h[1] == (uint8_t)AACMM_TIP_XYZ) &&
+           (h[2] & ~mask) == 0u && (h[3] & ~(mask & ~1u)) == 0u &&
+           h[4] <= (uint8_t)AACMM_HARMONICS_MAX && h[5] <= 1u && h[6] == 0u && h[7] == 0u;
+}
+
+/* The header bytes of *p, or 0 if its shape, encoders or error model
+ * cannot be carried (then *err says why). */
+/* Not +0.0 (bit for bit: -0.0 is a value the layout would lose too). */
+static int nz(double v)
+{
+    return f64_bits(v) != 0u;
+}
+
+static aacmm_status_t param_header(const aacmm_param_set_t *p, uint8_t h[8])
+{
+    const aacmm_shape_t *sh = &p->arm.shape;
+    size_t i;
+    size_t n;
+    size_t k;
+    unsigned conv = 0u;
+    unsigned beta = 0u;
+    if (aacmm_shape_validate(sh) != AACMM_OK || p->enc.joints != sh->joints ||
+        p->err.harmonics > (uint8_t)AACMM_HARMONICS_MAX || p->err.thermal > 1u) {
+        return AACMM_ERR_RANGE;
+    }
+    n = sh->joints;
+    for (i = 0; i < n; i++) {
+        conv |= (unsigned)(sh->convention[i] != 0u) << i;
+        beta |= (unsigned)(sh->beta[i] != 0u) << i;
+    }
+    /* Everything the layout does not carry must be 0 (canonical encoding);
+     * encoder entries past N are ignored (aacmm_arm_encoders_t). */
+    for (i = 0; i < (size_t)AACMM_JOINTS_MAX; i++) {
+        if (i >= n && (nz(p->arm.theta_offset_rad[i]) || nz(p->arm.alpha_rad[i]) ||
+                       nz(p->arm.d_mm[i]) || nz(p->arm.a_mm[i]) || p->err.cte[i] != 0)) {
+            return AACMM_ERR_RANGE;
+        }
+        if ((i >= n || sh->beta[i] == 0u) && nz(p->arm.beta_rad[i])) {
+            return AACMM_ERR_RANGE;
+        }
+        if (p->err.thermal == 0u && p->err.cte[i] != 0) {
+            return AACMM_ERR_RANGE;
+        }
+        for (k = 0; k < (size_t)AACMM_HARMONICS_MAX; k++) {
+            if ((i >= n || k >= p->err.harmonics) &&
+                (p->err.harm_cos[i][k] != 0 || p->err.harm_sin[i][k] != 0)) {
+                return AACMM_ERR_RANGE;
+            }
+        }
+    }
+    if (p->err.thermal == 0u && p->err.ref_temp != 0) {
+        return AACMM_ERR_RANGE;
+    }
+    if (sh->tip == (uint8_t)AACMM_TIP_Z && (nz(p->arm.tip_mm[0]) || nz(p->arm.tip_mm[1]))) {
+        return AACMM_ERR_RANGE;
+    }
+    h[0] = sh->joints;
+    h[1] = sh->tip;
+    h[2] = (uint8_t)conv;
+    h[3] = (uint8_t)beta;
+    h[4] = p->err.harmonics;
+    h[5] = p->err.thermal;
+    h[6] = 0u;
+    h[7] = 0u;
+    return AACMM_OK;
+}
+
+static aacmm_status_t enc_check(const aacmm_arm_encoders_t *e)
+{
+    return aacmm_arm_encoders_validate(e);
+}
+
 static void wr_params(wr_t *w, const aacmm_param_set_t *p)
 {
+    uint8_t h[8];
     size_t i;
-    aacmm_status_t st;
-    wr_f64_array(w, p->kin.theta_offset_rad, AACMM_JOINTS);
-    wr_f64_array(w, p->kin.alpha_rad, AACMM_JOINTS);
-    wr_f64_array(w, p->kin.d_mm, AACMM_JOINTS);
-    wr_f64_array(w, p->kin.a_mm, AACMM_JOINTS);
-    wr_f64(w, p->kin.l_mm);
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        wr_u64(w, p->enc.counts_per_rev[i]);
-    }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        wr_u32(w, p->enc.zero_offset_counts[i]);
-    }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        wr_u8(w, (uint8_t)p->enc.direction[i]);
-    }
-    st = aacmm_encoder_validate(&p->enc);
+    size_t k;
+    size_t n;
+    aacmm_status_t st = param_header(p, h);
     if (st != AACMM_OK) {
         wr_fail(w, st);
+        return;
+    }
+    n = h[0];
+    for (i = 0; i < 8u; i++) {
+        wr_u8(w, h[i]);
+    }
+    wr_f64_array(w, p->arm.theta_offset_rad, n);
+    wr_f64_array(w, p->arm.alpha_rad, n);
+    wr_f64_array(w, p->arm.d_mm, n);
+    wr_f64_array(w, p->arm.a_mm, n);
+    for (i = 0; i < n; i++) {
+        if (p->arm.shape.beta[i] != 0u) {
+            wr_f64(w, p->arm.beta_rad[i]);
+        }
+    }
+    if (p->arm.shape.tip == (uint8_t)AACMM_TIP_XYZ) {
+        wr_f64_array(w, p->arm.tip_mm, 3u);
+    } else {
+        wr_f64(w, p->arm.tip_mm[2]);
+    }
+    st = enc_check(&p->enc);
+    if (st != AACMM_OK) {
+        wr_fail(w, st);
+        return;
+    }
+    for (i = 0; i < n; i++) {
+        wr_u32(w, (uint32_t)(p->enc.counts_per_rev[i] - 1u));
+    }
+    for (i = 0; i < n; i++) {
+        wr_u32(w, p->enc.zero_offset_counts[i]);
+    }
+    for (i = 0; i < n; i++) {
+        wr_u8(w, (uint8_t)p->enc.direction[i]);
+    }
+    for (i = 0; i < n; i++) {
+        for (k = 0; k < p->err.harmonics; k++) {
+            wr_i16(w, p->err.harm_cos[i][k]);
+            wr_i16(w, p->err.harm_sin[i][k]);
+        }
+    }
+    if (p->err.thermal != 0u) {
+        for (i = 0; i < n; i++) {
+            wr_i16(w, p->err.cte[i]);
+        }
+        wr_i16(w, p->err.ref_temp);
     }
 }
 
+/* Decode a parameter set from r->buf[r->pos ..], which must hold exactly
+ * its bytes up to r->len. */
 static void rd_params(rd_t *r, aacmm_param_set_t *p)
 {
+    const uint8_t *h = r->buf + r->pos;
     size_t i;
+    size_t k;
+    size_t n;
     aacmm_status_t st;
-    rd_f64_array(r, p->kin.theta_offset_rad, AACMM_JOINTS);
-    rd_f64_array(r, p->kin.alpha_rad, AACMM_JOINTS);
-    rd_f64_array(r, p->kin.d_mm, AACMM_JOINTS);
-    rd_f64_array(r, p->kin.a_mm, AACMM_JOINTS);
-    p->kin.l_mm = rd_f64(r);
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        p->enc.counts_per_rev[i] = rd_u64(r);
+    memset(p, 0, sizeof *p);
+    if (r->len - r->pos < AACMM_PARAM_SET_HEADER_BYTES ||
+        r->len - r->pos != param_set_len_raw(h)) {
+        rd_fail(r, AACMM_ERR_LENGTH);
+        return;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
+    if (!param_header_ok(h)) {
+        rd_fail(r, AACMM_ERR_RANGE);
+        return;
+    }
+    n = h[0];
+    p->arm.shape.joints = h[0];
+    p->arm.shape.tip = h[1];
+    for (i = 0; i < n; i++) {
+        p->arm.shape.convention[i] = (uint8_t)((h[2] >> i) & 1u);
+        p->arm.shape.beta[i] = (uint8_t)((h[3] >> i) & 1u);
+    }
+    p->err.harmonics = h[4];
+    p->err.thermal = h[5];
+    r->pos += AACMM_PARAM_SET_HEADER_BYTES;
+    rd_f64_array(r, p->arm.theta_offset_rad, n);
+    rd_f64_array(r, p->arm.alpha_rad, n);
+    rd_f64_array(r, p->arm.d_mm, n);
+    rd_f64_array(r, p->arm.a_mm, n);
+    for (i = 0; i < n; i++) {
+        if (p->arm.shape.beta[i] != 0u) {
+            p->arm.beta_rad[i] = rd_f64(r);
+        }
+    }
+    if (p->arm.shape.tip == (uint8_t)AACMM_TIP_XYZ) {
+        rd_f64_array(r, p->arm.tip_mm, 3u);
+    } else {
+        p->arm.tip_mm[2] = rd_f64(r);
+    }
+    p->enc.joints = (uint8_t)n;
+    for (i = 0; i < n; i++) {
+        p->enc.counts_per_rev[i] = (uint64_t)rd_u32(r) + 1u;
+    }
+    for (i = 0; i < n; i++) {
         p->enc.zero_offset_counts[i] = rd_u32(r);
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
+    for (i = 0; i < n; i++) {
         uint8_t b = rd_u8(r);
         p->enc.direction[i] = (b == 0xFFu) ? (int8_t)-1 : (b == 1u ? (int8_t)1 : (int8_t)0);
     }
-    st = aacmm_encoder_validate(&p->enc);
+    for (i = 0; i < n; i++) {
+        for (k = 0; k < p->err.harmonics; k++) {
+            p->err.harm_cos[i][k] = rd_i16(r);
+            p->err.harm_sin[i][k] = rd_i16(r);
+        }
+    }
+    if (p->err.thermal != 0u) {
+        for (i = 0; i < n; i++) {
+            p->err.cte[i] = rd_i16(r);
+        }
+        p->err.ref_temp = rd_i16(r);
+    }
+    if (r->err != AACMM_OK) {
+        return;
+    }
+    st = enc_check(&p->enc);
     if (st != AACMM_OK) {
         rd_fail(r, st);
     }
 }
 
-static void wr_jacobian(wr_t *w, const float *jac)
+static void wr_jacobian(wr_t *w, const float *jac, size_t p)
 {
     size_t i;
-    for (i = 0; i < AACMM_JAC_SIZE; i++) {
+    for (i = 0; i < 3u * p; i++) {
         wr_f32(w, jac[i]);
     }
 }
 
-static void rd_jacobian(rd_t *r, float *jac)
+static void rd_jacobian(rd_t *r, float *jac, size_t p)
 {
     size_t i;
-    for (i = 0; i < AACMM_JAC_SIZE; i++) {
+    for (i = 0; i < 3u * p; i++) {
         jac[i] = rd_f32(r);
     }
+    for (; i < (size_t)AACMM_JAC_SIZE_MAX; i++) {
+        jac[i] = 0.0f;
+    }
+}
+
+/* N in 4..7 and P a parameter count some N-joint shape has: 4N+1 .. 5N+2. */
+static int joints_params_ok(unsigned n, unsigned p)
+{
+    return n >= (unsigned)AACMM_JOINTS_MIN && n <= (unsigned)AACMM_JOINTS_MAX &&
+           p >= 4u * n + 1u && p <= 5u * n + 2u;
+}
+
+static int joints_ok(unsigned n)
+{
+    return n >= (unsigned)AACMM_JOINTS_MIN && n <= (unsigned)AACMM_JOINTS_MAX;
 }
 
 static void wr_content(wr_t *w, uint8_t content)
@@ -273,18 +487,24 @@ static uint8_t rd_content(rd_t *r)
 static void wr_sample(wr_t *w, const aacmm_sample_t *s)
 {
     size_t i;
+    if (!joints_params_ok(s->joints, s->params)) {
+        wr_fail(w, AACMM_ERR_RANGE);
+        return;
+    }
     wr_u32(w, s->seq);
     wr_u64(w, s->timestamp_us);
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        wr_u32(w, s->counts[i]);
-    }
     for (i = 0; i < 3u; i++) {
         wr_u32(w, (uint32_t)s->point_100nm[i]);
     }
     wr_u32(w, s->status);
     wr_content(w, s->content);
+    wr_u8(w, s->joints);
+    wr_u8(w, s->params);
+    for (i = 0; i < s->joints; i++) {
+        wr_u32(w, s->counts[i]);
+    }
     if ((s->content & AACMM_CONTENT_JACOBIAN) != 0u) {
-        wr_jacobian(w, s->jacobian);
+        wr_jacobian(w, s->jacobian, s->params);
     }
 }
 
@@ -302,16 +522,23 @@ static void rd_sample(rd_t *r, aacmm_sample_t *s)
     size_t i;
     s->seq = rd_u32(r);
     s->timestamp_us = rd_u64(r);
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        s->counts[i] = rd_u32(r);
-    }
     for (i = 0; i < 3u; i++) {
         s->point_100nm[i] = u32_to_i32(rd_u32(r));
     }
     s->status = rd_u32(r);
     s->content = rd_content(r);
+    s->joints = rd_u8(r);
+    s->params = rd_u8(r);
+    if (r->err == AACMM_OK && !joints_params_ok(s->joints, s->params)) {
+        rd_fail(r, AACMM_ERR_RANGE);
+        return;
+    }
+    memset(s->counts, 0, sizeof s->counts);
+    for (i = 0; i < s->joints && r->err == AACMM_OK; i++) {
+        s->counts[i] = rd_u32(r);
+    }
     if ((s->content & AACMM_CONTENT_JACOBIAN) != 0u) {
-        rd_jacobian(r, s->jacobian);
+        rd_jacobian(r, s->jacobian, s->params);
     } else {
         memset(s->jacobian, 0, sizeof s->jacobian);
     }
@@ -323,11 +550,11 @@ static int diag_in_range(const aacmm_msg_diag_t *d)
     if (d->storage_kind > AACMM_STORAGE_KIND_MAX ||
         (d->storage_flags & (uint8_t)~AACMM_STORAGE_FLAGS_KNOWN) != 0u ||
         d->slot_state[0] > AACMM_SLOT_STATE_MAX || d->slot_state[1] > AACMM_SLOT_STATE_MAX ||
-        d->reset_cause > AACMM_RESET_CAUSE_MAX) {
+        d->reset_cause > AACMM_RESET_CAUSE_MAX || !joints_ok(d->joints)) {
         return 0;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        const aacmm_diag_joint_t *j = &d->joints[i];
+    for (i = 0; i < d->joints; i++) {
+        const aacmm_diag_joint_t *j = &d->joint[i];
         if (j->interface > AACMM_ENC_INTERFACE_MAX || j->bits > 32u ||
             j->last_fault > AACMM_ENC_FAULT_MAX) {
             return 0;
@@ -341,6 +568,7 @@ static void wr_diag(wr_t *w, const aacmm_msg_diag_t *d)
     size_t i;
     if (!diag_in_range(d)) {
         wr_fail(w, AACMM_ERR_RANGE);
+        return;
     }
     wr_u8(w, d->storage_kind);
     wr_u8(w, d->storage_flags);
@@ -360,8 +588,9 @@ static void wr_diag(wr_t *w, const aacmm_msg_diag_t *d)
     wr_u32(w, d->serial_frames_bad);
     wr_u32(w, d->samples_dropped);
     wr_u32(w, d->samples_late);
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        const aacmm_diag_joint_t *j = &d->joints[i];
+    wr_u8(w, d->joints);
+    for (i = 0; i < d->joints; i++) {
+        const aacmm_diag_joint_t *j = &d->joint[i];
         wr_u8(w, j->interface);
         wr_u8(w, j->bits);
         wr_u8(w, j->last_fault);
@@ -391,8 +620,10 @@ static void rd_diag(rd_t *r, aacmm_msg_diag_t *d)
     d->serial_frames_bad = rd_u32(r);
     d->samples_dropped = rd_u32(r);
     d->samples_late = rd_u32(r);
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        aacmm_diag_joint_t *j = &d->joints[i];
+    d->joints = rd_u8(r);
+    memset(d->joint, 0, sizeof d->joint);
+    for (i = 0; i < d->joints && i < (size_t)AACMM_JOINTS_MAX; i++) {
+        aacmm_diag_joint_t *j = &d->joint[i];
         j->interface = rd_u8(r);
         j->bits = rd_u8(r);
         j->last_fault = rd_u8(r);
@@ -440,9 +671,20 @@ int aacmm_msg_type_known(uint8_t type)
     }
 }
 
-size_t aacmm_msg_payload_len(uint8_t type, uint8_t content)
+/* Length of a sample from its raw bytes at s (n bytes available). */
+static size_t sample_len_raw(const uint8_t *s, size_t n)
 {
-    size_t jac = ((content & AACMM_CONTENT_JACOBIAN) != 0u) ? AACMM_JACOBIAN_BYTES : 0u;
+    if (n < AACMM_SAMPLE_BASE_BYTES) {
+        return AACMM_SAMPLE_BASE_BYTES;
+    }
+    return AACMM_SAMPLE_BYTES((size_t)s[29], (size_t)s[30], (s[28] & AACMM_CONTENT_JACOBIAN) != 0u);
+}
+
+size_t aacmm_msg_payload_len(uint8_t type, const uint8_t *payload, size_t len)
+{
+    if (payload == NULL) {
+        len = 0u;
+    }
     switch (type) {
     case AACMM_MSG_PING_REQ:
     case AACMM_MSG_PING_RSP:
@@ -454,24 +696,33 @@ size_t aacmm_msg_payload_len(uint8_t type, uint8_t content)
         return AACMM_INFO_BYTES;
     case AACMM_MSG_SET_PARAMS_REQ:
     case AACMM_MSG_GET_PARAMS_RSP:
-        return AACMM_PARAM_SET_BYTES;
+        return len < AACMM_PARAM_SET_HEADER_BYTES ? AACMM_PARAM_SET_HEADER_BYTES
+                                                  : param_set_len_raw(payload);
     case AACMM_MSG_MEASURE_REQ:
         return 1u;
     case AACMM_MSG_COMPUTE_REQ:
-        return 1u + 4u * AACMM_JOINTS;
+        return len < 2u ? 2u : AACMM_COMPUTE_REQ_BYTES((size_t)payload[1]);
     case AACMM_MSG_STREAM_START_REQ:
     case AACMM_MSG_STREAM_START_RSP:
     case AACMM_MSG_ERROR_RSP:
         return 3u;
     case AACMM_MSG_MEASURE_RSP:
     case AACMM_MSG_SAMPLE_EVT:
-        return AACMM_SAMPLE_BASE_BYTES + jac;
+        return sample_len_raw(payload, len);
     case AACMM_MSG_TRIGGER_EVT:
-        return AACMM_TRIGGER_EXTRA_BYTES + AACMM_SAMPLE_BASE_BYTES + jac;
+        if (len < AACMM_TRIGGER_EXTRA_BYTES) {
+            return AACMM_TRIGGER_EXTRA_BYTES + AACMM_SAMPLE_BASE_BYTES;
+        }
+        return AACMM_TRIGGER_EXTRA_BYTES +
+               sample_len_raw(payload + AACMM_TRIGGER_EXTRA_BYTES, len - AACMM_TRIGGER_EXTRA_BYTES);
     case AACMM_MSG_COMPUTE_RSP:
-        return AACMM_COMPUTE_RSP_BASE_BYTES + jac;
+        return len < AACMM_COMPUTE_RSP_BASE_BYTES
+                   ? AACMM_COMPUTE_RSP_BASE_BYTES
+                   : AACMM_COMPUTE_RSP_BYTES((size_t)payload[29],
+                                             (payload[28] & AACMM_CONTENT_JACOBIAN) != 0u);
     case AACMM_MSG_DIAG_RSP:
-        return AACMM_DIAG_BYTES;
+        return len < AACMM_DIAG_BASE_BYTES ? AACMM_DIAG_BASE_BYTES
+                                           : AACMM_DIAG_BYTES((size_t)payload[59]);
     default:
         return 0u;
     }
@@ -506,7 +757,8 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
     case AACMM_MSG_INFO_RSP: {
         const aacmm_msg_info_t *in = &msg->u.info;
         if (in->param_source > AACMM_PARAM_SOURCE_MAX ||
-            in->storage_state > AACMM_STORAGE_STATE_MAX || in->can_node_id > 15u) {
+            in->storage_state > AACMM_STORAGE_STATE_MAX || in->can_node_id > 15u ||
+            !joints_params_ok(in->joints, in->params)) {
             wr_fail(&w, AACMM_ERR_RANGE);
         }
         wr_u16(&w, in->protocol_version);
@@ -520,6 +772,8 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         wr_u16(&w, in->max_body_bytes);
         wr_u32(&w, in->serial_number);
         wr_u8(&w, in->can_node_id);
+        wr_u8(&w, in->joints);
+        wr_u8(&w, in->params);
         break;
     }
     case AACMM_MSG_SET_PARAMS_REQ:
@@ -535,8 +789,13 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         wr_content(&w, msg->u.measure.content);
         break;
     case AACMM_MSG_COMPUTE_REQ:
+        if (!joints_ok(msg->u.compute_req.joints)) {
+            wr_fail(&w, AACMM_ERR_RANGE);
+            break;
+        }
         wr_content(&w, msg->u.compute_req.content);
-        for (i = 0; i < AACMM_JOINTS; i++) {
+        wr_u8(&w, msg->u.compute_req.joints);
+        for (i = 0; i < msg->u.compute_req.joints; i++) {
             wr_u32(&w, msg->u.compute_req.counts[i]);
         }
         break;
@@ -567,9 +826,15 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         for (i = 0; i < 3u; i++) {
             wr_f64(&w, c->point_mm[i]);
         }
+        if (c->params < 4u * (unsigned)AACMM_JOINTS_MIN + 1u ||
+            c->params > (unsigned)AACMM_PARAMS_MAX) {
+            wr_fail(&w, AACMM_ERR_RANGE);
+            break;
+        }
         wr_content(&w, c->content);
+        wr_u8(&w, c->params);
         if ((c->content & AACMM_CONTENT_JACOBIAN) != 0u) {
-            wr_jacobian(&w, c->jacobian);
+            wr_jacobian(&w, c->jacobian, c->params);
         }
         break;
     }
@@ -590,7 +855,7 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         return w.err;
     }
     if (w.pos > AACMM_PROTO_MAX_BODY) {
-        return AACMM_ERR_LENGTH; /* cannot happen with version 1 layouts */
+        return AACMM_ERR_LENGTH; /* cannot happen with version 2 layouts */
     }
     *out_len = w.pos;
     return AACMM_OK;
@@ -600,7 +865,6 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
 {
     rd_t r;
     size_t i;
-    uint8_t content = 0u;
     if (body == NULL || msg == NULL) {
         return AACMM_ERR_NULL;
     }
@@ -611,29 +875,19 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
     }
     msg->type = body[1];
     msg->seq = body[2];
+    if (len > AACMM_PROTO_MAX_BODY) {
+        return AACMM_ERR_LENGTH;
+    }
     if (body[0] != AACMM_PROTO_VERSION) {
         return AACMM_ERR_VERSION;
     }
     if (!aacmm_msg_type_known(msg->type)) {
         return AACMM_ERR_UNKNOWN_TYPE;
     }
-    /* The content byte (when the type has one) fixes the payload length. */
-    if (msg->type == AACMM_MSG_MEASURE_RSP || msg->type == AACMM_MSG_SAMPLE_EVT) {
-        if (len > AACMM_PROTO_HEADER_BYTES + AACMM_SAMPLE_BASE_BYTES - 1u) {
-            content = body[AACMM_PROTO_HEADER_BYTES + AACMM_SAMPLE_BASE_BYTES - 1u];
-        }
-    } else if (msg->type == AACMM_MSG_TRIGGER_EVT) {
-        if (len > AACMM_PROTO_HEADER_BYTES + AACMM_TRIGGER_EXTRA_BYTES +
-                      AACMM_SAMPLE_BASE_BYTES - 1u) {
-            content = body[AACMM_PROTO_HEADER_BYTES + AACMM_TRIGGER_EXTRA_BYTES +
-                           AACMM_SAMPLE_BASE_BYTES - 1u];
-        }
-    } else if (msg->type == AACMM_MSG_COMPUTE_RSP) {
-        if (len > AACMM_PROTO_HEADER_BYTES + AACMM_COMPUTE_RSP_BASE_BYTES - 1u) {
-            content = body[AACMM_PROTO_HEADER_BYTES + AACMM_COMPUTE_RSP_BASE_BYTES - 1u];
-        }
-    }
-    if (len - AACMM_PROTO_HEADER_BYTES != aacmm_msg_payload_len(msg->type, content)) {
+    /* The payload's own bytes (content, N, P, ...) fix its length. */
+    if (len - AACMM_PROTO_HEADER_BYTES !=
+            aacmm_msg_payload_len(msg->type, body + AACMM_PROTO_HEADER_BYTES,
+                                  len - AACMM_PROTO_HEADER_BYTES)) {
         return AACMM_ERR_LENGTH;
     }
 
@@ -659,8 +913,11 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
         in->max_body_bytes = rd_u16(&r);
         in->serial_number = rd_u32(&r);
         in->can_node_id = rd_u8(&r);
+        in->joints = rd_u8(&r);
+        in->params = rd_u8(&r);
         if (in->param_source > AACMM_PARAM_SOURCE_MAX ||
-            in->storage_state > AACMM_STORAGE_STATE_MAX || in->can_node_id > 15u) {
+            in->storage_state > AACMM_STORAGE_STATE_MAX || in->can_node_id > 15u ||
+            !joints_params_ok(in->joints, in->params)) {
             rd_fail(&r, AACMM_ERR_RANGE);
         }
         break;
@@ -679,7 +936,13 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
         break;
     case AACMM_MSG_COMPUTE_REQ:
         msg->u.compute_req.content = rd_content(&r);
-        for (i = 0; i < AACMM_JOINTS; i++) {
+        msg->u.compute_req.joints = rd_u8(&r);
+        memset(msg->u.compute_req.counts, 0, sizeof msg->u.compute_req.counts);
+        if (r.err == AACMM_OK && !joints_ok(msg->u.compute_req.joints)) {
+            rd_fail(&r, AACMM_ERR_RANGE);
+            break;
+        }
+        for (i = 0; i < msg->u.compute_req.joints; i++) {
             msg->u.compute_req.counts[i] = rd_u32(&r);
         }
         break;
@@ -711,8 +974,14 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
             c->point_mm[i] = rd_f64(&r);
         }
         c->content = rd_content(&r);
+        c->params = rd_u8(&r);
+        if (r.err == AACMM_OK && (c->params < 4u * (unsigned)AACMM_JOINTS_MIN + 1u ||
+                                  c->params > (unsigned)AACMM_PARAMS_MAX)) {
+            rd_fail(&r, AACMM_ERR_RANGE);
+            break;
+        }
         if ((c->content & AACMM_CONTENT_JACOBIAN) != 0u) {
-            rd_jacobian(&r, c->jacobian);
+            rd_jacobian(&r, c->jacobian, c->params);
         } else {
             memset(c->jacobian, 0, sizeof c->jacobian);
         }
@@ -802,21 +1071,23 @@ aacmm_status_t aacmm_msg_encode_frame(const aacmm_msg_t *msg, uint8_t *scratch,
     return aacmm_frame_encode(scratch, body_len, out, out_cap, out_len);
 }
 
-aacmm_status_t aacmm_param_set_encode(const aacmm_param_set_t *set, uint8_t *out, size_t out_cap)
+aacmm_status_t aacmm_param_set_encode(const aacmm_param_set_t *set, uint8_t *out, size_t out_cap,
+                                      size_t *out_len)
 {
     wr_t w;
-    if (set == NULL || out == NULL) {
+    if (set == NULL || out == NULL || out_len == NULL) {
         return AACMM_ERR_NULL;
     }
-    if (out_cap < AACMM_PARAM_SET_BYTES) {
-        return AACMM_ERR_BUFFER;
-    }
+    *out_len = 0u;
     w.buf = out;
     w.cap = out_cap;
     w.pos = 0u;
     w.err = AACMM_OK;
     w.crc = 0u;
     wr_params(&w, set);
+    if (w.err == AACMM_OK) {
+        *out_len = w.pos;
+    }
     return w.err;
 }
 
@@ -825,9 +1096,6 @@ aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param
     rd_t r;
     if (in == NULL || set == NULL) {
         return AACMM_ERR_NULL;
-    }
-    if (len != AACMM_PARAM_SET_BYTES) {
-        return AACMM_ERR_LENGTH;
     }
     r.buf = in;
     r.len = len;
@@ -839,7 +1107,7 @@ aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param
 
 aacmm_status_t aacmm_param_set_crc32(const aacmm_param_set_t *set, uint32_t *crc32)
 {
-    wr_t w; /* CRC-only writer: no 278-byte buffer on the stack */
+    wr_t w; /* CRC-only writer: no parameter-set buffer on the stack */
     if (crc32 == NULL || set == NULL) {
         return AACMM_ERR_NULL;
     }

@@ -88,11 +88,13 @@ aacmm_status_t aacmm_sim_angles(const aacmm_sim_t *sim, uint64_t t_us,
                                 float theta_rad[AACMM_JOINTS]);
 
 /*
- * One encoder reading at time t_us: counts[i] < cpr (REPLAY: the next pose).
- * Advances the noise generator and the replay position. AACMM_ERR_NULL or
+ * One encoder reading at time t_us: counts[i] < cpr (REPLAY: the next pose)
+ * for joints 1..6 and a seventh (for 7-joint arm models: 0.7 rad, or a
+ * noise-free sweep of +-2.5 rad in 11 s with SWEEP and WALK). Advances the
+ * noise generator and the replay position. AACMM_ERR_NULL or
  * AACMM_OK. Cost: as aacmm_sim_angles plus 6 conversions.
  */
-aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[AACMM_JOINTS]);
+aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[AACMM_JOINTS_MAX]);
 
 /*
  * Convert one angle in rad (|theta| <= 1024) to a reading at resolution cpr
@@ -137,7 +139,7 @@ typedef enum {
 } aacmm_sim_enc_fault_t;
 
 typedef struct {
-    aacmm_enc_joint_config_t joint[AACMM_JOINTS]; /* every joint a frame interface */
+    aacmm_enc_joint_config_t joint[AACMM_JOINTS_MAX]; /* every joint a frame interface */
     uint32_t fault_every; /* corrupt one frame in fault_every (counted over all joints); 0 = never */
     uint32_t seed;        /* which bit flips, Ack lengths */
 } aacmm_sim_encoders_config_t;
@@ -155,12 +157,15 @@ typedef struct {
 aacmm_status_t aacmm_sim_encoders_init(aacmm_sim_encoders_t *enc,
                                        const aacmm_sim_encoders_config_t *cfg);
 
-/* The six frames for the six positions (each < 2^bits of its joint, else
- * AACMM_ERR_RANGE and no frames), with the configured corruption.
+/* The seven frames for the seven positions (each < 2^bits of its joint,
+ * else AACMM_ERR_RANGE and no frames), with the configured corruption on
+ * joints 1..6 (the seventh, for 7-joint arm models, is never corrupted; a
+ * seventh joint left zero in the configuration has no encoder: its frame is
+ * empty).
  * AACMM_ERR_NULL, AACMM_ERR_RANGE or AACMM_OK. Cost: O(total clocks). */
 aacmm_status_t aacmm_sim_encoders_frames(aacmm_sim_encoders_t *enc,
-                                         const uint32_t counts[AACMM_JOINTS],
-                                         aacmm_enc_frame_t frames[AACMM_JOINTS]);
+                                         const uint32_t counts[AACMM_JOINTS_MAX],
+                                         aacmm_enc_frame_t frames[AACMM_JOINTS_MAX]);
 
 /* One frame of *cfg carrying position (masked to cfg->bits), with fault
  * inject (aacmm_sim_enc_fault_t); variant picks the Ack length (BiSS) and

@@ -205,7 +205,11 @@ aacmm_status_t aacmm_sim_encoders_init(aacmm_sim_encoders_t *enc,
     if (enc == NULL || cfg == NULL) {
         return AACMM_ERR_NULL;
     }
-    for (j = 0; j < AACMM_JOINTS; j++) {
+    for (j = 0; j < AACMM_JOINTS_MAX; j++) {
+        if (j == AACMM_JOINTS && cfg->joint[j].interface == (uint8_t)AACMM_ENC_COUNTS &&
+            cfg->joint[j].bits == 0u) {
+            continue; /* no seventh encoder */
+        }
         if (aacmm_enc_config_validate(&cfg->joint[j]) != AACMM_OK) {
             return AACMM_ERR_RANGE;
         }
@@ -224,15 +228,18 @@ aacmm_status_t aacmm_sim_encoders_init(aacmm_sim_encoders_t *enc,
 }
 
 aacmm_status_t aacmm_sim_encoders_frames(aacmm_sim_encoders_t *enc,
-                                         const uint32_t counts[AACMM_JOINTS],
-                                         aacmm_enc_frame_t frames[AACMM_JOINTS])
+                                         const uint32_t counts[AACMM_JOINTS_MAX],
+                                         aacmm_enc_frame_t frames[AACMM_JOINTS_MAX])
 {
     int j;
     if (enc == NULL || counts == NULL || frames == NULL) {
         return AACMM_ERR_NULL;
     }
-    for (j = 0; j < AACMM_JOINTS; j++) {
+    for (j = 0; j < AACMM_JOINTS_MAX; j++) {
         uint8_t bits = enc->cfg.joint[j].bits;
+        if (bits == 0u) {
+            continue; /* no seventh encoder */
+        }
         if (bits < 32u && counts[j] >= (UINT32_C(1) << bits)) {
             return AACMM_ERR_RANGE; /* would be sent truncated: a wrong reading */
         }
@@ -251,6 +258,14 @@ aacmm_status_t aacmm_sim_encoders_frames(aacmm_sim_encoders_t *enc,
         }
         enc->injected[inject]++;
         aacmm_sim_encoder_frame(c, counts[j], inject, next_random(enc), &frames[j]);
+    }
+    /* The seventh joint (7-joint arm models): clean frames that leave the
+     * first six joints' frame count, faults and random sequence as before. */
+    if (enc->cfg.joint[AACMM_JOINTS].bits != 0u) {
+        aacmm_sim_encoder_frame(&enc->cfg.joint[AACMM_JOINTS], counts[AACMM_JOINTS],
+                                AACMM_SIM_ENC_OK, 0u, &frames[AACMM_JOINTS]);
+    } else {
+        frames[AACMM_JOINTS].n_bits = 0u; /* no seventh encoder: nothing answers */
     }
     return AACMM_OK;
 }

@@ -182,7 +182,24 @@ static uint32_t add_noise(aacmm_sim_t *sim, uint32_t counts)
     return (uint32_t)(((uint64_t)counts + off) % cpr);
 }
 
-aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[AACMM_JOINTS])
+/* The seventh joint, for arm models of 7 joints (the first six keep the
+ * motion, the noise sequence and the replay they had before): a handle roll
+ * at 0.7 rad (STATIC, REPLAY) or sweeping +-2.5 rad in 11 s (SWEEP, WALK),
+ * without noise. */
+static float joint7_rad(const aacmm_sim_t *sim, uint64_t t_us)
+{
+    float phase;
+    float s;
+    float c;
+    if (sim->cfg.motion == AACMM_SIM_STATIC || sim->cfg.motion == AACMM_SIM_REPLAY) {
+        return 0.7f;
+    }
+    phase = (float)(uint32_t)(t_us % 11000000u) / 11000000.0f;
+    aacmm_sincos_f32(TWO_PI_F * phase, &s, &c);
+    return 2.5f * s;
+}
+
+aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[AACMM_JOINTS_MAX])
 {
     int j;
     if (sim == NULL || counts == NULL) {
@@ -210,6 +227,7 @@ aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[A
     for (j = 0; j < AACMM_JOINTS; j++) {
         counts[j] = add_noise(sim, counts[j]);
     }
+    counts[AACMM_JOINTS] = aacmm_sim_angle_to_counts(joint7_rad(sim, t_us), sim->cfg.counts_per_rev);
     return AACMM_OK;
 }
 

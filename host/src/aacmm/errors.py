@@ -43,12 +43,15 @@ class FrameError(AacmmError):
     """Received bytes are not a valid frame or message.
 
     ``status`` is the matching firmware status code (``aacmm_status_t``, e.g.
-    -5 for a CRC mismatch), so host and device report the same reason.
+    -5 for a CRC mismatch), so host and device report the same reason;
+    ``version`` the version byte of a body of another protocol version.
     """
 
-    def __init__(self, message: str, status: int) -> None:
+    def __init__(self, message: str, status: int, version: int | None = None) -> None:
         super().__init__(message)
         self.status = status
+        self.version = version
+        """For ERR_VERSION: the protocol version byte the body carried."""
 
 
 class DeviceError(AacmmError):

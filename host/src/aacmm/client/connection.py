@@ -47,7 +47,14 @@ from aacmm.protocol import (
     encode_message,
     status_name,
 )
-from aacmm.protocol.constants import JOINTS, RESPONSE_BIT, STREAM_RATE_MAX_HZ, STREAM_RATE_MIN_HZ
+from aacmm.protocol.constants import (
+    JOINTS_MAX,
+    JOINTS_MIN,
+    PROTOCOL_VERSION_PREVIOUS,
+    RESPONSE_BIT,
+    STREAM_RATE_MAX_HZ,
+    STREAM_RATE_MIN_HZ,
+)
 from aacmm.protocol.status import Status
 from aacmm.transport import Transport, open_transport
 
@@ -72,13 +79,29 @@ class ClientStats:
 
 
 class _Pending:
-    __slots__ = ("event", "response", "seq", "type")
+    __slots__ = ("event", "response", "seq", "type", "version_error")
 
     def __init__(self, msg_type: MsgType, seq: int) -> None:
         self.type = msg_type
         self.seq = seq
         self.event = threading.Event()
         self.response: Message | None = None
+        self.version_error: FrameError | None = None
+
+
+def version_mismatch(err: FrameError, request: MsgType) -> DeviceError:
+    """The error for a device that answered ``request`` in another protocol version."""
+    if err.version == PROTOCOL_VERSION_PREVIOUS:
+        what = (
+            f"the device speaks protocol version {err.version} (six joints, before arm "
+            f"models); this host speaks version {PROTOCOL_VERSION}: update the device's firmware"
+        )
+    else:
+        what = (
+            f"the device speaks protocol version {err.version}; this host speaks version "
+            f"{PROTOCOL_VERSION}"
+        )
+    return DeviceError(f"{what} (answering {request.name})", int(Status.ERR_VERSION), int(request))
 
 
 def _answers(msg: Message, pending: _Pending) -> bool:
@@ -96,8 +119,10 @@ def _counts(counts: Sequence[int]) -> tuple[int, ...]:
         values = tuple(operator.index(c) for c in counts)
     except TypeError:
         raise TypeError("encoder counts must be integers") from None
-    if len(values) != JOINTS:
-        raise ValueError(f"need {JOINTS} encoder counts, got {len(values)}")
+    if not JOINTS_MIN <= len(values) <= JOINTS_MAX:
+        raise ValueError(
+            f"need {JOINTS_MIN} to {JOINTS_MAX} encoder counts (one a joint), got {len(values)}"
+        )
     for i, v in enumerate(values):
         if not 0 <= v <= 0xFFFFFFFF:
             raise ValueError(f"counts[{i}]={v} outside 0..2**32-1")
@@ -180,6 +205,14 @@ class Client:
     def on_frame_error(self, err: FrameError) -> None:
         self.stats.frame_errors += 1
         self.last_frame_error = err
+        if err.status == Status.ERR_VERSION:
+            # A body of another protocol version: the answer of a device that
+            # does not speak ours. The request waiting for it learns why.
+            with self._lock:
+                p = self._pending
+                if p is not None and p.response is None:
+                    p.version_error = err
+                    p.event.set()
 
     def on_link_lost(self, err: BaseException) -> None:
         with self._lock:
@@ -263,6 +296,9 @@ class Client:
                     with self._lock:
                         self._pending = None
                 self._check_usable()
+                if pending.version_error is not None:
+                    self.stats.device_errors += 1
+                    raise version_mismatch(pending.version_error, t)
                 rsp = pending.response
                 if not answered or rsp is None:
                     self.stats.timeouts += 1
@@ -353,7 +389,7 @@ class Client:
         return payload.param_crc32
 
     def measure(self, jacobian: bool = False) -> Sample:
-        """Read the encoders now and return the sample (with the 3x25 Jacobian if asked)."""
+        """Read the encoders now and return the sample (with the 3 x P Jacobian if asked)."""
         payload = self.request(
             MsgType.MEASURE_REQ, MeasureRequest(_flag("jacobian", jacobian))
         ).payload
@@ -361,7 +397,8 @@ class Client:
         return payload
 
     def compute(self, counts: Sequence[int], jacobian: bool = False) -> ComputeResult:
-        """Have the device evaluate its model at six encoder readings (0..2**32-1)."""
+        """Have the device evaluate its model at its N encoder readings (0..2**32-1;
+        N = :attr:`DeviceInfo.joints`: the device refuses another count with ERR_RANGE)."""
         req = ComputeRequest(_counts(counts), _flag("jacobian", jacobian))
         payload = self.request(MsgType.COMPUTE_REQ, req).payload
         assert isinstance(payload, ComputeResult)

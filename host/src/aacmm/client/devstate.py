@@ -181,10 +181,10 @@ def joint_text(j: Any) -> str:
 
 
 def encoder_lines(d: Diagnostics) -> list[str]:
-    """One line for six identical healthy joints, else one per joint."""
+    """One line for identical healthy joints (all N of the arm model), else one per joint."""
     texts = [joint_text(j) for j in d.joints]
     if len(set(texts)) == 1:
-        return [f"joints 1-6: {texts[0]}"]
+        return [f"joints 1-{len(texts)}: {texts[0]}"]
     return [f"joint {i + 1}: {t}" for i, t in enumerate(texts)]
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -22,7 +23,7 @@ from aacmm.commands.common import (
     flag_names,
     print_err,
 )
-from aacmm.commands.exitcodes import OK
+from aacmm.commands.exitcodes import OK, UsageError
 from aacmm.errors import DeviceError
 from aacmm.fileio import check_outputs
 from aacmm.records.files import fmt_point
@@ -105,20 +106,34 @@ def register(sub: Any) -> None:
         description="Ask the device for one sample now.",
     )
     add_connection_options(meas)
-    meas.add_argument("-j", "--jacobian", action="store_true", help="include the 3x25 Jacobian")
+    meas.add_argument(
+        "-j",
+        "--jacobian",
+        action="store_true",
+        help="include the 3 x P Jacobian (P = 25: the paper's arm)",
+    )
     meas.add_argument("--json", action="store_true", help="print JSON")
     meas.set_defaults(func=cmd_measure)
 
     comp = sub.add_parser(
         "compute",
-        help="have the device compute the point (and Jacobian) for six encoder counts",
+        help="have the device compute the point (and Jacobian) for its N encoder counts",
         description="Send six encoder readings; print the device's point and optional Jacobian.",
     )
     add_connection_options(comp)
     comp.add_argument(
-        "counts", nargs=6, type=_count, metavar="COUNT", help="six encoder counts 0..2^32-1"
+        "counts",
+        nargs="+",
+        type=_count,
+        metavar="COUNT",
+        help="the arm model's N (4..7; the paper's arm: 6) encoder counts 0..2^32-1",
     )
-    comp.add_argument("-j", "--jacobian", action="store_true", help="include the 3x25 Jacobian")
+    comp.add_argument(
+        "-j",
+        "--jacobian",
+        action="store_true",
+        help="include the 3 x P Jacobian (P = 25: the paper's arm)",
+    )
     comp.add_argument("--json", action="store_true", help="print JSON")
     comp.set_defaults(func=cmd_compute)
 
@@ -137,12 +152,19 @@ def _print_json(data: Any) -> None:
     print(json.dumps(data, indent=2))
 
 
-def _jacobian_text(jac: Jacobian) -> str:
+def _jacobian_text(jac: Jacobian, names: Sequence[str] = PARAM_COLUMN_NAMES) -> str:
+    """The 3 x P Jacobian, one line per column named by the device's arm model."""
     lines = ["jacobian (mm per parameter unit; rows x, y, z):"]
-    for c in range(JAC_COLS):
+    for c, name in enumerate(names):
         vals = "  ".join(f"{jac[r][c]:+.6e}" for r in range(JAC_ROWS))
-        lines.append(f"  {PARAM_COLUMN_NAMES[c]:<7} {vals}")
+        lines.append(f"  {name:<7} {vals}")
     return "\n".join(lines)
+
+
+def _column_names(dev: Any) -> tuple[str, ...]:
+    """The Jacobian's column names of the device's arm model (the paper's 25 for it)."""
+    arm, _ = dev.client.get_params().to_arm()
+    return tuple(arm.param_names)
 
 
 def _jacobian_rows(jac: Jacobian) -> list[list[float]]:
@@ -172,6 +194,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"firmware    {d['firmware']}, protocol {d['protocol_version']}")
     print(f"build       {' '.join(d['build_flags_names']) or '-'}")
     print(f"parameters  crc {d['param_crc32_hex']}, {d['param_source_text']}")
+    print(f"arm model   {dev.info.joints} joints, {dev.info.params} parameters")
     if diag is None:
         print(f"storage     {d['storage_state_name']}")
     else:
@@ -356,6 +379,7 @@ def sample_dict(s: Sample) -> dict[str, Any]:
 def cmd_measure(args: argparse.Namespace) -> int:
     with device_from_args(args) as dev:
         s = dev.client.measure(jacobian=args.jacobian)
+        names = _column_names(dev) if s.jacobian is not None else ()
     if args.json:
         _print_json(sample_dict(s))
         return OK
@@ -366,7 +390,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
     print(f"point       x {x}  y {y}  z {z} mm")
     print(f"flags       0x{s.status:04x} {flag_names(s.status)}")
     if s.jacobian is not None:
-        print(_jacobian_text(s.jacobian))
+        print(_jacobian_text(s.jacobian, names))
     return OK
 
 
@@ -383,8 +407,14 @@ def compute_dict(counts: list[int], r: ComputeResult) -> dict[str, Any]:
 
 
 def cmd_compute(args: argparse.Namespace) -> int:
+    if not 4 <= len(args.counts) <= 7:
+        raise UsageError(
+            f"compute needs the arm model's 4 to 7 encoder counts (its joints: `aacmm info`), "
+            f"got {len(args.counts)}"
+        )
     with device_from_args(args) as dev:
         r = dev.client.compute(args.counts, jacobian=args.jacobian)
+        names = _column_names(dev) if r.jacobian is not None else ()
     if args.json:
         _print_json(compute_dict(args.counts, r))
         return OK
@@ -393,5 +423,5 @@ def cmd_compute(args: argparse.Namespace) -> int:
     print(f"point       x {x:.6f}  y {y:.6f}  z {z:.6f} mm")
     print(f"flags       0x{r.status:04x} {flag_names(r.status)}")
     if r.jacobian is not None:
-        print(_jacobian_text(r.jacobian))
+        print(_jacobian_text(r.jacobian, names))
     return OK

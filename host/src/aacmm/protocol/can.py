@@ -1,7 +1,8 @@
 """aacmm on classic CAN: sample frames (via the DBC and ``cantools``) and ISO-TP set-up.
 
-Identifiers are a base plus the node id (0..15). Plain samples go out as six
-8-byte frames described by ``aacmm/data/aacmm.dbc``; every other message is a
+Identifiers are a base plus the node id (0..15). Plain samples go out as five
+to seven 8-byte frames (by the arm model's joint count) described by
+``aacmm/data/aacmm.dbc``; every other message is a
 protocol message body carried by ISO-TP (``can-isotp``) on 0x600+n (host to
 device) and 0x680+n (device to host).
 
@@ -37,6 +38,7 @@ ID_COUNTS_56: Final = 0x130
 ID_POINT_XY: Final = 0x140
 ID_POINT_Z: Final = 0x150
 ID_TRIGGER: Final = 0x160
+ID_COUNTS_7: Final = 0x170
 ID_ISOTP_REQUEST: Final = 0x600
 ID_ISOTP_RESPONSE: Final = 0x680
 
@@ -45,10 +47,21 @@ SAMPLE_FRAME_IDS: Final = (
     ID_COUNTS_12,
     ID_COUNTS_34,
     ID_COUNTS_56,
+    ID_COUNTS_7,
     ID_POINT_XY,
     ID_POINT_Z,
 )
-"""Base ids of one sample's frames, in transmit order."""
+"""Base ids of every sample frame, in transmit order (a sample of N joints sends
+:func:`sample_frame_ids` of them)."""
+
+
+def sample_frame_ids(joints: int) -> tuple[int, ...]:
+    """Base ids of the frames of an N-joint sample (N = 4..7), in transmit order."""
+    counts = (ID_COUNTS_12, ID_COUNTS_34, ID_COUNTS_56, ID_COUNTS_7)[: (joints + 1) // 2]
+    return (ID_SAMPLE_HEADER, *counts, ID_POINT_XY, ID_POINT_Z)
+
+
+_SEQUENCES: Final = {n: sample_frame_ids(n) for n in range(4, 8)}
 
 ISOTP_PADDING: Final = 0xCC
 
@@ -138,27 +151,35 @@ class CanFrame:
 
 
 def encode_sample_frames(sample: Sample, node_id: int = 0) -> list[CanFrame]:
-    """The six frames of a sample, in transmit order (encoded with the DBC).
+    """The frames of a sample (5 to 7 by its joint count), in transmit order
+    (encoded with the DBC).
 
     Only the low 32 timestamp bits and low 16 status bits travel; the Jacobian
     does not.
 
     Raises:
-        ValueError: bad node id or sample field out of range.
+        ValueError: bad node id, joint count or sample field out of range.
     """
     _check_node(node_id)
     db = load_dbc()
     s = sample
+    n = len(s.counts)
+    if n not in _SEQUENCES:
+        raise ValueError(f"a sample has 4 to 7 counts, got {n}")
+    c = (*s.counts, 0)
     values: list[dict[str, int]] = [
         {"Seq": s.seq, "TimestampUs": s.timestamp_us & 0xFFFFFFFF},
-        {"Count1": s.counts[0], "Count2": s.counts[1]},
-        {"Count3": s.counts[2], "Count4": s.counts[3]},
-        {"Count5": s.counts[4], "Count6": s.counts[5]},
+        {"Count1": c[0], "Count2": c[1]},
+        {"Count3": c[2], "Count4": c[3]},
+        {"Count5": c[4], "Count6": c[5]} if n >= 5 else {},
+        {"Count7": c[6], "Reserved": 0} if n == 7 else {},
         {"X": s.point_100nm[0], "Y": s.point_100nm[1]},
-        {"Z": s.point_100nm[2], "Status": s.status & 0xFFFF, "SeqTag": s.seq & 0xFF, "Reserved": 0},
+        {"Z": s.point_100nm[2], "Status": s.status & 0xFFFF, "SeqTag": s.seq & 0xFF, "Joints": n},
     ]
     frames = []
     for base, sig in zip(SAMPLE_FRAME_IDS, values, strict=True):
+        if not sig:
+            continue
         try:
             data = db.encode_message(base, sig, scaling=False, strict=True)
         except (cantools.database.EncodeError, KeyError) as exc:
@@ -191,17 +212,20 @@ class SampleAssembler:
     """Collects the sample frames of one node and returns complete samples.
 
     The frames of a sample must arrive in transmit order; a header restarts
-    collection, and a sample with a missing frame or a SeqTag that does not
-    match the header's Seq is dropped and counted. Returned samples have
+    collection, and a sample with a missing frame, count frames that do not
+    match the joint count of its PointZ frame, or a SeqTag that does not match
+    the header's Seq is dropped and counted. Returned samples have
     ``timestamp_us`` = low 32 bits of the device clock, ``status`` = low 16 bits,
-    and no Jacobian.
+    N counts and no Jacobian; the frames do not carry P, so ``params`` is
+    :attr:`params` when set (a client sets it from the device info) or 4N + 1.
     """
 
-    def __init__(self, node_id: int = 0) -> None:
+    def __init__(self, node_id: int = 0, params: int | None = None) -> None:
         _check_node(node_id)
         self.node_id = node_id
+        self.params = params
         self.stats = AssemblerStats()
-        self._parts: dict[int, dict[str, int]] = {}
+        self._parts: list[tuple[int, dict[str, int]]] = []
 
     def _decode(self, base: int, data: bytes) -> dict[str, int] | None:
         if len(data) != 8:
@@ -222,41 +246,44 @@ class SampleAssembler:
         sig = self._decode(base, bytes(data))
         if sig is None:
             return None
-        index = SAMPLE_FRAME_IDS.index(base)
-        if index == 0:
+        if base == ID_SAMPLE_HEADER:
             if self._parts:
                 self.stats.incomplete += 1
-            self._parts = {0: sig}
+            self._parts = [(base, sig)]
             return None
-        if not self._parts or index != len(self._parts):
-            if self._parts:
-                self.stats.incomplete += 1  # the sample in progress lost a frame
-            else:
-                self.stats.orphans += 1  # no sample in progress
-            self._parts = {}
+        if not self._parts:
+            self.stats.orphans += 1  # no sample in progress
             return None
-        self._parts[index] = sig
-        if index < len(SAMPLE_FRAME_IDS) - 1:
+        ids = (*(b for b, _ in self._parts), base)
+        if not any(seq[: len(ids)] == ids for seq in _SEQUENCES.values()):
+            self.stats.incomplete += 1  # the sample in progress lost a frame
+            self._parts = []
             return None
-        p = self._parts
-        self._parts = {}
-        if p[5]["SeqTag"] != p[0]["Seq"] & 0xFF:
+        self._parts.append((base, sig))
+        if base != ID_POINT_Z:
+            return None
+        p = dict(self._parts)
+        self._parts = []
+        n = p[ID_POINT_Z]["Joints"]
+        if _SEQUENCES.get(n) != ids or p[ID_POINT_Z]["SeqTag"] != p[ID_SAMPLE_HEADER]["Seq"] & 0xFF:
             self.stats.incomplete += 1
             return None
+        counts = (
+            p[ID_COUNTS_12]["Count1"],
+            p[ID_COUNTS_12]["Count2"],
+            p[ID_COUNTS_34]["Count3"],
+            p[ID_COUNTS_34]["Count4"],
+            *((p[ID_COUNTS_56]["Count5"], p[ID_COUNTS_56]["Count6"]) if n >= 5 else ()),
+            *((p[ID_COUNTS_7]["Count7"],) if n == 7 else ()),
+        )[:n]
         self.stats.samples += 1
         return Sample(
-            seq=p[0]["Seq"],
-            timestamp_us=p[0]["TimestampUs"],
-            counts=(
-                p[1]["Count1"],
-                p[1]["Count2"],
-                p[2]["Count3"],
-                p[2]["Count4"],
-                p[3]["Count5"],
-                p[3]["Count6"],
-            ),
-            point_100nm=(p[4]["X"], p[4]["Y"], p[5]["Z"]),
-            status=p[5]["Status"],
+            seq=p[ID_SAMPLE_HEADER]["Seq"],
+            timestamp_us=p[ID_SAMPLE_HEADER]["TimestampUs"],
+            counts=counts,
+            point_100nm=(p[ID_POINT_XY]["X"], p[ID_POINT_XY]["Y"], p[ID_POINT_Z]["Z"]),
+            status=p[ID_POINT_Z]["Status"],
+            params=self.params if self.params is not None else 4 * n + 1,
         )
 
 

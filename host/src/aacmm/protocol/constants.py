@@ -5,14 +5,22 @@ from __future__ import annotations
 from enum import IntEnum, IntFlag
 from typing import Final
 
-PROTOCOL_VERSION: Final = 1
+PROTOCOL_VERSION: Final = 2
+PROTOCOL_VERSION_PREVIOUS: Final = 1
+"""The six-joint version before the arm model: its requests are answered with an
+ERROR_RSP ERR_VERSION encoded in version 1, and a body of it is reported as such."""
 HEADER_BYTES: Final = 3
 MAX_BODY: Final = 512
 JOINTS: Final = 6
+"""The paper's arm's joint count (any arm model has 4..7: JOINTS_MIN..JOINTS_MAX)."""
+JOINTS_MIN: Final = 4
+JOINTS_MAX: Final = 7
+PARAMS_MAX: Final = 37
 JAC_ROWS: Final = 3
 JAC_COLS: Final = 25
 JAC_SIZE: Final = 75
-"""3x25 row-major on the wire; columns theta1..6, alpha1..6, d1..6, a1..6, l."""
+"""The paper's arm's 3x25 Jacobian; an arm model's is 3 x P (P = 4N + B + T),
+row-major, columns in aacmm/kinematics.h's order."""
 
 POINT_UNIT_MM: Final = 1e-4
 """Wire unit of the sample point: int32 counts of 1e-4 mm (100 nm)."""
@@ -78,6 +86,7 @@ class SampleStatus(IntFlag):
     JOINT4_FAULT = 0x0800
     JOINT5_FAULT = 0x1000
     JOINT6_FAULT = 0x2000
+    JOINT7_FAULT = 0x4000
 
 
 class Button(IntEnum):

@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import Final
 
 from aacmm.errors import FrameError
 from aacmm.protocol.constants import (
     COUNTS_PER_REV_MAX,
     HEADER_BYTES,
-    JAC_COLS,
     JAC_ROWS,
-    JOINTS,
+    JOINTS_MAX,
+    JOINTS_MIN,
     MAX_BODY,
+    PARAMS_MAX,
     PROTOCOL_VERSION,
+    PROTOCOL_VERSION_PREVIOUS,
     STREAM_RATE_MAX_HZ,
     STREAM_RATE_MIN_HZ,
     Content,
@@ -29,18 +30,18 @@ from aacmm.protocol.constants import (
     StorageState,
 )
 from aacmm.protocol.layout import (
-    COMPUTE_REQ_LAYOUT,
     COMPUTE_RSP_BASE_BYTES,
     COMPUTE_RSP_LAYOUT,
     DIAG_JOINT_BYTES,
     DIAG_JOINT_LAYOUT,
     DIAG_LAYOUT,
+    HARMONICS_MAX,
     INFO_LAYOUT,
-    JACOBIAN_LAYOUT,
-    PARAM_SET_BYTES,
-    PARAMS_LAYOUT,
+    PARAM_HEADER_LAYOUT,
+    PARAM_SET_HEADER_BYTES,
     SAMPLE_BASE_BYTES,
     SAMPLE_LAYOUT,
+    param_set_len_raw,
     payload_length,
 )
 from aacmm.protocol.payloads import (
@@ -80,67 +81,108 @@ def _finite(values: tuple[float, ...]) -> tuple[float, ...]:
     return values
 
 
-def _dec_jacobian(b: bytes, offset: int) -> Jacobian:
-    flat = _finite(JACOBIAN_LAYOUT.unpack_from(b, offset))
-    return tuple(flat[r * JAC_COLS : (r + 1) * JAC_COLS] for r in range(JAC_ROWS))
+def _dec_jacobian(b: bytes, offset: int, p: int) -> Jacobian:
+    flat = _finite(struct.unpack_from(f"<{3 * p}f", b, offset))
+    return tuple(flat[r * p : (r + 1) * p] for r in range(JAC_ROWS))
 
 
-# Offset of the content byte inside the payload, for types that have one.
-_CONTENT_OFFSET: Final[dict[MsgType, int]] = {
-    MsgType.MEASURE_RSP: SAMPLE_BASE_BYTES - 1,
-    MsgType.SAMPLE_EVT: SAMPLE_BASE_BYTES - 1,
-    MsgType.TRIGGER_EVT: 2 + SAMPLE_BASE_BYTES - 1,
-    MsgType.COMPUTE_RSP: COMPUTE_RSP_BASE_BYTES - 1,
-}
+def _np_ok(n: int, p: int) -> bool:
+    """N in 4..7 and P a parameter count of some N-joint shape (4N + 1 .. 5N + 2)."""
+    return JOINTS_MIN <= n <= JOINTS_MAX and 4 * n + 1 <= p <= 5 * n + 2
 
 
 def _dec_sample(b: bytes) -> Sample:
     f = SAMPLE_LAYOUT.unpack_from(b)
-    jac = _content(f[12])
+    jac = _content(f[6])
+    n, p = f[7], f[8]
+    if not _np_ok(n, p):
+        raise _fail(f"sample of {n} joints and {p} parameters", Status.ERR_RANGE)
     return Sample(
         seq=f[0],
         timestamp_us=f[1],
-        counts=tuple(f[2:8]),
-        point_100nm=tuple(f[8:11]),
-        status=f[11],
-        jacobian=_dec_jacobian(b, SAMPLE_BASE_BYTES) if jac else None,
+        counts=struct.unpack_from(f"<{n}I", b, SAMPLE_BASE_BYTES),
+        point_100nm=tuple(f[2:5]),
+        status=f[5],
+        jacobian=_dec_jacobian(b, SAMPLE_BASE_BYTES + 4 * n, p) if jac else None,
+        params=p,
+    )
+
+
+def _param_header_ok(h: bytes) -> bool:
+    n, tip, conv, beta, k, thermal, reserved = PARAM_HEADER_LAYOUT.unpack_from(h)
+    if not JOINTS_MIN <= n <= JOINTS_MAX:
+        return False
+    mask = (1 << n) - 1
+    return (
+        tip in (1, 3)
+        and not conv & ~mask
+        and not beta & ~(mask & ~1)
+        and k <= HARMONICS_MAX
+        and thermal <= 1
+        and reserved == 0
     )
 
 
 def decode_param_set(b: bytes | bytearray | memoryview) -> ParamSet:
-    """Decode and check a 278-byte parameter set.
+    """Decode and check a parameter set (docs/protocol.md 2.3).
 
     Raises:
-        FrameError: wrong length (ERR_LENGTH), non-finite value (ERR_NOT_FINITE),
-            encoder configuration out of range (ERR_RANGE).
+        FrameError: shorter than its header or not the length its header defines
+            (ERR_LENGTH), a header field out of range (ERR_RANGE), a non-finite
+            value (ERR_NOT_FINITE), an encoder configuration out of range (ERR_RANGE).
     """
-    if len(b) != PARAM_SET_BYTES:
-        raise _fail("parameter set must be 278 bytes", Status.ERR_LENGTH)
-    f = PARAMS_LAYOUT.unpack(bytes(b))
-    _finite(tuple(f[:25]))
-    cpr, zero, direction = tuple(f[25:31]), tuple(f[31:37]), tuple(f[37:43])
-    for i in range(JOINTS):
+    b = bytes(b)
+    if len(b) < PARAM_SET_HEADER_BYTES or len(b) != param_set_len_raw(b):
+        raise _fail(f"parameter set of {len(b)} bytes", Status.ERR_LENGTH)
+    if not _param_header_ok(b):
+        raise _fail("parameter set header out of range", Status.ERR_RANGE)
+    n, tip, conv, beta, k, thermal, _ = PARAM_HEADER_LAYOUT.unpack_from(b)
+    nb = bin(beta).count("1")
+    nf = 4 * n + nb + tip
+    off = PARAM_SET_HEADER_BYTES
+    fl = _finite(struct.unpack_from(f"<{nf}d", b, off))
+    off += 8 * nf
+    cpr = tuple(c + 1 for c in struct.unpack_from(f"<{n}I", b, off))
+    zero = struct.unpack_from(f"<{n}I", b, off + 4 * n)
+    direction = struct.unpack_from(f"<{n}b", b, off + 8 * n)
+    off += 9 * n
+    for i in range(n):
         if not 2 <= cpr[i] <= COUNTS_PER_REV_MAX or zero[i] >= cpr[i]:
             raise _fail("encoder configuration out of range", Status.ERR_RANGE)
         if direction[i] not in (1, -1):
             raise _fail("encoder direction must be +1 or -1", Status.ERR_RANGE)
+    harm = struct.unpack_from(f"<{2 * n * k}h", b, off)
+    off += 4 * n * k
+    tail = struct.unpack_from(f"<{n + 1}h", b, off) if thermal else ()
+    betas = iter(fl[4 * n : 4 * n + nb])
+    tipv = fl[4 * n + nb :]
     return ParamSet(
-        theta_offset_rad=tuple(f[0:6]),
-        alpha_rad=tuple(f[6:12]),
-        d_mm=tuple(f[12:18]),
-        a_mm=tuple(f[18:24]),
-        l_mm=f[24],
+        theta_offset_rad=fl[0:n],
+        alpha_rad=fl[n : 2 * n],
+        d_mm=fl[2 * n : 3 * n],
+        a_mm=fl[3 * n : 4 * n],
+        l_mm=tipv[-1],
         counts_per_rev=cpr,
         zero_offset_counts=zero,
         direction=direction,
+        convention=tuple((conv >> i) & 1 for i in range(n)) if conv else (),
+        beta_rad=tuple(next(betas) if (beta >> i) & 1 else None for i in range(n)) if beta else (),
+        tip_xy_mm=(tipv[0], tipv[1]) if tip == 3 else None,
+        harm_cos=tuple(harm[2 * k * i : 2 * k * (i + 1) : 2] for i in range(n)) if k else (),
+        harm_sin=tuple(harm[2 * k * i + 1 : 2 * k * (i + 1) : 2] for i in range(n)) if k else (),
+        cte=tuple(tail[:n]),
+        ref_temp=tail[n] if thermal else 0,
     )
 
 
 def _dec_diag(b: bytes) -> Diagnostics:
     f = DIAG_LAYOUT.unpack_from(b)
+    n = f[18]
+    if not JOINTS_MIN <= n <= JOINTS_MAX:
+        raise _fail(f"diagnostics of {n} joints", Status.ERR_RANGE)
     joints = tuple(
         JointDiagnostics(*DIAG_JOINT_LAYOUT.unpack_from(b, DIAG_LAYOUT.size + i * DIAG_JOINT_BYTES))
-        for i in range(JOINTS)
+        for i in range(n)
     )
     d = Diagnostics(
         storage_kind=f[0],
@@ -184,6 +226,7 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
             info.param_source > max(ParamSource)
             or info.storage_state > max(StorageState)
             or info.can_node_id > 15
+            or not _np_ok(info.joints, info.params)
         ):
             raise _fail("device info field out of range", Status.ERR_RANGE)
         return info
@@ -194,8 +237,11 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
     if t == MsgType.MEASURE_REQ:
         return MeasureRequest(_content(b[0]))
     if t == MsgType.COMPUTE_REQ:
-        f = COMPUTE_REQ_LAYOUT.unpack(b)
-        return ComputeRequest(counts=tuple(f[1:7]), jacobian=_content(f[0]))
+        jac = _content(b[0])
+        n = b[1]
+        if not JOINTS_MIN <= n <= JOINTS_MAX:
+            raise _fail(f"compute request of {n} joints", Status.ERR_RANGE)
+        return ComputeRequest(counts=struct.unpack_from(f"<{n}I", b, 2), jacobian=jac)
     if t in (MsgType.STREAM_START_REQ, MsgType.STREAM_START_RSP):
         rate, c = struct.unpack("<HB", b)
         jac = _content(c)
@@ -212,10 +258,14 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
         f = COMPUTE_RSP_LAYOUT.unpack_from(b)
         point = _finite(tuple(f[1:4]))
         jac = _content(f[4])
+        p = f[5]
+        if not 4 * JOINTS_MIN + 1 <= p <= PARAMS_MAX:
+            raise _fail(f"compute result of {p} parameters", Status.ERR_RANGE)
         return ComputeResult(
             status=f[0],
             point_mm=point,
-            jacobian=_dec_jacobian(b, COMPUTE_RSP_BASE_BYTES) if jac else None,
+            jacobian=_dec_jacobian(b, COMPUTE_RSP_BASE_BYTES, p) if jac else None,
+            params=p,
         )
     if t == MsgType.DIAG_RSP:
         return _dec_diag(b)
@@ -241,14 +291,17 @@ def decode_message(body: bytes | bytearray | memoryview) -> Message:
     if len(body) > MAX_BODY:
         raise _fail("body longer than 512 bytes", Status.ERR_LENGTH)
     if body[0] != PROTOCOL_VERSION:
-        raise _fail(f"protocol version {body[0]} (want {PROTOCOL_VERSION})", Status.ERR_VERSION)
+        old = " (six joints, before arm models)" if body[0] == PROTOCOL_VERSION_PREVIOUS else ""
+        raise FrameError(
+            f"protocol version {body[0]}{old}; this host speaks version {PROTOCOL_VERSION}",
+            int(Status.ERR_VERSION),
+            body[0],
+        )
     try:
         t = MsgType(body[1])
     except ValueError:
         raise _fail(f"unknown message type 0x{body[1]:02x}", Status.ERR_UNKNOWN_TYPE) from None
     payload = body[HEADER_BYTES:]
-    off = _CONTENT_OFFSET.get(t)
-    jac = off is not None and len(payload) > off and bool(payload[off] & Content.JACOBIAN)
-    if len(payload) != payload_length(t, jac):
+    if len(payload) != payload_length(t, payload):
         raise _fail(f"{t.name} payload of {len(payload)} bytes", Status.ERR_LENGTH)
     return Message(t, body[2], _dec_payload(t, payload))

@@ -8,10 +8,10 @@ from typing import Final
 
 from aacmm.protocol.constants import (
     COUNTS_PER_REV_MAX,
-    JAC_COLS,
     JAC_ROWS,
-    JAC_SIZE,
-    JOINTS,
+    JOINTS_MAX,
+    JOINTS_MIN,
+    PARAMS_MAX,
     PROTOCOL_VERSION,
     STREAM_RATE_MAX_HZ,
     STREAM_RATE_MIN_HZ,
@@ -27,13 +27,12 @@ from aacmm.protocol.constants import (
 )
 from aacmm.protocol.framing import crc32
 from aacmm.protocol.layout import (
-    COMPUTE_REQ_LAYOUT,
     COMPUTE_RSP_LAYOUT,
     DIAG_JOINT_LAYOUT,
     DIAG_LAYOUT,
+    HARMONICS_MAX,
     INFO_LAYOUT,
-    JACOBIAN_LAYOUT,
-    PARAMS_LAYOUT,
+    PARAM_HEADER_LAYOUT,
     SAMPLE_LAYOUT,
 )
 from aacmm.protocol.payloads import (
@@ -88,24 +87,34 @@ def _check_flag(name: str, value: bool) -> None:
         raise ValueError(f"{name} must be a bool")
 
 
-def _jacobian_flat(jac: object) -> tuple[float, ...]:
-    """The 75 values of a 3 x 25 Jacobian (rows x, y, z), row-major."""
+def _check_joints(name: str, n: int) -> None:
+    if not JOINTS_MIN <= n <= JOINTS_MAX:
+        raise ValueError(f"{name} needs {JOINTS_MIN} to {JOINTS_MAX} values (one a joint), got {n}")
+
+
+def _check_np(n: int, p: int) -> None:
+    """P must be a parameter count of some N-joint shape: 4N + 1 .. 5N + 2."""
+    _check_int("params", p, 4 * n + 1, 5 * n + 2)
+
+
+def _jacobian_flat(jac: object, p: int) -> tuple[float, ...]:
+    """The 3P values of a 3 x P Jacobian (rows x, y, z), row-major."""
     try:
         rows = [tuple(r) for r in jac]  # type: ignore[attr-defined]
     except TypeError:
         rows = []
-    if len(rows) != JAC_ROWS or any(len(r) != JAC_COLS for r in rows):
-        raise ValueError(f"jacobian must be {JAC_ROWS} rows of {JAC_COLS} values (x, y, z)")
+    if len(rows) != JAC_ROWS or any(len(r) != p for r in rows):
+        raise ValueError(f"jacobian must be {JAC_ROWS} rows of {p} values (x, y, z)")
     return tuple(v for r in rows for v in r)
 
 
-def _enc_jacobian(jac: Jacobian | None) -> bytes:
+def _enc_jacobian(jac: Jacobian | None, p: int) -> bytes:
     if jac is None:
         return b""
-    flat = _jacobian_flat(jac)
-    _check_floats("jacobian", flat, JAC_SIZE, f32=True)
+    flat = _jacobian_flat(jac, p)
+    _check_floats("jacobian", flat, 3 * p, f32=True)
     try:
-        return JACOBIAN_LAYOUT.pack(*flat)
+        return struct.pack(f"<{3 * p}f", *flat)
     except OverflowError:  # rounding up past FLT_MAX
         raise ValueError("jacobian value does not fit a float32") from None
 
@@ -113,42 +122,87 @@ def _enc_jacobian(jac: Jacobian | None) -> bytes:
 def _enc_sample(s: Sample) -> bytes:
     _check_int("seq", s.seq, 0, 0xFFFFFFFF)
     _check_int("timestamp_us", s.timestamp_us, 0, 0xFFFFFFFFFFFFFFFF)
-    _check_ints("counts", s.counts, JOINTS, 0, 0xFFFFFFFF)
+    n = len(s.counts)
+    _check_joints("counts", n)
+    _check_np(n, s.params)
+    _check_ints("counts", s.counts, n, 0, 0xFFFFFFFF)
     _check_ints("point_100nm", s.point_100nm, 3, -(2**31), 2**31 - 1)
     _check_int("status", s.status, 0, 0xFFFFFFFF)
     content = Content.JACOBIAN if s.jacobian is not None else Content.NONE
-    return SAMPLE_LAYOUT.pack(
-        s.seq, s.timestamp_us, *s.counts, *s.point_100nm, s.status, content
-    ) + _enc_jacobian(s.jacobian)
+    return (
+        SAMPLE_LAYOUT.pack(s.seq, s.timestamp_us, *s.point_100nm, s.status, content, n, s.params)
+        + struct.pack(f"<{n}I", *s.counts)
+        + _enc_jacobian(s.jacobian, s.params)
+    )
+
+
+_I16 = (-0x8000, 0x7FFF)
 
 
 def encode_param_set(p: ParamSet) -> bytes:
-    """The 278-byte wire encoding of a parameter set.
+    """The wire encoding of a parameter set (docs/protocol.md 2.3; 262 bytes for the
+    paper's arm, at most 495).
 
     Raises:
-        ValueError: a value the decoder would reject.
+        ValueError: a value the decoder would reject, or a shape that is not an arm
+            of 4 to 7 joints (a beta on joint 1, tuples of different lengths).
     """
+    n = len(p.theta_offset_rad)
+    _check_joints("theta_offset_rad", n)
     for name in ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm"):
-        _check_floats(name, getattr(p, name), JOINTS)
+        _check_floats(name, tuple(getattr(p, name)), n)
     _check_floats("l_mm", (p.l_mm,), 1)
-    _check_ints("counts_per_rev", p.counts_per_rev, JOINTS, 2, COUNTS_PER_REV_MAX)
-    _check_ints("zero_offset_counts", p.zero_offset_counts, JOINTS, 0, 0xFFFFFFFF)
-    _check_ints("direction", p.direction, JOINTS, -1, 1)
-    for i in range(JOINTS):
+    conv = tuple(p.convention) or (0,) * n
+    _check_ints("convention", conv, n, 0, 1)
+    beta = tuple(p.beta_rad) or (None,) * n
+    if len(beta) != n:
+        raise ValueError(f"beta_rad needs {n} values, got {len(beta)}")
+    if beta[0] is not None:
+        raise ValueError("joint 1 cannot have a beta (it has no previous axis)")
+    betas = tuple(b for b in beta if b is not None)
+    _check_floats("beta_rad", betas, len(betas))
+    if p.tip_xy_mm is None:
+        tip: tuple[float, ...] = (p.l_mm,)
+    else:
+        _check_floats("tip_xy_mm", tuple(p.tip_xy_mm), 2)
+        tip = (p.tip_xy_mm[0], p.tip_xy_mm[1], p.l_mm)
+    _check_ints("counts_per_rev", p.counts_per_rev, n, 2, COUNTS_PER_REV_MAX)
+    _check_ints("zero_offset_counts", p.zero_offset_counts, n, 0, 0xFFFFFFFF)
+    _check_ints("direction", p.direction, n, -1, 1)
+    for i in range(n):
         if p.direction[i] == 0:
             raise ValueError(f"direction[{i}] must be +1 or -1")
         if p.zero_offset_counts[i] >= p.counts_per_rev[i]:
             raise ValueError(f"zero_offset_counts[{i}] must be < counts_per_rev[{i}]")
-    return PARAMS_LAYOUT.pack(
-        *p.theta_offset_rad,
-        *p.alpha_rad,
-        *p.d_mm,
-        *p.a_mm,
-        p.l_mm,
-        *p.counts_per_rev,
-        *p.zero_offset_counts,
-        *p.direction,
-    )
+    k = len(p.harm_cos[0]) if p.harm_cos else 0
+    if p.harm_cos or p.harm_sin:
+        if len(p.harm_cos) != n or len(p.harm_sin) != n:
+            raise ValueError(f"harm_cos and harm_sin need {n} rows (one per joint)")
+        _check_int("harmonics", k, 1, HARMONICS_MAX)
+        for i in range(n):
+            _check_ints(f"harm_cos[{i}]", tuple(p.harm_cos[i]), k, *_I16)
+            _check_ints(f"harm_sin[{i}]", tuple(p.harm_sin[i]), k, *_I16)
+    thermal = len(p.cte) > 0
+    if thermal:
+        _check_ints("cte", tuple(p.cte), n, *_I16)
+    _check_int("ref_temp", p.ref_temp, *_I16)
+    if not thermal and p.ref_temp != 0:
+        raise ValueError("ref_temp needs the thermal block (cte)")
+    conv_bits = sum(c << i for i, c in enumerate(conv))
+    beta_bits = sum(1 << i for i, b in enumerate(beta) if b is not None)
+    out = PARAM_HEADER_LAYOUT.pack(n, len(tip), conv_bits, beta_bits, k, int(thermal), 0)
+    floats = (*p.theta_offset_rad, *p.alpha_rad, *p.d_mm, *p.a_mm, *betas, *tip)
+    out += struct.pack(f"<{len(floats)}d", *floats)
+    out += struct.pack(f"<{n}I", *(c - 1 for c in p.counts_per_rev))
+    out += struct.pack(f"<{n}I", *p.zero_offset_counts)
+    out += struct.pack(f"<{n}b", *p.direction)
+    if k:
+        for i in range(n):
+            for j in range(k):
+                out += struct.pack("<hh", p.harm_cos[i][j], p.harm_sin[i][j])
+    if thermal:
+        out += struct.pack(f"<{n}hh", *p.cte, p.ref_temp)
+    return out
 
 
 def param_set_crc32(p: ParamSet) -> int:
@@ -172,6 +226,8 @@ def _enc_payload(t: MsgType, p: Payload) -> bytes:
         _check_int("max_body_bytes", p.max_body_bytes, 0, 0xFFFF)
         _check_int("serial_number", p.serial_number, 0, 0xFFFFFFFF)
         _check_int("can_node_id", p.can_node_id, 0, 15)
+        _check_int("joints", p.joints, JOINTS_MIN, JOINTS_MAX)
+        _check_np(p.joints, p.params)
         return INFO_LAYOUT.pack(
             p.protocol_version,
             p.fw_major,
@@ -184,6 +240,8 @@ def _enc_payload(t: MsgType, p: Payload) -> bytes:
             p.max_body_bytes,
             p.serial_number,
             p.can_node_id,
+            p.joints,
+            p.params,
         )
     if isinstance(p, ParamSet):
         return encode_param_set(p)
@@ -197,13 +255,18 @@ def _enc_payload(t: MsgType, p: Payload) -> bytes:
         return _enc_sample(p)
     if isinstance(p, ComputeRequest):
         _check_flag("jacobian", p.jacobian)
-        _check_ints("counts", p.counts, JOINTS, 0, 0xFFFFFFFF)
-        return COMPUTE_REQ_LAYOUT.pack(int(p.jacobian), *p.counts)
+        n = len(p.counts)
+        _check_joints("counts", n)
+        _check_ints("counts", p.counts, n, 0, 0xFFFFFFFF)
+        return struct.pack(f"<BB{n}I", int(p.jacobian), n, *p.counts)
     if isinstance(p, ComputeResult):
         _check_int("status", p.status, 0, 0xFFFFFFFF)
         _check_floats("point_mm", p.point_mm, 3)
+        _check_int("params", p.params, 4 * JOINTS_MIN + 1, PARAMS_MAX)
         content = Content.JACOBIAN if p.jacobian is not None else Content.NONE
-        return COMPUTE_RSP_LAYOUT.pack(p.status, *p.point_mm, content) + _enc_jacobian(p.jacobian)
+        return COMPUTE_RSP_LAYOUT.pack(p.status, *p.point_mm, content, p.params) + _enc_jacobian(
+            p.jacobian, p.params
+        )
     if isinstance(p, Stream):
         _check_int("rate_hz", p.rate_hz, STREAM_RATE_MIN_HZ, STREAM_RATE_MAX_HZ)
         _check_flag("jacobian", p.jacobian)
@@ -244,8 +307,7 @@ def _enc_diag(d: Diagnostics) -> bytes:
     )
     for name in u32s:
         _check_int(name, getattr(d, name), 0, 0xFFFFFFFF)
-    if len(d.joints) != JOINTS:
-        raise ValueError(f"joints needs {JOINTS} entries, got {len(d.joints)}")
+    _check_joints("joints", len(d.joints))
     out = DIAG_LAYOUT.pack(
         d.storage_kind,
         d.storage_flags,
@@ -263,6 +325,7 @@ def _enc_diag(d: Diagnostics) -> bytes:
         d.serial_frames_bad,
         d.samples_dropped,
         d.samples_late,
+        len(d.joints),
     )
     for i, j in enumerate(d.joints):
         if not isinstance(j, JointDiagnostics):

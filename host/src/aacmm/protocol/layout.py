@@ -1,33 +1,97 @@
-"""Byte layouts of the link protocol's payloads: sizes and ``struct`` formats."""
+"""Byte layouts of the link protocol's payloads (version 2): sizes and ``struct`` formats.
+
+Sizes depend on the arm model: N joints (4..7), P parameters (Jacobian
+columns, ``P = 4N + B + T``), and for a parameter set K encoder harmonics
+per joint (0..4) and H = 1 with the thermal block (docs/protocol.md 2.3).
+"""
 
 from __future__ import annotations
 
 import struct
 from typing import Final
 
-from aacmm.protocol.constants import JOINTS, MsgType
+from aacmm.protocol.constants import HEADER_BYTES, JOINTS, MsgType
 
-PARAM_SET_BYTES: Final = 278
-INFO_BYTES: Final = 23
-SAMPLE_BASE_BYTES: Final = 53
-JACOBIAN_BYTES: Final = 300
-COMPUTE_RSP_BASE_BYTES: Final = 29
+HARMONICS_MAX: Final = 4
+PARAM_SET_HEADER_BYTES: Final = 8
+PARAM_SET_MAX_BYTES: Final = 495
+"""The largest parameter set: N 7, P 37, K 4, H 1 (fits one 509-byte payload)."""
+INFO_BYTES: Final = 25
+SAMPLE_BASE_BYTES: Final = 31
+"""A sample's fixed part, before its N counts and its Jacobian."""
+COMPUTE_RSP_BASE_BYTES: Final = 30
+DIAG_BASE_BYTES: Final = 60
 DIAG_JOINT_BYTES: Final = 11
-DIAG_BYTES: Final = 59 + JOINTS * DIAG_JOINT_BYTES
+TRIGGER_EXTRA_BYTES: Final = 2
 
-INFO_LAYOUT = struct.Struct("<HBBHIIBBHIB")
-SAMPLE_LAYOUT = struct.Struct("<IQ6I3iIB")
-PARAMS_LAYOUT = struct.Struct("<25d6Q6I6b")
-COMPUTE_REQ_LAYOUT = struct.Struct("<B6I")
-COMPUTE_RSP_LAYOUT = struct.Struct("<I3dB")
-JACOBIAN_LAYOUT = struct.Struct("<75f")
-DIAG_LAYOUT = struct.Struct("<BB2B2IIIBIIIHQIIII")
+
+def param_set_bytes(n: int, p: int, k: int = 0, h: int = 0) -> int:
+    """Bytes of a parameter set of N joints, P parameters, K harmonics, thermal block H."""
+    return PARAM_SET_HEADER_BYTES + 8 * p + 9 * n + 4 * n * k + 2 * (n + 1) * h
+
+
+def sample_bytes(n: int, p: int, jacobian: bool) -> int:
+    """Bytes of a sample of N counts (and a 3 x P Jacobian)."""
+    return SAMPLE_BASE_BYTES + 4 * n + (12 * p if jacobian else 0)
+
+
+def diag_bytes(n: int) -> int:
+    """Bytes of DIAG_RSP for N joints."""
+    return DIAG_BASE_BYTES + DIAG_JOINT_BYTES * n
+
+
+PARAM_SET_BYTES: Final = param_set_bytes(JOINTS, 25)
+"""The paper's arm's parameter set (262 bytes)."""
+JACOBIAN_BYTES: Final = 12 * 25
+"""The paper's arm's Jacobian (3 x 25 float32)."""
+DIAG_BYTES: Final = diag_bytes(JOINTS)
+"""DIAG_RSP of a six-joint arm (126 bytes)."""
+
+INFO_LAYOUT = struct.Struct("<HBBHIIBBHIBBB")
+SAMPLE_LAYOUT = struct.Struct("<IQ3iIBBB")
+PARAM_HEADER_LAYOUT = struct.Struct("<BBBBBBH")
+COMPUTE_RSP_LAYOUT = struct.Struct("<I3dBB")
+DIAG_LAYOUT = struct.Struct("<BB2B2IIIBIIIHQIIIIB")
 DIAG_JOINT_LAYOUT = struct.Struct("<BBBII")
 
 
-def payload_length(t: MsgType, jacobian: bool = False) -> int:
-    """Payload bytes of message type ``t`` (with or without the Jacobian)."""
-    jac = JACOBIAN_BYTES if jacobian else 0
+def _popcount(v: int) -> int:
+    return bin(v).count("1")
+
+
+def param_set_len_raw(b: bytes) -> int:
+    """A parameter set's length as its (unchecked) header bytes define it (the header's
+    own length if ``b`` is shorter)."""
+    if len(b) < PARAM_SET_HEADER_BYTES:
+        return PARAM_SET_HEADER_BYTES
+    n, tip, _conv, beta, k, h = b[0], b[1], b[2], b[3], b[4], b[5]
+    return param_set_bytes(n, 4 * n + _popcount(beta) + tip, k, h)
+
+
+def _sample_len_raw(b: bytes) -> int:
+    if len(b) < SAMPLE_BASE_BYTES:
+        return SAMPLE_BASE_BYTES
+    return sample_bytes(b[29], b[30], bool(b[28] & 1))
+
+
+def payload_length(t: MsgType, payload: bytes = b"") -> int:
+    """Payload bytes of a message of type ``t`` as the payload's own bytes (content, N, P,
+    K, H, read unchecked) define it; when the payload is too short to hold them, the
+    length of the fields that define it (so a short payload never matches)."""
+    if t in (MsgType.SET_PARAMS_REQ, MsgType.GET_PARAMS_RSP):
+        return param_set_len_raw(payload)
+    if t == MsgType.COMPUTE_REQ:
+        return 2 + 4 * payload[1] if len(payload) >= 2 else 2
+    if t in (MsgType.MEASURE_RSP, MsgType.SAMPLE_EVT):
+        return _sample_len_raw(payload)
+    if t == MsgType.TRIGGER_EVT:
+        return TRIGGER_EXTRA_BYTES + _sample_len_raw(payload[TRIGGER_EXTRA_BYTES:])
+    if t == MsgType.COMPUTE_RSP:
+        if len(payload) < COMPUTE_RSP_BASE_BYTES:
+            return COMPUTE_RSP_BASE_BYTES
+        return COMPUTE_RSP_BASE_BYTES + (12 * payload[29] if payload[28] & 1 else 0)
+    if t == MsgType.DIAG_RSP:
+        return diag_bytes(payload[59]) if len(payload) >= DIAG_BASE_BYTES else DIAG_BASE_BYTES
     sizes: dict[MsgType, int] = {
         MsgType.PING_REQ: 4,
         MsgType.PING_RSP: 4,
@@ -35,17 +99,12 @@ def payload_length(t: MsgType, jacobian: bool = False) -> int:
         MsgType.SAVE_PARAMS_RSP: 4,
         MsgType.RESTORE_DEFAULTS_RSP: 4,
         MsgType.INFO_RSP: INFO_BYTES,
-        MsgType.SET_PARAMS_REQ: PARAM_SET_BYTES,
-        MsgType.GET_PARAMS_RSP: PARAM_SET_BYTES,
         MsgType.MEASURE_REQ: 1,
-        MsgType.COMPUTE_REQ: 25,
         MsgType.STREAM_START_REQ: 3,
         MsgType.STREAM_START_RSP: 3,
         MsgType.ERROR_RSP: 3,
-        MsgType.MEASURE_RSP: SAMPLE_BASE_BYTES + jac,
-        MsgType.SAMPLE_EVT: SAMPLE_BASE_BYTES + jac,
-        MsgType.TRIGGER_EVT: 2 + SAMPLE_BASE_BYTES + jac,
-        MsgType.COMPUTE_RSP: COMPUTE_RSP_BASE_BYTES + jac,
-        MsgType.DIAG_RSP: DIAG_BYTES,
     }
     return sizes.get(t, 0)
+
+
+MAX_PAYLOAD: Final = 512 - HEADER_BYTES

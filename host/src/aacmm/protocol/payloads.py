@@ -8,12 +8,14 @@ from typing import TYPE_CHECKING, Final, TypeAlias
 from aacmm.protocol.constants import POINT_UNIT_MM, MsgType
 
 if TYPE_CHECKING:
+    from aacmm.arm import Arm
     from aacmm.core import EncoderConfig, Params
 
 Jacobian = tuple[tuple[float, ...], ...]
-"""A Jacobian as the codec gives it: 3 rows (x, y, z) of 25 values (mm per
-parameter unit, columns as :data:`aacmm.core.PARAM_NAMES`), the shape
-``aacmm.core`` uses: ``np.asarray(sample.jacobian)`` is a (3, 25) array."""
+"""A Jacobian as the codec gives it: 3 rows (x, y, z) of P values (mm per
+parameter unit, columns as the arm's ``param_names``; the paper's arm: 25, as
+:data:`aacmm.core.PARAM_NAMES`), the shape ``aacmm.core`` uses:
+``np.asarray(sample.jacobian)`` is a (3, P) array."""
 
 
 @dataclass(frozen=True)
@@ -25,7 +27,7 @@ class Ping:
 
 @dataclass(frozen=True)
 class DeviceInfo:
-    """INFO_RSP (23 bytes)."""
+    """INFO_RSP (25 bytes): ``joints`` N and ``params`` P of the active arm model."""
 
     protocol_version: int
     fw_major: int
@@ -38,15 +40,27 @@ class DeviceInfo:
     max_body_bytes: int
     serial_number: int
     can_node_id: int
+    joints: int = 6
+    params: int = 25
 
 
 @dataclass(frozen=True)
 class ParamSet:
-    """SET_PARAMS_REQ / GET_PARAMS_RSP (278 bytes).
+    """SET_PARAMS_REQ / GET_PARAMS_RSP: the arm model, its encoders, its error model.
 
-    Kinematic parameters (float64, mm and rad, finite) and the encoder
-    configuration: counts per revolution 2 .. 2**32 (u64 on the wire), zero
-    offset in counts (< counts per revolution), direction +1 or -1.
+    One entry per joint (N = 4..7) in every per-joint tuple. Kinematic
+    parameters are float64, mm and rad, finite; ``l_mm`` is the tip's z in
+    the last frame (the paper's l). The shape: ``convention`` per joint 0
+    (standard DH) or 1 (modified DH), ``()`` = all standard; ``beta_rad`` per
+    joint a Hayati beta or ``None``, ``()`` = none (never joint 1);
+    ``tip_xy_mm`` ``None`` for the tip (0, 0, l) (one parameter), else
+    (t_x, t_y) with t_z = l (three parameters). Encoders: counts per
+    revolution 2 .. 2**32, zero offset in counts (< counts per revolution),
+    direction +1 or -1. The error model (issue 27; a version 2 device refuses
+    a set that has one): ``harm_cos``/``harm_sin`` N rows of K <= 4 encoder
+    harmonics in units of 1e-7 rad (``()`` = K 0), ``cte`` N link
+    coefficients of thermal expansion in 1e-8/K and ``ref_temp`` in 0.01
+    degC (``()`` = no thermal block). Layout: docs/protocol.md 2.3.
     """
 
     theta_offset_rad: tuple[float, ...]
@@ -57,6 +71,46 @@ class ParamSet:
     counts_per_rev: tuple[int, ...]
     zero_offset_counts: tuple[int, ...]
     direction: tuple[int, ...]
+    convention: tuple[int, ...] = ()
+    beta_rad: tuple[float | None, ...] = ()
+    tip_xy_mm: tuple[float, float] | None = None
+    harm_cos: tuple[tuple[int, ...], ...] = ()
+    harm_sin: tuple[tuple[int, ...], ...] = ()
+    cte: tuple[int, ...] = ()
+    ref_temp: int = 0
+
+    def __post_init__(self) -> None:
+        # One form per set (as on the wire): all standard is (), no beta is ().
+        conv = tuple(self.convention)
+        beta = tuple(self.beta_rad)
+        object.__setattr__(self, "convention", conv if any(conv) else ())
+        object.__setattr__(self, "beta_rad", beta if any(b is not None for b in beta) else ())
+
+    @property
+    def joints(self) -> int:
+        """N, the number of joints."""
+        return len(self.theta_offset_rad)
+
+    @property
+    def n_params(self) -> int:
+        """P = 4N + B + T: the arm model's parameters (Jacobian columns)."""
+        betas = sum(1 for b in self.beta_rad if b is not None)
+        return 4 * self.joints + betas + (1 if self.tip_xy_mm is None else 3)
+
+    @property
+    def harmonics(self) -> int:
+        """K, the encoder harmonics per joint of the error model (0: none)."""
+        return len(self.harm_cos[0]) if self.harm_cos else 0
+
+    @property
+    def is_paper_shape(self) -> bool:
+        """Six standard joints, no beta, tip l: the 25 parameters of :class:`aacmm.core.Params`."""
+        return (
+            self.joints == 6
+            and not any(self.convention)
+            and all(b is None for b in self.beta_rad)
+            and self.tip_xy_mm is None
+        )
 
     def to_core(self) -> tuple[Params, EncoderConfig]:
         """The set as :class:`aacmm.core.Params` and :class:`aacmm.core.EncoderConfig`,
@@ -64,13 +118,47 @@ class ParamSet:
 
             params, encoders = arm.get_params().to_core()
             point, jac = Model(params).point_jacobian(counts_to_angles([counts], encoders)[0])
+
+        Raises:
+            ValueError: the set is not of the paper's shape (use :meth:`to_arm`).
         """
         from aacmm.core import EncoderConfig, Params
 
+        if not self.is_paper_shape:
+            raise ValueError(
+                f"the parameter set is an arm of {self.joints} joints and {self.n_params} "
+                "parameters, not the paper's six-joint shape"
+            )
         return (
             Params(self.theta_offset_rad, self.alpha_rad, self.d_mm, self.a_mm, self.l_mm),
             EncoderConfig(self.counts_per_rev, self.zero_offset_counts, self.direction),
         )
+
+    def to_arm(self) -> tuple[Arm, EncoderConfig]:
+        """The set as an :class:`aacmm.arm.Arm` (any shape) and its encoders, for
+        ``Model(arm)`` and ``counts_to_angles(counts, encoders)``."""
+        from aacmm.arm import Arm, Joint
+        from aacmm.core import EncoderConfig
+
+        n = self.joints
+        conv = self.convention or (0,) * n
+        beta = self.beta_rad or (None,) * n
+        joints = tuple(
+            Joint(
+                convention="modified" if conv[i] else "standard",
+                theta_offset_rad=self.theta_offset_rad[i],
+                alpha_rad=self.alpha_rad[i],
+                d_mm=self.d_mm[i],
+                a_mm=self.a_mm[i],
+                beta_rad=beta[i],
+            )
+            for i in range(n)
+        )
+        if self.tip_xy_mm is None:
+            arm = Arm(joints, "z", (0.0, 0.0, self.l_mm))
+        else:
+            arm = Arm(joints, "xyz", (self.tip_xy_mm[0], self.tip_xy_mm[1], self.l_mm))
+        return arm, EncoderConfig(self.counts_per_rev, self.zero_offset_counts, self.direction)
 
     @classmethod
     def from_core(cls, params: Params, encoders: EncoderConfig | None = None) -> ParamSet:
@@ -91,6 +179,33 @@ class ParamSet:
             enc.direction,
         )
 
+    @classmethod
+    def from_arm(cls, arm: Arm, encoders: EncoderConfig | None = None) -> ParamSet:
+        """The device's set for any :class:`aacmm.arm.Arm` and its encoders (default:
+        2^32 counts per revolution, no offset, direction +1 on every joint): the
+        inverse of :meth:`to_arm`. A set of the paper's shape equals
+        :meth:`from_core` of the same values."""
+        from aacmm.core import EncoderConfig
+
+        n = arm.n_joints
+        enc = encoders if encoders is not None else EncoderConfig.default(n)
+        js = arm.joints
+        conv = tuple(1 if j.convention == "modified" else 0 for j in js)
+        beta = tuple(j.beta_rad for j in js)
+        return cls(
+            tuple(j.theta_offset_rad for j in js),
+            tuple(j.alpha_rad for j in js),
+            tuple(j.d_mm for j in js),
+            tuple(j.a_mm for j in js),
+            arm.tip_mm[2],
+            enc.counts_per_rev,
+            enc.zero_offset_counts,
+            enc.direction,
+            convention=conv,
+            beta_rad=beta,
+            tip_xy_mm=None if arm.tip == "z" else (arm.tip_mm[0], arm.tip_mm[1]),
+        )
+
 
 @dataclass(frozen=True)
 class ParamCrc:
@@ -108,11 +223,13 @@ class MeasureRequest:
 
 @dataclass(frozen=True)
 class Sample:
-    """MEASURE_RSP / SAMPLE_EVT (53 bytes, 353 with the Jacobian).
+    """MEASURE_RSP / SAMPLE_EVT (31 + 4N bytes, + 12P with the Jacobian).
 
+    ``counts`` holds the N joint readings of the device's arm model;
     ``point_100nm`` is the probe point in units of 1e-4 mm (see :attr:`point_mm`);
-    ``jacobian`` is a :data:`Jacobian` (3 rows of 25 float32 values: shape
-    (3, 25) as in :mod:`aacmm.core`) or ``None``.
+    ``params`` is P, the arm model's parameters; ``jacobian`` is a
+    :data:`Jacobian` (3 rows of P float32 values: shape (3, P) as in
+    :mod:`aacmm.core`) or ``None``.
     """
 
     seq: int
@@ -121,6 +238,7 @@ class Sample:
     point_100nm: tuple[int, ...]
     status: int
     jacobian: Jacobian | None = None
+    params: int = 25
 
     @property
     def point_mm(self) -> tuple[float, float, float]:
@@ -131,7 +249,7 @@ class Sample:
 
 @dataclass(frozen=True)
 class ComputeRequest:
-    """COMPUTE_REQ: six encoder counts to evaluate on the device."""
+    """COMPUTE_REQ: the N encoder counts (N of the device's arm model) to evaluate."""
 
     counts: tuple[int, ...]
     jacobian: bool = False
@@ -139,12 +257,13 @@ class ComputeRequest:
 
 @dataclass(frozen=True)
 class ComputeResult:
-    """COMPUTE_RSP: the device's point in mm (float64) and optional
-    :data:`Jacobian` (3 rows of 25)."""
+    """COMPUTE_RSP: the device's point in mm (float64), P of its arm model and the
+    optional :data:`Jacobian` (3 rows of P)."""
 
     status: int
     point_mm: tuple[float, ...]
     jacobian: Jacobian | None = None
+    params: int = 25
 
 
 @dataclass(frozen=True)
@@ -186,7 +305,8 @@ class JointDiagnostics:
 
 @dataclass(frozen=True)
 class Diagnostics:
-    """DIAG_RSP (125 bytes): storage, reset cause, watchdog, encoder faults, link counters."""
+    """DIAG_RSP (60 + 11N bytes): storage, reset cause, watchdog, encoder faults, link
+    counters; ``joints`` one entry per joint of the arm model."""
 
     storage_kind: int
     storage_flags: int

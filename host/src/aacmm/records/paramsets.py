@@ -5,12 +5,17 @@ Every recorded row names the set it was taken with by CRC (the
 ``param_crc32`` column, ``0x`` + 8 hex digits); the sidecar lists each set
 (``param_sets``) with its kinematic parameters and encoder configuration.
 A set read back from a file is checked against its CRC, so a sidecar edited
-by hand (or damaged) is refused instead of silently used.
+by hand (or damaged) is refused instead of silently used. Files written with
+protocol version 1 carry that version's CRC (over its 278-byte six-joint
+layout); they still read: the set is accepted when it matches either CRC and
+keeps the CRC it was recorded with (its rows name it so).
 """
 
 from __future__ import annotations
 
 import math
+import struct
+import zlib
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,7 +43,17 @@ class ParamSetRecord:
 
     @classmethod
     def from_device(cls, ps: ParamSet) -> ParamSetRecord:
-        """From a device's GET_PARAMS answer (CRC computed as the device does)."""
+        """From a device's GET_PARAMS answer (CRC computed as the device does).
+
+        Raises:
+            RecordError: the device's arm model is not of the paper's shape (six
+                standard joints, tip l): logs and sessions do not hold other models yet.
+        """
+        if not ps.is_paper_shape:
+            raise RecordError(
+                f"the device's arm model has {ps.joints} joints and {ps.n_params} parameters: "
+                "logs and sessions hold the paper's six-joint arm only so far"
+            )
         params, encoders = ps.to_core()
         return cls(param_set_crc32(ps), params, encoders)
 
@@ -114,11 +129,35 @@ class ParamSetRecord:
         except ValueError as exc:
             raise RecordError(f"{where}: bad parameter set: {exc}") from None
         if actual != crc:
+            if param_set_crc32_v1(ps) == crc:  # written with protocol version 1
+                params, encoders = ps.to_core()
+                return cls(crc, params, encoders)
             raise RecordError(
                 f"{where}: the parameter set does not match its CRC "
                 f"({crc_hex(actual)}, recorded {crc_hex(crc)}): edited or damaged"
             )
         return cls.from_device(ps)
+
+
+def param_set_crc32_v1(ps: ParamSet) -> int | None:
+    """The CRC a protocol version 1 device reported for ``ps`` (CRC-32 over the
+    version 1 layout: 25 f64, u64 cpr[6], u32 zero[6], i8 direction[6]), or None
+    for a set that is not of the paper's shape (version 1 had no other)."""
+    if not ps.is_paper_shape:
+        return None
+    return zlib.crc32(
+        struct.pack(
+            "<25d6Q6I6b",
+            *ps.theta_offset_rad,
+            *ps.alpha_rad,
+            *ps.d_mm,
+            *ps.a_mm,
+            ps.l_mm,
+            *ps.counts_per_rev,
+            *ps.zero_offset_counts,
+            *ps.direction,
+        )
+    )
 
 
 def _floats(d: dict[str, Any], key: str, where: str) -> tuple[float, ...]:

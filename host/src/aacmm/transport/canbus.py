@@ -42,6 +42,7 @@ from aacmm.protocol.can import (
     SAMPLE_FRAME_IDS,
     isotp_address,
     isotp_params,
+    sample_frame_ids,
 )
 from aacmm.protocol.status import Status
 from aacmm.transport.base import Transport
@@ -57,6 +58,7 @@ _PAIR_U = struct.Struct("<II")
 _PAIR_I = struct.Struct("<ii")
 _POINT_Z = struct.Struct("<iHBB")
 _TRIG = struct.Struct("<IBBH")
+_SEQUENCES: Final = {n: sample_frame_ids(n) for n in range(4, 8)}
 
 
 def check_node(node_id: int) -> int:
@@ -87,6 +89,7 @@ class SampleFrameDecoder:
         self.bad_frames = 0
         self.triggers_unmatched = 0
         self._parts: list[bytes] = []
+        self._ids: tuple[int, ...] = ()
         self._orphan = False
         self._ts_high = 0
         self._ts_last = -1
@@ -112,39 +115,45 @@ class SampleFrameDecoder:
             if self._parts:
                 self.incomplete += 1
             self._parts = [data]
+            self._ids = (base,)
             self._orphan = False
             return []
         if base not in SAMPLE_FRAME_IDS:
             return []
-        if SAMPLE_FRAME_IDS.index(base) != len(self._parts):
+        ids = (*self._ids, base)
+        if not self._parts or not any(q[: len(ids)] == ids for q in _SEQUENCES.values()):
             # A frame is missing: drop the sample, count it once.
             if self._parts or not self._orphan:
                 self.incomplete += 1
             self._parts = []
+            self._ids = ()
             self._orphan = True
             return []
         self._parts.append(data)
+        self._ids = ids
         if base != ID_POINT_Z:
             return []
-        parts, self._parts = self._parts, []
-        return self._complete(parts)
+        parts, self._parts, self._ids = self._parts, [], ()
+        return self._complete(parts, ids)
 
-    def _complete(self, parts: list[bytes]) -> list[Message]:
+    def _complete(self, parts: list[bytes], ids: tuple[int, ...]) -> list[Message]:
+        """A sample of N joints: header, (N + 1) // 2 count frames, PointXY, PointZ."""
         seq, ts_low = _HDR.unpack(parts[0])
-        c1, c2 = _PAIR_U.unpack(parts[1])
-        c3, c4 = _PAIR_U.unpack(parts[2])
-        c5, c6 = _PAIR_U.unpack(parts[3])
-        x, y = _PAIR_I.unpack(parts[4])
-        z, status, seq_tag, _reserved = _POINT_Z.unpack(parts[5])
-        if seq_tag != seq & 0xFF:
+        counts: tuple[int, ...] = ()
+        for data in parts[1:-2]:
+            counts += _PAIR_U.unpack(data)
+        x, y = _PAIR_I.unpack(parts[-2])
+        z, status, seq_tag, joints = _POINT_Z.unpack(parts[-1])
+        if seq_tag != seq & 0xFF or _SEQUENCES.get(joints) != ids:
             self.incomplete += 1
             return []
         sample = Sample(
             seq=seq,
             timestamp_us=self._timestamp(ts_low),
-            counts=(c1, c2, c3, c4, c5, c6),
+            counts=counts[:joints],
             point_100nm=(x, y, z),
             status=status,
+            params=4 * joints + 1,  # the frames carry no P: the smallest N-joint shape
         )
         if status & SampleStatus.TRIGGER_EVENT:
             self._edge[seq] = sample
