@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from aacmm.analysis import mc
+from aacmm.analysis import mc, mc_poses
 from aacmm.arm import Arm, Joint
 from test_core_arm import oracle
 
@@ -51,7 +51,7 @@ def test_coefficients_of_a_general_arm_against_the_oracle(make: object) -> None:
     r = mc.error_transfer_coefficients(n, seed=11, params=arm, threads=2)
     assert r.param_names == arm.param_names
     assert r.mean_abs.shape == (3, arm.n_params) and len(r.joints) == arm.n_joints
-    theta = mc.draw_poses(n, seed=11, count=arm.n_joints)
+    theta = mc_poses.draw_poses(n, seed=11, count=arm.n_joints)
     assert theta.shape == (n, arm.n_joints)
     jac = np.array([oracle(arm, q)[1] for q in theta])
     ref = np.abs(jac).mean(axis=0)
@@ -66,7 +66,7 @@ def test_coefficients_of_a_general_arm_against_the_oracle(make: object) -> None:
     with pytest.raises(ValueError, match="Table 2"):
         r.table2()
     with pytest.raises(ValueError, match=f"need {arm.n_joints} JointDistribution"):
-        mc.error_transfer_coefficients(10, joints=(mc.JointDistribution(),) * 6, params=arm)
+        mc.error_transfer_coefficients(10, joints=(mc_poses.JointDistribution(),) * 6, params=arm)
     with pytest.raises(ValueError, match=rf"\(n, {arm.n_joints}\)"):
         mc.coefficients_over_poses(np.zeros((3, 6)), arm)
 
