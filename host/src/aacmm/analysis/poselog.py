@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from aacmm.arm import Arm
 from aacmm.core import EncoderConfig, FloatArray, Params
 from aacmm.errors import AacmmError
 from aacmm.records.files import RecordError
@@ -44,15 +45,15 @@ class PoseLogError(AacmmError, ValueError):
 
 @dataclass(frozen=True)
 class PoseLog:
-    """Poses read from a log: ``theta_rad`` (n, 6), the columns used, the encoder
+    """Poses read from a log: ``theta_rad`` (n, N), the columns used, the encoder
     configuration of the first row, the kinematic parameters (None: the file
-    names none, use the default), the sidecar."""
+    names none, use the default; an Arm for an arm of another shape), the sidecar."""
 
     path: Path
     theta_rad: FloatArray
     columns: tuple[str, ...]
     encoders: EncoderConfig
-    params: Params | None
+    params: Params | Arm | None
     sidecar: Path | None
 
 
