@@ -29,6 +29,7 @@ from aacmm.protocol import ParamSet, Sample, encode_param_set, param_set_crc32
 from aacmm.records import ParamSetRecord, RecordError, SessionWriter, read_session
 from aacmm.records.logs import read_log, read_triggers
 from aacmm.simulation.process import SimProcess
+from aacmm.view.scene import log_scene, session_scene
 from clihelp import one_error_line, run
 
 pytestmark = pytest.mark.timeout(180)
@@ -131,7 +132,10 @@ def test_log_of_an_arm_on_the_simulator(tmp_path: Path, name: str) -> None:
     assert trig and all(len(t.sample.counts) == n for t in trig)
     s = run("summary", str(out), "--json")
     assert s.returncode == 0, s.stderr
-    assert json.loads(s.stdout)["samples"] == 100
+    summary = json.loads(s.stdout)
+    assert summary["samples"] == 100 and summary["joints"] == n
+    scene = log_scene(out)  # aacmm view LOG: the arm drawn at the last sample
+    assert np.abs(np.array(scene["arm"]["tip"]) - ref[-1]).max() < 1e-5  # scene: 5 decimals
 
 
 @pytest.mark.parametrize("name", sorted(ARMS))
@@ -162,6 +166,10 @@ def test_capture_of_an_arm_on_the_simulator(tmp_path: Path, name: str) -> None:
     summ = run("summary", str(out))
     assert summ.returncode == 0, summ.stderr
     assert summ.stdout.splitlines()[0] == f"session {out} (complete): 30 of 30 points"
+    summ = run("summary", str(out), "--json")
+    assert summ.returncode == 0 and json.loads(summ.stdout)["joints"] == n, summ.stderr
+    scene = session_scene(out, verify=False)  # aacmm view SESSION: points and the arm
+    assert np.abs(np.array(scene["arm"]["tip"]) - ref[-1]).max() < 1e-5  # scene: 5 decimals
     csv_out = tmp_path / "points.csv"
     e = run("export", str(out), "-o", str(csv_out))
     assert e.returncode == 0, e.stderr

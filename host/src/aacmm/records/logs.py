@@ -391,6 +391,7 @@ def log_summary(log: Log) -> dict[str, Any]:
         "file": str(log.path),
         "format": log.format,
         "status": meta.get("status", "unknown"),
+        "joints": log.joints,
         "samples": n,
         "duration_s": float(host[-1] - host[0]) if n else 0.0,
         "connected_s": connected,
