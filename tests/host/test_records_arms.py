@@ -362,3 +362,29 @@ def test_sidecar_set_with_lists_of_the_wrong_length_is_refused(tmp_path: Path) -
     d["params"]["convention"] = ["sideways"] * 7
     with pytest.raises(RecordError, match=r"params\.convention"):
         ParamSetRecord.from_json(d, "x")
+
+
+def test_plain_file_of_poses_of_an_arm(tmp_path: Path) -> None:
+    """A plain CSV of ``theta1..theta7`` (or counts) with a sidecar holding the arm's
+    ``params``: read with that arm; without the sidecar: one line, nothing computed."""
+    arm = load_model("commercial7").arm
+    rec = ParamSetRecord.from_device(ParamSet.from_arm(arm))
+    rng = np.random.default_rng(2)
+    theta = rng.uniform(-3.0, 3.0, (12, 7))
+    f = tmp_path / "p7.csv"
+    f.write_text(
+        ",".join(f"theta{i}" for i in range(1, 8))
+        + "\n"
+        + "".join(",".join(repr(float(v)) for v in row) + "\n" for row in theta)
+    )
+    with pytest.raises(RecordError, match="7 joint columns: a file of poses of an arm other"):
+        read_log(f)
+    (tmp_path / "p7.csv.json").write_text(json.dumps({"params": rec.to_json()["params"]}))
+    log = read_log(f)
+    assert log.joints == 7 and log.param_set_of(0).arm == arm and log.params_given
+    ref = np.array([fk(arm, t) for t in theta])
+    assert np.abs(log.points_mm() - ref).max() < 1e-9
+    bad = rec.to_json()["params"] | {"d_mm": [1.0] * 6}
+    (tmp_path / "p7.csv.json").write_text(json.dumps({"params": bad}))
+    with pytest.raises(RecordError, match=r"params\.d_mm must be 7 number"):
+        read_log(f)

@@ -33,10 +33,11 @@ import numpy.typing as npt
 from aacmm.core import EncoderConfig, FloatArray, Params
 from aacmm.protocol import Sample, param_set_crc32
 from aacmm.records.files import CsvTable, RecordError, crc_hex, read_json
-from aacmm.records.paramsets import ParamSetRecord
+from aacmm.records.paramsets import SHAPE_KEYS, ParamSetRecord, param_set_from_json
 from aacmm.records.rows import Recorded
 from aacmm.records.schema import (
     COUNT_COLUMNS,
+    JOINTS,
     JOINTS_MAX,
     JOINTS_MIN,
     LOG_FORMAT,
@@ -176,8 +177,13 @@ def _find_sidecar(path: Path) -> Path | None:
     return None
 
 
-def _plain_set(meta: dict[str, Any], side: Path | None) -> tuple[ParamSetRecord, bool]:
+def _plain_set(
+    meta: dict[str, Any], side: Path | None, joints: int, path: Path
+) -> tuple[ParamSetRecord, bool]:
     """The one set of a plain CSV's sidecar (``encoders``/``params``, no CRC needed)."""
+    kin = meta.get("params")
+    if joints != JOINTS or (isinstance(kin, dict) and any(k in kin for k in SHAPE_KEYS)):
+        return _plain_arm_set(meta, side, joints, path), True
     enc, params, given = EncoderConfig(), Params(), False
     if "encoders" in meta:
         e = meta["encoders"]
@@ -203,6 +209,29 @@ def _plain_set(meta: dict[str, Any], side: Path | None) -> tuple[ParamSetRecord,
     except ValueError as exc:
         raise RecordError(f"{side}: bad parameter set: {exc}") from None
     return ParamSetRecord(crc, params, enc), given
+
+
+def _plain_arm_set(
+    meta: dict[str, Any], side: Path | None, joints: int, path: Path
+) -> ParamSetRecord:
+    """A plain CSV of an arm other than the paper's: its sidecar's ``params`` (N values
+    per list, the shape keys of a log's sets) and ``encoders`` (default: 2^32 counts
+    per revolution, offset 0, direction +1)."""
+    kin, enc = meta.get("params"), meta.get("encoders", {})
+    if not isinstance(kin, dict):
+        raise RecordError(
+            f"{path}: {joints} joint columns: a file of poses of an arm other than the "
+            "paper's needs a sidecar with the arm's \"params\" (one value per joint)"
+        )
+    if not isinstance(enc, dict):
+        raise RecordError(f'{side}: "encoders" must be an object')
+    d = EncoderConfig.default(joints)
+    full = {
+        "counts_per_rev": enc.get("counts_per_rev", list(d.counts_per_rev)),
+        "zero_offset_counts": enc.get("zero_offset_counts", list(d.zero_offset_counts)),
+        "direction": enc.get("direction", list(d.direction)),
+    }
+    return ParamSetRecord.from_device(param_set_from_json(kin, full, str(side)))
 
 
 def _v1_sets(
@@ -309,7 +338,7 @@ def read_log(path: str | Path, encoders: EncoderConfig | None = None) -> Log:
         sets, crc = _v1_sets(meta, side, n, p)
         given = True
     else:
-        ps, given = _plain_set(meta, side)
+        ps, given = _plain_set(meta, side, joints, p)
         sets, crc = {ps.crc32: ps}, np.full(n, ps.crc32, dtype=np.uint32)
     for ps in sets.values():
         if ps.joints != joints:

@@ -179,13 +179,8 @@ class ParamSetRecord:
         kin, enc = d.get("params"), d.get("encoders")
         if not isinstance(kin, dict) or not isinstance(enc, dict):
             raise RecordError(f"{where}: needs the objects params and encoders")
-        ps = _param_set(kin, enc, where)
-        try:
-            actual = param_set_crc32(ps)
-            if not ps.is_paper_shape:
-                ps.to_arm()  # the arm's own checks (beta on joint 1, ranges)
-        except ValueError as exc:
-            raise RecordError(f"{where}: bad parameter set: {exc}") from None
+        ps = param_set_from_json(kin, enc, where)
+        actual = param_set_crc32(ps)
         if actual != crc:
             if param_set_crc32_v1(ps) == crc:  # written with protocol version 1
                 params, encoders = ps.to_core()
@@ -218,9 +213,25 @@ def param_set_crc32_v1(ps: ParamSet) -> int | None:
     )
 
 
+def param_set_from_json(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet:
+    """The device set of a sidecar entry's ``params`` and ``encoders`` objects (N
+    from ``theta_offset_rad``; every per-joint list must hold N values), checked
+    as a device checks it.
+
+    Raises:
+        RecordError: a missing, unknown or bad value (naming ``where`` and the key).
+    """
+    ps = _param_set(kin, enc, where)
+    try:
+        param_set_crc32(ps)  # the codec's checks (ranges, encoders)
+        if not ps.is_paper_shape:
+            ps.to_arm()  # the arm's own checks (beta on joint 1, ranges)
+    except ValueError as exc:
+        raise RecordError(f"{where}: bad parameter set: {exc}") from None
+    return ps
+
+
 def _param_set(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet:
-    """The device set of a sidecar entry's ``params`` and ``encoders`` (N from
-    ``theta_offset_rad``; every per-joint list must hold N values)."""
     th = kin.get("theta_offset_rad")
     n = len(th) if isinstance(th, list) else 0
     if not JOINTS_MIN <= n <= JOINTS_MAX:
