@@ -136,6 +136,14 @@ def test_log_of_an_arm_on_the_simulator(tmp_path: Path, name: str) -> None:
     assert summary["samples"] == 100 and summary["joints"] == n
     scene = log_scene(out)  # aacmm view LOG: the arm drawn at the last sample
     assert np.abs(np.array(scene["arm"]["tip"]) - ref[-1]).max() < 1e-5  # scene: 5 decimals
+    # capture --from-log: the log's presses as a session of the same arm
+    folder = tmp_path / "labelled"
+    c = run("capture", "probe-calibration", "--from-log", str(out), "-o", str(folder))
+    assert c.returncode == 0, c.stderr
+    sess = read_session(folder)
+    presses = [t for t in trig if t.pressed and t.button == 0 and t.sample.status & 1]
+    assert sess.joints == n and len(sess) == min(len(presses), 30) > 0
+    assert sess.counts.tolist() == [list(t.sample.counts) for t in presses[: len(sess)]]
 
 
 @pytest.mark.parametrize("name", sorted(ARMS))
