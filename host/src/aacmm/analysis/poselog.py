@@ -5,7 +5,8 @@ recorded data; formats in docs/cli.md): an ``aacmm log`` CSV with its
 sidecar, or a plain CSV of poses -- ``count1..count6`` (or ``c1..c6``) raw
 encoder counts, or ``theta1..theta6`` angles in rad, ``#`` comments allowed,
 with an optional sidecar ``<file>.json`` (also ``<stem>.json``) holding
-``encoders`` and ``params``.
+``encoders`` and ``params`` (an arm of N joints: ``count1..countN`` or
+``theta1..thetaN``, and a sidecar with its ``params``).
 
 Counts are converted to angles row by row with the encoder configuration of
 the parameter set in force for that row. The analysis uses one kinematic
