@@ -17,6 +17,8 @@ from __future__ import annotations
 import csv
 import json
 import math
+import subprocess
+import time
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +32,7 @@ from aacmm.records import ParamSetRecord, RecordError, SessionWriter, read_sessi
 from aacmm.records.logs import read_log, read_triggers
 from aacmm.simulation.process import SimProcess
 from aacmm.view.scene import log_scene, session_scene
-from clihelp import one_error_line, run
+from clihelp import AACMM, cli_env, one_error_line, run
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -396,3 +398,50 @@ def test_plain_file_of_poses_of_an_arm(tmp_path: Path) -> None:
     (tmp_path / "p7.csv.json").write_text(json.dumps({"params": bad}))
     with pytest.raises(RecordError, match=r"params\.d_mm must be 7 number"):
         read_log(f)
+
+
+def test_reconnect_to_an_arm_of_another_joint_count_ends_the_log(tmp_path: Path) -> None:
+    """``aacmm log --reconnect``: the device comes back as a 5-axis arm under a 7-axis
+    log: one line, exit 2, the rows so far kept and readable as the 7-axis arm's."""
+    f7, _ = set_file(tmp_path, "commercial7")
+    f5, _ = set_file(tmp_path, "microscribe5")
+    link = tmp_path / "arm"
+    out = tmp_path / "run.csv"
+    args = ["log", str(out), "-r", "100", "-d", "6", "--reconnect", "-q", "-p", f"serial://{link}"]
+    first = SimProcess(["--serial", "pty", "--quiet", "--param-set", str(f7)], link=link)
+    try:
+        logger = subprocess.Popen(
+            [str(AACMM), *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=cli_env(),
+        )
+        end = time.monotonic() + 20
+        while not (out.exists() and out.read_text().count("\n") > 50):
+            assert time.monotonic() < end, "no rows"
+            time.sleep(0.05)
+    finally:
+        first.stop()
+    time.sleep(1.0)
+    with SimProcess(["--serial", "pty", "--quiet", "--param-set", str(f5)], link=link):
+        _, err = logger.communicate(timeout=30)
+    assert logger.returncode == 2, err
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith("aacmm log: error: ") and "arm of 5 joints" in lines[-1], err
+    assert "7 count columns" in lines[-1]
+    log = read_log(out)
+    assert log.joints == 7 and len(log.param_sets) == 1 and len(log) > 50
+    assert log.meta["status"] == "error" and "arm of 5 joints" in log.meta["end_reason"]
+
+
+def test_resume_on_a_device_of_another_arm_is_refused(tmp_path: Path) -> None:
+    """``aacmm capture --resume`` of a 5-axis session on a 7-axis device: one line,
+    exit 2, the session untouched."""
+    folder = _session(tmp_path, "s5", load_model("microscribe5").arm, 5)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    f7, _ = set_file(tmp_path, "commercial7")
+    with SimProcess(["--serial", "pty", "--quiet", "--param-set", str(f7)]) as sim:
+        p = run("capture", "probe-calibration", "-o", str(folder), "--resume", "-p", sim.url)
+    one_error_line(p, 2, "arm of 7 joints", "this session holds an arm of 5")
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
