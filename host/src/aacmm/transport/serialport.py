@@ -96,7 +96,8 @@ class SerialTransport(Transport):
         # below; pyserial's read() costs a select(), an ioctl and its timeout
         # bookkeeping per call on top (bench-view: view.client_baseline).
         fd = getattr(self._port, "fd", None)
-        self._fd: int | None = fd if type(self._port) is serial.Serial and isinstance(fd, int) else None
+        plain = type(self._port) is serial.Serial and isinstance(fd, int)
+        self._fd: int | None = fd if plain else None
         sock = getattr(self._port, "_socket", None)
         self._socket: socket.socket | None = (
             sock
@@ -122,8 +123,8 @@ class SerialTransport(Transport):
         sock = self._socket
         fd = self._fd
         if fd is not None:
-            ready, _, _ = select.select([fd], [], [], _READ_POLL_S)
-            if not ready:
+            readable, _, _ = select.select([fd], [], [], _READ_POLL_S)
+            if not readable:
                 return b""
             try:
                 data = os.read(fd, 65536)  # the descriptor is non-blocking (pyserial opens it so)
