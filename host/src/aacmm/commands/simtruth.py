@@ -25,8 +25,6 @@ from typing import Any
 from aacmm.commands.exitcodes import OK, UsageError
 from aacmm.errors import AacmmError
 
-STATIC_POSE_RAD = (0.5, 0.6 + math.pi, -0.9, 0.4 + math.pi, 1.2, -0.3 + math.pi)
-
 
 def add_options(p: argparse.ArgumentParser) -> None:
     """The truth and scenario options of ``aacmm sim``."""
@@ -277,7 +275,7 @@ def _without(argv: list[str], options: tuple[str, ...]) -> list[str]:
 
 
 def _wander(args: argparse.Namespace, op: Any, stop: threading.Event) -> None:
-    from aacmm.simulation.run import Wander
+    from aacmm.simulation.run import STATIC_POSE_RAD, Wander
 
     if args.motion == "static":
         op.theta = op.limits.canonical(STATIC_POSE_RAD)
