@@ -284,3 +284,53 @@ def test_bad_param_files_of_any_arm(edit: Any, needle: str) -> None:
     with pytest.raises(ParamFileError) as info:
         param_set_from_mapping(data, "f.json")
     assert needle in str(info.value) and str(info.value).startswith("f.json: ")
+
+
+def test_model_scenario_operator_within_limits_true_tip_on_target(tmp_path: Path) -> None:
+    """``aacmm sim --model commercial7 --scenario probe-calibration``: a client
+    streams and takes the 30 presses as ``aacmm capture`` would. Every press is
+    read back from the device's own trigger samples: the readings within the
+    model's joint limits, the device's point computed with the nominal set
+    (core on the counts), the true tip (core on the truth file's arm at the
+    same readings) on the plan's seat within the encoder and probing errors,
+    while the uncalibrated device's points scatter by far more."""
+    from aacmm.client import connect
+    from aacmm.plans import load_plan
+
+    model = load_model("commercial7")
+    truth_file, report_file = tmp_path / "truth.toml", tmp_path / "report.json"
+    s = SimCommand(
+        "--model", "commercial7", "--scenario", "probe-calibration", "--fast", "--quiet",
+        "--truth", "random:2", "--truth-out", str(truth_file), "--report", str(report_file),
+    )  # fmt: skip
+    plan = load_plan("probe-calibration")
+    presses: list[Any] = []
+    with connect(s.url, timeout=2.0) as c:
+        stream = c.stream(20)
+        while len(presses) < len(plan.slots):
+            t = c.wait_trigger(timeout=60.0)
+            if t.button == 0 and t.pressed:
+                presses.append(t.sample)
+        stream.stop()
+    _, err = s.proc.communicate(timeout=60)
+    assert s.proc.returncode == 0, err
+    report = json.loads(report_file.read_text())
+    truth = load_truth(truth_file)
+    enc = model.encoder_config()
+    counts = np.array([p.counts for p in presses], dtype=np.int64)
+    assert counts.shape == (30, 7)
+    assert [tuple(p["counts"]) for p in report["presses"] if p["button"] == 0] == [
+        tuple(r) for r in counts.tolist()
+    ]
+    theta = core.counts_to_angles(counts, enc)
+    assert all(model.within_limits(th) for th in theta)
+    device = np.array([[v * 1e-4 for v in p.point_100nm] for p in presses])
+    assert np.max(np.abs(device - core.Model(model.arm).points(theta))) < FLOAT_PATH_BOUND_MM
+    true_tip = core.Model(truth.params).points(theta)
+    target = np.array([p["target_mm"] for p in report["presses"] if p["button"] == 0])
+    # 0.3 arcsec noise + 2 arcsec eccentricity over a 1.3 m arm, 2 um probing: < 50 um
+    assert np.max(np.linalg.norm(true_tip - target, axis=1)) < 0.05
+    scatter = np.linalg.norm(device - device.mean(axis=0), axis=1)
+    assert np.max(scatter) > 0.2  # the device computes with its nominal set, not the truth
+    spread = report["joint_spread_deg"]["pivot"]
+    assert len(spread) == 7 and min(spread) > 45  # articulations over every joint
