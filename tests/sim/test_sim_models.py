@@ -334,3 +334,68 @@ def test_model_scenario_operator_within_limits_true_tip_on_target(tmp_path: Path
     assert np.max(scatter) > 0.2  # the device computes with its nominal set, not the truth
     spread = report["joint_spread_deg"]["pivot"]
     assert len(spread) == 7 and min(spread) > 45  # articulations over every joint
+
+
+def _arms() -> Any:
+    from aacmm.arm import Arm, Joint
+    from hypothesis import strategies as st
+
+    angle = st.floats(-6.28, 6.28, allow_nan=False)
+    length = st.floats(-9999.0, 9999.0, allow_nan=False)
+
+    @st.composite
+    def arm(draw: Any) -> tuple[Arm, core.EncoderConfig]:
+        n = draw(st.integers(4, 7))
+        joints = []
+        for i in range(n):
+            beta = draw(st.none() | angle) if i else None
+            conv = draw(st.sampled_from(["standard", "modified"]))
+            joints.append(Joint(conv, draw(angle), draw(angle), draw(length), draw(length), beta))
+        tip = draw(st.sampled_from(["z", "xyz"]))
+        vec = (draw(length), draw(length), draw(length)) if tip == "xyz" else (0, 0, draw(length))
+        cpr = [draw(st.integers(2, 1 << 32)) for _ in range(n)]
+        zero = [draw(st.integers(0, c - 1)) for c in cpr]
+        direction = [draw(st.sampled_from([1, -1])) for _ in range(n)]
+        return Arm(tuple(joints), tip, vec), core.EncoderConfig(
+            tuple(cpr), tuple(zero), tuple(direction)
+        )
+
+    return arm()
+
+
+def test_param_files_of_any_arm_round_trip_exactly() -> None:
+    from hypothesis import given, settings
+
+    @settings(max_examples=200, deadline=None)
+    @given(_arms())
+    def check(case: Any) -> None:
+        arm, enc = case
+        ps = ParamSet.from_arm(arm, enc)
+        for fmt in ("toml", "json"):
+            text = dump_param_set(ps, fmt)
+            data = tomllib.loads(text) if fmt == "toml" else json.loads(text)
+            back = param_set_from_mapping(data, "f")
+            assert back == ps
+            assert back.to_arm() == (arm, enc)
+
+    check()
+
+
+def test_hostile_param_mappings_are_one_error() -> None:
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    base = json.loads(dump_param_set(_nominal(load_model("microscribe5")), "json"))
+    leaf = st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8)
+    value = st.recursive(leaf, lambda v: st.lists(v, max_size=8), max_leaves=20)
+
+    @settings(max_examples=300, deadline=None)
+    @given(st.sampled_from(sorted(base)), value)
+    def check(key: str, v: Any) -> None:
+        data = {**base, key: v}
+        try:
+            param_set_from_mapping(data, "f.json")
+        except ParamFileError as exc:
+            assert str(exc).startswith("f.json: ") and "\n" not in str(exc)
+
+    check()
