@@ -49,7 +49,7 @@ paper's arm reads and writes exactly as before)::
 model.encoder_config())``).
 
 :func:`load_param_file` checks everything the device would check (types,
-six values each, finite, encoder ranges, |angle| <= 2 pi, |length| <= 10 m)
+N values each (4 to 7), finite, encoder ranges, |angle| <= 2 pi, |length| <= 10 m)
 before anything is sent; problems raise :class:`ParamFileError` naming the
 file and the key (a bad model file: :class:`aacmm.errors.ModelError`, also a
 ``ValueError``).
