@@ -163,6 +163,8 @@ def test_model_random_truth_walks_within_the_limits(name: str, tmp_path: Path) -
         assert (truth.encoders, truth.errors) == (want.encoders, want.errors)
         js = json.loads(aacmm("info", "--port", s.url, "--json").stdout)
         assert js["serial_number"] == want.device_serial == truth.device_serial
+        # a truth file is a parameter file of its arm (its error tables are not parameters)
+        assert load_param_file(truth_file) == ParamSet.from_arm(want.params, want.encoders)
         out = tmp_path / "device.toml"
         aacmm("params", "get", "--port", s.url, "-o", str(out))
         assert load_param_file(out) == _nominal(model)  # the device holds the nominal set

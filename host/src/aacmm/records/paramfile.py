@@ -212,7 +212,7 @@ def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
     if isinstance(fmt, str) and fmt.startswith("aacmm-log"):  # a log sidecar: its set only
         data = {k: data[k] for k in ("params", "encoders") if k in data}
     elif isinstance(fmt, str) and fmt.startswith("aacmm-truth"):  # a simulator truth file:
-        data = {k: v for k, v in data.items() if k in ALL_KEYS}  # its set, not its error tables
+        data = {k: v for k, v in data.items() if k in FILE_KEYS}  # its set, not its error tables
     flat: dict[str, Any] = {}
     for key, value in data.items():
         if key in ("params", "encoders") and isinstance(value, dict):
