@@ -6,7 +6,7 @@ nominal set (read back with ``aacmm params get`` and compared with
 ``ParamSet.from_arm`` of the model file); the points and Jacobians of
 ``aacmm measure`` and ``aacmm compute`` agree with ``aacmm.core`` in double
 precision on that set (the device's single-precision chain: within 1 um);
-``--truth random:SEED`` of a model writes the model's random truth
+``--truth random:SEED`` of a model (7, 5 and 4 joints) writes the model's random truth
 (:func:`aacmm.simulation.truth.model_truth`, recomputed here) and walks the
 true arm within the model's joint limits (every reading checked against them);
 ``params get``/``set`` round-trips a 7-axis set and loads a model file (the
@@ -151,7 +151,7 @@ def _angles_in_limits(model: Any, counts: list[int]) -> bool:
     return bool(model.within_limits(theta))
 
 
-@pytest.mark.parametrize("name", ["commercial7", "microscribe5"])
+@pytest.mark.parametrize("name", ["commercial7", "microscribe5", "desk4"])
 def test_model_random_truth_walks_within_the_limits(name: str, tmp_path: Path) -> None:
     model = load_model(name)
     truth_file = tmp_path / "truth.toml"
