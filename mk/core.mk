@@ -134,7 +134,7 @@ BENCH_TARGETS += bench-core
 # ---- the error model's instructions on the Cortex-M4F (issue 27) ----
 # bench/bench_em_cm.c on the -Os M4F objects under QEMU's mps2-an386.
 M4F_BENCH_DIR := $(BUILD)/arm-m4f/bench
-$(M4F_BENCH_DIR)/bench_em_m4f.elf: bench/bench_em_cm.c bench/m4f_mps2.ld $(M4F_CORE_OBJS)
+$(M4F_BENCH_DIR)/bench_em_m4f.elf: bench/bench_em_cm.c bench/bare_metal.h bench/m4f_mps2.ld $(M4F_CORE_OBJS)
 	@mkdir -p $(@D)
 	$(ARM_CC) $(ARM_CFLAGS) $(M4F_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
 	  -T bench/m4f_mps2.ld bench/bench_em_cm.c $(M4F_CORE_OBJS) -lm -lc -lgcc -o $@

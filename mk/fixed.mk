@@ -125,7 +125,7 @@ M0_BENCH_DIR := $(BUILD)/arm-m0p/bench
 $(M0_BENCH_DIR)/kinematics_f32.o: firmware/src/kinematics_f32.c $(CORE_HDRS)
 	@mkdir -p $(@D)
 	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -c $< -o $@
-$(M0_BENCH_DIR)/bench_fixed_m0.elf: bench/bench_fixed_m0.c bench/m0_microbit.ld $(M0P_FIXED_OBJS) $(M0_BENCH_DIR)/kinematics_f32.o
+$(M0_BENCH_DIR)/bench_fixed_m0.elf: bench/bench_fixed_m0.c bench/bare_metal.h bench/m0_microbit.ld $(M0P_FIXED_OBJS) $(M0_BENCH_DIR)/kinematics_f32.o
 	@mkdir -p $(@D)
 	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
 	  -T bench/m0_microbit.ld bench/bench_fixed_m0.c $(M0P_FIXED_OBJS) $(M0_BENCH_DIR)/kinematics_f32.o -lm -lc -lgcc -o $@
@@ -154,7 +154,7 @@ TEST_SUITES += test-fixed-split
 
 # ---- the error model's instructions on the Cortex-M0 (issue 27) ----
 # bench/bench_em_cm.c on the -Os M0+ objects, as bench-fixed-m0.
-$(M0_BENCH_DIR)/bench_em_m0.elf: bench/bench_em_cm.c bench/m0_microbit.ld $(M0P_FIXED_OBJS)
+$(M0_BENCH_DIR)/bench_em_m0.elf: bench/bench_em_cm.c bench/bare_metal.h bench/m0_microbit.ld $(M0P_FIXED_OBJS)
 	@mkdir -p $(@D)
 	$(ARM_CC) $(ARM_CFLAGS) $(M0P_FLAGS) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
 	  -T bench/m0_microbit.ld bench/bench_em_cm.c $(M0P_FIXED_OBJS) -lc -lgcc -o $@

@@ -13,7 +13,8 @@
 # --prepare TARGETS (one word or a quoted list) runs first, one at a time, the
 # same way (not counted as suites; if one fails, nothing else runs). When suites
 # run side by side, a line "build" then makes every prerequisite the suites have
-# in make's database, one at a time, so that two suites never build the same file.
+# in make's database (one make, $TEST_JOBS jobs; each file once), so that two
+# suites never build the same file.
 #
 # Suites run $TEST_JOBS at a time (default: 2, or 1 on a one-core machine):
 # most are one Python or C process, and two cores take two of them. Each suite
@@ -165,8 +166,12 @@ if [ "$JOBS" -gt 1 ]; then
     deps=$(prerequisites "$@")
     for p in $prepare; do deps=$(echo " $deps " | sed "s/ $p / /g"); done
     if [ -n "$(echo $deps)" ]; then
+        # make runs them $JOBS at a time itself (one make: each file built once);
+        # if that fails, once more one at a time, so that a failure is a real one
+        # and its log reads in order.
         # shellcheck disable=SC2086 # a list of make targets
-        run_fg build $deps
+        run_fg build -j"$JOBS" $deps
+        [ "$rc" -ne 0 ] && run_fg build $deps
         if [ "$rc" -ne 0 ]; then
             report build FAIL
             echo "suites: 0 passed, $# failed"

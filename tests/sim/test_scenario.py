@@ -336,8 +336,8 @@ def test_truth_file_resolution_must_match(tmp_path: Path) -> None:
 
 def test_truth_without_scenario_static_and_walk() -> None:
     from aacmm.client import connect
-    from aacmm.commands.simtruth import STATIC_POSE_RAD
     from aacmm.simulation.ik import ARM_LIMITS
+    from aacmm.simulation.run import STATIC_POSE_RAD
     from aacmm.simulation.truth import nominal_truth
 
     sim = subprocess.Popen(

@@ -72,15 +72,12 @@ class InfeasibleError(AacmmError):
     tighter than the best parts and encoders allow); exit status 8."""
 
 
-class ModelError(AacmmError, ValueError):
-    """An arm model (``aacmm.models``, schema ``aacmm-model-1``) that cannot be
-    read, breaks the schema, or does not match the data it is used with.
-
-    The message is one line, ``FILE:LINE: FIELD: problem`` (the line and the
-    field where known); the parts are also in :attr:`file`, :attr:`line`
-    (None if unknown) and :attr:`field` (``""`` if none). Exit status 2
-    (a bad input file).
-    """
+class SourceFileError(AacmmError, ValueError):
+    """A text file (an arm model, a plan) whose content breaks its schema, with
+    the place: the message is one line, ``FILE:LINE: FIELD: problem`` (the line
+    and the field where known); the parts are also in :attr:`file`,
+    :attr:`line` (None if unknown), :attr:`field` (``""`` if none) and
+    :attr:`problem`."""
 
     def __init__(self, file: str, line: int | None, field: str, problem: str) -> None:
         where = f"{file}:{line}" if line is not None else file
@@ -89,3 +86,14 @@ class ModelError(AacmmError, ValueError):
         self.line = line
         self.field = field
         self.problem = problem
+
+
+class ModelError(SourceFileError):
+    """An arm model (``aacmm.models``, schema ``aacmm-model-1``) that cannot be
+    read, breaks the schema, or does not match the data it is used with.
+
+    The message is one line, ``FILE:LINE: FIELD: problem`` (the line and the
+    field where known); the parts are also in :attr:`file`, :attr:`line`
+    (None if unknown) and :attr:`field` (``""`` if none). Exit status 2
+    (a bad input file).
+    """

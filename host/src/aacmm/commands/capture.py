@@ -37,10 +37,10 @@ from aacmm.errors import LinkLostError
 if TYPE_CHECKING:
     from aacmm.client import SampleStream
     from aacmm.commands.common import Device
-    from aacmm.commands.view import CaptureView
     from aacmm.plans import Plan, Slot
     from aacmm.protocol import Trigger
     from aacmm.records import ParamSetRecord, SessionWriter
+    from aacmm.view.capture import CaptureView
 
 #: Rate of the stream capture keeps open while it listens (a live link, and the
 #: simulated operator's sign that capture is ready).

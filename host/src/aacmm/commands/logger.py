@@ -29,7 +29,7 @@ from aacmm.errors import (
     VersionMismatchError,
 )
 from aacmm.records.files import utc_iso
-from aacmm.records.logwriter import COLUMNS, LogWriter, open_rows
+from aacmm.records.logwriter import COLUMNS, LogOptions, LogWriter, open_rows
 from aacmm.records.rawcan import RAW_SUFFIXES, RawCanRecorder
 
 if TYPE_CHECKING:
@@ -37,6 +37,20 @@ if TYPE_CHECKING:
     from aacmm.protocol import Trigger
 
 RECONNECT_PAUSE_S = 0.5
+
+
+def log_options(args: argparse.Namespace) -> LogOptions:
+    """The files and limits of ``aacmm log``'s arguments (checked by the command)."""
+    return LogOptions(
+        output=Path(args.output),
+        rate_hz=args.rate,
+        triggers=Path(args.triggers) if args.triggers else None,
+        write_triggers=not args.no_triggers,
+        raw=Path(args.raw) if args.raw else None,
+        force=args.force,
+        duration_s=args.duration,
+        count=args.count,
+    )
 
 
 class Logger(LogWriter):
@@ -49,7 +63,8 @@ class Logger(LogWriter):
         print(format_summary(summary, files), file=out, flush=True)
 
     def __init__(self, args: argparse.Namespace, url: str) -> None:
-        super().__init__(args, url)
+        super().__init__(log_options(args), url)
+        self.args = args
         self.stop = StopFlag()
         self.dev: Device | None = None
         self.t0 = 0.0

@@ -25,8 +25,6 @@ from typing import Any
 from aacmm.commands.exitcodes import OK, UsageError
 from aacmm.errors import AacmmError
 
-STATIC_POSE_RAD = (0.5, 0.6 + math.pi, -0.9, 0.4 + math.pi, 1.2, -0.3 + math.pi)
-
 
 def add_options(p: argparse.ArgumentParser) -> None:
     """The truth and scenario options of ``aacmm sim``."""
@@ -242,7 +240,7 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
         def work() -> None:
             try:
                 if plan is None:
-                    _wander(args, op, stop, STATIC_POSE_RAD if model is None else op.theta)
+                    _wander(args, op, stop, None if model is None else op.theta)
                     return
                 _perform(args, plan, op, misprobes, say, runs)
             except Stopped:
@@ -293,10 +291,12 @@ def _without(argv: list[str], options: tuple[str, ...]) -> list[str]:
 
 
 def _wander(args: argparse.Namespace, op: Any, stop: threading.Event, pose: Any) -> None:
-    from aacmm.simulation.run import Wander
+    """The true arm walking, or (``--motion static``) still at ``pose``
+    (None: :data:`~aacmm.simulation.run.STATIC_POSE_RAD`, the paper's arm)."""
+    from aacmm.simulation.run import STATIC_POSE_RAD, Wander
 
     if args.motion == "static":
-        op.theta = op.limits.canonical(pose)
+        op.theta = op.limits.canonical(STATIC_POSE_RAD if pose is None else pose)
         op.send_pose(op.theta)
         period = args.button_every
         while not stop.wait(period if period else 0.5):

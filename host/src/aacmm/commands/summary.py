@@ -3,7 +3,9 @@
 A log: samples, duration, rate while connected, reconnect gaps, lost samples,
 triggers and the extent of the point cloud (the same lines ``aacmm log``
 prints when it ends). A session: plan, status, device, parameter sets and
-points per step. Both work on files cut short by kill -9.
+points per step. Both work on files cut short by kill -9. The figures come
+from :mod:`aacmm.records.summary`; this module prints them and turns damage
+into exit status 2.
 """
 
 from __future__ import annotations
@@ -65,47 +67,6 @@ def format_summary(d: dict[str, Any], files: list[Path] | None = None) -> str:
     return "\n".join(lines)
 
 
-def summarize_file(path: Path) -> dict[str, Any]:
-    """Samples, duration, rate while connected, gaps, lost samples and extent of a log
-    (:func:`aacmm.records.logs.log_summary`; works on a log cut short by kill -9).
-
-    Raises:
-        RecordError (exit 2): unreadable file or sidecar, not a log, a bad row.
-    """
-    from aacmm.records.logs import log_summary, read_log
-
-    return log_summary(read_log(path))
-
-
-def summarize_session(folder: Path) -> dict[str, Any]:
-    """Plan, status, device, parameter sets and points per step of a capture session."""
-    from aacmm.records import read_session
-
-    s = read_session(folder)
-    steps = []
-    for st in s.plan.steps:
-        steps.append(
-            {"id": st.id, "procedure": st.procedure, "points": len(s.rows_of(st.index)),
-             "of": st.points}
-        )  # fmt: skip
-    dev = s.device or {}
-    return {
-        "session": str(folder),
-        "status": s.status,
-        "plan": s.meta["plan"].get("name", ""),
-        "title": s.plan.title,
-        "points": len(s.points),
-        "of": len(s.plan.slots),
-        "complete": s.complete,
-        "device_serial_number": dev.get("serial_number"),
-        "param_sets": [crc for _, crc in s.set_changes()],
-        "runs": [r.get("kind") for r in s.meta.get("runs", []) if isinstance(r, dict)],
-        "steps": steps,
-        "warnings": list(s.warnings),
-        "damage": list(s.damage),
-    }
-
-
 def _damaged(path: Path, damage: list[str]) -> int:
     """A damaged file ends the summary with one line and exit status 2 (bad input)."""
     if not damage:
@@ -116,6 +77,8 @@ def _damaged(path: Path, damage: list[str]) -> int:
 
 
 def cmd_summary(args: argparse.Namespace) -> int:
+    from aacmm.records import summarize_file, summarize_session
+
     path = Path(args.output)
     if path.is_dir():
         d = summarize_session(path)

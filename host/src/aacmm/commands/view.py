@@ -20,6 +20,7 @@ from aacmm.commands.common import add_connection_options, add_force_option, prin
 
 if TYPE_CHECKING:
     from aacmm.commands.common import Device
+    from aacmm.view.capture import CaptureView
     from aacmm.view.live import LiveFeed
     from aacmm.view.server import ViewServer
 
@@ -309,43 +310,16 @@ def live(args: argparse.Namespace) -> int:
     return 0
 
 
-class CaptureView:
-    """What ``aacmm capture --view`` adds to a capture: the server and the feed.
-
-    Capture calls :meth:`on_sample` for every sample it reads and
-    :meth:`changed` after every point, undo or confirmation; the page reads
-    the session folder, never the device, so a browser that closes (or
-    several that open) changes nothing for the capture.
-    """
-
-    def __init__(self, srv: ViewServer, feed: LiveFeed) -> None:
-        self.srv = srv
-        self.feed = feed
-
-    def on_sample(self, sample: Any) -> None:
-        self.feed.on_sample(sample)
-
-    def changed(self, accepted: int | None = None) -> None:
-        """After a point, an undo or a confirmation; ``accepted``: points now held."""
-        self.feed.session_changed(accepted)
-
-    def close(self) -> None:
-        self.feed.close()
-        if self.srv.pages_open:
-            time.sleep(0.3)  # let the pages get the session's end before the server goes
-        self.srv.close()
-
-
 def open_capture_server(args: argparse.Namespace) -> ViewServer:
     """Before capture opens the device: bind (a busy port fails here, nothing touched)."""
     return open_server(args, lambda: {"kind": "starting"})
 
 
 def start_capture_view(srv: ViewServer, dev: Device, folder: Path, plan: Any) -> CaptureView:
-    """Feed ``srv`` from the capture of ``plan`` into ``folder`` on ``dev``."""
-    feed = make_feed(dev, srv, 40, 400, f"capture: {plan.title}")
-    srv.set_scene(feed.state)
-    feed.follow_session(folder, plan)
-    feed.start()
+    """Feed ``srv`` from the capture of ``plan`` into ``folder`` on ``dev``
+    (:func:`aacmm.view.capture.follow_capture`) and print the page's address."""
+    from aacmm.view.capture import follow_capture
+
+    view = follow_capture(srv, make_feed(dev, srv, 40, 400, f"capture: {plan.title}"), folder, plan)
     print(f"view: {srv.url}", flush=True)
-    return CaptureView(srv, feed)
+    return view

@@ -10,7 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
-from aacmm.errors import AacmmError
+from aacmm.errors import SourceFileError
 from aacmm.fileio import InputFileError, loads_toml
 from aacmm.plans._locate import format_path, key_lines, line_of
 from aacmm.plans._slots import PRESET_ISO, make_slots
@@ -49,20 +49,12 @@ ID_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz012345
 _AT_LINE = re.compile(r"\s*\(at line (\d+), column \d+\)")
 
 
-class PlanError(AacmmError, ValueError):
+class PlanError(SourceFileError):
     """A plan file that cannot be read or breaks the schema.
 
     The message is one line, ``FILE:LINE: FIELD: problem``; the parts are also
     in :attr:`file`, :attr:`line` (None if unknown) and :attr:`field`.
     """
-
-    def __init__(self, file: str, line: int | None, field: str, problem: str) -> None:
-        where = f"{file}:{line}" if line is not None else file
-        super().__init__(f"{where}: {field}: {problem}" if field else f"{where}: {problem}")
-        self.file = file
-        self.line = line
-        self.field = field
-        self.problem = problem
 
 
 class _Ctx:

@@ -15,6 +15,8 @@ Main names:
   :meth:`Recorded.points_mm` (recompute with each row's set, or given parameters).
 * :class:`SessionWriter`, :func:`read_session`, :class:`Session`,
   :class:`CapturedPoint` -- capture sessions.
+* :func:`summarize_file`, :func:`summarize_session` -- what a log or a session
+  holds (``aacmm summary``).
 * :class:`RecordError` -- a file that cannot be read or breaks its format
   (one line, naming the file and line).
 
@@ -40,6 +42,8 @@ if TYPE_CHECKING:
     from aacmm.records.session_reader import read_session as read_session
     from aacmm.records.session_reader import session_exists as session_exists
     from aacmm.records.session_writer import SessionWriter as SessionWriter
+    from aacmm.records.summary import summarize_file as summarize_file
+    from aacmm.records.summary import summarize_session as summarize_session
 
 # Loaded on first use, so that importing a light submodule (aacmm.records.files,
 # .schema) from a command's top level does not pull numpy and the C core in.
@@ -57,6 +61,8 @@ _WHERE = {
     "SessionWriter": "session_writer",
     "read_session": "session_reader",
     "session_exists": "session_reader",
+    "summarize_file": "summary",
+    "summarize_session": "summary",
 }
 
 
@@ -80,4 +86,6 @@ __all__ = [
     "fmt_point",
     "read_session",
     "session_exists",
+    "summarize_file",
+    "summarize_session",
 ]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import collections
 import platform
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,8 +30,6 @@ from aacmm.records.schema import (
 )
 
 if TYPE_CHECKING:
-    import argparse
-
     from aacmm.client import Client, SampleStream
     from aacmm.protocol import DeviceInfo, Sample, Trigger
     from aacmm.records.paramsets import ParamSetRecord
@@ -59,20 +58,33 @@ def open_rows(path: Path, columns: tuple[str, ...], force: bool) -> RowFile:
         raise OutputFileError(f"cannot create {path}: {exc.strerror}") from None
 
 
-class LogWriter:
-    """The files and counters of one ``aacmm log`` run (:class:`~aacmm.commands.logger.Logger`
-    adds the device)."""
+@dataclass(frozen=True)
+class LogOptions:
+    """What one ``aacmm log`` run writes, and the limits its sidecar records."""
 
-    def __init__(self, args: argparse.Namespace, url: str) -> None:
-        self.args = args
+    output: Path  #: the log's CSV file (its sidecar is ``output`` + ``.json``)
+    rate_hz: int  #: the sample rate asked for
+    #: the trigger file; None: ``FILE.triggers.csv`` beside the log (with ``write_triggers``)
+    triggers: Path | None = None
+    write_triggers: bool = True  #: record button captures
+    raw: Path | None = None  #: the raw CAN frames' file, if any
+    force: bool = False  #: overwrite existing files
+    duration_s: float | None = None  #: the run's time limit, if any
+    count: int | None = None  #: the run's sample limit, if any
+
+
+class LogWriter:
+    """The files and counters of one ``aacmm log`` run, as ``options`` says
+    (the ``aacmm log`` command adds the device)."""
+
+    def __init__(self, options: LogOptions, url: str) -> None:
+        self.options = options
         self.url = url
-        self.csv_path = Path(args.output)
+        self.csv_path = options.output
         self.sidecar = sidecar_path(self.csv_path)
         self.trig_path: Path | None = None
-        if not args.no_triggers:
-            self.trig_path = (
-                Path(args.triggers) if args.triggers else default_triggers_path(self.csv_path)
-            )
+        if options.write_triggers:
+            self.trig_path = options.triggers or default_triggers_path(self.csv_path)
         self.s = Session()
         self.rows: RowFile | None = None
         self.trig_rows: RowFile | None = None
@@ -89,12 +101,19 @@ class LogWriter:
     # ---------------------------------------------------------- set-up
 
     def check_outputs(self) -> None:
-        a = self.args
+        """Before the device is opened: the files are distinct, absent (or ``force``)
+        and their folders writable.
+
+        Raises:
+            OutputExistsError: a file exists (without ``force``).
+            OutputFileError: two files are one, or a folder is missing or not writable.
+        """
+        a = self.options
         paths = [self.csv_path, self.sidecar]
         if self.trig_path is not None:
             paths.append(self.trig_path)
-        if a.raw:
-            paths.append(Path(a.raw))
+        if a.raw is not None:
+            paths.append(a.raw)
         if len({p.resolve() for p in paths}) != len(paths):
             raise OutputFileError("the log, trigger and raw files must be different files")
         if not a.force:
@@ -112,7 +131,7 @@ class LogWriter:
     def base_meta(self, client: Client, info: DeviceInfo, ps: ParamSetRecord) -> dict[str, Any]:
         from aacmm.client.devstate import info_dict
 
-        a = self.args
+        a = self.options
         return {
             "format": FORMAT,
             "status": "running",
@@ -121,7 +140,7 @@ class LogWriter:
             "units": UNITS,
             "triggers_csv": None,
             "trigger_columns": list(TRIGGER_COLUMNS),
-            "raw_can": Path(a.raw).name if a.raw else None,
+            "raw_can": a.raw.name if a.raw is not None else None,
             "port": self.url,
             "transport": client.transport.description,
             "device": info_dict(info),
@@ -132,9 +151,9 @@ class LogWriter:
             "encoders": ps.encoders_json(),
             # ... and every set in force, each from the row where it began
             "param_sets": [],
-            "rate_hz_requested": a.rate,
+            "rate_hz_requested": a.rate_hz,
             "rate_hz": None,
-            "limits": {"duration_s": a.duration, "count": a.count},
+            "limits": {"duration_s": a.duration_s, "count": a.count},
             "flush_policy": {"interval_s": FLUSH_INTERVAL_S, "rows": FLUSH_ROWS},
             "start_time": utc_iso(self.start_wall),
             "start_unix": self.start_wall,
@@ -236,8 +255,8 @@ class LogWriter:
         return text
 
     def summary(self) -> tuple[dict[str, Any], list[Path]]:
-        """The run's summary figures (:func:`aacmm.commands.summary.format_summary`
-        prints them) and the files it wrote."""
+        """The run's summary figures (what ``aacmm log`` prints at its end) and the
+        files it wrote."""
         s = self.s
         elapsed = (s.last_host - s.first_host) if s.first_host and s.last_host else 0.0
         summary = {

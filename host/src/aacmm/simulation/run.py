@@ -19,7 +19,7 @@ or the true arm wandering on its own.
 
 :class:`Wander` moves the true arm through random postures instead (the
 ``walk`` motion of a simulator with a truth), optionally pressing button 0
-every so often.
+every so often; :data:`STATIC_POSE_RAD` is the pose of its ``static`` motion.
 
 Both are pure library code: they report through a ``say`` callback.
 """
@@ -42,6 +42,11 @@ from aacmm.simulation.articulation import joint_spread_deg
 from aacmm.simulation.control import ControlChannel
 from aacmm.simulation.operator import Operator, Press, Stopped
 from aacmm.simulation.scenario import Choreography, PlannedPoint
+
+#: The true arm's pose for the ``static`` motion of a simulator with a truth (rad,
+#: joints 1..6; :meth:`~aacmm.simulation.ik.JointLimits.canonical` maps it into the
+#: joints' intervals).
+STATIC_POSE_RAD = (0.5, 0.6 + math.pi, -0.9, 0.4 + math.pi, 1.2, -0.3 + math.pi)
 
 PROGRESS = "progress.json"
 PROGRESS_FORMAT = "aacmm-progress-1"

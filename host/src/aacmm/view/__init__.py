@@ -12,6 +12,8 @@ capture --view`` (docs/view.md) are its commands.
 * :mod:`aacmm.view.live` -- frames from the device's samples, a capture's
   progress (:class:`~aacmm.view.live.LiveFeed`); :mod:`aacmm.view.options` its
   settings' defaults and limits;
+* :mod:`aacmm.view.capture` -- the live page beside a capture
+  (:class:`~aacmm.view.capture.CaptureView`, :func:`~aacmm.view.capture.follow_capture`);
 * :mod:`aacmm.view.server` -- the local web server
   (:class:`~aacmm.view.server.ViewServer`: the page, plotly.js from the
   installed ``plotly`` package, ``/scene.json``, a push WebSocket);
