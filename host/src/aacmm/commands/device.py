@@ -247,7 +247,7 @@ def _verify(dev_params: ParamSet, sent: ParamSet, what: str) -> None:
         from aacmm.records.paramfile import param_set_dict
 
         a, b = param_set_dict(sent), param_set_dict(dev_params)
-        diff = [k for k in a if a[k] != b[k]]
+        diff = [k for k in {**a, **b} if a.get(k) != b.get(k)] or ["the error model"]
         raise ReadBackError(f"{what}: the device reads back other values for {', '.join(diff)}")
 
 
@@ -277,11 +277,14 @@ def cmd_params_set(args: argparse.Namespace) -> int:
             if arm is not None and arm.serial_number is not None
             else ""
         )
-        print(f"{args.file}: valid parameter set, crc 0x{want:08x}{whose}")
+        shape = "" if ps.is_paper_shape else f", {ps.joints} joints, {ps.n_params} parameters"
+        print(f"{args.file}: valid parameter set{shape}, crc 0x{want:08x}{whose}")
         return OK
     with device_from_args(args) as dev:
         c = dev.client
         note = _check_arm(args.file, arm, dev.info.serial_number, args.override)
+        before = c.get_params()
+        change = _model_change(before, ps)
         got = c.set_params(ps)
         if got != want:
             raise ReadBackError(
@@ -305,7 +308,37 @@ def cmd_params_set(args: argparse.Namespace) -> int:
                 "; NOT saved: lost at restart (add --save, or run `aacmm params save` to keep it)"
             )
     print(msg + note)
+    if change:
+        print_err("params set", change)
     return OK
+
+
+def _shape(ps: ParamSet) -> str:
+    conv = ps.convention or (0,) * ps.joints
+    kinds = {0: "standard", 1: "modified"}
+    conventions = "/".join(sorted({kinds[c] for c in conv}))
+    betas = [i + 1 for i, b in enumerate(ps.beta_rad) if b is not None]
+    tip = "tip l" if ps.tip_xy_mm is None else "tip vector"
+    beta = ""
+    if betas:
+        beta = f", {'betas on joints' if len(betas) > 1 else 'a beta on joint'} "
+        beta += ", ".join(map(str, betas))
+    return f"{ps.joints} joints, {ps.n_params} parameters ({conventions} DH{beta}, {tip})"
+
+
+def _model_change(before: ParamSet, after: ParamSet) -> str:
+    """'' or a note that the set changes the device's arm model (its shape: N,
+    conventions, betas, tip kind), not only its values (docs/cli.md)."""
+
+    def key(ps: ParamSet) -> tuple[object, ...]:
+        n = ps.joints
+        conv = ps.convention or (0,) * n
+        betas = tuple(b is not None for b in (ps.beta_rad or (None,) * n))
+        return (n, conv, betas, ps.tip_xy_mm is None)
+
+    if key(before) == key(after):
+        return ""
+    return f"note: the device's arm model changes from {_shape(before)} to {_shape(after)}"
 
 
 def _warn_if_volatile(client: Client, cmd: str) -> None:

@@ -8,6 +8,13 @@ it. The command prints one URL per link on stdout (``serial:///dev/pts/N``,
 ``socketcan://vcan0?node=1``) as soon as the simulator is ready, then runs
 until Ctrl-C or SIGTERM, which stop the simulator cleanly.
 
+``--model NAME|FILE`` (issue 26): the simulated device starts with an arm
+model's nominal parameter set (``aacmm-sim --param-set``, written to a
+temporary file from ``ParamSet.from_arm(model.arm, model.encoder_config())``)
+and the model's encoder resolution and interface; the default, the paper's
+``gao2013``, runs exactly as without the option. The command says which model
+it runs (name, N, P) on stderr.
+
 :class:`aacmm.simulation.process.SimProcess` is the same as a Python API (used
 by the tests and the demo).
 """
@@ -21,7 +28,7 @@ import sys
 import threading
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aacmm.commands.exitcodes import INTERRUPTED, OK, PORT, USAGE, UsageError
 from aacmm.commands.simtruth import note_others
@@ -33,6 +40,9 @@ from aacmm.simulation.process import (
     publish_urls,
     unpublish_urls,
 )
+
+if TYPE_CHECKING:
+    from aacmm.models import ArmModel
 
 
 def register(sub: Any) -> None:
@@ -47,6 +57,12 @@ def register(sub: Any) -> None:
         "--serial",
         metavar="pty|PATH",
         help="serial link: 'pty' (a new pseudo-terminal) or a tty path",
+    )
+    p.add_argument(
+        "--model",
+        metavar="NAME|FILE",
+        help="the arm model the device starts with: a shipped model (aacmm model list) or "
+        "a model file (default gao2013, the paper's arm)",
     )
     p.add_argument("--can", metavar="IFACE", help="SocketCAN interface (e.g. vcan0)")
     p.add_argument("--node", type=int, metavar="N", help="CAN node id 0..15 (default 1)")
@@ -114,6 +130,67 @@ def sim_args(args: argparse.Namespace) -> list[str]:
     if args.quiet:
         out.append("--quiet")
     return out
+
+
+def sim_model(args: argparse.Namespace) -> ArmModel | None:
+    """The ``--model`` of ``aacmm sim``: None for the paper's shipped ``gao2013``
+    (the simulator's built-in defaults, today's behaviour), else the model.
+
+    Raises:
+        ModelError: no such model, or an invalid model file (exit status 2).
+        UsageError: a model the simulator cannot run (encoders of several
+            resolutions), or ``--cpr``/``--encoder-bits``/``--board`` against it.
+    """
+    from aacmm.models import DEFAULT_MODEL, load_model
+
+    if args.model is None:
+        return None
+    model = load_model(args.model)
+    if args.board is not None:
+        raise UsageError(
+            "--board runs the board's own firmware: no --model (give the board a model "
+            "with `aacmm params set MODEL.toml`)"
+        )
+    if model.name == DEFAULT_MODEL and model.file is None:  # the shipped paper's arm
+        return None
+    cprs = sorted({e.counts_per_rev for e in model.encoders})
+    if len(cprs) != 1:
+        raise UsageError(
+            f"model {model.name}: the simulator has one encoder resolution for every "
+            f"joint, the model has {', '.join(str(c) for c in cprs)} counts per revolution"
+        )
+    cpr = args.cpr if args.cpr is not None else None
+    if args.encoder_bits is not None:
+        cpr = 1 << int(args.encoder_bits)
+    if cpr is not None and cpr != cprs[0]:
+        raise UsageError(
+            f"model {model.name} has {cprs[0]} counts per revolution, --cpr/--encoder-bits "
+            f"say {cpr}"
+        )
+    return model
+
+
+def model_sim_args(args: argparse.Namespace, model: ArmModel, param_file: Path) -> list[str]:
+    """The simulator options of a model: its set (``param_file``, written here in the
+    set's wire encoding), its resolution and (one for every joint) its interface."""
+    from aacmm.protocol import ParamSet, encode_param_set
+
+    param_file.write_bytes(encode_param_set(ParamSet.from_arm(model.arm, model.encoder_config())))
+    out = ["--param-set", str(param_file)]
+    if args.cpr is None and args.encoder_bits is None:
+        out += ["--cpr", str(model.encoders[0].counts_per_rev)]
+    interfaces = {e.interface for e in model.encoders}
+    if args.encoder is None and len(interfaces) == 1:
+        out += ["--encoder", interfaces.pop()]
+    return out
+
+
+def model_text(model: ArmModel | None) -> str:
+    """What ``aacmm sim`` says it runs: the model's name, N and P."""
+    if model is None:
+        return "model gao2013 (the paper's arm): 6 joints, 25 parameters"
+    where = f", from {model.file}" if model.file else ""
+    return f"model {model.name}{where}: {model.n_joints} joints, {model.n_params} parameters"
 
 
 def check_sim_files(args: argparse.Namespace) -> None:
@@ -187,14 +264,29 @@ def cmd_board(args: argparse.Namespace) -> int:
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
+    import tempfile
+
     from aacmm.commands import simtruth
 
     simtruth.check_args(args)
     check_sim_files(args)
+    model = sim_model(args)
+    if args.model is not None:
+        print(f"aacmm sim: {model_text(model)}", file=sys.stderr, flush=True)
+    if model is None:
+        return _cmd_sim(args, sim_args(args), None)
+    with tempfile.TemporaryDirectory(prefix="aacmm-sim-model-") as tmp:
+        extra = model_sim_args(args, model, Path(tmp) / "param-set.bin")
+        return _cmd_sim(args, sim_args(args) + extra, model)
+
+
+def _cmd_sim(args: argparse.Namespace, argv: list[str], model: ArmModel | None) -> int:
+    from aacmm.commands import simtruth
+
     if simtruth.wants_truth(args):
         if args.link is not None and args.serial is None and args.can is not None:
             raise UsageError("--link needs a serial link (--serial pty)")
-        return simtruth.run(args, sim_args(args))
+        return simtruth.run(args, argv, model)
     if args.board is not None:
         return cmd_board(args)
     if args.link is not None and args.serial is None and args.can is not None:
@@ -208,7 +300,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
 
     old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        sim = SimProcess(sim_args(args), link=args.link)
+        sim = SimProcess(argv, link=args.link)
         try:
             for url in sim.urls:
                 print(url, flush=True)

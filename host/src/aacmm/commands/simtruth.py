@@ -147,25 +147,41 @@ def note_others(others: list[tuple[str, int]]) -> None:
         )
 
 
-def run(args: argparse.Namespace, sim_args: list[str]) -> int:
-    """The command (see the module doc). ``sim_args``: the simulator's own options."""
+def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int:
+    """The command (see the module doc). ``sim_args``: the simulator's own options;
+    ``model``: the :class:`aacmm.models.ArmModel` of ``aacmm sim --model`` (None: the
+    paper's arm, as before): its truth (:func:`~aacmm.simulation.truth.parse_model_truth`)
+    and its joint limits for the operator."""
     import numpy as np
 
+    from aacmm.core import Params
     from aacmm.fileio import check_outputs, write_output
     from aacmm.simulation.control import ControlChannel
+    from aacmm.simulation.ik import ARM_LIMITS, JointLimits
     from aacmm.simulation.operator import FAST, Operator, Pace, Stopped
     from aacmm.simulation.process import SimProcess, publish_urls, unpublish_urls
-    from aacmm.simulation.truth import parse_truth
+    from aacmm.simulation.truth import check_truth_model, parse_model_truth, parse_truth
 
     check_args(args)
     cpr = _sim_cpr(args)
-    truth = parse_truth(args.truth or "nominal", cpr if cpr is not None else 1 << 32)
+    limits = ARM_LIMITS
+    if model is None:
+        truth = parse_truth(args.truth or "nominal", cpr if cpr is not None else 1 << 32)
+        if not isinstance(truth.params, Params):  # a truth file of another arm's shape
+            from aacmm.models import DEFAULT_MODEL, load_model
+
+            check_truth_model(truth, load_model(DEFAULT_MODEL), str(args.truth))
+    else:
+        truth = parse_model_truth(args.truth or "nominal", model)
+        limits = JointLimits.from_ranges(model.joint_limits_rad)
+        cpr = model.encoders[0].counts_per_rev  # sim_model checked: one for every joint
     cprs = set(truth.encoders.counts_per_rev)
     if len(cprs) != 1:
         cprs_text = list(truth.encoders.counts_per_rev)
         raise UsageError(f"the simulator has one resolution for all joints, the truth {cprs_text}")
     if cpr is not None and cprs != {cpr}:
-        raise UsageError(f"the truth has {cprs.pop()} counts per revolution, --cpr says {cpr}")
+        says = "--cpr says" if model is None else f"the model {model.name} has"
+        raise UsageError(f"the truth has {cprs.pop()} counts per revolution, {says} {cpr}")
     cpr = cprs.pop()
     if args.serial_number is not None:  # the device this truth is, as --truth-out records it
         truth = replace(truth, serial_number=int(args.serial_number))
@@ -219,12 +235,12 @@ def run(args: argparse.Namespace, sim_args: list[str]) -> int:
         say(f"{sim.binary} running (pid {sim.proc.pid}) with a {origin} truth; Ctrl-C to stop")
         note_others(others)
         rng = np.random.default_rng(args.seed or 0)
-        op = Operator(chan, truth, rng, FAST if args.fast else Pace(), stop=stop)
+        op = Operator(chan, truth, rng, FAST if args.fast else Pace(), limits=limits, stop=stop)
 
         def work() -> None:
             try:
                 if plan is None:
-                    _wander(args, op, stop)
+                    _wander(args, op, stop, None if model is None else op.theta)
                     return
                 _perform(args, plan, op, misprobes, say, runs)
             except Stopped:
@@ -274,11 +290,13 @@ def _without(argv: list[str], options: tuple[str, ...]) -> list[str]:
     return out
 
 
-def _wander(args: argparse.Namespace, op: Any, stop: threading.Event) -> None:
+def _wander(args: argparse.Namespace, op: Any, stop: threading.Event, pose: Any) -> None:
+    """The true arm walking, or (``--motion static``) still at ``pose``
+    (None: :data:`~aacmm.simulation.run.STATIC_POSE_RAD`, the paper's arm)."""
     from aacmm.simulation.run import STATIC_POSE_RAD, Wander
 
     if args.motion == "static":
-        op.theta = op.limits.canonical(STATIC_POSE_RAD)
+        op.theta = op.limits.canonical(STATIC_POSE_RAD if pose is None else pose)
         op.send_pose(op.theta)
         period = args.button_every
         while not stop.wait(period if period else 0.5):
@@ -300,7 +318,7 @@ def _perform(
     from aacmm.simulation.scenario import choreograph
 
     t0 = time.monotonic()
-    choreo = choreograph(plan, op.arm, op.rng)
+    choreo = choreograph(plan, op.arm, op.rng, op.limits)
     say(
         f"plan {plan.name}: {len(choreo.points)} points, articulations planned in "
         f"{time.monotonic() - t0:.1f} s"

@@ -32,10 +32,27 @@ An optional ``arm`` table says whose set it is (``aacmm calibrate`` writes it)::
 ``aacmm params set`` refuses a file whose ``serial_number`` is another
 device's (:func:`load_param_file_arm`, :class:`ArmIdentity`).
 
+**Any arm** (issue 26): N (4 to 7) is the length of ``theta_offset_rad``;
+every per-joint list has N values. An arm of another shape than the paper's
+adds the keys of :data:`SHAPE_KEYS` (all optional on reading; written only
+for a set that is not of the paper's shape, so a six-joint file of the
+paper's arm reads and writes exactly as before)::
+
+    convention = ["standard", "standard", "modified", ...]  # N, default all standard
+    beta_joints = [3]                    # joints (from 1) with a Hayati beta
+    beta_rad = [0.0015]                  # their betas, in that order
+    tip_mm = [1.5, -2.0, 110.0]          # a tip vector, instead of l_mm
+
+:func:`load_param_file_arm` also takes an arm model file
+(``format = "aacmm-model-1"``, docs/models.md): its nominal set
+(:func:`aacmm.models.load_model`, ``ParamSet.from_arm(model.arm,
+model.encoder_config())``).
+
 :func:`load_param_file` checks everything the device would check (types,
-six values each, finite, encoder ranges, |angle| <= 2 pi, |length| <= 10 m)
+N values each (4 to 7), finite, encoder ranges, |angle| <= 2 pi, |length| <= 10 m)
 before anything is sent; problems raise :class:`ParamFileError` naming the
-file and the key.
+file and the key (a bad model file: :class:`aacmm.errors.ModelError`, also a
+``ValueError``).
 """
 
 from __future__ import annotations
@@ -49,12 +66,18 @@ from typing import Any
 
 from aacmm.fileio import InputFileError, load_structured, write_output
 from aacmm.protocol import ParamSet
-from aacmm.protocol.constants import COUNTS_PER_REV_MAX, JOINTS
+from aacmm.protocol.constants import COUNTS_PER_REV_MAX, JOINTS, JOINTS_MAX, JOINTS_MIN
 from aacmm.records.files import RecordError
 
 KIN_KEYS = ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm", "l_mm")
 ENC_KEYS = ("counts_per_rev", "zero_offset_counts", "direction")
 ALL_KEYS = KIN_KEYS + ENC_KEYS
+#: The keys of an arm of another shape (module doc): conventions, betas, a tip vector.
+SHAPE_KEYS = ("convention", "beta_joints", "beta_rad", "tip_mm")
+#: Every parameter key a file may hold (``tip_mm`` replaces ``l_mm``).
+FILE_KEYS = ALL_KEYS + SHAPE_KEYS
+MODEL_FORMAT = "aacmm-model-1"
+CONVENTION_NAMES = ("standard", "modified")
 IGNORED_KEYS = frozenset({"format", "param_crc32", "param_crc32_hex"})
 ANGLE_MAX = 2.0 * math.pi
 LENGTH_MAX_MM = 10_000.0
@@ -123,9 +146,9 @@ def _floats(src: str, key: str, value: Any, n: int) -> tuple[float, ...]:
     return tuple(out)
 
 
-def _ints(src: str, key: str, value: Any, lo: int, hi: int) -> tuple[int, ...]:
-    if not isinstance(value, list) or len(value) != JOINTS:
-        raise ParamFileError(f"{src}: {key} must be a list of {JOINTS} integers")
+def _ints(src: str, key: str, value: Any, lo: int, hi: int, n: int = JOINTS) -> tuple[int, ...]:
+    if not isinstance(value, list) or len(value) != n:
+        raise ParamFileError(f"{src}: {key} must be a list of {n} integers")
     out = []
     for i, v in enumerate(value):
         if isinstance(v, bool) or not isinstance(v, int):
@@ -133,6 +156,47 @@ def _ints(src: str, key: str, value: Any, lo: int, hi: int) -> tuple[int, ...]:
         if not lo <= v <= hi:
             raise ParamFileError(f"{src}: {key}[{i}]={v} outside {lo}..{hi}")
         out.append(v)
+    return tuple(out)
+
+
+def _conventions(src: str, value: Any, n: int) -> tuple[int, ...]:
+    """``convention``: N names (``standard``/``modified``) as the wire's 0/1."""
+    if value is None:
+        return ()
+    if not isinstance(value, list) or len(value) != n:
+        raise ParamFileError(f"{src}: convention must be a list of {n} names")
+    out = []
+    for i, v in enumerate(value):
+        if v not in CONVENTION_NAMES:
+            raise ParamFileError(
+                f"{src}: convention[{i}] must be one of {', '.join(CONVENTION_NAMES)}, got {v!r}"
+            )
+        out.append(CONVENTION_NAMES.index(v))
+    return tuple(out)
+
+
+def _betas(src: str, joints: Any, values: Any, n: int) -> tuple[float | None, ...]:
+    """``beta_joints`` (from 1) and ``beta_rad`` as the wire's per-joint tuple."""
+    if joints is None and values is None:
+        return ()
+    if joints is None or values is None:
+        raise ParamFileError(f"{src}: beta_joints and beta_rad go together")
+    if not isinstance(joints, list) or not 1 <= len(joints) < n:
+        raise ParamFileError(f"{src}: beta_joints must be a list of 1 to {n - 1} joints")
+    out: list[float | None] = [None] * n
+    if not isinstance(values, list) or len(values) != len(joints):
+        raise ParamFileError(f"{src}: beta_rad must be a list of {len(joints)} numbers")
+    betas = [_floats(src, f"beta_rad[{i}]", v, 1)[0] for i, v in enumerate(values)]
+    for i, (j, b) in enumerate(zip(joints, betas, strict=True)):
+        if isinstance(j, bool) or not isinstance(j, int) or not 2 <= j <= n:
+            raise ParamFileError(
+                f"{src}: beta_joints[{i}] must be a joint 2..{n} (joint 1 has no beta), got {j!r}"
+            )
+        if out[j - 1] is not None:
+            raise ParamFileError(f"{src}: beta_joints[{i}]: joint {j} given twice")
+        if abs(b) > ANGLE_MAX:
+            raise ParamFileError(f"{src}: beta_rad[{i}]={b} beyond +-2 pi")
+        out[j - 1] = b
     return tuple(out)
 
 
@@ -148,52 +212,71 @@ def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
     if isinstance(fmt, str) and fmt.startswith("aacmm-log"):  # a log sidecar: its set only
         data = {k: data[k] for k in ("params", "encoders") if k in data}
     elif isinstance(fmt, str) and fmt.startswith("aacmm-truth"):  # a simulator truth file:
-        data = {k: v for k, v in data.items() if k in ALL_KEYS}  # its set, not its error tables
+        data = {k: v for k, v in data.items() if k in FILE_KEYS}  # its set, not its error tables
     flat: dict[str, Any] = {}
     for key, value in data.items():
         if key in ("params", "encoders") and isinstance(value, dict):
-            allowed = KIN_KEYS if key == "params" else ENC_KEYS
+            allowed = KIN_KEYS + SHAPE_KEYS if key == "params" else ENC_KEYS
             for k, v in value.items():
                 if k not in allowed:
                     raise ParamFileError(f"{src}: unknown key {key}.{k}")
                 flat[k] = v
-        elif key in ALL_KEYS:
+        elif key in FILE_KEYS:
             flat[key] = value
         elif key == ARM_TABLE:
             arm_identity_from_mapping(value, src)  # checked here, read by load_param_file_arm
         elif key not in IGNORED_KEYS:
             raise ParamFileError(f"{src}: unknown key {key!r} (expected {', '.join(ALL_KEYS)})")
-    missing = [k for k in ALL_KEYS if k not in flat]
+    if "tip_mm" in flat and "l_mm" in flat:
+        raise ParamFileError(f"{src}: l_mm and tip_mm: give one (tip_mm is a tip vector)")
+    tip_key = "tip_mm" if "tip_mm" in flat else "l_mm"
+    required = tuple(tip_key if k == "l_mm" else k for k in ALL_KEYS)
+    missing = [k for k in required if k not in flat]
     if missing:
         raise ParamFileError(f"{src}: missing {', '.join(missing)}")
-    kin = {k: _floats(src, k, flat[k], 1 if k == "l_mm" else JOINTS) for k in KIN_KEYS}
+    thetas = flat["theta_offset_rad"]
+    n = len(thetas) if isinstance(thetas, list) else 0
+    if not JOINTS_MIN <= n <= JOINTS_MAX:
+        raise ParamFileError(
+            f"{src}: theta_offset_rad must be a list of {JOINTS_MIN} to {JOINTS_MAX} numbers "
+            "(one per joint)"
+        )
+    kin = {k: _floats(src, k, flat[k], n) for k in KIN_KEYS if k != "l_mm"}
+    kin["tip"] = _floats(src, tip_key, flat[tip_key], 3 if tip_key == "tip_mm" else 1)
     for k in ("theta_offset_rad", "alpha_rad"):
         for i, v in enumerate(kin[k]):
             if abs(v) > ANGLE_MAX:
                 raise ParamFileError(f"{src}: {k}[{i}]={v} beyond +-2 pi")
-    for k in ("d_mm", "a_mm", "l_mm"):
+    for k in ("d_mm", "a_mm", "tip"):
+        name = tip_key if k == "tip" else k
         for i, v in enumerate(kin[k]):
             if abs(v) > LENGTH_MAX_MM:
-                raise ParamFileError(f"{src}: {k}[{i}]={v} beyond +-{LENGTH_MAX_MM:g} mm")
-    cpr = _ints(src, "counts_per_rev", flat["counts_per_rev"], 2, COUNTS_PER_REV_MAX)
-    zero = _ints(src, "zero_offset_counts", flat["zero_offset_counts"], 0, 0xFFFFFFFF)
-    direction = _ints(src, "direction", flat["direction"], -1, 1)
-    for i in range(JOINTS):
+                raise ParamFileError(f"{src}: {name}[{i}]={v} beyond +-{LENGTH_MAX_MM:g} mm")
+    conv = _conventions(src, flat.get("convention"), n)
+    beta = _betas(src, flat.get("beta_joints"), flat.get("beta_rad"), n)
+    cpr = _ints(src, "counts_per_rev", flat["counts_per_rev"], 2, COUNTS_PER_REV_MAX, n)
+    zero = _ints(src, "zero_offset_counts", flat["zero_offset_counts"], 0, 0xFFFFFFFF, n)
+    direction = _ints(src, "direction", flat["direction"], -1, 1, n)
+    for i in range(n):
         if direction[i] == 0:
             raise ParamFileError(f"{src}: direction[{i}] must be +1 or -1")
         if zero[i] >= cpr[i]:
             raise ParamFileError(
                 f"{src}: zero_offset_counts[{i}]={zero[i]} must be < counts_per_rev[{i}]"
             )
+    tip = kin["tip"]
     ps = ParamSet(
         theta_offset_rad=kin["theta_offset_rad"],
         alpha_rad=kin["alpha_rad"],
         d_mm=kin["d_mm"],
         a_mm=kin["a_mm"],
-        l_mm=kin["l_mm"][0],
+        l_mm=tip[-1],
         counts_per_rev=cpr,
         zero_offset_counts=zero,
         direction=direction,
+        convention=conv,
+        beta_rad=beta,
+        tip_xy_mm=(tip[0], tip[1]) if len(tip) == 3 else None,
     )
     from aacmm.protocol import encode_param_set
 
@@ -219,26 +302,41 @@ def file_format(path: Path) -> str:
 
 
 def load_param_file(path: str | Path) -> ParamSet:
-    """Read and validate a parameter file (TOML or JSON by suffix).
+    """Read and validate a parameter file (TOML or JSON by suffix), or an arm
+    model file (its nominal set; module doc).
 
     Raises:
         ParamFileError: unreadable, not TOML/JSON, nested deeper than
             :data:`aacmm.fileio.MAX_NESTING`, or not a valid parameter set.
+        ModelError: a model file that is not a valid model.
     """
-    p = Path(path)
-    file_format(p)
-    try:
-        data = load_structured(p)  # bounded nesting: a hostile file is one line
-    except InputFileError as exc:
-        raise ParamFileError(str(exc)) from None
-    return param_set_from_mapping(data, str(p))
+    return load_param_file_arm(path)[0]
+
+
+def is_model_file(data: Any) -> bool:
+    """True for the content of an arm model file (``format = "aacmm-model-1"``)."""
+    return isinstance(data, dict) and data.get("format") == MODEL_FORMAT
+
+
+def model_param_set(path: str | Path) -> ParamSet:
+    """The nominal set of the arm model file ``path``, as the device holds it.
+
+    Raises:
+        ModelError: not a valid model file (one line naming the file and field).
+    """
+    from aacmm.models import load_model
+
+    model = load_model(Path(path))
+    return ParamSet.from_arm(model.arm, model.encoder_config())
 
 
 def load_param_file_arm(path: str | Path) -> tuple[ParamSet, ArmIdentity | None]:
-    """:func:`load_param_file` and the file's ``[arm]`` table (None if it has none).
+    """:func:`load_param_file` and the file's ``[arm]`` table (None if it has none,
+    and for a model file).
 
     Raises:
         ParamFileError: as :func:`load_param_file`.
+        ModelError: a model file that is not a valid model.
     """
     p = Path(path)
     file_format(p)
@@ -246,6 +344,10 @@ def load_param_file_arm(path: str | Path) -> tuple[ParamSet, ArmIdentity | None]
         data = load_structured(p)
     except InputFileError as exc:
         raise ParamFileError(str(exc)) from None
+    if is_model_file(data):
+        if file_format(p) != "toml":
+            raise ParamFileError(f"{p}: an arm model file is TOML (.toml)")
+        return model_param_set(p), None
     ps = param_set_from_mapping(data, str(p))
     arm = data.get(ARM_TABLE) if isinstance(data, dict) else None
     fmt = data.get("format") if isinstance(data, dict) else None
@@ -255,17 +357,37 @@ def load_param_file_arm(path: str | Path) -> tuple[ParamSet, ArmIdentity | None]
 
 
 def param_set_dict(ps: ParamSet) -> dict[str, Any]:
-    """The flat mapping of a parameter set (lists, JSON/TOML-ready)."""
-    return {
-        "theta_offset_rad": list(ps.theta_offset_rad),
-        "alpha_rad": list(ps.alpha_rad),
-        "d_mm": list(ps.d_mm),
-        "a_mm": list(ps.a_mm),
-        "l_mm": ps.l_mm,
-        "counts_per_rev": list(ps.counts_per_rev),
-        "zero_offset_counts": list(ps.zero_offset_counts),
-        "direction": list(ps.direction),
-    }
+    """The flat mapping of a parameter set (lists, JSON/TOML-ready): the eight keys
+    of the paper's arm, and for a set of another shape :data:`SHAPE_KEYS` too
+    (``tip_mm`` instead of ``l_mm`` for a tip vector; module doc)."""
+    out: dict[str, Any] = {}
+    if not ps.is_paper_shape:
+        conv = ps.convention or (0,) * ps.joints
+        out["convention"] = [CONVENTION_NAMES[c] for c in conv]
+    out.update(
+        {
+            "theta_offset_rad": list(ps.theta_offset_rad),
+            "alpha_rad": list(ps.alpha_rad),
+            "d_mm": list(ps.d_mm),
+            "a_mm": list(ps.a_mm),
+        }
+    )
+    betas = [(i + 1, b) for i, b in enumerate(ps.beta_rad) if b is not None]
+    if betas:
+        out["beta_joints"] = [j for j, _ in betas]
+        out["beta_rad"] = [b for _, b in betas]
+    if ps.tip_xy_mm is None:
+        out["l_mm"] = ps.l_mm
+    else:
+        out["tip_mm"] = [ps.tip_xy_mm[0], ps.tip_xy_mm[1], ps.l_mm]
+    out.update(
+        {
+            "counts_per_rev": list(ps.counts_per_rev),
+            "zero_offset_counts": list(ps.zero_offset_counts),
+            "direction": list(ps.direction),
+        }
+    )
+    return out
 
 
 def dump_param_set(

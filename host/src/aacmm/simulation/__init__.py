@@ -6,6 +6,9 @@ The host side of ``aacmm sim --truth`` and ``aacmm sim --scenario``
 * :mod:`aacmm.simulation.truth` -- :class:`~aacmm.simulation.truth.Truth` (the
   arm's real geometry and error sources), its file (``aacmm-truth-1``),
   :func:`~aacmm.simulation.truth.random_truth`, :func:`~aacmm.simulation.truth.parse_truth`;
+  for an arm model :func:`~aacmm.simulation.truth.model_truth`,
+  :func:`~aacmm.simulation.truth.parse_model_truth` (``aacmm sim --model``) and
+  :func:`~aacmm.simulation.truth.check_truth_model`;
 * :mod:`aacmm.simulation.ik` -- inverse kinematics on the core (damped least
   squares on the Jacobian's theta columns), the arm's joint limits;
 * :mod:`aacmm.simulation.articulation` -- articulations spread the way

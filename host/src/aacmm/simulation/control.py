@@ -1,7 +1,7 @@
 """Client of the simulator's control channel (``aacmm-sim --control FD``).
 
 The channel is a connected stream socket (one end inherited by the
-simulator). The host sets the six encoder counts and the button levels; the
+simulator). The host sets the encoder counts (4 to 7) and the button levels; the
 simulator says when a link's stream starts or stops (a capture client is
 listening) and answers ``sync`` barriers. Protocol: docs/simulator.md,
 "Control channel" (and ``firmware/ports/posix/sim_control.h``).
@@ -168,10 +168,13 @@ class ControlChannel:
         return version
 
     def set_counts(self, counts: Sequence[int]) -> None:
-        """The encoders read ``counts`` (six values below the resolution) from now on."""
-        if len(counts) != 6:
-            raise ValueError(f"six counts expected, got {len(counts)}")
-        self._send("counts " + " ".join(str(int(c)) for c in counts))
+        """The encoders read ``counts`` (one per joint of the device's arm model, 4 to 7
+        values below the resolution) from now on. The simulator takes six or seven:
+        fewer are sent with the missing joints reading 0 (the device reads its N)."""
+        if not 4 <= len(counts) <= 7:
+            raise ValueError(f"4 to 7 counts expected, got {len(counts)}")
+        values = [int(c) for c in counts] + [0] * max(0, 6 - len(counts))
+        self._send("counts " + " ".join(str(c) for c in values))
 
     def set_buttons(self, mask: int, timeout: float = DEFAULT_TIMEOUT_S) -> None:
         """Set the button levels (bit i = button i held) and wait until the device saw them."""

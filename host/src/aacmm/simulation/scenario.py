@@ -71,10 +71,15 @@ def _target(plan: Plan, slot: Slot) -> FloatArray:
     if slot.target is None:
         art = f"artefact {slot.artefact!r}" if slot.artefact else "its free points"
         raise ScenarioError(
-            f"{plan.source}: step {slot.step_id!r}: {art} has no nominal location "
+            f"{_where(plan)}: step {slot.step_id!r}: {art} has no nominal location "
             "(location_mm); the simulated operator needs one"
         )
     return np.asarray(slot.target.tip_mm, dtype=np.float64)
+
+
+def _where(plan: Plan) -> str:
+    """The plan's name in a message: its file, else its name (never its text)."""
+    return str(plan.path) if plan.path is not None else plan.name
 
 
 def choreograph(
@@ -110,7 +115,7 @@ def choreograph(
         found = candidates(arm, target, approach_for(normal), count, rng, limits, 12 * count + 24)
         if not found:
             raise ScenarioError(
-                f"{plan.source}: step {slot.step_id!r} point {slot.point_index + 1}: "
+                f"{_where(plan)}: step {slot.step_id!r} point {slot.point_index + 1}: "
                 f"target {np.round(target, 3).tolist()} mm is out of the arm's reach"
             )
         return [s.theta for s in found]
@@ -135,7 +140,7 @@ def choreograph(
             found = fresh(slots[0], 2 * len(slots) + 8)
             if len(found) < len(slots):
                 raise ScenarioError(
-                    f"{plan.source}: step {step.id!r}: only {len(found)} of {len(slots)} "
+                    f"{_where(plan)}: step {step.id!r}: only {len(found)} of {len(slots)} "
                     "articulations reach the seat within the joint limits"
                 )
             chosen = _tour([found[k] for k in most_different(found, len(slots))])
@@ -149,7 +154,7 @@ def choreograph(
             picked = _tour([found[k] for k in most_different(found, len(groups))])
             if len(picked) < len(groups):
                 raise ScenarioError(
-                    f"{plan.source}: step {step.id!r}: only {len(picked)} articulations found"
+                    f"{_where(plan)}: step {step.id!r}: only {len(picked)} articulations found"
                 )
             for theta, members in zip(picked, groups.values(), strict=False):
                 for slot in members:

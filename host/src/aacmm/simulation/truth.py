@@ -31,8 +31,12 @@ truth is always the same device and two different truths are two devices.
 joints (its encoders and error sources one entry per joint);
 :func:`random_truth` of an arm perturbs every parameter of it, betas and tip
 included, by the same sizes (angles: theta offsets, alphas, betas; lengths:
-d, a and the tip). The truth file holds the paper's 25-parameter form only
-(the arm model file is the device side's, docs/kinematics.md).
+d, a and the tip). The truth file of such an arm is a parameter file of it
+(:mod:`aacmm.records.paramfile`, "Any arm": N values per list, conventions,
+betas, a tip vector) with the error tables of N values each; a file of the
+paper's shape reads as the paper's :class:`~aacmm.core.Params`, any other as
+an :class:`~aacmm.arm.Arm`. :func:`check_truth_model` refuses a truth whose
+arm is not of a model's shape (joint count, conventions, betas, tip kind).
 
 Analysis code never reads a truth: only tests compare results with it.
 """
@@ -88,9 +92,11 @@ class TruthError(AacmmError, ValueError):
     """A truth file or specification is not valid (exit status 2 in the CLI)."""
 
 
-def _six(name: str, values: Any, src: str, lo: float = -math.inf) -> tuple[float, ...]:
-    if not isinstance(values, list) or len(values) != JOINTS:
-        raise TruthError(f"{src}: {name} must be a list of {JOINTS} numbers")
+def _six(
+    name: str, values: Any, src: str, lo: float = -math.inf, n: int = JOINTS
+) -> tuple[float, ...]:
+    if not isinstance(values, list) or len(values) != n:
+        raise TruthError(f"{src}: {name} must be a list of {n} numbers")
     out = []
     for i, v in enumerate(values):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
@@ -258,26 +264,16 @@ class Truth(Generic[P]):
     # ------------------------------------------------------------ file form
 
     def to_mapping(self) -> dict[str, Any]:
-        """The truth file's content (TOML-ready).
+        """The truth file's content (TOML-ready): a parameter file of the arm
+        (any shape, :func:`aacmm.records.paramfile.param_set_dict`) and the tables."""
+        from aacmm.protocol import ParamSet
+        from aacmm.records.paramfile import param_set_dict
 
-        Raises TruthError for a general arm (the file holds the paper's form).
-        """
         p, e, x = self.params, self.encoders, self.errors
-        if not isinstance(p, Params):
-            raise TruthError(
-                "a truth file holds the paper's 25-parameter arm; this truth is an arm of "
-                f"{self.joints} joints"
-            )
+        ps = ParamSet.from_core(p, e) if isinstance(p, Params) else ParamSet.from_arm(p, e)
         data: dict[str, Any] = {
             "format": FORMAT,
-            "theta_offset_rad": list(p.theta_offset_rad),
-            "alpha_rad": list(p.alpha_rad),
-            "d_mm": list(p.d_mm),
-            "a_mm": list(p.a_mm),
-            "l_mm": p.l_mm,
-            "counts_per_rev": list(e.counts_per_rev),
-            "zero_offset_counts": list(e.zero_offset_counts),
-            "direction": list(e.direction),
+            **param_set_dict(ps),
             "encoder_noise": {"sigma_counts": list(x.encoder_noise_counts)},
             "eccentricity": {
                 "amplitude_arcsec": list(x.eccentricity_arcsec),
@@ -304,7 +300,7 @@ class Truth(Generic[P]):
         return head + tomli_w.dumps(data)
 
 
-def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
+def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
     """A :class:`Truth` from a truth file's content.
 
     Raises:
@@ -336,7 +332,8 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
         for k in got:
             if k not in allowed:
                 raise TruthError(f"{src}: unknown key {table}.{k}")
-    zeros = [0.0] * JOINTS
+    n = ps.joints
+    zeros = [0.0] * n
     sigma_um = probing.get("sigma_um", 0.0)
     if isinstance(sigma_um, bool) or not isinstance(sigma_um, (int, float)):
         raise TruthError(f"{src}: probing.sigma_um must be a number")
@@ -344,12 +341,14 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
         raise TruthError(f"{src}: probing.sigma_um must be a finite number >= 0")
     errors = ErrorSources(
         encoder_noise_counts=_six(
-            "encoder_noise.sigma_counts", noise.get("sigma_counts", zeros), src, 0.0
+            "encoder_noise.sigma_counts", noise.get("sigma_counts", zeros), src, 0.0, n
         ),
         eccentricity_arcsec=_six(
-            "eccentricity.amplitude_arcsec", ecc.get("amplitude_arcsec", zeros), src, 0.0
+            "eccentricity.amplitude_arcsec", ecc.get("amplitude_arcsec", zeros), src, 0.0, n
         ),
-        eccentricity_phase_rad=_six("eccentricity.phase_rad", ecc.get("phase_rad", zeros), src),
+        eccentricity_phase_rad=_six(
+            "eccentricity.phase_rad", ecc.get("phase_rad", zeros), src, -math.inf, n
+        ),
         probing_sigma_um=float(sigma_um),
     )
     origin = data.get("origin", {})
@@ -362,8 +361,16 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
         isinstance(serial, bool) or not isinstance(serial, int) or not 0 <= serial <= 0xFFFFFFFF
     ):
         raise TruthError(f"{src}: arm.serial_number must be an integer 0..2^32-1")
-    return Truth(
-        params=Params(ps.theta_offset_rad, ps.alpha_rad, ps.d_mm, ps.a_mm, ps.l_mm),
+    params: Params | Arm
+    if ps.is_paper_shape:
+        params = Params(ps.theta_offset_rad, ps.alpha_rad, ps.d_mm, ps.a_mm, ps.l_mm)
+    else:
+        try:
+            params = ps.to_arm()[0]
+        except ValueError as exc:
+            raise TruthError(f"{src}: {exc}") from None
+    return Truth[Any](
+        params=params,
         encoders=EncoderConfig(ps.counts_per_rev, ps.zero_offset_counts, ps.direction),
         errors=errors,
         origin=dict(origin) if isinstance(origin, dict) else {},
@@ -371,7 +378,7 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth:
     )
 
 
-def load_truth(path: str | Path) -> Truth:
+def load_truth(path: str | Path) -> Truth[Any]:
     """Read and check a truth file (TOML).
 
     Raises:
@@ -517,3 +524,65 @@ def parse_truth(spec: str, cpr: int = 1 << 32) -> Truth:
             raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
         return random_truth(int(text), cpr=cpr)
     return load_truth(spec)
+
+
+def arm_shape(params: Params | Arm) -> tuple[int, tuple[str, ...], tuple[int, ...], str]:
+    """What a truth's arm and a model must share: N, the conventions, the joints
+    (0-based) with a beta, the tip kind (the paper's Params: six standard, none, z)."""
+    arm = params.to_arm() if isinstance(params, Params) else params
+    return (
+        arm.n_joints,
+        tuple(j.convention for j in arm.joints),
+        arm.beta_joints,
+        arm.tip,
+    )
+
+
+def check_truth_model(truth: Truth[Any], model: ArmModel, src: str = "truth") -> None:
+    """Refuse a truth whose arm is not of ``model``'s shape (:func:`arm_shape`).
+
+    Raises:
+        TruthError: one line naming both (joints and parameters, or the first difference).
+    """
+    got, want = arm_shape(truth.params), arm_shape(model.arm)
+    if got == want:
+        return
+    p = truth.params.to_arm() if isinstance(truth.params, Params) else truth.params
+    if got[0] != want[0] or p.n_params != model.n_params:
+        what = f"an arm of {got[0]} joints and {p.n_params} parameters"
+    elif got[1] != want[1]:
+        what = "an arm of other joint conventions"
+    elif got[2] != want[2]:
+        what = f"an arm with betas on joints {[j + 1 for j in got[2]]}"
+    else:
+        what = f"an arm with a tip of kind {got[3]!r}"
+    raise TruthError(
+        f"{src}: {what}, not of the model {model.name} ({model.n_joints} joints, "
+        f"{model.n_params} parameters)"
+    )
+
+
+def parse_model_truth(spec: str, model: ArmModel) -> Truth[Any]:
+    """``--truth SPEC`` for an arm model: ``nominal`` (its nominal arm and encoders,
+    no error source), ``random:SEED`` (:func:`model_truth`) or a truth file of
+    the model's shape (:func:`check_truth_model`).
+
+    Raises:
+        TruthError: a bad seed, a bad file, or a truth of another shape.
+    """
+    if spec == "nominal":
+        n = model.n_joints
+        return Truth[Any](
+            params=model.arm,
+            encoders=model.encoder_config(),
+            errors=ErrorSources.none(n),
+            origin={"kind": "nominal", "model": model.name},
+        )
+    if spec.startswith("random:"):
+        text = spec[len("random:") :]
+        if not text.isdigit():
+            raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
+        return model_truth(int(text), model)
+    truth = load_truth(spec)
+    check_truth_model(truth, model, spec)
+    return truth
