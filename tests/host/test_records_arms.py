@@ -30,6 +30,7 @@ from aacmm.plans import load_plan
 from aacmm.protocol import ParamSet, Sample, encode_param_set, param_set_crc32
 from aacmm.records import ParamSetRecord, RecordError, SessionWriter, read_session
 from aacmm.records.logs import read_log, read_triggers
+from aacmm.records.paramfile import load_param_file
 from aacmm.simulation.process import SimProcess
 from aacmm.view.scene import log_scene, session_scene
 from clihelp import AACMM, cli_env, one_error_line, run
@@ -121,6 +122,7 @@ def test_log_of_an_arm_on_the_simulator(tmp_path: Path, name: str) -> None:
                       "flags", "param_crc32"]  # fmt: skip
     meta = json.loads((tmp_path / "run.csv.json").read_text())
     assert meta["joints"] == n and meta["columns"] == header
+    assert load_param_file(tmp_path / "run.csv.json") == ps  # what `params set run.csv.json` sends
     log = read_log(out)
     assert len(log) == 100 and log.joints == n
     rec = log.param_set_of(0)
@@ -366,11 +368,11 @@ def test_sidecar_set_with_lists_of_the_wrong_length_is_refused(tmp_path: Path) -
     seven = ParamSetRecord.from_device(ParamSet.from_arm(load_model("commercial7").arm))
     d = seven.to_json()
     d["encoders"]["direction"] = d["encoders"]["direction"][:6]
-    with pytest.raises(RecordError, match=r"encoders\.direction must be 7 integers"):
+    with pytest.raises(RecordError, match=r"direction must be a list of 7 integers"):
         ParamSetRecord.from_json(d, "x")
     d = seven.to_json()
     d["params"]["convention"] = ["sideways"] * 7
-    with pytest.raises(RecordError, match=r"params\.convention"):
+    with pytest.raises(RecordError, match=r"convention\[0\] must be one of"):
         ParamSetRecord.from_json(d, "x")
 
 
@@ -396,7 +398,7 @@ def test_plain_file_of_poses_of_an_arm(tmp_path: Path) -> None:
     assert np.abs(log.points_mm() - ref).max() < 1e-9
     bad = rec.to_json()["params"] | {"d_mm": [1.0] * 6}
     (tmp_path / "p7.csv.json").write_text(json.dumps({"params": bad}))
-    with pytest.raises(RecordError, match=r"params\.d_mm must be 7 number"):
+    with pytest.raises(RecordError, match=r"d_mm must be a list of 7 numbers"):
         read_log(f)
 
 

@@ -13,10 +13,11 @@ keeps the CRC it was recorded with (its rows name it so).
 A set of any arm (issue 26: 4 to 7 joints, standard or modified DH, betas,
 a tip vector) is recorded as well. A set of the paper's shape (six standard
 joints, no beta, tip l) keeps today's form exactly (``params`` with the five
-kinematic keys, six values each); any other adds to ``params`` the keys
-``convention`` (``"standard"``/``"modified"`` per joint), ``beta_rad`` (a
-number or null per joint) and, for a tip vector, ``tip_xy_mm``; every
-per-joint list holds N values (docs/cli.md, "Logs of any arm").
+kinematic keys, six values each); any other holds in ``params`` the keys of
+a parameter file (:mod:`aacmm.records.paramfile`): N values per per-joint
+list, ``convention``, ``beta_joints`` and ``beta_rad``, and ``tip_mm`` for a
+tip vector (instead of ``l_mm``), so ``aacmm params set run.csv.json`` reads
+it (docs/cli.md, "Logs of any arm").
 """
 
 from __future__ import annotations
@@ -27,14 +28,16 @@ import zlib
 from dataclasses import dataclass
 from typing import Any
 
-from aacmm.arm import JOINTS_MAX, JOINTS_MIN, Arm
+from aacmm.arm import Arm
 from aacmm.core import EncoderConfig, Params
 from aacmm.protocol import ParamSet, param_set_crc32
 from aacmm.records.files import RecordError, crc_hex
 
 KIN_KEYS: tuple[str, ...] = ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm", "l_mm")
-#: Keys of ``params`` an arm of another shape than the paper's adds (all optional).
-SHAPE_KEYS: tuple[str, ...] = ("convention", "beta_rad", "tip_xy_mm")
+#: Keys of ``params`` an arm of another shape than the paper's adds (all optional; a
+#: parameter file's, :data:`aacmm.records.paramfile.SHAPE_KEYS`: ``tip_mm`` replaces
+#: ``l_mm`` for a tip vector).
+SHAPE_KEYS: tuple[str, ...] = ("convention", "beta_joints", "beta_rad", "tip_mm")
 ENC_KEYS: tuple[str, ...] = ("counts_per_rev", "zero_offset_counts", "direction")
 
 
@@ -132,20 +135,12 @@ class ParamSetRecord:
         return ParamSet.from_arm(self.model, self.encoders)
 
     def params_json(self) -> dict[str, Any]:
-        ps = self.to_device()
-        out: dict[str, Any] = {
-            "theta_offset_rad": list(ps.theta_offset_rad),
-            "alpha_rad": list(ps.alpha_rad),
-            "d_mm": list(ps.d_mm),
-            "a_mm": list(ps.a_mm),
-            "l_mm": ps.l_mm,
-        }
-        if isinstance(self.model, Arm):
-            out["convention"] = [j.convention for j in self.model.joints]
-            out["beta_rad"] = [j.beta_rad for j in self.model.joints]
-            if ps.tip_xy_mm is not None:
-                out["tip_xy_mm"] = list(ps.tip_xy_mm)
-        return out
+        """``params`` of a sidecar entry: the paper's five keys, or for an arm of
+        another shape the parameter file's keys (:func:`aacmm.records.paramfile.param_set_dict`)."""
+        from aacmm.records.paramfile import param_set_dict
+
+        d = param_set_dict(self.to_device())
+        return {k: v for k, v in d.items() if k in KIN_KEYS + SHAPE_KEYS}
 
     def encoders_json(self) -> dict[str, Any]:
         e = self.encoders
@@ -216,53 +211,33 @@ def param_set_crc32_v1(ps: ParamSet) -> int | None:
 def param_set_from_json(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet:
     """The device set of a sidecar entry's ``params`` and ``encoders`` objects (N
     from ``theta_offset_rad``; every per-joint list must hold N values), checked
-    as a device checks it.
+    as a device checks it. An arm of another shape than the paper's is read as a
+    parameter file reads it (:func:`aacmm.records.paramfile.param_set_from_mapping`).
 
     Raises:
         RecordError: a missing, unknown or bad value (naming ``where`` and the key).
     """
-    ps = _param_set(kin, enc, where)
+    th = kin.get("theta_offset_rad")
+    if isinstance(th, list) and len(th) == 6 and not any(k in kin for k in SHAPE_KEYS):
+        return _paper_set(kin, enc, where)
+    from aacmm.records.paramfile import param_set_from_mapping
+
+    ps = param_set_from_mapping({"params": kin, "encoders": enc}, where)
     try:
-        param_set_crc32(ps)  # the codec's checks (ranges, encoders)
-        if not ps.is_paper_shape:
-            ps.to_arm()  # the arm's own checks (beta on joint 1, ranges)
+        ps.to_arm()  # the arm's own checks (beta on joint 1, ranges)
     except ValueError as exc:
         raise RecordError(f"{where}: bad parameter set: {exc}") from None
     return ps
 
 
-def _param_set(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet:
-    th = kin.get("theta_offset_rad")
-    n = len(th) if isinstance(th, list) else 0
-    if not JOINTS_MIN <= n <= JOINTS_MAX:
-        raise RecordError(
-            f"{where}: params.theta_offset_rad must be {JOINTS_MIN} to {JOINTS_MAX} numbers "
-            "(one per joint)"
-        )
+def _paper_set(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet:
+    """A six-joint set of the paper's shape, read as before."""
     for k in kin:
-        if k not in KIN_KEYS + SHAPE_KEYS:
+        if k not in KIN_KEYS:
             raise RecordError(f"{where}: unknown key params.{k}")
-    fl = {k: _floats(kin, k, where, 1 if k == "l_mm" else n) for k in KIN_KEYS}
-    it = {k: _ints(enc, k, where, n) for k in ENC_KEYS}
-    conv: tuple[int, ...] = ()
-    if "convention" in kin:
-        c = kin["convention"]
-        if not isinstance(c, list) or len(c) != n or any(x not in CONVENTION_CODES for x in c):
-            raise RecordError(
-                f"{where}: params.convention must be {n} of {', '.join(CONVENTION_CODES)}"
-            )
-        conv = tuple(CONVENTION_CODES[x] for x in c)
-    beta: tuple[float | None, ...] = ()
-    if "beta_rad" in kin:
-        b = kin["beta_rad"]
-        if not isinstance(b, list) or len(b) != n:
-            raise RecordError(f"{where}: params.beta_rad must be {n} values (a number or null)")
-        beta = tuple(None if x is None else _floats({"x": x}, "x", where, 1)[0] for x in b)
-    tip: tuple[float, float] | None = None
-    if "tip_xy_mm" in kin:
-        t = _floats(kin, "tip_xy_mm", where, 2)
-        tip = (t[0], t[1])
-    return ParamSet(
+    fl = {k: _floats(kin, k, where, 1 if k == "l_mm" else 6) for k in KIN_KEYS}
+    it = {k: _ints(enc, k, where, 6) for k in ENC_KEYS}
+    ps = ParamSet(
         fl["theta_offset_rad"],
         fl["alpha_rad"],
         fl["d_mm"],
@@ -271,13 +246,12 @@ def _param_set(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet
         it["counts_per_rev"],
         it["zero_offset_counts"],
         it["direction"],
-        convention=conv,
-        beta_rad=beta,
-        tip_xy_mm=tip,
     )
-
-
-CONVENTION_CODES: dict[str, int] = {"standard": 0, "modified": 1}
+    try:
+        param_set_crc32(ps)  # the codec's checks (ranges, encoders)
+    except ValueError as exc:
+        raise RecordError(f"{where}: bad parameter set: {exc}") from None
+    return ps
 
 
 def _floats(d: dict[str, Any], key: str, where: str, n: int) -> tuple[float, ...]:
