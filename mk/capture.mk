@@ -13,7 +13,8 @@ CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
                     host/src/aacmm/commands/capture.py host/src/aacmm/commands/plan.py \
                     host/src/aacmm/analysis/poselog.py \
                     tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
-                    tests/host/test_logs.py tests/host/test_capture_scenario.py \
+                    tests/host/test_logs.py tests/host/test_records_arms.py \
+                    tests/host/test_capture_scenario.py \
                     bench/bench_capture.py
 CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
@@ -21,7 +22,7 @@ CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pypro
 #> test-capture         plans, sessions, aacmm capture against the simulator
 test-capture: sim
 	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
-	    tests/host/test_logs.py
+	    tests/host/test_logs.py tests/host/test_records_arms.py
 	$(CAPTURE_PYTEST) -s tests/host/test_capture_scenario.py  # -s: its "measured:" joint spreads
 	@$(MAKE) --no-print-directory test-capture-lint
 

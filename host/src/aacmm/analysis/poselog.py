@@ -5,7 +5,8 @@ recorded data; formats in docs/cli.md): an ``aacmm log`` CSV with its
 sidecar, or a plain CSV of poses -- ``count1..count6`` (or ``c1..c6``) raw
 encoder counts, or ``theta1..theta6`` angles in rad, ``#`` comments allowed,
 with an optional sidecar ``<file>.json`` (also ``<stem>.json``) holding
-``encoders`` and ``params``.
+``encoders`` and ``params`` (an arm of N joints: ``count1..countN`` or
+``theta1..thetaN``, and a sidecar with its ``params``).
 
 Counts are converted to angles row by row with the encoder configuration of
 the parameter set in force for that row. The analysis uses one kinematic
@@ -22,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from aacmm.arm import Arm
 from aacmm.core import EncoderConfig, FloatArray, Params
 from aacmm.errors import AacmmError
 from aacmm.records.files import RecordError
@@ -44,15 +46,15 @@ class PoseLogError(AacmmError, ValueError):
 
 @dataclass(frozen=True)
 class PoseLog:
-    """Poses read from a log: ``theta_rad`` (n, 6), the columns used, the encoder
+    """Poses read from a log: ``theta_rad`` (n, N), the columns used, the encoder
     configuration of the first row, the kinematic parameters (None: the file
-    names none, use the default), the sidecar."""
+    names none, use the default; an Arm for an arm of another shape), the sidecar."""
 
     path: Path
     theta_rad: FloatArray
     columns: tuple[str, ...]
     encoders: EncoderConfig
-    params: Params | None
+    params: Params | Arm | None
     sidecar: Path | None
 
 

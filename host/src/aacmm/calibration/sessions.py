@@ -247,7 +247,7 @@ def _same_set(ref: ParamSetRecord, ref_path: str, ps: ParamSetRecord, path: str)
             f"{path}: taken with another encoder configuration than {ref_path} "
             f"(parameter set {ps.crc_hex} vs {ref.crc_hex}): its counts mean other angles"
         )
-    if ps.params != ref.params:
+    if ps.model != ref.model:
         raise SessionDataError(
             f"{path}: taken with parameter set {ps.crc_hex}, {ref_path} with {ref.crc_hex}: "
             "calibrate sessions taken with one parameter set (the start of the fit)"
@@ -258,6 +258,10 @@ def _session_set(session: Session) -> ParamSetRecord:
     """The one parameter set of a session (kinematics and encoders), or an error."""
     crcs = np.unique(session.param_crc32)
     first = session.param_set_of(0)
+    try:  # a session of another arm than the paper's: refused before anything is computed
+        first.paper_params("calibration from sessions")
+    except RecordError as e:
+        raise SessionDataError(f"{session.path}: {e}") from None
     for c in crcs.tolist():
         ps = session.param_sets[int(c)]
         if ps.encoders != first.encoders:
@@ -362,4 +366,8 @@ def load_sessions(
         sources.append(src)
     assert ref is not None
     obs = parts[0] if len(parts) == 1 else combine(parts)
-    return SessionData(obs, ref.params, ref, tuple(sources))
+    try:
+        start = ref.paper_params("calibration from sessions")
+    except RecordError as e:
+        raise SessionDataError(str(e)) from None
+    return SessionData(obs, start, ref, tuple(sources))

@@ -158,6 +158,7 @@ class Capture:
                 device=info_dict(dev.info),
                 port=dev.url,
                 transport=dev.client.transport.description,
+                joints=ps.joints,
             )
         if self.args.resume:
             before = (w.meta.get("device") or {}).get("serial_number")
@@ -477,6 +478,7 @@ def label_log(args: argparse.Namespace, plan: Plan) -> int:
             device=log.meta.get("device"),
             port=log.meta.get("port"),
             transport=log.meta.get("transport"),
+            joints=log.joints,
         )
     w.begin_run("from-log", log=str(log.path))
     extra = 0

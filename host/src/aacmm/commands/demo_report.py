@@ -271,7 +271,7 @@ def truth_check(
     }
     for name in ("before", "after"):
         ps = read_session(folder / name).param_set_of(0)
-        pts = Model(ps.params).points(counts_to_angles(counts, ps.encoders))
+        pts = Model(ps.model).points(counts_to_angles(counts, ps.encoders))
         err = np.linalg.norm(pts[0::2] - pts[1::2], axis=1) - true_len
         out[name] = {
             "session": name,

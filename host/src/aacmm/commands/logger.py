@@ -29,8 +29,9 @@ from aacmm.errors import (
     VersionMismatchError,
 )
 from aacmm.records.files import utc_iso
-from aacmm.records.logwriter import COLUMNS, LogOptions, LogWriter, open_rows
+from aacmm.records.logwriter import LogOptions, LogWriter, open_rows
 from aacmm.records.rawcan import RAW_SUFFIXES, RawCanRecorder
+from aacmm.records.schema import log_columns
 
 if TYPE_CHECKING:
     from aacmm.commands.common import Device
@@ -295,7 +296,7 @@ class Logger(LogWriter):
             self.start_wall = time.time()
             self.t0 = time.monotonic()
             self.stop.immediate = False  # from here a signal ends the log cleanly
-            self.rows = open_rows(self.csv_path, COLUMNS, a.force)
+            self.rows = open_rows(self.csv_path, log_columns(ps.joints), a.force)
             self.meta = self.base_meta(dev.client, dev.info, ps)
             self.use_param_set(ps)
             self.write_meta("running")

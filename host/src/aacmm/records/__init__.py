@@ -9,10 +9,13 @@ and docs/plans.md (sessions).
 
 Main names:
 
-* :class:`ParamSetRecord` -- one parameter set in force (CRC, ``core.Params``,
+* :class:`ParamSetRecord` -- one parameter set in force (CRC, the model:
+  ``core.Params`` for the paper's shape or an ``arm.Arm`` of 4 to 7 joints,
   ``core.EncoderConfig``).
-* :class:`Recorded` -- rows of counts with their sets: :meth:`Recorded.angles_rad`,
-  :meth:`Recorded.points_mm` (recompute with each row's set, or given parameters).
+* :class:`Recorded` -- rows of N counts with their sets (readers refuse
+  counts that do not match the sets' arm; :meth:`Recorded.check_model`):
+  :meth:`Recorded.angles_rad`, :meth:`Recorded.points_mm` (recompute with each
+  row's set, or given parameters).
 * :class:`SessionWriter`, :func:`read_session`, :class:`Session`,
   :class:`CapturedPoint` -- capture sessions.
 * :func:`summarize_file`, :func:`summarize_session` -- what a log or a session

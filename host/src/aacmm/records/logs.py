@@ -9,6 +9,12 @@ converted row by row with the right one. ``aacmm-log-1`` logs (one set in
 the sidecar) are read as well; rows after a recorded parameter change are
 refused, since that format did not keep the new set.
 
+A log of an arm of N joints (4 to 7) has the count columns
+``count1..countN``; its parameter sets are arms of N joints. The reader
+takes N from the header and refuses a log whose parameter sets are arms of
+another joint count (one line, :class:`RecordError`), before anything is
+computed.
+
 The reader also accepts plain CSV files of poses (``count1..count6`` or
 ``c1..c6``, or ``theta1..theta6`` in rad; ``#`` comments) with an optional
 sidecar holding ``encoders`` and ``params``, for ``aacmm mc --log``.
@@ -24,20 +30,26 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.core import JOINTS, EncoderConfig, FloatArray, Params
+from aacmm.core import EncoderConfig, FloatArray, Params
 from aacmm.protocol import Sample, param_set_crc32
 from aacmm.records.files import CsvTable, RecordError, crc_hex, read_json
-from aacmm.records.paramsets import ParamSetRecord
+from aacmm.records.paramsets import SHAPE_KEYS, ParamSetRecord, param_set_from_json
 from aacmm.records.rows import Recorded
 from aacmm.records.schema import (
-    COUNT_ALIASES,
     COUNT_COLUMNS,
+    JOINTS,
+    JOINTS_MAX,
+    JOINTS_MIN,
     LOG_FORMAT,
     LOG_FORMATS_READ,
     POINT_COLUMNS,
     THETA_COLUMNS,
+    count_aliases,
+    count_columns,
     default_triggers_path,
+    joint_count,
     sidecar_path,
+    theta_columns,
 )
 
 __all__ = [
@@ -165,8 +177,13 @@ def _find_sidecar(path: Path) -> Path | None:
     return None
 
 
-def _plain_set(meta: dict[str, Any], side: Path | None) -> tuple[ParamSetRecord, bool]:
+def _plain_set(
+    meta: dict[str, Any], side: Path | None, joints: int, path: Path
+) -> tuple[ParamSetRecord, bool]:
     """The one set of a plain CSV's sidecar (``encoders``/``params``, no CRC needed)."""
+    kin = meta.get("params")
+    if joints != JOINTS or (isinstance(kin, dict) and any(k in kin for k in SHAPE_KEYS)):
+        return _plain_arm_set(meta, side, joints, path), True
     enc, params, given = EncoderConfig(), Params(), False
     if "encoders" in meta:
         e = meta["encoders"]
@@ -192,6 +209,29 @@ def _plain_set(meta: dict[str, Any], side: Path | None) -> tuple[ParamSetRecord,
     except ValueError as exc:
         raise RecordError(f"{side}: bad parameter set: {exc}") from None
     return ParamSetRecord(crc, params, enc), given
+
+
+def _plain_arm_set(
+    meta: dict[str, Any], side: Path | None, joints: int, path: Path
+) -> ParamSetRecord:
+    """A plain CSV of an arm other than the paper's: its sidecar's ``params`` (N values
+    per list, the shape keys of a log's sets) and ``encoders`` (default: 2^32 counts
+    per revolution, offset 0, direction +1)."""
+    kin, enc = meta.get("params"), meta.get("encoders", {})
+    if not isinstance(kin, dict):
+        raise RecordError(
+            f"{path}: {joints} joint columns: a file of poses of an arm other than the "
+            "paper's needs a sidecar with the arm's \"params\" (one value per joint)"
+        )
+    if not isinstance(enc, dict):
+        raise RecordError(f'{side}: "encoders" must be an object')
+    d = EncoderConfig.default(joints)
+    full = {
+        "counts_per_rev": enc.get("counts_per_rev", list(d.counts_per_rev)),
+        "zero_offset_counts": enc.get("zero_offset_counts", list(d.zero_offset_counts)),
+        "direction": enc.get("direction", list(d.direction)),
+    }
+    return ParamSetRecord.from_device(param_set_from_json(kin, full, str(side)))
 
 
 def _v1_sets(
@@ -255,13 +295,20 @@ def read_log(path: str | Path, encoders: EncoderConfig | None = None) -> Log:
     p = Path(path)
     t = CsvTable(p, "log")
     header = t.header
-    for cols in (COUNT_COLUMNS, COUNT_ALIASES, THETA_COLUMNS):
-        if all(c in header for c in cols):
+    for stem, names in (("count", count_columns), ("c", count_aliases), ("theta", theta_columns)):
+        joints = joint_count(header, stem)
+        if joints:
+            cols = names(joints)
             break
     else:
         raise RecordError(
             f"{p}: header has no joint columns (need {','.join(COUNT_COLUMNS)} "
-            f"or {','.join(THETA_COLUMNS)}); got {','.join(header)}"
+            f"or {','.join(THETA_COLUMNS)}, one per joint); got {','.join(header)}"
+        )
+    if not JOINTS_MIN <= joints <= JOINTS_MAX:
+        raise RecordError(
+            f"{p}: {joints} joint columns ({cols[0]}..{cols[-1]}); an arm has "
+            f"{JOINTS_MIN} to {JOINTS_MAX} joints"
         )
     if not t.rows:
         raise RecordError(f"{p}: log has a header but no poses")
@@ -272,8 +319,8 @@ def read_log(path: str | Path, encoders: EncoderConfig | None = None) -> Log:
         raise RecordError(f"{side}: log format {fmt!r} is newer than this aacmm reads")
     n = len(t.rows)
     theta = None
-    counts = np.zeros((0, JOINTS), dtype=np.uint64)
-    if cols is THETA_COLUMNS:
+    counts = np.zeros((0, joints), dtype=np.uint64)
+    if stem == "theta":
         theta = np.column_stack([column(t, c, what="bad joint value: ") for c in cols])
         if not np.all(np.isfinite(theta)):
             raise RecordError(f"{p}: joint angles must be finite")
@@ -291,15 +338,26 @@ def read_log(path: str | Path, encoders: EncoderConfig | None = None) -> Log:
         sets, crc = _v1_sets(meta, side, n, p)
         given = True
     else:
-        ps, given = _plain_set(meta, side)
+        ps, given = _plain_set(meta, side, joints, p)
         sets, crc = {ps.crc32: ps}, np.full(n, ps.crc32, dtype=np.uint32)
+    for ps in sets.values():
+        if ps.joints != joints:
+            raise RecordError(
+                f"{p}: {joints} joint columns ({cols[0]}..{cols[-1]}), but its parameter set "
+                f"{ps.crc_hex} is an arm of {ps.describe()}: the log and its model do not match"
+            )
     if encoders is not None:
+        if encoders.joints != joints:
+            raise RecordError(
+                f"{p}: {joints} joint columns, but the encoder configuration given describes "
+                f"{encoders.joints} joints"
+            )
         sets = {
-            c: ParamSetRecord(c, ps.params, encoders) for c, ps in sets.items()
+            c: ParamSetRecord(c, ps.model, encoders) for c, ps in sets.items()
         }  # same keys: rows keep their set, with other encoders
     log = Log(
         path=p,
-        counts=counts if theta is None else np.zeros((n, JOINTS), dtype=np.uint64),
+        counts=counts if theta is None else np.zeros((n, joints), dtype=np.uint64),
         param_crc32=crc,
         param_sets=sets,
         meta=meta,
@@ -362,6 +420,7 @@ def log_summary(log: Log) -> dict[str, Any]:
         "file": str(log.path),
         "format": log.format,
         "status": meta.get("status", "unknown"),
+        "joints": log.joints,
         "samples": n,
         "duration_s": float(host[-1] - host[0]) if n else 0.0,
         "connected_s": connected,
@@ -425,16 +484,22 @@ def read_triggers(log: Log, path: Path | None = None) -> list[LoggedTrigger]:
             log.path.with_name(name) if isinstance(name, str) else default_triggers_path(log.path)
         )
     t = CsvTable(path, "trigger file")
-    need = ("seq", "device_time_us", "host_time", "button", "pressed", *COUNT_COLUMNS, "flags")
+    count_cols = count_columns(log.joints)
+    need = ("seq", "device_time_us", "host_time", "button", "pressed", *count_cols, "flags")
     if not t.has(*need, *POINT_COLUMNS):
         raise RecordError(f"{path}: not an aacmm trigger file (header {','.join(t.header)})")
+    if joint_count(t.header, "count") != log.joints:
+        raise RecordError(
+            f"{path}: {joint_count(t.header, 'count')} count columns, the log "
+            f"{log.joints}: not this log's trigger file"
+        )
     idx = {c: t.index(c) for c in (*need, *POINT_COLUMNS)}
     has_crc = "param_crc32" in t.header
     only = next(iter(log.param_sets.values()))
     out = []
     for line, row in t:
         try:
-            counts = tuple(int(row[idx[c]]) for c in COUNT_COLUMNS)
+            counts = tuple(int(row[idx[c]]) for c in count_cols)
             pt = tuple(round(float(row[idx[c]]) * 10000) for c in POINT_COLUMNS)
             sample = Sample(
                 int(row[idx["seq"]]),

@@ -16,17 +16,19 @@ from typing import TYPE_CHECKING, Any
 
 from aacmm import __version__
 from aacmm.fileio import OutputExistsError, OutputFileError
-from aacmm.records.files import RowFile, utc_iso, write_json_atomic
+from aacmm.records.files import RecordError, RowFile, utc_iso, write_json_atomic
 from aacmm.records.logsession import Session
 from aacmm.records.schema import (
     LOG_COLUMNS,
     LOG_FORMAT,
     LOG_UNITS,
-    TRIGGER_COLUMNS,
     default_triggers_path,
+    log_columns,
+    log_units,
     param_set_entry,
     sample_row,
     sidecar_path,
+    trigger_columns,
 )
 
 if TYPE_CHECKING:
@@ -37,6 +39,7 @@ if TYPE_CHECKING:
 
 FORMAT = LOG_FORMAT
 COLUMNS = LOG_COLUMNS
+"""The paper's arm's columns (another arm's: :func:`aacmm.records.schema.log_columns`)."""
 UNITS = LOG_UNITS
 FLUSH_INTERVAL_S = 0.25
 FLUSH_ROWS = 256
@@ -94,6 +97,7 @@ class LogWriter:
         self.param_crc = 0
         self.crc_text = ""  # the param_crc32 column of the rows being written
         self.param_sets: dict[int, ParamSetRecord] = {}
+        self.joints: int | None = None  # N of the log's count columns (its first set's)
         self.trig_queue: collections.deque[tuple[float, Trigger]] = collections.deque()
         self.granted_rate: int | None = None
         self.lost_error: str | None = None
@@ -132,14 +136,16 @@ class LogWriter:
         from aacmm.client.devstate import info_dict
 
         a = self.options
+        self.joints = ps.joints
         return {
             "format": FORMAT,
             "status": "running",
             "csv": self.csv_path.name,
-            "columns": list(COLUMNS),
-            "units": UNITS,
+            "joints": ps.joints,
+            "columns": list(log_columns(ps.joints)),
+            "units": log_units(ps.joints),
             "triggers_csv": None,
-            "trigger_columns": list(TRIGGER_COLUMNS),
+            "trigger_columns": list(trigger_columns(ps.joints)),
             "raw_can": a.raw.name if a.raw is not None else None,
             "port": self.url,
             "transport": client.transport.description,
@@ -198,7 +204,16 @@ class LogWriter:
 
     def use_param_set(self, ps: ParamSetRecord) -> None:
         """Rows from now on are taken with ``ps``; a set new to this log is added to the
-        sidecar's ``param_sets`` (written by the caller's next :meth:`write_meta`)."""
+        sidecar's ``param_sets`` (written by the caller's next :meth:`write_meta`).
+
+        Raises:
+            RecordError: ``ps`` is an arm of another joint count than the log's columns.
+        """
+        if self.joints is not None and ps.joints != self.joints:
+            raise RecordError(
+                f"{self.csv_path}: the device's parameter set {ps.crc_hex} is an arm of "
+                f"{ps.joints} joints; this log has {self.joints} count columns: start a new log"
+            )
         self.param_crc = ps.crc32
         self.crc_text = ps.crc_hex
         if ps.crc32 not in self.param_sets:
@@ -230,7 +245,7 @@ class LogWriter:
             if self.trig_path is None:
                 continue
             if self.trig_rows is None:
-                self.trig_rows = open_rows(self.trig_path, TRIGGER_COLUMNS, True)
+                self.trig_rows = open_rows(self.trig_path, trigger_columns(self.joints or 6), True)
             extra = (trig.button, int(trig.pressed))
             self.trig_rows.add(sample_row(trig.sample, host_time, self.crc_text, extra))
             self.s.triggers += 1

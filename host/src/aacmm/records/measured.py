@@ -225,12 +225,10 @@ def _first_line(path: Path) -> str:
 
 def _has_joint_columns(path: Path) -> bool:
     """The file's header names joint columns (a log or a file of poses, ``aacmm.records.logs``)."""
-    from aacmm.records.schema import COUNT_ALIASES, COUNT_COLUMNS, THETA_COLUMNS
+    from aacmm.records.schema import JOINTS_MIN, joint_count
 
-    header = {h.strip().lower() for h in _first_line(path).split(",")}
-    return any(
-        all(c in header for c in cols) for cols in (COUNT_COLUMNS, COUNT_ALIASES, THETA_COLUMNS)
-    )
+    header = [h.strip().lower() for h in _first_line(path).split(",")]
+    return any(joint_count(header, stem) >= JOINTS_MIN for stem in ("count", "c", "theta"))
 
 
 def _fields(line: str) -> list[str]:

@@ -9,6 +9,15 @@ by hand (or damaged) is refused instead of silently used. Files written with
 protocol version 1 carry that version's CRC (over its 278-byte six-joint
 layout); they still read: the set is accepted when it matches either CRC and
 keeps the CRC it was recorded with (its rows name it so).
+
+A set of any arm (issue 26: 4 to 7 joints, standard or modified DH, betas,
+a tip vector) is recorded as well. A set of the paper's shape (six standard
+joints, no beta, tip l) keeps today's form exactly (``params`` with the five
+kinematic keys, six values each); any other holds in ``params`` the keys of
+a parameter file (:mod:`aacmm.records.paramfile`): N values per per-joint
+list, ``convention``, ``beta_joints`` and ``beta_rad``, and ``tip_mm`` for a
+tip vector (instead of ``l_mm``), so ``aacmm params set run.csv.json`` reads
+it (docs/cli.md, "Logs of any arm").
 """
 
 from __future__ import annotations
@@ -19,66 +28,119 @@ import zlib
 from dataclasses import dataclass
 from typing import Any
 
-from aacmm.core import JOINTS, EncoderConfig, Params
+from aacmm.arm import Arm
+from aacmm.core import EncoderConfig, Params
 from aacmm.protocol import ParamSet, param_set_crc32
 from aacmm.records.files import RecordError, crc_hex
 
 KIN_KEYS: tuple[str, ...] = ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm", "l_mm")
+#: Keys of ``params`` an arm of another shape than the paper's adds (all optional; a
+#: parameter file's, :data:`aacmm.records.paramfile.SHAPE_KEYS`: ``tip_mm`` replaces
+#: ``l_mm`` for a tip vector).
+SHAPE_KEYS: tuple[str, ...] = ("convention", "beta_joints", "beta_rad", "tip_mm")
 ENC_KEYS: tuple[str, ...] = ("counts_per_rev", "zero_offset_counts", "direction")
 
 
 @dataclass(frozen=True)
 class ParamSetRecord:
     """One parameter set in force: its CRC (as the device reports it), the
-    kinematic parameters (:class:`aacmm.core.Params`) and the encoder
-    configuration (:class:`aacmm.core.EncoderConfig`)."""
+    kinematic model and the encoder configuration (:class:`aacmm.core.EncoderConfig`).
+
+    ``model`` is an arm of the paper's shape in its 25-parameter form
+    (:class:`aacmm.core.Params`) or any other arm (:class:`aacmm.arm.Arm`);
+    either goes to ``aacmm.core.Model`` as it is. :attr:`arm` is the model as
+    an :class:`~aacmm.arm.Arm` in both cases, :attr:`joints` its N (the count
+    columns of the rows taken with it); :attr:`params` the 25-parameter form,
+    for consumers of the paper's arm only.
+    """
 
     crc32: int
-    params: Params
+    model: Params | Arm
     encoders: EncoderConfig
+
+    def __post_init__(self) -> None:
+        if isinstance(self.model, Arm) and self.model.is_paper_shape:
+            object.__setattr__(self, "model", Params.from_arm(self.model))  # one form per set
 
     @property
     def crc_hex(self) -> str:
         return crc_hex(self.crc32)
 
+    @property
+    def arm(self) -> Arm:
+        """The kinematic model as an :class:`aacmm.arm.Arm` (any shape)."""
+        return self.model if isinstance(self.model, Arm) else self.model.to_arm()
+
+    @property
+    def joints(self) -> int:
+        """N: the arm's joints (and the count columns of its rows)."""
+        return self.arm.n_joints
+
+    @property
+    def is_paper_shape(self) -> bool:
+        return isinstance(self.model, Params)
+
+    @property
+    def params(self) -> Params:
+        """The 25-parameter form (:meth:`paper_params`).
+
+        Raises:
+            RecordError: the set is an arm of another shape than the paper's.
+        """
+        return self.paper_params("this command")
+
+    def paper_params(self, what: str) -> Params:
+        """The 25-parameter form, for consumers that handle only the paper's shape.
+
+        Raises:
+            RecordError: the set is an arm of another shape (``what`` names the consumer).
+        """
+        if isinstance(self.model, Params):
+            return self.model
+        a = self.model
+        raise RecordError(
+            f"parameter set {self.crc_hex} is an arm of {a.n_joints} joints and {a.n_params} "
+            f"parameters; {what} handles the paper's six-joint arm only so far"
+        )
+
+    def describe(self) -> str:
+        """``6 joints, 25 parameters`` (for messages)."""
+        return f"{self.arm.n_joints} joints, {self.arm.n_params} parameters"
+
     @classmethod
     def from_device(cls, ps: ParamSet) -> ParamSetRecord:
         """From a device's GET_PARAMS answer (CRC computed as the device does).
 
+        Any arm model (4 to 7 joints); the error model (issue 27) is not recorded.
+
         Raises:
-            RecordError: the device's arm model is not of the paper's shape (six
-                standard joints, tip l): logs and sessions do not hold other models yet.
+            RecordError: the set carries an error model (harmonics, thermal
+                block), which logs and sessions do not hold yet.
         """
-        if not ps.is_paper_shape:
+        if ps.harm_cos or ps.harm_sin or ps.cte:
             raise RecordError(
-                f"the device's arm model has {ps.joints} joints and {ps.n_params} parameters: "
-                "logs and sessions hold the paper's six-joint arm only so far"
+                "the device's parameter set carries an error model (encoder harmonics or "
+                "a thermal block): logs and sessions do not hold it yet"
             )
-        params, encoders = ps.to_core()
-        return cls(param_set_crc32(ps), params, encoders)
+        crc = param_set_crc32(ps)
+        if ps.is_paper_shape:
+            params, encoders = ps.to_core()
+            return cls(crc, params, encoders)
+        arm, encoders = ps.to_arm()
+        return cls(crc, arm, encoders)
 
     def to_device(self) -> ParamSet:
-        p, e = self.params, self.encoders
-        return ParamSet(
-            p.theta_offset_rad,
-            p.alpha_rad,
-            p.d_mm,
-            p.a_mm,
-            p.l_mm,
-            e.counts_per_rev,
-            e.zero_offset_counts,
-            e.direction,
-        )
+        if isinstance(self.model, Params):
+            return ParamSet.from_core(self.model, self.encoders)
+        return ParamSet.from_arm(self.model, self.encoders)
 
     def params_json(self) -> dict[str, Any]:
-        p = self.params
-        return {
-            "theta_offset_rad": list(p.theta_offset_rad),
-            "alpha_rad": list(p.alpha_rad),
-            "d_mm": list(p.d_mm),
-            "a_mm": list(p.a_mm),
-            "l_mm": p.l_mm,
-        }
+        """``params`` of a sidecar entry: the paper's five keys, or for an arm of
+        another shape the parameter file's keys (:func:`aacmm.records.paramfile.param_set_dict`)."""
+        from aacmm.records.paramfile import param_set_dict
+
+        d = param_set_dict(self.to_device())
+        return {k: v for k, v in d.items() if k in KIN_KEYS + SHAPE_KEYS}
 
     def encoders_json(self) -> dict[str, Any]:
         e = self.encoders
@@ -112,22 +174,8 @@ class ParamSetRecord:
         kin, enc = d.get("params"), d.get("encoders")
         if not isinstance(kin, dict) or not isinstance(enc, dict):
             raise RecordError(f"{where}: needs the objects params and encoders")
-        fl = {k: _floats(kin, k, where) for k in KIN_KEYS}
-        it = {k: _ints(enc, k, where) for k in ENC_KEYS}
-        ps = ParamSet(
-            fl["theta_offset_rad"],
-            fl["alpha_rad"],
-            fl["d_mm"],
-            fl["a_mm"],
-            fl["l_mm"][0],
-            it["counts_per_rev"],
-            it["zero_offset_counts"],
-            it["direction"],
-        )
-        try:
-            actual = param_set_crc32(ps)
-        except ValueError as exc:
-            raise RecordError(f"{where}: bad parameter set: {exc}") from None
+        ps = param_set_from_json(kin, enc, where)
+        actual = param_set_crc32(ps)
         if actual != crc:
             if param_set_crc32_v1(ps) == crc:  # written with protocol version 1
                 params, encoders = ps.to_core()
@@ -160,10 +208,55 @@ def param_set_crc32_v1(ps: ParamSet) -> int | None:
     )
 
 
-def _floats(d: dict[str, Any], key: str, where: str) -> tuple[float, ...]:
+def param_set_from_json(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet:
+    """The device set of a sidecar entry's ``params`` and ``encoders`` objects (N
+    from ``theta_offset_rad``; every per-joint list must hold N values), checked
+    as a device checks it. An arm of another shape than the paper's is read as a
+    parameter file reads it (:func:`aacmm.records.paramfile.param_set_from_mapping`).
+
+    Raises:
+        RecordError: a missing, unknown or bad value (naming ``where`` and the key).
+    """
+    th = kin.get("theta_offset_rad")
+    if isinstance(th, list) and len(th) == 6 and not any(k in kin for k in SHAPE_KEYS):
+        return _paper_set(kin, enc, where)
+    from aacmm.records.paramfile import param_set_from_mapping
+
+    ps = param_set_from_mapping({"params": kin, "encoders": enc}, where)
+    try:
+        ps.to_arm()  # the arm's own checks (beta on joint 1, ranges)
+    except ValueError as exc:
+        raise RecordError(f"{where}: bad parameter set: {exc}") from None
+    return ps
+
+
+def _paper_set(kin: dict[str, Any], enc: dict[str, Any], where: str) -> ParamSet:
+    """A six-joint set of the paper's shape, read as before."""
+    for k in kin:
+        if k not in KIN_KEYS:
+            raise RecordError(f"{where}: unknown key params.{k}")
+    fl = {k: _floats(kin, k, where, 1 if k == "l_mm" else 6) for k in KIN_KEYS}
+    it = {k: _ints(enc, k, where, 6) for k in ENC_KEYS}
+    ps = ParamSet(
+        fl["theta_offset_rad"],
+        fl["alpha_rad"],
+        fl["d_mm"],
+        fl["a_mm"],
+        fl["l_mm"][0],
+        it["counts_per_rev"],
+        it["zero_offset_counts"],
+        it["direction"],
+    )
+    try:
+        param_set_crc32(ps)  # the codec's checks (ranges, encoders)
+    except ValueError as exc:
+        raise RecordError(f"{where}: bad parameter set: {exc}") from None
+    return ps
+
+
+def _floats(d: dict[str, Any], key: str, where: str, n: int) -> tuple[float, ...]:
     v = d.get(key)
-    vals = [v] if key == "l_mm" else v
-    n = 1 if key == "l_mm" else JOINTS
+    vals = [v] if key in ("l_mm", "x") else v
     if not isinstance(vals, list) or len(vals) != n:
         raise RecordError(f"{where}: params.{key} must be {n} number(s)")
     out = []
@@ -174,10 +267,10 @@ def _floats(d: dict[str, Any], key: str, where: str) -> tuple[float, ...]:
     return tuple(out)
 
 
-def _ints(d: dict[str, Any], key: str, where: str) -> tuple[int, ...]:
+def _ints(d: dict[str, Any], key: str, where: str, n: int) -> tuple[int, ...]:
     v = d.get(key)
-    if not isinstance(v, list) or len(v) != JOINTS:
-        raise RecordError(f"{where}: encoders.{key} must be {JOINTS} integers")
+    if not isinstance(v, list) or len(v) != n:
+        raise RecordError(f"{where}: encoders.{key} must be {n} integers (one per joint)")
     if any(isinstance(x, bool) or not isinstance(x, int) for x in v):
         raise RecordError(f"{where}: encoders.{key} must hold integers")
     return tuple(int(x) for x in v)

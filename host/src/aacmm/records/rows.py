@@ -1,9 +1,10 @@
 """Recorded rows of encoder counts, each with the parameter set it was taken with.
 
-:class:`Recorded` is what logs and sessions have in common: the six raw
-counts per row, the CRC of the parameter set in force per row, and the sets
-themselves. It turns counts into joint angles with *each row's own* encoder
-configuration and recomputes points with each row's own kinematic
+:class:`Recorded` is what logs and sessions have in common: the N raw
+counts per row (N the joints of the arm, 4 to 7; the paper's six), the CRC
+of the parameter set in force per row, and the sets themselves. It turns
+counts into joint angles with *each row's own* encoder configuration and
+recomputes points with each row's own kinematic
 parameters (or with parameters the caller gives, e.g. a calibration's), on
 the double-precision C core (:mod:`aacmm.core`).
 """
@@ -16,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from aacmm.core import JOINTS, FloatArray, KinematicsError, Model, Params, counts_to_angles
+from aacmm.arm import Arm
+from aacmm.core import FloatArray, KinematicsError, Model, Params, counts_to_angles
 from aacmm.records.files import RecordError, crc_hex
 from aacmm.records.paramsets import ParamSetRecord
 
@@ -28,8 +30,9 @@ U32Array = npt.NDArray[np.uint32]
 class Recorded:
     """Rows of counts with their parameter sets.
 
-    ``counts``: (n, 6) raw encoder readings; ``param_crc32``: (n,) the CRC of
-    the set in force for each row, a key of ``param_sets``.
+    ``counts``: (n, N) raw encoder readings; ``param_crc32``: (n,) the CRC of
+    the set in force for each row, a key of ``param_sets`` (each an arm of N
+    joints: the readers check it).
     """
 
     path: Path
@@ -39,6 +42,37 @@ class Recorded:
 
     def __len__(self) -> int:
         return int(self.counts.shape[0])
+
+    @property
+    def joints(self) -> int:
+        """N, the joints of the arm the rows were taken with (count columns)."""
+        return int(self.counts.shape[1])
+
+    def check_model(self, model: Params | Arm, what: str = "the model given") -> None:
+        """Refuse a model of another arm than the rows' (before anything is computed).
+
+        Raises:
+            RecordError: ``model`` has another joint count, or another shape
+                (conventions, betas, tip kind) than the rows' parameter sets.
+        """
+        arm = model if isinstance(model, Arm) else model.to_arm()
+        if arm.n_joints != self.joints:
+            raise RecordError(
+                f"{self.path}: taken with an arm of {self.joints} joints; {what} is an arm "
+                f"of {arm.n_joints} joints: not this arm's model"
+            )
+        for ps in self.param_sets.values():
+            own = ps.arm
+            if (own.tip, own.beta_joints, [j.convention for j in own.joints]) != (
+                arm.tip,
+                arm.beta_joints,
+                [j.convention for j in arm.joints],
+            ):
+                raise RecordError(
+                    f"{self.path}: taken with parameter set {ps.crc_hex} ({ps.describe()}); "
+                    f"{what} is an arm of another shape ({arm.n_joints} joints, "
+                    f"{arm.n_params} parameters): not this arm's model"
+                )
 
     def where(self, row: int) -> str:
         """``FILE: row N`` for messages (files with line numbers say ``FILE:LINE``)."""
@@ -65,13 +99,13 @@ class Recorded:
         ]
 
     def angles_rad(self) -> FloatArray:
-        """Joint angles (n, 6) from the counts, each row with its own encoder configuration.
+        """Joint angles (n, N) from the counts, each row with its own encoder configuration.
 
         Raises:
             RecordError: a reading the row's encoder configuration rejects
                 (at or beyond its counts per revolution).
         """
-        out = np.empty((len(self), JOINTS), dtype=np.float64)
+        out = np.empty((len(self), self.joints), dtype=np.float64)
         for ps, rows in self._groups():
             try:
                 out[rows] = counts_to_angles(self.counts[rows], ps.encoders)
@@ -83,20 +117,25 @@ class Recorded:
                 ) from None
         return out
 
-    def points_mm(self, params: Params | None = None) -> FloatArray:
+    def points_mm(self, params: Params | Arm | None = None) -> FloatArray:
         """Probe points (n, 3) recomputed from the counts in double precision.
 
         Each row uses the kinematic parameters of its own set in force, or
         ``params`` for every row if given (e.g. a calibrated set); the encoder
         configuration is always the row's own.
+
+        Raises:
+            RecordError: ``params`` is a model of another arm (:meth:`check_model`).
         """
+        if params is not None:
+            self.check_model(params)
         theta = self.angles_rad()
         out = np.empty((len(self), 3), dtype=np.float64)
         for ps, rows in self._groups():
-            out[rows] = Model(params if params is not None else ps.params).points(theta[rows])
+            out[rows] = Model(params if params is not None else ps.model).points(theta[rows])
         return out
 
-    def single_params(self, what: str) -> Params:
+    def single_params(self, what: str) -> Params | Arm:
         """The kinematic parameters, if every row has the same (encoders may differ).
 
         Raises:
@@ -104,9 +143,9 @@ class Recorded:
                 ``what`` names the consumer in the message.
         """
         changes = self.set_changes()
-        first = self.param_sets[changes[0][1]].params if changes else Params()
+        first: Params | Arm = self.param_sets[changes[0][1]].model if changes else Params()
         for row, crc in changes[1:]:
-            if self.param_sets[crc].params != first:
+            if self.param_sets[crc].model != first:
                 raise RecordError(
                     f"{self.path}: the parameter set changes at row {row + 1} "
                     f"({crc_hex(changes[0][1])} -> {crc_hex(crc)}) and {what} uses one set: "

@@ -14,32 +14,81 @@ if TYPE_CHECKING:
     from aacmm.records.paramsets import ParamSetRecord
 
 JOINTS = 6
+"""The paper's arm: the joint count of the constants below (other arms: the functions)."""
+JOINTS_MIN = 4
+JOINTS_MAX = 7
 LOG_FORMAT = "aacmm-log-2"
 LOG_FORMATS_READ: tuple[str, ...] = ("aacmm-log-1", LOG_FORMAT)
-COUNT_COLUMNS: tuple[str, ...] = tuple(f"count{i}" for i in range(1, JOINTS + 1))
-COUNT_ALIASES: tuple[str, ...] = tuple(f"c{i}" for i in range(1, JOINTS + 1))
-THETA_COLUMNS: tuple[str, ...] = tuple(f"theta{i}" for i in range(1, JOINTS + 1))
 POINT_COLUMNS: tuple[str, ...] = ("x_mm", "y_mm", "z_mm")
-LOG_COLUMNS: tuple[str, ...] = (
-    "seq",
-    "device_time_us",
-    "host_time",
-    *COUNT_COLUMNS,
-    *POINT_COLUMNS,
-    "flags",
-    "param_crc32",
-)
-TRIGGER_COLUMNS: tuple[str, ...] = (
-    "seq",
-    "device_time_us",
-    "host_time",
-    "button",
-    "pressed",
-    *COUNT_COLUMNS,
-    *POINT_COLUMNS,
-    "flags",
-    "param_crc32",
-)
+
+
+def count_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """``count1 .. countN``: one column of raw encoder counts per joint."""
+    return tuple(f"count{i}" for i in range(1, joints + 1))
+
+
+def count_aliases(joints: int = JOINTS) -> tuple[str, ...]:
+    """``c1 .. cN`` (plain CSV files of poses)."""
+    return tuple(f"c{i}" for i in range(1, joints + 1))
+
+
+def theta_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """``theta1 .. thetaN`` in rad (plain CSV files of poses)."""
+    return tuple(f"theta{i}" for i in range(1, joints + 1))
+
+
+def log_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """The columns of a log of an arm of ``joints`` joints."""
+    return (
+        "seq",
+        "device_time_us",
+        "host_time",
+        *count_columns(joints),
+        *POINT_COLUMNS,
+        "flags",
+        "param_crc32",
+    )
+
+
+def trigger_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """The columns of a log's trigger file of an arm of ``joints`` joints."""
+    return (
+        "seq",
+        "device_time_us",
+        "host_time",
+        "button",
+        "pressed",
+        *count_columns(joints),
+        *POINT_COLUMNS,
+        "flags",
+        "param_crc32",
+    )
+
+
+def joint_count(header: tuple[str, ...] | list[str], stem: str) -> int:
+    """N for a header holding ``<stem>1 .. <stem>N`` (0: no ``<stem>1``): the longest
+    run from 1."""
+    cols = set(header)
+    n = 0
+    while f"{stem}{n + 1}" in cols:
+        n += 1
+    return n
+
+
+COUNT_COLUMNS: tuple[str, ...] = count_columns()
+COUNT_ALIASES: tuple[str, ...] = count_aliases()
+THETA_COLUMNS: tuple[str, ...] = theta_columns()
+LOG_COLUMNS: tuple[str, ...] = log_columns()
+TRIGGER_COLUMNS: tuple[str, ...] = trigger_columns()
+
+
+def log_units(joints: int = JOINTS) -> dict[str, str]:
+    """The sidecar's ``units`` for a log of ``joints`` joints."""
+    return {
+        f"count1..count{joints}" if k == "count1..count6" else k: v for k, v in LOG_UNITS.items()
+    }
+
+
 LOG_UNITS: dict[str, str] = {
     "seq": "device sample counter (u32, wraps; restarts with each stream)",
     "device_time_us": "us, device clock",

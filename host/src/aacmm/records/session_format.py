@@ -20,6 +20,12 @@ sessions (``aacmm capture`` uses it; tests may feed it synthetic samples);
 durable (written and fsynced) before ``SessionWriter.record`` returns, so a
 capture killed at any moment loses no acknowledged point; an undo rewrites
 ``points.csv`` atomically.
+
+A session of an arm of N joints (4 to 7) has the count columns
+``count1..countN`` in ``points.csv`` and ``events.csv`` and ``"joints": N``
+in its sidecar; a session without ``joints`` (written before arms of other
+joint counts) is of the paper's six. The functions below give the columns
+for N; the constants are the paper's arm's.
 """
 
 from __future__ import annotations
@@ -34,7 +40,8 @@ POINTS_CSV = "points.csv"
 EVENTS_CSV = "events.csv"
 PROGRESS = "progress.json"
 PROGRESS_FORMAT = "aacmm-progress-1"
-COUNT_COLUMNS: tuple[str, ...] = tuple(f"count{i}" for i in range(1, 7))
+JOINTS = 6
+"""The joint count of a session whose sidecar names none (the paper's arm)."""
 LABEL_COLUMNS: tuple[str, ...] = (
     "slot",
     "step_index",
@@ -46,27 +53,48 @@ LABEL_COLUMNS: tuple[str, ...] = (
     "articulation_index",
     "point_index",
 )
-SAMPLE_COLUMNS: tuple[str, ...] = (
-    "seq",
-    "device_time_us",
-    "host_time",
-    "button",
-    *COUNT_COLUMNS,
-    "x_mm",
-    "y_mm",
-    "z_mm",
-    "flags",
-    "param_crc32",
-)
-POINT_COLUMNS: tuple[str, ...] = LABEL_COLUMNS + SAMPLE_COLUMNS
-EVENT_COLUMNS: tuple[str, ...] = (
-    "event_time",
-    "event",
-    "slot",
-    "pressed",
-    *SAMPLE_COLUMNS,
-    "detail",
-)
+
+
+def count_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """``count1 .. countN``."""
+    return tuple(f"count{i}" for i in range(1, joints + 1))
+
+
+def sample_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """The latched sample's columns (in ``points.csv`` and ``events.csv``)."""
+    return (
+        "seq",
+        "device_time_us",
+        "host_time",
+        "button",
+        *count_columns(joints),
+        "x_mm",
+        "y_mm",
+        "z_mm",
+        "flags",
+        "param_crc32",
+    )
+
+
+def point_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """The columns of ``points.csv`` of an arm of ``joints`` joints."""
+    return LABEL_COLUMNS + sample_columns(joints)
+
+
+def event_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """The columns of ``events.csv`` of an arm of ``joints`` joints."""
+    return ("event_time", "event", "slot", "pressed", *sample_columns(joints), "detail")
+
+
+def units(joints: int = JOINTS) -> dict[str, str]:
+    """The sidecar's ``units`` for ``joints`` joints."""
+    return {f"count1..count{joints}" if k == "count1..count6" else k: v for k, v in UNITS.items()}
+
+
+COUNT_COLUMNS: tuple[str, ...] = count_columns()
+SAMPLE_COLUMNS: tuple[str, ...] = sample_columns()
+POINT_COLUMNS: tuple[str, ...] = point_columns()
+EVENT_COLUMNS: tuple[str, ...] = event_columns()
 #: Journal event names.
 EVENTS: tuple[str, ...] = ("run", "point", "undo", "ignored", "confirm", "params", "end")
 UNITS: dict[str, str] = {

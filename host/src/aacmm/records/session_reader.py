@@ -18,14 +18,16 @@ from aacmm.plans import Plan, PlanError, loads_plan
 from aacmm.records.files import CsvTable, RecordError, read_json, truncate_partial_line
 from aacmm.records.paramsets import ParamSetRecord
 from aacmm.records.rows import Recorded
+from aacmm.records.schema import joint_count
 from aacmm.records.session_format import (
-    COUNT_COLUMNS,
+    JOINTS,
     LABEL_COLUMNS,
-    POINT_COLUMNS,
     POINTS_CSV,
     SESSION_FORMAT,
     SIDECAR,
+    count_columns,
     label_fields,
+    point_columns,
 )
 
 
@@ -180,13 +182,17 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
     t = CsvTable(pts_path, "points file")
     if t.cut_short:
         warnings.append(f"{pts_path}: ignored a last row cut short (never acknowledged)")
-    if tuple(t.header) != POINT_COLUMNS:
+    joints = joint_count(t.header, "count")
+    if not 4 <= joints <= 7 or tuple(t.header) != point_columns(joints):
         raise RecordError(f"{pts_path}:{t.header_line}: header is not that of {SESSION_FORMAT}")
+    _check_joints(meta, side, pts_path, joints, sets)
+    columns = point_columns(joints)
+    count_cols = count_columns(joints)
     points: list[CapturedPoint] = []
     for n, (line, row) in enumerate(t):
-        if len(row) != len(POINT_COLUMNS):
-            raise t.fail(line, f"{len(row)} fields, expected {len(POINT_COLUMNS)}")
-        f = dict(zip(POINT_COLUMNS, row, strict=True))
+        if len(row) != len(columns):
+            raise t.fail(line, f"{len(row)} fields, expected {len(columns)}")
+        f = dict(zip(columns, row, strict=True))
         slot_i = _int(t, line, "slot", f["slot"], 0, 1 << 31)
         if slot_i != n:
             raise t.fail(
@@ -205,7 +211,7 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
             crc = -1
         if crc not in sets:
             raise t.fail(line, f"parameter set {crc_s!r} is not listed in {SIDECAR}")
-        counts = tuple(_int(t, line, c, f[c], 0, 0xFFFFFFFF) for c in COUNT_COLUMNS)
+        counts = tuple(_int(t, line, c, f[c], 0, 0xFFFFFFFF) for c in count_cols)
         try:
             xyz = (float(f["x_mm"]), float(f["y_mm"]), float(f["z_mm"]))
             host_time = float(f["host_time"])
@@ -235,7 +241,7 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
     n = len(points)
     return Session(
         path=path,
-        counts=np.array([p.counts for p in points], dtype=np.uint64).reshape(n, 6),
+        counts=np.array([p.counts for p in points], dtype=np.uint64).reshape(n, joints),
         param_crc32=np.array([p.param_set.crc32 for p in points], dtype=np.uint32),
         param_sets=sets,
         meta=meta,
@@ -247,6 +253,31 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
         point_index=np.array([p.point_index for p in points], dtype=np.int64),
         warnings=tuple(warnings),
     )
+
+
+def _check_joints(
+    meta: dict[str, Any],
+    side: Path,
+    pts_path: Path,
+    joints: int,
+    sets: dict[int, ParamSetRecord],
+) -> None:
+    """The sidecar's ``joints`` (default six), the count columns and every parameter
+    set must describe one arm: else one line, before anything is read or computed."""
+    want = meta.get("joints", JOINTS)
+    if isinstance(want, bool) or not isinstance(want, int):
+        raise RecordError(f"{side}: joints must be an integer")
+    if want != joints:
+        raise RecordError(
+            f"{pts_path}: {joints} count columns, but {SIDECAR} says the arm has {want} joints"
+        )
+    for ps in sets.values():
+        if ps.joints != joints:
+            raise RecordError(
+                f"{side}: parameter set {ps.crc_hex} is an arm of {ps.describe()}, but the "
+                f"session's points have {joints} count columns: the session and its model "
+                "do not match"
+            )
 
 
 def session_exists(folder: str | Path) -> bool:

@@ -19,20 +19,21 @@ from aacmm.protocol import Sample
 from aacmm.records.files import DurableAppender, RecordError, utc_iso, write_json_atomic
 from aacmm.records.paramsets import ParamSetRecord
 from aacmm.records.session_format import (
-    EVENT_COLUMNS,
     EVENTS_CSV,
-    POINT_COLUMNS,
+    JOINTS,
     POINTS_CSV,
     PROGRESS,
     PROGRESS_FORMAT,
-    SAMPLE_COLUMNS,
     SESSION_FORMAT,
     SIDECAR,
     STATUSES,
-    UNITS,
+    event_columns,
     label_fields,
     opt_field,
+    point_columns,
+    sample_columns,
     sample_fields,
+    units,
 )
 from aacmm.records.session_reader import read_session
 
@@ -48,6 +49,9 @@ class SessionWriter:
         self.plan = plan
         self.meta = meta
         self._lines = lines  # points.csv rows, in order
+        j = meta.get("joints", JOINTS)
+        #: N: the joints of the session's arm (its count columns).
+        self.joints = j if isinstance(j, int) and not isinstance(j, bool) else JOINTS
         self._sets: dict[int, ParamSetRecord] = {}
         for i, d in enumerate(meta.get("param_sets", [])):
             ps = ParamSetRecord.from_json(d, f"{folder / SIDECAR}: param_sets[{i}]")
@@ -57,9 +61,13 @@ class SessionWriter:
         #: The session's status when it was opened (``running`` for a new one; for a
         #: resumed one what the last run left: ``running`` after a kill).
         self.opened_status = str(meta.get("status", "running"))
-        self._points = DurableAppender(folder / POINTS_CSV, POINT_COLUMNS, create=not lines)
+        self._points = DurableAppender(
+            folder / POINTS_CSV, point_columns(self.joints), create=not lines
+        )
         self._events = DurableAppender(
-            folder / EVENTS_CSV, EVENT_COLUMNS, create=not (folder / EVENTS_CSV).exists()
+            folder / EVENTS_CSV,
+            event_columns(self.joints),
+            create=not (folder / EVENTS_CSV).exists(),
         )
 
     # ---------------------------------------------------------- opening
@@ -74,13 +82,19 @@ class SessionWriter:
         device: dict[str, Any] | None = None,
         port: str | None = None,
         transport: str | None = None,
+        joints: int = JOINTS,
     ) -> SessionWriter:
-        """A new session in ``folder`` (created; it may exist only if empty).
+        """A new session in ``folder`` (created; it may exist only if empty) of an
+        arm of ``joints`` joints (its count columns; the parameter sets given to
+        :meth:`set_param_set` must be arms of as many joints).
 
         Raises:
             FileExistsError: ``folder`` exists and is not empty.
             OSError: it cannot be created.
+            ValueError: ``joints`` outside 4..7.
         """
+        if isinstance(joints, bool) or not 4 <= joints <= 7:
+            raise ValueError(f"an arm has 4 to 7 joints, got {joints}")
         path = Path(folder)
         if path.exists() and (not path.is_dir() or any(path.iterdir())):
             raise FileExistsError(f"{path} exists and is not an empty folder")
@@ -102,12 +116,13 @@ class SessionWriter:
             "device": device,
             "port": port,
             "transport": transport,
+            "joints": joints,
             "param_sets": [],
             "points_csv": POINTS_CSV,
             "events_csv": EVENTS_CSV,
-            "columns": list(POINT_COLUMNS),
-            "event_columns": list(EVENT_COLUMNS),
-            "units": UNITS,
+            "columns": list(point_columns(joints)),
+            "event_columns": list(event_columns(joints)),
+            "units": units(joints),
             "accepted": 0,
             "runs": [],
             "host": {
@@ -163,7 +178,16 @@ class SessionWriter:
 
     def set_param_set(self, ps: ParamSetRecord) -> bool:
         """Make ``ps`` the set in force for the points that follow; True if it is
-        new to this session (then the sidecar is rewritten)."""
+        new to this session (then the sidecar is rewritten).
+
+        Raises:
+            RecordError: ``ps`` is an arm of another joint count than the session's.
+        """
+        if ps.joints != self.joints:
+            raise RecordError(
+                f"{self.folder}: the parameter set {ps.crc_hex} is an arm of {ps.joints} "
+                f"joints; this session holds an arm of {self.joints}: start a new session"
+            )
         self.current = ps
         if ps.crc32 in self._sets:
             return False
@@ -273,7 +297,7 @@ class SessionWriter:
         host_time: float | None = None,
     ) -> None:
         t = time.time() if host_time is None else host_time
-        sample = fields if fields is not None else [""] * len(SAMPLE_COLUMNS)
+        sample = fields if fields is not None else [""] * len(sample_columns(self.joints))
         row = [f"{t:.6f}", event, opt_field(slot), opt_field(pressed), *sample, _csv_text(detail)]
         self._events.append(",".join(row) + "\n")
 

@@ -58,6 +58,7 @@ def summarize_session(folder: Path) -> dict[str, Any]:
         "of": len(s.plan.slots),
         "complete": s.complete,
         "device_serial_number": dev.get("serial_number"),
+        "joints": s.joints,
         "param_sets": [crc for _, crc in s.set_changes()],
         "runs": [r.get("kind") for r in s.meta.get("runs", []) if isinstance(r, dict)],
         "steps": steps,

@@ -138,7 +138,7 @@ def arm_at(point: Any) -> dict[str, Any]:
 
     ps = point.param_set
     theta = counts_to_angles(np.array([point.counts], dtype=np.int64), ps.encoders)[0]
-    return arm_dict(arm_pose(ps.params, theta))
+    return arm_dict(arm_pose(ps.model, theta))
 
 
 def verification_scene(
@@ -203,7 +203,7 @@ def log_scene(path: str | Path) -> dict[str, Any]:
         step = max(1, math.ceil(n / LOG_TRAIL_MAX))
         scene["trail"] = [_xyz(q) for q in pts[::step]]
         theta = log.angles_rad()[-1]
-        scene["arm"] = arm_dict(arm_pose(log.param_set_of(n - 1).params, theta))
+        scene["arm"] = arm_dict(arm_pose(log.param_set_of(n - 1).model, theta))
         if step > 1:
             scene["notes"].append(f"trail: every {step}th of {n} samples")
     try:
