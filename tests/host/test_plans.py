@@ -19,7 +19,7 @@ from aacmm.plans import (
     shipped_plan_path,
     shipped_plans,
 )
-from aacmm.plans._locate import format_path, key_lines
+from aacmm.tomlsource import format_path, key_lines
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 from aacmm.arm import CONVENTIONS, JOINTS_MAX, JOINTS_MIN, TIPS, Arm, Joint
 from aacmm.core import KinematicsError, Model
@@ -19,7 +19,7 @@ from aacmm.models.model import (
     ArmModel,
     Encoder,
 )
-from aacmm.plans._locate import format_path, key_lines, line_of
+from aacmm.tomlsource import SourceContext, format_path
 
 KeyPath = tuple[str | int, ...]
 
@@ -84,20 +84,14 @@ def _kind(v: Any) -> str:
     }.get(type(v), type(v).__name__)
 
 
-class _Ctx:
-    """The file name and key lines, to raise errors that point at the source."""
+class _Ctx(SourceContext):
+    """A model file being read: errors are ModelErrors at the key's line,
+    fields named as a person counts (joint 2, item 3)."""
 
-    def __init__(self, name: str, text: str) -> None:
-        self.name = name
-        self.lines = key_lines(text)
+    error = ModelError
 
-    def fail(self, path: KeyPath, problem: str) -> NoReturn:
-        raise ModelError(self.name, line_of(self.lines, path), _field(path), problem)
-
-    def keys(self, table: dict[str, Any], path: KeyPath, allowed: tuple[str, ...]) -> None:
-        for k in table:
-            if k not in allowed:
-                self.fail((*path, k), f"unknown field (allowed here: {', '.join(allowed)})")
+    def field(self, path: KeyPath) -> str:
+        return _field(path)
 
     def need(self, table: dict[str, Any], path: KeyPath, key: str) -> Any:
         if key not in table:

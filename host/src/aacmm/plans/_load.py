@@ -8,11 +8,10 @@ import re
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, NoReturn, TypeVar
+from typing import Any, TypeVar
 
 from aacmm.errors import SourceFileError
 from aacmm.fileio import InputFileError, loads_toml
-from aacmm.plans._locate import format_path, key_lines, line_of
 from aacmm.plans._slots import PRESET_ISO, make_slots
 from aacmm.plans.model import (
     ARTEFACT_TYPES,
@@ -38,6 +37,7 @@ from aacmm.plans.model import (
     Vec3,
     Verification,
 )
+from aacmm.tomlsource import SourceContext
 
 T = TypeVar("T")
 KeyPath = tuple[str | int, ...]
@@ -57,22 +57,12 @@ class PlanError(SourceFileError):
     """
 
 
-class _Ctx:
-    """The file name and key lines, to raise errors that point at the source."""
+class _Ctx(SourceContext):
+    """A plan file being read: errors are PlanErrors at the key's line."""
 
-    def __init__(self, name: str, text: str) -> None:
-        self.name = name
-        self.lines = key_lines(text)
-
-    def fail(self, path: KeyPath, problem: str) -> NoReturn:
-        raise PlanError(self.name, line_of(self.lines, path), format_path(path), problem)
+    error = PlanError
 
     # ---------------------------------------------------------- typed getters
-
-    def keys(self, table: dict[str, Any], path: KeyPath, allowed: tuple[str, ...]) -> None:
-        for k in table:
-            if k not in allowed:
-                self.fail((*path, k), f"unknown field (allowed here: {', '.join(allowed)})")
 
     def get(
         self,

@@ -1,6 +1,7 @@
-"""Line numbers of the keys of a TOML document, for error messages.
+"""Line numbers of the keys of a TOML document, for error messages that
+point at the source (plans, arm models: any ``SourceFileError``).
 
-``tomllib`` reports the position of a *syntax* error only; a plan's
+``tomllib`` reports the position of a *syntax* error only; a file's
 semantic errors (unknown artefact, negative length, missing field) need the
 line of the key or table they concern. :func:`key_lines` walks a document
 that ``tomllib`` has already accepted and returns the line of every key path
@@ -19,6 +20,10 @@ strings (the four kinds) are skipped whole.
 """
 
 from __future__ import annotations
+
+from typing import Any, ClassVar, NoReturn
+
+from aacmm.errors import SourceFileError
 
 Path = tuple[str | int, ...]
 
@@ -249,3 +254,29 @@ def format_path(path: Path) -> str:
             text = part if part and all(c in _BARE for c in part) else f'"{part}"'
             out += f".{text}" if out else text
     return out
+
+
+class SourceContext:
+    """A TOML document being checked: its name and the line of every key, to
+    raise :attr:`error` (a :class:`~aacmm.errors.SourceFileError` subclass)
+    at ``FILE:LINE: FIELD``. Subclasses set :attr:`error` and may name fields
+    their own way (:meth:`field`)."""
+
+    error: ClassVar[type[SourceFileError]] = SourceFileError
+
+    def __init__(self, name: str, text: str) -> None:
+        self.name = name
+        self.lines = key_lines(text)
+
+    def field(self, path: Path) -> str:
+        """How a path is named in a message (default :func:`format_path`)."""
+        return format_path(path)
+
+    def fail(self, path: Path, problem: str) -> NoReturn:
+        raise self.error(self.name, line_of(self.lines, path), self.field(path), problem)
+
+    def keys(self, table: dict[str, Any], path: Path, allowed: tuple[str, ...]) -> None:
+        """Fail at the first key of ``table`` that is not ``allowed``."""
+        for k in table:
+            if k not in allowed:
+                self.fail((*path, k), f"unknown field (allowed here: {', '.join(allowed)})")
