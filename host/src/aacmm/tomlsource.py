@@ -256,6 +256,18 @@ def format_path(path: Path) -> str:
     return out
 
 
+def value_kind(v: Any) -> str:
+    """What a TOML value is, in a message's words ("an integer", "a table", ...)."""
+    return {
+        bool: "true/false",
+        int: "an integer",
+        float: "a number",
+        str: "a string",
+        list: "a list",
+        dict: "a table",
+    }.get(type(v), type(v).__name__)
+
+
 class SourceContext:
     """A TOML document being checked: its name and the line of every key, to
     raise :attr:`error` (a :class:`~aacmm.errors.SourceFileError` subclass)

@@ -19,7 +19,7 @@ from aacmm.models.model import (
     ArmModel,
     Encoder,
 )
-from aacmm.tomlsource import SourceContext, format_path
+from aacmm.tomlsource import SourceContext, format_path, value_kind
 
 KeyPath = tuple[str | int, ...]
 
@@ -73,17 +73,6 @@ def _field(path: KeyPath) -> str:
     return f"{head} {out}" if head and out else head or out
 
 
-def _kind(v: Any) -> str:
-    return {
-        bool: "true/false",
-        int: "an integer",
-        float: "a number",
-        str: "a string",
-        list: "a list",
-        dict: "a table",
-    }.get(type(v), type(v).__name__)
-
-
 class _Ctx(SourceContext):
     """A model file being read: errors are ModelErrors at the key's line,
     fields named as a person counts (joint 2, item 3)."""
@@ -100,7 +89,7 @@ class _Ctx(SourceContext):
 
     def number(self, path: KeyPath, v: Any, allow_inf: bool = False) -> float:
         if isinstance(v, bool) or not isinstance(v, int | float):
-            self.fail(path, f"must be a number, got {_kind(v)}")
+            self.fail(path, f"must be a number, got {value_kind(v)}")
         if isinstance(v, int):
             self.int64(path, v)
         f = float(v)
@@ -110,7 +99,7 @@ class _Ctx(SourceContext):
 
     def integer(self, path: KeyPath, v: Any) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
-            self.fail(path, f"must be a whole number, got {_kind(v)}")
+            self.fail(path, f"must be a whole number, got {value_kind(v)}")
         self.int64(path, v)
         return int(v)
 
@@ -121,7 +110,7 @@ class _Ctx(SourceContext):
 
     def text(self, path: KeyPath, v: Any, empty: bool = False) -> str:
         if not isinstance(v, str):
-            self.fail(path, f"must be a string, got {_kind(v)}")
+            self.fail(path, f"must be a string, got {value_kind(v)}")
         if not empty and not v.strip():
             self.fail(path, "must not be empty")
         if "\n" in v.strip() and path[-1] != "notes":
@@ -130,7 +119,7 @@ class _Ctx(SourceContext):
 
     def table(self, path: KeyPath, v: Any) -> dict[str, Any]:
         if not isinstance(v, dict):
-            self.fail(path, f"must be a table, got {_kind(v)}")
+            self.fail(path, f"must be a table, got {value_kind(v)}")
         return v
 
     def choice(self, path: KeyPath, v: Any, options: tuple[str, ...]) -> str:
@@ -308,7 +297,8 @@ def loads_model(text: str, name: str = "<model>") -> ArmModel:
             encoders_assumed = enc_t["assumed"]
             if not isinstance(encoders_assumed, bool):
                 c.fail(
-                    ("encoder", "assumed"), f"must be true or false, got {_kind(encoders_assumed)}"
+                    ("encoder", "assumed"),
+                    f"must be true or false, got {value_kind(encoders_assumed)}",
                 )
         enc_t = {k: v for k, v in enc_t.items() if k != "assumed"}
         base = _encoder(c, enc_t, ("encoder",), base)

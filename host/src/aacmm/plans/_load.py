@@ -37,7 +37,7 @@ from aacmm.plans.model import (
     Vec3,
     Verification,
 )
-from aacmm.tomlsource import SourceContext
+from aacmm.tomlsource import SourceContext, value_kind
 
 T = TypeVar("T")
 KeyPath = tuple[str | int, ...]
@@ -88,7 +88,7 @@ class _Ctx(SourceContext):
 
     def number(self, path: KeyPath, v: Any) -> float:
         if isinstance(v, bool) or not isinstance(v, int | float):
-            self.fail(path, f"must be a number, got {_kind(v)}")
+            self.fail(path, f"must be a number, got {value_kind(v)}")
         f = float(v)
         if not math.isfinite(f):
             self.fail(path, "must be finite")
@@ -110,14 +110,14 @@ class _Ctx(SourceContext):
 
     def count(self, path: KeyPath, v: Any, low: int = 1) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
-            self.fail(path, f"must be a whole number, got {_kind(v)}")
+            self.fail(path, f"must be a whole number, got {value_kind(v)}")
         if not low <= v <= MAX_POINTS_PER_STEP:
             self.fail(path, f"must be in {low}..{MAX_POINTS_PER_STEP}, got {v}")
         return int(v)
 
     def text(self, path: KeyPath, v: Any) -> str:
         if not isinstance(v, str):
-            self.fail(path, f"must be a string, got {_kind(v)}")
+            self.fail(path, f"must be a string, got {value_kind(v)}")
         return v
 
     def ident(self, path: KeyPath, v: Any) -> str:
@@ -128,7 +128,7 @@ class _Ctx(SourceContext):
 
     def flag(self, path: KeyPath, v: Any) -> bool:
         if not isinstance(v, bool):
-            self.fail(path, f"must be true or false, got {_kind(v)}")
+            self.fail(path, f"must be true or false, got {value_kind(v)}")
         return v
 
     def vec3(self, path: KeyPath, v: Any) -> Vec3:
@@ -161,19 +161,8 @@ class _Ctx(SourceContext):
 
     def table(self, path: KeyPath, v: Any) -> dict[str, Any]:
         if not isinstance(v, dict):
-            self.fail(path, f"must be a table, got {_kind(v)}")
+            self.fail(path, f"must be a table, got {value_kind(v)}")
         return v
-
-
-def _kind(v: Any) -> str:
-    return {
-        bool: "true/false",
-        int: "an integer",
-        float: "a number",
-        str: "a string",
-        list: "a list",
-        dict: "a table",
-    }.get(type(v), type(v).__name__)
 
 
 def _num(f: float) -> str:
