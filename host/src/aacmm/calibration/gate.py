@@ -72,14 +72,22 @@ from typing import Any
 
 import numpy as np
 
-from aacmm.calibration.parameters import ArmParams, n_joints
+from aacmm.calibration.parameters import (
+    ArmParams,
+    n_joints,
+    param_names,
+    param_units,
+    validate,
+    with_vector,
+)
 from aacmm.calibration.results import CalibrationResult
 from aacmm.calibration.validation import Comparison
-from aacmm.core import JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray, Model, Params
+from aacmm.core import JOINTS, FloatArray, Model, Params
 
 ARCSEC_RAD = math.pi / 648000.0
-#: the null-space kinds that are symmetries of the model (no data see them)
-SYMMETRIES = frozenset({"theta1", "d1", "tip"})
+#: the null-space kinds that are symmetries of the model (no data see them): the base's
+#: rigid motions (alpha1 and a1 too for a modified first joint, issue 26) and the tip's split
+SYMMETRIES = frozenset({"theta1", "d1", "alpha1", "a1", "tip"})
 #: the checks, in the order they are run and reported
 CHECKS = ("session", "rank", "uncertainty", "correlation", "prediction", "validation")
 DEFAULT_PAIRS = 500
@@ -134,11 +142,12 @@ class SessionState:
 class PreviousCalibration:
     """The calibration that made the set in force (from its provenance file).
 
-    ``params`` and ``covariance`` (25, 25; rad, mm): its calibrated set and
-    reported covariance; ``source``: where it was read, for messages.
+    ``params`` and ``covariance`` (P, P; rad, mm; 25 for the paper's arm): its
+    calibrated set and reported covariance; ``source``: where it was read, for
+    messages.
     """
 
-    params: Params
+    params: ArmParams
     covariance: FloatArray
     source: str
 
@@ -341,13 +350,22 @@ def predict(
     )
 
 
-def previous_from_provenance(data: Any, source: str) -> PreviousCalibration:
+def previous_from_provenance(
+    data: Any, source: str, like: ArmParams | None = None
+) -> PreviousCalibration:
     """A :class:`PreviousCalibration` from a provenance file's content
     (``format = "aacmm-calibration-1"``: ``result.calibrated``, ``result.covariance``).
 
+    ``like``: the arm the calibration must be of (its parameter names and
+    shape; default the paper's arm): the provenance of a calibration of
+    another arm (other parameter names) is refused.
+
     Raises:
-        ValueError: not a calibration provenance, or values missing or not finite.
+        ValueError: not a calibration provenance, values missing or not finite, or
+            the calibration of another arm.
     """
+    p0: ArmParams = like if like is not None else Params()
+    names = param_names(p0)
     if not isinstance(data, Mapping) or data.get("format") != "aacmm-calibration-1":
         raise ValueError(f"{source}: not a calibration provenance (aacmm-calibration-1)")
     result = data.get("result")
@@ -355,20 +373,27 @@ def previous_from_provenance(data: Any, source: str) -> PreviousCalibration:
         raise ValueError(f"{source}: no result in the provenance")
     cal = result.get("calibrated")
     cov = result.get("covariance")
-    if not isinstance(cal, Mapping) or any(n not in cal for n in PARAM_NAMES):
+    if isinstance(cal, Mapping) and set(cal) != set(names) and any(n in cal for n in names):
+        theirs = sum(1 for k in cal if str(k).startswith("theta"))
+        raise ValueError(
+            f"{source}: the calibration of another arm ({theirs} joints, {len(cal)} "
+            f"parameters; this arm has {n_joints(p0)} joints, {len(names)} parameters)"
+        )
+    if not isinstance(cal, Mapping) or any(n not in cal for n in names):
         raise ValueError(f"{source}: result.calibrated lacks parameters")
     try:
-        v = np.array([float(cal[n]) for n in PARAM_NAMES])
+        v = np.array([float(cal[n]) for n in names])
         c = np.array(cov, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"{source}: result.calibrated / covariance are not numbers") from None
-    if c.shape != (25, 25) or not np.all(np.isfinite(c)) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{source}: result.covariance must be a finite 25 x 25 matrix")
+    k = len(names)
+    if c.shape != (k, k) or not np.all(np.isfinite(c)) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{source}: result.covariance must be a finite {k} x {k} matrix")
     if not np.allclose(c, c.T, rtol=1e-9, atol=1e-30) or np.any(np.diag(c) < 0):
         raise ValueError(f"{source}: result.covariance is not a covariance matrix")
     try:
-        params = Params.from_vector(v)
-        params.validate()
+        params = with_vector(p0, v)
+        validate(params)
     except ValueError as exc:
         raise ValueError(f"{source}: result.calibrated: {exc}") from None
     return PreviousCalibration(params, c, source)
@@ -418,10 +443,11 @@ def _rank_refusals(res: CalibrationResult) -> list[Refusal]:
 def _uncertainty_refusals(res: CalibrationResult, lim: GateLimits) -> list[Refusal]:
     sd = res.scaled_std
     worst: list[tuple[float, str]] = []
-    for k, name in enumerate(PARAM_NAMES):
+    units = param_units(res.params)
+    for k, name in enumerate(param_names(res.params)):
         if name not in res.free:
             continue
-        if PARAM_UNITS[k] == "rad":
+        if units[k] == "rad":
             if sd[k] > lim.max_u_angle_rad:
                 worst.append(
                     (
@@ -453,7 +479,11 @@ def _uncertainty_refusals(res: CalibrationResult, lim: GateLimits) -> list[Refus
 
 
 def _correlation_refusals(res: CalibrationResult, lim: GateLimits) -> list[Refusal]:
-    pairs = [t for t in res.strongest_correlations(25) if abs(t[2]) >= lim.max_correlation]
+    pairs = [
+        t
+        for t in res.strongest_correlations(len(param_names(res.params)))  # 25: the paper's
+        if abs(t[2]) >= lim.max_correlation
+    ]
     if not pairs:
         return []
     a, b, c = pairs[0]

@@ -17,8 +17,10 @@ from typing import Any
 import numpy as np
 
 from aacmm import uncertainty as unc
+from aacmm.calibration import pointunc
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.parameters import param_names, param_units
+from aacmm.calibration.pointunc import ArmPointUncertainty, propagate_arm
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
 from aacmm.calibration.results import CalibrationResult, Outlier
 from aacmm.calibration.validation import Comparison, describe_change, is_worse
@@ -208,29 +210,34 @@ def format_result(res: CalibrationResult, cmp_: Comparison | None = None) -> str
 
 
 def point_uncertainty(
-    res: CalibrationResult,
+    res: CalibrationResult[Any],
     workspace: int = 100,
     trials: int = 20_000,
     seed: int = 0,
     poses_rad: FloatArray | None = None,
-) -> unc.UncertaintyResult:
+) -> unc.UncertaintyResult | ArmPointUncertainty:
     """The calibrated parameters' covariance propagated to the probe point.
 
     Linear (J Sigma J^T with the correlations) and Monte Carlo (correlated
-    normal draws) with :func:`aacmm.uncertainty.propagate`, at
-    ``workspace`` random poses (and ``poses_rad``). Held parameters add
-    nothing: they are rigid motions of the whole arm (theta1, d1) or leave
-    the tip where it is (the tip's split), so distances measured with the
-    arm do not depend on them. The covariance is the reported one
+    normal draws) with :func:`aacmm.uncertainty.propagate` (the paper's arm)
+    or :func:`aacmm.calibration.pointunc.propagate_arm` (any other arm: its P
+    parameters), at ``workspace`` random poses (and ``poses_rad``). Held
+    parameters add nothing: they are rigid motions of the whole arm (theta1,
+    d1) or leave the tip where it is (the tip's split), so distances measured
+    with the arm do not depend on them. The covariance is the reported one
     (:attr:`~aacmm.calibration.results.CalibrationResult.scaled_covariance`).
     """
     if not isinstance(res.params, Params):
-        raise ValueError(
-            "point uncertainty of a calibration: the paper's arm only (aacmm.uncertainty "
-            "takes its 25 parameters)"
-        )
+        return propagate_arm(res.params, res.scaled_covariance, trials, workspace, seed, poses_rad)
     spec = unc.UncertaintySpec.from_covariance(res.scaled_covariance, res.params, poses_rad)
     return unc.propagate(spec, trials=trials, workspace=workspace, seed=seed)
+
+
+def point_uncertainty_json(ures: unc.UncertaintyResult | ArmPointUncertainty) -> dict[str, Any]:
+    """:func:`point_uncertainty`'s result as JSON-ready data (either arm)."""
+    if isinstance(ures, ArmPointUncertainty):
+        return pointunc.to_json(ures)
+    return unc.to_json(ures)
 
 
 def identifiability_json(idn: Identifiability) -> dict[str, Any]:

@@ -15,12 +15,15 @@ Each plan step becomes a constraint (docs/calibration.md, "From sessions"):
 * ``points`` -- not used (free points constrain nothing).
 
 Joint angles come from the counts with each row's own encoder configuration;
-the start of the fit is the kinematic parameter set in force. Every session
-of one calibration (and every validation session) must have been taken with
-one encoder configuration, and the calibration sessions with one parameter
-set: the counts of another configuration mean other angles, and a fit must
-start from the set its data were taken with. Anything else is refused with
-one line naming the session.
+the start of the fit is the kinematic parameter set in force: the paper's
+:class:`~aacmm.core.Params` for a set of its shape, any other arm's
+:class:`~aacmm.arm.Arm` (issue 26), as the session's sidecar records it.
+Every session of one calibration (and every validation session) must be of
+one arm shape (joints, conventions, betas, tip: the same parameter names)
+and taken with one encoder configuration, and the calibration sessions with
+one parameter set: the counts of another configuration mean other angles,
+and a fit must start from the set its data were taken with. Anything else is
+refused with one line naming the session.
 
 Errors: :class:`SessionDataError` (a ValueError: exit status 2 in the CLI).
 """
@@ -45,7 +48,8 @@ from aacmm.calibration.observations import (
     Sphere,
     combine,
 )
-from aacmm.core import EncoderConfig, Params
+from aacmm.calibration.parameters import ArmParams
+from aacmm.core import EncoderConfig
 from aacmm.plans import model as pm
 from aacmm.records import ParamSetRecord, RecordError, Session, read_session
 
@@ -79,7 +83,7 @@ class SessionData:
     """Observations from one or more sessions, their start parameters and provenance."""
 
     observations: Observations
-    start: Params
+    start: ArmParams
     param_set: ParamSetRecord
     sources: tuple[SessionSource, ...]
 
@@ -179,7 +183,7 @@ def observations_from_plan(
 ) -> tuple[Observations, list[str], list[str]]:
     """Observations of a plan's points: the mapping of the module doc, step by step.
 
-    ``theta_rad`` (n, 6): joint readings of the points, row i labelled by
+    ``theta_rad`` (n, N): joint readings of the points, row i labelled by
     ``labels[i]`` (default: the plan's first n slots, in order -- a design
     whose poses come from a simulated operator, or a session's rows). Returns
     the observations and the ids of the steps used and not used (free points).
@@ -241,7 +245,29 @@ def session_observations(
     )
 
 
+def _shape(ps: ParamSetRecord) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """What makes two sets the same arm shape: the parameter names and the conventions."""
+    a = ps.arm
+    return a.param_names, tuple(j.convention for j in a.joints)
+
+
+def _shape_text(ps: ParamSetRecord) -> str:
+    a = ps.arm
+    return f"an arm of {a.n_joints} joints and {a.n_params} parameters"
+
+
+def _same_shape(ref: ParamSetRecord, ref_path: str, ps: ParamSetRecord, path: str) -> None:
+    """One arm shape for every session (the parameters the fit estimates)."""
+    if _shape(ps) != _shape(ref):
+        raise SessionDataError(
+            f"{path}: taken with {_shape_text(ps)} (parameter set {ps.crc_hex}), {ref_path} "
+            f"with {_shape_text(ref)} ({ref.crc_hex}): a calibration takes the sessions of "
+            "one arm"
+        )
+
+
 def _same_set(ref: ParamSetRecord, ref_path: str, ps: ParamSetRecord, path: str) -> None:
+    _same_shape(ref, ref_path, ps, path)
     if ps.encoders != ref.encoders:
         raise SessionDataError(
             f"{path}: taken with another encoder configuration than {ref_path} "
@@ -258,10 +284,6 @@ def _session_set(session: Session) -> ParamSetRecord:
     """The one parameter set of a session (kinematics and encoders), or an error."""
     crcs = np.unique(session.param_crc32)
     first = session.param_set_of(0)
-    try:  # a session of another arm than the paper's: refused before anything is computed
-        first.paper_params("calibration from sessions")
-    except RecordError as e:
-        raise SessionDataError(f"{session.path}: {e}") from None
     for c in crcs.tolist():
         ps = session.param_sets[int(c)]
         if ps.encoders != first.encoders:
@@ -341,6 +363,7 @@ def load_sessions(
         if ref is None:
             ref, ref_path = ps, str(s.path)
         elif any_params:
+            _same_shape(ref, ref_path, ps, str(s.path))
             if ps.encoders != ref.encoders:
                 _same_set(ref, ref_path, ps, str(s.path))
         else:
@@ -366,8 +389,4 @@ def load_sessions(
         sources.append(src)
     assert ref is not None
     obs = parts[0] if len(parts) == 1 else combine(parts)
-    try:
-        start = ref.paper_params("calibration from sessions")
-    except RecordError as e:
-        raise SessionDataError(str(e)) from None
-    return SessionData(obs, start, ref, tuple(sources))
+    return SessionData(obs, ref.model, ref, tuple(sources))

@@ -32,7 +32,8 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         "calibrate",
         help="identify the arm's parameters from capture sessions (seats, lengths, spheres)",
-        description="Calibrate the arm's 25 structural parameters from capture sessions: "
+        description="Calibrate the arm's structural parameters (25 for the paper's arm, the "
+        "arm's P for any other, as the sessions' parameter set says) from capture sessions: "
         "identifiability (SVD, named unobservable directions), weighted Levenberg-Marquardt "
         "in the identifiable subspace, covariance, chi-square check, outliers, before/after "
         "figures; writes a parameter file for `aacmm params set` and its provenance.",
@@ -44,7 +45,9 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--probe",
         action="store_true",
-        help="probe (tip) calibration: only theta6, alpha6, d6, a6 and l free (pivot on seats)",
+        help="probe (tip) calibration: only the tip's parameters free (pivot on seats): "
+        "theta6, alpha6, d6, a6 and l for the paper's arm, the last joint's and the tip's "
+        "for any arm (docs/calibration.md)",
     )
     which = p.add_mutually_exclusive_group()
     which.add_argument(
@@ -207,7 +210,7 @@ def _previous(args: argparse.Namespace, data: Any) -> Any:
     if not explicit and not (args.force and path.is_file()):
         return None
     try:
-        prev = previous_from_provenance(load_json(path), str(path))
+        prev = previous_from_provenance(load_json(path), str(path), like=data.start)
     except (InputFileError, ValueError) as exc:
         if explicit:
             raise UsageError(f"--previous {exc}") from None
@@ -348,19 +351,19 @@ def _gate(args: argparse.Namespace, data: Any, res: Any, val: Any, previous: Any
 
 def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any = None) -> int:
     from aacmm.calibration import Problem, analyse, parse_names, report
-    from aacmm.calibration.identifiability import TIP_PARAMS
+    from aacmm.calibration.parameters import param_names, tip_columns
     from aacmm.calibration.validation import compare, kfold
-    from aacmm.core import PARAM_NAMES
+    from aacmm.commands.exitcodes import UsageError
 
     obs = data.observations
     print(_summary(data))
-    free = TIP_PARAMS if args.probe else (tuple(args.free) if args.free else None)
+    all_names = param_names(data.start)  # the arm's own (the paper's 25 for its shape)
+    free = tip_columns(data.start) if args.probe else (tuple(args.free) if args.free else None)
     fix = tuple(args.fix or ())
-    names = parse_names(free) if free is not None else PARAM_NAMES
-    cand = [PARAM_NAMES.index(n) for n in names if n not in set(parse_names(fix))]
+    names = parse_names(free, data.start) if free is not None else all_names
+    held = set(parse_names(fix, data.start))
+    cand = [all_names.index(n) for n in names if n not in held]
     if not cand:
-        from aacmm.commands.exitcodes import UsageError
-
         raise UsageError("no parameter left free to calibrate")
     ident0 = analyse(Problem(obs).evaluate(data.start), cand)
     print()
@@ -509,7 +512,6 @@ def _write(
     import json
 
     from aacmm import __version__
-    from aacmm import uncertainty as unc
     from aacmm.calibration import report
     from aacmm.fileio import write_output
 
@@ -561,7 +563,7 @@ def _write(
             "pivot_max_mm": probe.pivot_max_mm,
         }
     if ures is not None:
-        prov["point_uncertainty"] = unc.to_json(ures)
+        prov["point_uncertainty"] = report.point_uncertainty_json(ures)
     if args.report:  # first: the parameter file, written last, says the job is done
         _write_report(args, data, res, cmp_, val, kf, ures, probe, prov, gate)
     write_output(provenance_path(args.output), json.dumps(prov, indent=1) + "\n", force=args.force)
