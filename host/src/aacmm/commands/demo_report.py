@@ -250,13 +250,13 @@ def truth_check(
     """
     from aacmm.core import Model, counts_to_angles
     from aacmm.records import read_session
-    from aacmm.simulation.ik import ARM_LIMITS
     from aacmm.simulation.truth import load_truth
 
     truth = load_truth(folder / "arm" / "truth.toml")
     check_truth_arm(truth, folder)
     rng = np.random.default_rng(seed)
-    theta = np.array([ARM_LIMITS.sample(rng) for _ in range(2 * lengths)])
+    limits = truth_limits(truth)
+    theta = np.array([limits.sample(rng) for _ in range(2 * lengths)])
     true_pts = truth.model().points(theta)
     counts = truth.counts(theta)  # no rng: the readings without noise
     true_len = np.linalg.norm(true_pts[0::2] - true_pts[1::2], axis=1)
@@ -293,6 +293,32 @@ def truth_check(
     }
     out["factor"] = out["before"]["rms_mm"] / out["after"]["rms_mm"]
     return out
+
+
+def truth_limits(truth: Any) -> Any:
+    """The joint limits the truth check's postures keep within: the simulator's
+    (:data:`~aacmm.simulation.ik.ARM_LIMITS`) for the paper's arm; for an arm model's
+    truth (``[origin] model``, ``aacmm sim --model``) the shipped model's limits, and
+    none (every joint a full turn) for an arm the shipped models do not name."""
+    import math
+
+    from aacmm.core import Params
+    from aacmm.errors import ModelError
+    from aacmm.models import load_model
+    from aacmm.simulation.ik import ARM_LIMITS, JointLimits
+
+    if isinstance(truth.params, Params):
+        return ARM_LIMITS
+    n = truth.params.n_joints
+    name = truth.origin.get("model")
+    if isinstance(name, str):
+        try:
+            model = load_model(name)
+        except ModelError:
+            model = None
+        if model is not None and model.file is None and model.n_joints == n:
+            return JointLimits.from_ranges(model.joint_limits_rad)
+    return JointLimits((0.0,) * n, (math.inf,) * n)
 
 
 def check_truth_arm(truth: Any, folder: Path) -> None:
