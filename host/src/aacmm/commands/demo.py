@@ -227,6 +227,7 @@ class Demo:
         finish (a scenario ends when capture stops streaming), else stops it."""
         self.say(f"$ {_shown(args)} &")
         log_path = self.out / "console" / log_name
+        failed = False
         with open(log_path, "w", encoding="utf-8") as log:
             proc = subprocess.Popen(
                 [*_aacmm(), *args],
@@ -248,7 +249,11 @@ class Demo:
                         f"demo: the simulator did not start (its messages: console/{log_name})"
                     )
                     raise StepFailed(proc.returncode if proc.returncode else 3)
-                yield url
+                try:
+                    yield url
+                except StepFailed:  # the simulator's own reason, if it gave one
+                    failed = True
+                    raise
                 if "--scenario" in args:  # it ends by itself once capture has stopped
                     with contextlib.suppress(subprocess.TimeoutExpired):
                         proc.wait(timeout=60)
@@ -263,6 +268,11 @@ class Demo:
                         proc.wait()
                 if proc.stdout is not None:
                     proc.stdout.close()
+                if failed:  # e.g. a plan out of the arm's reach
+                    log.flush()
+                    said = log_path.read_text(encoding="utf-8").splitlines()
+                    for line in [s for s in said if " error: " in s][-2:]:
+                        self.say(f"  simulator: {line}")
 
 
 def _first_line(proc: subprocess.Popen[str], timeout: float) -> str:
