@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import tomllib
 from pathlib import Path
 
@@ -433,3 +434,35 @@ def test_shipped_models_end_to_end(name: str) -> None:
     spat_fall = before.cone_spat.max() / after.cone_spat.max()
     print(f"{name}: length error falls {length_fall:.0f}x, SPAT {spat_fall:.0f}x")
     assert length_fall >= 20 and spat_fall >= 20
+
+
+def test_quality_gate_of_a_general_arm(five: Case) -> None:
+    """The gate on the 5-axis arm's calibration: a modified first joint's alpha1 and a1
+    are rigid motions of the base (symmetries, like theta1 and d1), so the rank check
+    passes; the uncertainty check reads the arm's own units (beta3 an angle, tx a
+    length), and a limit below what the data give refuses by those names."""
+    from aacmm.calibration.gate import GateLimits, assess
+
+    res = calibrate(five.cal.obs, five.nominal)
+    kinds = {d.kind for d in res.identifiability.null}
+    assert {"alpha1", "a1"} <= kinds
+    gate = assess(res)
+    assert gate.passed, gate.refusals
+    names, units = res.params.param_names, res.params.param_units
+    sd = dict(zip(names, res.scaled_std, strict=True))
+    assert "beta3" in res.free and "tx" in res.free
+    tight = GateLimits(max_u_length_mm=sd["tx"] * 0.99, max_u_angle_rad=sd["beta3"] * 0.99)
+    # the offenders, by each parameter's own unit (computed here)
+    over = {
+        n
+        for n, u in zip(names, units, strict=True)
+        if n in res.free
+        and sd[n] > (tight.max_u_angle_rad if u == "rad" else tight.max_u_length_mm)
+    }
+    assert {"tx", "beta3"} <= over
+    msg = next(r.message for r in assess(res, limits=tight).refusals if r.check == "uncertainty")
+    shown = re.findall(r"(\w+) u = [\d.e+-]+(um|\")", msg)
+    assert {n for n, _ in shown} <= over and len(shown) == min(3, len(over))
+    for n, unit in shown:
+        assert unit == ("um" if units[names.index(n)] == "mm" else '"'), (n, unit)
+    assert (f"and {len(over) - 3} more" in msg) == (len(over) > 3)

@@ -334,3 +334,22 @@ def test_previous_of_another_arm_refused(cases: dict[str, Case], tmp_path: Path)
     own = cases["commercial7"].folder / "cal.provenance.json"
     p = run("calibrate", str(seven), "-o", str(out), "--previous", str(own), "-q")
     one_error_line(p, 2, "--previous", "not the provenance of the set in force")
+
+
+def test_previous_of_the_arms_own_calibration_is_the_bar(
+    cases: dict[str, Case], tmp_path: Path
+) -> None:
+    """The 7-axis arm's verification session taken with its calibrated set, calibrated
+    again with ``--previous`` its calibration's provenance: that provenance made the set
+    in force, so it is read, and its predicted length error is the bar the gate prints."""
+    c = cases["commercial7"]
+    own = c.folder / "cal.provenance.json"
+    out = tmp_path / "again.toml"
+    p = run(
+        "calibrate", str(c.folder / "after"), "-o", str(out), "--previous", str(own),
+        "--workspace", "0", "-q", timeout=240,
+    )  # fmt: skip
+    assert p.returncode in (0, 9), p.stderr  # written, or "as found, not adjusted"
+    u_prev = c.provenance["quality_gate"]["prediction"]["calibrated_rms_mm"]
+    assert f"its own calibration predicted {u_prev * 1e3:.3g} um ({own})" in p.stdout
+    assert out.exists() == (p.returncode == 0)

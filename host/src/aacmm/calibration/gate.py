@@ -302,7 +302,7 @@ def _change_dof(g: FloatArray, cov: FloatArray) -> float:
 
 
 def predict(
-    res: CalibrationResult,
+    res: CalibrationResult[Any],
     previous: PreviousCalibration | None = None,
     pairs: int = DEFAULT_PAIRS,
     seed: int = DEFAULT_SEED,
@@ -424,7 +424,7 @@ def _session_refusals(sessions: Sequence[SessionState]) -> list[Refusal]:
     return out
 
 
-def _rank_refusals(res: CalibrationResult) -> list[Refusal]:
+def _rank_refusals(res: CalibrationResult[Any]) -> list[Refusal]:
     idn = res.identifiability
     bad = [d for d in idn.null if d.kind not in SYMMETRIES]
     if not bad:
@@ -440,7 +440,7 @@ def _rank_refusals(res: CalibrationResult) -> list[Refusal]:
     ]
 
 
-def _uncertainty_refusals(res: CalibrationResult, lim: GateLimits) -> list[Refusal]:
+def _uncertainty_refusals(res: CalibrationResult[Any], lim: GateLimits) -> list[Refusal]:
     sd = res.scaled_std
     worst: list[tuple[float, str]] = []
     units = param_units(res.params)
@@ -478,7 +478,7 @@ def _uncertainty_refusals(res: CalibrationResult, lim: GateLimits) -> list[Refus
     ]
 
 
-def _correlation_refusals(res: CalibrationResult, lim: GateLimits) -> list[Refusal]:
+def _correlation_refusals(res: CalibrationResult[Any], lim: GateLimits) -> list[Refusal]:
     pairs = [
         t
         for t in res.strongest_correlations(len(param_names(res.params)))  # 25: the paper's
@@ -535,7 +535,7 @@ def _validation_refusals(validation: Comparison | None) -> list[Refusal]:
 
 
 def assess(
-    res: CalibrationResult,
+    res: CalibrationResult[Any],
     sessions: Sequence[SessionState] = (),
     limits: GateLimits | None = None,
     previous: PreviousCalibration | None = None,
