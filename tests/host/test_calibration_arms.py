@@ -461,8 +461,8 @@ def test_quality_gate_of_a_general_arm(five: Case) -> None:
     }
     assert {"tx", "beta3"} <= over
     msg = next(r.message for r in assess(res, limits=tight).refusals if r.check == "uncertainty")
-    shown = re.findall(r"(\w+) u = [\d.e+-]+(um|\")", msg)
+    shown = re.findall(r"(\w+) u = [\d.e+-]+( um|\")", msg)
     assert {n for n, _ in shown} <= over and len(shown) == min(3, len(over))
     for n, unit in shown:
-        assert unit == ("um" if units[names.index(n)] == "mm" else '"'), (n, unit)
+        assert unit.strip() == ("um" if units[names.index(n)] == "mm" else '"'), (n, unit)
     assert (f"and {len(over) - 3} more" in msg) == (len(over) > 3)
