@@ -34,6 +34,7 @@ import numpy as np
 import pytest
 from aacmm.calibration.sessions import load_sessions
 from aacmm.calibration.validation import measure
+from aacmm.core import Params
 from aacmm.records import read_session
 from aacmm.simulation.truth import ErrorSources, Truth, random_truth
 
@@ -165,6 +166,7 @@ def test_end_to_end_on_the_simulator(tmp_path: Path) -> None:
     from aacmm.records.paramfile import load_param_file
 
     ps = load_param_file(cal)
+    assert isinstance(after.start, Params)  # a session of the paper's arm: its 25 parameters
     assert after.start.l_mm == ps.l_mm and after.start.d_mm == ps.d_mm
     assert read_session(s2).param_set_of(0).params == after.start
     m_before = measure(before.observations, before.start)  # the arm as it was

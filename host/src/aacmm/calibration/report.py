@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
 from aacmm import uncertainty as unc
+from aacmm.arm import Arm
 from aacmm.calibration import pointunc
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.parameters import param_names, param_units
@@ -209,6 +210,30 @@ def format_result(res: CalibrationResult, cmp_: Comparison | None = None) -> str
     return "\n".join(lines)
 
 
+@overload
+def point_uncertainty(
+    res: CalibrationResult[Params],
+    workspace: int = ...,
+    trials: int = ...,
+    seed: int = ...,
+    poses_rad: FloatArray | None = ...,
+) -> unc.UncertaintyResult: ...
+@overload
+def point_uncertainty(
+    res: CalibrationResult[Arm],
+    workspace: int = ...,
+    trials: int = ...,
+    seed: int = ...,
+    poses_rad: FloatArray | None = ...,
+) -> ArmPointUncertainty: ...
+@overload
+def point_uncertainty(
+    res: CalibrationResult[Any],
+    workspace: int = ...,
+    trials: int = ...,
+    seed: int = ...,
+    poses_rad: FloatArray | None = ...,
+) -> unc.UncertaintyResult | ArmPointUncertainty: ...
 def point_uncertainty(
     res: CalibrationResult[Any],
     workspace: int = 100,
