@@ -479,3 +479,18 @@ def test_demo_of_a_seven_axis_model(demo_model: Run) -> None:
         rms = float(np.sqrt(np.mean(err**2)))
         assert got[name] == pytest.approx(rms, rel=0.25), (name, got[name], rms)
     assert got["before"] >= 20 * got["after"]
+
+
+def test_demo_refuses_a_bad_model_before_anything(tmp_path: Path) -> None:
+    """An unknown model, or a model file that is not valid, is one line and exit 2, and
+    nothing is written (not even the output folder)."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text('format = "aacmm-model-1"\n', encoding="utf-8")
+    for model, words in (("nosuch", ("nosuch", "shipped")), (str(bad), ("bad.toml", "name"))):
+        out = tmp_path / "out"
+        p = run("demo", "--model", model, "--out", str(out))
+        assert p.returncode == 2, (p.returncode, p.stdout, p.stderr)
+        lines = p.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("demo: "), p.stderr
+        assert all(w in lines[0] for w in words), lines
+        assert not out.exists() and p.stdout == ""
