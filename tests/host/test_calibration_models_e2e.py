@@ -287,6 +287,8 @@ def test_reports_and_point_uncertainty_name_the_arms_parameters(
         assert (c.folder / "rep" / f).stat().st_size > 0, f
     text = (c.folder / "rep" / "report.txt").read_text()
     assert all(f"  {x} " in text for x in names)
+    shape = f"(an arm of {n} joints, {len(names)} parameters)"
+    assert (shape in text) == (model != "gao2013")  # the paper's report as before
 
 
 def test_fit_on_sessions_of_the_seven_axis_arm(cases: dict[str, Case]) -> None:

@@ -309,9 +309,11 @@ def _summary(data: Any) -> str:
 def _arm_text(data: Any) -> str:
     serial = data.serial_number
     fw = data.firmware
+    ps = data.param_set
+    shape = "" if ps.is_paper_shape else f" (an arm of {ps.describe()})"  # issue 26
     return (
         f"device serial {serial if serial is not None else '(not recorded)'}, firmware "
-        f"{fw or '(not recorded)'}, parameter set in force {data.param_set.crc_hex}"
+        f"{fw or '(not recorded)'}, parameter set in force {ps.crc_hex}{shape}"
     )
 
 
