@@ -7,19 +7,25 @@ device's model cannot know:
 
 - **encoder noise**: Gaussian, ``sigma_counts`` per joint, a fresh draw for
   every reading the simulated operator sends;
-- **encoder eccentricity** (an error the DH model cannot describe): the
+- **encoder reading errors** (what the DH model cannot describe): the
   reading of joint i is off by ``amplitude_arcsec[i] * sin(angle + phase_rad[i])``,
-  once per revolution of the joint, as an encoder disc mounted off-centre
-  and read by one head;
+  once per revolution of the joint (the eccentricity of a disc mounted
+  off-centre), plus harmonics ``k = 2..4``: ``A_ki sin(k angle + phase_ki)``
+  (an encoder grade's, :mod:`aacmm.simulation.encgrade`);
 - **probing noise**: the operator's probe tip sits ``N(0, sigma_um)`` per axis
   (isotropic Gaussian) away from the target at each point it probes.
 
 The truth file (TOML, ``format = "aacmm-truth-1"``) is a parameter file that
 ``aacmm params set`` accepts (the truth tables are ignored there) plus the
-tables ``[encoder_noise]``, ``[eccentricity]`` and ``[probing]``; ``[origin]``
-records how it was made and ``[arm] serial_number`` which device it is (the
-simulator reports it in its device info). :func:`random_truth` perturbs a
-nominal set by the documented :data:`RANDOM_SIZES`.
+tables ``[encoder_noise]``, ``[eccentricity]`` (harmonic 1), ``[harmonics]``
+(orders 2..4, when there are any) and ``[probing]``; ``[origin]`` records how
+it was made (``encoder_grade``: the grade of a random truth other than
+two-head) and ``[arm] serial_number`` which device it is (the simulator
+reports it in its device info). :func:`random_truth` perturbs a nominal set
+by the documented :data:`RANDOM_SIZES` and draws the encoders' harmonics of
+an encoder grade (:func:`aacmm.simulation.encgrade.draw_harmonics`);
+:meth:`Truth.reading_error_model` gives them in the C core's error-model
+form (:class:`aacmm.errmodel.ErrorModel`).
 
 **Identity.** Every arm has a serial number of its own: an arm built to
 drawing (the device's built-in set, no error source) is serial 1, as the
@@ -35,8 +41,8 @@ d, a and the tip). The truth file of such an arm is a parameter file of it
 (:mod:`aacmm.records.paramfile`, "Any arm": N values per list, conventions,
 betas, a tip vector) with the error tables of N values each; a file of the
 paper's shape reads as the paper's :class:`~aacmm.core.Params`, any other as
-an :class:`~aacmm.arm.Arm`. :func:`check_truth_model` refuses a truth whose
-arm is not of a model's shape (joint count, conventions, betas, tip kind).
+an :class:`~aacmm.arm.Arm`. :mod:`aacmm.simulation.modeltruth` reads the
+truth of an arm model.
 
 Analysis code never reads a truth: only tests compare results with it.
 """
@@ -55,6 +61,7 @@ from aacmm.arm import Arm
 from aacmm.core import JOINTS, EncoderConfig, Model, Params
 from aacmm.errors import AacmmError
 from aacmm.models import ArmModel
+from aacmm.simulation.encgrade import DEFAULT_GRADE, EncoderGrade, draw_harmonics, encoder_grade
 
 if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
     from typing_extensions import TypeVar
@@ -68,19 +75,19 @@ else:
 
 FORMAT: Final = "aacmm-truth-1"
 ARCSEC_RAD: Final = math.pi / (180.0 * 3600.0)
-TABLES: Final = ("encoder_noise", "eccentricity", "probing", "origin", "arm")
+TABLES: Final = ("encoder_noise", "eccentricity", "harmonics", "probing", "origin", "arm")
 #: serial number of an arm built to drawing (the simulator's default device)
 NOMINAL_SERIAL: Final = 1
 
 
 @dataclass(frozen=True)
 class RandomSizes:
-    """Perturbation sizes of :func:`random_truth` (uniform on +-size unless stated)."""
+    """Perturbation sizes of :func:`random_truth` (uniform on +-size unless stated;
+    the encoders' harmonics are an encoder grade's, :mod:`aacmm.simulation.encgrade`)."""
 
     length_mm: float = 0.5  #: d, a (each joint) and l (an arm: each tip component)
     angle_deg: float = 0.05  #: alpha and theta offset of each joint (an arm: each beta too)
     encoder_noise_arcsec: float = 0.3  #: sigma of the encoder noise (same on every joint)
-    eccentricity_arcsec: tuple[float, float] = (0.5, 2.0)  #: amplitude, uniform in this range
     probing_sigma_um: float = 2.0  #: probing noise sigma per axis
 
 
@@ -92,33 +99,24 @@ class TruthError(AacmmError, ValueError):
     """A truth file or specification is not valid (exit status 2 in the CLI)."""
 
 
-def _six(
-    name: str, values: Any, src: str, lo: float = -math.inf, n: int = JOINTS
-) -> tuple[float, ...]:
-    if not isinstance(values, list) or len(values) != n:
-        raise TruthError(f"{src}: {name} must be a list of {n} numbers")
-    out = []
-    for i, v in enumerate(values):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise TruthError(f"{src}: {name}[{i}] must be a finite number, got {v!r}")
-        if v < lo:
-            raise TruthError(f"{src}: {name}[{i}]={v} must be >= {lo:g}")
-        out.append(float(v))
-    return tuple(out)
-
-
 @dataclass(frozen=True)
 class ErrorSources:
     """The truth's error sources; all zero = a perfect arm (see the module doc).
 
     One value per joint (six by default, the paper's arm; 1 to 7, all three
-    tuples of one length); :meth:`none` for another joint count.
+    tuples of one length); :meth:`none` for another joint count. The
+    harmonics of order 2..4 (``harmonic_orders``, increasing): per order N
+    amplitudes (arcsec, >= 0) and N phases (rad).
     """
 
     encoder_noise_counts: tuple[float, ...] = (0.0,) * JOINTS  #: Gaussian sigma, per reading
     eccentricity_arcsec: tuple[float, ...] = (0.0,) * JOINTS  #: once-per-rev amplitude
     eccentricity_phase_rad: tuple[float, ...] = (0.0,) * JOINTS
     probing_sigma_um: float = 0.0  #: isotropic Gaussian on the tip, per axis
+    # not in the repr: a device serial made from it stays what it was without them
+    harmonic_orders: tuple[int, ...] = field(default=(), repr=False)
+    harmonic_arcsec: tuple[tuple[float, ...], ...] = field(default=(), repr=False)
+    harmonic_phase_rad: tuple[tuple[float, ...], ...] = field(default=(), repr=False)
 
     def __post_init__(self) -> None:
         joints = len(tuple(self.encoder_noise_counts))
@@ -133,6 +131,23 @@ class ErrorSources:
             raise ValueError("noise and eccentricity amplitudes must be >= 0")
         if not (math.isfinite(self.probing_sigma_um) and self.probing_sigma_um >= 0):
             raise ValueError("probing_sigma_um must be a finite number >= 0")
+        orders = tuple(self.harmonic_orders)
+        if any(isinstance(k, bool) or not isinstance(k, int) for k in orders) or not all(
+            2 <= k <= 4 for k in orders
+        ):
+            raise ValueError(f"harmonic_orders must be integers 2..4, got {list(orders)}")
+        if list(orders) != sorted(set(orders)):
+            raise ValueError(f"harmonic_orders must increase, got {list(orders)}")
+        for name in ("harmonic_arcsec", "harmonic_phase_rad"):
+            rows = tuple(tuple(float(x) for x in row) for row in getattr(self, name))
+            if len(rows) != len(orders) or any(
+                len(r) != joints or not all(math.isfinite(x) for x in r) for r in rows
+            ):
+                raise ValueError(f"{name} needs {joints} finite values per harmonic order")
+            object.__setattr__(self, name, rows)
+        object.__setattr__(self, "harmonic_orders", orders)
+        if any(x < 0 for r in self.harmonic_arcsec for x in r):
+            raise ValueError("harmonic amplitudes must be >= 0")
 
     @classmethod
     def none(cls, joints: int = JOINTS) -> ErrorSources:
@@ -153,7 +168,18 @@ class ErrorSources:
     @property
     def perfect(self) -> bool:
         """No error source at all."""
-        return self.noise_free and max(self.eccentricity_arcsec) == 0
+        higher = max((x for r in self.harmonic_arcsec for x in r), default=0.0)
+        return self.noise_free and max(self.eccentricity_arcsec) == 0 and higher == 0
+
+    def harmonics_arcsec(self) -> dict[int, tuple[tuple[float, ...], tuple[float, ...]]]:
+        """Every harmonic order of the reading error: ``{k: (amplitudes, phases)}``,
+        N values each (order 1 is the eccentricity)."""
+        out = {1: (self.eccentricity_arcsec, self.eccentricity_phase_rad)}
+        for k, a, p in zip(
+            self.harmonic_orders, self.harmonic_arcsec, self.harmonic_phase_rad, strict=True
+        ):
+            out[k] = (a, p)
+        return out
 
 
 @dataclass(frozen=True)
@@ -206,6 +232,8 @@ class Truth(Generic[P]):
                 "encoders": repr(self.encoders),
                 "errors": repr(self.errors),
             }
+            if self.errors.harmonic_orders:
+                body["harmonics"] = repr(self.to_mapping()["harmonics"])
         crc = zlib.crc32(json.dumps(body, sort_keys=True).encode())
         return 0x40000000 | (crc & 0x3FFFFFFF)  # never 1, within 31 bits
 
@@ -221,12 +249,38 @@ class Truth(Generic[P]):
     # ------------------------------------------------------------ encoders
 
     def reading_error_rad(self, theta_rad: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """The eccentricity error (n, N) in rad of readings at joint angles ``theta_rad``."""
+        """The reading error (n, N) in rad of readings at joint angles ``theta_rad``:
+        the eccentricity ``A sin(theta + phase)`` plus every harmonic order k of
+        ``[harmonics]``, ``A_k sin(k theta + phase_k)``."""
         th = np.asarray(theta_rad, dtype=np.float64)
         amp = np.asarray(self.errors.eccentricity_arcsec) * ARCSEC_RAD
         phase = np.asarray(self.errors.eccentricity_phase_rad)
         out: npt.NDArray[np.float64] = amp * np.sin(th + phase)
+        x = self.errors
+        for k, a, p in zip(x.harmonic_orders, x.harmonic_arcsec, x.harmonic_phase_rad, strict=True):
+            out = out + np.asarray(a) * ARCSEC_RAD * np.sin(k * th + np.asarray(p))
         return out
+
+    def reading_error_model(self) -> Any:
+        """The reading error as the C core's error model (an
+        :class:`aacmm.errmodel.ErrorModel`): joint i's ``(c_k, s_k)``, k = 1 .. K
+        (K the highest order present, 1 at least), ``A sin(k q + phi) = A sin(phi)
+        cos(kq) + A cos(phi) sin(kq)``; no thermal part. Its corrected angles of
+        the true angles are the true readings (before noise and rounding); a
+        calibration of readings finds about the opposite (to first order)."""
+        from aacmm.errmodel import ErrorModel
+
+        orders = self.errors.harmonics_arcsec()
+        top = max(orders)
+        joints = []
+        for i in range(self.joints):
+            pairs = []
+            for k in range(1, top + 1):
+                a, p = orders.get(k, ((0.0,) * self.joints, (0.0,) * self.joints))
+                amp = a[i] * ARCSEC_RAD
+                pairs.append((amp * math.sin(p[i]), amp * math.cos(p[i])))
+            joints.append(tuple(pairs))
+        return ErrorModel(harmonics=tuple(joints))
 
     def counts(
         self, theta_rad: npt.ArrayLike, rng: np.random.Generator | None = None
@@ -279,8 +333,14 @@ class Truth(Generic[P]):
                 "amplitude_arcsec": list(x.eccentricity_arcsec),
                 "phase_rad": list(x.eccentricity_phase_rad),
             },
-            "probing": {"sigma_um": x.probing_sigma_um},
         }
+        if x.harmonic_orders:
+            data["harmonics"] = {
+                "order": list(x.harmonic_orders),
+                "amplitude_arcsec": [list(r) for r in x.harmonic_arcsec],
+                "phase_rad": [list(r) for r in x.harmonic_phase_rad],
+            }
+        data["probing"] = {"sigma_um": x.probing_sigma_um}
         if self.origin:
             data["origin"] = dict(self.origin)
         if self.serial_number is not None:
@@ -300,84 +360,6 @@ class Truth(Generic[P]):
         return head + tomli_w.dumps(data)
 
 
-def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
-    """A :class:`Truth` from a truth file's content.
-
-    Raises:
-        TruthError: a missing, unknown or bad key (the message names ``src`` and the key).
-    """
-    from aacmm.records.paramfile import ParamFileError, param_set_from_mapping
-
-    if not isinstance(data, dict):
-        raise TruthError(f"{src}: expected a table")
-    fmt = data.get("format", FORMAT)
-    if fmt != FORMAT:
-        raise TruthError(f"{src}: format is {fmt!r}, expected {FORMAT!r}")
-    for key, value in data.items():
-        if key in TABLES and not isinstance(value, dict):
-            raise TruthError(f"{src}: {key} must be a table")
-    plain = {k: v for k, v in data.items() if k not in TABLES and k != "format"}
-    try:
-        ps = param_set_from_mapping(plain, src)
-    except ParamFileError as exc:
-        raise TruthError(str(exc)) from None
-    noise = dict(data.get("encoder_noise", {}))
-    ecc = dict(data.get("eccentricity", {}))
-    probing = dict(data.get("probing", {}))
-    for table, got, allowed in (
-        ("encoder_noise", noise, {"sigma_counts"}),
-        ("eccentricity", ecc, {"amplitude_arcsec", "phase_rad"}),
-        ("probing", probing, {"sigma_um"}),
-    ):
-        for k in got:
-            if k not in allowed:
-                raise TruthError(f"{src}: unknown key {table}.{k}")
-    n = ps.joints
-    zeros = [0.0] * n
-    sigma_um = probing.get("sigma_um", 0.0)
-    if isinstance(sigma_um, bool) or not isinstance(sigma_um, (int, float)):
-        raise TruthError(f"{src}: probing.sigma_um must be a number")
-    if not (math.isfinite(sigma_um) and sigma_um >= 0):
-        raise TruthError(f"{src}: probing.sigma_um must be a finite number >= 0")
-    errors = ErrorSources(
-        encoder_noise_counts=_six(
-            "encoder_noise.sigma_counts", noise.get("sigma_counts", zeros), src, 0.0, n
-        ),
-        eccentricity_arcsec=_six(
-            "eccentricity.amplitude_arcsec", ecc.get("amplitude_arcsec", zeros), src, 0.0, n
-        ),
-        eccentricity_phase_rad=_six(
-            "eccentricity.phase_rad", ecc.get("phase_rad", zeros), src, -math.inf, n
-        ),
-        probing_sigma_um=float(sigma_um),
-    )
-    origin = data.get("origin", {})
-    arm = dict(data.get("arm", {}))
-    for k in arm:
-        if k != "serial_number":
-            raise TruthError(f"{src}: unknown key arm.{k}")
-    serial = arm.get("serial_number")
-    if serial is not None and (
-        isinstance(serial, bool) or not isinstance(serial, int) or not 0 <= serial <= 0xFFFFFFFF
-    ):
-        raise TruthError(f"{src}: arm.serial_number must be an integer 0..2^32-1")
-    params: Params | Arm
-    if ps.is_paper_shape:
-        params = Params(ps.theta_offset_rad, ps.alpha_rad, ps.d_mm, ps.a_mm, ps.l_mm)
-    else:
-        try:
-            params = ps.to_arm()[0]
-        except ValueError as exc:
-            raise TruthError(f"{src}: {exc}") from None
-    return Truth[Any](
-        params=params,
-        encoders=EncoderConfig(ps.counts_per_rev, ps.zero_offset_counts, ps.direction),
-        errors=errors,
-        origin=dict(origin) if isinstance(origin, dict) else {},
-        serial_number=serial,
-    )
-
-
 def load_truth(path: str | Path) -> Truth[Any]:
     """Read and check a truth file (TOML).
 
@@ -390,6 +372,8 @@ def load_truth(path: str | Path) -> Truth[Any]:
         data = load_toml(path)
     except InputFileError as exc:
         raise TruthError(str(exc)) from None
+    from aacmm.simulation.truthfile import truth_from_mapping
+
     truth = truth_from_mapping(data, str(path))
     return replace(truth, origin={"kind": "file", "path": str(path), **truth.origin})
 
@@ -445,6 +429,7 @@ def random_truth(
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
 ) -> Truth[Params]: ...
 @overload
 def random_truth(
@@ -453,6 +438,7 @@ def random_truth(
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
 ) -> Truth[Arm]: ...
 def random_truth(
     seed: int,
@@ -460,33 +446,48 @@ def random_truth(
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
 ) -> Truth[Any]:
     """A random arm near ``nominal`` (default Table 1, or any arm): every
     structural parameter perturbed uniformly by ``sizes`` (:func:`perturbed`),
-    encoder noise, eccentricity and probing noise of ``sizes`` on each joint.
-    Same seed, same arm (numpy PCG64). ``encoders``: the arm's encoders (an
-    arm model's, :func:`model_truth`) instead of ``cpr`` counts on every joint,
-    zero offset 0, direction +1; the noise in counts follows each joint's
-    resolution."""
+    encoder noise and probing noise of ``sizes`` on each joint, the encoders'
+    reading errors drawn from ``grade`` (a name or an
+    :class:`~aacmm.simulation.encgrade.EncoderGrade`; order 1 is the
+    eccentricity, orders 2..4 the ``[harmonics]``). Same seed, same arm (numpy
+    PCG64; the geometry is the same for every grade, and two-head, the
+    default, is the random truth of before grades existed). ``encoders``: the
+    arm's encoders (an arm model's, :func:`model_truth`) instead of ``cpr``
+    counts on every joint, zero offset 0, direction +1; the noise in counts
+    follows each joint's resolution.
+
+    Raises:
+        TruthError: a seed outside 0 .. 2^64-1, encoders of another joint count.
+        EncoderGradeError: an unknown grade name.
+    """
     if not 0 <= seed < 1 << 64:
         raise TruthError(f"random truth seed {seed} outside 0 .. 2^64-1")
+    g = encoder_grade(grade) if isinstance(grade, str) else grade
     nom: Params | Arm = nominal or Params()
     joints = len(nom.d_mm) if isinstance(nom, Params) else nom.n_joints
     rng = np.random.Generator(np.random.PCG64(seed))
     params = perturbed(nom, rng, sizes)
-    lo, hi = sizes.eccentricity_arcsec
     enc = encoders or EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints)
     if enc.joints != joints:
         raise TruthError(f"the encoders describe {enc.joints} joints, the arm has {joints}")
     noise = tuple(
         sizes.encoder_noise_arcsec * ARCSEC_RAD * c / (2.0 * math.pi) for c in enc.counts_per_rev
     )
+    h = draw_harmonics(g, rng, joints)
     errors = ErrorSources(
         encoder_noise_counts=noise,
-        eccentricity_arcsec=tuple(float(v) for v in rng.uniform(lo, hi, joints)),
-        eccentricity_phase_rad=tuple(float(v) for v in rng.uniform(0.0, 2.0 * math.pi, joints)),
+        eccentricity_arcsec=h.amplitude_arcsec[0],
+        eccentricity_phase_rad=h.phase_rad[0],
         probing_sigma_um=sizes.probing_sigma_um,
+        harmonic_orders=tuple(range(2, g.orders + 1)),
+        harmonic_arcsec=h.amplitude_arcsec[1:],
+        harmonic_phase_rad=h.phase_rad[1:],
     )
+    grade_origin = {} if g.name == DEFAULT_GRADE else {"encoder_grade": g.name}
     return Truth[Any](
         params=params,
         encoders=enc,
@@ -497,24 +498,33 @@ def random_truth(
             "length_mm": sizes.length_mm,
             "angle_deg": sizes.angle_deg,
             "encoder_noise_arcsec": sizes.encoder_noise_arcsec,
-            "eccentricity_arcsec": list(sizes.eccentricity_arcsec),
+            "eccentricity_arcsec": list(g.amplitude_arcsec[0]),
             "probing_sigma_um": sizes.probing_sigma_um,
+            **grade_origin,
         },
     )
 
 
-def model_truth(seed: int, model: ArmModel, sizes: RandomSizes = RANDOM_SIZES) -> Truth[Arm]:
+def model_truth(
+    seed: int,
+    model: ArmModel,
+    sizes: RandomSizes = RANDOM_SIZES,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
+) -> Truth[Arm]:
     """A random true arm of an arm model (:mod:`aacmm.models`): its arm perturbed as
-    :func:`random_truth`, its own encoders. Same seed, same arm."""
-    truth = random_truth(seed, model.arm, sizes=sizes, encoders=model.encoder_config())
+    :func:`random_truth`, its own encoders (reading errors of ``grade``). Same seed,
+    same arm."""
+    truth = random_truth(seed, model.arm, sizes=sizes, encoders=model.encoder_config(), grade=grade)
     return replace(truth, origin={**truth.origin, "model": model.name})
 
 
-def parse_truth(spec: str, cpr: int = 1 << 32) -> Truth:
-    """``--truth SPEC``: ``nominal``, ``random:SEED`` or a truth file path.
+def parse_truth(spec: str, cpr: int = 1 << 32, grade: str = DEFAULT_GRADE) -> Truth:
+    """``--truth SPEC``: ``nominal``, ``random:SEED`` (its encoders of ``grade``)
+    or a truth file path.
 
     Raises:
         TruthError: a bad seed or a bad file.
+        EncoderGradeError: an unknown grade.
     """
     if spec == "nominal":
         return nominal_truth(cpr=cpr)
@@ -522,67 +532,5 @@ def parse_truth(spec: str, cpr: int = 1 << 32) -> Truth:
         text = spec[len("random:") :]
         if not text.isdigit():
             raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
-        return random_truth(int(text), cpr=cpr)
+        return random_truth(int(text), cpr=cpr, grade=grade)
     return load_truth(spec)
-
-
-def arm_shape(params: Params | Arm) -> tuple[int, tuple[str, ...], tuple[int, ...], str]:
-    """What a truth's arm and a model must share: N, the conventions, the joints
-    (0-based) with a beta, the tip kind (the paper's Params: six standard, none, z)."""
-    arm = params.to_arm() if isinstance(params, Params) else params
-    return (
-        arm.n_joints,
-        tuple(j.convention for j in arm.joints),
-        arm.beta_joints,
-        arm.tip,
-    )
-
-
-def check_truth_model(truth: Truth[Any], model: ArmModel, src: str = "truth") -> None:
-    """Refuse a truth whose arm is not of ``model``'s shape (:func:`arm_shape`).
-
-    Raises:
-        TruthError: one line naming both (joints and parameters, or the first difference).
-    """
-    got, want = arm_shape(truth.params), arm_shape(model.arm)
-    if got == want:
-        return
-    p = truth.params.to_arm() if isinstance(truth.params, Params) else truth.params
-    if got[0] != want[0] or p.n_params != model.n_params:
-        what = f"an arm of {got[0]} joints and {p.n_params} parameters"
-    elif got[1] != want[1]:
-        what = "an arm of other joint conventions"
-    elif got[2] != want[2]:
-        what = f"an arm with betas on joints {[j + 1 for j in got[2]]}"
-    else:
-        what = f"an arm with a tip of kind {got[3]!r}"
-    raise TruthError(
-        f"{src}: {what}, not of the model {model.name} ({model.n_joints} joints, "
-        f"{model.n_params} parameters)"
-    )
-
-
-def parse_model_truth(spec: str, model: ArmModel) -> Truth[Any]:
-    """``--truth SPEC`` for an arm model: ``nominal`` (its nominal arm and encoders,
-    no error source), ``random:SEED`` (:func:`model_truth`) or a truth file of
-    the model's shape (:func:`check_truth_model`).
-
-    Raises:
-        TruthError: a bad seed, a bad file, or a truth of another shape.
-    """
-    if spec == "nominal":
-        n = model.n_joints
-        return Truth[Any](
-            params=model.arm,
-            encoders=model.encoder_config(),
-            errors=ErrorSources.none(n),
-            origin={"kind": "nominal", "model": model.name},
-        )
-    if spec.startswith("random:"):
-        text = spec[len("random:") :]
-        if not text.isdigit():
-            raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
-        return model_truth(int(text), model)
-    truth = load_truth(spec)
-    check_truth_model(truth, model, spec)
-    return truth
