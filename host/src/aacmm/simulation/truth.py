@@ -25,7 +25,11 @@ reports it in its device info). :func:`random_truth` perturbs a nominal set
 by the documented :data:`RANDOM_SIZES` and draws the encoders' harmonics of
 an encoder grade (:func:`aacmm.simulation.encgrade.draw_harmonics`);
 :meth:`Truth.reading_error_model` gives them in the C core's error-model
-form (:class:`aacmm.errmodel.ErrorModel`).
+form (:class:`aacmm.errmodel.ErrorModel`). A truth may carry a thermal
+profile (``[thermal]``: each link's material, true CTE and reference
+temperature, :mod:`aacmm.simulation.thermal`; ``random_truth(...,
+thermal=True)``); :meth:`Truth.points_at` gives the true point at link
+temperatures.
 
 **Identity.** Every arm has a serial number of its own: an arm built to
 drawing (the device's built-in set, no error source) is serial 1, as the
@@ -62,6 +66,7 @@ from aacmm.core import JOINTS, EncoderConfig, Model, Params
 from aacmm.errors import AacmmError
 from aacmm.models import ArmModel
 from aacmm.simulation.encgrade import DEFAULT_GRADE, EncoderGrade, draw_harmonics, encoder_grade
+from aacmm.simulation.thermal import ThermalProfile, default_materials, random_profile
 
 if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
     from typing_extensions import TypeVar
@@ -75,7 +80,15 @@ else:
 
 FORMAT: Final = "aacmm-truth-1"
 ARCSEC_RAD: Final = math.pi / (180.0 * 3600.0)
-TABLES: Final = ("encoder_noise", "eccentricity", "harmonics", "probing", "origin", "arm")
+TABLES: Final = (
+    "encoder_noise",
+    "eccentricity",
+    "harmonics",
+    "probing",
+    "thermal",
+    "origin",
+    "arm",
+)
 #: serial number of an arm built to drawing (the simulator's default device)
 NOMINAL_SERIAL: Final = 1
 
@@ -197,6 +210,7 @@ class Truth(Generic[P]):
     errors: ErrorSources = field(default_factory=ErrorSources)
     origin: dict[str, Any] = field(default_factory=dict, compare=False)
     serial_number: int | None = field(default=None, compare=False)
+    thermal: ThermalProfile | None = None  #: None: lengths the same at every temperature
 
     def __post_init__(self) -> None:
         if isinstance(self.params, Params):
@@ -210,6 +224,10 @@ class Truth(Generic[P]):
                 f"the error sources {self.errors.joints}"
             )
         self.encoders.to_c()  # raises ValueError if out of range
+        if self.thermal is not None and self.thermal.links != joints:
+            raise ValueError(
+                f"the arm has {joints} links, the thermal profile {self.thermal.links}"
+            )
         sn = self.serial_number
         if sn is not None and not (isinstance(sn, int) and 0 <= sn <= 0xFFFFFFFF):
             raise ValueError(f"serial_number must be an integer 0..2^32-1, got {sn!r}")
@@ -219,7 +237,7 @@ class Truth(Generic[P]):
         """The device serial number of this arm (module doc, "Identity")."""
         if self.serial_number is not None:
             return self.serial_number
-        if self.params == Params() and self.errors.perfect:
+        if self.params == Params() and self.errors.perfect and self.thermal is None:
             return NOMINAL_SERIAL
         import json
         import zlib
@@ -232,8 +250,8 @@ class Truth(Generic[P]):
                 "encoders": repr(self.encoders),
                 "errors": repr(self.errors),
             }
-            if self.errors.harmonic_orders:
-                body["harmonics"] = repr(self.to_mapping()["harmonics"])
+            data = self.to_mapping()
+            body.update({t: repr(data[t]) for t in ("harmonics", "thermal") if t in data})
         crc = zlib.crc32(json.dumps(body, sort_keys=True).encode())
         return 0x40000000 | (crc & 0x3FFFFFFF)  # never 1, within 31 bits
 
@@ -308,6 +326,33 @@ class Truth(Generic[P]):
         )
         return out
 
+    def points_at(
+        self, theta_rad: npt.ArrayLike, temp_c: npt.ArrayLike | None = None
+    ) -> npt.NDArray[np.float64]:
+        """The true probe points (n, 3) in mm at true joint angles ``theta_rad``
+        (n, N; as :meth:`counts` takes them) and link temperatures ``temp_c``
+        (degC: None, the reference; one set (N,); or one per pose (n, N)):
+        every length of link i scaled by ``1 + cte_i (T_i - tref_i)`` of the
+        thermal profile (the C core's error model, docs/kinematics.md); a truth
+        without a profile is the same at every temperature.
+
+        Raises:
+            KinematicsError: a bad pose or a temperature outside -40 .. 85 degC.
+        """
+        from aacmm.errmodel import ErrorModel, points
+
+        model = self.model()
+        if self.thermal is None or temp_c is None:
+            out: npt.NDArray[np.float64] = model.points(theta_rad)
+            return out
+        em = ErrorModel(
+            harmonics=((),) * self.joints,
+            cte_per_k=self.thermal.cte_per_k,
+            tref_c=self.thermal.tref_c,
+        )
+        hot: npt.NDArray[np.float64] = points(model, em, theta_rad, temp_c)
+        return hot
+
     def probing_offset_mm(self, rng: np.random.Generator | None) -> npt.NDArray[np.float64]:
         """Where the tip really sits relative to the target (3,): the probing noise."""
         if rng is None or self.errors.probing_sigma_um == 0:
@@ -341,6 +386,12 @@ class Truth(Generic[P]):
                 "phase_rad": [list(r) for r in x.harmonic_phase_rad],
             }
         data["probing"] = {"sigma_um": x.probing_sigma_um}
+        if self.thermal is not None:
+            data["thermal"] = {
+                "material": list(self.thermal.material),
+                "cte_per_k": list(self.thermal.cte_per_k),
+                "tref_c": list(self.thermal.tref_c),
+            }
         if self.origin:
             data["origin"] = dict(self.origin)
         if self.serial_number is not None:
@@ -430,6 +481,7 @@ def random_truth(
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
     grade: EncoderGrade | str = DEFAULT_GRADE,
+    thermal: bool = False,
 ) -> Truth[Params]: ...
 @overload
 def random_truth(
@@ -439,6 +491,7 @@ def random_truth(
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
     grade: EncoderGrade | str = DEFAULT_GRADE,
+    thermal: bool = False,
 ) -> Truth[Arm]: ...
 def random_truth(
     seed: int,
@@ -447,6 +500,7 @@ def random_truth(
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
     grade: EncoderGrade | str = DEFAULT_GRADE,
+    thermal: bool = False,
 ) -> Truth[Any]:
     """A random arm near ``nominal`` (default Table 1, or any arm): every
     structural parameter perturbed uniformly by ``sizes`` (:func:`perturbed`),
@@ -458,7 +512,10 @@ def random_truth(
     default, is the random truth of before grades existed). ``encoders``: the
     arm's encoders (an arm model's, :func:`model_truth`) instead of ``cpr``
     counts on every joint, zero offset 0, direction +1; the noise in counts
-    follows each joint's resolution.
+    follows each joint's resolution. ``thermal``: also a thermal profile,
+    :func:`~aacmm.simulation.thermal.random_profile` of the nominal arm's
+    :func:`~aacmm.simulation.thermal.default_materials`, drawn last (the rest
+    is the same arm as without it).
 
     Raises:
         TruthError: a seed outside 0 .. 2^64-1, encoders of another joint count.
@@ -488,6 +545,7 @@ def random_truth(
         harmonic_phase_rad=h.phase_rad[1:],
     )
     grade_origin = {} if g.name == DEFAULT_GRADE else {"encoder_grade": g.name}
+    profile = random_profile(rng, default_materials(nom)) if thermal else None
     return Truth[Any](
         params=params,
         encoders=enc,
@@ -502,6 +560,7 @@ def random_truth(
             "probing_sigma_um": sizes.probing_sigma_um,
             **grade_origin,
         },
+        thermal=profile,
     )
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 from aacmm.arm import Arm
 from aacmm.core import JOINTS, EncoderConfig, Params
+from aacmm.simulation.thermal import ThermalProfile
 from aacmm.simulation.truth import FORMAT, TABLES, ErrorSources, Truth, TruthError
 
 
@@ -56,11 +57,13 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
     noise = dict(data.get("encoder_noise", {}))
     ecc = dict(data.get("eccentricity", {}))
     harm = dict(data.get("harmonics", {}))
+    thermal = dict(data.get("thermal", {}))
     probing = dict(data.get("probing", {}))
     for table, got, allowed in (
         ("encoder_noise", noise, {"sigma_counts"}),
         ("eccentricity", ecc, {"amplitude_arcsec", "phase_rad"}),
         ("harmonics", harm, {"order", "amplitude_arcsec", "phase_rad"}),
+        ("thermal", thermal, {"material", "cte_per_k", "tref_c"}),
         ("probing", probing, {"sigma_um"}),
     ):
         for k in got:
@@ -110,7 +113,27 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
         errors=errors,
         origin=dict(origin) if isinstance(origin, dict) else {},
         serial_number=serial,
+        thermal=_thermal_table(thermal, n, src),
     )
+
+
+def _thermal_table(table: dict[str, Any], n: int, src: str) -> ThermalProfile | None:
+    """The ``[thermal]`` table (None if absent): N materials, CTEs (1/K), tref (degC)."""
+    if not table:
+        return None
+    material = table.get("material")
+    if not (
+        isinstance(material, list)
+        and len(material) == n
+        and all(isinstance(m, str) and m for m in material)
+    ):
+        raise TruthError(f"{src}: thermal.material must be a list of {n} names")
+    cte = _six("thermal.cte_per_k", table.get("cte_per_k"), src, -math.inf, n)
+    tref = _six("thermal.tref_c", table.get("tref_c"), src, -math.inf, n)
+    try:
+        return ThermalProfile(tuple(material), cte, tref)
+    except ValueError as exc:
+        raise TruthError(f"{src}: thermal: {exc}") from None
 
 
 def _harmonics_table(harm: dict[str, Any], n: int, src: str) -> dict[str, Any]:
