@@ -1,5 +1,5 @@
 """The simulated truth's thermal profile (issue 27 item 3): ``aacmm.simulation.thermal``,
-``random_truth(..., thermal=True)``, the ``[thermal]`` table and ``Truth.points_at``.
+``random_truth(..., thermal=True)``, the ``[thermal]`` table and ``true_points``.
 
 Independent references: the documented materials and ranges
 (docs/simulator.md, "Thermal expansion"), written out here; the true point at
@@ -22,7 +22,12 @@ import tomli_w
 from aacmm.arm import Arm, Joint
 from aacmm.core import Model, Params
 from aacmm.models import load_model
-from aacmm.simulation.thermal import ThermalProfile, default_materials, nominal_profile
+from aacmm.simulation.thermal import (
+    ThermalProfile,
+    default_materials,
+    nominal_profile,
+    true_points,
+)
 from aacmm.simulation.truth import TruthError, load_truth, model_truth, random_truth
 
 #: docs/simulator.md, "Thermal expansion": material -> (nominal, random range), 1/K
@@ -90,20 +95,20 @@ def test_points_at_temperatures_are_the_scaled_arm() -> None:
     rng = np.random.default_rng(8)
     theta = rng.uniform(-3, 3, (200, 6))
     cold = t.model().points(theta)
-    assert np.array_equal(t.points_at(theta), cold)
-    assert np.array_equal(t.points_at(theta, [20.0] * 6), cold)  # the reference: unchanged
+    assert np.array_equal(true_points(t, theta), cold)
+    assert np.array_equal(true_points(t, theta, [20.0] * 6), cold)  # the reference: unchanged
     temps = np.array([27.0, 31.5, 24.0, 29.0, 22.5, 35.0])
     s = 1.0 + np.asarray(t.thermal.cte_per_k) * (temps - 20.0)
     assert isinstance(t.params, Params)
     want = Model(scaled_params(t.params, s)).points(theta)
-    got = t.points_at(theta, temps)
+    got = true_points(t, theta, temps)
     assert np.max(np.abs(got - want)) < 1e-9
     moved = np.linalg.norm(got - cold, axis=1)
     assert moved.max() > 0.02  # mm: the aluminium links at +4..15 K move the tip tens of um
     # one temperature set per pose
     per_pose = np.tile(temps, (200, 1))
     per_pose[::2] = 20.0
-    got2 = t.points_at(theta, per_pose)
+    got2 = true_points(t, theta, per_pose)
     assert np.max(np.abs(got2[1::2] - want[1::2])) < 1e-9
     assert np.max(np.abs(got2[::2] - cold[::2])) < 1e-9
 
@@ -114,7 +119,7 @@ def test_one_cte_everywhere_scales_the_point_about_the_base() -> None:
         thermal=ThermalProfile(("aluminium",) * 6, (23e-6,) * 6, (20.0,) * 6),
     )
     theta = np.random.default_rng(1).uniform(-3, 3, (100, 6))
-    got = t.points_at(theta, [30.0] * 6)
+    got = true_points(t, theta, [30.0] * 6)
     want = (1 + 23e-6 * 10.0) * t.model().points(theta)
     assert np.max(np.abs(got - want)) < 1e-9
 
@@ -128,7 +133,7 @@ def test_any_arm_thermal_truth() -> None:
     temps = np.linspace(15.0, 35.0, 7)
     s = 1.0 + np.asarray(t.thermal.cte_per_k) * (temps - 20.0)
     want = Model(scaled_arm(t.params, s)).points(theta)
-    assert np.max(np.abs(t.points_at(theta, temps) - want)) < 1e-9
+    assert np.max(np.abs(true_points(t, theta, temps) - want)) < 1e-9
     with pytest.raises(ValueError, match="thermal profile"):
         replace(t, thermal=nominal_profile(PAPER_MATERIALS))  # 6 links on a 7-joint arm
 

@@ -26,17 +26,17 @@ from aacmm.simulation.articulation import (
 )
 from aacmm.simulation.encgrade import GRADES
 from aacmm.simulation.ik import ARM_LIMITS, Arm, solve, wrap
+from aacmm.simulation.perturb import RANDOM_SIZES
 from aacmm.simulation.truth import (
     ARCSEC_RAD,
-    RANDOM_SIZES,
     ErrorSources,
     Truth,
     TruthError,
     load_truth,
     nominal_truth,
-    parse_truth,
     random_truth,
 )
+from aacmm.simulation.truthspec import parse_truth
 
 pytestmark = pytest.mark.timeout(120)
 AACMM = Path(sys.executable).with_name("aacmm")

@@ -167,7 +167,7 @@ def note_others(others: list[tuple[str, int]]) -> None:
 def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int:
     """The command (see the module doc). ``sim_args``: the simulator's own options;
     ``model``: the :class:`aacmm.models.ArmModel` of ``aacmm sim --model`` (None: the
-    paper's arm, as before): its truth (:func:`~aacmm.simulation.truth.parse_model_truth`)
+    paper's arm, as before): its truth (:func:`~aacmm.simulation.truthspec.parse_model_truth`)
     and its joint limits for the operator."""
     import numpy as np
 
@@ -176,10 +176,9 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
     from aacmm.simulation.control import ControlChannel
     from aacmm.simulation.encgrade import DEFAULT_GRADE
     from aacmm.simulation.ik import ARM_LIMITS, JointLimits
-    from aacmm.simulation.modeltruth import check_truth_model, parse_model_truth
     from aacmm.simulation.operator import FAST, Operator, Pace, Stopped
     from aacmm.simulation.process import SimProcess, publish_urls, unpublish_urls
-    from aacmm.simulation.truth import parse_truth
+    from aacmm.simulation.truthspec import check_truth_model, parse_model_truth, parse_truth
 
     check_args(args)
     cpr = _sim_cpr(args)

@@ -4,15 +4,18 @@ The host side of ``aacmm sim --truth`` and ``aacmm sim --scenario``
 (docs/simulator.md): a pure library, no argparse and no printing.
 
 * :mod:`aacmm.simulation.truth` -- :class:`~aacmm.simulation.truth.Truth` (the
-  arm's real geometry and error sources), its file (``aacmm-truth-1``; read by
-  :mod:`aacmm.simulation.truthfile`),
-  :func:`~aacmm.simulation.truth.random_truth`, :func:`~aacmm.simulation.truth.parse_truth`;
-  for an arm model :func:`~aacmm.simulation.truth.model_truth`;
-* :mod:`aacmm.simulation.modeltruth` -- the truth of an arm model:
-  :func:`~aacmm.simulation.modeltruth.parse_model_truth` (``aacmm sim --model``) and
-  :func:`~aacmm.simulation.modeltruth.check_truth_model`;
+  arm's real geometry and error sources), its file (``aacmm-truth-1``),
+  :func:`~aacmm.simulation.truth.random_truth` (the sizes:
+  :mod:`aacmm.simulation.perturb`); for an arm model
+  :func:`~aacmm.simulation.truth.model_truth`;
+* :mod:`aacmm.simulation.truthspec` -- ``--truth SPEC``:
+  :func:`~aacmm.simulation.truthspec.parse_truth`,
+  :func:`~aacmm.simulation.truthspec.parse_model_truth` (``aacmm sim --model``) and
+  :func:`~aacmm.simulation.truthspec.check_truth_model`;
 * :mod:`aacmm.simulation.encgrade` -- encoder grades (``--encoder-grade``): the
   harmonics of the true encoders' reading errors;
+* :mod:`aacmm.simulation.thermal` -- a truth's thermal profile and its true
+  points at link temperatures;
 * :mod:`aacmm.simulation.ik` -- inverse kinematics on the core (damped least
   squares on the Jacobian's theta columns), the arm's joint limits;
 * :mod:`aacmm.simulation.articulation` -- articulations spread the way

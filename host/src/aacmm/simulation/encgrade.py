@@ -26,7 +26,9 @@ magnetic   a magnetic ring encoder (a diametral magnet and a      k = 1..4: 0.02
 
 Main names: :class:`EncoderGrade`, :data:`GRADES`, :data:`DEFAULT_GRADE`,
 :func:`encoder_grade` (a grade by name; :class:`EncoderGradeError` for an
-unknown one), :func:`draw_harmonics`.
+unknown one), :func:`draw_harmonics`; for the truth file's ``[harmonics]``
+table :func:`harmonics_from_table`; :func:`harmonic_error_model` (harmonics
+in the C core's error-model form, :class:`aacmm.errmodel.ErrorModel`).
 
 Pure: no printing, no files; the simulated truth (:mod:`aacmm.simulation.truth`)
 uses it.
@@ -36,10 +38,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 
+from aacmm.errmodel import ErrorModel
 from aacmm.errors import AacmmError
 
 
@@ -70,6 +73,7 @@ class EncoderGrade:
 
 
 DEG_ARCSEC: Final = 3600.0
+_ARCSEC_RAD: Final = math.pi / (180.0 * 3600.0)
 
 #: The grades of ``aacmm sim --encoder-grade`` (docs/simulator.md, "Encoder grades").
 GRADES: Final[dict[str, EncoderGrade]] = {
@@ -129,3 +133,70 @@ def draw_harmonics(grade: EncoderGrade, rng: np.random.Generator, joints: int) -
         amps.append(tuple(float(v) for v in rng.uniform(lo, hi, joints)))
         phases.append(tuple(float(v) for v in rng.uniform(0.0, 2.0 * math.pi, joints)))
     return Harmonics(tuple(amps), tuple(phases))
+
+
+def _numbers(name: str, row: Any, n: int, lo: float) -> tuple[float, ...]:
+    if not isinstance(row, list) or len(row) != n:
+        raise ValueError(f"{name} must be a list of {n} numbers")
+    out = []
+    for i, v in enumerate(row):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ValueError(f"{name}[{i}] must be a finite number, got {v!r}")
+        if v < lo:
+            raise ValueError(f"{name}[{i}]={v} must be >= {lo:g}")
+        out.append(float(v))
+    return tuple(out)
+
+
+def harmonics_from_table(table: dict[str, Any], n: int) -> dict[str, Any]:
+    """A truth file's ``[harmonics]`` table (``order``: increasing orders 2..4;
+    ``amplitude_arcsec``, ``phase_rad``: one list of ``n`` numbers per order) as
+    the ``harmonic_*`` fields of :class:`aacmm.simulation.truth.ErrorSources`.
+
+    Raises:
+        ValueError: a malformed table (the message names the key).
+    """
+    orders = table.get("order")
+    if (
+        not isinstance(orders, list)
+        or not 1 <= len(orders) <= 3
+        or any(isinstance(k, bool) or not isinstance(k, int) or not 2 <= k <= 4 for k in orders)
+        or orders != sorted(set(orders))
+    ):
+        raise ValueError(f"harmonics.order must be increasing orders of 2..4, got {orders!r}")
+    rows: dict[str, tuple[tuple[float, ...], ...]] = {}
+    for key, lo in (("amplitude_arcsec", 0.0), ("phase_rad", -math.inf)):
+        value = table.get(key)
+        if not isinstance(value, list) or len(value) != len(orders):
+            raise ValueError(
+                f"harmonics.{key} must be {len(orders)} lists (one per order) of {n} numbers"
+            )
+        rows[key] = tuple(
+            _numbers(f"harmonics.{key}[{j}]", row, n, lo) for j, row in enumerate(value)
+        )
+    return {
+        "harmonic_orders": tuple(orders),
+        "harmonic_arcsec": rows["amplitude_arcsec"],
+        "harmonic_phase_rad": rows["phase_rad"],
+    }
+
+
+def harmonic_error_model(
+    harmonics: dict[int, tuple[tuple[float, ...], tuple[float, ...]]],
+) -> ErrorModel:
+    """Reading-error harmonics ``{k: (amplitudes arcsec, phases rad)}`` (N values
+    each) as the C core's error model: joint i's ``(c_k, s_k)`` in rad, k = 1 .. K
+    (K the highest order given; a missing order is 0), from ``A sin(k q + phi) =
+    A sin(phi) cos(kq) + A cos(phi) sin(kq)``; no thermal part."""
+    top = max(harmonics)
+    joints = len(next(iter(harmonics.values()))[0])
+    zero = ((0.0,) * joints, (0.0,) * joints)
+    out = []
+    for i in range(joints):
+        pairs = []
+        for k in range(1, top + 1):
+            amp, phase = harmonics.get(k, zero)
+            a = amp[i] * _ARCSEC_RAD
+            pairs.append((a * math.sin(phase[i]), a * math.cos(phase[i])))
+        out.append(tuple(pairs))
+    return ErrorModel(harmonics=tuple(out))

@@ -5,9 +5,10 @@ A true arm's links grow with temperature: every length of link i (``d_i``,
 tref_i))``, the C core's thermal model (docs/kinematics.md, "Error model").
 A :class:`ThermalProfile` is the truth of it: per link a material, its true
 coefficient of thermal expansion (1/K) and the reference temperature at which
-the truth's lengths hold (20 degC). :meth:`aacmm.simulation.truth.Truth.points_at`
-gives the true probe point at link temperatures; the device and its protocol
-carry no temperatures yet, so no simulated reading depends on it.
+the truth's lengths hold (20 degC). :func:`true_points` gives the true probe
+point of a :class:`~aacmm.simulation.truth.Truth` at link temperatures; the
+device and its protocol carry no temperatures yet, so no simulated reading
+depends on it.
 
 Materials (:data:`MATERIALS`, docs/simulator.md "Thermal expansion"): the
 nominal CTE and the range a random profile draws from, uniform:
@@ -22,22 +23,27 @@ steel         11.5e-6          10.5e-6 .. 12.5e-6
 
 :func:`default_materials`: a link with a length over 400 mm is a
 carbon-fibre tube (the paper's arm: links 3 and 5, the upper arm and the
-forearm), every other link aluminium. :func:`random_profile` draws a profile.
+forearm), every other link aluminium. :func:`random_profile` draws a profile,
+:func:`profile_from_table` reads a truth file's ``[thermal]`` table.
 
-Pure: no printing, no files (the truth file's ``[thermal]`` table is
-:mod:`aacmm.simulation.truthfile`'s).
+Pure: no printing, no files.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Final
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
+import numpy.typing as npt
 
 from aacmm.arm import Arm
 from aacmm.core import Params
+from aacmm.errmodel import ErrorModel, points
+
+if TYPE_CHECKING:
+    from aacmm.simulation.truth import Truth
 
 
 @dataclass(frozen=True)
@@ -144,3 +150,60 @@ def _material(name: str) -> Material:
     except KeyError:
         known = ", ".join(MATERIALS)
         raise ValueError(f"unknown link material {name!r} (known: {known})") from None
+
+
+def profile_from_table(table: dict[str, Any], n: int) -> ThermalProfile:
+    """A truth file's ``[thermal]`` table: ``material``, ``cte_per_k`` (1/K) and
+    ``tref_c`` (degC), ``n`` values each.
+
+    Raises:
+        ValueError: a malformed table (the message names the key).
+    """
+    material = table.get("material")
+    if not (
+        isinstance(material, list)
+        and len(material) == n
+        and all(isinstance(m, str) and m for m in material)
+    ):
+        raise ValueError(f"thermal.material must be a list of {n} names")
+    values = {}
+    for key in ("cte_per_k", "tref_c"):
+        row = table.get(key)
+        if not (
+            isinstance(row, list)
+            and len(row) == n
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in row)
+        ):
+            raise ValueError(f"thermal.{key} must be a list of {n} numbers")
+        values[key] = tuple(float(v) for v in row)
+    try:
+        return ThermalProfile(tuple(material), values["cte_per_k"], values["tref_c"])
+    except ValueError as exc:
+        raise ValueError(f"thermal: {exc}") from None
+
+
+def true_points(
+    truth: Truth[Any], theta_rad: npt.ArrayLike, temp_c: npt.ArrayLike | None = None
+) -> npt.NDArray[np.float64]:
+    """The true probe points (n, 3) in mm of ``truth`` at true joint angles
+    ``theta_rad`` (n, N; as :meth:`~aacmm.simulation.truth.Truth.counts` takes
+    them) and link temperatures ``temp_c`` (degC: None, the reference; one set
+    (N,) for every pose; or one per pose (n, N)): every length of link i scaled
+    by ``1 + cte_i (T_i - tref_i)`` of its thermal profile (the C core's error
+    model, docs/kinematics.md); a truth without a profile is the same at every
+    temperature.
+
+    Raises:
+        KinematicsError: a bad pose or a temperature outside -40 .. 85 degC.
+    """
+    model = truth.model()
+    if truth.thermal is None or temp_c is None:
+        out: npt.NDArray[np.float64] = model.points(theta_rad)
+        return out
+    em = ErrorModel(
+        harmonics=((),) * truth.joints,
+        cte_per_k=truth.thermal.cte_per_k,
+        tref_c=truth.thermal.tref_c,
+    )
+    hot: npt.NDArray[np.float64] = points(model, em, theta_rad, temp_c)
+    return hot

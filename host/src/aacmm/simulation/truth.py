@@ -22,14 +22,15 @@ tables ``[encoder_noise]``, ``[eccentricity]`` (harmonic 1), ``[harmonics]``
 it was made (``encoder_grade``: the grade of a random truth other than
 two-head) and ``[arm] serial_number`` which device it is (the simulator
 reports it in its device info). :func:`random_truth` perturbs a nominal set
-by the documented :data:`RANDOM_SIZES` and draws the encoders' harmonics of
-an encoder grade (:func:`aacmm.simulation.encgrade.draw_harmonics`);
+by the documented :data:`~aacmm.simulation.perturb.RANDOM_SIZES` and draws
+the encoders' harmonics of an encoder grade
+(:func:`aacmm.simulation.encgrade.draw_harmonics`);
 :meth:`Truth.reading_error_model` gives them in the C core's error-model
 form (:class:`aacmm.errmodel.ErrorModel`). A truth may carry a thermal
 profile (``[thermal]``: each link's material, true CTE and reference
 temperature, :mod:`aacmm.simulation.thermal`; ``random_truth(...,
-thermal=True)``); :meth:`Truth.points_at` gives the true point at link
-temperatures.
+thermal=True)``); :func:`aacmm.simulation.thermal.true_points` gives the
+true point at link temperatures.
 
 **Identity.** Every arm has a serial number of its own: an arm built to
 drawing (the device's built-in set, no error source) is serial 1, as the
@@ -45,8 +46,8 @@ d, a and the tip). The truth file of such an arm is a parameter file of it
 (:mod:`aacmm.records.paramfile`, "Any arm": N values per list, conventions,
 betas, a tip vector) with the error tables of N values each; a file of the
 paper's shape reads as the paper's :class:`~aacmm.core.Params`, any other as
-an :class:`~aacmm.arm.Arm`. :mod:`aacmm.simulation.modeltruth` reads the
-truth of an arm model.
+an :class:`~aacmm.arm.Arm`. :mod:`aacmm.simulation.truthspec` reads
+``--truth SPEC`` (of an arm model too).
 
 Analysis code never reads a truth: only tests compare results with it.
 """
@@ -63,10 +64,24 @@ import numpy.typing as npt
 
 from aacmm.arm import Arm
 from aacmm.core import JOINTS, EncoderConfig, Model, Params
+from aacmm.errmodel import ErrorModel
 from aacmm.errors import AacmmError
 from aacmm.models import ArmModel
-from aacmm.simulation.encgrade import DEFAULT_GRADE, EncoderGrade, draw_harmonics, encoder_grade
-from aacmm.simulation.thermal import ThermalProfile, default_materials, random_profile
+from aacmm.simulation.encgrade import (
+    DEFAULT_GRADE,
+    EncoderGrade,
+    draw_harmonics,
+    encoder_grade,
+    harmonic_error_model,
+    harmonics_from_table,
+)
+from aacmm.simulation.perturb import RANDOM_SIZES, RandomSizes, perturbed
+from aacmm.simulation.thermal import (
+    ThermalProfile,
+    default_materials,
+    profile_from_table,
+    random_profile,
+)
 
 if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
     from typing_extensions import TypeVar
@@ -93,23 +108,23 @@ TABLES: Final = (
 NOMINAL_SERIAL: Final = 1
 
 
-@dataclass(frozen=True)
-class RandomSizes:
-    """Perturbation sizes of :func:`random_truth` (uniform on +-size unless stated;
-    the encoders' harmonics are an encoder grade's, :mod:`aacmm.simulation.encgrade`)."""
-
-    length_mm: float = 0.5  #: d, a (each joint) and l (an arm: each tip component)
-    angle_deg: float = 0.05  #: alpha and theta offset of each joint (an arm: each beta too)
-    encoder_noise_arcsec: float = 0.3  #: sigma of the encoder noise (same on every joint)
-    probing_sigma_um: float = 2.0  #: probing noise sigma per axis
-
-
-#: The documented sizes of ``--truth random:SEED`` (docs/simulator.md).
-RANDOM_SIZES: Final = RandomSizes()
-
-
 class TruthError(AacmmError, ValueError):
     """A truth file or specification is not valid (exit status 2 in the CLI)."""
+
+
+def _six(
+    name: str, values: Any, src: str, lo: float = -math.inf, n: int = JOINTS
+) -> tuple[float, ...]:
+    if not isinstance(values, list) or len(values) != n:
+        raise TruthError(f"{src}: {name} must be a list of {n} numbers")
+    out = []
+    for i, v in enumerate(values):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise TruthError(f"{src}: {name}[{i}] must be a finite number, got {v!r}")
+        if v < lo:
+            raise TruthError(f"{src}: {name}[{i}]={v} must be >= {lo:g}")
+        out.append(float(v))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -279,26 +294,12 @@ class Truth(Generic[P]):
             out = out + np.asarray(a) * ARCSEC_RAD * np.sin(k * th + np.asarray(p))
         return out
 
-    def reading_error_model(self) -> Any:
-        """The reading error as the C core's error model (an
-        :class:`aacmm.errmodel.ErrorModel`): joint i's ``(c_k, s_k)``, k = 1 .. K
-        (K the highest order present, 1 at least), ``A sin(k q + phi) = A sin(phi)
-        cos(kq) + A cos(phi) sin(kq)``; no thermal part. Its corrected angles of
-        the true angles are the true readings (before noise and rounding); a
-        calibration of readings finds about the opposite (to first order)."""
-        from aacmm.errmodel import ErrorModel
-
-        orders = self.errors.harmonics_arcsec()
-        top = max(orders)
-        joints = []
-        for i in range(self.joints):
-            pairs = []
-            for k in range(1, top + 1):
-                a, p = orders.get(k, ((0.0,) * self.joints, (0.0,) * self.joints))
-                amp = a[i] * ARCSEC_RAD
-                pairs.append((amp * math.sin(p[i]), amp * math.cos(p[i])))
-            joints.append(tuple(pairs))
-        return ErrorModel(harmonics=tuple(joints))
+    def reading_error_model(self) -> ErrorModel:
+        """The reading error as the C core's error model (no thermal part): its
+        corrected angles of the true angles are the true readings (before noise
+        and rounding); a calibration of readings finds about the opposite (to
+        first order). :func:`~aacmm.simulation.encgrade.harmonic_error_model`."""
+        return harmonic_error_model(self.errors.harmonics_arcsec())
 
     def counts(
         self, theta_rad: npt.ArrayLike, rng: np.random.Generator | None = None
@@ -325,33 +326,6 @@ class Truth(Generic[P]):
             self.encoders.counts_per_rev, dtype=np.int64
         )
         return out
-
-    def points_at(
-        self, theta_rad: npt.ArrayLike, temp_c: npt.ArrayLike | None = None
-    ) -> npt.NDArray[np.float64]:
-        """The true probe points (n, 3) in mm at true joint angles ``theta_rad``
-        (n, N; as :meth:`counts` takes them) and link temperatures ``temp_c``
-        (degC: None, the reference; one set (N,); or one per pose (n, N)):
-        every length of link i scaled by ``1 + cte_i (T_i - tref_i)`` of the
-        thermal profile (the C core's error model, docs/kinematics.md); a truth
-        without a profile is the same at every temperature.
-
-        Raises:
-            KinematicsError: a bad pose or a temperature outside -40 .. 85 degC.
-        """
-        from aacmm.errmodel import ErrorModel, points
-
-        model = self.model()
-        if self.thermal is None or temp_c is None:
-            out: npt.NDArray[np.float64] = model.points(theta_rad)
-            return out
-        em = ErrorModel(
-            harmonics=((),) * self.joints,
-            cte_per_k=self.thermal.cte_per_k,
-            tref_c=self.thermal.tref_c,
-        )
-        hot: npt.NDArray[np.float64] = points(model, em, theta_rad, temp_c)
-        return hot
 
     def probing_offset_mm(self, rng: np.random.Generator | None) -> npt.NDArray[np.float64]:
         """Where the tip really sits relative to the target (3,): the probing noise."""
@@ -411,6 +385,100 @@ class Truth(Generic[P]):
         return head + tomli_w.dumps(data)
 
 
+def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
+    """A :class:`Truth` from a truth file's content.
+
+    Raises:
+        TruthError: a missing, unknown or bad key (the message names ``src`` and the key).
+    """
+    from aacmm.records.paramfile import ParamFileError, param_set_from_mapping
+
+    if not isinstance(data, dict):
+        raise TruthError(f"{src}: expected a table")
+    fmt = data.get("format", FORMAT)
+    if fmt != FORMAT:
+        raise TruthError(f"{src}: format is {fmt!r}, expected {FORMAT!r}")
+    for key, value in data.items():
+        if key in TABLES and not isinstance(value, dict):
+            raise TruthError(f"{src}: {key} must be a table")
+    plain = {k: v for k, v in data.items() if k not in TABLES and k != "format"}
+    try:
+        ps = param_set_from_mapping(plain, src)
+    except ParamFileError as exc:
+        raise TruthError(str(exc)) from None
+    noise = dict(data.get("encoder_noise", {}))
+    ecc = dict(data.get("eccentricity", {}))
+    harm = dict(data.get("harmonics", {}))
+    thermal = dict(data.get("thermal", {}))
+    probing = dict(data.get("probing", {}))
+    for table, got, allowed in (
+        ("encoder_noise", noise, {"sigma_counts"}),
+        ("eccentricity", ecc, {"amplitude_arcsec", "phase_rad"}),
+        ("harmonics", harm, {"order", "amplitude_arcsec", "phase_rad"}),
+        ("thermal", thermal, {"material", "cte_per_k", "tref_c"}),
+        ("probing", probing, {"sigma_um"}),
+    ):
+        for k in got:
+            if k not in allowed:
+                raise TruthError(f"{src}: unknown key {table}.{k}")
+    n = ps.joints
+    zeros = [0.0] * n
+    sigma_um = probing.get("sigma_um", 0.0)
+    if isinstance(sigma_um, bool) or not isinstance(sigma_um, (int, float)):
+        raise TruthError(f"{src}: probing.sigma_um must be a number")
+    if not (math.isfinite(sigma_um) and sigma_um >= 0):
+        raise TruthError(f"{src}: probing.sigma_um must be a finite number >= 0")
+    errors = ErrorSources(
+        encoder_noise_counts=_six(
+            "encoder_noise.sigma_counts", noise.get("sigma_counts", zeros), src, 0.0, n
+        ),
+        eccentricity_arcsec=_six(
+            "eccentricity.amplitude_arcsec", ecc.get("amplitude_arcsec", zeros), src, 0.0, n
+        ),
+        eccentricity_phase_rad=_six(
+            "eccentricity.phase_rad", ecc.get("phase_rad", zeros), src, -math.inf, n
+        ),
+        probing_sigma_um=float(sigma_um),
+        **_table(harmonics_from_table, harm, n, src),
+    )
+    origin = data.get("origin", {})
+    arm = dict(data.get("arm", {}))
+    for k in arm:
+        if k != "serial_number":
+            raise TruthError(f"{src}: unknown key arm.{k}")
+    serial = arm.get("serial_number")
+    if serial is not None and (
+        isinstance(serial, bool) or not isinstance(serial, int) or not 0 <= serial <= 0xFFFFFFFF
+    ):
+        raise TruthError(f"{src}: arm.serial_number must be an integer 0..2^32-1")
+    params: Params | Arm
+    if ps.is_paper_shape:
+        params = Params(ps.theta_offset_rad, ps.alpha_rad, ps.d_mm, ps.a_mm, ps.l_mm)
+    else:
+        try:
+            params = ps.to_arm()[0]
+        except ValueError as exc:
+            raise TruthError(f"{src}: {exc}") from None
+    return Truth[Any](
+        params=params,
+        encoders=EncoderConfig(ps.counts_per_rev, ps.zero_offset_counts, ps.direction),
+        errors=errors,
+        origin=dict(origin) if isinstance(origin, dict) else {},
+        serial_number=serial,
+        thermal=_table(profile_from_table, thermal, n, src) or None,
+    )
+
+
+def _table(parse: Any, table: dict[str, Any], n: int, src: str) -> Any:
+    """An optional table's value (``{}`` if absent) from ``parse``, its errors named."""
+    if not table:
+        return {}
+    try:
+        return parse(table, n)
+    except ValueError as exc:
+        raise TruthError(f"{src}: {exc}") from None
+
+
 def load_truth(path: str | Path) -> Truth[Any]:
     """Read and check a truth file (TOML).
 
@@ -423,8 +491,6 @@ def load_truth(path: str | Path) -> Truth[Any]:
         data = load_toml(path)
     except InputFileError as exc:
         raise TruthError(str(exc)) from None
-    from aacmm.simulation.truthfile import truth_from_mapping
-
     truth = truth_from_mapping(data, str(path))
     return replace(truth, origin={"kind": "file", "path": str(path), **truth.origin})
 
@@ -445,32 +511,6 @@ def nominal_truth(params: Params | Arm | None = None, cpr: int = 1 << 32) -> Tru
         errors=ErrorSources.none(joints),
         origin={"kind": "nominal"},
     )
-
-
-def perturbed(
-    nominal: Params | Arm, rng: np.random.Generator, sizes: RandomSizes = RANDOM_SIZES
-) -> Params | Arm:
-    """Every structural parameter of ``nominal`` off by a uniform draw: angles
-    (theta offsets, alphas) by +-angle_deg, lengths (d, a, tip) by +-length_mm;
-    an arm's declared betas by +-angle_deg, drawn last (so an arm of the
-    paper's shape draws what its Params form draws)."""
-    ang = math.radians(sizes.angle_deg)
-    if isinstance(nominal, Params):
-        delta = np.concatenate(
-            [
-                rng.uniform(-ang, ang, 12),  # theta offsets, alpha
-                rng.uniform(-sizes.length_mm, sizes.length_mm, 13),  # d, a, l
-            ]
-        )
-        return Params.from_vector(nominal.to_vector() + delta)
-    n, b = nominal.n_joints, len(nominal.beta_joints)
-    lengths = nominal.n_params - 2 * n - b
-    angles = rng.uniform(-ang, ang, 2 * n)
-    mm = rng.uniform(-sizes.length_mm, sizes.length_mm, lengths)
-    betas = rng.uniform(-ang, ang, b)
-    # column order: thetas, alphas, ds, as, betas, tip
-    delta = np.concatenate([angles, mm[: 2 * n], betas, mm[2 * n :]])
-    return nominal.with_vector(nominal.to_vector() + delta)
 
 
 @overload
@@ -575,21 +615,3 @@ def model_truth(
     same arm."""
     truth = random_truth(seed, model.arm, sizes=sizes, encoders=model.encoder_config(), grade=grade)
     return replace(truth, origin={**truth.origin, "model": model.name})
-
-
-def parse_truth(spec: str, cpr: int = 1 << 32, grade: str = DEFAULT_GRADE) -> Truth:
-    """``--truth SPEC``: ``nominal``, ``random:SEED`` (its encoders of ``grade``)
-    or a truth file path.
-
-    Raises:
-        TruthError: a bad seed or a bad file.
-        EncoderGradeError: an unknown grade.
-    """
-    if spec == "nominal":
-        return nominal_truth(cpr=cpr)
-    if spec.startswith("random:"):
-        text = spec[len("random:") :]
-        if not text.isdigit():
-            raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
-        return random_truth(int(text), cpr=cpr, grade=grade)
-    return load_truth(spec)

@@ -1,6 +1,8 @@
-"""The simulated truth of an arm model (``aacmm sim --model NAME --truth SPEC``).
+"""``aacmm sim --truth SPEC``: the truth a specification names.
 
-:func:`parse_model_truth` reads ``--truth SPEC`` for an arm model
+:func:`parse_truth` reads it for the paper's arm (``nominal``,
+``random:SEED`` of an encoder grade, or a truth file), :func:`parse_model_truth`
+for an arm model
 (:mod:`aacmm.models`): ``nominal``, ``random:SEED``
 (:func:`aacmm.simulation.truth.model_truth`, of an encoder grade) or a truth
 file, which :func:`check_truth_model` refuses when its arm is not of the
@@ -16,7 +18,33 @@ from aacmm.arm import Arm
 from aacmm.core import Params
 from aacmm.models import ArmModel
 from aacmm.simulation.encgrade import DEFAULT_GRADE
-from aacmm.simulation.truth import ErrorSources, Truth, TruthError, load_truth, model_truth
+from aacmm.simulation.truth import (
+    ErrorSources,
+    Truth,
+    TruthError,
+    load_truth,
+    model_truth,
+    nominal_truth,
+    random_truth,
+)
+
+
+def parse_truth(spec: str, cpr: int = 1 << 32, grade: str = DEFAULT_GRADE) -> Truth:
+    """``--truth SPEC``: ``nominal``, ``random:SEED`` (its encoders of ``grade``)
+    or a truth file path.
+
+    Raises:
+        TruthError: a bad seed or a bad file.
+        EncoderGradeError: an unknown grade.
+    """
+    if spec == "nominal":
+        return nominal_truth(cpr=cpr)
+    if spec.startswith("random:"):
+        text = spec[len("random:") :]
+        if not text.isdigit():
+            raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
+        return random_truth(int(text), cpr=cpr, grade=grade)
+    return load_truth(spec)
 
 
 def arm_shape(params: Params | Arm) -> tuple[int, tuple[str, ...], tuple[int, ...], str]:
