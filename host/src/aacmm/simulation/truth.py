@@ -23,14 +23,10 @@ it was made (``encoder_grade``: the grade of a random truth other than
 two-head) and ``[arm] serial_number`` which device it is (the simulator
 reports it in its device info). :func:`random_truth` perturbs a nominal set
 by the documented :data:`~aacmm.simulation.perturb.RANDOM_SIZES` and draws
-the encoders' harmonics of an encoder grade
-(:func:`aacmm.simulation.encgrade.draw_harmonics`);
-:meth:`Truth.reading_error_model` gives them in the C core's error-model
-form (:class:`aacmm.errmodel.ErrorModel`). A truth may carry a thermal
-profile (``[thermal]``: each link's material, true CTE and reference
-temperature, :mod:`aacmm.simulation.thermal`; ``random_truth(...,
-thermal=True)``); :func:`aacmm.simulation.thermal.true_points` gives the
-true point at link temperatures.
+the encoders' harmonics of an encoder grade; :meth:`Truth.reading_error_model`
+gives them in the C core's form. An optional ``[thermal]`` table holds each
+link's material, true CTE and reference temperature
+(:mod:`aacmm.simulation.thermal`, ``random_truth(..., thermal=True)``).
 
 **Identity.** Every arm has a serial number of its own: an arm built to
 drawing (the device's built-in set, no error source) is serial 1, as the
@@ -160,12 +156,10 @@ class ErrorSources:
         if not (math.isfinite(self.probing_sigma_um) and self.probing_sigma_um >= 0):
             raise ValueError("probing_sigma_um must be a finite number >= 0")
         orders = tuple(self.harmonic_orders)
-        if any(isinstance(k, bool) or not isinstance(k, int) for k in orders) or not all(
-            2 <= k <= 4 for k in orders
-        ):
-            raise ValueError(f"harmonic_orders must be integers 2..4, got {list(orders)}")
-        if list(orders) != sorted(set(orders)):
-            raise ValueError(f"harmonic_orders must increase, got {list(orders)}")
+        if list(orders) != sorted(set(orders)) or any(type(k) is not int for k in orders):
+            raise ValueError(f"harmonic_orders must be increasing integers, got {list(orders)}")
+        if not all(2 <= k <= 4 for k in orders):
+            raise ValueError(f"harmonic_orders must be within 2..4, got {list(orders)}")
         for name in ("harmonic_arcsec", "harmonic_phase_rad"):
             rows = tuple(tuple(float(x) for x in row) for row in getattr(self, name))
             if len(rows) != len(orders) or any(
