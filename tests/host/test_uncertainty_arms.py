@@ -117,7 +117,8 @@ def test_specs_name_the_arms_parameters() -> None:
     assert unc.expand_name("d", m5) == tuple(f"d{i}" for i in range(1, 6))
     assert unc.expand_name("tip") == ("l",)  # the paper's arm
     # a parameter another arm has: ArmParameterError (a spec of another arm)
-    for bad, arm in (("theta7", None), ("l", m5), ("d6", m5), ("beta", None), ("beta2", m5)):
+    assert unc.expand_name("beta") == ()  # no betas on the paper's arm: a portable spec
+    for bad, arm in (("theta7", None), ("l", m5), ("d6", m5), ("beta2", m5), ("tx", None)):
         with pytest.raises(unc.ArmParameterError, match="not one of this arm's"):
             unc.expand_name(bad, arm)
     with pytest.raises(unc.SpecError, match="unknown parameter name 'foo'") as ei:

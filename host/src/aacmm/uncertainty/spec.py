@@ -73,6 +73,12 @@ _ANY_ARM_NAME = re.compile(r"^(?:(?:theta|alpha|d|a)[1-7]|beta[2-7]|l|tx|ty|tz)$
 GROUPS: tuple[str, ...] = ("theta", "alpha", "d", "a", "beta", "tip")
 
 
+def is_param_name(name: str) -> bool:
+    """True for a parameter name some arm of 4 to 7 joints has (``theta7``,
+    ``beta3``, ``tx`` ...): the names :class:`ParamUncertainty` accepts."""
+    return bool(_ANY_ARM_NAME.match(name))
+
+
 def param_group(name: str) -> str:
     """The group of a parameter: ``theta``, ``alpha``, ``d``, ``a``, ``beta``, ``l``
     (the paper's tip) or ``tip`` (a tip vector tx, ty, tz)."""
@@ -102,7 +108,7 @@ def _describe_names(arm: Arm) -> str:
 
 def _unknown_name(name: str, arm: Arm) -> SpecError:
     """The error for a name that is not a parameter or group of ``arm``."""
-    if _ANY_ARM_NAME.match(name) or (name == "beta" and not arm.beta_joints):
+    if _ANY_ARM_NAME.match(name):
         return ArmParameterError(
             f"parameter {name!r} is not one of this arm's ({arm.n_joints} joints, "
             f"{arm.n_params} parameters: {_describe_names(arm)}): a spec of another arm? "
@@ -123,7 +129,7 @@ class ParamUncertainty:
     distribution: str = "normal"
 
     def __post_init__(self) -> None:
-        if not _ANY_ARM_NAME.match(self.name):
+        if not is_param_name(self.name):
             raise ValueError(
                 f"unknown parameter name {self.name!r} (expected theta<j>, alpha<j>, d<j>, "
                 f"a<j> (j = 1..7), beta<j> (j = 2..7), l, tx, ty or tz)"
@@ -279,8 +285,8 @@ class UncertaintySpec:
 
 def expand_name(name: str, arm: Arm | None = None) -> tuple[str, ...]:
     """The parameters of ``arm`` (default: the paper's) a name stands for: itself
-    (``d3``) or a group (``d``: d1..dN; ``beta``: the declared betas; ``tip``:
-    ``l`` or tx, ty, tz).
+    (``d3``) or a group (``d``: d1..dN; ``beta``: the declared betas, none on
+    an arm without; ``tip``: ``l`` or tx, ty, tz).
 
     Raises SpecError for an unknown name: :class:`ArmParameterError` for one
     another arm has (``theta7`` on six joints), SpecError otherwise.
@@ -290,9 +296,8 @@ def expand_name(name: str, arm: Arm | None = None) -> tuple[str, ...]:
     if name in names:
         return (name,)
     if name in GROUPS:
-        out = tuple(n for n in names if param_group(n) == name or (name == "tip" and n == "l"))
-        if out:
-            return out
+        # "beta" is every declared beta: none on an arm without (a spec that fits many arms)
+        return tuple(n for n in names if param_group(n) == name or (name == "tip" and n == "l"))
     raise _unknown_name(name, a)
 
 
