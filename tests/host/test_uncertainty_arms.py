@@ -164,3 +164,24 @@ def test_cli_model_and_refusals(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert rc == USAGE and "7 finite joint angles" in err
     rc, _, err = _run([*argv[:3], "nosuchmodel"], capsys)
     assert rc == USAGE and "nosuchmodel" in err and err.count("\n") == 1
+
+
+def test_cli_log_of_a_seven_axis_arm(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--log`` of a 7-axis log (written as ``aacmm log`` writes it) with its model;
+    against the paper's arm (the default) it is refused in one line, exit 10."""
+    from test_mc_arms_cli import _log
+
+    log, theta = _log(tmp_path, "commercial7", rows=12)
+    spec = tmp_path / "s7.toml"
+    spec.write_text(SPEC)
+    out_json = tmp_path / "u.json"
+    argv = ["uncertainty", str(spec), "--log", str(log), "--every", "3", "--trials", "300"]
+    rc, _, err = _run([*argv, "--model", "commercial7", "--json", str(out_json)], capsys)
+    assert rc == 0, err
+    doc = json.loads(out_json.read_text())
+    assert len(doc["given_poses"]) == 4 and doc["workspace_poses"] == []
+    got = np.array([p["theta_rad"] for p in doc["given_poses"]])
+    assert np.allclose(got, theta[::3], rtol=0, atol=1e-12)
+    rc, out, err = _run(argv, capsys)
+    assert rc == WRONG_ARM and out == "" and err.count("\n") == 1
+    assert "7 joints" in err and "model gao2013" in err

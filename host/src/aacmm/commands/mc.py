@@ -139,11 +139,10 @@ def register(sub: Any) -> None:
 
 
 def _joints(args: argparse.Namespace, joints: int) -> Any:
-    from aacmm.analysis.mc_poses import joint_distributions
+    """The joint distributions of ``--range``/``--normal`` for an arm of ``joints`` joints."""
+    from aacmm.analysis.mc_poses import JointDistribution, joint_distributions
 
     js = list(joint_distributions(None, joints))
-    from aacmm.analysis.mc_poses import JointDistribution
-
     for j, lo, hi in args.range:
         for i in _joint_index(j, joints):
             js[i] = JointDistribution.uniform(math.radians(float(lo)), math.radians(float(hi)))
