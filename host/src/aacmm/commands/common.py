@@ -10,6 +10,11 @@ to a temporary file in the same directory, fsynced and renamed. Call
 :func:`check_outputs` with all of a command's outputs before its work starts,
 so a refusal comes at once, not after a long computation.
 
+Arm models (issue 26): :func:`add_model_option` (``--model NAME|FILE``),
+:func:`model_arm` (the model it names, default the paper's ``gao2013``) and
+:func:`check_log_arm` (refuse a log or session of another arm shape than the
+model's: :class:`WrongArmError`, exit status 10).
+
 Heavy modules (the client, python-can, pyserial) are imported inside the
 functions so that ``aacmm --help`` and the analysis commands start fast.
 """
