@@ -50,7 +50,9 @@ import numpy as np
 
 from aacmm.arm import Arm
 from aacmm.calibration.parameters import (
-    ArmParams,
+    AnyParams,
+    CalibParams,
+    arm_part,
     param_names,
     tip_columns,
     tip_in_last_frame,
@@ -169,10 +171,11 @@ class Identifiability:
         return float(s[self.rank - 1] / max(s[self.rank], 1e-300))
 
 
-def preferred_held(params: ArmParams) -> tuple[str, ...]:
+def preferred_held(p: AnyParams) -> tuple[str, ...]:
     """The parameters the 'fix' strategy tries first to hold (:data:`PREFERRED_HELD`
     for the paper's arm): the base's (theta1, d1, and alpha1, a1 for a modified
     first joint), then the last joint's tip parameters but the tip itself."""
+    params = arm_part(p)
     if isinstance(params, Params):
         return PREFERRED_HELD
     base = ("theta1", "d1", "alpha1", "a1") if params.joints[0].convention == "modified" else ()
@@ -218,8 +221,15 @@ def _arm_symmetries(arm: Arm) -> list[tuple[str, list[FloatArray]]]:
     return out
 
 
-def _symmetries(params: ArmParams) -> list[tuple[str, list[FloatArray]]]:
-    """Known exact symmetries of point data at ``params`` (parameter units, P each)."""
+def _symmetries(params: AnyParams) -> list[tuple[str, list[FloatArray]]]:
+    """Known exact symmetries of point data at ``params`` (parameter units, P each;
+    P + E for a :class:`CalibParams`: the arm's, the harmonics not involved)."""
+    if isinstance(params, CalibParams):
+        pad = params.errors.n_cols
+        return [
+            (kind, [np.concatenate([v, np.zeros(pad)]) for v in vecs])
+            for kind, vecs in _symmetries(params.arm)
+        ]
     if isinstance(params, Arm):
         return _arm_symmetries(params)
     v = params.to_vector()
@@ -285,9 +295,10 @@ _MEANING = {
 }
 
 
-def _meaning(kind: str, params: ArmParams) -> tuple[str, str]:
+def _meaning(kind: str, p: AnyParams) -> tuple[str, str]:
     """What a named direction does and what would observe it (for a general arm,
     the tip's parameters by name)."""
+    params = arm_part(p)
     if isinstance(params, Params) or kind not in ("tip", "alpha1", "a1", "parallel"):
         return _MEANING[kind]
     if kind == "tip":
@@ -346,7 +357,7 @@ def _scaled_orthonormal(
 
 
 def _name_null(
-    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: ArmParams
+    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: AnyParams
 ) -> tuple[NullDirection, ...]:
     """Named directions spanning the null space (scaled coords, columns = ``columns``).
 
@@ -361,7 +372,7 @@ def _name_null(
     found: list[tuple[str, FloatArray]] = []
     accepted = np.zeros((len(cols), 0))
     for kind, vecs in _symmetries(params):
-        if isinstance(params, Arm) and kind == "tip":
+        if isinstance(arm_part(params), Arm) and kind == "tip":
             vecs = _scaled_orthonormal(vecs, cols, scale)
         for v in vecs:
             if accepted.shape[1] == k:
