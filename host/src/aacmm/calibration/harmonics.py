@@ -55,6 +55,7 @@ from aacmm.errmodel import HARMONICS_MAX, ErrorModel
 __all__ = [
     "AUTO",
     "WEAK_OBSERVABILITY",
+    "check_harmonics_option",
     "choose_auto",
     "dh_part",
     "error_terms",
@@ -103,6 +104,23 @@ def parse_harmonics(spec: int | str | Sequence[int], joints: int) -> tuple[int, 
     if bad:
         raise ValueError(f"harmonics must be 0 .. {HARMONICS_MAX} per joint, got {bad[0]}")
     return ks
+
+
+def check_harmonics_option(text: str) -> str:
+    """A command line's K for every joint: ``"0"`` .. ``"4"`` or ``"auto"``, normalised.
+
+    Raises ValueError (one line) for anything else (a negative K, K > 4, text).
+    """
+    t = str(text).strip().lower()
+    if t == AUTO:
+        return t
+    try:
+        k = int(t)
+    except ValueError:
+        k = -1
+    if not 0 <= k <= HARMONICS_MAX or not t.lstrip("+").isdigit():
+        raise ValueError(f"K must be 0 .. {HARMONICS_MAX} or {AUTO!r}, got {text!r}")
+    return str(k)
 
 
 def harmonic_names(ks: Sequence[int]) -> tuple[str, ...]:
