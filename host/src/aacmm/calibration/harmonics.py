@@ -69,8 +69,8 @@ __all__ = [
 #: ``harmonics="auto"``: per joint the largest K (up to 4) the data identify.
 AUTO = "auto"
 #: A term whose observability is below this is *weakly observed* (and ``auto``
-#: does not take it): less than 5 % of its effect on the probe points is its own.
-WEAK_OBSERVABILITY = 0.05
+#: does not take it): less than 3 % of its effect on the probe points is its own.
+WEAK_OBSERVABILITY = 0.03
 #: A term whose whole effect on the probe points (its scaled column) is below
 #: this share of the largest column's is outside the model (no effect at all).
 _DEAD = 1e-9

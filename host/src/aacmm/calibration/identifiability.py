@@ -68,6 +68,7 @@ DEFAULT_KAPPA = 10.0
 RANK_FLOOR = 1e-10
 _IN_NULL = 0.02  # a candidate symmetry lies in the null space if <2 % of it sticks out
 _COMPONENT_MIN = 0.1
+_HARMONIC_HELD = 0.3  # with harmonics: a preferred parameter's least null-space leverage
 
 
 @dataclass(frozen=True)
@@ -174,8 +175,14 @@ class Identifiability:
 def preferred_held(p: AnyParams) -> tuple[str, ...]:
     """The parameters the 'fix' strategy tries first to hold (:data:`PREFERRED_HELD`
     for the paper's arm): the base's (theta1, d1, and alpha1, a1 for a modified
-    first joint), then the last joint's tip parameters but the tip itself."""
-    params = arm_part(p)
+    first joint), then the last joint's tip parameters but the tip itself; with
+    encoder harmonics (a :class:`CalibParams`) then the harmonics, highest order
+    first, rather than a theta offset they are confounded with (a joint over a
+    limited range)."""
+    if isinstance(p, CalibParams):
+        order = sorted(p.errors.param_names, key=lambda n: -int(n.split("_")[1]))
+        return (*preferred_held(p.arm), *order)
+    params = p
     if isinstance(params, Params):
         return PREFERRED_HELD
     base = ("theta1", "d1", "alpha1", "a1") if params.joints[0].convention == "modified" else ()
@@ -468,6 +475,12 @@ def analyse(
     basis, null = v[:, :rank], v[:, rank:]
     scale = raw / math.sqrt(float(w.sum()))
     named = _name_null(null, scale, cols, ev.params)
+    preferred = preferred_held(ev.params)
+    if isinstance(ev.params, CalibParams) and ev.params.errors.n_cols and null.shape[1]:
+        # with harmonics a preferred parameter is held only where it is mostly in the
+        # null space itself (else one barely in it, chosen first, blocks the others)
+        lev = dict(zip(names, np.linalg.norm(null, axis=1), strict=True))
+        preferred = tuple(n for n in preferred if lev.get(n, 0.0) >= _HARMONIC_HELD)
     return Identifiability(
         names,
         cols,
@@ -478,7 +491,7 @@ def analyse(
         basis,
         null,
         named,
-        _held(null, list(names), preferred_held(ev.params)),
+        _held(null, list(names), preferred),
         m,
         ratio,
     )
