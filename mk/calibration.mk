@@ -9,7 +9,8 @@ CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
                   tests/host/test_calibration_e2e.py tests/host/test_calibration_gate.py \
                   tests/host/test_calibration_arms.py tests/host/test_calibration_harmonics.py \
                   tests/host/gate_study.py host/src/aacmm/commands/calibrate.py \
-                  tests/host/calib_synth.py bench/bench_calibration.py bench/calibration_figures.py
+                  tests/host/calib_synth.py bench/bench_calibration.py bench/calibration_figures.py \
+                  bench/harmonics_figures.py
 CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 .PHONY: test-calibration test-calibration-lint bench-calibration

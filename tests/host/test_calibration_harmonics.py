@@ -150,7 +150,7 @@ def test_noisy_one_head_harmonics(seed: int) -> None:
     b = rms_vs_truth(baseline.params, clean.truth, ErrorModel.none(6), q)
     f = rms_vs_truth(full.params, s.truth, em, r)
     d = rms_vs_truth(dh.params, s.truth, em, r)
-    assert f <= 2.5 * b, (f, b)  # near the baseline: 24 more unknowns from the same data
+    assert f <= 3.0 * b, (f, b)  # near the baseline: 24 more unknowns from the same data
     assert d >= 5 * b and d >= 5 * f, (d, b, f)
     assert baseline.chi_square.verdict == "consistent"
     assert full.chi_square.verdict == "consistent"
