@@ -321,3 +321,30 @@ def test_cli_harmonics_auto_and_refusals(
     code = main(["calibrate", str(session), "-o", str(x), "--probe", "--harmonics", "1"])
     _, err = capsys.readouterr()
     assert code == 2 and "--probe" in _one_line(err)
+
+
+def test_errmodel_table_round_trip_and_errors(tmp_path: Path) -> None:
+    from aacmm.core import EncoderConfig
+    from aacmm.records import ParamSetRecord
+    from aacmm.records.paramfile import dump_param_set
+
+    em = ErrorModel((((1e-5, -2e-6),), (), ((3e-5, 4e-6), (5e-7, -6e-7)), (), (), ((7e-6, 1e-6),)))
+    ps = ParamSetRecord(0, Params(), EncoderConfig()).to_device()
+    f = tmp_path / "p.toml"
+    f.write_text(dump_param_set(ps, "toml", errmodel=em))
+    got_ps, _, got = load_param_file_errmodel(f)
+    assert got == em and got_ps == ps
+    assert load_param_file_errmodel(tmp_path / "p.toml")[2] is not None
+    plain = tmp_path / "plain.toml"
+    plain.write_text(dump_param_set(ps, "toml"))
+    assert load_param_file_errmodel(plain)[2] is None
+    text = f.read_text()
+    for bad, needle in (
+        (text.replace("[errmodel]", "[errmodel]\nk = 1"), "unknown key errmodel.k"),
+        (text.replace("c_rad = [", "c_rad = [[1e-6],"), "6 lists"),
+        (text.replace("c_rad = [\n    [", "c_rad = [\n    [1e-6, 1e-6, "), "as many values"),
+        (text.replace("1e-05", "0.2"), "0.1"),
+    ):
+        f.write_text(bad)
+        with pytest.raises(ParamFileError, match=needle):
+            load_param_file_errmodel(f)
