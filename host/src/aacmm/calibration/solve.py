@@ -278,7 +278,7 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
-    harmonics: int | str | Sequence[int] = 0,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Params]: ...
 @overload
 def calibrate(
@@ -294,7 +294,7 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
-    harmonics: int | str | Sequence[int] = 0,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Arm]: ...
 @overload
 def calibrate(
@@ -310,7 +310,7 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
-    harmonics: int | str | Sequence[int] = 0,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[CalibParams]: ...
 @overload
 def calibrate(
@@ -326,7 +326,7 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
-    harmonics: int | str | Sequence[int] = 0,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Any]: ...
 def calibrate(
     obs: Observations,
@@ -341,7 +341,7 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
-    harmonics: int | str | Sequence[int] = 0,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Any]:
     """Identify the arm's parameters from ``obs``, starting at ``start`` (default Table 1).
 
@@ -356,11 +356,13 @@ def calibrate(
 
     ``harmonics``: the encoder angle harmonics to estimate with the arm
     (:mod:`aacmm.calibration.harmonics`): K = 0 .. 4 for every joint, one K per
-    joint, or ``"auto"`` (per joint the largest K the data identify). With K > 0
-    (or a :class:`~aacmm.calibration.parameters.CalibParams` start, whose
-    coefficients are the start values) the result's parameters are a
-    :class:`CalibParams` and its ``error_terms`` say which terms were estimated,
-    weakly observed or unobserved; K = 0 is the arm alone, exactly as without it.
+    joint, or ``"auto"`` (per joint the largest K the data identify); default
+    (None): 0 for an arm, the start's own K for a
+    :class:`~aacmm.calibration.parameters.CalibParams` (whose coefficients are
+    the start values). With harmonics (or a :class:`CalibParams` start) the
+    result's parameters are a :class:`CalibParams` and its ``error_terms`` say
+    which terms were estimated, weakly observed or unobserved; K = 0 for an arm
+    is the arm alone, exactly as without it.
 
     Raises ObservationError (bad data), CalibrationError (no solution: the
     parameters left the valid range, degenerate constraints), ValueError (bad
@@ -395,6 +397,8 @@ def calibrate(
         notes.append(
             "held at their start values (unobservable from these data): " + ", ".join(res.held)
         )
+    if requested is None and text != "0":
+        notes.append(f"encoder harmonics ({text}): none estimated")
     if requested is not None:
         ks = ", ".join(str(k) for k in requested)
         notes.append(f"encoder harmonics ({text}): K per joint {ks} asked for")
@@ -420,7 +424,7 @@ def calibrate(
 def _harmonics(
     obs: Observations,
     p0: AnyParams,
-    harmonics: int | str | Sequence[int],
+    harmonics: int | str | Sequence[int] | None,
     free: Sequence[str] | None,
     fix: Sequence[str],
     kappa: float,
@@ -429,6 +433,8 @@ def _harmonics(
     joint in the model, the terms left out (no effect on the probe point) and how
     it was asked (for the notes)."""
     joints = n_joints(p0)
+    if harmonics is None:
+        harmonics = list(p0.harmonics) if isinstance(p0, CalibParams) else 0
     ks = parse_harmonics(harmonics, joints)
     text = (
         harmonics.strip().lower()
