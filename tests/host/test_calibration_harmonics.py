@@ -257,9 +257,15 @@ def test_cli_harmonics(
 ) -> None:
     session, em = head_session
     out_file = tmp_path / "cal.toml"
-    code = main(["calibrate", str(session), "-o", str(out_file), "--harmonics", "2", "-q"])
+    rep = tmp_path / "rep"
+    args = ["-o", str(out_file), "--harmonics", "2", "-q", "--workspace", "5"]
+    code = main(["calibrate", str(session), *args, "--report", str(rep)])
     out, err = capsys.readouterr()
     assert code == 0, err
+    report = json.loads((rep / "report.json").read_text())
+    assert len(report["result"]["error_model"]["terms"]) == 24
+    assert "c6_2" in report["result"]["calibrated"]
+    assert "Encoder angle harmonics (2)" in (rep / "report.txt").read_text()
     assert "Encoder angle harmonics (2): 24 of 24 terms estimated" in out
     assert "[errmodel] table: the device does not take it yet" in out
     prov = json.loads((tmp_path / "cal.provenance.json").read_text())
