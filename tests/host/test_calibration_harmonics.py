@@ -5,7 +5,9 @@ angles on a known arm (tests/host/calib_synth.py), then the encoder readings
 ``r`` that a true harmonic error model maps back onto them
 (``r + e(r) = q``, solved here by fixed-point steps and checked with
 :func:`aacmm.errmodel.corrected_angles`). The calibration sees only the
-readings; the tests compare what it finds with the truth.
+readings; the tests compare what it finds with the truth. The last test runs
+the simulator's one-head encoder grade end to end (sim, capture, calibrate) and
+judges the calibrations on a held-out session.
 """
 
 from __future__ import annotations
@@ -354,3 +356,55 @@ def test_errmodel_table_round_trip_and_errors(tmp_path: Path) -> None:
         f.write_text(bad)
         with pytest.raises(ParamFileError, match=needle):
             load_param_file_errmodel(f)
+
+
+# --------------------------------------------------------------------------- on the simulator
+
+
+def _sim_session(folder: Path, name: str, seed: int) -> Path:
+    """A kinematic-calibration session of the simulator's one-head encoders (random:12)."""
+    import os
+    import subprocess
+    import sys
+
+    aacmm = Path(sys.executable).with_name("aacmm")
+    env = {k: v for k, v in os.environ.items() if k != "AACMM_PORT"}
+    sim = subprocess.Popen(
+        [str(aacmm), "sim", "--scenario", "kinematic-calibration", "--fast", "--truth",
+         "random:12", "--encoder-grade", "one-head", "--storage", str(folder / f"{name}.bin"),
+         "--seed", str(seed), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    try:
+        assert sim.stdout is not None
+        url = sim.stdout.readline().strip()
+        assert url.startswith("serial://"), sim.stderr.read() if sim.stderr else ""
+        cap = subprocess.run(
+            [str(aacmm), "capture", "kinematic-calibration", "-o", str(folder / name), "--port",
+             url, "-q"],
+            capture_output=True, text=True, env=env, timeout=240, check=False,
+        )  # fmt: skip
+        assert cap.returncode == 0, cap.stderr
+        sim.communicate(timeout=120)
+    finally:
+        if sim.poll() is None:
+            sim.kill()
+            sim.wait()
+    return folder / name
+
+
+def test_end_to_end_one_head_encoders(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the simulator's one-head grade: harmonics 1 and 2 of 10-30 arcsec in the counts
+    s1, s2 = _sim_session(tmp_path, "s1", 1), _sim_session(tmp_path, "s2", 2)
+    held_out = {}
+    for k in ("0", "2"):
+        out = tmp_path / f"cal{k}.toml"
+        args = ["--validate", str(s2), "--harmonics", k, "--workspace", "0", "-q", "--override"]
+        assert main(["calibrate", str(s1), "-o", str(out), *args]) == 0
+        capsys.readouterr()
+        prov = json.loads(out.with_name(f"cal{k}.provenance.json").read_text())
+        rows = {r["figure"]: r for r in prov["validation"]}
+        held_out[k] = (prov["result"]["chi_square"]["verdict"], rows["length_rms_mm"]["after"])
+    assert held_out["0"][0] == "incomplete"
+    assert held_out["2"][0] in ("consistent", "overstated")
+    assert held_out["2"][1] <= 0.010 and held_out["2"][1] * 10 <= held_out["0"][1], held_out
