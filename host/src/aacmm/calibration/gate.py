@@ -66,6 +66,7 @@ Pure library code: arrays and dataclasses in, a :class:`GateResult` out.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -85,6 +86,7 @@ from aacmm.calibration.validation import Comparison
 from aacmm.core import JOINTS, FloatArray, Model, Params
 
 ARCSEC_RAD = math.pi / 648000.0
+_HARMONIC = re.compile(r"[cs]\d+_\d+")
 #: the null-space kinds that are symmetries of the model (no data see them): the base's
 #: rigid motions (alpha1 and a1 too for a modified first joint, issue 26) and the tip's split
 SYMMETRIES = frozenset({"theta1", "d1", "alpha1", "a1", "tip"})
@@ -373,10 +375,16 @@ def previous_from_provenance(
         raise ValueError(f"{source}: no result in the provenance")
     cal = result.get("calibrated")
     cov = result.get("covariance")
-    if isinstance(cal, Mapping) and set(cal) != set(names) and any(n in cal for n in names):
-        theirs = sum(1 for k in cal if str(k).startswith("theta"))
+    # the arm's parameters (an encoder harmonic's c<j>_<k>, s<j>_<k> are not the arm's)
+    dh = (
+        {str(k) for k in cal if not _HARMONIC.fullmatch(str(k))}
+        if isinstance(cal, Mapping)
+        else set()
+    )
+    if dh and dh != set(names) and dh & set(names):
+        theirs = sum(1 for k in dh if k.startswith("theta"))
         raise ValueError(
-            f"{source}: the calibration of another arm ({theirs} joints, {len(cal)} "
+            f"{source}: the calibration of another arm ({theirs} joints, {len(dh)} "
             f"parameters; this arm has {n_joints(p0)} joints, {len(names)} parameters)"
         )
     if not isinstance(cal, Mapping) or any(n not in cal for n in names):
@@ -547,6 +555,9 @@ def assess(
     that made the set in force, if known; ``validation``: the before/after
     comparison on held-out sessions, if any.
     """
+    from aacmm.calibration.harmonics import dh_part
+
+    res = dh_part(res)  # encoder harmonics: the arm's part (its marginal covariance)
     lim = limits or GateLimits()
     pred = predict(res, previous, lim.pairs, lim.seed, lim.confidence)
     refusals = [

@@ -20,7 +20,6 @@ import numpy as np
 
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.parameters import param_names
-from aacmm.calibration.pointunc import ArmPointUncertainty
 from aacmm.calibration.report import unit_residuals
 from aacmm.calibration.results import CalibrationResult
 from aacmm.uncertainty.report import UncertaintyResult
@@ -96,7 +95,7 @@ def spectrum_figure(idn: Identifiability) -> Any:
 
 def correlation_figure(res: CalibrationResult) -> Any:
     """The correlation matrix of the estimated parameters."""
-    names = param_names(res.params)  # the arm's P (the paper's 25)
+    names = param_names(res.params)
     free = [names.index(n) for n in res.free]
     c = res.correlation[np.ix_(free, free)]
     fig = _figure(7, 6)
@@ -128,7 +127,7 @@ def convergence_figure(res: CalibrationResult) -> Any:
     return fig
 
 
-def uncertainty_figure(ures: UncertaintyResult | ArmPointUncertainty) -> Any:
+def uncertainty_figure(ures: UncertaintyResult) -> Any:
     """3D standard uncertainty of the probe point (calibration only) against reach."""
     fig = _figure(7, 3.6)
     ax = fig.add_subplot()
