@@ -428,7 +428,8 @@ def test_demo_of_a_seven_axis_model(demo_model: Run) -> None:
     """``aacmm demo --model commercial7``: the story on a random true 7-axis arm: FAIL,
     calibrated (its 31 parameters), PASS within the plan's MPEs, E_Uni and SPAT >= 20x
     smaller; the truth check improves, as recomputed here from the truth file and the
-    calibrated parameter file; Table 2 (the paper's arm's) skipped and said so."""
+    calibrated parameter file; the arm's own error-transfer coefficients instead of the
+    paper's Table 2, and said so."""
     from aacmm.core import Model
     from aacmm.models import load_model
     from aacmm.records.paramfile import load_param_file
@@ -438,8 +439,14 @@ def test_demo_of_a_seven_axis_model(demo_model: Run) -> None:
     model = load_model(MODEL)
     progress = re.findall(r"^\[(\d+)/(\d+)\] ", stdout, re.M)
     assert [int(k) for k, _ in progress] == list(range(1, 12))
-    assert "Table 2: skipped" in stdout and "over 10000 poses" not in stdout
-    assert not (out / "table2").exists()
+    # step 2: the arm's own error-transfer coefficients, not the paper's Table 2
+    assert "the arm's error-transfer coefficients: Monte Carlo over 10000 random poses" in stdout
+    assert "no comparison" in stdout and not (out / "table2").exists()
+    mc = json.loads((out / "mc" / "mc.json").read_text())
+    coef = mc["coefficients"]
+    assert list(coef) == list(model.arm.param_names) and (out / "mc" / "mc.png").is_file()
+    # what a rotation about and a shift along the vertical axis 1 do to the tip (exact)
+    assert coef["theta1"]["z"]["mean_abs"] == 0.0 and coef["d1"]["z"]["mean_abs"] == 1.0
     sims = [s for s in stdout.splitlines() if s.startswith("$ aacmm sim ")]
     assert len(sims) == 5 and all(f"--model {MODEL}" in s for s in sims)
     # every session was taken with the model's set: 7 count columns, 31 parameters
