@@ -14,10 +14,10 @@ from aacmm.fileio import InputFileError, loads_toml
 from aacmm.models.model import (
     COUNTS_PER_REV_MAX,
     COUNTS_PER_REV_MIN,
-    ENCODER_INTERFACES,
-    MODEL_FORMAT,
     DEFAULT_CALIBRATION_PLAN,
     DEFAULT_VERIFICATION_PLAN,
+    ENCODER_INTERFACES,
+    MODEL_FORMAT,
     ArmModel,
     Encoder,
 )

@@ -151,7 +151,9 @@ def check_reach(
         raise ValueError(f"tries must be at least 1, got {tries}")
     ik_arm, lim = _arm_and_limits(arm, limits)
     if lim.joints != ik_arm.joints:
-        raise ValueError(f"the joint limits are for {lim.joints} joints, the arm has {ik_arm.joints}")
+        raise ValueError(
+            f"the joint limits are for {lim.joints} joints, the arm has {ik_arm.joints}"
+        )
     rng = np.random.default_rng(seed)
     found, unchecked = _items(plan)
     out: list[ReachItem] = []
@@ -177,8 +179,7 @@ def check_reach(
         elif inside:
             cone = "vertical (into a seat)" if slot.target.normal is None else "the surface normal"
             reason = (
-                f"reached only with the stylus more than {approach.max_tilt_deg:g} deg "
-                f"from {cone}"
+                f"reached only with the stylus more than {approach.max_tilt_deg:g} deg from {cone}"
             )
         elif on_target:
             reason = "reached only outside the joint limits"
