@@ -51,10 +51,12 @@ def register(sub: Any) -> None:
 def cmd_list(args: argparse.Namespace) -> int:
     from aacmm.plans import load_plan, shipped_plans
 
-    for name in shipped_plans():
+    names = shipped_plans()
+    width = max(24, *(len(n) for n in names))
+    for name in names:
         plan = load_plan(name)
         steps = f"{len(plan.steps):2d} step{'s' if len(plan.steps) != 1 else ' '}"
-        print(f"{name:24s} {steps} {len(plan.slots):4d} points  {plan.title}")
+        print(f"{name:{width}s} {steps} {len(plan.slots):4d} points  {plan.title}")
     return OK
 
 
