@@ -14,7 +14,7 @@ CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 .PHONY: test-calibration test-calibration-lint bench-calibration
 
-#> test-calibration     engine vs synthetic truths (200 seeded runs), reports, aacmm calibrate, end to end on the simulator, the quality gate (20 random arms), a 5-axis parallel-hinge and a 7-axis arm end to end on the simulation library, desk4 and microscribe5 with their compact plans on the simulator
+#> test-calibration     engine vs synthetic truths (200 seeded runs), reports, aacmm calibrate, end to end on the simulator, the quality gate (20 random arms), a 5-axis parallel-hinge and a 7-axis arm end to end on the simulation library, desk4 and microscribe5 with their compact plans and mpe2018 with its medium ones on the simulator
 test-calibration: sim
 	$(CALIB_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_calibration.py tests/host/test_calibration_report.py \

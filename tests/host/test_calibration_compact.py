@@ -1,5 +1,5 @@
 """The small arms (desk4, microscribe5) calibrated and verified on the simulator with
-their own compact plans (issue 26).
+their own compact plans, and mpe2018 with its medium ones (issue 26).
 
 For each arm: a random true geometry of its model (``model_truth``: every length off
 by up to 0.5 mm, every angle by up to 0.05 deg, eccentric and noisy encoders, probing
@@ -21,7 +21,8 @@ with 2^24-count encoders (the model file given to the simulator says so): their 
 (microscribe5 2^14 counts per turn, 0.38 mrad, 0.2 mm at 0.6 m; desk4 2^16, 96 urad,
 60 um) set a floor near or above what a 20x fall needs from a truth whose errors are
 0.4-2 mm. With their own encoders the falls are 8-16x (microscribe5) and 12-28x (desk4)
-over a few truths (docs/plans.md, "Plans for small arms").
+over a few truths (docs/plans.md, "Plans for small arms"). mpe2018 keeps its own
+encoders (the default 2^32 counts).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import pytest
 from aacmm.arm import Arm
 from aacmm.calibration import calibrate
 from aacmm.calibration.sessions import session_observations
+from aacmm.core import Params
 from aacmm.models import ArmModel, dumps_model, load_model
 from aacmm.plans import load_plan
 from aacmm.records import read_session
@@ -94,13 +96,16 @@ def _fine(model: ArmModel, cpr: int) -> ArmModel:
 CPR = 1 << 24
 
 
-@pytest.mark.parametrize(("name", "seed"), [("desk4", 21), ("microscribe5", 22)])
-def test_small_arm_calibrated_and_verified_with_its_own_plans(
-    name: str, seed: int, tmp_path: Path, cpr: int | None = CPR
+@pytest.mark.parametrize(
+    ("name", "seed", "cpr"), [("desk4", 21, CPR), ("microscribe5", 22, CPR), ("mpe2018", 23, None)]
+)
+def test_arm_calibrated_and_verified_with_its_own_plans(
+    name: str, seed: int, cpr: int | None, tmp_path: Path
 ) -> None:
     model = load_model(name)
-    assert model.calibration_plan.endswith("-compact")
-    assert model.verification_plan.startswith("arm-verification-compact")
+    size = "medium" if name == "mpe2018" else "compact"
+    assert model.calibration_plan == f"kinematic-calibration-{size}"
+    assert model.verification_plan.startswith(f"arm-verification-{size}")
     if cpr is not None:
         model = _fine(model, cpr)
     model_file = tmp_path / f"{name}.toml"
@@ -114,7 +119,8 @@ def test_small_arm_calibrated_and_verified_with_its_own_plans(
 
     cal = read_session(s_cal)
     assert cal.complete and len(cal) == len(load_plan(model.calibration_plan).slots)
-    assert cal.param_set_of(0).model == model.arm  # the device computed with the nominal arm
+    stored = cal.param_set_of(0).model  # the device computed with the nominal arm
+    assert (stored.to_arm() if isinstance(stored, Params) else stored) == model.arm
     obs, _, _ = session_observations(cal, SIGMA_MM)
     res = calibrate(obs, model.arm)
     assert isinstance(res.params, Arm) and res.params.n_joints == model.n_joints
