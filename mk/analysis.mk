@@ -11,6 +11,7 @@ ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/
                      host/src/aacmm/errmodel.py tests/host/test_core_errmodel.py \
                      tests/host/test_mc_arms.py \
                      tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
+                     tests/host/test_uncertainty_arms.py tests/host/test_mc_arms_cli.py \
                      tests/host/interrupt.py tests/host/portability.py \
                      tests/host/test_packaging.py host/src/aacmm/commands/mc.py \
                      host/src/aacmm/commands/uncertainty.py bench/bench_analysis.py

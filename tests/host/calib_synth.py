@@ -218,6 +218,7 @@ def plan_session(
     noise_mm: float = 0.0,
     in_force: object = None,
     limit: int | None = None,
+    readings: object = None,
 ) -> None:
     """A capture session of a shipped plan, measured by the arm ``truth``.
 
@@ -226,6 +227,8 @@ def plan_session(
     exact angles rounded to 2^32 counts per revolution. The device computed
     its points with ``in_force`` (a ParamSetRecord; default Table 1).
     ``limit``: record only the first points (an interrupted session).
+    ``readings``: a function of the exact angles (n, 6) giving the encoders'
+    readings (an encoder angle error; default: the angles themselves).
     """
     from pathlib import Path
 
@@ -247,6 +250,8 @@ def plan_session(
     model = Model(truth)
     start = random_poses(rng, len(slots), (0.3, 1.4), (0.6, 1.8))
     q = reach(model, targets, start, rng, 0.5, tries=20)
+    if callable(readings):
+        q = readings(q)
     two32 = float(1 << 32)
     counts = np.mod(np.rint(q / (2 * math.pi) * two32), two32).astype(np.uint64)
     w = SessionWriter.create(Path(str(folder)), plan, device={"serial_number": 1}, port="sim")

@@ -169,7 +169,7 @@ def test_only_lengths_give_a_length_budget() -> None:
     ("doc", "message"),
     [
         ({"parameters": {"beta1": {"u": 1.0}}}, "unknown parameter name 'beta1'"),
-        ({"parameters": {"theta7": {"u": 1.0}}}, "unknown parameter name 'theta7'"),
+        ({"parameters": {"theta7": {"u": 1.0}}}, "parameter 'theta7' is not one of this arm's"),
         ({"parameters": {"d": {"u": -1.0}}}, "must be finite and >= 0"),
         ({"parameters": {"d": {"tolerance": -0.1}}}, "must be finite and >= 0"),
         ({"parameters": {"d": {"u": 1.0, "tolerance": 1.0}}}, "exactly one of u"),

@@ -24,18 +24,19 @@ from aacmm.simulation.articulation import (
     joint_spread_deg,
     most_different,
 )
+from aacmm.simulation.encgrade import GRADES
 from aacmm.simulation.ik import ARM_LIMITS, Arm, solve, wrap
+from aacmm.simulation.perturb import RANDOM_SIZES
 from aacmm.simulation.truth import (
     ARCSEC_RAD,
-    RANDOM_SIZES,
     ErrorSources,
     Truth,
     TruthError,
     load_truth,
     nominal_truth,
-    parse_truth,
     random_truth,
 )
+from aacmm.simulation.truthspec import parse_truth
 
 pytestmark = pytest.mark.timeout(120)
 AACMM = Path(sys.executable).with_name("aacmm")
@@ -53,7 +54,7 @@ def test_random_truth_sizes_and_reproducibility() -> None:
     assert np.all(np.abs(delta[:12]) <= ang) and np.abs(delta[:12]).max() > 0.5 * ang
     assert np.all(np.abs(delta[12:]) <= RANDOM_SIZES.length_mm)
     assert np.abs(delta[12:]).max() > 0.5 * RANDOM_SIZES.length_mm
-    lo, hi = RANDOM_SIZES.eccentricity_arcsec
+    lo, hi = GRADES["two-head"].amplitude_arcsec[0]
     assert all(lo <= x <= hi for x in a.errors.eccentricity_arcsec)
     sigma = RANDOM_SIZES.encoder_noise_arcsec * ARCSEC_RAD * 2**32 / (2 * math.pi)
     assert a.errors.encoder_noise_counts == pytest.approx((sigma,) * 6)

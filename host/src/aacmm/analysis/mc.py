@@ -25,7 +25,10 @@ Main entry points: :func:`error_transfer_coefficients` (fixed N),
 Any arm (issue 26): ``params`` may be an :class:`aacmm.arm.Arm`; the joint
 distributions are then one per joint of it, the result has its P columns
 (:attr:`CoefficientResult.param_names`) and the checks look at its length
-columns (d, a, tip). The paper's arm is computed as before, bit for bit.
+columns (d, a, tip). ``model_name`` names the arm model in the result
+(:attr:`CoefficientResult.model`): the paper's Table 2 is compared only for
+the paper's arm (:attr:`CoefficientResult.is_paper`). The paper's arm is
+computed as before, bit for bit.
 
 Errors: ValueError for bad arguments (N <= 0, bad distributions, bad
 tolerances, bad thread counts); :class:`aacmm.core.KinematicsError` (a
@@ -187,6 +190,7 @@ def error_transfer_coefficients(
     params: Params | Arm | None = None,
     threads: int | None = None,
     progress: Progress | None = None,
+    model_name: str | None = None,
 ) -> CoefficientResult:
     """Mean |J| over ``n`` random poses (the paper's Monte Carlo study).
 
@@ -195,7 +199,9 @@ def error_transfer_coefficients(
     fresh one, recorded in the result); ``params``: the arm (default: paper
     Table 1; any :class:`aacmm.arm.Arm`); ``threads``:
     worker threads (default: all cores; the result does not depend on it);
-    ``progress``: called with the number of poses of each finished chunk.
+    ``progress``: called with the number of poses of each finished chunk;
+    ``model_name``: the arm model's name, kept in the result (None: the paper's
+    arm, or an unnamed one).
     Memory does not grow with n: chunks of :data:`CHUNK` poses are drawn as
     the threads need them.
 
@@ -228,6 +234,7 @@ def error_transfer_coefficients(
         elapsed,
         nt,
         param_names=_names(model),
+        model=model_name,
     )
 
 
@@ -266,6 +273,7 @@ def error_transfer_coefficients_adaptive(
     params: Params | Arm | None = None,
     threads: int | None = None,
     progress: Progress | None = None,
+    model_name: str | None = None,
 ) -> CoefficientResult:
     """Adaptive Monte Carlo, JCGM 101 (GUM Supplement 1) section 7.9.
 
@@ -365,6 +373,7 @@ def error_transfer_coefficients_adaptive(
         converged=converged,
         tolerance=delta,
         param_names=_names(model),
+        model=model_name,
     )
 
 
@@ -374,6 +383,7 @@ def coefficients_over_poses(
     threads: int | None = None,
     source: str = "poses",
     progress: Progress | None = None,
+    model_name: str | None = None,
 ) -> CoefficientResult:
     """Mean |J| over given poses (n, N) in rad, e.g. from a measurement log (N: the
     arm's joints, six for the paper's).
@@ -416,4 +426,5 @@ def coefficients_over_poses(
         elapsed,
         nt,
         param_names=_names(model),
+        model=model_name,
     )

@@ -5,6 +5,11 @@ comparison with the paper (:func:`compare_with_paper`), and the reports
 :func:`format_report` (text), :func:`csv_text`, :func:`to_json` and
 :func:`figure` (a matplotlib Figure). Pure functions; the ``aacmm mc``
 command writes the files.
+
+Any arm (issue 26): Table 2 is the paper's arm's (:attr:`CoefficientResult.is_paper`);
+for another arm the reports give its own coefficients, every parameter of
+it (:attr:`CoefficientResult.param_names`), without a comparison, and the
+figure its N joints without the paper's markers.
 """
 
 from __future__ import annotations
@@ -20,6 +25,9 @@ from typing import Any
 import numpy as np
 
 from aacmm.core import AXES, JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray
+
+#: The arm model whose published Table 2 the reports compare with.
+PAPER_MODEL = "gao2013"
 
 #: Table 2 columns: (Jacobian row, Jacobian column offset, label).
 TABLE2_COLUMNS: tuple[tuple[int, int, str], ...] = (
@@ -46,6 +54,7 @@ class CoefficientResult:
     d, a and the tip, and theta1), both over the first
     ``checked_poses`` poses. Adaptive runs fill ``runs``, ``converged`` and
     ``tolerance`` (the JCGM 101 numerical tolerance delta per entry).
+    ``model``: the arm model's name (None: the paper's arm, or an unnamed arm).
     """
 
     n: int
@@ -64,20 +73,39 @@ class CoefficientResult:
     converged: bool | None = None
     tolerance: FloatArray | None = field(default=None)
     param_names: tuple[str, ...] = PARAM_NAMES
+    model: str | None = None
+
+    @property
+    def is_paper(self) -> bool:
+        """True for the paper's arm (its 25 parameters, model gao2013 or unnamed):
+        the result the paper's Table 2 is compared with."""
+        return self.param_names == PARAM_NAMES and self.model in (None, PAPER_MODEL)
+
+    @property
+    def n_joints(self) -> int:
+        """N, the arm's joints (the theta columns)."""
+        return sum(1 for n in self.param_names if n.startswith("theta"))
+
+    @property
+    def param_units(self) -> tuple[str, ...]:
+        """The unit of each parameter (rad for theta, alpha, beta; mm otherwise)."""
+        return tuple(
+            "rad" if n.startswith(("theta", "alpha", "beta")) else "mm" for n in self.param_names
+        )
 
     def table2(self) -> FloatArray:
         """The (6, 6) Table 2 layout: rows joints 1..6, columns :data:`TABLE2_COLUMNS`.
 
-        Raises ValueError for a result of another arm than the paper's shape.
+        Raises ValueError for a result of another arm than the paper's (:attr:`is_paper`).
         """
-        if self.param_names != PARAM_NAMES:
-            raise ValueError("Table 2 is the layout of the paper's arm (25 parameters)")
+        if not self.is_paper:
+            raise ValueError("Table 2 is the layout of the paper's arm (model gao2013)")
         return _table2(self.mean_abs)
 
     def table2_sem(self) -> FloatArray:
         """Standard errors in the Table 2 layout (the paper's arm only, as :meth:`table2`)."""
-        if self.param_names != PARAM_NAMES:
-            raise ValueError("Table 2 is the layout of the paper's arm (25 parameters)")
+        if not self.is_paper:
+            raise ValueError("Table 2 is the layout of the paper's arm (model gao2013)")
         return _table2(self.sem)
 
 
@@ -138,8 +166,55 @@ def max_rel_deviation(result: CoefficientResult) -> tuple[float, PaperComparison
     return abs(worst.rel_dev or 0.0), worst
 
 
+def _header(result: CoefficientResult) -> list[str]:
+    lines = [
+        f"Mean |error transfer coefficient| (mm/rad) over {result.n} poses ({result.source})",
+        f"joints: {', '.join(result.joints) if len(set(result.joints)) > 1 else result.joints[0]}"
+        + (f"; seed {result.seed}" if result.seed is not None else ""),
+    ]
+    if result.converged is not None:
+        lines.append(
+            f"adaptive (JCGM 101 7.9): {result.runs} runs, {result.n} trials, "
+            + ("converged" if result.converged else "NOT converged (max trials reached)")
+        )
+    return lines
+
+
+def _arm_report(result: CoefficientResult) -> str:
+    """The report of an arm other than the paper's: every coefficient, no Table 2."""
+    name = result.model or "given arm"
+    lines = _header(result)
+    lines.insert(
+        1,
+        f"arm: {name} ({result.n_joints} joints, {len(result.param_names)} parameters); "
+        "the paper's Table 2 is of its own arm (gao2013): no comparison",
+    )
+    head = f"{'param':<8} {'unit':>6}" + "".join(f"{f'|df{a}/dq|':>12}{'+-se':>8}" for a in AXES)
+    lines += ["", head, "-" * len(head)]
+    for k, (pname, unit) in enumerate(zip(result.param_names, result.param_units, strict=True)):
+        lines.append(
+            f"{pname:<8} {'mm/' + unit:>6}"
+            + "".join(
+                f"{result.mean_abs[r, k]:12.4g}{result.sem[r, k]:8.2g}" for r in range(len(AXES))
+            )
+        )
+    lines += [
+        "",
+        f"length columns (d, a, tip): | ||dp/dq|| - 1 | <= {result.unit_norm_max_dev:.1e} "
+        f"over {result.checked_poses} poses (norm 1)",
+        f"df_z/dtheta_1 = 0: max |df_z/dtheta_1| = {result.dfz_dtheta1_max:g} over "
+        f"{result.checked_poses} poses, mean |.| = {result.mean_abs[2, 0]:g} over all {result.n}",
+        f"compute: {result.elapsed_s * 1e3:.1f} ms on {result.threads} thread(s), "
+        f"{result.n / max(result.elapsed_s, 1e-9) / 1e6:.2f} Mposes/s",
+    ]
+    return "\n".join(lines)
+
+
 def format_report(result: CoefficientResult) -> str:
-    """The terminal report: Table 2 layout beside the paper, and the checks."""
+    """The terminal report: Table 2 layout beside the paper, and the checks (the
+    paper's arm); for another arm every coefficient and the checks."""
+    if not result.is_paper:
+        return _arm_report(result)
     ours, sem, paper = result.table2(), result.table2_sem(), paper_table2()
     lines = [
         f"Mean |error transfer coefficient| (mm/rad) over {result.n} poses ({result.source})",
@@ -181,15 +256,18 @@ def format_report(result: CoefficientResult) -> str:
 
 
 def csv_text(result: CoefficientResult) -> str:
-    """All 75 coefficients as CSV text, one row per (axis, parameter), with the paper's value."""
+    """All 3 P coefficients (75 for the paper's arm) as CSV text, one row per (axis,
+    parameter), with the paper's value (the paper's arm; empty for another)."""
     paper = paper_table2()
+    is_paper = result.is_paper
+    units = PARAM_UNITS if is_paper else result.param_units
     buf = io.StringIO(newline="")
     w = csv.writer(buf)
     w.writerow(["axis", "parameter", "unit", "mean_abs", "std", "sem", "paper", "rel_dev"])
     for r, axis in enumerate(AXES):
-        for k, name in enumerate(PARAM_NAMES):
+        for k, name in enumerate(result.param_names):
             pv: float | None = None
-            if k < 12:
+            if is_paper and k < 12:
                 col = (3 if k < 6 else 0) + r
                 pv = float(paper[k % 6, col])
             rel = "" if pv is None or pv == 0.0 else f"{(result.mean_abs[r, k] - pv) / pv:.6g}"
@@ -197,7 +275,7 @@ def csv_text(result: CoefficientResult) -> str:
                 [
                     axis,
                     name,
-                    f"mm/{PARAM_UNITS[k]}",
+                    f"mm/{units[k]}",
                     f"{result.mean_abs[r, k]:.10g}",
                     f"{result.std_abs[r, k]:.6g}",
                     f"{result.sem[r, k]:.6g}",
@@ -209,9 +287,8 @@ def csv_text(result: CoefficientResult) -> str:
 
 
 def to_json(result: CoefficientResult) -> dict[str, Any]:
-    """A JSON-ready dict of the result (coefficients, Table 2, checks, metadata)."""
-    comps = compare_with_paper(result)
-    worst, _ = max_rel_deviation(result)
+    """A JSON-ready dict of the result (coefficients, Table 2 for the paper's arm,
+    checks, metadata)."""
     coeffs = {
         name: {
             axis: {
@@ -221,8 +298,12 @@ def to_json(result: CoefficientResult) -> dict[str, Any]:
             }
             for r, axis in enumerate(AXES)
         }
-        for k, name in enumerate(PARAM_NAMES)
+        for k, name in enumerate(result.param_names)
     }
+    if result.is_paper:
+        units = {"theta": "mm/rad", "alpha": "mm/rad", "d": "mm/mm", "a": "mm/mm", "l": "mm/mm"}
+    else:
+        units = {n: f"mm/{u}" for n, u in zip(result.param_names, result.param_units, strict=True)}
     out: dict[str, Any] = {
         "n": result.n,
         "source": result.source,
@@ -230,9 +311,25 @@ def to_json(result: CoefficientResult) -> dict[str, Any]:
         "joints": list(result.joints),
         "threads": result.threads,
         "elapsed_s": result.elapsed_s,
-        "units": {"theta": "mm/rad", "alpha": "mm/rad", "d": "mm/mm", "a": "mm/mm", "l": "mm/mm"},
+        "units": units,
         "coefficients": coeffs,
-        "table2": [
+    }
+    checks = {
+        "unit_norm_max_dev": result.unit_norm_max_dev,
+        "dfz_dtheta1_max_abs": result.dfz_dtheta1_max,
+        "checked_poses": result.checked_poses,
+    }
+    if not result.is_paper:
+        out["checks"] = checks
+        out["arm"] = {
+            "model": result.model,
+            "joints": result.n_joints,
+            "parameters": list(result.param_names),
+        }
+    else:
+        comps = compare_with_paper(result)
+        worst, _ = max_rel_deviation(result)
+        out["table2"] = [
             {
                 "joint": c.joint,
                 "column": c.column,
@@ -242,14 +339,9 @@ def to_json(result: CoefficientResult) -> dict[str, Any]:
                 "rel_dev": c.rel_dev,
             }
             for c in comps
-        ],
-        "max_abs_rel_dev": worst,
-        "checks": {
-            "unit_norm_max_dev": result.unit_norm_max_dev,
-            "dfz_dtheta1_max_abs": result.dfz_dtheta1_max,
-            "checked_poses": result.checked_poses,
-        },
-    }
+        ]
+        out["max_abs_rel_dev"] = worst
+        out["checks"] = checks
     if result.converged is not None:
         out["adaptive"] = {
             "runs": result.runs,
@@ -290,8 +382,9 @@ def figure(result: CoefficientResult) -> Any:
 
     Bars: mean |coefficient| of this run (q_i = alpha_i left, theta_i
     right), with error bars of +-1 standard error of the mean (thin black
-    lines, no caps); the paper's Table 2 values as white diamonds with a
-    black edge, so they cannot be mistaken for the error bars. The title
+    lines, no caps); for the paper's arm the paper's Table 2 values as white
+    diamonds with a black edge, so they cannot be mistaken for the error
+    bars (another arm: its N joints, no diamonds, its model in the title). The title
     names the poses and their distribution. Built without pyplot (no global
     state; safe from threads); save it with :func:`aacmm.fileio.save_figure`.
     """
@@ -300,10 +393,18 @@ def figure(result: CoefficientResult) -> Any:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    ours, sem, paper = result.table2(), result.table2_sem(), paper_table2()
+    n = result.n_joints
+    paper: FloatArray | None
+    if result.is_paper:
+        ours, sem, paper = result.table2(), result.table2_sem(), paper_table2()
+    else:  # the same layout, N joints: columns alpha x, y, z then theta x, y, z
+        cols = [(r, off) for off in (n, 0) for r in range(len(AXES))]
+        ours = np.stack([result.mean_abs[r, off : off + n] for r, off in cols], axis=1)
+        sem = np.stack([result.sem[r, off : off + n] for r, off in cols], axis=1)
+        paper = None
     fig = Figure(figsize=(11, 5.0), layout="constrained")
     axes = fig.subplots(1, 2, sharey=True)
-    x = np.arange(1, JOINTS + 1)
+    x = np.arange(1, n + 1)
     width = 0.26
     colors = ("tab:blue", "tab:orange", "tab:green")
     for p, (ax, g) in enumerate(zip(axes, (r"\alpha", r"\theta"), strict=True)):
@@ -312,6 +413,8 @@ def figure(result: CoefficientResult) -> Any:
             xs = x + (r - 1) * width
             ax.bar(xs, ours[:, c], width, color=colors[r])
             ax.errorbar(xs, ours[:, c], yerr=sem[:, c], fmt="none", ecolor="black", elinewidth=1)
+            if paper is None:
+                continue
             ax.plot(
                 xs,
                 paper[:, c],
@@ -330,20 +433,25 @@ def figure(result: CoefficientResult) -> Any:
         Patch(color=colors[r], label=rf"$|\partial f_{a} / \partial q_i|$, this run")
         for r, a in enumerate(AXES)
     ]
-    handles += [
-        Line2D([], [], color="black", linewidth=1, label=r"error bar: $\pm 1$ standard error"),
-        Line2D(
-            [],
-            [],
-            linestyle="none",
-            marker="D",
-            markerfacecolor="white",
-            markeredgecolor="black",
-            label="paper, Table 2",
-        ),
-    ]
+    handles.append(
+        Line2D([], [], color="black", linewidth=1, label=r"error bar: $\pm 1$ standard error")
+    )
+    if paper is not None:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                linestyle="none",
+                marker="D",
+                markerfacecolor="white",
+                markeredgecolor="black",
+                label="paper, Table 2",
+            )
+        )
     fig.legend(handles=handles, loc="outside lower center", ncols=5, fontsize=8, frameon=False)
     seed = f", seed {result.seed}" if result.seed is not None else ""
     title = f"{result.n} poses ({result.source}{seed}); {joints_title(result.joints)}"
+    if not result.is_paper:
+        title = f"{result.model or 'given arm'} ({n} joints): {title}"
     fig.suptitle("\n".join(textwrap.wrap(title, 150)), fontsize=9)
     return fig

@@ -16,6 +16,7 @@ import math
 import numpy as np
 from scipy import stats
 
+from aacmm.calibration.parameters import param_names
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
 from aacmm.calibration.results import ChiSquare, Outlier, Suspect
 from aacmm.core import FloatArray
@@ -68,14 +69,20 @@ def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> 
     A joint is a suspect when its pair is significant given the others (Wald
     statistic over chi-square(2) at 1e-6); the suspects are returned only if
     the extended model explains at least half of the excess chi^2 - dof.
+    A joint whose first harmonic the calibration estimates already (``c<j>_1``
+    among the parameters) is not searched.
     """
     theta = problem.obs.theta_rad
-    joints = theta.shape[1]
+    modelled = set(param_names(ev.params))
+    searched = [k for k in range(theta.shape[1]) if f"c{k + 1}_1" not in modelled]
+    joints = len(searched)
+    if joints == 0:
+        return ()
     extra = np.zeros((theta.shape[0], 3, 2 * joints))
-    for k in range(joints):
+    for i, k in enumerate(searched):
         col = ev.point_jac[:, :, k]  # dp/dq_k
-        extra[:, :, 2 * k] = col * np.sin(theta[:, k])[:, None]
-        extra[:, :, 2 * k + 1] = col * np.cos(theta[:, k])[:, None]
+        extra[:, :, 2 * i] = col * np.sin(theta[:, k])[:, None]
+        extra[:, :, 2 * i + 1] = col * np.cos(theta[:, k])[:, None]
     ext = problem.evaluate(ev.params, extra_point_jac=extra)
     a = ev.jac @ basis
     b = ext.jac[:, ev.jac.shape[1] :]
@@ -91,9 +98,9 @@ def _suspects(problem: Problem, ev: Evaluation, basis: FloatArray, dof: int) -> 
     cov = np.linalg.pinv(b.T @ b)
     limit = float(stats.chi2.isf(1e-6, 2))
     out = []
-    for k in range(joints):
-        ck = coef[2 * k : 2 * k + 2]
-        vk = cov[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
+    for i, k in enumerate(searched):
+        ck = coef[2 * i : 2 * i + 2]
+        vk = cov[2 * i : 2 * i + 2, 2 * i : 2 * i + 2]
         wald = float(ck @ np.linalg.pinv(vk) @ ck)
         if wald > limit:
             out.append(

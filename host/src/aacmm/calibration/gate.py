@@ -517,6 +517,9 @@ def assess(
     that made the set in force, if known; ``validation``: the before/after
     comparison on held-out sessions, if any.
     """
+    from aacmm.calibration.harmonics import dh_part
+
+    res = dh_part(res)  # encoder harmonics: the arm's part (its marginal covariance)
     lim = limits or GateLimits()
     pred = predict(res, previous, lim.pairs, lim.seed, lim.confidence)
     refusals = [

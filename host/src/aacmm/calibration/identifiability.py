@@ -50,7 +50,9 @@ import numpy as np
 
 from aacmm.arm import Arm
 from aacmm.calibration.parameters import (
-    ArmParams,
+    AnyParams,
+    CalibParams,
+    arm_part,
     param_names,
     tip_columns,
     tip_in_last_frame,
@@ -66,6 +68,7 @@ DEFAULT_KAPPA = 10.0
 RANK_FLOOR = 1e-10
 _IN_NULL = 0.02  # a candidate symmetry lies in the null space if <2 % of it sticks out
 _COMPONENT_MIN = 0.1
+_HARMONIC_HELD = 0.3  # with harmonics: a preferred parameter's least null-space leverage
 
 
 @dataclass(frozen=True)
@@ -169,10 +172,17 @@ class Identifiability:
         return float(s[self.rank - 1] / max(s[self.rank], 1e-300))
 
 
-def preferred_held(params: ArmParams) -> tuple[str, ...]:
+def preferred_held(p: AnyParams) -> tuple[str, ...]:
     """The parameters the 'fix' strategy tries first to hold (:data:`PREFERRED_HELD`
     for the paper's arm): the base's (theta1, d1, and alpha1, a1 for a modified
-    first joint), then the last joint's tip parameters but the tip itself."""
+    first joint), then the last joint's tip parameters but the tip itself; with
+    encoder harmonics (a :class:`CalibParams`) then the harmonics, highest order
+    first, rather than a theta offset they are confounded with (a joint over a
+    limited range)."""
+    if isinstance(p, CalibParams):
+        order = sorted(p.errors.param_names, key=lambda n: -int(n.split("_")[1]))
+        return (*preferred_held(p.arm), *order)
+    params = p
     if isinstance(params, Params):
         return PREFERRED_HELD
     base = ("theta1", "d1", "alpha1", "a1") if params.joints[0].convention == "modified" else ()
@@ -218,8 +228,15 @@ def _arm_symmetries(arm: Arm) -> list[tuple[str, list[FloatArray]]]:
     return out
 
 
-def _symmetries(params: ArmParams) -> list[tuple[str, list[FloatArray]]]:
-    """Known exact symmetries of point data at ``params`` (parameter units, P each)."""
+def _symmetries(params: AnyParams) -> list[tuple[str, list[FloatArray]]]:
+    """Known exact symmetries of point data at ``params`` (parameter units, P each;
+    P + E for a :class:`CalibParams`: the arm's, the harmonics not involved)."""
+    if isinstance(params, CalibParams):
+        pad = params.errors.n_cols
+        return [
+            (kind, [np.concatenate([v, np.zeros(pad)]) for v in vecs])
+            for kind, vecs in _symmetries(params.arm)
+        ]
     if isinstance(params, Arm):
         return _arm_symmetries(params)
     v = params.to_vector()
@@ -285,9 +302,10 @@ _MEANING = {
 }
 
 
-def _meaning(kind: str, params: ArmParams) -> tuple[str, str]:
+def _meaning(kind: str, p: AnyParams) -> tuple[str, str]:
     """What a named direction does and what would observe it (for a general arm,
     the tip's parameters by name)."""
+    params = arm_part(p)
     if isinstance(params, Params) or kind not in ("tip", "alpha1", "a1", "parallel"):
         return _MEANING[kind]
     if kind == "tip":
@@ -346,7 +364,7 @@ def _scaled_orthonormal(
 
 
 def _name_null(
-    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: ArmParams
+    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: AnyParams
 ) -> tuple[NullDirection, ...]:
     """Named directions spanning the null space (scaled coords, columns = ``columns``).
 
@@ -361,7 +379,7 @@ def _name_null(
     found: list[tuple[str, FloatArray]] = []
     accepted = np.zeros((len(cols), 0))
     for kind, vecs in _symmetries(params):
-        if isinstance(params, Arm) and kind == "tip":
+        if isinstance(arm_part(params), Arm) and kind == "tip":
             vecs = _scaled_orthonormal(vecs, cols, scale)
         for v in vecs:
             if accepted.shape[1] == k:
@@ -457,6 +475,12 @@ def analyse(
     basis, null = v[:, :rank], v[:, rank:]
     scale = raw / math.sqrt(float(w.sum()))
     named = _name_null(null, scale, cols, ev.params)
+    preferred = preferred_held(ev.params)
+    if isinstance(ev.params, CalibParams) and ev.params.errors.n_cols and null.shape[1]:
+        # with harmonics a preferred parameter is held only where it is mostly in the
+        # null space itself (else one barely in it, chosen first, blocks the others)
+        lev = dict(zip(names, np.linalg.norm(null, axis=1), strict=True))
+        preferred = tuple(n for n in preferred if lev.get(n, 0.0) >= _HARMONIC_HELD)
     return Identifiability(
         names,
         cols,
@@ -467,7 +491,7 @@ def analyse(
         basis,
         null,
         named,
-        _held(null, list(names), preferred_held(ev.params)),
+        _held(null, list(names), preferred),
         m,
         ratio,
     )

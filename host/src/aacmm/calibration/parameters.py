@@ -7,7 +7,16 @@ code path unchanged), an :class:`~aacmm.arm.Arm` start gives arms of the same
 shape. P, the parameter names and units and the column order are the arm's
 (docs/kinematics.md: thetas, alphas, ds, as, betas, tip).
 
-Main names: :data:`ArmParams`, :func:`arm_of`, :func:`param_names`,
+A calibration of the encoder angle harmonics as well (issue 27) works on a
+:class:`CalibParams`: the arm's parameters and an
+:class:`~aacmm.errmodel.ErrorModel`, the vector the arm's P values followed by
+the E harmonic coefficients ``c<j>_<k>``, ``s<j>_<k>`` (rad; joint ``j`` and
+harmonic ``k`` from 1, :attr:`aacmm.errmodel.ErrorModel.param_names`), the
+columns of :func:`aacmm.errmodel.points_jacobians`. The functions here take it
+as they take an arm; :func:`arm_part` and :func:`error_model` split it.
+
+Main names: :data:`ArmParams`, :class:`CalibParams`, :data:`AnyParams`,
+:func:`arm_of`, :func:`arm_part`, :func:`error_model`, :func:`param_names`,
 :func:`param_units`, :func:`n_joints`, :func:`with_vector`, :func:`validate`,
 :func:`tip_columns`, :func:`hayati_held`.
 
@@ -18,6 +27,7 @@ the wrong length.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import overload
 
 import numpy as np
@@ -25,10 +35,15 @@ import numpy.typing as npt
 
 from aacmm.arm import Arm
 from aacmm.core import PARAM_NAMES, PARAM_UNITS, FloatArray, Model, Params
+from aacmm.errmodel import ErrorModel
 
 __all__ = [
+    "AnyParams",
     "ArmParams",
+    "CalibParams",
     "arm_of",
+    "arm_part",
+    "error_model",
     "hayati_held",
     "n_joints",
     "param_names",
@@ -43,24 +58,93 @@ __all__ = [
 ArmParams = Params | Arm
 
 
-def arm_of(p: ArmParams) -> Arm:
+@dataclass(frozen=True)
+class CalibParams:
+    """An arm's parameters and its encoder angle harmonics, calibrated together.
+
+    ``arm``: the paper's :class:`~aacmm.core.Params` or an :class:`~aacmm.arm.Arm`;
+    ``errors``: its :class:`~aacmm.errmodel.ErrorModel` (harmonics only: no CTE
+    columns). The vector is the arm's P values, then the E coefficients
+    (``errors.param_names`` order). Raises ValueError for an error model of
+    another joint count or with CTE columns.
+    """
+
+    arm: ArmParams
+    errors: ErrorModel
+
+    def __post_init__(self) -> None:
+        if self.errors.joints != n_joints(self.arm):
+            raise ValueError(
+                f"the error model has {self.errors.joints} joints, the arm {n_joints(self.arm)}"
+            )
+        if self.errors.cte_columns:
+            raise ValueError("a calibration's error model carries harmonics only (no CTE columns)")
+
+    @property
+    def harmonics(self) -> tuple[int, ...]:
+        """K per joint (N,)."""
+        return tuple(len(h) for h in self.errors.harmonics)
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return (*param_names(self.arm), *self.errors.param_names)
+
+    def to_vector(self) -> FloatArray:
+        """The P + E values: the arm's, then ``c<j>_<k>``, ``s<j>_<k>`` joint after joint."""
+        coeffs = [v for h in self.errors.harmonics for pair in h for v in pair]
+        return np.concatenate([self.arm.to_vector(), np.asarray(coeffs, dtype=np.float64)])
+
+    def with_vector(self, v: npt.ArrayLike) -> CalibParams:
+        """The same shape with values ``v`` (P + E). Raises ValueError for the wrong
+        length or coefficients the error model refuses (their sum beyond 0.1 rad)."""
+        x = np.asarray(v, dtype=np.float64).reshape(-1)
+        p = len(param_names(self.arm))
+        if x.size != p + self.errors.n_cols:
+            raise ValueError(f"expected {p + self.errors.n_cols} values, got {x.size}")
+        it = iter(x[p:].tolist())
+        hs = tuple(tuple((next(it), next(it)) for _ in h) for h in self.errors.harmonics)
+        em = ErrorModel(hs, self.errors.cte_per_k, self.errors.tref_c)
+        return CalibParams(with_vector(self.arm, x[:p]), em)
+
+
+#: What a calibration works on: an arm, or an arm and its encoder harmonics.
+AnyParams = Params | Arm | CalibParams
+
+
+def arm_part(p: AnyParams) -> ArmParams:
+    """The arm's own parameters (``p`` itself unless a :class:`CalibParams`)."""
+    return p.arm if isinstance(p, CalibParams) else p
+
+
+def error_model(p: AnyParams) -> ErrorModel | None:
+    """The error model of a :class:`CalibParams`, else None."""
+    return p.errors if isinstance(p, CalibParams) else None
+
+
+def arm_of(p: AnyParams) -> Arm:
     """``p`` as an :class:`~aacmm.arm.Arm` (a :class:`Params` by :meth:`Params.to_arm`)."""
-    return p.to_arm() if isinstance(p, Params) else p
+    a = arm_part(p)
+    return a.to_arm() if isinstance(a, Params) else a
 
 
-def param_names(p: ArmParams) -> tuple[str, ...]:
-    """The P parameter names in Jacobian column order."""
+def param_names(p: AnyParams) -> tuple[str, ...]:
+    """The P (+ E) parameter names in Jacobian column order."""
+    if isinstance(p, CalibParams):
+        return p.param_names
     return PARAM_NAMES if isinstance(p, Params) else p.param_names
 
 
-def param_units(p: ArmParams) -> tuple[str, ...]:
+def param_units(p: AnyParams) -> tuple[str, ...]:
     """The unit (``rad`` or ``mm``) of each parameter, in column order."""
+    if isinstance(p, CalibParams):
+        return (*param_units(p.arm), *("rad",) * p.errors.n_cols)
     return PARAM_UNITS if isinstance(p, Params) else p.param_units
 
 
-def n_joints(p: ArmParams) -> int:
+def n_joints(p: AnyParams) -> int:
     """N, the arm's joint count (the width of its joint readings)."""
-    return len(p.d_mm) if isinstance(p, Params) else p.n_joints
+    a = arm_part(p)
+    return len(a.d_mm) if isinstance(a, Params) else a.n_joints
 
 
 @overload
@@ -68,26 +152,31 @@ def with_vector(p: Params, v: npt.ArrayLike) -> Params: ...
 @overload
 def with_vector(p: Arm, v: npt.ArrayLike) -> Arm: ...
 @overload
+def with_vector(p: CalibParams, v: npt.ArrayLike) -> CalibParams: ...
+@overload
 def with_vector(p: ArmParams, v: npt.ArrayLike) -> ArmParams: ...
-def with_vector(p: ArmParams, v: npt.ArrayLike) -> ArmParams:
+@overload
+def with_vector(p: AnyParams, v: npt.ArrayLike) -> AnyParams: ...
+def with_vector(p: AnyParams, v: npt.ArrayLike) -> AnyParams:
     """The same kind of parameters (and for an arm, the same shape) with values ``v``.
 
-    Raises ValueError unless ``v`` has P values.
+    Raises ValueError unless ``v`` has P (+ E) values.
     """
     if isinstance(p, Params):
         return Params.from_vector(v)
     return p.with_vector(v)
 
 
-def validate(p: ArmParams) -> None:
+def validate(p: AnyParams) -> None:
     """Check the values with the core's own validator (raises KinematicsError)."""
-    if isinstance(p, Params):
-        p.validate()
+    a = arm_part(p)
+    if isinstance(a, Params):
+        a.validate()
     else:
-        Model(p)
+        Model(a)
 
 
-def tip_columns(p: ArmParams) -> tuple[str, ...]:
+def tip_columns(p: AnyParams) -> tuple[str, ...]:
     """The parameters that place the probe tip relative to the last joint's rotation.
 
     The probe point depends on them only through the tip's position in the
@@ -106,7 +195,7 @@ def tip_columns(p: ArmParams) -> tuple[str, ...]:
     return tuple(sorted(names, key=order.index))
 
 
-def hayati_held(p: ArmParams) -> tuple[str, ...]:
+def hayati_held(p: AnyParams) -> tuple[str, ...]:
     """The ``d`` of every joint that declares a beta: Hayati's beta replaces it.
 
     Where a joint's axis is (nearly) parallel to the previous one, the shift
@@ -115,9 +204,10 @@ def hayati_held(p: ArmParams) -> tuple[str, ...]:
     says the model uses the tilt about y instead, so this joint's ``d`` stays
     at its start value (Hayati 1983). Empty for the paper's arm.
     """
-    if isinstance(p, Params):
+    a = arm_part(p)
+    if isinstance(a, Params):
         return ()
-    return tuple(f"d{j + 1}" for j in p.beta_joints)
+    return tuple(f"d{j + 1}" for j in a.beta_joints)
 
 
 def _rot(axis: int, angle: complex) -> npt.NDArray[np.complex128]:

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from aacmm.calibration.identifiability import Identifiability
+from aacmm.calibration.parameters import param_names
 from aacmm.calibration.report import unit_residuals
 from aacmm.calibration.results import CalibrationResult
-from aacmm.core import PARAM_NAMES
 from aacmm.uncertainty.report import UncertaintyResult
 
 
@@ -95,13 +95,14 @@ def spectrum_figure(idn: Identifiability) -> Any:
 
 def correlation_figure(res: CalibrationResult) -> Any:
     """The correlation matrix of the estimated parameters."""
-    free = [PARAM_NAMES.index(n) for n in res.free]
+    names = param_names(res.params)
+    free = [names.index(n) for n in res.free]
     c = res.correlation[np.ix_(free, free)]
     fig = _figure(7, 6)
     ax = fig.add_subplot()
     im = ax.imshow(c, vmin=-1, vmax=1, cmap="coolwarm")
-    ax.set_xticks(range(len(free)), [PARAM_NAMES[k] for k in free], rotation=90, fontsize=7)
-    ax.set_yticks(range(len(free)), [PARAM_NAMES[k] for k in free], fontsize=7)
+    ax.set_xticks(range(len(free)), [names[k] for k in free], rotation=90, fontsize=7)
+    ax.set_yticks(range(len(free)), [names[k] for k in free], fontsize=7)
     fig.colorbar(im, ax=ax, shrink=0.8, label="correlation")
     ax.set_title("correlations of the calibrated parameters", fontsize=10)
     return fig

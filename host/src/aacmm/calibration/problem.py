@@ -3,7 +3,9 @@
 :class:`Problem` compiles an :class:`~aacmm.calibration.observations.Observations`
 once; :meth:`Problem.evaluate` then gives, for one parameter set, the whitened
 residual vector and its Jacobian with respect to the arm's P parameters (25 for
-the paper's arm; any :class:`~aacmm.arm.Arm` as well), the
+the paper's arm; any :class:`~aacmm.arm.Arm` as well; a
+:class:`~aacmm.calibration.parameters.CalibParams` adds its E encoder-harmonic
+columns, from :func:`aacmm.errmodel.points_jacobians`), the
 probe points and Jacobians coming from the C core in one batch call (analytic,
 no finite differences).
 
@@ -51,8 +53,11 @@ from aacmm.calibration.observations import (
     ReferencePoints,
     Sphere,
 )
-from aacmm.calibration.parameters import ArmParams, n_joints
+from aacmm.calibration.parameters import AnyParams, arm_part, error_model, n_joints
 from aacmm.core import JAC_COLS, FloatArray, KinematicsError, Model
+from aacmm.errmodel import ErrorModel
+from aacmm.errmodel import points as em_points
+from aacmm.errmodel import points_jacobians as em_points_jacobians
 
 __all__ = ["CalibrationError", "Evaluation", "Problem", "Residuals", "Unit"]
 
@@ -79,7 +84,7 @@ class Unit:
 class Residuals:
     """The whitened residuals (m,) at one parameter set, with the tip points (n, 3)."""
 
-    params: ArmParams
+    params: AnyParams
     r: FloatArray
     points: FloatArray
     nuisance: dict[int, dict[str, FloatArray]] = field(default_factory=dict)
@@ -91,7 +96,8 @@ class Residuals:
 
 @dataclass
 class Evaluation(Residuals):
-    """Residuals and projected Jacobian (m, P) at one parameter set (P = 25 for the paper's arm).
+    """Residuals and projected Jacobian (m, P) at one parameter set (P = 25 for the paper's arm;
+    P + E for a :class:`~aacmm.calibration.parameters.CalibParams`).
 
     ``sigma`` (m,): standard uncertainty of each row (residual in mm = r * sigma);
     ``h`` (m,): leverage of the row on the nuisance unknowns; ``unit`` (m,):
@@ -390,7 +396,7 @@ class Problem:
 
     # ------------------------------------------------------------------ evaluation
 
-    def _model(self, params: ArmParams) -> Model:
+    def _model(self, params: AnyParams) -> tuple[Model, ErrorModel | None]:
         joints = n_joints(params)
         if joints != self.obs.n_joints:
             raise CalibrationError(
@@ -398,27 +404,44 @@ class Problem:
                 f"the arm {joints} joints"
             )
         try:
-            return Model(params)
+            return Model(arm_part(params)), error_model(params)
         except KinematicsError as e:
             raise CalibrationError(f"parameter set out of range during the fit: {e}") from None
 
-    def _points(self, model: Model, jacobian: bool) -> tuple[FloatArray, FloatArray | None]:
+    @staticmethod
+    def _core(
+        model: tuple[Model, ErrorModel | None], th: FloatArray, jacobian: bool
+    ) -> tuple[FloatArray, FloatArray | None]:
+        """Points (and Jacobians) of readings ``th``: the arm's own, or with its error model."""
+        m, em = model
+        if em is None:
+            return m.points_jacobians(th) if jacobian else (m.points(th), None)
+        try:
+            if jacobian:
+                return em_points_jacobians(m, em, th)
+            return em_points(m, em, th), None
+        except KinematicsError as e:  # the harmonics' sum beyond the core's limit
+            raise CalibrationError(f"error model out of range during the fit: {e}") from None
+
+    def _points(
+        self, model: tuple[Model, ErrorModel | None], jacobian: bool
+    ) -> tuple[FloatArray, FloatArray | None]:
         th = self.obs.theta_rad
         if self.all_used:
-            if jacobian:
-                return model.points_jacobians(th)
-            return model.points(th), None
+            return self._core(model, th, jacobian)
         n = th.shape[0]
         pts = np.zeros((n, 3))
         u = self.used
         if not jacobian:
-            pts[u] = model.points(th[u])
+            pts[u] = self._core(model, th[u], False)[0]
             return pts, None
-        pj = np.zeros((n, 3, model.n_params))
-        pts[u], pj[u] = model.points_jacobians(th[u])
+        extra = model[1].n_cols if model[1] is not None else 0
+        pj = np.zeros((n, 3, model[0].n_params + extra))
+        p_u, j_u = self._core(model, th[u], True)
+        pts[u], pj[u] = p_u, j_u
         return pts, pj
 
-    def residuals(self, params: ArmParams) -> Residuals:
+    def residuals(self, params: AnyParams) -> Residuals:
         """Whitened residuals only (the tip points alone, no Jacobian: cheaper).
 
         Raises CalibrationError as :meth:`evaluate`.
@@ -428,7 +451,7 @@ class Problem:
         nuis = self._fill(pts, None, r, None, None)
         return Residuals(params, r, pts, nuis)
 
-    def evaluate(self, params: ArmParams, extra_point_jac: FloatArray | None = None) -> Evaluation:
+    def evaluate(self, params: AnyParams, extra_point_jac: FloatArray | None = None) -> Evaluation:
         """Residuals and projected Jacobian at ``params``.
 
         ``extra_point_jac`` (n, 3, E): derivatives of each pose's tip point

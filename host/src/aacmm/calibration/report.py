@@ -20,7 +20,7 @@ from aacmm import uncertainty as unc
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.parameters import param_names, param_units
 from aacmm.calibration.problem import KIND_LENGTH, Evaluation, Problem
-from aacmm.calibration.results import CalibrationResult, Outlier
+from aacmm.calibration.results import CalibrationResult, ErrorTerm, Outlier
 from aacmm.calibration.validation import Comparison, describe_change, is_worse
 from aacmm.core import PARAM_NAMES, FloatArray, Params
 
@@ -157,6 +157,45 @@ def format_comparison(cmp_: Comparison, title: str) -> str:
     return "\n".join(lines)
 
 
+def format_error_terms(terms: tuple[ErrorTerm, ...], requested: str = "") -> str:
+    """The encoder harmonics of a calibration: per term its value, uncertainty,
+    observability and status ('' without harmonics)."""
+    if not terms:
+        return ""
+    est = sum(1 for t in terms if t.status != "unobserved")
+    lines = [
+        f"Encoder angle harmonics ({requested or 'asked for'}): {est} of {len(terms)} terms "
+        "estimated; q + sum_k (c_k cos kq + s_k sin kq)",
+        f"  {'term':<7} {'value':>10} {'u (k=1)':>10} {'observ.':>8}  status",
+    ]
+    for t in terms:
+        if t.in_model and t.status != "unobserved":
+            val = f'{t.value / ARCSEC:+.2f}"'
+            u = f'{t.std / ARCSEC:.2f}"'
+        else:
+            val = u = "-"
+        why = "" if t.in_model else " (the joint's angle does not move the probe point)"
+        lines.append(f"  {t.name:<7} {val:>10} {u:>10} {t.observability:8.3f}  {t.status}{why}")
+    return "\n".join(lines)
+
+
+def error_terms_json(terms: tuple[ErrorTerm, ...]) -> list[dict[str, Any]]:
+    """The encoder harmonics as JSON rows (rad)."""
+    return [
+        {
+            "name": t.name,
+            "joint": t.joint,
+            "k": t.k,
+            "value_rad": t.value,
+            "std_rad": t.std,
+            "observability": t.observability,
+            "status": t.status,
+            "in_model": t.in_model,
+        }
+        for t in terms
+    ]
+
+
 def _fmt_outlier(o: Outlier) -> str:
     return (
         f"  {o.label}: {o.constraint} ({o.kind}), residual {o.residual_mm * 1e3:.1f} um, "
@@ -179,8 +218,11 @@ def format_result(res: CalibrationResult, cmp_: Comparison | None = None) -> str
         "Parameters:",
         format_parameters(res),
         "",
-        res.chi_square.describe(),
     ]
+    harm = format_error_terms(res.error_terms, res.harmonics_requested)
+    if harm:
+        lines += [harm, ""]
+    lines.append(res.chi_square.describe())
     scaling = uncertainty_scaling_text(res)
     if scaling:
         lines.append(scaling)
@@ -224,6 +266,9 @@ def point_uncertainty(
     arm do not depend on them. The covariance is the reported one
     (:attr:`~aacmm.calibration.results.CalibrationResult.scaled_covariance`).
     """
+    from aacmm.calibration.harmonics import dh_part
+
+    res = dh_part(res)  # encoder harmonics: the arm's parameters, their marginal covariance
     if not isinstance(res.params, Params):
         raise ValueError(
             "point uncertainty of a calibration: the paper's arm only (aacmm.uncertainty "
@@ -356,6 +401,10 @@ def to_json(res: CalibrationResult[Any], cmp_: Comparison | None = None) -> dict
             "elapsed_s": res.elapsed_s,
         },
         "notes": list(res.notes),
+        "error_model": {
+            "harmonics_requested": res.harmonics_requested,
+            "terms": error_terms_json(res.error_terms),
+        },
     }
     if cmp_ is not None:
         out["before_after"] = comparison_json(cmp_)

@@ -1,4 +1,5 @@
-"""What a calibration found: the result, its chi-square check, outliers, suspects, progress.
+"""What a calibration found: the result, its chi-square check, outliers, suspects, progress,
+the encoder harmonics it estimated (:class:`ErrorTerm`).
 
 Plain records, filled by :mod:`aacmm.calibration.solve`; public as names of
 :mod:`aacmm.calibration`.
@@ -15,7 +16,7 @@ import numpy as np
 from aacmm.arm import Arm
 from aacmm.calibration.identifiability import Identifiability
 from aacmm.calibration.observations import Observations
-from aacmm.calibration.parameters import param_names
+from aacmm.calibration.parameters import CalibParams, param_names
 from aacmm.calibration.problem import Evaluation, Problem
 from aacmm.core import FloatArray, Params
 
@@ -23,12 +24,45 @@ if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
     from typing_extensions import TypeVar
 
     #: The kind of parameters a calibration works on: the paper's Params
-    #: (the default) or an Arm.
-    P = TypeVar("P", Params, Arm, default=Params)
+    #: (the default), an Arm, or either with its encoder harmonics (CalibParams).
+    P = TypeVar("P", Params, Arm, CalibParams, default=Params)
 else:
     from typing import TypeVar
 
-    P = TypeVar("P", Params, Arm)
+    P = TypeVar("P", Params, Arm, CalibParams)
+
+
+#: The status of an encoder harmonic term (:class:`ErrorTerm`).
+TERM_ESTIMATED = "estimated"
+TERM_WEAK = "weakly observed"
+TERM_UNOBSERVED = "unobserved"
+
+
+@dataclass(frozen=True)
+class ErrorTerm:
+    """One encoder angle harmonic of a calibration: ``c<j>_<k>`` or ``s<j>_<k>``.
+
+    ``joint`` and ``k`` from 1; ``value`` and ``std`` (rad; the reported,
+    scaled uncertainty; 0 when not estimated); ``observability``: the share of
+    the term's effect on the probe points that no other free parameter (and no
+    nuisance unknown) can take up, 0 .. 1 (the column-scaled Jacobian's
+    ``1 / sqrt((A^T A)^-1_ii)``; 0 for a term held or outside the model);
+    ``status``: :data:`TERM_ESTIMATED`, :data:`TERM_WEAK` (estimated, but
+    mostly confounded with other parameters: a joint that moves over a limited
+    range sees ``cos kq`` and ``sin kq`` nearly as a constant, its theta
+    offset, and a slope) or :data:`TERM_UNOBSERVED` (held at 0: in the data's
+    null space, or no effect on the probe point at all); ``in_model``: the
+    term is one of the calibration's parameters.
+    """
+
+    name: str
+    joint: int
+    k: int
+    value: float
+    std: float
+    observability: float
+    status: str
+    in_model: bool = True
 
 
 @dataclass(frozen=True)
@@ -158,7 +192,11 @@ class CalibrationResult(Generic[P]):
     by chi^2/dof when the check refutes the model); ``chi_square``;
     ``outliers`` found at the solution and ``rejected`` (excluded when
     ``reject=True``); ``before`` and ``after``: evaluations at start and
-    solution; ``observations``: the data finally used.
+    solution; ``observations``: the data finally used. ``error_terms``: the
+    encoder harmonics considered (empty without ``harmonics``; with it ``params``
+    is a :class:`~aacmm.calibration.parameters.CalibParams`, P + E wide) and
+    ``harmonics_requested``: what was asked for (``"0"``, ``"2"``, ``"auto"``, a
+    per-joint list).
     """
 
     params: P
@@ -182,6 +220,8 @@ class CalibrationResult(Generic[P]):
     stages: int
     solver_status: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
+    error_terms: tuple[ErrorTerm, ...] = ()
+    harmonics_requested: str = "0"
 
     @property
     def std(self) -> FloatArray:

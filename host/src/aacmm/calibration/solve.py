@@ -18,7 +18,11 @@
    ones), correlations, the chi-square consistency check and, when it fails,
    a search for the unmodelled error (a once-per-revolution angle error of a
    joint, as encoder eccentricity gives) (:mod:`aacmm.calibration.diagnostics`);
-5. outliers: each probed point (or length position) is tested with its
+5. with ``harmonics`` (issue 27), the encoder angle harmonics ``c<j>_<k>``,
+   ``s<j>_<k>`` are parameters too, after the arm's (a
+   :class:`~aacmm.calibration.parameters.CalibParams`; steps 1 to 4 unchanged
+   over P + E columns; :mod:`aacmm.calibration.harmonics`);
+6. outliers: each probed point (or length position) is tested with its
    normalised residual against a family-wise false-alarm rate
    (:func:`~aacmm.calibration.diagnostics.find_outliers`); flagged points
    are only excluded (and the solve repeated) when ``reject=True``.
@@ -49,11 +53,22 @@ from aacmm.calibration.diagnostics import (
     parameter_covariance,
 )
 from aacmm.calibration.features import CalibrationError
+from aacmm.calibration.harmonics import (
+    choose_auto,
+    error_terms,
+    parse_harmonics,
+    screen,
+    start_params,
+)
 from aacmm.calibration.identifiability import DEFAULT_KAPPA, Identifiability, analyse
 from aacmm.calibration.observations import LengthSet, Observations
 from aacmm.calibration.parameters import (
+    AnyParams,
     ArmParams,
+    CalibParams,
+    arm_part,
     hayati_held,
+    n_joints,
     param_names,
     tip_columns,
     validate,
@@ -80,9 +95,10 @@ _MAX_STAGES = 5
 _MAX_REJECT_ROUNDS = 4
 
 
-def parse_names(names: Sequence[str], params: ArmParams | None = None) -> tuple[str, ...]:
+def parse_names(names: Sequence[str], params: AnyParams | None = None) -> tuple[str, ...]:
     """Parameter names from names and groups (``theta``, ``alpha``, ``d``, ``a``,
-    ``beta``, ``tip`` = theta6 alpha6 d6 a6 l, ``all``), comma lists allowed; in
+    ``beta``, ``tip`` = theta6 alpha6 d6 a6 l, ``all``; with encoder harmonics
+    also ``harmonics``), comma lists allowed; in
     column order. The names are those of ``params`` (default: the paper's arm;
     for any arm ``tip`` is :func:`~aacmm.calibration.parameters.tip_columns`).
 
@@ -93,6 +109,8 @@ def parse_names(names: Sequence[str], params: ArmParams | None = None) -> tuple[
     tip = set(tip_columns(p))
     groups = {g: {n for n in all_names if n.rstrip("0123456789") == g} for g in PARAM_GROUPS[:4]}
     groups["beta"] = {n for n in all_names if n.startswith("beta")}
+    if isinstance(p, CalibParams):
+        groups["harmonics"] = set(p.errors.param_names)
     out: set[str] = set()
     for item in names:
         for n in (x.strip() for x in str(item).split(",")):
@@ -107,7 +125,7 @@ def parse_names(names: Sequence[str], params: ArmParams | None = None) -> tuple[
             elif n == "all":
                 out |= set(all_names)
             else:
-                raise ValueError(f"unknown parameter {n!r} ({_name_help(p)})")
+                raise ValueError(f"unknown parameter {n!r} ({_name_help(arm_part(p))})")
     return tuple(n for n in all_names if n in out)
 
 
@@ -130,7 +148,7 @@ class _Solver:
     def __init__(
         self,
         problem: Problem,
-        template: ArmParams,
+        template: AnyParams,
         base: FloatArray,
         basis: FloatArray,
         stage: int,
@@ -150,8 +168,11 @@ class _Solver:
         self._res: Residuals | None = None
         self.nfev = 0
 
-    def params(self, x: FloatArray) -> ArmParams:
-        return with_vector(self.template, self.base + self.basis @ x)
+    def params(self, x: FloatArray) -> AnyParams:
+        try:
+            return with_vector(self.template, self.base + self.basis @ x)
+        except ValueError as e:  # harmonics the error model refuses (beyond 0.1 rad)
+            raise CalibrationError(f"error model out of range during the fit: {e}") from None
 
     def _note(self, res: Residuals) -> None:
         self.nfev += 1
@@ -224,15 +245,18 @@ def _stage_basis(
     return b, ()
 
 
-def _candidates(free: Sequence[str] | None, fix: Sequence[str], params: ArmParams) -> list[int]:
+def _candidates(free: Sequence[str] | None, fix: Sequence[str], params: AnyParams) -> list[int]:
     """The columns to estimate: ``free`` (default all but the d a Hayati beta replaces,
-    :func:`~aacmm.calibration.parameters.hayati_held`) less ``fix``."""
+    :func:`~aacmm.calibration.parameters.hayati_held`; the encoder harmonics of a
+    :class:`CalibParams` always) less ``fix``."""
     all_names = param_names(params)
     names = (
         parse_names(free, params)
         if free is not None
         else tuple(n for n in all_names if n not in hayati_held(params))
     )
+    if isinstance(params, CalibParams) and free is not None:
+        names = (*names, *params.errors.param_names)
     fixed = set(parse_names(fix, params))
     cols = [all_names.index(n) for n in names if n not in fixed]
     if not cols:
@@ -254,6 +278,7 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Params]: ...
 @overload
 def calibrate(
@@ -269,11 +294,12 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Arm]: ...
 @overload
 def calibrate(
     obs: Observations,
-    start: ArmParams | None = None,
+    start: CalibParams,
     *,
     free: Sequence[str] | None = None,
     fix: Sequence[str] = (),
@@ -284,10 +310,27 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
+    harmonics: int | str | Sequence[int] | None = None,
+) -> CalibrationResult[CalibParams]: ...
+@overload
+def calibrate(
+    obs: Observations,
+    start: AnyParams | None = None,
+    *,
+    free: Sequence[str] | None = None,
+    fix: Sequence[str] = (),
+    strategy: str = "fix",
+    reject: bool = False,
+    kappa: float = DEFAULT_KAPPA,
+    alpha_chi2: float = DEFAULT_ALPHA_CHI2,
+    alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
+    max_nfev: int = 200,
+    progress: Callable[[Progress], None] | None = None,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Any]: ...
 def calibrate(
     obs: Observations,
-    start: ArmParams | None = None,
+    start: AnyParams | None = None,
     *,
     free: Sequence[str] | None = None,
     fix: Sequence[str] = (),
@@ -298,6 +341,7 @@ def calibrate(
     alpha_outlier: float = DEFAULT_ALPHA_OUTLIER,
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
+    harmonics: int | str | Sequence[int] | None = None,
 ) -> CalibrationResult[Any]:
     """Identify the arm's parameters from ``obs``, starting at ``start`` (default Table 1).
 
@@ -310,16 +354,29 @@ def calibrate(
     directions (see the module doc); ``reject``: exclude outliers and solve
     again (otherwise they are only reported).
 
+    ``harmonics``: the encoder angle harmonics to estimate with the arm
+    (:mod:`aacmm.calibration.harmonics`): K = 0 .. 4 for every joint, one K per
+    joint, or ``"auto"`` (per joint the largest K the data identify); default
+    (None): 0 for an arm, the start's own K for a
+    :class:`~aacmm.calibration.parameters.CalibParams` (whose coefficients are
+    the start values). With harmonics (or a :class:`CalibParams` start) the
+    result's parameters are a :class:`CalibParams` and its ``error_terms`` say
+    which terms were estimated, weakly observed or unobserved; K = 0 for an arm
+    is the arm alone, exactly as without it.
+
     Raises ObservationError (bad data), CalibrationError (no solution: the
     parameters left the valid range, degenerate constraints), ValueError (bad
     arguments).
     """
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy must be one of {', '.join(STRATEGIES)}, got {strategy!r}")
-    p0: ArmParams = start or Params()
+    p0: AnyParams = start or Params()
     validate(p0)
-    cand = _candidates(free, fix, p0)
     t0 = time.perf_counter()
+    requested, modelled, dead, text = _harmonics(obs, p0, harmonics, free, fix, kappa)
+    if requested is not None:
+        p0 = start_params(p0, modelled)
+    cand = _candidates(free, fix, p0)
     history: list[Progress] = []
     rejected: list[Outlier] = []
     current = obs
@@ -340,19 +397,67 @@ def calibrate(
         notes.append(
             "held at their start values (unobservable from these data): " + ", ".join(res.held)
         )
-    return dataclasses.replace(
+    if requested is None and text != "0":
+        notes.append(f"encoder harmonics ({text}): none estimated")
+    if requested is not None:
+        ks = ", ".join(str(k) for k in requested)
+        notes.append(f"encoder harmonics ({text}): K per joint {ks} asked for")
+        if dead:
+            notes.append(
+                "left out of the model (the joint's angle does not move the probe point): "
+                + ", ".join(dead)
+            )
+    out = dataclasses.replace(
         res,
         outliers=outliers,
         rejected=tuple(rejected),
         history=tuple(history),
         elapsed_s=time.perf_counter() - t0,
         notes=tuple(notes),
+        harmonics_requested=text,
     )
+    if requested is not None:
+        out = dataclasses.replace(out, error_terms=error_terms(out, requested, dead))
+    return out
+
+
+def _harmonics(
+    obs: Observations,
+    p0: AnyParams,
+    harmonics: int | str | Sequence[int] | None,
+    free: Sequence[str] | None,
+    fix: Sequence[str],
+    kappa: float,
+) -> tuple[tuple[int, ...] | None, tuple[int, ...], tuple[str, ...], str]:
+    """K per joint asked for (None: the arm alone, as without harmonics), K per
+    joint in the model, the terms left out (no effect on the probe point) and how
+    it was asked (for the notes)."""
+    joints = n_joints(p0)
+    if harmonics is None:
+        harmonics = list(p0.harmonics) if isinstance(p0, CalibParams) else 0
+    ks = parse_harmonics(harmonics, joints)
+    text = (
+        harmonics.strip().lower()
+        if isinstance(harmonics, str)
+        else (str(harmonics) if isinstance(harmonics, int) else ",".join(str(k) for k in harmonics))
+    )
+    if ks is not None and not any(ks) and not isinstance(p0, CalibParams):
+        return None, (), (), "0"
+    problem = Problem(obs)
+    if ks is None:
+        arm = arm_part(p0)
+        cand = [param_names(arm)[c] for c in _candidates(free, fix, arm)]
+        ks = choose_auto(problem, p0, cand, kappa)
+        text = f"auto: the largest K the data identify, {','.join(str(k) for k in ks)}"
+        if not any(ks) and not isinstance(p0, CalibParams):
+            return None, (), (), text
+    modelled, dead = screen(problem.evaluate(start_params(p0, ks)), ks)
+    return ks, modelled, dead, text
 
 
 def _solve(
     obs: Observations,
-    p0: ArmParams,
+    p0: AnyParams,
     cand: list[int],
     strategy: str,
     kappa: float,

@@ -78,6 +78,15 @@ def register(sub: Any) -> None:
         "--reject", action="store_true", help="exclude outliers and solve again (else report)"
     )
     p.add_argument(
+        "--harmonics",
+        default="0",
+        metavar="K",
+        help="also estimate encoder angle harmonics c<j>_<k>, s<j>_<k>, k = 1..K on every "
+        "joint (K 0..4), or 'auto': per joint the largest K the data identify (stated in "
+        "the output); written to the file's [errmodel] table. Default 0: the device does "
+        "not take the error model yet",
+    )
+    p.add_argument(
         "--validate",
         action="append",
         default=[],
@@ -153,6 +162,14 @@ def _check_args(args: argparse.Namespace) -> None:
         raise UsageError(f"--workspace must be >= 0, got {args.workspace}")
     if args.probe and (args.free or args.fix):
         raise UsageError("--probe sets the free parameters itself: drop --free/--fix")
+    from aacmm.calibration.harmonics import check_harmonics_option
+
+    try:
+        args.harmonics = check_harmonics_option(args.harmonics)
+    except ValueError as exc:
+        raise UsageError(f"--harmonics: {exc}") from None
+    if args.probe and args.harmonics != "0":
+        raise UsageError("--probe calibrates the tip only: drop --harmonics")
     if not args.output.lower().endswith(".toml"):
         raise UsageError(f"{args.output}: the parameter file must be a .toml file")
     for opt, v in (("--max-u-um", args.max_u_um), ("--max-u-arcsec", args.max_u_arcsec)):
@@ -389,6 +406,7 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
             strategy=args.strategy,
             reject=args.reject,
             progress=_progress(args),
+            harmonics=args.harmonics,
         )
     cmp_ = compare(res.observations, res.start, res.params)
     print(report.format_result(res, cmp_))
@@ -408,6 +426,7 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
             free=free,
             fix=fix,
             strategy=args.strategy,
+            harmonics=args.harmonics,
         )
         print()
         print(
@@ -475,11 +494,12 @@ def _arm_table(data: Any) -> dict[str, Any]:
 
 
 def _param_file_text(data: Any, res: Any, args: argparse.Namespace, gate: Any) -> str:
+    from aacmm.calibration.parameters import arm_part, error_model
     from aacmm.protocol import param_set_crc32
     from aacmm.records import ParamSetRecord
     from aacmm.records.paramfile import dump_param_set, param_set_dict, param_set_from_mapping
 
-    ps = ParamSetRecord(0, res.params, data.encoders).to_device()
+    ps = ParamSetRecord(0, arm_part(res.params), data.encoders).to_device()
     param_set_from_mapping(param_set_dict(ps), args.output)  # the loader's own checks
     sources = _comment(", ".join(s.path for s in data.sources))
     sidecar = _comment(provenance_path(args.output).name)
@@ -490,7 +510,8 @@ def _param_file_text(data: Any, res: Any, args: argparse.Namespace, gate: Any) -
     if not gate.passed:
         head += "# WRITTEN WITH --override: the quality gate refused this calibration:\n"
         head += "".join(f"#   [{r.check}] {_comment(r.message)}\n" for r in gate.refusals)
-    return head + dump_param_set(ps, "toml", param_set_crc32(ps), arm=_arm_table(data))
+    em = error_model(res.params)
+    return head + dump_param_set(ps, "toml", param_set_crc32(ps), arm=_arm_table(data), errmodel=em)
 
 
 def _write(
@@ -511,6 +532,7 @@ def _write(
     from aacmm import __version__
     from aacmm import uncertainty as unc
     from aacmm.calibration import report
+    from aacmm.calibration.parameters import arm_part, error_model
     from aacmm.fileio import write_output
 
     text = _param_file_text(data, res, args, gate)
@@ -526,7 +548,7 @@ def _write(
             "serial_number": data.serial_number,
             "firmware": data.firmware,
             "start_param_crc32": data.param_set.crc_hex,
-            "calibrated_param_crc32": _crc_hex(res.params, data.encoders),
+            "calibrated_param_crc32": _crc_hex(arm_part(res.params), data.encoders),
         },
         "start_param_set": data.param_set.to_json(),
         "probing_sigma_mm": args.sigma_um / 1000.0,
@@ -537,6 +559,7 @@ def _write(
             "strategy": args.strategy,
             "reject": args.reject,
             "base_frame": args.base_frame,
+            "harmonics": args.harmonics,
         },
         "result": report.to_json(res, cmp_),
         "quality_gate": {
@@ -567,7 +590,10 @@ def _write(
     write_output(provenance_path(args.output), json.dumps(prov, indent=1) + "\n", force=args.force)
     write_output(args.output, text, force=args.force)
     print()
-    print(f"wrote {args.output} (load it with: aacmm params set {args.output} --save)")
+    if error_model(res.params) is None:
+        print(f"wrote {args.output} (load it with: aacmm params set {args.output} --save)")
+    else:
+        print(f"wrote {args.output} (its [errmodel] table: the device does not take it yet)")
     print(f"wrote {provenance_path(args.output)}")
 
 

@@ -10,6 +10,11 @@ to a temporary file in the same directory, fsynced and renamed. Call
 :func:`check_outputs` with all of a command's outputs before its work starts,
 so a refusal comes at once, not after a long computation.
 
+Arm models (issue 26): :func:`add_model_option` (``--model NAME|FILE``),
+:func:`model_arm` (the model it names, default the paper's ``gao2013``) and
+:func:`check_log_arm` (refuse a log or session of another arm shape than the
+model's: :class:`WrongArmError`, exit status 10).
+
 Heavy modules (the client, python-can, pyserial) are imported inside the
 functions so that ``aacmm --help`` and the analysis commands start fast.
 """
@@ -26,7 +31,9 @@ from typing import IO, TYPE_CHECKING, Any
 from aacmm.commands.exitcodes import UsageError
 
 if TYPE_CHECKING:
+    from aacmm.arm import Arm
     from aacmm.client import Client
+    from aacmm.models import ArmModel
     from aacmm.protocol import DeviceInfo
     from aacmm.records.paramsets import ParamSetRecord
 
@@ -405,3 +412,63 @@ class RunProgress:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+
+
+# ---------------------------------------------------------------- arm models (issue 26)
+
+
+def add_model_option(parser: argparse.ArgumentParser, what: str = "the arm analysed") -> None:
+    """``--model NAME|FILE``: the arm model of an analysis command (default: the paper's).
+
+    ``what`` says in the help what the model is (the default: the arm analysed).
+    """
+    parser.add_argument(
+        "--model",
+        metavar="NAME|FILE",
+        default=None,
+        help=f"{what}: a shipped arm model (aacmm model list) or a model file "
+        "(default gao2013, the paper's arm)",
+    )
+
+
+def model_arm(args: argparse.Namespace) -> ArmModel:
+    """The arm model ``--model`` names (:func:`add_model_option`), or the default one.
+
+    Raises:
+        ModelError: no such shipped model or file, or an invalid model (exit status 2).
+    """
+    from aacmm.models import DEFAULT_MODEL, load_model
+
+    return load_model(args.model if args.model is not None else DEFAULT_MODEL)
+
+
+def model_given(args: argparse.Namespace) -> bool:
+    """True if the user gave ``--model`` (not the default)."""
+    return getattr(args, "model", None) is not None
+
+
+def arm_shape(arm: Arm) -> tuple[int, str, tuple[int, ...], tuple[str, ...]]:
+    """What makes two arms the same model up to their values: joints, tip kind,
+    declared betas, conventions."""
+    return (arm.n_joints, arm.tip, arm.beta_joints, tuple(j.convention for j in arm.joints))
+
+
+def check_log_arm(what: str, log_arm: Arm, model: ArmModel) -> None:
+    """Refuse data (a log, a session) taken with an arm of another shape than ``model``.
+
+    ``what`` names the data for the message (its path); ``log_arm`` is the arm
+    its sidecar gives (values may differ from the model's: a calibrated arm).
+
+    Raises:
+        WrongArmError: another joint count, tip kind, betas or conventions
+            (exit status 10).
+    """
+    from aacmm.commands.exitcodes import WrongArmError
+
+    if arm_shape(log_arm) == arm_shape(model.arm):
+        return
+    raise WrongArmError(
+        f"{what} was taken with an arm of {log_arm.n_joints} joints and {log_arm.n_params} "
+        f"parameters, not of model {model.name} ({model.n_joints} joints, {model.n_params} "
+        "parameters): give the log's model with --model"
+    )

@@ -267,10 +267,15 @@ def _check_arm(file: str, arm: Any, serial: int, override: bool) -> str:
 
 def cmd_params_set(args: argparse.Namespace) -> int:
     from aacmm.protocol import ParamSource
-    from aacmm.records.paramfile import load_param_file_arm
+    from aacmm.records.paramfile import load_param_file_errmodel
 
-    ps, arm = load_param_file_arm(args.file)  # validated before anything is sent
+    ps, arm, em = load_param_file_errmodel(args.file)  # validated before anything is sent
     want = _local_crc(ps)
+    harm = (
+        "encoder harmonics K per joint " + ",".join(str(len(h)) for h in em.harmonics)
+        if em is not None
+        else ""
+    )
     if args.check:
         whose = (
             f", for the arm with serial number {arm.serial_number}"
@@ -278,8 +283,14 @@ def cmd_params_set(args: argparse.Namespace) -> int:
             else ""
         )
         shape = "" if ps.is_paper_shape else f", {ps.joints} joints, {ps.n_params} parameters"
-        print(f"{args.file}: valid parameter set{shape}, crc 0x{want:08x}{whose}")
+        errs = f"; [errmodel] {harm} (the device does not take it yet)" if harm else ""
+        print(f"{args.file}: valid parameter set{shape}, crc 0x{want:08x}{whose}{errs}")
         return OK
+    if em is not None:
+        raise UsageError(
+            f"{args.file}: carries an [errmodel] table ({harm}): the device does not take the "
+            "error model yet, nothing sent"
+        )
     with device_from_args(args) as dev:
         c = dev.client
         note = _check_arm(args.file, arm, dev.info.serial_number, args.override)

@@ -44,7 +44,10 @@ is written; ``--override`` writes it anyway, and its provenance says so)."""
 WRONG_ARM: Final = 10
 """A file belongs to another arm (its device serial number differs): ``aacmm params set``
 of another arm's calibration (``--override`` sends it anyway), ``aacmm demo --check``
-with another arm's truth, ``aacmm demo --compare`` of two arms' reports."""
+with another arm's truth, ``aacmm demo --compare`` of two arms' reports; or to another
+arm model than ``--model`` (issue 26): a log of another arm shape (``aacmm mc --log``,
+``uncertainty --log``), a spec naming parameters the arm does not have (``aacmm
+uncertainty``, ``tolerance``)."""
 WORSE: Final = 11
 """A before/after comparison found a figure worse after than before (``aacmm demo
 --compare``: the table says which, by what factor)."""

@@ -4,8 +4,10 @@ The device (``aacmm-sim``) keeps computing with its stored parameter set,
 while the host moves the *true* arm through the simulator's control channel:
 the simulated operator performing a plan (``--scenario``), or a random walk
 (``--motion walk``, default) or a still pose (``--motion static``). The truth
-never goes over the link; ``--truth-out`` writes it for tests. See
-docs/simulator.md ("Truth", "Scenarios") and docs/cli.md.
+never goes over the link; ``--truth-out`` writes it for tests.
+``--encoder-grade GRADE`` (with ``--truth random:SEED``) chooses the true
+encoders' reading errors (:mod:`aacmm.simulation.encgrade`). See
+docs/simulator.md ("Truth", "Encoder grades", "Scenarios") and docs/cli.md.
 """
 
 from __future__ import annotations
@@ -34,6 +36,13 @@ def add_options(p: argparse.ArgumentParser) -> None:
         metavar="SPEC",
         help="the arm's true geometry: 'nominal' (the device's built-in set, no errors), "
         "'random:SEED' (documented perturbation and error sources) or a truth file",
+    )
+    g.add_argument(
+        "--encoder-grade",
+        metavar="GRADE",
+        help="the true encoders of --truth random:SEED: two-head (default: 0.5-2 arcsec "
+        "eccentricity), one-head (harmonics 1-2, 10-30 arcsec) or magnetic (harmonics "
+        "1-4, 0.02-0.1 deg)",
     )
     g.add_argument("--truth-out", metavar="FILE", help="write the truth used (TOML)")
     g.add_argument(
@@ -74,7 +83,15 @@ def wants_truth(args: argparse.Namespace) -> bool:
 
 
 def check_args(args: argparse.Namespace) -> None:
-    """Refuse option combinations that make no sense (UsageError, exit 2)."""
+    """Refuse option combinations that make no sense (UsageError, exit 2; an
+    unknown ``--encoder-grade``: EncoderGradeError, exit 2)."""
+    grade = getattr(args, "encoder_grade", None)
+    if grade is not None:
+        from aacmm.simulation.encgrade import encoder_grade
+
+        encoder_grade(grade)
+        if not (args.truth or "").startswith("random:"):
+            raise UsageError("--encoder-grade needs --truth random:SEED (a truth file has its own)")
     if not wants_truth(args):
         for opt in ("truth_out", "follow", "report"):
             if getattr(args, opt):
@@ -150,29 +167,31 @@ def note_others(others: list[tuple[str, int]]) -> None:
 def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int:
     """The command (see the module doc). ``sim_args``: the simulator's own options;
     ``model``: the :class:`aacmm.models.ArmModel` of ``aacmm sim --model`` (None: the
-    paper's arm, as before): its truth (:func:`~aacmm.simulation.truth.parse_model_truth`)
+    paper's arm, as before): its truth (:func:`~aacmm.simulation.truthspec.parse_model_truth`)
     and its joint limits for the operator."""
     import numpy as np
 
     from aacmm.core import Params
     from aacmm.fileio import check_outputs, write_output
     from aacmm.simulation.control import ControlChannel
+    from aacmm.simulation.encgrade import DEFAULT_GRADE
     from aacmm.simulation.ik import ARM_LIMITS, JointLimits
     from aacmm.simulation.operator import FAST, Operator, Pace, Stopped
     from aacmm.simulation.process import SimProcess, publish_urls, unpublish_urls
-    from aacmm.simulation.truth import check_truth_model, parse_model_truth, parse_truth
+    from aacmm.simulation.truthspec import check_truth_model, parse_model_truth, parse_truth
 
     check_args(args)
     cpr = _sim_cpr(args)
     limits = ARM_LIMITS
+    grade = args.encoder_grade or DEFAULT_GRADE
     if model is None:
-        truth = parse_truth(args.truth or "nominal", cpr if cpr is not None else 1 << 32)
+        truth = parse_truth(args.truth or "nominal", cpr if cpr is not None else 1 << 32, grade)
         if not isinstance(truth.params, Params):  # a truth file of another arm's shape
             from aacmm.models import DEFAULT_MODEL, load_model
 
             check_truth_model(truth, load_model(DEFAULT_MODEL), str(args.truth))
     else:
-        truth = parse_model_truth(args.truth or "nominal", model)
+        truth = parse_model_truth(args.truth or "nominal", model, grade)
         limits = JointLimits.from_ranges(model.joint_limits_rad)
         cpr = model.encoders[0].counts_per_rev  # sim_model checked: one for every joint
     cprs = set(truth.encoders.counts_per_rev)
@@ -231,8 +250,7 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
         for url in sim.urls:
             print(url, flush=True)
         others = publish_urls(sim.urls)
-        origin = truth.origin.get("kind", "file")
-        say(f"{sim.binary} running (pid {sim.proc.pid}) with a {origin} truth; Ctrl-C to stop")
+        say(f"{sim.binary} running (pid {sim.proc.pid}) with {truth_text(truth)}; Ctrl-C to stop")
         note_others(others)
         rng = np.random.default_rng(args.seed or 0)
         op = Operator(chan, truth, rng, FAST if args.fast else Pace(), limits=limits, stop=stop)
@@ -274,6 +292,23 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
     if died and not received:
         raise AacmmError(f"the simulator ended by itself (exit status {rc})")
     return OK
+
+
+def truth_text(truth: Any) -> str:
+    """What ``aacmm sim`` says of its truth: its kind and, when its encoders have a
+    reading error, their grade (a random truth's, ``[origin] encoder_grade``; one
+    without: two-head) or the harmonic orders a truth file gives them."""
+    from aacmm.simulation.encgrade import DEFAULT_GRADE
+
+    kind = truth.origin.get("kind", "file")
+    text = f"a {kind} truth"
+    errors = truth.errors
+    if kind == "random":
+        return f"{text}, encoder grade {truth.origin.get('encoder_grade', DEFAULT_GRADE)}"
+    orders = [k for k, (amp, _) in errors.harmonics_arcsec().items() if max(amp) > 0]
+    if orders:
+        text += f", encoder harmonics {', '.join(str(k) for k in orders)}"
+    return text
 
 
 def _without(argv: list[str], options: tuple[str, ...]) -> list[str]:

@@ -5,7 +5,11 @@ the arguments, prints the report and writes the outputs (refusing existing
 files unless ``--force``). Exit status: 0 (the Monte Carlo check confirms the
 target), 7 (it does not; the report is still written), 8 (no allocation can
 meet the target: one line says what limits it), 2 (a bad spec or argument:
-one line naming the file and field).
+one line naming the file and field), 10 (a spec naming a parameter the arm
+of ``--model`` does not have: a spec of another arm).
+
+Any arm (issue 26): ``--model NAME|FILE`` allocates that arm model's
+parameters and encoders (default gao2013, the paper's arm).
 """
 
 from __future__ import annotations
@@ -17,8 +21,10 @@ from typing import Any
 from aacmm.commands.common import (
     RunProgress,
     add_force_option,
+    add_model_option,
     add_run_limit_options,
     max_run_seconds,
+    model_arm,
 )
 
 EXAMPLE = "example"
@@ -29,7 +35,8 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         "tolerance",
         help="cost-optimal tolerances and encoders for a target accuracy",
-        description="Allocate tolerances to the 25 structural parameters and choose an "
+        description="Allocate tolerances to the structural parameters (25 for the paper's "
+        "arm; those of the arm model of --model) and choose an "
         "encoder per joint so that the probe point (or a length) meets a target accuracy "
         "at the least cost, then check the allocation by Monte Carlo (docs/tolerance.md).",
     )
@@ -37,8 +44,9 @@ def register(sub: Any) -> None:
         "spec",
         metavar="SPEC.toml",
         help=f"tolerance spec (docs/tolerance.md); '{EXAMPLE}' runs the packaged worked "
-        "example on the paper's arm",
+        "example (on the paper's arm, or on the arm of --model)",
     )
+    add_model_option(p, "the arm whose parameters and encoders are allocated")
     p.add_argument(
         "--trials",
         type=int,
@@ -65,20 +73,37 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run_tolerance)
 
 
-def _load(name: str) -> Any:
+def _load(name: str, args: argparse.Namespace) -> Any:
+    """The spec, for the arm of ``--model`` (the paper's without).
+
+    Raises:
+        WrongArmError: the spec names a parameter this arm does not have.
+        SpecError, ModelError: a bad spec or model (exit status 2).
+    """
     from importlib import resources
 
     from aacmm.analysis import tolerance as tl
+    from aacmm.commands.exitcodes import WrongArmError
+    from aacmm.uncertainty.spec import ArmParameterError
 
-    if name == EXAMPLE:
-        from aacmm.fileio import loads_toml
+    arm, model = None, None
+    if args.model is not None:
+        m = model_arm(args)
+        arm, model = m.arm, m.name
+    try:
+        if name == EXAMPLE:
+            from aacmm.fileio import loads_toml
 
-        src = resources.files("aacmm").joinpath("data", "example_tolerance.toml")
-        spec = tl.parse_spec(loads_toml(src.read_text("utf-8"), "example_tolerance.toml"))
-        from dataclasses import replace
+            src = resources.files("aacmm").joinpath("data", "example_tolerance.toml")
+            text = loads_toml(src.read_text("utf-8"), "example_tolerance.toml")
+            spec = tl.parse_spec(text, None, arm, model)
+            from dataclasses import replace
 
-        return replace(spec, source="packaged example (the paper's arm)")
-    return tl.load_spec(name)
+            what = "the paper's arm" if model is None else f"model {model}"
+            return replace(spec, source=f"packaged example ({what})")
+        return tl.load_spec(name, arm, model)
+    except ArmParameterError as e:
+        raise WrongArmError(str(e)) from None
 
 
 def run_tolerance(args: argparse.Namespace) -> int:
@@ -101,7 +126,7 @@ def run_tolerance(args: argparse.Namespace) -> int:
 
     from aacmm.analysis import tolerance as tl
 
-    spec = _load(args.spec)
+    spec = _load(args.spec, args)
     if args.trials:
         tl.check_memory_limit(spec, args.trials, args.check_rows)  # before the allocation
     alloc = tl.allocate(spec)

@@ -5,7 +5,9 @@ parses the arguments, prints the report, shows the progress and writes the
 outputs. User errors (bad arguments, unreadable or invalid files, an
 existing output file without ``--force``, poses that cannot fit in memory)
 print one line ``aacmm uncertainty: error: ...`` on stderr and exit with
-status 2; Ctrl-C stops a run within a chunk of trials (``aacmm uncertainty:
+status 2; a spec or a log of another arm than ``--model`` (a parameter this
+arm does not have, a log of another joint count or shape) exits with status
+10 (``WRONG_ARM``); Ctrl-C stops a run within a chunk of trials (``aacmm uncertainty:
 interrupted``, status 130).
 """
 
@@ -17,11 +19,14 @@ from typing import Any
 from aacmm.commands.common import (
     RunProgress,
     add_force_option,
+    add_model_option,
     add_run_limit_options,
+    check_log_arm,
     max_run_seconds,
+    model_arm,
     print_err,
 )
-from aacmm.commands.exitcodes import USAGE
+from aacmm.commands.exitcodes import USAGE, WRONG_ARM, WrongArmError
 
 
 def register(sub: Any) -> None:
@@ -39,6 +44,7 @@ def register(sub: Any) -> None:
         help="parameter-uncertainty file "
         "(see docs/montecarlo.md; 'example' uses the packaged example)",
     )
+    add_model_option(un, "the nominal arm, whose parameters the spec names")
     un.add_argument("--trials", type=int, default=100_000, help="Monte Carlo trials (1e5)")
     un.add_argument(
         "--workspace",
@@ -50,13 +56,15 @@ def register(sub: Any) -> None:
         "--pose",
         action="append",
         default=[],
-        metavar="T1,..,T6",
-        help="a pose to report, six joint angles in deg; repeatable",
+        metavar="T1,..,TN",
+        help="a pose to report, the arm's N joint angles in deg (six for the paper's arm); "
+        "repeatable",
     )
     un.add_argument(
         "--log",
         metavar="CSV",
-        help="also the poses of a measurement log (aacmm log CSV, as mc --log)",
+        help="also the poses of a measurement log (aacmm log CSV, as mc --log) of the "
+        "same arm model",
     )
     un.add_argument(
         "--every",
@@ -130,7 +138,12 @@ def run_uncertainty(args: argparse.Namespace) -> int:
     try:
         bar = _Progress(args, max_run_seconds(args))
         check_outputs([args.json, args.csv, args.png], args.force)
-        spec = unc.load_spec(args.spec)
+        model = model_arm(args)
+        n = model.n_joints
+        if args.model is None:  # the paper's arm, as before issue 26
+            spec = unc.load_spec(args.spec)
+        else:
+            spec = unc.load_spec(args.spec, model.arm, model.name)
         extra = [spec.poses_rad]
         if args.pose:
             given = []
@@ -138,14 +151,27 @@ def run_uncertainty(args: argparse.Namespace) -> int:
                 try:
                     given.append([float(v) for v in text.split(",")])
                 except ValueError as e:
-                    raise ValueError(f"--pose {text!r}: six comma-separated angles in deg") from e
-            extra.append(unc.pose_list(given, "deg"))
+                    raise ValueError(f"--pose {text!r}: {n} comma-separated angles in deg") from e
+            try:
+                extra.append(unc.pose_list(given, "deg", n))
+            except ValueError as e:
+                raise ValueError(f"--pose: {e} (model {model.name})") from None
         if args.every < 1:
             raise ValueError(f"--every must be >= 1, got {args.every}")
         if args.log is not None:
             from aacmm.analysis.poselog import read_pose_log
+            from aacmm.core import Params
 
-            extra.append(read_pose_log(args.log).theta_rad[:: args.every])
+            log = read_pose_log(args.log)
+            if log.params is not None:
+                log_arm = log.params.to_arm() if isinstance(log.params, Params) else log.params
+                check_log_arm(f"log {args.log}", log_arm, model)
+            elif log.theta_rad.shape[1] != n:
+                raise WrongArmError(
+                    f"log {args.log} has {log.theta_rad.shape[1]} joint columns, model "
+                    f"{model.name} {n} joints: give the log's model with --model"
+                )
+            extra.append(log.theta_rad[:: args.every])
         elif args.every != 1:
             raise ValueError("--every needs --log")
         spec = replace(spec, poses_rad=np.concatenate(extra))
@@ -173,6 +199,9 @@ def run_uncertainty(args: argparse.Namespace) -> int:
         print(unc.format_report(res, top=args.top), flush=True)
     except BrokenPipeError:
         raise
+    except (unc.ArmParameterError, WrongArmError) as e:
+        print_err("uncertainty", f"error: {e}")
+        return WRONG_ARM
     except (AacmmError, ValueError, OSError) as e:
         print_err("uncertainty", f"error: {e}")
         return USAGE

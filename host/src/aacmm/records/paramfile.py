@@ -43,6 +43,22 @@ paper's arm reads and writes exactly as before)::
     beta_rad = [0.0015]                  # their betas, in that order
     tip_mm = [1.5, -2.0, 110.0]          # a tip vector, instead of l_mm
 
+An optional ``errmodel`` table carries the encoder angle harmonics of a
+calibration (issue 27; ``aacmm calibrate --harmonics``): per joint ``j`` the
+reading ``q`` becomes ``q + sum_k (c_k cos kq + s_k sin kq)``, ``k = 1 .. K_j``
+(``K_j <= 4``, :mod:`aacmm.errmodel`); one list per joint, K_j values each (an
+empty list: no harmonics)::
+
+    [errmodel]
+    c_rad = [[1.2e-5, -3.0e-6], [], [4.1e-5], [], [], []]   # c_1 .. c_K of each joint
+    s_rad = [[-8.0e-6, 2.2e-6], [], [9.5e-5], [], [], []]   # s_1 .. s_K
+
+Only :func:`load_param_file_errmodel` reads it (``aacmm params set --check``
+shows it); every other reader refuses such a file in one line
+(:class:`ParamFileError`): it would apply the arm's parameters without the
+error model they were calibrated with. ``aacmm params set`` refuses to send it
+(the device does not take the error model yet).
+
 :func:`load_param_file_arm` also takes an arm model file
 (``format = "aacmm-model-1"``, docs/models.md): its nominal set
 (:func:`aacmm.models.load_model`, ``ParamSet.from_arm(model.arm,
@@ -85,6 +101,8 @@ LENGTH_MAX_MM = 10_000.0
 
 ARM_TABLE = "arm"
 ARM_KEYS = ("serial_number", "firmware", "start_param_crc32")
+ERRMODEL_TABLE = "errmodel"
+ERRMODEL_KEYS = ("c_rad", "s_rad")
 
 
 class ParamFileError(RecordError):
@@ -200,11 +218,68 @@ def _betas(src: str, joints: Any, values: Any, n: int) -> tuple[float | None, ..
     return tuple(out)
 
 
-def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
-    """A validated :class:`ParamSet` from a flat or split mapping (see the module doc).
+def errmodel_from_mapping(value: Any, joints: int, src: str = "parameters") -> Any:
+    """The :class:`aacmm.errmodel.ErrorModel` of an ``errmodel`` table (module doc)
+    for an arm of ``joints`` joints.
 
     Raises:
-        ParamFileError: missing, unknown or bad keys, values out of range.
+        ParamFileError: not a table, an unknown or missing key, not one list of at
+            most 4 numbers per joint, or coefficients the error model refuses.
+    """
+    from aacmm.errmodel import HARMONICS_MAX, ErrorModel
+
+    where = f"{src}: {ERRMODEL_TABLE}"
+    if not isinstance(value, Mapping):
+        raise ParamFileError(f"{where} must be a table")
+    for k in value:
+        if k not in ERRMODEL_KEYS:
+            raise ParamFileError(
+                f"{src}: unknown key {ERRMODEL_TABLE}.{k} (expected {', '.join(ERRMODEL_KEYS)})"
+            )
+    lists: dict[str, list[tuple[float, ...]]] = {}
+    for k in ERRMODEL_KEYS:
+        v = value.get(k)
+        if not isinstance(v, list) or len(v) != joints or not all(isinstance(x, list) for x in v):
+            raise ParamFileError(f"{where}.{k} must be {joints} lists (one per joint)")
+        lists[k] = [
+            _floats(src, f"{ERRMODEL_TABLE}.{k}[{i}]", x, len(x))
+            if len(x) != 1
+            else _floats(src, f"{ERRMODEL_TABLE}.{k}[{i}]", x[0], 1)
+            for i, x in enumerate(v)
+        ]
+    hs = []
+    for i, (c, sv) in enumerate(zip(lists["c_rad"], lists["s_rad"], strict=True)):
+        if len(c) != len(sv) or len(c) > HARMONICS_MAX:
+            raise ParamFileError(
+                f"{where}: joint {i + 1}: c_rad and s_rad need as many values, at most "
+                f"{HARMONICS_MAX}"
+            )
+        hs.append(tuple(zip(c, sv, strict=True)))
+    try:
+        return ErrorModel(tuple(hs))
+    except ValueError as exc:
+        raise ParamFileError(f"{where}: {exc}") from None
+
+
+def errmodel_dict(em: Any) -> dict[str, Any]:
+    """The ``errmodel`` table of an :class:`aacmm.errmodel.ErrorModel` (harmonics)."""
+    return {
+        "c_rad": [[c for c, _ in h] for h in em.harmonics],
+        "s_rad": [[s for _, s in h] for h in em.harmonics],
+    }
+
+
+def param_set_from_mapping(
+    data: Any, src: str = "parameters", *, errmodel: bool = False
+) -> ParamSet:
+    """A validated :class:`ParamSet` from a flat or split mapping (see the module doc).
+
+    ``errmodel``: accept an ``errmodel`` table (checked here, read by
+    :func:`load_param_file_errmodel`); refused otherwise.
+
+    Raises:
+        ParamFileError: missing, unknown or bad keys, values out of range, an
+            ``errmodel`` table where it is not accepted.
     """
     if not isinstance(data, dict):
         raise ParamFileError(f"{src}: expected a table of parameters")
@@ -225,6 +300,12 @@ def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
             flat[key] = value
         elif key == ARM_TABLE:
             arm_identity_from_mapping(value, src)  # checked here, read by load_param_file_arm
+        elif key == ERRMODEL_TABLE:
+            if not errmodel:
+                raise ParamFileError(
+                    f"{src}: an [{ERRMODEL_TABLE}] table (encoder angle harmonics): this reader "
+                    "takes the arm's parameters only and cannot apply the error model"
+                )
         elif key not in IGNORED_KEYS:
             raise ParamFileError(f"{src}: unknown key {key!r} (expected {', '.join(ALL_KEYS)})")
     if "tip_mm" in flat and "l_mm" in flat:
@@ -264,6 +345,8 @@ def param_set_from_mapping(data: Any, src: str = "parameters") -> ParamSet:
             raise ParamFileError(
                 f"{src}: zero_offset_counts[{i}]={zero[i]} must be < counts_per_rev[{i}]"
             )
+    if ERRMODEL_TABLE in data:
+        errmodel_from_mapping(data[ERRMODEL_TABLE], n, src)
     tip = kin["tip"]
     ps = ParamSet(
         theta_offset_rad=kin["theta_offset_rad"],
@@ -335,9 +418,25 @@ def load_param_file_arm(path: str | Path) -> tuple[ParamSet, ArmIdentity | None]
     and for a model file).
 
     Raises:
-        ParamFileError: as :func:`load_param_file`.
+        ParamFileError: as :func:`load_param_file` (also for a file with an
+            ``errmodel`` table: :func:`load_param_file_errmodel` reads those).
         ModelError: a model file that is not a valid model.
     """
+    ps, arm, _ = _load(path, errmodel=False)
+    return ps, arm
+
+
+def load_param_file_errmodel(path: str | Path) -> tuple[ParamSet, ArmIdentity | None, Any]:
+    """:func:`load_param_file_arm` and the file's error model: an
+    :class:`aacmm.errmodel.ErrorModel` from its ``errmodel`` table, None without one.
+
+    Raises:
+        ParamFileError, ModelError: as :func:`load_param_file_arm`.
+    """
+    return _load(path, errmodel=True)
+
+
+def _load(path: str | Path, errmodel: bool) -> tuple[ParamSet, ArmIdentity | None, Any]:
     p = Path(path)
     file_format(p)
     try:
@@ -347,13 +446,15 @@ def load_param_file_arm(path: str | Path) -> tuple[ParamSet, ArmIdentity | None]
     if is_model_file(data):
         if file_format(p) != "toml":
             raise ParamFileError(f"{p}: an arm model file is TOML (.toml)")
-        return model_param_set(p), None
-    ps = param_set_from_mapping(data, str(p))
+        return model_param_set(p), None, None
+    ps = param_set_from_mapping(data, str(p), errmodel=errmodel)
     arm = data.get(ARM_TABLE) if isinstance(data, dict) else None
     fmt = data.get("format") if isinstance(data, dict) else None
+    em_table = data.get(ERRMODEL_TABLE) if isinstance(data, dict) else None
+    em = None if em_table is None else errmodel_from_mapping(em_table, ps.joints, str(p))
     if arm is None or (isinstance(fmt, str) and fmt.startswith("aacmm-log")):
-        return ps, None
-    return ps, arm_identity_from_mapping(arm, str(p))
+        return ps, None, em
+    return ps, arm_identity_from_mapping(arm, str(p)), em
 
 
 def param_set_dict(ps: ParamSet) -> dict[str, Any]:
@@ -391,15 +492,23 @@ def param_set_dict(ps: ParamSet) -> dict[str, Any]:
 
 
 def dump_param_set(
-    ps: ParamSet, fmt: str, crc: int | None = None, arm: Mapping[str, Any] | None = None
+    ps: ParamSet,
+    fmt: str,
+    crc: int | None = None,
+    arm: Mapping[str, Any] | None = None,
+    errmodel: Any = None,
 ) -> str:
-    """A parameter file's text (``fmt``: ``toml`` or ``json``); ``arm``: its ``[arm]`` table."""
+    """A parameter file's text (``fmt``: ``toml`` or ``json``); ``arm``: its ``[arm]``
+    table; ``errmodel``: an :class:`aacmm.errmodel.ErrorModel` for its ``[errmodel]``
+    table (harmonics; None: no table)."""
     data: dict[str, Any] = {"format": "aacmm-params-1"}
     if crc is not None:
         data["param_crc32"] = crc
     data.update(param_set_dict(ps))
     if arm:
         data[ARM_TABLE] = dict(arm)
+    if errmodel is not None:
+        data[ERRMODEL_TABLE] = errmodel_dict(errmodel)
     if fmt == "json":
         return json.dumps(data, indent=2) + "\n"
     import tomli_w

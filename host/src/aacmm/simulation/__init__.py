@@ -5,10 +5,17 @@ The host side of ``aacmm sim --truth`` and ``aacmm sim --scenario``
 
 * :mod:`aacmm.simulation.truth` -- :class:`~aacmm.simulation.truth.Truth` (the
   arm's real geometry and error sources), its file (``aacmm-truth-1``),
-  :func:`~aacmm.simulation.truth.random_truth`, :func:`~aacmm.simulation.truth.parse_truth`;
-  for an arm model :func:`~aacmm.simulation.truth.model_truth`,
-  :func:`~aacmm.simulation.truth.parse_model_truth` (``aacmm sim --model``) and
-  :func:`~aacmm.simulation.truth.check_truth_model`;
+  :func:`~aacmm.simulation.truth.random_truth` (the sizes:
+  :mod:`aacmm.simulation.perturb`); for an arm model
+  :func:`~aacmm.simulation.truth.model_truth`;
+* :mod:`aacmm.simulation.truthspec` -- ``--truth SPEC``:
+  :func:`~aacmm.simulation.truthspec.parse_truth`,
+  :func:`~aacmm.simulation.truthspec.parse_model_truth` (``aacmm sim --model``) and
+  :func:`~aacmm.simulation.truthspec.check_truth_model`;
+* :mod:`aacmm.simulation.encgrade` -- encoder grades (``--encoder-grade``): the
+  harmonics of the true encoders' reading errors;
+* :mod:`aacmm.simulation.thermal` -- a truth's thermal profile and its true
+  points at link temperatures;
 * :mod:`aacmm.simulation.ik` -- inverse kinematics on the core (damped least
   squares on the Jacobian's theta columns), the arm's joint limits;
 * :mod:`aacmm.simulation.articulation` -- articulations spread the way
@@ -28,7 +35,8 @@ Analysis code never imports the truth: only tests compare results with it.
 
 Errors (all :class:`aacmm.errors.AacmmError`):
 :class:`~aacmm.simulation.truth.TruthError` (a truth file, also
-``ValueError``), :class:`~aacmm.simulation.scenario.ScenarioError` (a
+``ValueError``), :class:`~aacmm.simulation.encgrade.EncoderGradeError` (an
+unknown grade, also ``ValueError``), :class:`~aacmm.simulation.scenario.ScenarioError` (a
 scenario, also ``ValueError``), :class:`~aacmm.simulation.control.ControlError`
 (the control channel failed), :class:`~aacmm.simulation.operator.Stopped` (the
 operator was stopped), :class:`~aacmm.simulation.process.SimulatorError` (an

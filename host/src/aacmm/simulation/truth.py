@@ -7,19 +7,26 @@ device's model cannot know:
 
 - **encoder noise**: Gaussian, ``sigma_counts`` per joint, a fresh draw for
   every reading the simulated operator sends;
-- **encoder eccentricity** (an error the DH model cannot describe): the
+- **encoder reading errors** (what the DH model cannot describe): the
   reading of joint i is off by ``amplitude_arcsec[i] * sin(angle + phase_rad[i])``,
-  once per revolution of the joint, as an encoder disc mounted off-centre
-  and read by one head;
+  once per revolution of the joint (the eccentricity of a disc mounted
+  off-centre), plus harmonics ``k = 2..4``: ``A_ki sin(k angle + phase_ki)``
+  (an encoder grade's, :mod:`aacmm.simulation.encgrade`);
 - **probing noise**: the operator's probe tip sits ``N(0, sigma_um)`` per axis
   (isotropic Gaussian) away from the target at each point it probes.
 
 The truth file (TOML, ``format = "aacmm-truth-1"``) is a parameter file that
 ``aacmm params set`` accepts (the truth tables are ignored there) plus the
-tables ``[encoder_noise]``, ``[eccentricity]`` and ``[probing]``; ``[origin]``
-records how it was made and ``[arm] serial_number`` which device it is (the
-simulator reports it in its device info). :func:`random_truth` perturbs a
-nominal set by the documented :data:`RANDOM_SIZES`.
+tables ``[encoder_noise]``, ``[eccentricity]`` (harmonic 1), ``[harmonics]``
+(orders 2..4, when there are any) and ``[probing]``; ``[origin]`` records how
+it was made (``encoder_grade``: the grade of a random truth other than
+two-head) and ``[arm] serial_number`` which device it is (the simulator
+reports it in its device info). :func:`random_truth` perturbs a nominal set
+by the documented :data:`~aacmm.simulation.perturb.RANDOM_SIZES` and draws
+the encoders' harmonics of an encoder grade; :meth:`Truth.reading_error_model`
+gives them in the C core's form. An optional ``[thermal]`` table holds each
+link's material, true CTE and reference temperature
+(:mod:`aacmm.simulation.thermal`, ``random_truth(..., thermal=True)``).
 
 **Identity.** Every arm has a serial number of its own: an arm built to
 drawing (the device's built-in set, no error source) is serial 1, as the
@@ -35,8 +42,8 @@ d, a and the tip). The truth file of such an arm is a parameter file of it
 (:mod:`aacmm.records.paramfile`, "Any arm": N values per list, conventions,
 betas, a tip vector) with the error tables of N values each; a file of the
 paper's shape reads as the paper's :class:`~aacmm.core.Params`, any other as
-an :class:`~aacmm.arm.Arm`. :func:`check_truth_model` refuses a truth whose
-arm is not of a model's shape (joint count, conventions, betas, tip kind).
+an :class:`~aacmm.arm.Arm`. :mod:`aacmm.simulation.truthspec` reads
+``--truth SPEC`` (of an arm model too).
 
 Analysis code never reads a truth: only tests compare results with it.
 """
@@ -53,8 +60,24 @@ import numpy.typing as npt
 
 from aacmm.arm import Arm
 from aacmm.core import JOINTS, EncoderConfig, Model, Params
+from aacmm.errmodel import ErrorModel
 from aacmm.errors import AacmmError
 from aacmm.models import ArmModel
+from aacmm.simulation.encgrade import (
+    DEFAULT_GRADE,
+    EncoderGrade,
+    draw_harmonics,
+    encoder_grade,
+    harmonic_error_model,
+    harmonics_from_table,
+)
+from aacmm.simulation.perturb import RANDOM_SIZES, RandomSizes, perturbed
+from aacmm.simulation.thermal import (
+    ThermalProfile,
+    default_materials,
+    profile_from_table,
+    random_profile,
+)
 
 if TYPE_CHECKING:  # the default (PEP 696) is for the type checker only
     from typing_extensions import TypeVar
@@ -68,24 +91,17 @@ else:
 
 FORMAT: Final = "aacmm-truth-1"
 ARCSEC_RAD: Final = math.pi / (180.0 * 3600.0)
-TABLES: Final = ("encoder_noise", "eccentricity", "probing", "origin", "arm")
+TABLES: Final = (
+    "encoder_noise",
+    "eccentricity",
+    "harmonics",
+    "probing",
+    "thermal",
+    "origin",
+    "arm",
+)
 #: serial number of an arm built to drawing (the simulator's default device)
 NOMINAL_SERIAL: Final = 1
-
-
-@dataclass(frozen=True)
-class RandomSizes:
-    """Perturbation sizes of :func:`random_truth` (uniform on +-size unless stated)."""
-
-    length_mm: float = 0.5  #: d, a (each joint) and l (an arm: each tip component)
-    angle_deg: float = 0.05  #: alpha and theta offset of each joint (an arm: each beta too)
-    encoder_noise_arcsec: float = 0.3  #: sigma of the encoder noise (same on every joint)
-    eccentricity_arcsec: tuple[float, float] = (0.5, 2.0)  #: amplitude, uniform in this range
-    probing_sigma_um: float = 2.0  #: probing noise sigma per axis
-
-
-#: The documented sizes of ``--truth random:SEED`` (docs/simulator.md).
-RANDOM_SIZES: Final = RandomSizes()
 
 
 class TruthError(AacmmError, ValueError):
@@ -112,13 +128,19 @@ class ErrorSources:
     """The truth's error sources; all zero = a perfect arm (see the module doc).
 
     One value per joint (six by default, the paper's arm; 1 to 7, all three
-    tuples of one length); :meth:`none` for another joint count.
+    tuples of one length); :meth:`none` for another joint count. The
+    harmonics of order 2..4 (``harmonic_orders``, increasing): per order N
+    amplitudes (arcsec, >= 0) and N phases (rad).
     """
 
     encoder_noise_counts: tuple[float, ...] = (0.0,) * JOINTS  #: Gaussian sigma, per reading
     eccentricity_arcsec: tuple[float, ...] = (0.0,) * JOINTS  #: once-per-rev amplitude
     eccentricity_phase_rad: tuple[float, ...] = (0.0,) * JOINTS
     probing_sigma_um: float = 0.0  #: isotropic Gaussian on the tip, per axis
+    # not in the repr: a device serial made from it stays what it was without them
+    harmonic_orders: tuple[int, ...] = field(default=(), repr=False)
+    harmonic_arcsec: tuple[tuple[float, ...], ...] = field(default=(), repr=False)
+    harmonic_phase_rad: tuple[tuple[float, ...], ...] = field(default=(), repr=False)
 
     def __post_init__(self) -> None:
         joints = len(tuple(self.encoder_noise_counts))
@@ -133,6 +155,21 @@ class ErrorSources:
             raise ValueError("noise and eccentricity amplitudes must be >= 0")
         if not (math.isfinite(self.probing_sigma_um) and self.probing_sigma_um >= 0):
             raise ValueError("probing_sigma_um must be a finite number >= 0")
+        orders = tuple(self.harmonic_orders)
+        if list(orders) != sorted(set(orders)) or any(type(k) is not int for k in orders):
+            raise ValueError(f"harmonic_orders must be increasing integers, got {list(orders)}")
+        if not all(2 <= k <= 4 for k in orders):
+            raise ValueError(f"harmonic_orders must be within 2..4, got {list(orders)}")
+        for name in ("harmonic_arcsec", "harmonic_phase_rad"):
+            rows = tuple(tuple(float(x) for x in row) for row in getattr(self, name))
+            if len(rows) != len(orders) or any(
+                len(r) != joints or not all(math.isfinite(x) for x in r) for r in rows
+            ):
+                raise ValueError(f"{name} needs {joints} finite values per harmonic order")
+            object.__setattr__(self, name, rows)
+        object.__setattr__(self, "harmonic_orders", orders)
+        if any(x < 0 for r in self.harmonic_arcsec for x in r):
+            raise ValueError("harmonic amplitudes must be >= 0")
 
     @classmethod
     def none(cls, joints: int = JOINTS) -> ErrorSources:
@@ -153,7 +190,18 @@ class ErrorSources:
     @property
     def perfect(self) -> bool:
         """No error source at all."""
-        return self.noise_free and max(self.eccentricity_arcsec) == 0
+        higher = max((x for r in self.harmonic_arcsec for x in r), default=0.0)
+        return self.noise_free and max(self.eccentricity_arcsec) == 0 and higher == 0
+
+    def harmonics_arcsec(self) -> dict[int, tuple[tuple[float, ...], tuple[float, ...]]]:
+        """Every harmonic order of the reading error: ``{k: (amplitudes, phases)}``,
+        N values each (order 1 is the eccentricity)."""
+        out = {1: (self.eccentricity_arcsec, self.eccentricity_phase_rad)}
+        for k, a, p in zip(
+            self.harmonic_orders, self.harmonic_arcsec, self.harmonic_phase_rad, strict=True
+        ):
+            out[k] = (a, p)
+        return out
 
 
 @dataclass(frozen=True)
@@ -171,6 +219,7 @@ class Truth(Generic[P]):
     errors: ErrorSources = field(default_factory=ErrorSources)
     origin: dict[str, Any] = field(default_factory=dict, compare=False)
     serial_number: int | None = field(default=None, compare=False)
+    thermal: ThermalProfile | None = None  #: None: lengths the same at every temperature
 
     def __post_init__(self) -> None:
         if isinstance(self.params, Params):
@@ -184,6 +233,10 @@ class Truth(Generic[P]):
                 f"the error sources {self.errors.joints}"
             )
         self.encoders.to_c()  # raises ValueError if out of range
+        if self.thermal is not None and self.thermal.links != joints:
+            raise ValueError(
+                f"the arm has {joints} links, the thermal profile {self.thermal.links}"
+            )
         sn = self.serial_number
         if sn is not None and not (isinstance(sn, int) and 0 <= sn <= 0xFFFFFFFF):
             raise ValueError(f"serial_number must be an integer 0..2^32-1, got {sn!r}")
@@ -193,7 +246,7 @@ class Truth(Generic[P]):
         """The device serial number of this arm (module doc, "Identity")."""
         if self.serial_number is not None:
             return self.serial_number
-        if self.params == Params() and self.errors.perfect:
+        if self.params == Params() and self.errors.perfect and self.thermal is None:
             return NOMINAL_SERIAL
         import json
         import zlib
@@ -206,6 +259,8 @@ class Truth(Generic[P]):
                 "encoders": repr(self.encoders),
                 "errors": repr(self.errors),
             }
+            data = self.to_mapping()
+            body.update({t: repr(data[t]) for t in ("harmonics", "thermal") if t in data})
         crc = zlib.crc32(json.dumps(body, sort_keys=True).encode())
         return 0x40000000 | (crc & 0x3FFFFFFF)  # never 1, within 31 bits
 
@@ -221,12 +276,24 @@ class Truth(Generic[P]):
     # ------------------------------------------------------------ encoders
 
     def reading_error_rad(self, theta_rad: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """The eccentricity error (n, N) in rad of readings at joint angles ``theta_rad``."""
+        """The reading error (n, N) in rad of readings at joint angles ``theta_rad``:
+        the eccentricity ``A sin(theta + phase)`` plus every harmonic order k of
+        ``[harmonics]``, ``A_k sin(k theta + phase_k)``."""
         th = np.asarray(theta_rad, dtype=np.float64)
         amp = np.asarray(self.errors.eccentricity_arcsec) * ARCSEC_RAD
         phase = np.asarray(self.errors.eccentricity_phase_rad)
         out: npt.NDArray[np.float64] = amp * np.sin(th + phase)
+        x = self.errors
+        for k, a, p in zip(x.harmonic_orders, x.harmonic_arcsec, x.harmonic_phase_rad, strict=True):
+            out = out + np.asarray(a) * ARCSEC_RAD * np.sin(k * th + np.asarray(p))
         return out
+
+    def reading_error_model(self) -> ErrorModel:
+        """The reading error as the C core's error model (no thermal part): its
+        corrected angles of the true angles are the true readings (before noise
+        and rounding); a calibration of readings finds about the opposite (to
+        first order). :func:`~aacmm.simulation.encgrade.harmonic_error_model`."""
+        return harmonic_error_model(self.errors.harmonics_arcsec())
 
     def counts(
         self, theta_rad: npt.ArrayLike, rng: np.random.Generator | None = None
@@ -279,8 +346,20 @@ class Truth(Generic[P]):
                 "amplitude_arcsec": list(x.eccentricity_arcsec),
                 "phase_rad": list(x.eccentricity_phase_rad),
             },
-            "probing": {"sigma_um": x.probing_sigma_um},
         }
+        if x.harmonic_orders:
+            data["harmonics"] = {
+                "order": list(x.harmonic_orders),
+                "amplitude_arcsec": [list(r) for r in x.harmonic_arcsec],
+                "phase_rad": [list(r) for r in x.harmonic_phase_rad],
+            }
+        data["probing"] = {"sigma_um": x.probing_sigma_um}
+        if self.thermal is not None:
+            data["thermal"] = {
+                "material": list(self.thermal.material),
+                "cte_per_k": list(self.thermal.cte_per_k),
+                "tref_c": list(self.thermal.tref_c),
+            }
         if self.origin:
             data["origin"] = dict(self.origin)
         if self.serial_number is not None:
@@ -323,10 +402,14 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
         raise TruthError(str(exc)) from None
     noise = dict(data.get("encoder_noise", {}))
     ecc = dict(data.get("eccentricity", {}))
+    harm = dict(data.get("harmonics", {}))
+    thermal = dict(data.get("thermal", {}))
     probing = dict(data.get("probing", {}))
     for table, got, allowed in (
         ("encoder_noise", noise, {"sigma_counts"}),
         ("eccentricity", ecc, {"amplitude_arcsec", "phase_rad"}),
+        ("harmonics", harm, {"order", "amplitude_arcsec", "phase_rad"}),
+        ("thermal", thermal, {"material", "cte_per_k", "tref_c"}),
         ("probing", probing, {"sigma_um"}),
     ):
         for k in got:
@@ -350,6 +433,7 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
             "eccentricity.phase_rad", ecc.get("phase_rad", zeros), src, -math.inf, n
         ),
         probing_sigma_um=float(sigma_um),
+        **_table(harmonics_from_table, harm, n, src),
     )
     origin = data.get("origin", {})
     arm = dict(data.get("arm", {}))
@@ -375,7 +459,18 @@ def truth_from_mapping(data: Any, src: str = "truth") -> Truth[Any]:
         errors=errors,
         origin=dict(origin) if isinstance(origin, dict) else {},
         serial_number=serial,
+        thermal=_table(profile_from_table, thermal, n, src) or None,
     )
+
+
+def _table(parse: Any, table: dict[str, Any], n: int, src: str) -> Any:
+    """An optional table's value (``{}`` if absent) from ``parse``, its errors named."""
+    if not table:
+        return {}
+    try:
+        return parse(table, n)
+    except ValueError as exc:
+        raise TruthError(f"{src}: {exc}") from None
 
 
 def load_truth(path: str | Path) -> Truth[Any]:
@@ -412,32 +507,6 @@ def nominal_truth(params: Params | Arm | None = None, cpr: int = 1 << 32) -> Tru
     )
 
 
-def perturbed(
-    nominal: Params | Arm, rng: np.random.Generator, sizes: RandomSizes = RANDOM_SIZES
-) -> Params | Arm:
-    """Every structural parameter of ``nominal`` off by a uniform draw: angles
-    (theta offsets, alphas) by +-angle_deg, lengths (d, a, tip) by +-length_mm;
-    an arm's declared betas by +-angle_deg, drawn last (so an arm of the
-    paper's shape draws what its Params form draws)."""
-    ang = math.radians(sizes.angle_deg)
-    if isinstance(nominal, Params):
-        delta = np.concatenate(
-            [
-                rng.uniform(-ang, ang, 12),  # theta offsets, alpha
-                rng.uniform(-sizes.length_mm, sizes.length_mm, 13),  # d, a, l
-            ]
-        )
-        return Params.from_vector(nominal.to_vector() + delta)
-    n, b = nominal.n_joints, len(nominal.beta_joints)
-    lengths = nominal.n_params - 2 * n - b
-    angles = rng.uniform(-ang, ang, 2 * n)
-    mm = rng.uniform(-sizes.length_mm, sizes.length_mm, lengths)
-    betas = rng.uniform(-ang, ang, b)
-    # column order: thetas, alphas, ds, as, betas, tip
-    delta = np.concatenate([angles, mm[: 2 * n], betas, mm[2 * n :]])
-    return nominal.with_vector(nominal.to_vector() + delta)
-
-
 @overload
 def random_truth(
     seed: int,
@@ -445,6 +514,8 @@ def random_truth(
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
+    thermal: bool = False,
 ) -> Truth[Params]: ...
 @overload
 def random_truth(
@@ -453,6 +524,8 @@ def random_truth(
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
+    thermal: bool = False,
 ) -> Truth[Arm]: ...
 def random_truth(
     seed: int,
@@ -460,33 +533,53 @@ def random_truth(
     cpr: int = 1 << 32,
     sizes: RandomSizes = RANDOM_SIZES,
     encoders: EncoderConfig | None = None,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
+    thermal: bool = False,
 ) -> Truth[Any]:
     """A random arm near ``nominal`` (default Table 1, or any arm): every
     structural parameter perturbed uniformly by ``sizes`` (:func:`perturbed`),
-    encoder noise, eccentricity and probing noise of ``sizes`` on each joint.
-    Same seed, same arm (numpy PCG64). ``encoders``: the arm's encoders (an
-    arm model's, :func:`model_truth`) instead of ``cpr`` counts on every joint,
-    zero offset 0, direction +1; the noise in counts follows each joint's
-    resolution."""
+    encoder noise and probing noise of ``sizes`` on each joint, the encoders'
+    reading errors drawn from ``grade`` (a name or an
+    :class:`~aacmm.simulation.encgrade.EncoderGrade`; order 1 is the
+    eccentricity, orders 2..4 the ``[harmonics]``). Same seed, same arm (numpy
+    PCG64; the geometry is the same for every grade, and two-head, the
+    default, is the random truth of before grades existed). ``encoders``: the
+    arm's encoders (an arm model's, :func:`model_truth`) instead of ``cpr``
+    counts on every joint, zero offset 0, direction +1; the noise in counts
+    follows each joint's resolution. ``thermal``: also a thermal profile,
+    :func:`~aacmm.simulation.thermal.random_profile` of the nominal arm's
+    :func:`~aacmm.simulation.thermal.default_materials`, drawn last (the rest
+    is the same arm as without it).
+
+    Raises:
+        TruthError: a seed outside 0 .. 2^64-1, encoders of another joint count.
+        EncoderGradeError: an unknown grade name.
+    """
     if not 0 <= seed < 1 << 64:
         raise TruthError(f"random truth seed {seed} outside 0 .. 2^64-1")
+    g = encoder_grade(grade) if isinstance(grade, str) else grade
     nom: Params | Arm = nominal or Params()
     joints = len(nom.d_mm) if isinstance(nom, Params) else nom.n_joints
     rng = np.random.Generator(np.random.PCG64(seed))
     params = perturbed(nom, rng, sizes)
-    lo, hi = sizes.eccentricity_arcsec
     enc = encoders or EncoderConfig((cpr,) * joints, (0,) * joints, (1,) * joints)
     if enc.joints != joints:
         raise TruthError(f"the encoders describe {enc.joints} joints, the arm has {joints}")
     noise = tuple(
         sizes.encoder_noise_arcsec * ARCSEC_RAD * c / (2.0 * math.pi) for c in enc.counts_per_rev
     )
+    h = draw_harmonics(g, rng, joints)
     errors = ErrorSources(
         encoder_noise_counts=noise,
-        eccentricity_arcsec=tuple(float(v) for v in rng.uniform(lo, hi, joints)),
-        eccentricity_phase_rad=tuple(float(v) for v in rng.uniform(0.0, 2.0 * math.pi, joints)),
+        eccentricity_arcsec=h.amplitude_arcsec[0],
+        eccentricity_phase_rad=h.phase_rad[0],
         probing_sigma_um=sizes.probing_sigma_um,
+        harmonic_orders=tuple(range(2, g.orders + 1)),
+        harmonic_arcsec=h.amplitude_arcsec[1:],
+        harmonic_phase_rad=h.phase_rad[1:],
     )
+    grade_origin = {} if g.name == DEFAULT_GRADE else {"encoder_grade": g.name}
+    profile = random_profile(rng, default_materials(nom)) if thermal else None
     return Truth[Any](
         params=params,
         encoders=enc,
@@ -497,92 +590,22 @@ def random_truth(
             "length_mm": sizes.length_mm,
             "angle_deg": sizes.angle_deg,
             "encoder_noise_arcsec": sizes.encoder_noise_arcsec,
-            "eccentricity_arcsec": list(sizes.eccentricity_arcsec),
+            "eccentricity_arcsec": list(g.amplitude_arcsec[0]),
             "probing_sigma_um": sizes.probing_sigma_um,
+            **grade_origin,
         },
+        thermal=profile,
     )
 
 
-def model_truth(seed: int, model: ArmModel, sizes: RandomSizes = RANDOM_SIZES) -> Truth[Arm]:
+def model_truth(
+    seed: int,
+    model: ArmModel,
+    sizes: RandomSizes = RANDOM_SIZES,
+    grade: EncoderGrade | str = DEFAULT_GRADE,
+) -> Truth[Arm]:
     """A random true arm of an arm model (:mod:`aacmm.models`): its arm perturbed as
-    :func:`random_truth`, its own encoders. Same seed, same arm."""
-    truth = random_truth(seed, model.arm, sizes=sizes, encoders=model.encoder_config())
+    :func:`random_truth`, its own encoders (reading errors of ``grade``). Same seed,
+    same arm."""
+    truth = random_truth(seed, model.arm, sizes=sizes, encoders=model.encoder_config(), grade=grade)
     return replace(truth, origin={**truth.origin, "model": model.name})
-
-
-def parse_truth(spec: str, cpr: int = 1 << 32) -> Truth:
-    """``--truth SPEC``: ``nominal``, ``random:SEED`` or a truth file path.
-
-    Raises:
-        TruthError: a bad seed or a bad file.
-    """
-    if spec == "nominal":
-        return nominal_truth(cpr=cpr)
-    if spec.startswith("random:"):
-        text = spec[len("random:") :]
-        if not text.isdigit():
-            raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
-        return random_truth(int(text), cpr=cpr)
-    return load_truth(spec)
-
-
-def arm_shape(params: Params | Arm) -> tuple[int, tuple[str, ...], tuple[int, ...], str]:
-    """What a truth's arm and a model must share: N, the conventions, the joints
-    (0-based) with a beta, the tip kind (the paper's Params: six standard, none, z)."""
-    arm = params.to_arm() if isinstance(params, Params) else params
-    return (
-        arm.n_joints,
-        tuple(j.convention for j in arm.joints),
-        arm.beta_joints,
-        arm.tip,
-    )
-
-
-def check_truth_model(truth: Truth[Any], model: ArmModel, src: str = "truth") -> None:
-    """Refuse a truth whose arm is not of ``model``'s shape (:func:`arm_shape`).
-
-    Raises:
-        TruthError: one line naming both (joints and parameters, or the first difference).
-    """
-    got, want = arm_shape(truth.params), arm_shape(model.arm)
-    if got == want:
-        return
-    p = truth.params.to_arm() if isinstance(truth.params, Params) else truth.params
-    if got[0] != want[0] or p.n_params != model.n_params:
-        what = f"an arm of {got[0]} joints and {p.n_params} parameters"
-    elif got[1] != want[1]:
-        what = "an arm of other joint conventions"
-    elif got[2] != want[2]:
-        what = f"an arm with betas on joints {[j + 1 for j in got[2]]}"
-    else:
-        what = f"an arm with a tip of kind {got[3]!r}"
-    raise TruthError(
-        f"{src}: {what}, not of the model {model.name} ({model.n_joints} joints, "
-        f"{model.n_params} parameters)"
-    )
-
-
-def parse_model_truth(spec: str, model: ArmModel) -> Truth[Any]:
-    """``--truth SPEC`` for an arm model: ``nominal`` (its nominal arm and encoders,
-    no error source), ``random:SEED`` (:func:`model_truth`) or a truth file of
-    the model's shape (:func:`check_truth_model`).
-
-    Raises:
-        TruthError: a bad seed, a bad file, or a truth of another shape.
-    """
-    if spec == "nominal":
-        n = model.n_joints
-        return Truth[Any](
-            params=model.arm,
-            encoders=model.encoder_config(),
-            errors=ErrorSources.none(n),
-            origin={"kind": "nominal", "model": model.name},
-        )
-    if spec.startswith("random:"):
-        text = spec[len("random:") :]
-        if not text.isdigit():
-            raise TruthError(f"--truth {spec}: the seed must be a non-negative integer")
-        return model_truth(int(text), model)
-    truth = load_truth(spec)
-    check_truth_model(truth, model, spec)
-    return truth

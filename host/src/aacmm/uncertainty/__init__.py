@@ -10,8 +10,10 @@ Two methods, side by side:
   uncertainty, the 2.5 % and 97.5 % quantiles give the probabilistically
   symmetric 95 % coverage interval.
 * **Linear propagation** (GUM, law of propagation of uncertainty):
-  Sigma_p = J Sigma_q J^T with the 3x25 Jacobian at the nominal parameters,
-  and the 95 % interval +-1.96 u (normal output assumed).
+  Sigma_p = J Sigma_q J^T with the 3 x P Jacobian at the nominal parameters
+  (P = 25 for the paper's arm; any arm of 4 to 7 joints, its own P: the
+  spec's :attr:`UncertaintySpec.param_names`), and the 95 % interval
+  +-1.96 u (normal output assumed).
 
 Their agreement is judged as in JCGM 101 section 8 (the endpoints of the two
 95 % intervals differ by at most the numerical tolerance delta for ``ndig``
@@ -78,8 +80,10 @@ if TYPE_CHECKING:
     from aacmm.uncertainty.spec import ANGLE_UNITS as ANGLE_UNITS
     from aacmm.uncertainty.spec import DISTRIBUTIONS as DISTRIBUTIONS
     from aacmm.uncertainty.spec import EXAMPLE_SPEC as EXAMPLE_SPEC
+    from aacmm.uncertainty.spec import GROUPS as GROUPS
     from aacmm.uncertainty.spec import LENGTH_UNITS as LENGTH_UNITS
     from aacmm.uncertainty.spec import TOLERANCE_FACTOR as TOLERANCE_FACTOR
+    from aacmm.uncertainty.spec import ArmParameterError as ArmParameterError
     from aacmm.uncertainty.spec import ParamUncertainty as ParamUncertainty
     from aacmm.uncertainty.spec import SpecError as SpecError
     from aacmm.uncertainty.spec import UncertaintySpec as UncertaintySpec
@@ -110,6 +114,8 @@ _WHERE = {
     "format_report": "report",
     "to_json": "report",
     "ANGLE_UNITS": "spec",
+    "ArmParameterError": "spec",
+    "GROUPS": "spec",
     "DISTRIBUTIONS": "spec",
     "EXAMPLE_SPEC": "spec",
     "LENGTH_UNITS": "spec",
@@ -137,12 +143,14 @@ __all__ = [
     "DEFAULT_WORKSPACE",
     "DISTRIBUTIONS",
     "EXAMPLE_SPEC",
+    "GROUPS",
     "HIST_BINS",
     "K95",
     "LENGTH_UNITS",
     "MEMORY_BUDGET",
     "TOLERANCE_FACTOR",
     "TRIAL_CHUNK",
+    "ArmParameterError",
     "BudgetEntry",
     "MemoryLimitError",
     "ParamUncertainty",

@@ -16,11 +16,6 @@ from typing import Any, TypeVar
 import numpy as np
 
 from aacmm.core import (
-    JAC_COLS,
-    JOINTS,
-    PARAM_GROUPS,
-    PARAM_NAMES,
-    PARAM_UNITS,
     FloatArray,
     Model,
     perturbed_points,
@@ -35,6 +30,8 @@ from aacmm.uncertainty.report import (
 from aacmm.uncertainty.runlimits import RunLimitError, available_memory
 from aacmm.uncertainty.spec import (
     UncertaintySpec,
+    group_names,
+    param_group,
 )
 
 __all__ = [
@@ -85,7 +82,7 @@ def _delta(u: FloatArray, ndig: int) -> FloatArray:
 
 
 class _Sampler:
-    """Draws chunks of parameter deviations (m, 25) for a spec."""
+    """Draws chunks of parameter deviations (m, P) for a spec."""
 
     def __init__(self, spec: UncertaintySpec) -> None:
         self.spec = spec
@@ -98,8 +95,8 @@ class _Sampler:
         """The deviations of chunk c (m trials): a pure function of its arguments."""
         rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(c,))))
         if self.root is not None:
-            return np.asarray(rng.standard_normal((m, JAC_COLS)) @ self.root.T)
-        out = np.zeros((m, JAC_COLS))
+            return np.asarray(rng.standard_normal((m, len(self.spec.items))) @ self.root.T)
+        out = np.zeros((m, len(self.spec.items)))
         for k, item in enumerate(self.spec.items):
             if item.u > 0:
                 out[:, k] = item.sample(rng, m)
@@ -107,13 +104,13 @@ class _Sampler:
 
 
 def draw_deltas(spec: UncertaintySpec, trials: int, seed: int) -> FloatArray:
-    """The parameter deviations (trials, 25) that :func:`propagate` uses with ``seed``."""
+    """The parameter deviations (trials, P) that :func:`propagate` uses with ``seed``."""
     s = _Sampler(spec)
     parts = [
         s.chunk(seed, c, min(TRIAL_CHUNK, trials - c * TRIAL_CHUNK))
         for c in range(-(-trials // TRIAL_CHUNK))
     ]
-    return np.concatenate(parts) if parts else np.empty((0, JAC_COLS))
+    return np.concatenate(parts) if parts else np.empty((0, len(spec.items)))
 
 
 @dataclass(frozen=True)
@@ -340,7 +337,7 @@ def propagate(
             f"half the {avail / 2**30:.1f} GiB available: analyse fewer poses"
         )
     ws_seed = seed + 1 if workspace_seed is None else workspace_seed
-    ws = np.random.default_rng(ws_seed).uniform(-math.pi, math.pi, (workspace, JOINTS))
+    ws = np.random.default_rng(ws_seed).uniform(-math.pi, math.pi, (workspace, spec.joints))
     poses = np.concatenate([spec.poses_rad, ws])
     t0 = time.perf_counter()
     u = spec.u_vector()
@@ -348,8 +345,8 @@ def propagate(
     p_nom, jac = model.points_jacobians(poses)
     # J Sigma J^T split by parameter: J_ak (Sigma J^T)_ka, which is J_ak^2 u_k^2 for
     # independent parameters and sums to the variance with correlations too
-    split = jac * (jac @ spec.covariance_matrix())  # (n, 3, 25)
-    contrib_all = split.sum(axis=1)  # (n, 25): sum over axes
+    split = jac * (jac @ spec.covariance_matrix())  # (n, 3, P)
+    contrib_all = split.sum(axis=1)  # (n, P): sum over axes
     var_lin = split.sum(axis=2)  # (n, 3)
     sampler = _Sampler(spec)
     chunks = -(-trials // TRIAL_CHUNK)
@@ -402,24 +399,25 @@ def propagate(
                 )
     mean_contrib = contrib_all.mean(axis=0)
     total_var = float(mean_contrib.sum())
-    sens = np.sqrt((jac**2).sum(axis=1).mean(axis=0))  # RMS column norm (25,)
+    sens = np.sqrt((jac**2).sum(axis=1).mean(axis=0))  # RMS column norm (P,)
+    names, units = spec.param_names, spec.param_units
     budget = sorted(
         (
             BudgetEntry(
                 name,
-                PARAM_UNITS[k],
+                units[k],
                 float(u[k]),
                 float(sens[k]),
                 float(math.copysign(math.sqrt(abs(mean_contrib[k])), mean_contrib[k])),
                 float(mean_contrib[k] / total_var) if total_var > 0 else 0.0,
             )
-            for k, name in enumerate(PARAM_NAMES)
+            for k, name in enumerate(names)
         ),
         key=lambda e: -e.share,
     )
-    groups = {g: 0.0 for g in PARAM_GROUPS}
+    groups = {g: 0.0 for g in group_names(names)}
     for e in budget:
-        groups[e.name.rstrip("0123456789")] += e.share
+        groups[param_group(e.name)] += e.share
     return UncertaintyResult(
         spec,
         trials,

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from aacmm.core import AXES, PARAM_UNITS, FloatArray
+from aacmm.core import AXES, JOINTS, FloatArray
 from aacmm.uncertainty.spec import ANGLE_UNITS, UncertaintySpec
 
 
@@ -29,7 +29,7 @@ class PoseResult:
     mean minus nominal point; ``ci_lin``/``ci_mc`` (3, 2): 95 % coverage
     intervals of the deviation; ``u3_*``: sqrt(u_x^2 + u_y^2 + u_z^2);
     ``r95_mc``: 95 % quantile of the distance to the nominal point;
-    ``contrib`` (25,): variance contributions sum_r J_rk^2 u_k^2 (mm^2);
+    ``contrib`` (P,): variance contributions sum_r J_rk^2 u_k^2 (mm^2);
     ``valid``: JCGM 101 section 8 agreement at tolerance ``delta`` (3,).
     """
 
@@ -122,12 +122,19 @@ def format_report(res: UncertaintyResult, top: int = 10, pose_rows: int = 8) -> 
         f"linear J Sigma J^T (GUM); values in um; 95 % intervals of the deviation",
         f"agreement: JCGM 101 sec. 8 check with {res.ndig} significant digit(s) of u_lin",
     ]
+    if res.spec.model is not None or res.spec.joints != JOINTS or len(res.spec.items) != 25:
+        arm = res.spec.arm
+        lines.append(
+            f"arm: {res.spec.model or 'given arm'} ({arm.n_joints} joints, "
+            f"{arm.n_params} parameters)"
+        )
+    pw = 4 + 5 * res.spec.joints  # the pose column's width (34 for six joints)
     shown = list(res.given) or list(res.workspace[:pose_rows])
     title = "given poses" if res.given else f"first {len(shown)} workspace poses"
     lines += [
         "",
         f"{title}:",
-        f"{'pose (deg)':>34} {'ax':>2} {'u_lin':>8} {'u_mc':>8} {'ratio':>6} "
+        f"{'pose (deg)':>{pw}} {'ax':>2} {'u_lin':>8} {'u_mc':>8} {'ratio':>6} "
         f"{'bias_mc':>8} {'95% lin':>19} {'95% mc':>19} ok",
     ]
     for p in shown:
@@ -135,14 +142,14 @@ def format_report(res: UncertaintyResult, top: int = 10, pose_rows: int = 8) -> 
         for r, ax in enumerate(AXES):
             ratio = p.u_mc[r] / p.u_lin[r] if p.u_lin[r] > 0 else float("nan")
             lines.append(
-                f"{pose if r == 0 else '':>34} {ax:>2} {p.u_lin[r] * um:8.3f} "
+                f"{pose if r == 0 else '':>{pw}} {ax:>2} {p.u_lin[r] * um:8.3f} "
                 f"{p.u_mc[r] * um:8.3f} {ratio:6.3f} {p.bias_mc[r] * um:+8.3f} "
                 f"[{p.ci_lin[r, 0] * um:+8.3f},{p.ci_lin[r, 1] * um:+8.3f}] "
                 f"[{p.ci_mc[r, 0] * um:+8.3f},{p.ci_mc[r, 1] * um:+8.3f}] "
                 + ("yes" if r == 0 and p.valid else ("NO" if r == 0 else ""))
             )
         lines.append(
-            f"{'':>34} 3D u_lin {p.u3_lin * um:.3f}, u_mc {p.u3_mc * um:.3f}, "
+            f"{'':>{pw}} 3D u_lin {p.u3_lin * um:.3f}, u_mc {p.u3_mc * um:.3f}, "
             f"95 % of MC points within {p.r95_mc * um:.3f} of nominal"
         )
     ws = res.workspace
@@ -180,12 +187,18 @@ def format_report(res: UncertaintyResult, top: int = 10, pose_rows: int = 8) -> 
             f"{e.contribution_mm * um:11.3f} {100 * e.share:7.2f}%"
         )
     g = res.group_shares
-    ang = g["theta"] + g["alpha"]
+    ang_groups = [k for k in g if k in ("theta", "alpha", "beta")]
+    len_groups = [k for k in g if k not in ang_groups]
+    ang = sum(g[k] for k in ang_groups)
     lines += [
         "  groups: " + ", ".join(f"{k} {100 * v:.2f}%" for k, v in g.items()),
-        f"  => angles (alpha, theta): {100 * ang:.1f} % of the variance; "
-        f"lengths (d, a, l): {100 * (1 - ang):.1f} %"
-        + (" -- alpha and theta dominate, as the paper concludes" if ang > 0.5 else ""),
+        f"  => angles ({', '.join(sorted(ang_groups))}): {100 * ang:.1f} % of the variance; "
+        f"lengths ({', '.join(len_groups)}): {100 * (1 - ang):.1f} %"
+        + (
+            " -- alpha and theta dominate, as the paper concludes"
+            if ang > 0.5 and ang_groups == ["theta", "alpha"]
+            else ""
+        ),
         f"compute: {res.elapsed_s:.2f} s on {res.threads} thread(s); MC quantiles: {res.quantiles}",
     ]
     return "\n".join(lines)
@@ -211,12 +224,19 @@ def to_json(res: UncertaintyResult) -> dict[str, Any]:
         }
 
     lo, hi = res.ratio_range()
+    units = res.spec.param_units
+    arm = res.spec.arm
     return {
         "trials": res.trials,
         "seed": res.seed,
         "ndig": res.ndig,
+        "arm": {
+            "model": res.spec.model,
+            "joints": arm.n_joints,
+            "parameters": list(res.spec.param_names),
+        },
         "uncertainties": {
-            i.name: {"u": i.u, "unit": PARAM_UNITS[k], "distribution": i.distribution}
+            i.name: {"u": i.u, "unit": units[k], "distribution": i.distribution}
             for k, i in enumerate(res.spec.items)
         },
         "given_poses": [pose(p) for p in res.given],
@@ -241,11 +261,12 @@ def to_json(res: UncertaintyResult) -> dict[str, Any]:
     }
 
 
-#: CSV columns of :func:`csv_text`, one row per pose and axis.
-CSV_COLUMNS: tuple[str, ...] = (
-    "pose",
-    "kind",
-    *(f"theta{i}_deg" for i in range(1, 7)),
+def csv_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """CSV columns of :func:`csv_text` for an arm of ``joints`` joints."""
+    return ("pose", "kind", *(f"theta{i}_deg" for i in range(1, joints + 1)), *_CSV_TAIL)
+
+
+_CSV_TAIL: tuple[str, ...] = (
     "axis",
     "point_mm",
     "u_lin_um",
@@ -261,13 +282,16 @@ CSV_COLUMNS: tuple[str, ...] = (
     "r95_mc_um",
     "agree",
 )
+#: CSV columns of :func:`csv_text` for the paper's six joints, one row per pose and axis.
+CSV_COLUMNS: tuple[str, ...] = csv_columns(JOINTS)
 
 
 def csv_text(res: UncertaintyResult) -> str:
-    """Every pose and axis as CSV text (:data:`CSV_COLUMNS`; lengths in um, angles in deg)."""
+    """Every pose and axis as CSV text (:func:`csv_columns` of the arm's joints;
+    :data:`CSV_COLUMNS` for the paper's; lengths in um, angles in deg)."""
     buf = io.StringIO(newline="")
     w = csv.writer(buf)
-    w.writerow(CSV_COLUMNS)
+    w.writerow(csv_columns(res.spec.joints))
     um = 1e3
     for i, p in enumerate(res.poses):
         kind = "given" if i < res.n_given else "workspace"
@@ -336,15 +360,15 @@ def figure(res: UncertaintyResult, top: int = 12) -> Any:
     ax_budget.barh([e.name for e in entries], [100 * e.share for e in entries])
     ax_budget.set_xlabel("share of the 3D variance (%)")
     g = res.group_shares
+    tex = {"theta": r"$\theta$", "alpha": r"$\alpha$", "beta": r"$\beta$"}
     ax_budget.set_title(
-        "budget: "
-        + rf"$\theta$ {100 * g['theta']:.1f} %, $\alpha$ {100 * g['alpha']:.1f} %, "
-        + f"d {100 * g['d']:.1f} %, a {100 * g['a']:.1f} %, l {100 * g['l']:.1f} %",
+        "budget: " + ", ".join(f"{tex.get(k, k)} {100 * v:.1f} %" for k, v in g.items()),
         fontsize=9,
     )
     ax_budget.grid(axis="x", alpha=0.3)
+    arm = f"{res.spec.model}: " if res.spec.model is not None else ""
     fig.suptitle(
-        f"Probe-point uncertainty, {res.trials} trials (seed {res.seed}), "
+        f"{arm}Probe-point uncertainty, {res.trials} trials (seed {res.seed}), "
         f"{res.n_given} given + {len(res.poses) - res.n_given} workspace poses",
         fontsize=10,
     )

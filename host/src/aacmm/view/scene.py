@@ -232,12 +232,15 @@ def calibration_scene(res: Any, cmp_: Any = None, title: str = "calibration") ->
     """A :class:`aacmm.calibration.results.CalibrationResult`: the calibration data's
     points with the calibrated parameters, coloured by their residual after; per
     step, every unit's residual before and after (mm)."""
+    from aacmm.calibration.parameters import arm_part, error_model
     from aacmm.calibration.report import unit_residuals
     from aacmm.core import Model
+    from aacmm.errmodel import points as em_points
 
     obs = res.observations
     pr = res.problem
-    pts = Model(res.params).points(obs.theta_rad)
+    model, em = Model(arm_part(res.params)), error_model(res.params)
+    pts = model.points(obs.theta_rad) if em is None else em_points(model, em, obs.theta_rad)
     before = unit_residuals(pr, res.before)
     after = unit_residuals(pr, res.after)
     per_pose: list[float | None] = [None] * len(pts)

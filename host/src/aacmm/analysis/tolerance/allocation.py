@@ -30,7 +30,7 @@ from aacmm.analysis.tolerance.solve import (
     optimise,
     prune,
 )
-from aacmm.core import JOINTS, PARAM_NAMES, FloatArray
+from aacmm.core import FloatArray, Params
 from aacmm.errors import InfeasibleError
 from aacmm.uncertainty.spec import SpecError
 
@@ -135,14 +135,14 @@ class Allocation:
 class _Terms:
     """The problem in tolerance units: rows of tr Sigma = at t^2 + he e + base."""
 
-    at: FloatArray  # (m, 25): coefficient on t_i^2 (0 for fixed parameters)
-    a: FloatArray  # (m, 25): coefficient on v_i
-    he: FloatArray  # (m, 6)
+    at: FloatArray  # (m, P): coefficient on t_i^2 (0 for fixed parameters)
+    a: FloatArray  # (m, P): coefficient on v_i
+    he: FloatArray  # (m, N)
     base: FloatArray  # (m,): fixed tolerances + calibration + residual
-    v_fixed: FloatArray  # (25,)
-    alloc: np.ndarray  # (25,) bool
+    v_fixed: FloatArray  # (P,)
+    alloc: np.ndarray  # (P,) bool
     costs: Costs  # over the allocated parameters
-    u_per_t: FloatArray  # (25,)
+    u_per_t: FloatArray  # (P,)
 
 
 def _terms(spec: ToleranceSpec, design: Design) -> _Terms:
@@ -168,7 +168,7 @@ def _candidates(spec: ToleranceSpec) -> list[list[Candidate]] | None:
     if not spec.encoders:
         return None
     out = []
-    for j in range(1, JOINTS + 1):
+    for j in range(1, spec.joints + 1):
         cands = [
             Candidate(i, e.u_rad**2, e.cost) for i, e in enumerate(spec.encoders) if j in e.joints
         ]
@@ -185,7 +185,7 @@ def _rows(terms: _Terms, kappa: FloatArray, limit: FloatArray, over: str) -> Row
 
 
 def _variances(terms: _Terms, t_alloc: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Full t (25,) in tolerance units (fixed ones filled in) and v (25,)."""
+    """Full t (P,) in tolerance units (fixed ones filled in) and v (P,)."""
     t = np.zeros(terms.alloc.shape[0])
     t[terms.alloc] = t_alloc
     v = terms.v_fixed.copy()
@@ -262,6 +262,7 @@ def allocate(spec: ToleranceSpec, calibration: CalibrationModel | None = None) -
     """
     t0 = time.perf_counter()
     if calibration is None and spec.calibration is not None:
+        assert isinstance(spec.params, Params)  # ToleranceSpec: the paper's arm only, for now
         try:
             calibration = CalibrationModel.from_plan(spec.calibration, spec.params)
         except ValueError as e:
@@ -271,7 +272,7 @@ def allocate(spec: ToleranceSpec, calibration: CalibrationModel | None = None) -
     cands = _candidates(spec)
     over = spec.target.over
     limit = design.limit_mm
-    e_min = np.zeros(JOINTS)
+    e_min = np.zeros(spec.joints)
     if cands:
         e_min = np.array([min(c.variance for c in cj) for cj in cands])
     # Feasibility at the best point (every tolerance at its minimum, the best
@@ -450,8 +451,8 @@ def _result(
     else:
         w = kappa**2 / design.rows * (limit.mean() / limit) ** 2
         value_mm = float(np.sqrt(np.mean(u**2)))
-    p_var = w @ (terms.a * v[None, :])  # (25,)
-    e_var = w @ (terms.he * e[None, :])  # (6,)
+    p_var = w @ (terms.a * v[None, :])  # (P,)
+    e_var = w @ (terms.he * e[None, :])  # (N,)
     cal_var = w @ (np.einsum("rdd->r", design.fixed_cov - design.residual_cov))
     res_var = w @ np.einsum("rdd->r", design.residual_cov)
     total = float(p_var.sum() + e_var.sum() + cal_var + res_var)
@@ -459,10 +460,12 @@ def _result(
     # report the sensitivity per unit of tolerance, in the spec's length unit
     sens = np.sqrt(terms.a.mean(axis=0)) / scale * np.array([c.scale for c in spec.costs])
     identified = (
-        design.calibration.identified_mask if design.calibration is not None else np.zeros(25, bool)
+        design.calibration.identified_mask
+        if design.calibration is not None
+        else np.zeros(len(spec.costs), bool)
     )
     params = []
-    for i, (name, c) in enumerate(zip(PARAM_NAMES, spec.costs, strict=True)):
+    for i, (name, c) in enumerate(zip(spec.param_names, spec.costs, strict=True)):
         ti = float(t[i]) if c.allocated else float(c.fixed or 0.0)
         seen = bool(np.any(terms.a[:, i] > 0))
         if identified[i]:

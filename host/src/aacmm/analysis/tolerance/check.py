@@ -35,7 +35,7 @@ import numpy as np
 
 from aacmm.analysis.tolerance.allocation import Allocation
 from aacmm.analysis.tolerance.request import ToleranceSpec
-from aacmm.core import JAC_COLS, PARAM_NAMES, FloatArray, perturbed_points
+from aacmm.core import JAC_COLS, FloatArray, perturbed_points
 from aacmm.uncertainty.runlimits import check_memory, format_count
 from aacmm.uncertainty.spec import ParamUncertainty
 
@@ -78,24 +78,25 @@ class CheckResult:
 
 
 def _draw(alloc: Allocation, trials: int, rng: np.random.Generator) -> FloatArray:
-    """Parameter errors (trials, 25) of the arms after calibration (if any)."""
-    dq = np.zeros((trials, JAC_COLS))
+    """Parameter errors (trials, P) of the arms after calibration (if any)."""
+    dq = np.zeros((trials, len(alloc.params)))
     for i, p in enumerate(alloc.params):
         if p.status == "calibrated" or not math.isfinite(p.tolerance) or p.u == 0.0:
             continue  # removed by calibration, or not seen by the target
-        dq[:, i] = ParamUncertainty(PARAM_NAMES[i], p.u, p.distribution).sample(rng, trials)
+        dq[:, i] = ParamUncertainty(p.name, p.u, p.distribution).sample(rng, trials)
     cal = alloc.design.calibration
     if cal is not None:
         dq = dq @ alloc.design.error_map.T
         w, vec = np.linalg.eigh(cal.covariance)
         root = vec * np.sqrt(np.clip(w, 0.0, None))
-        dq += rng.standard_normal((trials, JAC_COLS)) @ root.T
+        dq += rng.standard_normal((trials, len(alloc.params))) @ root.T
     return dq
 
 
 def _readings(alloc: Allocation, trials: int, rng: np.random.Generator) -> FloatArray:
-    """Encoder reading errors (trials, 6) in rad: accuracy plus quantisation."""
-    out = np.zeros((trials, JAC_COLS))
+    """Encoder reading errors (trials, P) in rad on the theta columns (the first N):
+    accuracy plus quantisation."""
+    out = np.zeros((trials, len(alloc.params)))
     for r in alloc.encoders:
         enc = r.encoder
         acc = ParamUncertainty(
@@ -124,11 +125,12 @@ def _quantile_se(x: FloatArray, p: float) -> tuple[FloatArray, FloatArray]:
     return q, 0.5 * (part[hi] - part[lo])
 
 
-def check_memory_bytes(trials: int, rows: int) -> int:
+def check_memory_bytes(trials: int, rows: int, params: int = JAC_COLS) -> int:
     """Memory the check of ``trials`` arms at ``rows`` rows plans (bytes, an upper
-    bound): the parameter errors and both readings (trials x 25 each, and their
-    sum), the errors (trials x rows) and their sorted copy, the points of a block."""
-    return 8 * trials * (4 * JAC_COLS + 2 * rows) + 8 * 3 * 4 * _BLOCK_VALUES
+    bound): the parameter errors and both readings (trials x P each, P = ``params``,
+    25 for the paper's arm, and their sum), the errors (trials x rows) and their
+    sorted copy, the points of a block."""
+    return 8 * trials * (4 * params + 2 * rows) + 8 * 3 * 4 * _BLOCK_VALUES
 
 
 #: Arms of the pilot check that times a long one (:func:`estimate_check_seconds`).
@@ -152,7 +154,7 @@ def check_memory_limit(spec: ToleranceSpec, trials: int, rows: int | None = None
     """
     k = check_rows(spec, rows)
     check_memory(
-        check_memory_bytes(trials, k),
+        check_memory_bytes(trials, k, len(spec.costs)),
         f"the Monte Carlo check of {format_count(trials)} arms at {k} rows",
         "use fewer --trials or --check-rows",
     )
@@ -205,7 +207,7 @@ def monte_carlo_check(
         order = order[:rows]
     checked = np.sort(order)
     check_memory(
-        check_memory_bytes(trials, checked.size),
+        check_memory_bytes(trials, checked.size, len(spec.costs)),
         f"the Monte Carlo check of {format_count(trials)} arms at {checked.size} rows",
         "use fewer --trials or --check-rows",
     )

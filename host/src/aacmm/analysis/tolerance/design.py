@@ -9,8 +9,9 @@ their variances:
 v_i = u_i^2 is the variance of structural parameter i (u = t * u_per_t for a
 tolerance t), e_j the variance of joint j's encoder reading, F_r the fixed
 part (the residual model error, the calibration's own covariance). For the
-point target g_ri is the column i of the 3 x 25 Jacobian at the pose (times
-the calibration map M for a calibrated arm) and h_rj the theta_j column; for
+point target g_ri is the column i of the 3 x P Jacobian (P = 25 for the
+paper's arm) at the pose (times the calibration map M for a calibrated arm)
+and h_rj the theta_j column; for
 the length target (pose A to pose B, unit direction n) Sigma_r is 1 x 1 with
 g_ri = n . (g_Ai - g_Bi) (the same arm at both ends) and
 h_rj^2 = (n . h_Aj)^2 + (n . h_Bj)^2 (two independent readings).
@@ -35,7 +36,7 @@ from scipy import special
 
 from aacmm.analysis.tolerance.calibrated import CalibrationModel
 from aacmm.analysis.tolerance.request import ToleranceSpec
-from aacmm.core import JOINTS, FloatArray, Model
+from aacmm.core import FloatArray, Model
 
 #: quadrature nodes on the octant of the unit sphere for radius_factor
 _NW, _NPHI = 24, 32
@@ -115,9 +116,10 @@ def radius_factor(
 class Design:
     """The linearised problem of one spec (see the module docstring).
 
-    ``g`` (m, d, 25), ``h`` (m, d, 6), ``fixed_cov`` (m, d, d) with d = 3
-    (point) or 1 (length); ``limit_mm`` (m,) the permitted value B_r;
-    ``poses`` the workspace (n, 6) rad, ``points`` (n, 3) mm; ``pairs``
+    ``g`` (m, d, P), ``h`` (m, d, N), ``fixed_cov`` (m, d, d) with d = 3
+    (point) or 1 (length), P the arm's parameters (25 for the paper's), N its
+    joints; ``limit_mm`` (m,) the permitted value B_r;
+    ``poses`` the workspace (n, N) rad, ``points`` (n, 3) mm; ``pairs``
     (m, 2) pose indices and ``lengths_mm`` (m,) for the length target;
     ``error_map`` the calibration map M (identity without calibration);
     ``calibration`` the model used, if any.
@@ -145,14 +147,14 @@ class Design:
         return int(self.g.shape[1])
 
     def trace_coefficients(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(m, 25), (m, 6), (m,): tr Sigma_r = A v + H e + f."""
+        """(m, P), (m, N), (m,): tr Sigma_r = A v + H e + f."""
         a = np.einsum("rdi,rdi->ri", self.g, self.g)
         he = np.einsum("rdj,rdj->rj", self.h, self.h)
         f = np.einsum("rdd->r", self.fixed_cov)
         return a, he, f
 
     def covariances(self, v: FloatArray, e: FloatArray) -> FloatArray:
-        """Sigma_r (m, d, d) for parameter variances v (25,) and encoder variances e (6,)."""
+        """Sigma_r (m, d, d) for parameter variances v (P,) and encoder variances e (N,)."""
         s = np.einsum("rdi,i,rki->rdk", self.g, v, self.g)
         s += np.einsum("rdj,j,rkj->rdk", self.h, e, self.h)
         s += self.fixed_cov
@@ -190,7 +192,7 @@ def build_design(spec: ToleranceSpec, calibration: CalibrationModel | None = Non
         # a column the calibration absorbs (to rounding) has no effect left at all
         left = np.linalg.norm(g, axis=1) <= 1e-9 * np.linalg.norm(jac, axis=1)
         g = np.where(left[:, None, :], 0.0, g)
-    h = jac[:, :, :JOINTS].copy()  # encoder readings: never calibrated away
+    h = jac[:, :, : spec.joints].copy()  # encoder readings: never calibrated away
     cal = (
         np.einsum("pdi,ij,pkj->pdk", jac, calibration.covariance, jac)
         if calibration is not None

@@ -17,6 +17,8 @@ from aacmm.analysis.tolerance.allocation import Allocation
 from aacmm.analysis.tolerance.check import CheckResult
 from aacmm.analysis.tolerance.design import Design
 from aacmm.analysis.tolerance.request import ARCSEC_RAD
+from aacmm.core import Params
+from aacmm.uncertainty.spec import param_group
 
 
 def _fmt_t(t: float, unit: str) -> str:
@@ -67,6 +69,11 @@ def format_report(a: Allocation, check: CheckResult | None = None) -> str:
     unit, sc = spec.length_unit, spec.length_scale
     lines = [
         f"Tolerance allocation: {spec.source}",
+        *(
+            [f"arm: {spec.model} ({spec.joints} joints, {len(spec.costs)} parameters)"]
+            if spec.model is not None or not isinstance(spec.params, Params)
+            else []
+        ),
         _target_line(a),
         f"workspace: {spec.workspace.describe()}",
         "cost: c / t^k per parameter (t: tolerance half-width, in "
@@ -110,7 +117,7 @@ def format_report(a: Allocation, check: CheckResult | None = None) -> str:
         lines.append(f"{what}: contributes {c / sc:.4g} {unit} ({100 * s:.2f} %)")
     groups: dict[str, float] = {}
     for p in a.params:
-        g = p.name.rstrip("0123456789")
+        g = param_group(p.name)
         groups[g] = groups.get(g, 0.0) + p.share
     groups["encoders"] = sum(r.share for r in a.encoders)
     for name, (_, s) in a.fixed_terms.items():
@@ -223,6 +230,7 @@ def to_json(a: Allocation, check: CheckResult | None = None) -> dict[str, Any]:
 
     out: dict[str, Any] = {
         "source": spec.source,
+        "arm": {"model": spec.model, "joints": spec.joints, "parameters": len(spec.costs)},
         "units": {"angle": spec.angle_unit, "length": spec.length_unit},
         "target": {
             "quantity": t.quantity,
@@ -400,13 +408,15 @@ def budget_png(a: Allocation) -> bytes:
         "d": "tab:green",
         "a": "tab:red",
         "l": "tab:purple",
+        "beta": "tab:pink",
+        "tip": "tab:purple",
         "encoder": "tab:brown",
         "fixed": "tab:gray",
     }
     items: list[tuple[str, float, float, str, str]] = []
     for p in a.params:
         if p.share > 0 or p.cost > 0:
-            g = p.name.rstrip("0123456789")
+            g = param_group(p.name)
             items.append(
                 (p.name, p.contribution_mm / sc, p.cost, colours[g], _fmt_t(p.tolerance, p.unit))
             )

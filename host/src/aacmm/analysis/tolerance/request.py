@@ -5,18 +5,30 @@ a spec file, each checking its own values (ValueError), and
 :class:`SpecError`. Angles are in rad and lengths in mm here, as everywhere
 in aacmm; a parameter's tolerance ``t`` is in its ``unit`` (``scale`` rad or
 mm per unit). Public through :mod:`aacmm.analysis.tolerance`.
+
+Any arm (issue 26): the nominal arm is the paper's (:class:`aacmm.core.Params`,
+the default) or any :class:`aacmm.arm.Arm` (an arm model's); the costs list
+its P parameters (:attr:`ToleranceSpec.param_names`), the workspace poses and
+the encoders its N joints (:attr:`Workspace.joints`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
 
+from aacmm.arm import JOINTS_MAX, Arm
 from aacmm.core import JOINTS, PARAM_NAMES, FloatArray, Params
-from aacmm.uncertainty.spec import ANGLE_UNITS, DISTRIBUTIONS, LENGTH_UNITS, TOLERANCE_FACTOR
+from aacmm.uncertainty.spec import (
+    ANGLE_UNITS,
+    DISTRIBUTIONS,
+    LENGTH_UNITS,
+    TOLERANCE_FACTOR,
+    is_param_name,
+)
 
 ARCSEC_RAD = ANGLE_UNITS["arcsec"]
 DEFAULT_RANDOM_POSES = 200
@@ -49,7 +61,7 @@ class ParamCost:
     coverage_k: float = 2.0
 
     def __post_init__(self) -> None:
-        if self.name not in PARAM_NAMES:
+        if not is_param_name(self.name):
             raise ValueError(f"unknown parameter {self.name!r}")
         if self.distribution not in DISTRIBUTIONS:
             raise ValueError(f"distribution must be one of {', '.join(DISTRIBUTIONS)}")
@@ -93,7 +105,8 @@ class Encoder:
 
     The reading error is the accuracy error (``distribution`` within
     +-``accuracy_arcsec``) plus the quantisation error (uniform within half a
-    count). ``joints`` lists the joints (1..6) it fits.
+    count). ``joints`` lists the joints (1..N) it fits (default: 1..6, the
+    paper's arm; :meth:`for_joints` the same entry for every joint of an arm).
     """
 
     name: str
@@ -111,10 +124,14 @@ class Encoder:
         ):
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{what} must be finite and >= 0, got {v}")
-        if not self.joints or any(j not in range(1, JOINTS + 1) for j in self.joints):
-            raise ValueError(f"joints must be a non-empty list of 1..{JOINTS}")
+        if not self.joints or any(j not in range(1, JOINTS_MAX + 1) for j in self.joints):
+            raise ValueError(f"joints must be a non-empty list of 1..{JOINTS_MAX}")
         if self.distribution not in DISTRIBUTIONS or self.distribution == "normal":
             raise ValueError("distribution must be uniform, triangular or arcsine")
+
+    def for_joints(self, joints: int) -> Encoder:
+        """The same entry, fitting joints 1..``joints`` (an arm's every joint)."""
+        return replace(self, joints=tuple(range(1, joints + 1)))
 
     @property
     def u_rad(self) -> float:
@@ -171,26 +188,38 @@ class Target:
 
 @dataclass(frozen=True)
 class Workspace:
-    """The poses the target applies to (rad, (n, 6)): given, from a log, random."""
+    """The poses the target applies to (rad, (n, N)): given, from a log, random.
+
+    ``joints``: N, the arm's joints (six: the paper's arm); ``joint_range_rad``
+    (N, 2), default every joint in [-pi, pi).
+    """
 
     given: FloatArray = field(default_factory=lambda: np.empty((0, JOINTS)))
     logged: FloatArray = field(default_factory=lambda: np.empty((0, JOINTS)))
     random: int = DEFAULT_RANDOM_POSES
     seed: int = 1
-    joint_range_rad: FloatArray = field(
-        default_factory=lambda: np.tile([-math.pi, math.pi], (JOINTS, 1))
-    )
+    joint_range_rad: FloatArray | None = None
     log_path: str | None = None
+    joints: int = JOINTS
 
     def __post_init__(self) -> None:
+        n = self.joints
         for name in ("given", "logged"):
-            a = np.asarray(getattr(self, name), dtype=np.float64).reshape(-1, JOINTS)
+            a = np.asarray(getattr(self, name), dtype=np.float64)
+            a = np.empty((0, n)) if a.size == 0 else a
+            if a.ndim != 2 or a.shape[1] != n:
+                raise ValueError(f"{name} poses need {n} joint angles each (the arm's joints)")
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"{name} poses must be finite")
             object.__setattr__(self, name, a)
-        r = np.asarray(self.joint_range_rad, dtype=np.float64)
-        if r.shape != (JOINTS, 2) or not np.all(np.isfinite(r)) or np.any(r[:, 1] <= r[:, 0]):
-            raise ValueError(f"joint ranges need {JOINTS} pairs [low, high] with low < high")
+        r = np.asarray(
+            np.tile([-math.pi, math.pi], (n, 1))
+            if self.joint_range_rad is None
+            else self.joint_range_rad,
+            dtype=np.float64,
+        )
+        if r.shape != (n, 2) or not np.all(np.isfinite(r)) or np.any(r[:, 1] <= r[:, 0]):
+            raise ValueError(f"joint ranges need {n} pairs [low, high] with low < high")
         object.__setattr__(self, "joint_range_rad", r)
         if isinstance(self.random, bool) or not isinstance(self.random, int) or self.random < 0:
             raise ValueError(f"random must be an integer >= 0, got {self.random!r}")
@@ -203,11 +232,17 @@ class Workspace:
     def size(self) -> int:
         return int(self.given.shape[0] + self.logged.shape[0] + self.random)
 
+    @property
+    def ranges_rad(self) -> FloatArray:
+        """The joint ranges (N, 2) in rad (set by the constructor)."""
+        assert self.joint_range_rad is not None
+        return self.joint_range_rad
+
     def poses(self) -> FloatArray:
-        """All poses (n, 6) in rad: given, then logged, then random (seeded)."""
+        """All poses (n, N) in rad: given, then logged, then random (seeded)."""
         rng = np.random.default_rng(self.seed)
-        lo, hi = self.joint_range_rad[:, 0], self.joint_range_rad[:, 1]
-        rand = lo + (hi - lo) * rng.random((self.random, JOINTS))
+        lo, hi = self.ranges_rad[:, 0], self.ranges_rad[:, 1]
+        rand = lo + (hi - lo) * rng.random((self.random, self.joints))
         return np.concatenate([self.given, self.logged, rand])
 
     def describe(self) -> str:
@@ -217,8 +252,8 @@ class Workspace:
         if self.logged.shape[0]:
             parts.append(f"{self.logged.shape[0]} from {self.log_path}")
         if self.random:
-            rng = self.joint_range_rad
-            full = np.allclose(rng, np.tile([-math.pi, math.pi], (JOINTS, 1)))
+            rng = self.ranges_rad
+            full = np.allclose(rng, np.tile([-math.pi, math.pi], (self.joints, 1)))
             how = "joints uniform in [-180, 180) deg" if full else "joints uniform in their ranges"
             parts.append(f"{self.random} random ({how}, seed {self.seed})")
         return ", ".join(parts) + " poses"
@@ -250,28 +285,69 @@ class CalibrationDesign:
 
 @dataclass(frozen=True)
 class ToleranceSpec:
-    """A whole allocation request (see docs/tolerance.md)."""
+    """A whole allocation request (see docs/tolerance.md).
+
+    ``params``: the nominal arm, the paper's (:class:`Params`, default) or any
+    :class:`aacmm.arm.Arm`; ``model``: its arm model's name for reports (None:
+    the paper's arm, or an arm made in code). A calibrated allocation
+    (``calibration``) is for the paper's arm only, for now.
+    """
 
     costs: tuple[ParamCost, ...]
     target: Target = field(default_factory=Target)
     workspace: Workspace = field(default_factory=Workspace)
     encoders: tuple[Encoder, ...] = ()
-    params: Params = field(default_factory=Params)
+    params: Params | Arm = field(default_factory=Params)
     residual_u_mm: float = 0.0
     angle_unit: str = "arcsec"
     length_unit: str = "um"
     calibration: CalibrationDesign | None = None
     source: str = "<spec>"
+    model: str | None = None
 
     def __post_init__(self) -> None:
-        if tuple(c.name for c in self.costs) != PARAM_NAMES:
-            raise ValueError("costs must list the 25 parameters in PARAM_NAMES order")
+        names = self.param_names
+        if tuple(c.name for c in self.costs) != names:
+            raise ValueError(
+                f"costs must list the arm's {len(names)} parameters in column order "
+                f"({names[0]} .. {names[-1]})"
+            )
         if not (math.isfinite(self.residual_u_mm) and self.residual_u_mm >= 0):
             raise ValueError(f"residual u must be >= 0, got {self.residual_u_mm}")
+        n = self.joints
+        if self.workspace.joints != n:
+            raise ValueError(
+                f"the workspace has poses of {self.workspace.joints} joints, the arm {n}"
+            )
         if self.encoders:
-            for j in range(1, JOINTS + 1):
+            for e in self.encoders:
+                if max(e.joints) > n:
+                    raise ValueError(
+                        f"encoder {e.name!r} fits joint {max(e.joints)}: the arm has {n} joints"
+                    )
+            for j in range(1, n + 1):
                 if not any(j in e.joints for e in self.encoders):
                     raise ValueError(f"no encoder in the catalogue fits joint {j}")
+        if self.calibration is not None and not isinstance(self.params, Params):
+            raise ValueError(
+                "[calibration]: the calibrated allocation is for the paper's arm only "
+                "(gao2013) for now; allocate this arm without [calibration]"
+            )
+
+    @property
+    def arm(self) -> Arm:
+        """The nominal arm as an :class:`aacmm.arm.Arm`."""
+        return self.params.to_arm() if isinstance(self.params, Params) else self.params
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """The arm's P parameter names in column order (paper: :data:`PARAM_NAMES`)."""
+        return PARAM_NAMES if isinstance(self.params, Params) else self.params.param_names
+
+    @property
+    def joints(self) -> int:
+        """N, the arm's joints."""
+        return JOINTS if isinstance(self.params, Params) else self.params.n_joints
 
     @property
     def length_scale(self) -> float:

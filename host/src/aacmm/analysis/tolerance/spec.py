@@ -13,6 +13,13 @@ angles are in rad and lengths in mm, as everywhere in aacmm.
 The request's dataclasses (:class:`ToleranceSpec` and its parts) are in
 :mod:`aacmm.analysis.tolerance.request`; :class:`SpecError` is
 :mod:`aacmm.uncertainty.spec`'s (both: :mod:`aacmm.analysis.tolerance`).
+
+Any arm (issue 26): ``parse_spec(doc, base, arm, model)`` reads the request
+for an arm model's arm: the parameter names and groups are its own
+(:func:`aacmm.uncertainty.spec.expand_name`; a name this arm does not have
+but another may is an :class:`~aacmm.uncertainty.spec.ArmParameterError`),
+poses and joint ranges have N angles, encoders fit joints 1..N, and
+``[nominal]`` (the paper's arm's values) is refused: the model is the nominal.
 """
 
 from __future__ import annotations
@@ -35,7 +42,8 @@ from aacmm.analysis.tolerance.request import (
     ToleranceSpec,
     Workspace,
 )
-from aacmm.core import JOINTS, PARAM_NAMES, PARAM_UNITS, FloatArray, Params
+from aacmm.arm import Arm
+from aacmm.core import FloatArray, Params
 from aacmm.uncertainty.spec import (
     ANGLE_UNITS,
     DISTRIBUTIONS,
@@ -131,21 +139,22 @@ def _str(t: Mapping[str, Any], key: str, where: str, default: str, allowed: tupl
     return v
 
 
-def _expand(key: str) -> tuple[str, ...]:
+def _expand(key: str, arm: Arm) -> tuple[str, ...]:
     # the same names and groups as the uncertainty spec (one definition)
     try:
-        return expand_name(key)
-    except ValueError as e:
-        raise SpecError(f"[parameters] {key}: {e}") from e
+        return expand_name(key, arm)
+    except SpecError as e:
+        raise type(e)(f"[parameters] {key}: {e}") from e
 
 
-def _param_costs(doc: Mapping[str, Any], au: str, lu: str) -> tuple[ParamCost, ...]:
+def _param_costs(doc: Mapping[str, Any], au: str, lu: str, arm: Arm) -> tuple[ParamCost, ...]:
     entries = _table(doc, "parameters", "[parameters]")
     got: dict[str, ParamCost] = {}
+    all_names, units = arm.param_names, arm.param_units
     # groups first, then single parameters: a joint entry overrides its group
-    for key, entry in sorted(entries.items(), key=lambda kv: kv[0] in PARAM_NAMES):
+    for key, entry in sorted(entries.items(), key=lambda kv: kv[0] in all_names):
         where = f"[parameters] {key}"
-        names = _expand(str(key))
+        names = _expand(str(key), arm)
         if not isinstance(entry, Mapping):
             raise SpecError(f"{where}: expected a table like {{ c = 1.0, k = 2 }}")
         _no_unknown(entry, _PARAM, where)
@@ -158,7 +167,7 @@ def _param_costs(doc: Mapping[str, Any], au: str, lu: str) -> tuple[ParamCost, .
                 f"{where}: give either tolerance (fixed) or the cost model c, k, min, max"
             )
         for n in names:
-            angle = PARAM_UNITS[PARAM_NAMES.index(n)] == "rad"
+            angle = units[all_names.index(n)] == "rad"
             unit = au if angle else lu
             scale = ANGLE_UNITS[au] if angle else LENGTH_UNITS[lu]
             try:
@@ -187,13 +196,14 @@ def _param_costs(doc: Mapping[str, Any], au: str, lu: str) -> tuple[ParamCost, .
                 raise
             except ValueError as e:
                 raise SpecError(f"{where}: {e}") from e
-    missing = [n for n in PARAM_NAMES if n not in got]
+    missing = [n for n in all_names if n not in got]
     if missing:
+        covers = "six" if arm.n_joints == 6 else str(arm.n_joints)
         raise SpecError(
             f"[parameters]: no cost model or tolerance for {', '.join(missing)} "
-            f"(every parameter needs one; a group entry like d = {{ c = 1 }} covers six)"
+            f"(every parameter needs one; a group entry like d = {{ c = 1 }} covers {covers})"
         )
-    return tuple(got[n] for n in PARAM_NAMES)
+    return tuple(got[n] for n in all_names)
 
 
 def _target(doc: Mapping[str, Any], lu: str) -> Target:
@@ -230,24 +240,24 @@ def _target(doc: Mapping[str, Any], lu: str) -> Target:
         raise SpecError(f"[target]: {e}") from e
 
 
-def _poses(value: Any, unit: str, where: str) -> FloatArray:
+def _poses(value: Any, unit: str, where: str, joints: int) -> FloatArray:
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as e:
-        raise SpecError(f"{where}: expected lists of {JOINTS} numbers") from e
+        raise SpecError(f"{where}: expected lists of {joints} numbers") from e
     if a.size == 0:
-        return np.empty((0, JOINTS))
-    if a.ndim != 2 or a.shape[1] != JOINTS or not np.all(np.isfinite(a)):
-        raise SpecError(f"{where}: each pose needs {JOINTS} finite joint angles")
+        return np.empty((0, joints))
+    if a.ndim != 2 or a.shape[1] != joints or not np.all(np.isfinite(a)):
+        raise SpecError(f"{where}: each pose needs {joints} finite joint angles")
     return np.radians(a) if unit == "deg" else a
 
 
-def _workspace(doc: Mapping[str, Any], base: Path | None) -> Workspace:
+def _workspace(doc: Mapping[str, Any], base: Path | None, joints: int) -> Workspace:
     w = _table(doc, "workspace", "[workspace]")
     _no_unknown(w, _WORKSPACE, "[workspace]")
     pu = _str(w, "pose_unit", "[workspace]", "deg", ("deg", "rad"))
-    given = _poses(w.get("poses", []), pu, "[workspace].poses")
-    logged = np.empty((0, JOINTS))
+    given = _poses(w.get("poses", []), pu, "[workspace].poses", joints)
+    logged = np.empty((0, joints))
     log_path = None
     if "log" in w:
         if not isinstance(w["log"], str) or not w["log"]:
@@ -262,6 +272,10 @@ def _workspace(doc: Mapping[str, Any], base: Path | None) -> Workspace:
             logged = read_pose_log(p).theta_rad
         except ValueError as e:
             raise SpecError(f"[workspace].log: {e}") from e
+        if logged.shape[1] != joints:
+            raise SpecError(
+                f"[workspace].log: {p} has poses of {logged.shape[1]} joints, the arm {joints}"
+            )
         cap = _int(w, "log_max", "[workspace]", 2000)
         if cap < 1:
             raise SpecError(f"[workspace].log_max: must be >= 1, got {cap}")
@@ -274,27 +288,29 @@ def _workspace(doc: Mapping[str, Any], base: Path | None) -> Workspace:
     seed = _int(w, "seed", "[workspace]", 1)
     if seed < 0:
         raise SpecError(f"[workspace].seed: must be >= 0, got {seed}")
-    rng = np.tile([-180.0, 180.0], (JOINTS, 1))
+    rng = np.tile([-180.0, 180.0], (joints, 1))
     if "joint_range_deg" in w:
         try:
             rng = np.asarray(w["joint_range_deg"], dtype=np.float64)
         except (TypeError, ValueError) as e:
-            raise SpecError("[workspace].joint_range_deg: expected 6 pairs [low, high]") from e
+            raise SpecError(
+                f"[workspace].joint_range_deg: expected {joints} pairs [low, high]"
+            ) from e
         if (
-            rng.shape != (JOINTS, 2)
+            rng.shape != (joints, 2)
             or not np.all(np.isfinite(rng))
             or np.any(rng[:, 1] <= rng[:, 0])
         ):
             raise SpecError(
-                f"[workspace].joint_range_deg: expected {JOINTS} pairs [low, high], low < high"
+                f"[workspace].joint_range_deg: expected {joints} pairs [low, high], low < high"
             )
     try:
-        return Workspace(given, logged, random, seed, np.radians(rng), log_path)
+        return Workspace(given, logged, random, seed, np.radians(rng), log_path, joints)
     except ValueError as e:
         raise SpecError(f"[workspace]: {e}") from e
 
 
-def _encoders(doc: Mapping[str, Any]) -> tuple[Encoder, ...]:
+def _encoders(doc: Mapping[str, Any], joints_n: int) -> tuple[Encoder, ...]:
     raw = doc.get("encoder", [])
     if isinstance(raw, Mapping) or not isinstance(raw, list):
         raise SpecError("[[encoder]]: expected an array of tables ([[encoder]] entries)")
@@ -317,11 +333,15 @@ def _encoders(doc: Mapping[str, Any]) -> tuple[Encoder, ...]:
             res = FULL_TURN_ARCSEC / 2.0**bits
         else:
             res = _num(e, "resolution_arcsec", where)
-        joints = e.get("joints", list(range(1, JOINTS + 1)))
+        joints = e.get("joints", list(range(1, joints_n + 1)))
         if not isinstance(joints, list) or not all(
             isinstance(j, int) and not isinstance(j, bool) for j in joints
         ):
-            raise SpecError(f"{where}.joints: expected a list of joint numbers 1..{JOINTS}")
+            raise SpecError(f"{where}.joints: expected a list of joint numbers 1..{joints_n}")
+        if any(not 1 <= j <= joints_n for j in joints):
+            raise SpecError(
+                f"{where}.joints: joint numbers are 1..{joints_n} (the arm's joints), got {joints}"
+            )
         try:
             out.append(
                 Encoder(
@@ -379,24 +399,42 @@ def _calibration(doc: Mapping[str, Any], lu: str, base: Path | None) -> Calibrat
         raise SpecError(f"[calibration]: {e}") from e
 
 
-def parse_spec(doc: Mapping[str, Any], base: Path | None = None) -> ToleranceSpec:
+def parse_spec(
+    doc: Mapping[str, Any],
+    base: Path | None = None,
+    arm: Arm | None = None,
+    model: str | None = None,
+) -> ToleranceSpec:
     """Build a :class:`ToleranceSpec` from a parsed TOML document.
 
     ``base`` is the directory relative file names (``[workspace].log``) are
-    resolved against. Raises SpecError naming the field for anything invalid.
+    resolved against. ``arm``: the nominal arm (an arm model's, ``model`` its
+    name); None or the paper's arm itself: the paper's arm, ``[nominal]``
+    allowed. Raises SpecError naming the field for anything invalid
+    (ArmParameterError: a parameter this arm does not have).
     """
     _no_unknown(doc, _TOP, "top level")
     au = _str(doc, "angle_unit", "top level", "arcsec", tuple(ANGLE_UNITS))
     lu = _str(doc, "length_unit", "top level", "um", tuple(LENGTH_UNITS))
-    try:
-        params = Params(**_table(doc, "nominal", "[nominal]"))
-        params.validate()
-    except (TypeError, ValueError) as e:
-        raise SpecError(f"[nominal]: {e}") from e
+    params: Params | Arm
+    if arm is None or arm == Arm.paper():
+        try:
+            params = Params(**_table(doc, "nominal", "[nominal]"))
+            params.validate()
+        except (TypeError, ValueError) as e:
+            raise SpecError(f"[nominal]: {e}") from e
+        the_arm = params.to_arm()
+    else:
+        if "nominal" in doc:
+            raise SpecError(
+                f"[nominal]: gives the paper's arm's values; the nominal arm here is the "
+                f"model {model or '(given)'}: remove [nominal] (or edit the model file)"
+            )
+        params = the_arm = arm
     target = _target(doc, lu)
-    costs = _param_costs(doc, au, lu)
-    workspace = _workspace(doc, base)
-    encoders = _encoders(doc)
+    costs = _param_costs(doc, au, lu, the_arm)
+    workspace = _workspace(doc, base, the_arm.n_joints)
+    encoders = _encoders(doc, the_arm.n_joints)
     res = _table(doc, "residual", "[residual]")
     _no_unknown(res, _RESIDUAL, "[residual]")
     residual = _num(res, "u", "[residual]", 0.0)
@@ -414,13 +452,15 @@ def parse_spec(doc: Mapping[str, Any], base: Path | None = None) -> ToleranceSpe
             au,
             lu,
             calibration,
+            model=model,
         )
     except ValueError as e:
         raise SpecError(f"{e}") from e
 
 
-def load_spec(path: str | Path) -> ToleranceSpec:
-    """Read and parse a tolerance spec file (see :func:`parse_spec`).
+def load_spec(path: str | Path, arm: Arm | None = None, model: str | None = None) -> ToleranceSpec:
+    """Read and parse a tolerance spec file (see :func:`parse_spec`; ``arm``,
+    ``model``: the nominal arm and its model's name, default the paper's).
 
     Raises SpecError ("FILE: FIELD: reason") if the file cannot be read, is
     not TOML (or is nested absurdly deep), or is invalid.
@@ -433,7 +473,9 @@ def load_spec(path: str | Path) -> ToleranceSpec:
     except InputFileError as e:
         raise SpecError(str(e)) from e
     try:
-        spec = parse_spec(doc, p.parent)
-    except (SpecError, ValueError) as e:
+        spec = parse_spec(doc, p.parent, arm, model)
+    except SpecError as e:
+        raise type(e)(f"{p}: {e}") from e
+    except ValueError as e:
         raise SpecError(f"{p}: {e}") from e
     return replace(spec, source=str(p))
