@@ -420,8 +420,8 @@ def _plans(model: Any) -> tuple[str, str]:
     if model is None:
         return VERIFY_PLAN, CALIBRATION_PLAN
     return (
-        str(getattr(model, "verification_plan", VERIFY_PLAN)),
-        str(getattr(model, "calibration_plan", CALIBRATION_PLAN)),
+        str(model.verification_plan),
+        str(model.calibration_plan),
     )
 
 

@@ -35,7 +35,7 @@ LINK_LOST: Final = 6
 """The link was lost mid-operation (device gone, port closed, samples stopped)."""
 NOT_MET: Final = 7
 """The result does not meet the stated requirement (verification verdict FAIL; the
-report is still written)."""
+report is still written; ``aacmm plan check --model``: a plan target out of the arm's reach)."""
 INFEASIBLE: Final = 8
 """The request cannot be met (a tolerance target no allocation reaches)."""
 REFUSED: Final = 9

@@ -85,6 +85,7 @@ def cmd_show(args: argparse.Namespace) -> int:
             f"direction {e.direction:+d}, {e.interface}"
             f"{mark if f'encoder{k}' in m.assumed else ''}"
         )
+    print(f"plans: calibration {m.calibration_plan}, verification {m.verification_plan}")
     print("parameters (Jacobian column order):")
     values = m.arm.to_vector()
     for name, v, unit in zip(m.arm.param_names, values, m.arm.param_units, strict=True):

@@ -11,7 +11,7 @@ import sys
 from typing import Any
 
 from aacmm.commands.common import add_force_option
-from aacmm.commands.exitcodes import OK, UsageError
+from aacmm.commands.exitcodes import NOT_MET, OK, UsageError
 
 
 def register(sub: Any) -> None:
@@ -28,8 +28,18 @@ def register(sub: Any) -> None:
     show.add_argument("--points", action="store_true", help="also list every point")
     show.add_argument("--json", action="store_true", help="print JSON")
     show.set_defaults(func=cmd_show)
-    check = ps.add_parser("check", help="validate a plan file (exit 2 with the reason if bad)")
+    check = ps.add_parser(
+        "check",
+        help="validate a plan file (exit 2 with the reason if bad); with --model, also "
+        "whether the arm reaches every target (exit 7 if not)",
+    )
     check.add_argument("plan", metavar="PLAN", help="a plan file or a shipped plan's name")
+    check.add_argument(
+        "--model",
+        metavar="NAME|FILE",
+        help="an arm model (aacmm model list, or a model file): list every target it cannot "
+        "reach within its joint limits, one a line, and exit 7 if there is one",
+    )
     check.set_defaults(func=cmd_check)
     ex = ps.add_parser("example", help="write a shipped plan to a file, to edit")
     ex.add_argument("name", help="the shipped plan")
@@ -41,10 +51,12 @@ def register(sub: Any) -> None:
 def cmd_list(args: argparse.Namespace) -> int:
     from aacmm.plans import load_plan, shipped_plans
 
-    for name in shipped_plans():
+    names = shipped_plans()
+    width = max(24, *(len(n) for n in names))
+    for name in names:
         plan = load_plan(name)
         steps = f"{len(plan.steps):2d} step{'s' if len(plan.steps) != 1 else ' '}"
-        print(f"{name:24s} {steps} {len(plan.slots):4d} points  {plan.title}")
+        print(f"{name:{width}s} {steps} {len(plan.slots):4d} points  {plan.title}")
     return OK
 
 
@@ -95,8 +107,26 @@ def cmd_check(args: argparse.Namespace) -> int:
     from aacmm.plans import load_plan
 
     plan = load_plan(args.plan)
-    print(f"{plan.name}: ok, {len(plan.steps)} steps, {len(plan.slots)} points")
-    return OK
+    if args.model is None:
+        print(f"{plan.name}: ok, {len(plan.steps)} steps, {len(plan.slots)} points")
+        return OK
+    from aacmm.models import load_model
+    from aacmm.simulation.reach import check_reach
+
+    model = load_model(args.model)
+    report = check_reach(plan, model)
+    for item in report.unreachable:
+        xyz = ", ".join(f"{v:g}" for v in item.target_mm)
+        print(f"{item.number}: {item.label} at [{xyz}] mm: {item.reason}")
+    for step in report.unchecked:
+        print(f"note: step {step} has no nominal target (location_mm): not checked")
+    bad, total = len(report.unreachable), len(report.items)
+    verdict = "reaches every target" if not bad else f"cannot reach {bad} of {total} targets"
+    print(
+        f"{plan.name}: {len(plan.steps)} steps, {len(plan.slots)} points, {total} targets; "
+        f"model {model.name} {verdict}"
+    )
+    return OK if not bad else NOT_MET
 
 
 def cmd_example(args: argparse.Namespace) -> int:

@@ -25,7 +25,9 @@ API:
   highest), ``(-inf, inf)`` for none), ``encoders`` (N :class:`Encoder`),
   ``assumed`` (figure names: parameter names as
   :attr:`aacmm.arm.Arm.param_names`, ``convention<j>``, ``limits<j>``,
-  ``encoder<j>``),
+  ``encoder<j>``), ``calibration_plan`` and ``verification_plan`` (the
+  plans that fit the arm: its ``[plans]`` table, default
+  :data:`DEFAULT_CALIBRATION_PLAN` and :data:`DEFAULT_VERIFICATION_PLAN`),
   ``file``; :attr:`ArmModel.n_joints`, :attr:`ArmModel.n_params`,
   :attr:`ArmModel.reach_mm`, :meth:`ArmModel.encoder_config` (an
   :class:`aacmm.core.EncoderConfig`), :meth:`ArmModel.within_limits`,
@@ -51,7 +53,9 @@ from aacmm.models._load import MAX_MODEL_BYTES, loads_model, read_model_file
 from aacmm.models.model import (
     COUNTS_PER_REV_MAX,
     COUNTS_PER_REV_MIN,
+    DEFAULT_CALIBRATION_PLAN,
     DEFAULT_MODEL,
+    DEFAULT_VERIFICATION_PLAN,
     ENCODER_INTERFACES,
     MODEL_FORMAT,
     ArmModel,
@@ -61,7 +65,9 @@ from aacmm.models.model import (
 __all__ = [
     "COUNTS_PER_REV_MAX",
     "COUNTS_PER_REV_MIN",
+    "DEFAULT_CALIBRATION_PLAN",
     "DEFAULT_MODEL",
+    "DEFAULT_VERIFICATION_PLAN",
     "ENCODER_INTERFACES",
     "MAX_MODEL_BYTES",
     "MODEL_FORMAT",

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import math
 
-from aacmm.models.model import MODEL_FORMAT, ArmModel
+from aacmm.models.model import (
+    DEFAULT_CALIBRATION_PLAN,
+    DEFAULT_VERIFICATION_PLAN,
+    MODEL_FORMAT,
+    ArmModel,
+)
 
 
 def _string(s: str) -> str:
@@ -38,7 +43,8 @@ def dumps_model(model: ArmModel) -> str:
     ``repr``, so :func:`aacmm.models.loads_model` gives back an equal model
     (text fields as the loader keeps them: without leading and trailing blanks;
     ``file`` is not part of the text). Every joint carries its own encoder
-    table and its assumed figures.
+    table and its assumed figures; a ``[plans]`` table is written when the
+    model's plans are not the default ones.
     """
     lines = [
         f"format = {_string(MODEL_FORMAT)}",
@@ -58,6 +64,16 @@ def dumps_model(model: ArmModel) -> str:
     ]
     if tip_assumed:
         lines.append('assumed = ["vector_mm"]')
+    if (model.calibration_plan, model.verification_plan) != (
+        DEFAULT_CALIBRATION_PLAN,
+        DEFAULT_VERIFICATION_PLAN,
+    ):
+        lines += [
+            "",
+            "[plans]",
+            f"calibration = {_string(model.calibration_plan)}",
+            f"verification = {_string(model.verification_plan)}",
+        ]
     figures = (
         ("convention", "convention"),
         ("theta", "theta_offset"),

@@ -14,6 +14,8 @@ from aacmm.fileio import InputFileError, loads_toml
 from aacmm.models.model import (
     COUNTS_PER_REV_MAX,
     COUNTS_PER_REV_MIN,
+    DEFAULT_CALIBRATION_PLAN,
+    DEFAULT_VERIFICATION_PLAN,
     ENCODER_INTERFACES,
     MODEL_FORMAT,
     ArmModel,
@@ -29,7 +31,18 @@ MAX_MODEL_BYTES = 1 << 20
 LIMIT_MAX_DEG = 360.0
 _NAME_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-.")
 _AT_LINE = re.compile(r"\s*\(at line (\d+), column \d+\)")
-_TOP_KEYS = ("format", "name", "description", "source", "notes", "encoder", "tip", "joints")
+_TOP_KEYS = (
+    "format",
+    "name",
+    "description",
+    "source",
+    "notes",
+    "encoder",
+    "tip",
+    "joints",
+    "plans",
+)
+_PLANS_KEYS = ("calibration", "verification")
 _ENCODER_KEYS = ("counts_per_rev", "zero_offset_counts", "direction", "interface")
 _BASE_ENCODER_KEYS = (*_ENCODER_KEYS, "assumed")
 _TIP_KEYS = ("kind", "vector_mm", "assumed")
@@ -258,6 +271,30 @@ def _joint(
     return joint, limits, Encoder(**enc_fields), figures
 
 
+def _plans(c: _Ctx, data: dict[str, Any]) -> tuple[str, str]:
+    """The ``[plans]`` table: a shipped plan's name or a plan file per purpose."""
+    from aacmm.plans import shipped_plans
+
+    out = {"calibration": DEFAULT_CALIBRATION_PLAN, "verification": DEFAULT_VERIFICATION_PLAN}
+    if "plans" not in data:
+        return out["calibration"], out["verification"]
+    table = c.table(("plans",), data["plans"])
+    c.keys(table, ("plans",), _PLANS_KEYS)
+    for key in _PLANS_KEYS:
+        if key not in table:
+            continue
+        spec = c.text(("plans", key), table[key])
+        is_file = "/" in spec or "\\" in spec or spec.endswith(".toml")
+        if not is_file and spec not in shipped_plans():
+            c.fail(
+                ("plans", key),
+                f"no shipped plan {spec!r} (shipped: {', '.join(shipped_plans())}; "
+                "a plan file is a path ending in .toml)",
+            )
+        out[key] = spec
+    return out["calibration"], out["verification"]
+
+
 def loads_model(text: str, name: str = "<model>") -> ArmModel:
     """Parse and validate a model from its TOML text; ``name`` is used in messages.
 
@@ -319,6 +356,7 @@ def loads_model(text: str, name: str = "<model>") -> ArmModel:
     parsed = [_joint(c, v, i, base) for i, v in enumerate(joints_v)]
 
     tip_t = c.table(("tip",), c.need(data, (), "tip"))
+    calibration_plan, verification_plan = _plans(c, data)
     c.keys(tip_t, ("tip",), _TIP_KEYS)
     kind = c.choice(("tip", "kind"), c.need(tip_t, ("tip",), "kind"), TIPS)
     vec = c.need(tip_t, ("tip",), "vector_mm")
@@ -358,6 +396,8 @@ def loads_model(text: str, name: str = "<model>") -> ArmModel:
         assumed=figures,
         notes=notes,
         file=None if name.startswith("<") else name,
+        calibration_plan=calibration_plan,
+        verification_plan=verification_plan,
     )
 
 

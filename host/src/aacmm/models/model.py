@@ -18,6 +18,10 @@ ENCODER_INTERFACES: tuple[str, ...] = ("biss", "ssi", "ssi-gray", "counts")
 #: Counts per revolution an encoder may have (``aacmm_arm_encoders_t``).
 COUNTS_PER_REV_MIN: Final = 2
 COUNTS_PER_REV_MAX: Final = 1 << 32
+#: The plans a model without a ``[plans]`` table is calibrated and verified with
+#: (the shipped plans sized for the paper's arm, docs/plans.md).
+DEFAULT_CALIBRATION_PLAN: Final = "kinematic-calibration"
+DEFAULT_VERIFICATION_PLAN: Final = "arm-verification"
 
 
 @dataclass(frozen=True)
@@ -68,7 +72,10 @@ class ArmModel:
     ``(-inf, inf)`` for a joint that turns without limit. ``assumed`` names the figures that are not
     published but assumed: parameter names as :attr:`aacmm.arm.Arm.param_names`
     (``d3``, ``beta3``, ``l``, ``tx`` ..), ``convention<j>``, ``limits<j>`` and
-    ``encoder<j>`` (joints counted from 1). ``file`` is where the model was read from (None
+    ``encoder<j>`` (joints counted from 1). ``calibration_plan`` and
+    ``verification_plan`` name the plans that fit the arm (its ``[plans]`` table:
+    a shipped plan's name or a plan file; default :data:`DEFAULT_CALIBRATION_PLAN`
+    and :data:`DEFAULT_VERIFICATION_PLAN`). ``file`` is where the model was read from (None
     for text). Construct with :func:`aacmm.models.load_model`; the constructor
     only checks that the per-joint tuples have N entries (ValueError).
     """
@@ -82,6 +89,8 @@ class ArmModel:
     assumed: frozenset[str] = frozenset()
     notes: str = ""
     file: str | None = None
+    calibration_plan: str = DEFAULT_CALIBRATION_PLAN
+    verification_plan: str = DEFAULT_VERIFICATION_PLAN
 
     def __post_init__(self) -> None:
         n = self.arm.n_joints
@@ -140,7 +149,8 @@ class ArmModel:
         parameter (``parameters``: name, value, unit, assumed, in Jacobian column
         order), per joint the convention, limits (``limits_rad`` exact,
         ``limits_deg`` rounded to 1e-9 deg; None for no limit) and encoder, the
-        tip, the source and the assumed figures."""
+        tip, the source, the assumed figures and the plans that fit the arm
+        (``plans``: ``calibration``, ``verification``)."""
         names, units = self.arm.param_names, self.arm.param_units
         values = self.arm.to_vector()
         params = [
@@ -184,5 +194,6 @@ class ArmModel:
             "parameters": params,
             "joint": joints,
             "assumed": sorted(self.assumed),
+            "plans": {"calibration": self.calibration_plan, "verification": self.verification_plan},
             "file": self.file,
         }

@@ -222,7 +222,10 @@ def solve(
     and, if given, on the stylus direction ``stylus`` (weighted by
     ``stylus_weight_mm``: a soft goal), pulling the remaining freedom towards
     ``posture`` (default ``theta0``); then undamped minimum-norm steps on the
-    position alone until ``|tip - target| <= tol_mm``.
+    position alone until ``|tip - target| <= tol_mm``. When the goals outnumber
+    the joints (a stylus direction for an arm of fewer than 6 joints) the first
+    phase ends once its steps stall (below 1e-6 rad): the position then still
+    differs from the target by the compromise with the stylus.
     """
     n = arm.joints
     if limits.joints != n:
@@ -255,6 +258,10 @@ def solve(
             step *= max_step_rad / big
         th = th + step
         if err < 1e-6 and big < 1e-4:
+            break
+        if a.shape[0] > n and big < 1e-6:
+            # more goals than joints (the stylus direction of an arm of 4 or 5 joints):
+            # the compromise between position and stylus is found, phase 2 ends on target
             break
     # Phase 2: the position alone, minimum-norm Gauss-Newton to tol_mm.
     for _ in range(50):
