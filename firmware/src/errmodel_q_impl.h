@@ -84,12 +84,14 @@ typedef struct {
 /* 2 a b - c for Q30 a, b, c: the recurrence's step, the product rounded
  * half up to Q30 before doubling on ARMv6-M, to Q29 of the exact Q60
  * product elsewhere (the same value but for the last bit). */
+/* The result is a cosine or sine (|.| <= 1 + 8 LSB) but 2 a b alone may not
+ * fit int32 (a = b = 1 at a reading of 0: 2^31), so the step runs in int64. */
 Q_INLINE int32_t cheb_q30(int32_t a, int32_t b, int32_t c)
 {
 #if AACMM_FIXED_SPLIT_MUL
-    return 2 * aacmm_fixed_mul_q30(a, b) - c;
+    return (int32_t)(2 * (int64_t)aacmm_fixed_mul_q30(a, b) - (int64_t)c);
 #else
-    return (int32_t)AACMM_FIXED_RND(MUL(a, b), 29) - c;
+    return (int32_t)(AACMM_FIXED_RND(MUL(a, b), 29) - (int64_t)c);
 #endif
 }
 

@@ -10,12 +10,42 @@ uint32_t aacmm_device_kin_flags(void)
     return 0u; /* floating point, single precision */
 }
 
-aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm)
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm,
+                                     const aacmm_error_model_t *err)
 {
     aacmm_arm_f32_t a;
+    aacmm_errmodel_f64_t e;
+    aacmm_model_f32_t m;
+    aacmm_errmodel_f32_t ef;
+    aacmm_status_t st;
     int i;
-    if (model == NULL || arm == NULL) {
+    int k;
+    if (model == NULL || arm == NULL || err == NULL) {
         return AACMM_ERR_NULL;
+    }
+    if (err->thermal != 0u) {
+        return AACMM_ERR_UNSUPPORTED; /* no link temperatures on the device yet */
+    }
+    st = aacmm_device_errmodel_f64(&e, err, (int)arm->shape.joints);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    st = aacmm_errmodel_default_f32(&ef, (int)arm->shape.joints);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        ef.harmonics[i] = e.harmonics[i];
+        for (k = 0; k < AACMM_HARMONICS_MAX; k++) {
+            ef.c_rad[i][k] = (float)e.c_rad[i][k];
+            ef.s_rad[i][k] = (float)e.s_rad[i][k];
+        }
+        ef.cte_per_k[i] = (float)e.cte_per_k[i];
+        ef.tref_c[i] = (float)e.tref_c[i];
+    }
+    st = aacmm_errmodel_validate_f32(&ef);
+    if (st != AACMM_OK) {
+        return st;
     }
     a.shape = arm->shape;
     for (i = 0; i < AACMM_JOINTS_MAX; i++) {
@@ -28,7 +58,36 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_ar
     for (i = 0; i < 3; i++) {
         a.tip_mm[i] = (float)arm->tip_mm[i];
     }
-    return aacmm_model_init_arm_f32(model, &a);
+    st = aacmm_model_init_arm_f32(&m, &a);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    model->m = m;
+    model->em = ef;
+    model->corrected = (uint8_t)aacmm_device_errmodel_any(err);
+    return AACMM_OK;
+}
+
+/* Point and structural Jacobian at the corrected readings: the first P
+ * columns of each row of the core's extended 3 x (P + E) Jacobian. */
+static aacmm_status_t point_jacobian_corrected(const aacmm_device_model_t *model,
+                                               const float *theta, float p[3], float *jac)
+{
+    float ext[AACMM_EXT_JAC_SIZE_MAX];
+    const int np = (int)model->m.n_params;
+    const int w = np + aacmm_errmodel_cols_f32(&model->em);
+    int r;
+    int c;
+    aacmm_status_t st = aacmm_point_jacobian_em_f32(&model->m, &model->em, theta, NULL, p, ext);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    for (r = 0; r < AACMM_JAC_ROWS; r++) {
+        for (c = 0; c < np; c++) {
+            jac[r * np + c] = ext[r * w + c];
+        }
+    }
+    return AACMM_OK;
 }
 
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
@@ -47,10 +106,12 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
     if (st != AACMM_OK) {
         return st;
     }
-    if (jac != NULL) {
-        st = aacmm_point_jacobian_f32(model, theta, p, jac);
+    if (model->corrected == 0u) {
+        st = jac != NULL ? aacmm_point_jacobian_f32(&model->m, theta, p, jac)
+                         : aacmm_point_f32(&model->m, theta, p);
     } else {
-        st = aacmm_point_f32(model, theta, p);
+        st = jac != NULL ? point_jacobian_corrected(model, theta, p, jac)
+                         : aacmm_point_em_f32(&model->m, &model->em, theta, NULL, p);
     }
     if (st != AACMM_OK) {
         return st;
