@@ -459,6 +459,8 @@ static void test_seven_joint_arm_model(void **state)
     expect_response(AACMM_MSG_SET_PARAMS_RSP, 36);
 }
 
+static void save_via_request(uint8_t seq);
+
 /* The reference for a corrected point, computed apart from the core's error
  * model: libm's cos and sin of k q (no recurrence), in double, then the
  * double-precision chain. */
@@ -567,6 +569,31 @@ static void test_error_model_applied(void **state)
     send_simple(AACMM_MSG_GET_PARAMS_REQ, 53);
     expect_response(AACMM_MSG_GET_PARAMS_RSP, 53);
     assert_memory_equal(&M.u.params.err, &set.err, sizeof set.err);
+    /* stored like the rest: saved, restarted on the same storage, the same
+     * set (CRC) and the same corrected point, bit for bit */
+    {
+        aacmm_msg_t c;
+        double before[3];
+        memset(&c, 0, sizeof c);
+        c.type = AACMM_MSG_COMPUTE_REQ;
+        c.seq = 57;
+        c.u.compute_req.joints = 6;
+        memcpy(c.u.compute_req.counts, counts, sizeof counts);
+        send_msg(&c);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 57);
+        memcpy(before, M.u.compute_rsp.point_mm, sizeof before);
+        save_via_request(58);
+        assert_int_equal(M.u.param_crc.param_crc32, set_crc(&set));
+        setup_links(1, 1, 1, 1, 1);
+        boot();
+        send_simple(AACMM_MSG_INFO_REQ, 59);
+        expect_response(AACMM_MSG_INFO_RSP, 59);
+        assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_STORAGE);
+        assert_int_equal(M.u.info.param_crc32, set_crc(&set));
+        send_msg(&c);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 57);
+        assert_memory_equal(M.u.compute_rsp.point_mm, before, sizeof before);
+    }
     /* K = 0 again: today's point, bit for bit (the plain core path) */
     {
         aacmm_msg_t m;
