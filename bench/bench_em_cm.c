@@ -84,6 +84,19 @@ static void em2_jac_t(int k)
 {
     (void)aacmm_point_jacobian_em_f32(&mf, &em2, rad + 6 * k, temps, pf, jf);
 }
+/* The device's f32 path (firmware/src/device/device_kin_f32.c): the extended
+ * Jacobian, then its first 25 columns of each row packed for the wire. */
+float jp[3 * AACMM_JAC_COLS]; /* not static: the stores stay */
+static void em2_jac_p(int k)
+{
+    int r, c;
+    (void)aacmm_point_jacobian_em_f32(&mf, &em2, rad + 6 * k, 0, pf, jf);
+    for (r = 0; r < 3; r++) {
+        for (c = 0; c < AACMM_JAC_COLS; c++) {
+            jp[r * AACMM_JAC_COLS + c] = jf[r * (AACMM_JAC_COLS + 24) + c];
+        }
+    }
+}
 #endif
 static void empty(int k) { (void)k; }
 
@@ -185,10 +198,11 @@ int main(void)
     report("em.point_jacobian_k2", "probe point + 3x49 Jacobian, K = 2 on every joint", e2j);
     report("em.point_jacobian_k2_temps",
            "probe point + 3x49 Jacobian, K = 2, link temperatures (28 degC, 23e-6/K)", e2t);
-#if defined(__ARM_ARCH_6M__)
     report("em.point_jacobian_corrected_k2",
-           "probe point + the 3x25 Jacobian at the corrected readings, K = 2 on every joint",
+           "probe point + the 3x25 Jacobian at the corrected readings, K = 2 on every joint "
+           "(the device's sample and COMPUTE path)",
            per_pose(em2_jac_p, base));
+#if defined(__ARM_ARCH_6M__)
     report("em.sincos_q_x6", "6 aacmm_sincos_q (the extra one per corrected joint), for scale",
            per_pose(sincos6, base));
 #endif
