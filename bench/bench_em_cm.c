@@ -70,9 +70,14 @@ static void sincos6(int k)
         sink = a + b;
     }
 }
+/* The device's fixed path (firmware/src/device/device_kin_q.c): the corrected
+ * readings, then the plain point and 3x25 Jacobian (= aacmm_point_jacobian_corrected_q
+ * bit for bit, with a smaller stack). */
+static uint32_t qc[6];
 static void em2_jac_p(int k)
 {
-    (void)aacmm_point_jacobian_corrected_q(&mq, &em2, bam + 6 * k, 0, pq, jq);
+    (void)aacmm_errmodel_q_correct(&mq, &em2, bam + 6 * k, qc);
+    (void)aacmm_point_jacobian_q(&mq, qc, pq, jq);
 }
 #else
 static void plain_point(int k) { (void)aacmm_point_f32(&mf, rad + 6 * k, pf); }
@@ -84,18 +89,13 @@ static void em2_jac_t(int k)
 {
     (void)aacmm_point_jacobian_em_f32(&mf, &em2, rad + 6 * k, temps, pf, jf);
 }
-/* The device's f32 path (firmware/src/device/device_kin_f32.c): the extended
- * Jacobian, then its first 25 columns of each row packed for the wire. */
-float jp[3 * AACMM_JAC_COLS]; /* not static: the stores stay */
+/* The device's f32 path (firmware/src/device/device_kin_f32.c): the
+ * corrected readings, then the plain point and 3x25 Jacobian. */
+static float qc[6];
 static void em2_jac_p(int k)
 {
-    int r, c;
-    (void)aacmm_point_jacobian_em_f32(&mf, &em2, rad + 6 * k, 0, pf, jf);
-    for (r = 0; r < 3; r++) {
-        for (c = 0; c < AACMM_JAC_COLS; c++) {
-            jp[r * AACMM_JAC_COLS + c] = jf[r * (AACMM_JAC_COLS + 24) + c];
-        }
-    }
+    (void)aacmm_errmodel_angles_f32(&em2, rad + 6 * k, qc);
+    (void)aacmm_point_jacobian_f32(&mf, qc, pf, jf);
 }
 #endif
 static void empty(int k) { (void)k; }

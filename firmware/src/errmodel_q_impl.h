@@ -433,6 +433,22 @@ aacmm_status_t aacmm_point_jacobian_corrected_q(const aacmm_model_q_t *model,
     return em_pose_q(model, em, theta_bam, temp_q8, p_q48, jac_q48, 0);
 }
 
+aacmm_status_t aacmm_errmodel_q_correct(const aacmm_model_q_t *model,
+                                        const aacmm_errmodel_q_t *em, const uint32_t *theta_bam,
+                                        uint32_t *q_out)
+{
+    aacmm_status_t st;
+    if (model == NULL || em == NULL || theta_bam == NULL || q_out == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = em_check_q(model, em, NULL);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    em_correct_q(em, (int)em->joints, theta_bam, q_out);
+    return AACMM_OK;
+}
+
 aacmm_status_t aacmm_batch_bam_em_q(const aacmm_model_q_t *model, const aacmm_errmodel_q_t *em,
                                     size_t n, const uint32_t *theta_bam, const int32_t *temp_q8,
                                     int64_t *p_q48, int64_t *jac_q48, size_t *done)

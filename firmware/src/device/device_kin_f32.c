@@ -68,28 +68,6 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_ar
     return AACMM_OK;
 }
 
-/* Point and structural Jacobian at the corrected readings: the first P
- * columns of each row of the core's extended 3 x (P + E) Jacobian. */
-static aacmm_status_t point_jacobian_corrected(const aacmm_device_model_t *model,
-                                               const float *theta, float p[3], float *jac)
-{
-    float ext[AACMM_EXT_JAC_SIZE_MAX];
-    const int np = (int)model->m.n_params;
-    const int w = np + aacmm_errmodel_cols_f32(&model->em);
-    int r;
-    int c;
-    aacmm_status_t st = aacmm_point_jacobian_em_f32(&model->m, &model->em, theta, NULL, p, ext);
-    if (st != AACMM_OK) {
-        return st;
-    }
-    for (r = 0; r < AACMM_JAC_ROWS; r++) {
-        for (c = 0; c < np; c++) {
-            jac[r * np + c] = ext[r * w + c];
-        }
-    }
-    return AACMM_OK;
-}
-
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
                                         const aacmm_arm_encoders_t *enc,
                                         const uint32_t *counts, int want_mm,
@@ -106,13 +84,18 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
     if (st != AACMM_OK) {
         return st;
     }
-    if (model->corrected == 0u) {
-        st = jac != NULL ? aacmm_point_jacobian_f32(&model->m, theta, p, jac)
-                         : aacmm_point_f32(&model->m, theta, p);
-    } else {
-        st = jac != NULL ? point_jacobian_corrected(model, theta, p, jac)
-                         : aacmm_point_em_f32(&model->m, &model->em, theta, NULL, p);
+    if (model->corrected != 0u) {
+        /* the corrected readings, then the plain chain: the point of
+         * aacmm_point_em_f32 and the first P columns of its extended
+         * Jacobian, bit for bit (kinematics.h), without the extended
+         * Jacobian's buffer on the stack */
+        st = aacmm_errmodel_angles_f32(&model->em, theta, theta);
+        if (st != AACMM_OK) {
+            return st;
+        }
     }
+    st = jac != NULL ? aacmm_point_jacobian_f32(&model->m, theta, p, jac)
+                     : aacmm_point_f32(&model->m, theta, p);
     if (st != AACMM_OK) {
         return st;
     }

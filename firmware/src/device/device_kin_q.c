@@ -90,14 +90,17 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
         return AACMM_ERR_NULL;
     }
     st = aacmm_arm_encoders_to_bam(enc, counts, bam);
+    if (st == AACMM_OK && model->corrected != 0u) {
+        /* the corrected readings, then the plain chain: aacmm_point_em_q and
+         * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
+        st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+    }
     if (st != AACMM_OK) {
         return st;
     }
     if (jac != NULL) {
         int64_t jq[AACMM_JAC_SIZE_MAX];
-        st = model->corrected == 0u
-                 ? aacmm_point_jacobian_q(&model->m, bam, p, jq)
-                 : aacmm_point_jacobian_corrected_q(&model->m, &model->em, bam, NULL, p, jq);
+        st = aacmm_point_jacobian_q(&model->m, bam, p, jq);
         if (st != AACMM_OK) {
             return st;
         }
@@ -105,8 +108,7 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
             jac[i] = (float)jq[i] * Q48_TO_MM_F;
         }
     } else {
-        st = model->corrected == 0u ? aacmm_point_q(&model->m, bam, p)
-                                    : aacmm_point_em_q(&model->m, &model->em, bam, NULL, p);
+        st = aacmm_point_q(&model->m, bam, p);
         if (st != AACMM_OK) {
             return st;
         }
