@@ -70,9 +70,14 @@ static void sincos6(int k)
         sink = a + b;
     }
 }
+/* The device's fixed path (firmware/src/device/device_kin_q.c): the corrected
+ * readings, then the plain point and 3x25 Jacobian (= aacmm_point_jacobian_corrected_q
+ * bit for bit, with a smaller stack). */
+static uint32_t qc[6];
 static void em2_jac_p(int k)
 {
-    (void)aacmm_point_jacobian_corrected_q(&mq, &em2, bam + 6 * k, 0, pq, jq);
+    (void)aacmm_errmodel_q_correct(&mq, &em2, bam + 6 * k, qc);
+    (void)aacmm_point_jacobian_q(&mq, qc, pq, jq);
 }
 #else
 static void plain_point(int k) { (void)aacmm_point_f32(&mf, rad + 6 * k, pf); }
@@ -83,6 +88,14 @@ static void em2_jac(int k) { (void)aacmm_point_jacobian_em_f32(&mf, &em2, rad + 
 static void em2_jac_t(int k)
 {
     (void)aacmm_point_jacobian_em_f32(&mf, &em2, rad + 6 * k, temps, pf, jf);
+}
+/* The device's f32 path (firmware/src/device/device_kin_f32.c): the
+ * corrected readings, then the plain point and 3x25 Jacobian. */
+static float qc[6];
+static void em2_jac_p(int k)
+{
+    (void)aacmm_errmodel_angles_f32(&em2, rad + 6 * k, qc);
+    (void)aacmm_point_jacobian_f32(&mf, qc, pf, jf);
 }
 #endif
 static void empty(int k) { (void)k; }
@@ -185,10 +198,11 @@ int main(void)
     report("em.point_jacobian_k2", "probe point + 3x49 Jacobian, K = 2 on every joint", e2j);
     report("em.point_jacobian_k2_temps",
            "probe point + 3x49 Jacobian, K = 2, link temperatures (28 degC, 23e-6/K)", e2t);
-#if defined(__ARM_ARCH_6M__)
     report("em.point_jacobian_corrected_k2",
-           "probe point + the 3x25 Jacobian at the corrected readings, K = 2 on every joint",
+           "probe point + the 3x25 Jacobian at the corrected readings, K = 2 on every joint "
+           "(the device's sample and COMPUTE path)",
            per_pose(em2_jac_p, base));
+#if defined(__ARM_ARCH_6M__)
     report("em.sincos_q_x6", "6 aacmm_sincos_q (the extra one per corrected joint), for scale",
            per_pose(sincos6, base));
 #endif

@@ -18,14 +18,15 @@ test-client:
 TEST_SUITES += test-client
 
 # ---- loopback over a pty against the real simulator (builds it first) ----
-LOOPBACK_PY_FILES := tests/host/test_loopback_pty.py tests/host/test_loopback_arms.py tests/host/simproc.py tests/host/hostref.py \
+LOOPBACK_PY_FILES := tests/host/test_loopback_pty.py tests/host/test_loopback_arms.py tests/host/test_loopback_errmodel.py tests/host/simproc.py tests/host/hostref.py \
                      tests/host/streamclock.py tests/device/sim_smoke.py \
                      tests/host/vcan/test_socketcan_client.py
 
 .PHONY: test-loopback-pty
 test-loopback-pty: export AACMM_SIM = $(abspath $(SIM_BIN))
 test-loopback-pty: sim
-	$(CLIENT_PYTEST) -s tests/host/test_loopback_pty.py tests/host/test_loopback_arms.py
+	$(CLIENT_PYTEST) -s tests/host/test_loopback_pty.py tests/host/test_loopback_arms.py \
+	    tests/host/test_loopback_errmodel.py
 	$(call py_lint,$(LOOPBACK_PY_FILES))
 
 TEST_SUITES += test-loopback-pty

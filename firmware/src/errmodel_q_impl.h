@@ -84,12 +84,14 @@ typedef struct {
 /* 2 a b - c for Q30 a, b, c: the recurrence's step, the product rounded
  * half up to Q30 before doubling on ARMv6-M, to Q29 of the exact Q60
  * product elsewhere (the same value but for the last bit). */
+/* The result is a cosine or sine (|.| <= 1 + 8 LSB) but 2 a b alone may not
+ * fit int32 (a = b = 1 at a reading of 0: 2^31), so the step runs in int64. */
 Q_INLINE int32_t cheb_q30(int32_t a, int32_t b, int32_t c)
 {
 #if AACMM_FIXED_SPLIT_MUL
-    return 2 * aacmm_fixed_mul_q30(a, b) - c;
+    return (int32_t)(2 * (int64_t)aacmm_fixed_mul_q30(a, b) - (int64_t)c);
 #else
-    return (int32_t)AACMM_FIXED_RND(MUL(a, b), 29) - c;
+    return (int32_t)(AACMM_FIXED_RND(MUL(a, b), 29) - (int64_t)c);
 #endif
 }
 
@@ -429,6 +431,22 @@ aacmm_status_t aacmm_point_jacobian_corrected_q(const aacmm_model_q_t *model,
         return aacmm_point_jacobian_q(model, q, p_q48, jac_q48);
     }
     return em_pose_q(model, em, theta_bam, temp_q8, p_q48, jac_q48, 0);
+}
+
+aacmm_status_t aacmm_errmodel_q_correct(const aacmm_model_q_t *model,
+                                        const aacmm_errmodel_q_t *em, const uint32_t *theta_bam,
+                                        uint32_t *q_out)
+{
+    aacmm_status_t st;
+    if (model == NULL || em == NULL || theta_bam == NULL || q_out == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    st = em_check_q(model, em, NULL);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    em_correct_q(em, (int)em->joints, theta_bam, q_out);
+    return AACMM_OK;
 }
 
 aacmm_status_t aacmm_batch_bam_em_q(const aacmm_model_q_t *model, const aacmm_errmodel_q_t *em,

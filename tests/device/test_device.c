@@ -2,6 +2,7 @@
  * CMocka tests of the device application against a fake in-memory platform
  * (fake_platform.h), of the parameter storage, and of the simulated arm.
  */
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -435,14 +436,242 @@ static void test_seven_joint_arm_model(void **state)
     expect_response(AACMM_MSG_MEASURE_RSP, 34);
     assert_int_equal(M.u.sample.joints, 7);
     assert_int_equal(M.u.sample.params, p_cols);
-    /* an error model (issue 27) is not computed yet: refused */
-    set.err.harmonics = 1u;
-    set.err.harm_cos[0][0] = 5;
+    /* the thermal block needs link temperatures, which the device does not
+     * read yet: refused (never a point at the wrong lengths) */
+    set.err.thermal = 1u;
+    set.err.cte[0] = 2300;
+    set.err.ref_temp = 2000;
     m.type = AACMM_MSG_SET_PARAMS_REQ;
     m.seq = 35;
     m.u.params = set;
     send_msg(&m);
     expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SET_PARAMS_REQ, 35);
+    /* harmonics on every joint (K = 2): computed (test_error_model_applied) */
+    memset(&set.err, 0, sizeof set.err);
+    for (i = 0; i < 7; i++) {
+        set.err.harmonics[i] = 2u;
+        set.err.harm_cos[i][0] = (int16_t)(3000 - 700 * i);
+        set.err.harm_sin[i][1] = (int16_t)(-1200 + 300 * i);
+    }
+    m.seq = 36;
+    m.u.params = set;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 36);
+}
+
+static void save_via_request(uint8_t seq);
+
+/* The reference for a corrected point, computed apart from the core's error
+ * model: libm's cos and sin of k q (no recurrence), in double, then the
+ * double-precision chain. */
+static void reference_point(const aacmm_param_set_t *set, const uint32_t *counts, double p[3])
+{
+    aacmm_model_f64_t m64;
+    double th[AACMM_JOINTS_MAX];
+    int i;
+    int k;
+    int n = (int)set->arm.shape.joints;
+    assert_int_equal(aacmm_model_init_arm_f64(&m64, &set->arm), AACMM_OK);
+    assert_int_equal(aacmm_arm_encoders_to_angles_f64(&set->enc, counts, th), AACMM_OK);
+    for (i = 0; i < n; i++) {
+        double q = th[i];
+        for (k = 1; k <= (int)set->err.harmonics[i]; k++) {
+            th[i] += 1e-7 * ((double)set->err.harm_cos[i][k - 1] * cos(k * q) +
+                             (double)set->err.harm_sin[i][k - 1] * sin(k * q));
+        }
+    }
+    assert_int_equal(aacmm_point_f64(&m64, th, p), AACMM_OK);
+}
+
+/* SET_PARAMS *set, then COMPUTE and MEASURE at counts: the device's points
+ * agree with the reference within tol_mm (COMPUTE) and tol_mm + the wire's
+ * 0.05 um rounding (MEASURE); returns the largest COMPUTE difference. */
+static double check_corrected(const aacmm_param_set_t *set, const uint32_t *counts, double tol_mm)
+{
+    aacmm_msg_t m;
+    double want[3];
+    double worst = 0.0;
+    int i;
+    int n = (int)set->arm.shape.joints;
+    reference_point(set, counts, want);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 50;
+    m.u.params = *set;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 50);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 51;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+    m.u.compute_req.joints = (uint8_t)n;
+    memcpy(m.u.compute_req.counts, counts, sizeof(uint32_t) * (size_t)n);
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 51);
+    assert_int_equal(M.u.compute_rsp.status & AACMM_SAMPLE_POINT_VALID, AACMM_SAMPLE_POINT_VALID);
+    for (i = 0; i < 3; i++) {
+        double d = fabs(M.u.compute_rsp.point_mm[i] - want[i]);
+        assert_true(d <= tol_mm);
+        worst = d > worst ? d : worst;
+    }
+    /* the fake port has six encoders (a seventh reads 0: the callers use 0) */
+    memcpy(F.counts, counts, sizeof F.counts);
+    send_simple(AACMM_MSG_MEASURE_REQ, 52);
+    expect_response(AACMM_MSG_MEASURE_RSP, 52);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_POINT_VALID, AACMM_SAMPLE_POINT_VALID);
+    for (i = 0; i < 3; i++) {
+        double got = (double)M.u.sample.point_100nm[i] * 1e-4;
+        assert_true(fabs(got - want[i]) <= tol_mm + 5e-5);
+    }
+    return worst;
+}
+
+static void test_error_model_applied(void **state)
+{
+#ifdef AACMM_DEVICE_KIN_FIXED
+    const double tol = 1e-4; /* the fixed path's class */
+#else
+    const double tol = 1e-3; /* the f32 class */
+#endif
+    aacmm_param_set_t set;
+    aacmm_param_set_t plain;
+    uint32_t counts[AACMM_JOINTS_MAX] = {0};
+    double want[3];
+    double moved = 0.0;
+    int i;
+    int pose;
+    (void)state;
+    default_set(&set);
+    plain = set;
+    for (i = 0; i < 6; i++) {
+        set.err.harmonics[i] = 2u;
+        set.err.harm_cos[i][0] = (int16_t)(2500 - 900 * i); /* up to 0.25 mrad */
+        set.err.harm_sin[i][0] = (int16_t)(-1500 + 450 * i);
+        set.err.harm_cos[i][1] = (int16_t)(400 + 100 * i);
+        set.err.harm_sin[i][1] = (int16_t)(-32768 + 13000 * (i % 3)); /* the i16 extremes */
+    }
+    for (pose = 0; pose < 5; pose++) {
+        for (i = 0; i < 6; i++) {
+            counts[i] = (uint32_t)(((uint64_t)set.enc.counts_per_rev[i] *
+                                    (uint64_t)(37u * (unsigned)pose + 11u * (unsigned)i + 3u)) /
+                                   97u);
+        }
+        (void)check_corrected(&set, counts, tol);
+        /* the correction moved the point (by far more than the class) */
+        reference_point(&plain, counts, want);
+        for (i = 0; i < 3; i++) {
+            double d = fabs((double)M.u.sample.point_100nm[i] * 1e-4 - want[i]);
+            moved = d > moved ? d : moved;
+        }
+    }
+    assert_true(moved > 0.1);
+    /* GET_PARAMS gives the set back, error model included */
+    send_simple(AACMM_MSG_GET_PARAMS_REQ, 53);
+    expect_response(AACMM_MSG_GET_PARAMS_RSP, 53);
+    assert_memory_equal(&M.u.params.err, &set.err, sizeof set.err);
+    /* stored like the rest: saved, restarted on the same storage, the same
+     * set (CRC) and the same corrected point, bit for bit */
+    {
+        aacmm_msg_t c;
+        double before[3];
+        memset(&c, 0, sizeof c);
+        c.type = AACMM_MSG_COMPUTE_REQ;
+        c.seq = 57;
+        c.u.compute_req.joints = 6;
+        memcpy(c.u.compute_req.counts, counts, sizeof counts);
+        send_msg(&c);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 57);
+        memcpy(before, M.u.compute_rsp.point_mm, sizeof before);
+        save_via_request(58);
+        assert_int_equal(M.u.param_crc.param_crc32, set_crc(&set));
+        setup_links(1, 1, 1, 1, 1);
+        boot();
+        send_simple(AACMM_MSG_INFO_REQ, 59);
+        expect_response(AACMM_MSG_INFO_RSP, 59);
+        assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_STORAGE);
+        assert_int_equal(M.u.info.param_crc32, set_crc(&set));
+        send_msg(&c);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 57);
+        assert_memory_equal(M.u.compute_rsp.point_mm, before, sizeof before);
+    }
+    /* K = 0 again: today's point, bit for bit (the plain core path) */
+    {
+        aacmm_msg_t m;
+        aacmm_msg_t before;
+        memset(&m, 0, sizeof m);
+        m.type = AACMM_MSG_RESTORE_DEFAULTS_REQ;
+        m.seq = 54;
+        send_msg(&m);
+        expect_response(AACMM_MSG_RESTORE_DEFAULTS_RSP, 54);
+        aacmm_msg_t c;
+        memset(&c, 0, sizeof c);
+        c.type = AACMM_MSG_COMPUTE_REQ;
+        c.seq = 55;
+        c.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+        c.u.compute_req.joints = 6;
+        memcpy(c.u.compute_req.counts, counts, sizeof counts);
+        send_msg(&c);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 55);
+        before = M;
+        m.type = AACMM_MSG_SET_PARAMS_REQ;
+        m.seq = 56;
+        m.u.params = plain;
+        send_msg(&m);
+        expect_response(AACMM_MSG_SET_PARAMS_RSP, 56);
+        send_msg(&c);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 55);
+        assert_memory_equal(M.u.compute_rsp.point_mm, before.u.compute_rsp.point_mm,
+                            sizeof M.u.compute_rsp.point_mm);
+        assert_memory_equal(M.u.compute_rsp.jacobian, before.u.compute_rsp.jacobian,
+                            sizeof M.u.compute_rsp.jacobian);
+    }
+}
+
+/* A 7-axis arm (modified DH on the wrist, a beta, a tip vector) with K = 2
+ * on every joint. */
+static void test_error_model_seven_axes(void **state)
+{
+#ifdef AACMM_DEVICE_KIN_FIXED
+    const double tol = 1e-4;
+#else
+    const double tol = 1e-3;
+#endif
+    aacmm_param_set_t set;
+    uint32_t counts[AACMM_JOINTS_MAX];
+    int i;
+    int pose;
+    (void)state;
+    memset(&set, 0, sizeof set);
+    set.arm.shape.joints = 7u;
+    set.arm.shape.tip = (uint8_t)AACMM_TIP_XYZ;
+    set.arm.shape.convention[4] = set.arm.shape.convention[5] = set.arm.shape.convention[6] =
+        (uint8_t)AACMM_DH_MODIFIED;
+    set.arm.shape.beta[2] = 1u;
+    for (i = 0; i < 7; i++) {
+        set.arm.alpha_rad[i] = (i % 2 == 0) ? 1.5707963267948966 : -1.5707963267948966;
+        set.arm.d_mm[i] = 100.0 + 50.0 * i;
+        set.arm.a_mm[i] = 10.0 * i;
+        set.arm.theta_offset_rad[i] = 0.01 * i;
+        set.err.harmonics[i] = 2u;
+        set.err.harm_cos[i][0] = (int16_t)(3000 - 700 * i);
+        set.err.harm_sin[i][0] = (int16_t)(200 * i - 500);
+        set.err.harm_cos[i][1] = (int16_t)(-800 + 90 * i);
+        set.err.harm_sin[i][1] = (int16_t)(-1200 + 300 * i);
+    }
+    set.arm.beta_rad[2] = 0.0015;
+    set.arm.tip_mm[0] = 1.5;
+    set.arm.tip_mm[1] = -2.0;
+    set.arm.tip_mm[2] = 110.0;
+    assert_int_equal(aacmm_arm_encoders_default(&set.enc, 7), AACMM_OK);
+    for (pose = 0; pose < 5; pose++) {
+        for (i = 0; i < 6; i++) {
+            counts[i] = (uint32_t)(((uint64_t)set.enc.counts_per_rev[i] *
+                                    (uint64_t)(29u * (unsigned)pose + 13u * (unsigned)i + 5u)) /
+                                   89u);
+        }
+        counts[6] = 0u; /* the fake port's seventh joint */
+        (void)check_corrected(&set, counts, tol);
+    }
 }
 
 static void test_measure_and_compute(void **state)
@@ -539,36 +768,39 @@ static void test_bad_requests(void **state)
     uint8_t body[AACMM_PROTO_MAX_BODY];
     aacmm_msg_t m;
     size_t n = 0;
+    int v;
     (void)state;
-    /* Wrong version. */
-    body[0] = 3;
+    /* Wrong version (a future one). */
+    body[0] = 4;
     body[1] = AACMM_MSG_PING_REQ;
     body[2] = 40;
     memset(body + 3, 0, 4);
     send_body(body, 7);
     expect_error(AACMM_ERR_VERSION, AACMM_MSG_PING_REQ, 40);
-    /* The previous version (six joints): the answer is an ERROR_RSP in
-     * version 1, which a version 1 host can read (read raw here). */
-    body[0] = 1;
-    body[2] = 39;
-    send_body(body, 7);
-    aacmm_device_poll(&D);
-    {
+    /* The older versions (2: before the error model's layout; 1: six
+     * joints): the answer is an ERROR_RSP in the request's own version,
+     * which that host can read (read raw here). */
+    for (v = 2; v >= 1; v--) {
         const uint8_t *b = NULL;
         size_t bl = 0;
+        body[0] = (uint8_t)v;
+        body[2] = 39;
+        send_body(body, 7);
+        aacmm_device_poll(&D);
         while (b == NULL && host_pos < F.tx_len) {
-            host_pos += aacmm_deframer_feed(&host_rx, F.tx + host_pos, F.tx_len - host_pos, &b, &bl);
+            host_pos +=
+                aacmm_deframer_feed(&host_rx, F.tx + host_pos, F.tx_len - host_pos, &b, &bl);
         }
         assert_non_null(b);
         assert_int_equal(bl, 6);
-        assert_int_equal(b[0], 1);
+        assert_int_equal(b[0], v);
         assert_int_equal(b[1], AACMM_MSG_ERROR_RSP);
         assert_int_equal(b[2], 39);
         assert_int_equal((int16_t)(b[3] | (b[4] << 8)), AACMM_ERR_VERSION);
         assert_int_equal(b[5], AACMM_MSG_PING_REQ);
     }
     /* Unknown type. */
-    body[0] = 2;
+    body[0] = (uint8_t)AACMM_PROTO_VERSION;
     body[1] = 0x3E;
     body[2] = 41;
     send_body(body, 3);
@@ -644,7 +876,7 @@ static void test_bad_requests(void **state)
     assert_true((M.u.sample.status & AACMM_SAMPLE_ENCODER_FAULT) != 0u);
     assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) == 0u);
     assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 1u);
-    assert_int_equal(aacmm_device_counters(&D)->error_responses, 10u);
+    assert_int_equal(aacmm_device_counters(&D)->error_responses, 11u);
     assert_false(next_msg());
 }
 
@@ -652,7 +884,7 @@ static void test_garbage_and_crc_errors(void **state)
 {
     static const uint8_t garbage[] = {0x13, 0x37, 0x00, 0x05, 0x11, 0x22, 0x33, 0x44, 0x00,
                                       0xFF, 0xFE, 0x01, 0x02};
-    uint8_t body[7] = {2, AACMM_MSG_PING_REQ, 60, 1, 2, 3, 4};
+    uint8_t body[7] = {AACMM_PROTO_VERSION, AACMM_MSG_PING_REQ, 60, 1, 2, 3, 4};
     size_t start;
     (void)state;
     memcpy(F.rx + F.rx_len, garbage, sizeof garbage);
@@ -1695,7 +1927,7 @@ static void test_can_requests(void **state)
     assert_int_equal(M.u.info.can_node_id, 3);
     /* Errors come back over ISO-TP as well. */
     {
-        uint8_t body[3] = {2, 0x3D, 5};
+        uint8_t body[3] = {AACMM_PROTO_VERSION, 0x3D, 5};
         assert_int_equal(aacmm_isotp_send(&host_tp, body, 3, (uint32_t)(F.now_us / 1000u)), AACMM_OK);
         assert_true(can_exchange(10));
         assert_int_equal(M.type, AACMM_MSG_ERROR_RSP);
@@ -2416,6 +2648,8 @@ int main(void)
         cmocka_unit_test_setup(test_params_set_get_restore, setup_default),
         cmocka_unit_test_setup(test_seven_joint_arm_model, setup_default),
         cmocka_unit_test_setup(test_measure_and_compute, setup_default),
+        cmocka_unit_test_setup(test_error_model_applied, setup_default),
+        cmocka_unit_test_setup(test_error_model_seven_axes, setup_default),
         cmocka_unit_test_setup(test_stream_start_stop, setup_default),
         cmocka_unit_test_setup(test_bad_requests, setup_default),
         cmocka_unit_test_setup(test_garbage_and_crc_errors, setup_default),

@@ -130,22 +130,22 @@ def test_requests_stream_and_trigger(sim: subprocess.Popen[str]) -> None:
     bus = Bus(iface())
     other: list[tuple[int, bytes]] = []
     try:
-        rsp = isotp_request(bus, bytes([2, 0x01, 7]) + struct.pack("<I", 0xA5A5F00D), other)
-        assert rsp == bytes([2, 0x81, 7]) + struct.pack("<I", 0xA5A5F00D)
-        info = isotp_request(bus, bytes([2, 0x02, 8]), other)
-        assert info[:3] == bytes([2, 0x82, 8]) and len(info) == 3 + 25
+        rsp = isotp_request(bus, bytes([3, 0x01, 7]) + struct.pack("<I", 0xA5A5F00D), other)
+        assert rsp == bytes([3, 0x81, 7]) + struct.pack("<I", 0xA5A5F00D)
+        info = isotp_request(bus, bytes([3, 0x02, 8]), other)
+        assert info[:3] == bytes([3, 0x82, 8]) and len(info) == 3 + 25
         assert info[3 + 22] == NODE
         flags = struct.unpack_from("<I", info, 3 + 6)[0]
         assert flags & 0x18 == 0x18  # serial and CAN built in
-        rsp = isotp_request(bus, bytes([2, 0x09, 9]) + struct.pack("<HB", 200, 0), other)
-        assert rsp == bytes([2, 0x89, 9]) + struct.pack("<HB", 200, 0)
+        rsp = isotp_request(bus, bytes([3, 0x09, 9]) + struct.pack("<HB", 200, 0), other)
+        assert rsp == bytes([3, 0x89, 9]) + struct.pack("<HB", 200, 0)
         frames = list(other)
         t_end = time.monotonic() + 3.0
         while time.monotonic() < t_end:
             f = bus.recv(0.2)
             if f is not None:
                 frames.append(f)
-        isotp_request(bus, bytes([2, 0x0A, 10]), frames)
+        isotp_request(bus, bytes([3, 0x0A, 10]), frames)
     finally:
         bus.close()
     seqs = []

@@ -400,6 +400,16 @@ static void test_error_model(void **state)
                     assert_memory_equal(je + i * w, jq2 + i * np, sizeof(int64_t) * (size_t)np);
                 }
             }
+            {
+                /* the corrected readings alone, then the plain chain (the
+                 * device's path): the same point and Jacobian, bit for bit */
+                uint32_t qc[AACMM_JOINTS_MAX];
+                int64_t pc[3], jc[AACMM_JAC_SIZE_MAX];
+                assert_int_equal(aacmm_errmodel_q_correct(&m.mq, &emq, bam, qc), AACMM_OK);
+                assert_int_equal(aacmm_point_jacobian_q(&m.mq, qc, pc, jc), AACMM_OK);
+                assert_memory_equal(pc, pq2, sizeof pc);
+                assert_memory_equal(jc, jq2, sizeof(int64_t) * (size_t)(3 * np));
+            }
             for (i = 0; i < 3; i++) {
                 worst_p = fmax(worst_p, fabs(Q48_TO_MM(pq[i]) - pd[i]) / scale);
             }

@@ -8,6 +8,7 @@ import can
 import pytest
 from aacmm.errors import FrameError, InitError, OperationError
 from aacmm.protocol import (
+    PROTOCOL_VERSION,
     Message,
     MsgType,
     Ping,
@@ -133,7 +134,7 @@ def test_serial_loop_reader_thread_and_errors() -> None:
     bad = bytearray(encode_frame(body))
     bad[5] ^= 0x40
     t.write_raw(bytes(bad))  # CRC error
-    t.write_raw(encode_frame(b"\x02\x77\x00"))  # good frame, unknown message type
+    t.write_raw(encode_frame(bytes([PROTOCOL_VERSION, 0x77, 0])))  # unknown message type
     t.send(body)
     import time
 

@@ -8,7 +8,8 @@ the device computes (COMPUTE, MEASURE, the stream) is checked against
 counts: within the float path's bound (1 um; the Jacobian to float32's
 accuracy). Also: a 7-joint set saved and reloaded across a restart, the
 device refusing counts of another joint count, and the version errors between
-protocol version 2 and the six-joint version 1 in both directions.
+protocol version 3 and the older versions 2 (before the error model's layout)
+and 1 (six joints) in both directions.
 """
 
 from __future__ import annotations
@@ -193,15 +194,15 @@ def test_counts_of_another_joint_count_are_refused(client: Client) -> None:
 
 
 def test_bad_sets_are_refused(client: Client) -> None:
-    """The device validates the model: values out of range, and an error model
-    (issue 27's fields) it cannot compute yet."""
+    """The device validates the model: values out of range, and a thermal block
+    (link temperatures it does not read yet)."""
     ps = ParamSet.from_arm(arm7())
     with pytest.raises(DeviceError) as ei:
         client.set_params(ParamSet(**{**ps.__dict__, "d_mm": (2e4, *ps.d_mm[1:])}))
     assert ei.value.status == Status.ERR_RANGE
-    harm = ParamSet(**{**ps.__dict__, "harm_cos": ((1, 0),) * 7, "harm_sin": ((0, 2),) * 7})
+    thermal = ParamSet(**{**ps.__dict__, "cte": (2300,) * 7, "ref_temp": 2000})
     with pytest.raises(DeviceError) as ei:
-        client.set_params(harm)
+        client.set_params(thermal)
     assert ei.value.status == Status.ERR_UNSUPPORTED
     assert client.info().joints == 6  # still the defaults
 
@@ -254,21 +255,22 @@ def test_bad_param_set_file_is_one_clear_line(tmp_path: Path) -> None:
     assert len(lines) == 1 and "not a parameter set this device takes (bad length)" in lines[0]
 
 
-def _v1_body(t: int, seq: int, payload: bytes = b"") -> bytes:
-    return bytes([1, t, seq]) + payload
+def _v1_body(t: int, seq: int, payload: bytes = b"", version: int = 1) -> bytes:
+    return bytes([version, t, seq]) + payload
 
 
-def test_old_host_gets_a_version_error_it_can_read(sim: Sim) -> None:
-    """A version 1 host's request is answered with ERROR_RSP ERR_VERSION encoded
-    in version 1 (read here as a version 1 decoder would: version byte, type
-    0xFF, seq echoed, i16 status, u8 request type)."""
+@pytest.mark.parametrize("version", [1, 2])
+def test_old_host_gets_a_version_error_it_can_read(sim: Sim, version: int) -> None:
+    """A version 1 or 2 host's request is answered with ERROR_RSP ERR_VERSION
+    encoded in its own version (read here as such a decoder would: version byte,
+    type 0xFF, seq echoed, i16 status, u8 request type)."""
     import serial
 
     assert sim.serial_path is not None
     with serial.Serial(sim.serial_path, timeout=0.2) as port:
         port.reset_input_buffer()
-        port.write(encode_frame(_v1_body(0x01, 0x5A, struct.pack("<I", 0x1234))))
-        port.write(encode_frame(_v1_body(0x02, 0x5B)))
+        port.write(encode_frame(_v1_body(0x01, 0x5A, struct.pack("<I", 0x1234), version)))
+        port.write(encode_frame(_v1_body(0x02, 0x5B, version=version)))
         d = Deframer()
         bodies: list[bytes] = []
         deadline = time.monotonic() + 5
@@ -276,23 +278,25 @@ def test_old_host_gets_a_version_error_it_can_read(sim: Sim) -> None:
             bodies += d.feed(port.read(256))
     assert len(bodies) == 2
     for body, seq, req in zip(bodies, (0x5A, 0x5B), (0x01, 0x02), strict=True):
-        assert body[0] == 1 and body[1] == 0xFF and body[2] == seq
+        assert body[0] == version and body[1] == 0xFF and body[2] == seq
         status, rtype = struct.unpack("<hB", body[3:])
         assert (status, rtype) == (int(Status.ERR_VERSION), req)
-        # and the version 2 decoder names the version it saw
+        # and the version 3 decoder names the version it saw
         with pytest.raises(FrameError) as ei:
             decode_message(body)
-        assert ei.value.status == Status.ERR_VERSION and ei.value.version == 1
+        assert ei.value.status == Status.ERR_VERSION and ei.value.version == version
 
 
-def test_new_host_gets_a_clear_version_error_from_an_old_device() -> None:
-    """A version 1 device answers every version 2 request with its own ERROR_RSP
-    ERR_VERSION (version byte 1): the client raises one clear DeviceError at once
-    instead of timing out."""
+@pytest.mark.parametrize("version", [1, 2])
+def test_new_host_gets_a_clear_version_error_from_an_old_device(version: int) -> None:
+    """A version 1 or 2 device answers every version 3 request with its own
+    ERROR_RSP ERR_VERSION (its version byte): the client raises one clear
+    DeviceError at once, naming the device's version, instead of timing out."""
     srv = SerialFakeServer()
 
     def old_device(body: bytes) -> list[object]:
-        srv.send_raw(encode_frame(_v1_body(0xFF, body[2], struct.pack("<hB", -16, body[1]))))
+        payload = struct.pack("<hB", -16, body[1])
+        srv.send_raw(encode_frame(_v1_body(0xFF, body[2], payload, version)))
         return []
 
     srv.device.handle = old_device  # type: ignore[method-assign,assignment]
@@ -304,7 +308,8 @@ def test_new_host_gets_a_clear_version_error_from_an_old_device() -> None:
             assert time.monotonic() - t0 < 1.5  # not the timeout
             assert ei.value.status == Status.ERR_VERSION
             text = str(ei.value)
-            assert "protocol version 1" in text and f"version {PROTOCOL_VERSION}" in text
+            assert f"protocol version {version} (" in text
+            assert f"version {PROTOCOL_VERSION}: update the device's firmware" in text
             assert ei.value.request_type == MsgType.INFO_REQ
     finally:
         srv.close()

@@ -106,9 +106,11 @@ def param_sets(draw: st.DrawFn) -> ParamSet:
     zero = tuple(draw(st.integers(0, min(c, 2**32) - 1)) for c in cpr)  # type: ignore[call-overload]
     conv = draw(st.just(()) | tup(st.integers(0, 1), n))
     beta = draw(st.just(()) | st.tuples(st.none(), *([st.none() | f64] * (n - 1))))
-    k = draw(st.sampled_from([0, 0, 1, 4]))
-    harm = tuple(tuple(draw(tup(i16, k))) for _ in range(n)) if k else ()
-    harm_s = tuple(tuple(draw(tup(i16, k))) for _ in range(n)) if k else ()
+    ks = tuple(draw(st.sampled_from([0, 1, 2, 4])) for _ in range(n))  # K_i per joint
+    if draw(st.booleans()):
+        ks = (0,) * n
+    harm = tuple(tuple(draw(tup(i16, k))) for k in ks) if any(ks) else ()
+    harm_s = tuple(tuple(draw(tup(i16, k))) for k in ks) if any(ks) else ()
     thermal = draw(st.booleans())
     return ParamSet(
         theta_offset_rad=draw(tup(f64, n)),  # type: ignore[arg-type]
@@ -125,7 +127,7 @@ def param_sets(draw: st.DrawFn) -> ParamSet:
         harm_cos=harm,  # type: ignore[arg-type]
         harm_sin=harm_s,  # type: ignore[arg-type]
         cte=draw(tup(i16, n)) if thermal else (),  # type: ignore[arg-type]
-        ref_temp=draw(i16) if thermal else 0,
+        ref_temp=draw(st.integers(-4000, 8500)) if thermal else 0,
     )
 
 
@@ -438,14 +440,18 @@ def test_c_message_types_and_sizes_match_python() -> None:
     d = _c_defines("proto.h")
     assert d["AACMM_PROTO_VERSION"] == protocol.PROTOCOL_VERSION
     assert d["AACMM_PROTO_MAX_BODY"] == constants.MAX_BODY == framing.MAX_BODY
-    assert d["AACMM_PROTO_VERSION_PREVIOUS"] == constants.PROTOCOL_VERSION_PREVIOUS == 1
+    assert d["AACMM_PROTO_VERSION_PREVIOUS"] == constants.PROTOCOL_VERSION_PREVIOUS == 2
+    assert d["AACMM_PROTO_VERSION_OLDEST"] == constants.PROTOCOL_VERSION_OLDEST == 1
+    assert re.search(r"#define AACMM_REF_TEMP_MIN \((-\d+)\)", text)[1] == str(layout.REF_TEMP_MIN)  # type: ignore[index]
+    assert d["AACMM_REF_TEMP_MAX"] == layout.REF_TEMP_MAX
+    assert d["AACMM_PARAM_THERMAL_BIT"] == layout.PARAM_THERMAL_BIT
     # the paper's set: header, 25 f64, then u32 cpr - 1, u32 zero, i8 direction per joint
     paper = struct.calcsize("<8B25d6I6I6b")
     assert d["AACMM_PARAM_SET_PAPER_BYTES"] == layout.PARAM_SET_BYTES == paper
     assert (
         d["AACMM_PARAM_SET_MAX_BYTES"]
         == layout.PARAM_SET_MAX_BYTES
-        == layout.param_set_bytes(7, 37, 4, 1)
+        == layout.param_set_bytes(7, 37, 28, 1)
     )
     assert layout.PARAM_SET_MAX_BYTES <= constants.MAX_BODY - constants.HEADER_BYTES
     assert d["AACMM_PARAM_SET_HEADER_BYTES"] == layout.PARAM_SET_HEADER_BYTES
@@ -617,6 +623,9 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         {"harm_cos": ((1,) * 5,) * 6, "harm_sin": ((1,) * 5,) * 6},  # K 5
         {"ref_temp": 1},  # no thermal block
         {"cte": (40000, 0, 0, 0, 0, 0)},
+        {"cte": (0,) * 6, "ref_temp": 8501},  # above 85 degC
+        {"cte": (0,) * 6, "ref_temp": -4001},  # below -40 degC
+        {"harm_cos": ((1,), (), (), (), (), ()), "harm_sin": ((1,), (), (), (), (), (1,))},
     ):
         bad.append(Message(MsgType.SET_PARAMS_REQ, 0, ParamSet(**{**p.__dict__, **change})))
     for m in bad:

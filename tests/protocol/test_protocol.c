@@ -231,7 +231,7 @@ static void test_truncated_and_extended(void **state)
 static void test_unknown_types_and_version(void **state)
 {
     unsigned t;
-    uint8_t body[8] = {2, 0, 0, 0, 0, 0, 0, 0};
+    uint8_t body[8] = {3, 0, 0, 0, 0, 0, 0, 0};
     aacmm_msg_t m;
     (void)state;
     for (t = 0; t < 256; t++) {
@@ -252,7 +252,9 @@ static void test_unknown_types_and_version(void **state)
     assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
     assert_int_equal(m.type, AACMM_MSG_INFO_REQ);
     assert_int_equal(m.seq, 0x77);
-    body[0] = 3;
+    body[0] = 2; /* the arm model before the error model's layout */
+    assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
+    body[0] = 4;
     assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
     assert_int_equal(aacmm_msg_decode(NULL, 3, &m), AACMM_ERR_NULL);
     assert_int_equal(aacmm_msg_decode(body, 3, NULL), AACMM_ERR_NULL);
@@ -292,7 +294,7 @@ static void test_param_set_encoder_rule(void **state)
     assert_int_equal(aacmm_param_set_encode(&valid, wire, sizeof wire, &len), AACMM_OK);
     assert_int_equal(len, AACMM_PARAM_SET_PAPER_BYTES);
     assert_int_equal(AACMM_PARAM_SET_BYTES(6u, 25u, 0u, 0u), AACMM_PARAM_SET_PAPER_BYTES);
-    assert_int_equal(AACMM_PARAM_SET_BYTES(7u, 37u, 4u, 1u), AACMM_PARAM_SET_MAX_BYTES);
+    assert_int_equal(AACMM_PARAM_SET_BYTES(7u, 37u, 28u, 1u), AACMM_PARAM_SET_MAX_BYTES);
     for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         const int on_wire = cases[c].cpr >= 1u && cases[c].cpr <= 4294967296ull;
         for (j = 0; j < AACMM_JOINTS; j++) {
@@ -358,18 +360,28 @@ static void test_param_set_shape_rules(void **state)
     p.err.ref_temp = 1; /* no thermal block */
     assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
     p = m.u.params;
-    p.err.harmonics = 5u;
+    p.err.harmonics[0] = 5u; /* K > 4 */
     assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
     assert_true(vec_expected_msg("set_params_req5e", &m));
     p = m.u.params;
-    p.err.harm_sin[1][2] = 3; /* past K = 2 */
+    p.err.harmonics[5] = 1u; /* a K past N = 5 */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p = m.u.params;
+    p.err.ref_temp = 8501; /* above 85 degC */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p.err.ref_temp = -4001; /* below -40 degC */
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
+    p.err.ref_temp = -4000;
+    assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_OK);
+    p = m.u.params;
+    p.err.harm_sin[1][1] = 3; /* past K = 1 */
     assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
     p = m.u.params;
     p.arm.d_mm[5] = 1.0; /* past N = 5 */
     assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_ERR_RANGE);
     p = m.u.params;
     assert_int_equal(aacmm_param_set_encode(&p, buf, sizeof buf, &len), AACMM_OK);
-    assert_int_equal(len, AACMM_PARAM_SET_BYTES(5u, 23u, 2u, 1u));
+    assert_int_equal(len, AACMM_PARAM_SET_BYTES(5u, 23u, 8u, 1u));
     assert_int_equal(aacmm_param_set_encode(&p, buf, len - 1u, &len), AACMM_ERR_BUFFER);
 }
 
@@ -395,7 +407,7 @@ static void test_helpers_counted_decode_error_reply(void **state)
     assert_int_equal(stats.ok, 32);
     assert_int_equal(stats.length + stats.version + stats.unknown_type + stats.range +
                          stats.not_finite, bad);
-    assert_int_equal(stats.version, 3);
+    assert_int_equal(stats.version, 4);
     assert_int_equal(stats.unknown_type, 3);
     assert_int_equal(stats.other, 0);
     for (t = 0; t < 256; t++) {

@@ -161,8 +161,11 @@ static void vec_params5e(aacmm_param_set_t *p)
     static const double alpha[5] = {0.0, 1.5707963267948966, 0.001, -0.0005, 1.5707963267948966};
     static const double d[5] = {210.0, 0.0, 0.5, 1.0, 80.0};
     static const double a[5] = {0.0, 24.0, 260.0, 260.0, 12.0};
-    static const int16_t hc[5][2] = {{1, -2}, {3, -4}, {32767, -32768}, {0, 0}, {5, 6}};
-    static const int16_t hs[5][2] = {{-7, 8}, {0, 9}, {-32768, 32767}, {10, 0}, {11, -12}};
+    static const uint8_t kk[5] = {2u, 1u, 2u, 0u, 3u};
+    static const int16_t hc[5][3] = {{1, -2, 0}, {3, 0, 0}, {32767, -32768, 0}, {0, 0, 0},
+                                     {5, 6, -13}};
+    static const int16_t hs[5][3] = {{-7, 8, 0}, {9, 0, 0}, {-32768, 32767, 0}, {0, 0, 0},
+                                     {11, -12, 14}};
     static const int16_t cte[5] = {2300, 1200, -1, 0, 32767};
     int i;
     memset(p, 0, sizeof *p);
@@ -173,10 +176,13 @@ static void vec_params5e(aacmm_param_set_t *p)
         p->enc.counts_per_rev[i] = 4294967296ull;
         p->enc.zero_offset_counts[i] = (uint32_t)i;
         p->enc.direction[i] = (int8_t)(i == 2 || i == 3 ? -1 : 1);
+        p->err.harmonics[i] = kk[i];
         p->err.harm_cos[i][0] = hc[i][0];
         p->err.harm_cos[i][1] = hc[i][1];
+        p->err.harm_cos[i][2] = hc[i][2];
         p->err.harm_sin[i][0] = hs[i][0];
         p->err.harm_sin[i][1] = hs[i][1];
+        p->err.harm_sin[i][2] = hs[i][2];
         p->err.cte[i] = cte[i];
     }
     p->arm.shape.beta[2] = 1u;
@@ -189,7 +195,6 @@ static void vec_params5e(aacmm_param_set_t *p)
     p->arm.beta_rad[3] = -0.001;
     p->arm.tip_mm[2] = 95.0;
     p->enc.joints = 5u;
-    p->err.harmonics = 2u;
     p->err.thermal = 1u;
     p->err.ref_temp = 2000;
 }
@@ -249,7 +254,7 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         m->type = AACMM_MSG_INFO_REQ; m->seq = 1;
     } else if (IS("info_rsp")) {
         m->type = AACMM_MSG_INFO_RSP; m->seq = 1;
-        m->u.info.protocol_version = 2; m->u.info.fw_major = 0; m->u.info.fw_minor = 3;
+        m->u.info.protocol_version = 3; m->u.info.fw_major = 0; m->u.info.fw_minor = 3;
         m->u.info.fw_patch = 17; m->u.info.build_flags = 0x1Eu; m->u.info.param_crc32 = crc;
         m->u.info.param_source = 1; m->u.info.storage_state = 0; m->u.info.max_body_bytes = 512;
         m->u.info.serial_number = 0xA5C3E001u; m->u.info.can_node_id = 5;
@@ -260,7 +265,7 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         vec_params7(&p7);
         (void)aacmm_param_set_crc32(&p7, &crc7);
         m->type = AACMM_MSG_INFO_RSP; m->seq = 13;
-        m->u.info.protocol_version = 2; m->u.info.fw_major = 0; m->u.info.fw_minor = 1;
+        m->u.info.protocol_version = 3; m->u.info.fw_major = 0; m->u.info.fw_minor = 1;
         m->u.info.fw_patch = 0; m->u.info.build_flags = 0x0Cu; m->u.info.param_crc32 = crc7;
         m->u.info.param_source = 2; m->u.info.storage_state = 1; m->u.info.max_body_bytes = 512;
         m->u.info.serial_number = 77u; m->u.info.can_node_id = 15;

@@ -116,7 +116,7 @@ PARAMS7 = ParamSet(
     tip_xy_mm=(1.5, -2.0),
 )
 
-# A 5-joint set with issue 27's error model: K = 2 harmonics and the thermal block.
+# A 5-joint set with issue 27's error model: K = 2, 1, 2, 0, 3 harmonics and the thermal block.
 PARAMS5E = ParamSet(
     theta_offset_rad=(0.0, 0.001, 0.0, -0.001, 0.0),
     alpha_rad=(0.0, 1.5707963267948966, 0.001, -0.0005, 1.5707963267948966),
@@ -128,8 +128,8 @@ PARAMS5E = ParamSet(
     direction=(1, 1, -1, -1, 1),
     convention=(1, 1, 1, 1, 1),
     beta_rad=(None, None, 0.002, -0.001, None),
-    harm_cos=((1, -2), (3, -4), (32767, -32768), (0, 0), (5, 6)),
-    harm_sin=((-7, 8), (0, 9), (-32768, 32767), (10, 0), (11, -12)),
+    harm_cos=((1, -2), (3,), (32767, -32768), (), (5, 6, -13)),
+    harm_sin=((-7, 8), (9,), (-32768, 32767), (), (11, -12, 14)),
     cte=(2300, 1200, -1, 0, 32767),
     ref_temp=2000,
 )
@@ -203,7 +203,7 @@ def messages() -> dict[str, Message]:
             MsgType.INFO_RSP,
             1,
             DeviceInfo(
-                protocol_version=2,
+                protocol_version=3,
                 fw_major=0,
                 fw_minor=3,
                 fw_patch=17,
@@ -221,7 +221,7 @@ def messages() -> dict[str, Message]:
         "info_rsp7": Message(
             MsgType.INFO_RSP,
             13,
-            DeviceInfo(2, 0, 1, 0, 0x0C, param_set_crc32(PARAMS7), 2, 1, 512, 77, 15, 7, 33),
+            DeviceInfo(3, 0, 1, 0, 0x0C, param_set_crc32(PARAMS7), 2, 1, 512, 77, 15, 7, 33),
         ),
         "get_params_rsp7": Message(MsgType.GET_PARAMS_RSP, 14, PARAMS7),
         "set_params_req5e": Message(MsgType.SET_PARAMS_REQ, 15, PARAMS5E),
@@ -266,7 +266,7 @@ def messages() -> dict[str, Message]:
 
 
 def _hdr(t: int, seq: int = 0) -> bytes:
-    return bytes([2, t, seq])
+    return bytes([3, t, seq])
 
 
 def _params_bytes(
@@ -311,7 +311,8 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
         ("header_short", bytes([1, 1]), Status.ERR_LENGTH),
         ("version_0", bytes([0]) + good_ping[1:], Status.ERR_VERSION),
         ("version_1", bytes([1]) + good_ping[1:], Status.ERR_VERSION),
-        ("version_3", bytes([3]) + good_ping[1:], Status.ERR_VERSION),
+        ("version_2", bytes([2]) + good_ping[1:], Status.ERR_VERSION),
+        ("version_4", bytes([4]) + good_ping[1:], Status.ERR_VERSION),
         ("type_unknown_0c", _hdr(0x0C), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_00", _hdr(0x00), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_c1", _hdr(0xC1, 9) + b"\x00" * 4, Status.ERR_UNKNOWN_TYPE),
@@ -385,17 +386,36 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
         ),
         (
             "params_k_5",
-            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 5, 0, 0, 0])) + bytes(120),
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 5, 0, 0, 0])) + bytes(20),
             Status.ERR_RANGE,
         ),
         (
-            "params_thermal_2",
-            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 0, 2, 0, 0])) + bytes(28),
+            "params_k_past_n",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 0, 0, 0, 1])) + bytes(4),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_thermal_bit29",
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 0, 0, 0, 0x20])),
             Status.ERR_RANGE,
         ),
         (
             "params_reserved",
-            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 0, 0, 0, 1])),
+            _hdr(0x04) + _params_bytes(bytes([6, 1, 0, 0, 0, 0, 0, 0x80])),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_ref_temp_hot",
+            _hdr(0x04)
+            + _params_bytes(bytes([6, 1, 0, 0, 0, 0, 0, 0x10]))
+            + struct.pack("<6hh", 2300, 0, 0, 0, 0, 0, 8501),
+            Status.ERR_RANGE,
+        ),
+        (
+            "params_ref_temp_cold",
+            _hdr(0x83)
+            + _params_bytes(bytes([6, 1, 0, 0, 0, 0, 0, 0x10]))
+            + struct.pack("<6hh", 0, 0, 0, 0, 0, 0, -4001),
             Status.ERR_RANGE,
         ),
         (

@@ -214,12 +214,23 @@ typedef struct {
 
 /* ---- private state below: read only through the functions ------------- */
 
-/* The kinematics backend's prepared model (build-time choice). */
+/* The kinematics backend's prepared model (build-time choice): the core's
+ * model and the parameter set's error model in the backend's form;
+ * corrected 0 when the set has none (every K_i 0): the plain core path, bit
+ * for bit as before the error model. */
 #if defined(AACMM_DEVICE_KIN_FIXED)
 #include "aacmm/kinematics_q.h"
-typedef aacmm_model_q_t aacmm_device_model_t;
+typedef struct {
+    aacmm_model_q_t m;
+    aacmm_errmodel_q_t em;
+    uint8_t corrected;
+} aacmm_device_model_t;
 #else
-typedef aacmm_model_f32_t aacmm_device_model_t;
+typedef struct {
+    aacmm_model_f32_t m;
+    aacmm_errmodel_f32_t em;
+    uint8_t corrected;
+} aacmm_device_model_t;
 #endif
 
 typedef struct {

@@ -493,6 +493,18 @@ aacmm_status_t aacmm_point_jacobian_corrected_q(const aacmm_model_q_t *model,
                                                 const uint32_t *theta_bam, const int32_t *temp_q8,
                                                 int64_t p_q48[3], int64_t *jac_q48);
 
+/* The corrected readings alone: q_out[i] = joint i's reading plus its
+ * harmonic correction (BAM, mod 2^32), i < N, the values
+ * aacmm_point_jacobian_corrected_q runs the chain on without temperatures
+ * (so aacmm_point_q / aacmm_point_jacobian_q of q_out are aacmm_point_em_q /
+ * aacmm_point_jacobian_corrected_q, bit for bit, with a smaller stack: the
+ * device's path). The same preconditions and per-pose checks (joint count,
+ * K_i: AACMM_ERR_RANGE); AACMM_ERR_NULL. q_out may equal theta_bam. Integer
+ * only. Cost: the correction alone. */
+aacmm_status_t aacmm_errmodel_q_correct(const aacmm_model_q_t *model,
+                                        const aacmm_errmodel_q_t *em, const uint32_t *theta_bam,
+                                        uint32_t *q_out);
+
 /* n poses of aacmm_point_jacobian_em_q (jac_q48 NULL: points only):
  * theta_bam[n N], temp_q8[n N] or NULL, p_q48[n 3], jac_q48[n 3 (P + E)];
  * stops at the first bad pose, *done as aacmm_batch_bam_q. */

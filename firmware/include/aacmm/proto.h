@@ -1,5 +1,5 @@
 /*
- * aacmm link protocol, version 2: the message set shared by the device and
+ * aacmm link protocol, version 3: the message set shared by the device and
  * the host (docs/protocol.md is the specification; this header is its C form).
  *
  * A message body is a 3-byte header followed by a type-specific payload, all
@@ -49,12 +49,15 @@
 extern "C" {
 #endif
 
-#define AACMM_PROTO_VERSION 2u
-/* The version before the arm model (six joints, 25 parameters). A body of
- * this version is answered with ERROR_RSP ERR_VERSION encoded in version 1
- * (ERROR_RSP has the same layout in both), so an old host reads a clear
- * version error instead of a body it cannot decode (docs/protocol.md 6). */
-#define AACMM_PROTO_VERSION_PREVIOUS 1u
+#define AACMM_PROTO_VERSION 3u
+/* Older versions: 2 (the arm model, with the error-model block reserved in
+ * an earlier layout) and 1 (six joints, 25 parameters). A body of version
+ * AACMM_PROTO_VERSION_OLDEST .. AACMM_PROTO_VERSION_PREVIOUS is answered
+ * with ERROR_RSP ERR_VERSION encoded in the body's own version (ERROR_RSP
+ * has the same layout in all three), so an old host reads a clear version
+ * error instead of a body it cannot decode (docs/protocol.md 6). */
+#define AACMM_PROTO_VERSION_PREVIOUS 2u
+#define AACMM_PROTO_VERSION_OLDEST 1u
 #define AACMM_PROTO_HEADER_BYTES 3u
 #define AACMM_PROTO_MAX_BODY 512u /* equals AACMM_FRAME_MAX_BODY */
 
@@ -63,7 +66,7 @@ typedef enum {
     AACMM_MSG_PING_REQ = 0x01,             /* u32 token */
     AACMM_MSG_INFO_REQ = 0x02,             /* empty */
     AACMM_MSG_GET_PARAMS_REQ = 0x03,       /* empty */
-    AACMM_MSG_SET_PARAMS_REQ = 0x04,       /* parameter set (8 + 8P + 9N bytes, 2.3) */
+    AACMM_MSG_SET_PARAMS_REQ = 0x04,       /* parameter set (8 + 8P + 9N + ... bytes, 2.3) */
     AACMM_MSG_SAVE_PARAMS_REQ = 0x05,      /* empty: store the active set */
     AACMM_MSG_RESTORE_DEFAULTS_REQ = 0x06, /* empty: activate the built-in defaults */
     AACMM_MSG_MEASURE_REQ = 0x07,          /* u8 content */
@@ -198,14 +201,15 @@ typedef enum {
 #define AACMM_POINT_UNIT_MM 1e-4
 
 /* Payload sizes in bytes. N joints (4..7), P parameters (Jacobian columns,
- * P = 4N + B + T, aacmm/kinematics.h), K encoder harmonics per joint (0..4),
- * H = 1 with the thermal block, else 0. Every size is at most
- * AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES (509). */
+ * P = 4N + B + T, aacmm/kinematics.h), S = sum of the joints' encoder
+ * harmonics K_i (0..4 each, so S <= 4N), H = 1 with the thermal block, else
+ * 0. Every size is at most AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES
+ * (509). */
 #define AACMM_PARAM_SET_HEADER_BYTES 8u
-#define AACMM_PARAM_SET_BYTES(n, p, k, h)                                                   \
-    (AACMM_PARAM_SET_HEADER_BYTES + 8u * (p) + 9u * (n) + 4u * (n) * (k) + 2u * ((n) + 1u) * (h))
-#define AACMM_PARAM_SET_PAPER_BYTES 262u /* the paper's arm: N 6, P 25, K 0, H 0 */
-#define AACMM_PARAM_SET_MAX_BYTES 495u   /* N 7, P 37, K 4, H 1 */
+#define AACMM_PARAM_SET_BYTES(n, p, s, h)                                                   \
+    (AACMM_PARAM_SET_HEADER_BYTES + 8u * (p) + 9u * (n) + 4u * (s) + 2u * ((n) + 1u) * (h))
+#define AACMM_PARAM_SET_PAPER_BYTES 262u /* the paper's arm: N 6, P 25, S 0, H 0 */
+#define AACMM_PARAM_SET_MAX_BYTES 495u   /* N 7, P 37, K 4 on every joint (S 28), H 1 */
 #define AACMM_INFO_BYTES 25u
 #define AACMM_SAMPLE_BASE_BYTES 31u             /* before the N counts */
 #define AACMM_SAMPLE_BYTES(n, p, jac) (AACMM_SAMPLE_BASE_BYTES + 4u * (n) + ((jac) ? 12u * (p) : 0u))
@@ -218,27 +222,34 @@ typedef enum {
 #define AACMM_DIAG_BASE_BYTES 60u
 #define AACMM_DIAG_BYTES(n) (AACMM_DIAG_BASE_BYTES + (n) * AACMM_DIAG_JOINT_BYTES)
 
-/* ---- the parameter set's error model (issue 27; version 2 reserves it) ----
- * Per joint K <= AACMM_HARMONICS_MAX encoder harmonics: the joint angle
- * error sum_k c_k cos(k q) + s_k sin(k q); per link i = 1..N a coefficient
- * of thermal expansion and one reference temperature. Stored as i16 in the
- * units below. A version 2 device computes without them and refuses a set
- * that has any (K > 0 or the thermal block: AACMM_ERR_UNSUPPORTED); the
- * codecs carry them already. Laid out before issue 27's core was merged
- * (aacmm_errmodel_*_t: K per joint, a reference temperature per link, wider
- * ranges), which does not fit this block as it stands: docs/protocol.md 2.3. */
+/* ---- the parameter set's error model (issue 27) ---------------------------
+ * The core's error model (aacmm/kinematics.h, "Error model") as the wire
+ * carries it: per joint K_i <= AACMM_HARMONICS_MAX encoder harmonics, the
+ * joint angle error sum_k c_ik cos(k q) + s_ik sin(k q) added to the reading
+ * (rad, before the theta offset); with the thermal block per link i = 1..N a
+ * coefficient of thermal expansion and one reference temperature for every
+ * link. Stored as i16 in the units below (a coefficient within +-3.2767
+ * mrad, so a joint's sum stays far inside the core's 0.1 rad; |cte| within
+ * 3.2767e-4 /K inside the core's 1e-3 /K). The header's u32 at offset 4
+ * packs K_i in bits 4(i-1) .. 4(i-1)+3 and H in bit 28 (docs/protocol.md
+ * 2.3). The device loads it into the core's aacmm_errmodel_f32_t /
+ * aacmm_errmodel_q_t (every link's tref = ref_temp) and applies it to every
+ * point it computes. */
 #define AACMM_HARMONICS_MAX 4
-#define AACMM_HARMONIC_UNIT_RAD 1e-7   /* c_k, s_k: +-3.3 mrad in 0.1 urad */
-#define AACMM_CTE_UNIT_PER_K 1e-8      /* +-3.3e-4 / K in 1e-8 / K */
-#define AACMM_TEMP_UNIT_C 0.01         /* reference temperature, +-327 degC */
+#define AACMM_HARMONIC_UNIT_RAD 1e-7   /* c_k, s_k: +-3.2767 mrad in 0.1 urad */
+#define AACMM_CTE_UNIT_PER_K 1e-8      /* +-3.2767e-4 / K in 1e-8 / K */
+#define AACMM_TEMP_UNIT_C 0.01         /* reference temperature, 0.01 degC */
+#define AACMM_REF_TEMP_MIN (-4000)     /* -40 degC: AACMM_TEMP_MIN_C */
+#define AACMM_REF_TEMP_MAX 8500        /* 85 degC: AACMM_TEMP_MAX_C */
+#define AACMM_PARAM_THERMAL_BIT 28u    /* H in the header's u32 at offset 4 */
 
 typedef struct {
-    uint8_t harmonics; /* K, 0 .. AACMM_HARMONICS_MAX; 0 = none */
-    uint8_t thermal;   /* 1 if cte and ref_temp are present, else 0 */
-    int16_t harm_cos[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX]; /* c_k of joint i, k = 1..K */
+    uint8_t harmonics[AACMM_JOINTS_MAX]; /* K_i, 0 .. AACMM_HARMONICS_MAX; 0 past N */
+    uint8_t thermal;                     /* 1 if cte and ref_temp are present, else 0 */
+    int16_t harm_cos[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX]; /* c_k of joint i, k = 1..K_i */
     int16_t harm_sin[AACMM_JOINTS_MAX][AACMM_HARMONICS_MAX]; /* s_k */
-    int16_t cte[AACMM_JOINTS_MAX]; /* link i */
-    int16_t ref_temp;              /* the temperature the lengths hold at */
+    int16_t cte[AACMM_JOINTS_MAX]; /* link i, 1e-8 / K */
+    int16_t ref_temp; /* the temperature the lengths hold at, 0.01 degC, -4000 .. 8500 */
 } aacmm_error_model_t;
 
 typedef struct {
@@ -267,7 +278,7 @@ typedef struct {
 typedef struct {
     aacmm_arm_f64_t arm;      /* shape and values, mm and rad, all finite */
     aacmm_arm_encoders_t enc; /* cpr 2..2^32, zero offset < cpr, direction +-1 */
-    aacmm_error_model_t err;  /* K = 0 and no thermal block in version 2 devices */
+    aacmm_error_model_t err;  /* all 0: no correction (today's points, bit for bit) */
 } aacmm_param_set_t;
 
 typedef struct {
@@ -438,7 +449,7 @@ aacmm_status_t aacmm_msg_make_error(aacmm_msg_t *msg, uint8_t seq, uint8_t reque
 
 /*
  * Payload length of a message body's type as its bytes define it: the
- * content byte, N, P (and for a parameter set K and the thermal flag) are
+ * content byte, N, P (and for a parameter set the K_i and the thermal flag) are
  * read from payload[0 .. len-1] where the type has them, as raw values
  * (ranges are checked after the length). For a payload too short to hold
  * those fields, the length of the fields that define it (so a short payload
@@ -452,20 +463,23 @@ int aacmm_msg_type_known(uint8_t type);
 
 /*
  * Encode a parameter set payload alone into out (*out_len bytes,
- * AACMM_PARAM_SET_BYTES of its N, P, K, H; at most
+ * AACMM_PARAM_SET_BYTES of its N, P, S, H; at most
  * AACMM_PARAM_SET_MAX_BYTES). AACMM_ERR_NULL, AACMM_ERR_BUFFER,
  * AACMM_ERR_NOT_FINITE, AACMM_ERR_RANGE (an invalid shape, an encoder out
  * of range, enc.joints not N, a value the layout does not carry that is not
- * 0: entries past N or K, a beta where none is declared, t_x or t_y with
- * AACMM_TIP_Z) or AACMM_OK. O(size).
+ * 0: entries past N or K_i, a beta where none is declared, t_x or t_y with
+ * AACMM_TIP_Z, a cte or ref_temp without the thermal block), AACMM_ERR_RANGE
+ * for a K_i above 4 or a ref_temp outside -40 .. 85 degC, or AACMM_OK.
+ * O(size).
  */
 aacmm_status_t aacmm_param_set_encode(const aacmm_param_set_t *set, uint8_t *out, size_t out_cap,
                                       size_t *out_len);
 
 /* Decode and check a parameter set payload of len bytes: AACMM_ERR_LENGTH
  * (shorter than its header or not the size its header defines), then
- * AACMM_ERR_RANGE (header fields), AACMM_ERR_NOT_FINITE, AACMM_ERR_RANGE
- * (encoders). Values the layout does not carry are 0. O(len). */
+ * AACMM_ERR_RANGE (header fields: N, tip, bits, K_i <= 4, H),
+ * AACMM_ERR_NOT_FINITE, AACMM_ERR_RANGE (encoders, ref_temp outside -40 ..
+ * 85 degC). Values the layout does not carry are 0. O(len). */
 aacmm_status_t aacmm_param_set_decode(const uint8_t *in, size_t len, aacmm_param_set_t *set);
 
 /*

@@ -114,8 +114,8 @@ static int load_param_set(const char *path, aacmm_param_set_t *set, char *err, s
     if (st == AACMM_OK) {
         st = aacmm_arm_validate_f64(&p.arm);
     }
-    if (st == AACMM_OK && (p.err.harmonics != 0u || p.err.thermal != 0u)) {
-        st = AACMM_ERR_UNSUPPORTED;
+    if (st == AACMM_OK && p.err.thermal != 0u) {
+        st = AACMM_ERR_UNSUPPORTED; /* no link temperatures on the device yet */
     }
     if (st != AACMM_OK) {
         snprintf(err, err_cap, "--param-set %s: not a parameter set this device takes (%s)", path,

@@ -127,14 +127,11 @@ static aacmm_status_t check_set(const aacmm_device_t *dev, const aacmm_param_set
     if (st == AACMM_OK) {
         st = aacmm_param_set_crc32(set, crc);
     }
-    if (st == AACMM_OK && (set->err.harmonics != 0u || set->err.thermal != 0u)) {
-        st = AACMM_ERR_UNSUPPORTED; /* the error model (issue 27): not computed yet */
-    }
     if (st == AACMM_OK && set->arm.shape.joints > dev->frame_joints) {
         st = AACMM_ERR_UNSUPPORTED; /* more joints than the port has encoders */
     }
     if (st == AACMM_OK) {
-        st = aacmm_device_kin_load(model, &set->arm);
+        st = aacmm_device_kin_load(model, &set->arm, &set->err);
     }
     return st;
 }
@@ -390,8 +387,9 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
     aacmm_msg_t *rsp = &dev->msg_out;
     aacmm_status_t st = aacmm_msg_decode(body, len, req);
     dev->reply_version = (uint8_t)(st == AACMM_ERR_VERSION && len > 0u &&
-                                           body[0] == (uint8_t)AACMM_PROTO_VERSION_PREVIOUS
-                                       ? AACMM_PROTO_VERSION_PREVIOUS
+                                           body[0] >= (uint8_t)AACMM_PROTO_VERSION_OLDEST &&
+                                           body[0] <= (uint8_t)AACMM_PROTO_VERSION_PREVIOUS
+                                       ? body[0]
                                        : 0u);
     rsp->seq = req->seq;
     rsp->type = (uint8_t)(req->type | AACMM_MSG_RESPONSE_BIT);

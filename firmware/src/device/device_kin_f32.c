@@ -10,12 +10,42 @@ uint32_t aacmm_device_kin_flags(void)
     return 0u; /* floating point, single precision */
 }
 
-aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm)
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm,
+                                     const aacmm_error_model_t *err)
 {
     aacmm_arm_f32_t a;
+    aacmm_errmodel_f64_t e;
+    aacmm_model_f32_t m;
+    aacmm_errmodel_f32_t ef;
+    aacmm_status_t st;
     int i;
-    if (model == NULL || arm == NULL) {
+    int k;
+    if (model == NULL || arm == NULL || err == NULL) {
         return AACMM_ERR_NULL;
+    }
+    if (err->thermal != 0u) {
+        return AACMM_ERR_UNSUPPORTED; /* no link temperatures on the device yet */
+    }
+    st = aacmm_device_errmodel_f64(&e, err, (int)arm->shape.joints);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    st = aacmm_errmodel_default_f32(&ef, (int)arm->shape.joints);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        ef.harmonics[i] = e.harmonics[i];
+        for (k = 0; k < AACMM_HARMONICS_MAX; k++) {
+            ef.c_rad[i][k] = (float)e.c_rad[i][k];
+            ef.s_rad[i][k] = (float)e.s_rad[i][k];
+        }
+        ef.cte_per_k[i] = (float)e.cte_per_k[i];
+        ef.tref_c[i] = (float)e.tref_c[i];
+    }
+    st = aacmm_errmodel_validate_f32(&ef);
+    if (st != AACMM_OK) {
+        return st;
     }
     a.shape = arm->shape;
     for (i = 0; i < AACMM_JOINTS_MAX; i++) {
@@ -28,7 +58,14 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_ar
     for (i = 0; i < 3; i++) {
         a.tip_mm[i] = (float)arm->tip_mm[i];
     }
-    return aacmm_model_init_arm_f32(model, &a);
+    st = aacmm_model_init_arm_f32(&m, &a);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    model->m = m;
+    model->em = ef;
+    model->corrected = (uint8_t)aacmm_device_errmodel_any(err);
+    return AACMM_OK;
 }
 
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
@@ -47,11 +84,18 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
     if (st != AACMM_OK) {
         return st;
     }
-    if (jac != NULL) {
-        st = aacmm_point_jacobian_f32(model, theta, p, jac);
-    } else {
-        st = aacmm_point_f32(model, theta, p);
+    if (model->corrected != 0u) {
+        /* the corrected readings, then the plain chain: the point of
+         * aacmm_point_em_f32 and the first P columns of its extended
+         * Jacobian, bit for bit (kinematics.h), without the extended
+         * Jacobian's buffer on the stack */
+        st = aacmm_errmodel_angles_f32(&model->em, theta, theta);
+        if (st != AACMM_OK) {
+            return st;
+        }
     }
+    st = jac != NULL ? aacmm_point_jacobian_f32(&model->m, theta, p, jac)
+                     : aacmm_point_f32(&model->m, theta, p);
     if (st != AACMM_OK) {
         return st;
     }

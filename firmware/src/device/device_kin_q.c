@@ -27,18 +27,37 @@ uint32_t aacmm_device_kin_flags(void)
     return AACMM_BUILD_KIN_FIXED;
 }
 
-aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm)
+aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm,
+                                     const aacmm_error_model_t *err)
 {
     aacmm_arm_q_t q;
+    aacmm_errmodel_f64_t e;
+    aacmm_errmodel_q_t eq;
+    aacmm_model_q_t m;
     aacmm_status_t st;
-    if (model == NULL || arm == NULL) {
+    if (model == NULL || arm == NULL || err == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_arm_q_from_f64(&q, arm);
+    if (err->thermal != 0u) {
+        return AACMM_ERR_UNSUPPORTED; /* no link temperatures on the device yet */
+    }
+    st = aacmm_device_errmodel_f64(&e, err, (int)arm->shape.joints);
+    if (st == AACMM_OK) {
+        st = aacmm_errmodel_q_from_f64(&eq, &e);
+    }
+    if (st == AACMM_OK) {
+        st = aacmm_arm_q_from_f64(&q, arm);
+    }
+    if (st == AACMM_OK) {
+        st = aacmm_model_q_init_arm(&m, &q);
+    }
     if (st != AACMM_OK) {
         return st;
     }
-    return aacmm_model_q_init_arm(model, &q);
+    model->m = m;
+    model->em = eq;
+    model->corrected = (uint8_t)aacmm_device_errmodel_any(err);
+    return AACMM_OK;
 }
 
 /* round(v * 10^4 / 2^48), half away from zero, exactly, for |v| < 2^62.
@@ -71,20 +90,25 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
         return AACMM_ERR_NULL;
     }
     st = aacmm_arm_encoders_to_bam(enc, counts, bam);
+    if (st == AACMM_OK && model->corrected != 0u) {
+        /* the corrected readings, then the plain chain: aacmm_point_em_q and
+         * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
+        st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+    }
     if (st != AACMM_OK) {
         return st;
     }
     if (jac != NULL) {
         int64_t jq[AACMM_JAC_SIZE_MAX];
-        st = aacmm_point_jacobian_q(model, bam, p, jq);
+        st = aacmm_point_jacobian_q(&model->m, bam, p, jq);
         if (st != AACMM_OK) {
             return st;
         }
-        for (i = 0; i < 3 * (int)model->n_params; i++) {
+        for (i = 0; i < 3 * (int)model->m.n_params; i++) {
             jac[i] = (float)jq[i] * Q48_TO_MM_F;
         }
     } else {
-        st = aacmm_point_q(model, bam, p);
+        st = aacmm_point_q(&model->m, bam, p);
         if (st != AACMM_OK) {
             return st;
         }

@@ -214,27 +214,56 @@ static unsigned popcount8(unsigned v)
     return n;
 }
 
+/* The header's u32 at offset 4: K_i in nibble i, H in bit 28. */
+static uint32_t hdr_em(const uint8_t *h)
+{
+    return (uint32_t)h[4] | ((uint32_t)h[5] << 8) | ((uint32_t)h[6] << 16) |
+           ((uint32_t)h[7] << 24);
+}
+
+/* Sum of the seven raw K nibbles (any values; those past N count too, so
+ * the length is read before the ranges). */
+static size_t hdr_ksum(uint32_t em)
+{
+    size_t i;
+    size_t s = 0u;
+    for (i = 0; i < (size_t)AACMM_JOINTS_MAX; i++) {
+        s += (size_t)((em >> (4u * i)) & 0xFu);
+    }
+    return s;
+}
+
 /* Size of a parameter set from its raw header bytes (any values). */
 static size_t param_set_len_raw(const uint8_t *h)
 {
     size_t n = h[0];
     size_t p = 4u * n + popcount8(h[3]) + h[1];
-    return AACMM_PARAM_SET_BYTES(n, p, (size_t)h[4], (size_t)h[5]);
+    uint32_t em = hdr_em(h);
+    return AACMM_PARAM_SET_BYTES(n, p, hdr_ksum(em), (size_t)((em >> AACMM_PARAM_THERMAL_BIT) & 1u));
 }
 
 /* The header rule: N 4..7, tip 1 or 3, convention and beta bits only for
- * joints 1..N (no beta on joint 1), K <= 4, thermal 0/1, reserved 0. */
+ * joints 1..N (no beta on joint 1), K_i <= 4 for joints 1..N and 0 past N,
+ * thermal 0/1, bits 29..31 of the error-model word 0. */
 static int param_header_ok(const uint8_t *h)
 {
     unsigned n = h[0];
     unsigned mask;
+    unsigned i;
+    uint32_t em = hdr_em(h);
     if (n < (unsigned)AACMM_JOINTS_MIN || n > (unsigned)AACMM_JOINTS_MAX) {
         return 0;
+    }
+    for (i = 0; i < 7u; i++) {
+        uint32_t k = (em >> (4u * i)) & 0xFu;
+        if (k > (uint32_t)AACMM_HARMONICS_MAX || (i >= n && k != 0u)) {
+            return 0;
+        }
     }
     mask = (1u << n) - 1u;
     return (h[1] == (uint8_t)AACMM_TIP_Z || h[1] == (uint8_t)AACMM_TIP_XYZ) &&
            (h[2] & ~mask) == 0u && (h[3] & ~(mask & ~1u)) == 0u &&
-           h[4] <= (uint8_t)AACMM_HARMONICS_MAX && h[5] <= 1u && h[6] == 0u && h[7] == 0u;
+           (em >> (AACMM_PARAM_THERMAL_BIT + 1u)) == 0u;
 }
 
 /* The header bytes of *p, or 0 if its shape, encoders or error model
@@ -245,6 +274,11 @@ static int nz(double v)
     return f64_bits(v) != 0u;
 }
 
+static int ref_temp_ok(int16_t t)
+{
+    return t >= (int16_t)AACMM_REF_TEMP_MIN && t <= (int16_t)AACMM_REF_TEMP_MAX;
+}
+
 static aacmm_status_t param_header(const aacmm_param_set_t *p, uint8_t h[8])
 {
     const aacmm_shape_t *sh = &p->arm.shape;
@@ -253,8 +287,9 @@ static aacmm_status_t param_header(const aacmm_param_set_t *p, uint8_t h[8])
     size_t k;
     unsigned conv = 0u;
     unsigned beta = 0u;
+    uint32_t em = 0u;
     if (aacmm_shape_validate(sh) != AACMM_OK || p->enc.joints != sh->joints ||
-        p->err.harmonics > (uint8_t)AACMM_HARMONICS_MAX || p->err.thermal > 1u) {
+        p->err.thermal > 1u) {
         return AACMM_ERR_RANGE;
     }
     n = sh->joints;
@@ -265,6 +300,11 @@ static aacmm_status_t param_header(const aacmm_param_set_t *p, uint8_t h[8])
     /* Everything the layout does not carry must be 0 (canonical encoding);
      * encoder entries past N are ignored (aacmm_arm_encoders_t). */
     for (i = 0; i < (size_t)AACMM_JOINTS_MAX; i++) {
+        uint8_t ki = p->err.harmonics[i];
+        if (ki > (uint8_t)AACMM_HARMONICS_MAX || (i >= n && ki != 0u)) {
+            return AACMM_ERR_RANGE;
+        }
+        em |= (uint32_t)ki << (4u * i);
         if (i >= n && (nz(p->arm.theta_offset_rad[i]) || nz(p->arm.alpha_rad[i]) ||
                        nz(p->arm.d_mm[i]) || nz(p->arm.a_mm[i]) || p->err.cte[i] != 0)) {
             return AACMM_ERR_RANGE;
@@ -276,26 +316,26 @@ static aacmm_status_t param_header(const aacmm_param_set_t *p, uint8_t h[8])
             return AACMM_ERR_RANGE;
         }
         for (k = 0; k < (size_t)AACMM_HARMONICS_MAX; k++) {
-            if ((i >= n || k >= p->err.harmonics) &&
-                (p->err.harm_cos[i][k] != 0 || p->err.harm_sin[i][k] != 0)) {
+            if (k >= (size_t)ki && (p->err.harm_cos[i][k] != 0 || p->err.harm_sin[i][k] != 0)) {
                 return AACMM_ERR_RANGE;
             }
         }
     }
-    if (p->err.thermal == 0u && p->err.ref_temp != 0) {
+    if (p->err.thermal == 0u ? p->err.ref_temp != 0 : !ref_temp_ok(p->err.ref_temp)) {
         return AACMM_ERR_RANGE;
     }
     if (sh->tip == (uint8_t)AACMM_TIP_Z && (nz(p->arm.tip_mm[0]) || nz(p->arm.tip_mm[1]))) {
         return AACMM_ERR_RANGE;
     }
+    em |= (uint32_t)p->err.thermal << AACMM_PARAM_THERMAL_BIT;
     h[0] = sh->joints;
     h[1] = sh->tip;
     h[2] = (uint8_t)conv;
     h[3] = (uint8_t)beta;
-    h[4] = p->err.harmonics;
-    h[5] = p->err.thermal;
-    h[6] = 0u;
-    h[7] = 0u;
+    h[4] = (uint8_t)(em & 0xFFu);
+    h[5] = (uint8_t)((em >> 8) & 0xFFu);
+    h[6] = (uint8_t)((em >> 16) & 0xFFu);
+    h[7] = (uint8_t)(em >> 24);
     return AACMM_OK;
 }
 
@@ -348,7 +388,7 @@ static void wr_params(wr_t *w, const aacmm_param_set_t *p)
         wr_u8(w, (uint8_t)p->enc.direction[i]);
     }
     for (i = 0; i < n; i++) {
-        for (k = 0; k < p->err.harmonics; k++) {
+        for (k = 0; k < p->err.harmonics[i]; k++) {
             wr_i16(w, p->err.harm_cos[i][k]);
             wr_i16(w, p->err.harm_sin[i][k]);
         }
@@ -387,8 +427,10 @@ static void rd_params(rd_t *r, aacmm_param_set_t *p)
         p->arm.shape.convention[i] = (uint8_t)((h[2] >> i) & 1u);
         p->arm.shape.beta[i] = (uint8_t)((h[3] >> i) & 1u);
     }
-    p->err.harmonics = h[4];
-    p->err.thermal = h[5];
+    for (i = 0; i < n; i++) {
+        p->err.harmonics[i] = (uint8_t)((hdr_em(h) >> (4u * i)) & 0xFu);
+    }
+    p->err.thermal = (uint8_t)((hdr_em(h) >> AACMM_PARAM_THERMAL_BIT) & 1u);
     r->pos += AACMM_PARAM_SET_HEADER_BYTES;
     rd_f64_array(r, p->arm.theta_offset_rad, n);
     rd_f64_array(r, p->arm.alpha_rad, n);
@@ -416,7 +458,7 @@ static void rd_params(rd_t *r, aacmm_param_set_t *p)
         p->enc.direction[i] = (b == 0xFFu) ? (int8_t)-1 : (b == 1u ? (int8_t)1 : (int8_t)0);
     }
     for (i = 0; i < n; i++) {
-        for (k = 0; k < p->err.harmonics; k++) {
+        for (k = 0; k < p->err.harmonics[i]; k++) {
             p->err.harm_cos[i][k] = rd_i16(r);
             p->err.harm_sin[i][k] = rd_i16(r);
         }
@@ -428,6 +470,10 @@ static void rd_params(rd_t *r, aacmm_param_set_t *p)
         p->err.ref_temp = rd_i16(r);
     }
     if (r->err != AACMM_OK) {
+        return;
+    }
+    if (p->err.thermal != 0u && !ref_temp_ok(p->err.ref_temp)) {
+        rd_fail(r, AACMM_ERR_RANGE);
         return;
     }
     st = enc_check(&p->enc);

@@ -50,6 +50,7 @@ from aacmm.protocol import (
 from aacmm.protocol.constants import (
     JOINTS_MAX,
     JOINTS_MIN,
+    PROTOCOL_VERSION_OLDEST,
     PROTOCOL_VERSION_PREVIOUS,
     RESPONSE_BIT,
     STREAM_RATE_MAX_HZ,
@@ -91,10 +92,14 @@ class _Pending:
 
 def version_mismatch(err: FrameError, request: MsgType) -> DeviceError:
     """The error for a device that answered ``request`` in another protocol version."""
-    if err.version == PROTOCOL_VERSION_PREVIOUS:
+    old = {
+        PROTOCOL_VERSION_OLDEST: "six joints, before arm models",
+        PROTOCOL_VERSION_PREVIOUS: "arm models, before the error model",
+    }
+    if err.version in old:
         what = (
-            f"the device speaks protocol version {err.version} (six joints, before arm "
-            f"models); this host speaks version {PROTOCOL_VERSION}: update the device's firmware"
+            f"the device speaks protocol version {err.version} ({old[err.version]}); this "
+            f"host speaks version {PROTOCOL_VERSION}: update the device's firmware"
         )
     else:
         what = (

@@ -5,10 +5,13 @@ from __future__ import annotations
 from enum import IntEnum, IntFlag
 from typing import Final
 
-PROTOCOL_VERSION: Final = 2
-PROTOCOL_VERSION_PREVIOUS: Final = 1
-"""The six-joint version before the arm model: its requests are answered with an
-ERROR_RSP ERR_VERSION encoded in version 1, and a body of it is reported as such."""
+PROTOCOL_VERSION: Final = 3
+PROTOCOL_VERSION_PREVIOUS: Final = 2
+"""The arm-model version before the error model's layout (issue 27): its requests are
+answered with an ERROR_RSP ERR_VERSION encoded in version 2, and a body of it is
+reported as such."""
+PROTOCOL_VERSION_OLDEST: Final = 1
+"""The six-joint version before the arm model: answered alike, in version 1."""
 HEADER_BYTES: Final = 3
 MAX_BODY: Final = 512
 JOINTS: Final = 6

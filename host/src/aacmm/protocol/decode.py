@@ -15,6 +15,7 @@ from aacmm.protocol.constants import (
     MAX_BODY,
     PARAMS_MAX,
     PROTOCOL_VERSION,
+    PROTOCOL_VERSION_OLDEST,
     PROTOCOL_VERSION_PREVIOUS,
     STREAM_RATE_MAX_HZ,
     STREAM_RATE_MIN_HZ,
@@ -39,6 +40,9 @@ from aacmm.protocol.layout import (
     INFO_LAYOUT,
     PARAM_HEADER_LAYOUT,
     PARAM_SET_HEADER_BYTES,
+    PARAM_THERMAL_BIT,
+    REF_TEMP_MAX,
+    REF_TEMP_MIN,
     SAMPLE_BASE_BYTES,
     SAMPLE_LAYOUT,
     param_set_len_raw,
@@ -109,17 +113,18 @@ def _dec_sample(b: bytes) -> Sample:
 
 
 def _param_header_ok(h: bytes) -> bool:
-    n, tip, conv, beta, k, thermal, reserved = PARAM_HEADER_LAYOUT.unpack_from(h)
+    n, tip, conv, beta, em = PARAM_HEADER_LAYOUT.unpack_from(h)
     if not JOINTS_MIN <= n <= JOINTS_MAX:
         return False
+    ks = [(em >> (4 * i)) & 0xF for i in range(JOINTS_MAX)]
     mask = (1 << n) - 1
     return (
         tip in (1, 3)
         and not conv & ~mask
         and not beta & ~(mask & ~1)
-        and k <= HARMONICS_MAX
-        and thermal <= 1
-        and reserved == 0
+        and all(k <= HARMONICS_MAX for k in ks)
+        and not any(ks[n:])
+        and em >> (PARAM_THERMAL_BIT + 1) == 0
     )
 
 
@@ -136,7 +141,9 @@ def decode_param_set(b: bytes | bytearray | memoryview) -> ParamSet:
         raise _fail(f"parameter set of {len(b)} bytes", Status.ERR_LENGTH)
     if not _param_header_ok(b):
         raise _fail("parameter set header out of range", Status.ERR_RANGE)
-    n, tip, conv, beta, k, thermal, _ = PARAM_HEADER_LAYOUT.unpack_from(b)
+    n, tip, conv, beta, em = PARAM_HEADER_LAYOUT.unpack_from(b)
+    ks = tuple((em >> (4 * i)) & 0xF for i in range(n))
+    thermal = (em >> PARAM_THERMAL_BIT) & 1
     nb = bin(beta).count("1")
     nf = 4 * n + nb + tip
     off = PARAM_SET_HEADER_BYTES
@@ -151,9 +158,12 @@ def decode_param_set(b: bytes | bytearray | memoryview) -> ParamSet:
             raise _fail("encoder configuration out of range", Status.ERR_RANGE)
         if direction[i] not in (1, -1):
             raise _fail("encoder direction must be +1 or -1", Status.ERR_RANGE)
-    harm = struct.unpack_from(f"<{2 * n * k}h", b, off)
-    off += 4 * n * k
+    harm = struct.unpack_from(f"<{2 * sum(ks)}h", b, off)
+    off += 4 * sum(ks)
     tail = struct.unpack_from(f"<{n + 1}h", b, off) if thermal else ()
+    if thermal and not REF_TEMP_MIN <= tail[n] <= REF_TEMP_MAX:
+        raise _fail("reference temperature outside -40 .. 85 degC", Status.ERR_RANGE)
+    starts = [2 * sum(ks[:i]) for i in range(n)]
     betas = iter(fl[4 * n : 4 * n + nb])
     tipv = fl[4 * n + nb :]
     return ParamSet(
@@ -168,8 +178,12 @@ def decode_param_set(b: bytes | bytearray | memoryview) -> ParamSet:
         convention=tuple((conv >> i) & 1 for i in range(n)) if conv else (),
         beta_rad=tuple(next(betas) if (beta >> i) & 1 else None for i in range(n)) if beta else (),
         tip_xy_mm=(tipv[0], tipv[1]) if tip == 3 else None,
-        harm_cos=tuple(harm[2 * k * i : 2 * k * (i + 1) : 2] for i in range(n)) if k else (),
-        harm_sin=tuple(harm[2 * k * i + 1 : 2 * k * (i + 1) : 2] for i in range(n)) if k else (),
+        harm_cos=tuple(harm[starts[i] : starts[i] + 2 * ks[i] : 2] for i in range(n))
+        if any(ks)
+        else (),
+        harm_sin=tuple(harm[starts[i] + 1 : starts[i] + 2 * ks[i] : 2] for i in range(n))
+        if any(ks)
+        else (),
         cte=tuple(tail[:n]),
         ref_temp=tail[n] if thermal else 0,
     )
@@ -291,7 +305,10 @@ def decode_message(body: bytes | bytearray | memoryview) -> Message:
     if len(body) > MAX_BODY:
         raise _fail("body longer than 512 bytes", Status.ERR_LENGTH)
     if body[0] != PROTOCOL_VERSION:
-        old = " (six joints, before arm models)" if body[0] == PROTOCOL_VERSION_PREVIOUS else ""
+        old = {
+            PROTOCOL_VERSION_OLDEST: " (six joints, before arm models)",
+            PROTOCOL_VERSION_PREVIOUS: " (arm models, before the error model)",
+        }.get(body[0], "")
         raise FrameError(
             f"protocol version {body[0]}{old}; this host speaks version {PROTOCOL_VERSION}",
             int(Status.ERR_VERSION),

@@ -33,6 +33,9 @@ from aacmm.protocol.layout import (
     HARMONICS_MAX,
     INFO_LAYOUT,
     PARAM_HEADER_LAYOUT,
+    PARAM_THERMAL_BIT,
+    REF_TEMP_MAX,
+    REF_TEMP_MIN,
     SAMPLE_LAYOUT,
 )
 from aacmm.protocol.payloads import (
@@ -174,32 +177,33 @@ def encode_param_set(p: ParamSet) -> bytes:
             raise ValueError(f"direction[{i}] must be +1 or -1")
         if p.zero_offset_counts[i] >= p.counts_per_rev[i]:
             raise ValueError(f"zero_offset_counts[{i}] must be < counts_per_rev[{i}]")
-    k = len(p.harm_cos[0]) if p.harm_cos else 0
+    ks = (0,) * n
     if p.harm_cos or p.harm_sin:
         if len(p.harm_cos) != n or len(p.harm_sin) != n:
             raise ValueError(f"harm_cos and harm_sin need {n} rows (one per joint)")
-        _check_int("harmonics", k, 1, HARMONICS_MAX)
+        ks = tuple(len(row) for row in p.harm_cos)
         for i in range(n):
-            _check_ints(f"harm_cos[{i}]", tuple(p.harm_cos[i]), k, *_I16)
-            _check_ints(f"harm_sin[{i}]", tuple(p.harm_sin[i]), k, *_I16)
+            _check_int(f"harmonics of joint {i + 1}", ks[i], 0, HARMONICS_MAX)
+            _check_ints(f"harm_cos[{i}]", tuple(p.harm_cos[i]), ks[i], *_I16)
+            _check_ints(f"harm_sin[{i}]", tuple(p.harm_sin[i]), ks[i], *_I16)
     thermal = len(p.cte) > 0
     if thermal:
         _check_ints("cte", tuple(p.cte), n, *_I16)
-    _check_int("ref_temp", p.ref_temp, *_I16)
-    if not thermal and p.ref_temp != 0:
+        _check_int("ref_temp", p.ref_temp, REF_TEMP_MIN, REF_TEMP_MAX)
+    elif p.ref_temp != 0:
         raise ValueError("ref_temp needs the thermal block (cte)")
     conv_bits = sum(c << i for i, c in enumerate(conv))
     beta_bits = sum(1 << i for i, b in enumerate(beta) if b is not None)
-    out = PARAM_HEADER_LAYOUT.pack(n, len(tip), conv_bits, beta_bits, k, int(thermal), 0)
+    em_word = sum(k << (4 * i) for i, k in enumerate(ks)) | (int(thermal) << PARAM_THERMAL_BIT)
+    out = PARAM_HEADER_LAYOUT.pack(n, len(tip), conv_bits, beta_bits, em_word)
     floats = (*p.theta_offset_rad, *p.alpha_rad, *p.d_mm, *p.a_mm, *betas, *tip)
     out += struct.pack(f"<{len(floats)}d", *floats)
     out += struct.pack(f"<{n}I", *(c - 1 for c in p.counts_per_rev))
     out += struct.pack(f"<{n}I", *p.zero_offset_counts)
     out += struct.pack(f"<{n}b", *p.direction)
-    if k:
-        for i in range(n):
-            for j in range(k):
-                out += struct.pack("<hh", p.harm_cos[i][j], p.harm_sin[i][j])
+    for i in range(n):
+        for j in range(ks[i]):
+            out += struct.pack("<hh", p.harm_cos[i][j], p.harm_sin[i][j])
     if thermal:
         out += struct.pack(f"<{n}hh", *p.cte, p.ref_temp)
     return out

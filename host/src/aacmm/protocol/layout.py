@@ -1,8 +1,9 @@
-"""Byte layouts of the link protocol's payloads (version 2): sizes and ``struct`` formats.
+"""Byte layouts of the link protocol's payloads (version 3): sizes and ``struct`` formats.
 
 Sizes depend on the arm model: N joints (4..7), P parameters (Jacobian
-columns, ``P = 4N + B + T``), and for a parameter set K encoder harmonics
-per joint (0..4) and H = 1 with the thermal block (docs/protocol.md 2.3).
+columns, ``P = 4N + B + T``), and for a parameter set S, the sum of the
+joints' encoder harmonics K_i (0..4 each), and H = 1 with the thermal block
+(docs/protocol.md 2.3).
 """
 
 from __future__ import annotations
@@ -15,7 +16,12 @@ from aacmm.protocol.constants import HEADER_BYTES, JOINTS, MsgType
 HARMONICS_MAX: Final = 4
 PARAM_SET_HEADER_BYTES: Final = 8
 PARAM_SET_MAX_BYTES: Final = 495
-"""The largest parameter set: N 7, P 37, K 4, H 1 (fits one 509-byte payload)."""
+"""The largest parameter set: N 7, P 37, K 4 on every joint, H 1 (fits one 509-byte payload)."""
+PARAM_THERMAL_BIT: Final = 28
+"""H's bit in the header's u32 at offset 4 (K_i in nibble i - 1)."""
+REF_TEMP_MIN: Final = -4000
+"""The reference temperature's range on the wire, 0.01 degC: -40 .. 85 degC."""
+REF_TEMP_MAX: Final = 8500
 INFO_BYTES: Final = 25
 SAMPLE_BASE_BYTES: Final = 31
 """A sample's fixed part, before its N counts and its Jacobian."""
@@ -25,9 +31,10 @@ DIAG_JOINT_BYTES: Final = 11
 TRIGGER_EXTRA_BYTES: Final = 2
 
 
-def param_set_bytes(n: int, p: int, k: int = 0, h: int = 0) -> int:
-    """Bytes of a parameter set of N joints, P parameters, K harmonics, thermal block H."""
-    return PARAM_SET_HEADER_BYTES + 8 * p + 9 * n + 4 * n * k + 2 * (n + 1) * h
+def param_set_bytes(n: int, p: int, s: int = 0, h: int = 0) -> int:
+    """Bytes of a parameter set of N joints, P parameters, S harmonics in all (the sum
+    of the K_i), thermal block H."""
+    return PARAM_SET_HEADER_BYTES + 8 * p + 9 * n + 4 * s + 2 * (n + 1) * h
 
 
 def sample_bytes(n: int, p: int, jacobian: bool) -> int:
@@ -49,7 +56,7 @@ DIAG_BYTES: Final = diag_bytes(JOINTS)
 
 INFO_LAYOUT = struct.Struct("<HBBHIIBBHIBBB")
 SAMPLE_LAYOUT = struct.Struct("<IQ3iIBBB")
-PARAM_HEADER_LAYOUT = struct.Struct("<BBBBBBH")
+PARAM_HEADER_LAYOUT = struct.Struct("<BBBBI")
 COMPUTE_RSP_LAYOUT = struct.Struct("<I3dBB")
 DIAG_LAYOUT = struct.Struct("<BB2B2IIIBIIIHQIIIIB")
 DIAG_JOINT_LAYOUT = struct.Struct("<BBBII")
@@ -64,8 +71,9 @@ def param_set_len_raw(b: bytes) -> int:
     own length if ``b`` is shorter)."""
     if len(b) < PARAM_SET_HEADER_BYTES:
         return PARAM_SET_HEADER_BYTES
-    n, tip, _conv, beta, k, h = b[0], b[1], b[2], b[3], b[4], b[5]
-    return param_set_bytes(n, 4 * n + _popcount(beta) + tip, k, h)
+    n, tip, _conv, beta, em = PARAM_HEADER_LAYOUT.unpack_from(b)
+    ksum = sum((em >> (4 * i)) & 0xF for i in range(7))  # past N too: length first
+    return param_set_bytes(n, 4 * n + _popcount(beta) + tip, ksum, (em >> PARAM_THERMAL_BIT) & 1)
 
 
 def _sample_len_raw(b: bytes) -> int:

@@ -56,11 +56,14 @@ class ParamSet:
     ``tip_xy_mm`` ``None`` for the tip (0, 0, l) (one parameter), else
     (t_x, t_y) with t_z = l (three parameters). Encoders: counts per
     revolution 2 .. 2**32, zero offset in counts (< counts per revolution),
-    direction +1 or -1. The error model (issue 27; a version 2 device refuses
-    a set that has one): ``harm_cos``/``harm_sin`` N rows of K <= 4 encoder
-    harmonics in units of 1e-7 rad (``()`` = K 0), ``cte`` N link
-    coefficients of thermal expansion in 1e-8/K and ``ref_temp`` in 0.01
-    degC (``()`` = no thermal block). Layout: docs/protocol.md 2.3.
+    direction +1 or -1. The error model (issue 27): ``harm_cos``/``harm_sin``
+    N rows, row i the K_i <= 4 encoder harmonics of joint i + 1 in units of
+    1e-7 rad (rows may differ in length; ``()`` = every K_i 0), ``cte`` N
+    link coefficients of thermal expansion in 1e-8/K and ``ref_temp`` (every
+    link's reference temperature) in 0.01 degC, -4000 .. 8500 (``()`` = no
+    thermal block). ``aacmm.protocol.errwire`` converts an
+    :class:`aacmm.errmodel.ErrorModel` to and from these fields. Layout:
+    docs/protocol.md 2.3.
     """
 
     theta_offset_rad: tuple[float, ...]
@@ -98,9 +101,9 @@ class ParamSet:
         return 4 * self.joints + betas + (1 if self.tip_xy_mm is None else 3)
 
     @property
-    def harmonics(self) -> int:
-        """K, the encoder harmonics per joint of the error model (0: none)."""
-        return len(self.harm_cos[0]) if self.harm_cos else 0
+    def harmonics(self) -> tuple[int, ...]:
+        """K_i, the encoder harmonics of each joint's error model (all 0: none)."""
+        return tuple(len(r) for r in self.harm_cos) if self.harm_cos else (0,) * self.joints
 
     @property
     def is_paper_shape(self) -> bool:
