@@ -18,6 +18,7 @@ from __future__ import annotations
 import itertools
 import json
 import os
+import re
 import select
 import signal
 import struct
@@ -37,7 +38,11 @@ from streamclock import (
     schedule_rate_hz,
 )  # stdlib only, like this file
 
-PROTO = 2
+# The version byte comes from the one place it is defined, the firmware's header.
+_PROTO_H = Path(__file__).resolve().parents[2] / "firmware" / "include" / "aacmm" / "proto.h"
+_m = re.search(r"#define AACMM_PROTO_VERSION (\d+)u", _PROTO_H.read_text())
+assert _m is not None, f"{_PROTO_H}: AACMM_PROTO_VERSION not found"
+PROTO = int(_m.group(1))
 PING, INFO, GET_PARAMS, SET_PARAMS, SAVE, RESTORE, MEASURE, COMPUTE, START, STOP = range(1, 11)
 SAMPLE_EVT, TRIGGER_EVT, ERROR_RSP = 0x40, 0x41, 0xFF
 
@@ -262,7 +267,7 @@ def test_session(sim: str, tmp: str, stream_seconds: float, content: int) -> dic
             np_,
         ) = struct.unpack("<HBBHIIBBHIBBB", rsp[3:])
         check(
-            pv == 2 and source == 0 and state == 1 and maxb == 512 and serial == 4242,
+            pv == PROTO and source == 0 and state == 1 and maxb == 512 and serial == 4242,
             f"INFO: defaults, empty storage, serial number (src {source}, state {state})",
         )
         check(
