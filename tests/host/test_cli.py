@@ -158,7 +158,7 @@ def test_info_measure_compute(sim: SimProcess) -> None:
     assert info["protocol_version"] == PROTOCOL_VERSION
     assert info["serial_number"] == 1 and info["param_crc32_hex"].startswith("0x")
     p = run("info", env={"AACMM_PORT": sim.url})  # the environment default
-    assert p.returncode == 0 and "protocol 2" in p.stdout, p.stderr
+    assert p.returncode == 0 and f"protocol {PROTOCOL_VERSION}" in p.stdout, p.stderr
     assert "arm model   6 joints, 25 parameters" in p.stdout
 
     p = run("measure", "--jacobian", "--json", "--port", sim.url)
