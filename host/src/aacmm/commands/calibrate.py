@@ -595,10 +595,8 @@ def _write(
     write_output(provenance_path(args.output), json.dumps(prov, indent=1) + "\n", force=args.force)
     write_output(args.output, text, force=args.force)
     print()
-    if error_model(res.params) is None:
-        print(f"wrote {args.output} (load it with: aacmm params set {args.output} --save)")
-    else:
-        print(f"wrote {args.output} (its [errmodel] table: the device does not take it yet)")
+    with_em = "" if error_model(res.params) is None else " and its [errmodel] table"
+    print(f"wrote {args.output} (load it{with_em} with: aacmm params set {args.output} --save)")
     print(f"wrote {provenance_path(args.output)}")
 
 

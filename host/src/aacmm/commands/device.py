@@ -182,8 +182,14 @@ def cmd_info(args: argparse.Namespace) -> int:
         d["url"] = dev.url
         d["transport"] = dev.client.transport.description
         diag = dev.client.diagnostics()
+        ps = dev.client.get_params()
         rtt = dev.client.ping()
         d["ping_ms"] = round(rtt * 1e3, 3)
+    d["error_model"] = {
+        "harmonics": list(ps.harmonics),
+        "thermal": bool(ps.cte),
+        "text": errmodel_text(ps),
+    }
     d["param_source_text"] = devstate.param_source_text(dev.info, diag)
     d["diagnostics"] = devstate.diag_dict(diag) if diag is not None else None
     if args.json:
@@ -195,6 +201,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"build       {' '.join(d['build_flags_names']) or '-'}")
     print(f"parameters  crc {d['param_crc32_hex']}, {d['param_source_text']}")
     print(f"arm model   {dev.info.joints} joints, {dev.info.params} parameters")
+    print(f"error model {d['error_model']['text']}")
     if diag is None:
         print(f"storage     {d['storage_state_name']}")
     else:
@@ -231,14 +238,18 @@ def cmd_params_get(args: argparse.Namespace) -> int:
     if args.output:  # refused before the device is touched
         file_format(Path(args.output))
         check_outputs([args.output], args.force)
+    from aacmm.protocol.errwire import error_model
+
     with device_from_args(args) as dev:
         ps = dev.client.get_params()
     crc = _local_crc(ps)
+    em = error_model(ps) if ps.harm_cos or ps.cte else None  # the [errmodel] table
     if args.output:
-        write_param_file(ps, args.output, crc, force=args.force)
-        print(f"wrote {args.output} (crc 0x{crc:08x})", file=sys.stderr)
+        write_param_file(ps, args.output, crc, force=args.force, errmodel=em)
+        extra = f"; error model: {errmodel_text(ps)}" if em is not None else ""
+        print(f"wrote {args.output} (crc 0x{crc:08x}{extra})", file=sys.stderr)
     else:
-        sys.stdout.write(dump_param_set(ps, args.format or "toml", crc))
+        sys.stdout.write(dump_param_set(ps, args.format or "toml", crc, errmodel=em))
     return OK
 
 
@@ -265,17 +276,45 @@ def _check_arm(file: str, arm: Any, serial: int, override: bool) -> str:
     return f"; sent with --override to serial {serial} although it is {what[len(file) + 2 :]}"
 
 
+def errmodel_text(ps: ParamSet) -> str:
+    """The error model a parameter set carries, in words: ``encoder harmonics K per
+    joint 2,2,2,2,2,2`` (and ``, thermal expansion``), or ``none (DH only)``."""
+    parts = []
+    if any(ps.harmonics):
+        parts.append("encoder harmonics K per joint " + ",".join(map(str, ps.harmonics)))
+    if ps.cte:
+        parts.append("thermal expansion")
+    return ", ".join(parts) or "none (DH only)"
+
+
+def _with_file_errmodel(file: str, ps: ParamSet, em: Any) -> ParamSet:
+    """``ps`` with the file's error model in its wire fields; UsageError (exit 2,
+    nothing sent) for thermal expansion (the device takes no thermal block yet) or
+    a value the wire cannot carry."""
+    from aacmm.protocol.errwire import with_error_model
+    from aacmm.records.paramfile import has_thermal
+
+    if em is None:
+        return ps
+    if has_thermal(em):
+        raise UsageError(
+            f"{file}: its [errmodel] table has thermal expansion (cte_per_k, tref_c): the "
+            "device reads no link temperatures and refuses a thermal block, nothing sent"
+        )
+    try:
+        return with_error_model(ps, em)
+    except ValueError as exc:
+        raise UsageError(f"{file}: [errmodel]: {exc}; nothing sent") from None
+
+
 def cmd_params_set(args: argparse.Namespace) -> int:
     from aacmm.protocol import ParamSource
     from aacmm.records.paramfile import load_param_file_errmodel
 
     ps, arm, em = load_param_file_errmodel(args.file)  # validated before anything is sent
+    ps = _with_file_errmodel(args.file, ps, em)
     want = _local_crc(ps)
-    harm = (
-        "encoder harmonics K per joint " + ",".join(str(len(h)) for h in em.harmonics)
-        if em is not None
-        else ""
-    )
+    harm = f"; error model: {errmodel_text(ps)}" if em is not None else ""
     if args.check:
         whose = (
             f", for the arm with serial number {arm.serial_number}"
@@ -283,14 +322,8 @@ def cmd_params_set(args: argparse.Namespace) -> int:
             else ""
         )
         shape = "" if ps.is_paper_shape else f", {ps.joints} joints, {ps.n_params} parameters"
-        errs = f"; [errmodel] {harm} (the device does not take it yet)" if harm else ""
-        print(f"{args.file}: valid parameter set{shape}, crc 0x{want:08x}{whose}{errs}")
+        print(f"{args.file}: valid parameter set{shape}, crc 0x{want:08x}{whose}{harm}")
         return OK
-    if em is not None:
-        raise UsageError(
-            f"{args.file}: carries an [errmodel] table ({harm}): the device does not take the "
-            "error model yet, nothing sent"
-        )
     with device_from_args(args) as dev:
         c = dev.client
         note = _check_arm(args.file, arm, dev.info.serial_number, args.override)
@@ -305,7 +338,7 @@ def cmd_params_set(args: argparse.Namespace) -> int:
         info = c.info()
         if info.param_crc32 != want:
             raise ReadBackError(f"device info names crc 0x{info.param_crc32:08x} after set")
-        msg = f"active: {args.file} (crc 0x{want:08x}), read back and identical"
+        msg = f"active: {args.file} (crc 0x{want:08x}{harm}), read back and identical"
         if args.save:
             saved = c.save_params()
             if saved != want:

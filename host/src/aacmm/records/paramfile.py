@@ -52,12 +52,19 @@ empty list: no harmonics)::
     [errmodel]
     c_rad = [[1.2e-5, -3.0e-6], [], [4.1e-5], [], [], []]   # c_1 .. c_K of each joint
     s_rad = [[-8.0e-6, 2.2e-6], [], [9.5e-5], [], [], []]   # s_1 .. s_K
+    cte_per_k = [2.3e-5, 2.3e-5, 2.3e-5, 2.3e-5, 2.3e-5, 2.3e-5]  # optional, per link
+    tref_c = [20.0, 20.0, 20.0, 20.0, 20.0, 20.0]                # optional, per link
 
-Only :func:`load_param_file_errmodel` reads it (``aacmm params set --check``
-shows it); every other reader refuses such a file in one line
-(:class:`ParamFileError`): it would apply the arm's parameters without the
-error model they were calibrated with. ``aacmm params set`` refuses to send it
-(the device does not take the error model yet).
+The thermal keys (``cte_per_k``, 1/K, and ``tref_c``, degC, N values each;
+absent: 0 and 20 degC) are optional; :func:`errmodel_dict` writes them only
+for an error model with thermal expansion (:func:`has_thermal`).
+
+Only :func:`load_param_file_errmodel` reads it (``aacmm params set`` sends the
+harmonics to the device, ``--check`` shows them; the device takes no thermal
+block yet, so ``params set`` refuses a file with thermal expansion); every
+other reader refuses such a file in one line (:class:`ParamFileError`): it
+would apply the arm's parameters without the error model they were calibrated
+with.
 
 :func:`load_param_file_arm` also takes an arm model file
 (``format = "aacmm-model-1"``, docs/models.md): its nominal set
@@ -103,6 +110,7 @@ ARM_TABLE = "arm"
 ARM_KEYS = ("serial_number", "firmware", "start_param_crc32")
 ERRMODEL_TABLE = "errmodel"
 ERRMODEL_KEYS = ("c_rad", "s_rad")
+ERRMODEL_THERMAL_KEYS = ("cte_per_k", "tref_c")
 
 
 class ParamFileError(RecordError):
@@ -232,9 +240,10 @@ def errmodel_from_mapping(value: Any, joints: int, src: str = "parameters") -> A
     if not isinstance(value, Mapping):
         raise ParamFileError(f"{where} must be a table")
     for k in value:
-        if k not in ERRMODEL_KEYS:
+        if k not in ERRMODEL_KEYS + ERRMODEL_THERMAL_KEYS:
             raise ParamFileError(
-                f"{src}: unknown key {ERRMODEL_TABLE}.{k} (expected {', '.join(ERRMODEL_KEYS)})"
+                f"{src}: unknown key {ERRMODEL_TABLE}.{k} "
+                f"(expected {', '.join(ERRMODEL_KEYS + ERRMODEL_THERMAL_KEYS)})"
             )
     lists: dict[str, list[tuple[float, ...]]] = {}
     for k in ERRMODEL_KEYS:
@@ -255,18 +264,38 @@ def errmodel_from_mapping(value: Any, joints: int, src: str = "parameters") -> A
                 f"{HARMONICS_MAX}"
             )
         hs.append(tuple(zip(c, sv, strict=True)))
+    thermal = {
+        k: _floats(src, f"{ERRMODEL_TABLE}.{k}", value[k], joints)
+        for k in ERRMODEL_THERMAL_KEYS
+        if k in value
+    }
     try:
-        return ErrorModel(tuple(hs))
+        return ErrorModel(
+            tuple(hs), cte_per_k=thermal.get("cte_per_k", ()), tref_c=thermal.get("tref_c", ())
+        )
     except ValueError as exc:
         raise ParamFileError(f"{where}: {exc}") from None
 
 
 def errmodel_dict(em: Any) -> dict[str, Any]:
-    """The ``errmodel`` table of an :class:`aacmm.errmodel.ErrorModel` (harmonics)."""
-    return {
+    """The ``errmodel`` table of an :class:`aacmm.errmodel.ErrorModel` (harmonics; the
+    thermal keys only for an error model with thermal expansion)."""
+    out: dict[str, Any] = {
         "c_rad": [[c for c, _ in h] for h in em.harmonics],
         "s_rad": [[s for _, s in h] for h in em.harmonics],
     }
+    if has_thermal(em):
+        out["cte_per_k"] = list(em.cte_per_k)
+        out["tref_c"] = list(em.tref_c)
+    return out
+
+
+def has_thermal(em: Any) -> bool:
+    """Whether an :class:`aacmm.errmodel.ErrorModel` corrects for temperature (a CTE
+    other than 0 or a reference temperature other than 20 degC)."""
+    from aacmm.errmodel import TEMP_REF_DEFAULT_C
+
+    return any(x != 0.0 for x in em.cte_per_k) or any(t != TEMP_REF_DEFAULT_C for t in em.tref_c)
 
 
 def param_set_from_mapping(
@@ -518,7 +547,12 @@ def dump_param_set(
 
 
 def write_param_file(
-    ps: ParamSet, path: str | Path, crc: int | None = None, *, force: bool = False
+    ps: ParamSet,
+    path: str | Path,
+    crc: int | None = None,
+    *,
+    force: bool = False,
+    errmodel: Any = None,
 ) -> None:
     """Write a parameter file, format by suffix (:func:`aacmm.fileio.write_output`:
     refused if it exists unless ``force``; temporary file, fsync, rename).
@@ -529,4 +563,4 @@ def write_param_file(
         OSError: the write failed (the file is untouched).
     """
     p = Path(path)
-    write_output(p, dump_param_set(ps, file_format(p), crc), force=force)
+    write_output(p, dump_param_set(ps, file_format(p), crc, errmodel=errmodel), force=force)
