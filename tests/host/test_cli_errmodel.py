@@ -6,7 +6,8 @@ every joint) is sent with ``--save``, read back equal (``params get``, ``info``)
 the device's measured and computed points agree with the host's corrected
 points (:func:`aacmm.errmodel.points` of the file's error model, double
 precision) within the float path's class, and the set survives a restart of
-the simulator on the same storage file. A file with thermal expansion is
+the simulator on the same storage file; a log records the set with its error
+model and recomputes the device's points. A file with thermal expansion is
 refused in one line, exit 2, and nothing reaches the device.
 """
 
@@ -24,6 +25,7 @@ import tomli_w
 from aacmm import core
 from aacmm.commands import exitcodes
 from aacmm.errmodel import ErrorModel, points
+from aacmm.records.logs import read_log
 from aacmm.records.paramfile import param_set_from_mapping
 from aacmm.simulation.process import SimProcess
 from test_cli import _sim_or_skip, one_error_line, run
@@ -130,6 +132,19 @@ def test_params_set_sends_the_error_model_and_it_survives_a_restart(tmp_path: Pa
         assert again == got
         worst, _ = check_points(s.url, again)
         assert worst < FLOAT_PATH_BOUND_MM, worst
+        # a log records the set with its error model; its recomputed points are the device's
+        log = tmp_path / "run.csv"
+        p = run("log", str(log), "--port", s.url, "-r", "200", "-n", "40")
+        assert p.returncode == 0, p.stderr
+        meta = json.loads(log.with_name("run.csv.json").read_text())
+        assert meta["param_sets"][0]["errmodel"] == table and meta["errmodel"] == table
+        rec = read_log(log)
+        device = np.column_stack([rec.column(f"{c}_mm") for c in "xyz"])
+        ps = rec.param_set_of(0)
+        assert ps.errors == error_model_of(table)
+        assert np.max(np.abs(rec.points_mm() - device)) < FLOAT_PATH_BOUND_MM
+        dh_only = core.Model(ps.model).points(rec.angles_rad())
+        assert np.max(np.abs(dh_only - device)) > 0.05
         # a file without [errmodel] replaces the error model: DH only again
         plain = tmp_path / "plain.json"
         plain.write_text(json.dumps({k: v for k, v in again.items() if k != "errmodel"}))

@@ -273,7 +273,7 @@ def _same_set(ref: ParamSetRecord, ref_path: str, ps: ParamSetRecord, path: str)
             f"{path}: taken with another encoder configuration than {ref_path} "
             f"(parameter set {ps.crc_hex} vs {ref.crc_hex}): its counts mean other angles"
         )
-    if ps.model != ref.model:
+    if ps.model != ref.model or ps.errors != ref.errors:
         raise SessionDataError(
             f"{path}: taken with parameter set {ps.crc_hex}, {ref_path} with {ref.crc_hex}: "
             "calibrate sessions taken with one parameter set (the start of the fit)"

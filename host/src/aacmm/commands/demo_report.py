@@ -248,7 +248,7 @@ def truth_check(
     Raises:
         aacmm.errors.AacmmError / ValueError: a missing or damaged file.
     """
-    from aacmm.core import Model, counts_to_angles
+    from aacmm.core import counts_to_angles
     from aacmm.records import read_session
     from aacmm.simulation.truth import load_truth
 
@@ -271,7 +271,7 @@ def truth_check(
     }
     for name in ("before", "after"):
         ps = read_session(folder / name).param_set_of(0)
-        pts = Model(ps.model).points(counts_to_angles(counts, ps.encoders))
+        pts = ps.points(counts_to_angles(counts, ps.encoders))  # with its error model
         err = np.linalg.norm(pts[0::2] - pts[1::2], axis=1) - true_len
         out[name] = {
             "session": name,

@@ -155,6 +155,7 @@ class LogWriter:
             "param_crc32_hex": ps.crc_hex,
             "params": ps.params_json(),
             "encoders": ps.encoders_json(),
+            **({"errmodel": ps.errmodel_json()} if ps.errors is not None else {}),
             # ... and every set in force, each from the row where it began
             "param_sets": [],
             "rate_hz_requested": a.rate_hz,

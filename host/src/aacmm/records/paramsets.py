@@ -18,6 +18,12 @@ a parameter file (:mod:`aacmm.records.paramfile`): N values per per-joint
 list, ``convention``, ``beta_joints`` and ``beta_rad``, and ``tip_mm`` for a
 tip vector (instead of ``l_mm``), so ``aacmm params set run.csv.json`` reads
 it (docs/cli.md, "Logs of any arm").
+
+A set with encoder angle harmonics (issue 27, ``aacmm params set`` of a file
+with an ``[errmodel]`` table) adds ``errmodel`` beside ``params``: the
+parameter file's table, exactly the wire's values, so the entry's CRC is the
+device's; :meth:`ParamSetRecord.points` (and every recomputed point) applies
+it. A thermal block is not recorded yet (refused in one line).
 """
 
 from __future__ import annotations
@@ -29,8 +35,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from aacmm.arm import Arm
-from aacmm.core import EncoderConfig, Params
+from aacmm.core import EncoderConfig, FloatArray, Model, Params
+from aacmm.errmodel import ErrorModel
+from aacmm.errmodel import points as errmodel_points
 from aacmm.protocol import ParamSet, param_set_crc32
+from aacmm.protocol.errwire import error_model, with_error_model
 from aacmm.records.files import RecordError, crc_hex
 
 KIN_KEYS: tuple[str, ...] = ("theta_offset_rad", "alpha_rad", "d_mm", "a_mm", "l_mm")
@@ -57,10 +66,26 @@ class ParamSetRecord:
     crc32: int
     model: Params | Arm
     encoders: EncoderConfig
+    errors: ErrorModel | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.model, Arm) and self.model.is_paper_shape:
             object.__setattr__(self, "model", Params.from_arm(self.model))  # one form per set
+        if self.errors is not None and not any(self.errors.harmonics):
+            object.__setattr__(self, "errors", None)  # one form: no harmonics, no error model
+
+    def points(self, theta: Any) -> FloatArray:
+        """Probe points (n, 3) of joint readings ``theta`` (n, N) in double precision,
+        as the device computes them with this set: its arm and its error model."""
+        if self.errors is None:
+            return Model(self.model).points(theta)
+        return errmodel_points(Model(self.model), self.errors, theta)
+
+    def errmodel_json(self) -> dict[str, Any] | None:
+        """The set's ``errmodel`` entry (a parameter file's ``[errmodel]`` table), or None."""
+        from aacmm.records.paramfile import errmodel_dict
+
+        return None if self.errors is None else errmodel_dict(self.errors)
 
     @property
     def crc_hex(self) -> str:
@@ -111,28 +136,32 @@ class ParamSetRecord:
     def from_device(cls, ps: ParamSet) -> ParamSetRecord:
         """From a device's GET_PARAMS answer (CRC computed as the device does).
 
-        Any arm model (4 to 7 joints); the error model (issue 27) is not recorded.
+        Any arm model (4 to 7 joints) with its encoder harmonics (issue 27:
+        :attr:`errors`, exactly the wire's values).
 
         Raises:
-            RecordError: the set carries an error model (harmonics, thermal
-                block), which logs and sessions do not hold yet.
+            RecordError: the set carries a thermal block, which logs and
+                sessions do not hold yet.
         """
-        if ps.harm_cos or ps.harm_sin or ps.cte:
+        if ps.cte:
             raise RecordError(
-                "the device's parameter set carries an error model (encoder harmonics or "
-                "a thermal block): logs and sessions do not hold it yet"
+                "the device's parameter set carries a thermal block: logs and sessions do "
+                "not hold it yet"
             )
         crc = param_set_crc32(ps)
+        errors = error_model(ps) if ps.harm_cos else None
         if ps.is_paper_shape:
             params, encoders = ps.to_core()
-            return cls(crc, params, encoders)
+            return cls(crc, params, encoders, errors)
         arm, encoders = ps.to_arm()
-        return cls(crc, arm, encoders)
+        return cls(crc, arm, encoders, errors)
 
     def to_device(self) -> ParamSet:
         if isinstance(self.model, Params):
-            return ParamSet.from_core(self.model, self.encoders)
-        return ParamSet.from_arm(self.model, self.encoders)
+            ps = ParamSet.from_core(self.model, self.encoders)
+        else:
+            ps = ParamSet.from_arm(self.model, self.encoders)
+        return ps if self.errors is None else with_error_model(ps, self.errors)
 
     def params_json(self) -> dict[str, Any]:
         """``params`` of a sidecar entry: the paper's five keys, or for an arm of
@@ -151,13 +180,18 @@ class ParamSetRecord:
         }
 
     def to_json(self) -> dict[str, Any]:
-        """``{"param_crc32", "param_crc32_hex", "params", "encoders"}``."""
-        return {
+        """``{"param_crc32", "param_crc32_hex", "params", "encoders"}`` and, for a set
+        with encoder harmonics, ``errmodel`` (a parameter file's ``[errmodel]`` table)."""
+        out = {
             "param_crc32": self.crc32,
             "param_crc32_hex": self.crc_hex,
             "params": self.params_json(),
             "encoders": self.encoders_json(),
         }
+        em = self.errmodel_json()
+        if em is not None:
+            out["errmodel"] = em
+        return out
 
     @classmethod
     def from_json(cls, d: Any, where: str) -> ParamSetRecord:
@@ -175,6 +209,8 @@ class ParamSetRecord:
         if not isinstance(kin, dict) or not isinstance(enc, dict):
             raise RecordError(f"{where}: needs the objects params and encoders")
         ps = param_set_from_json(kin, enc, where)
+        if d.get("errmodel") is not None:
+            ps = _with_errmodel_json(ps, d["errmodel"], where)
         actual = param_set_crc32(ps)
         if actual != crc:
             if param_set_crc32_v1(ps) == crc:  # written with protocol version 1
@@ -185,6 +221,26 @@ class ParamSetRecord:
                 f"({crc_hex(actual)}, recorded {crc_hex(crc)}): edited or damaged"
             )
         return cls.from_device(ps)
+
+
+def _with_errmodel_json(ps: ParamSet, value: Any, where: str) -> ParamSet:
+    """``ps`` with a sidecar entry's ``errmodel`` (the wire's units, as the device held it).
+
+    Raises:
+        RecordError: a bad table, thermal keys, or values the wire cannot carry.
+    """
+    from aacmm.records.paramfile import ParamFileError, errmodel_from_mapping, has_thermal
+
+    try:
+        em = errmodel_from_mapping(value, ps.joints, where)
+    except ParamFileError as exc:
+        raise RecordError(str(exc)) from None
+    if has_thermal(em):
+        raise RecordError(f"{where}: errmodel: logs and sessions hold no thermal block")
+    try:
+        return with_error_model(ps, em)
+    except ValueError as exc:
+        raise RecordError(f"{where}: errmodel: {exc}") from None
 
 
 def param_set_crc32_v1(ps: ParamSet) -> int | None:

@@ -120,7 +120,8 @@ class Recorded:
     def points_mm(self, params: Params | Arm | None = None) -> FloatArray:
         """Probe points (n, 3) recomputed from the counts in double precision.
 
-        Each row uses the kinematic parameters of its own set in force, or
+        Each row uses the kinematic parameters (and encoder harmonics) of its own set
+        in force, or
         ``params`` for every row if given (e.g. a calibrated set); the encoder
         configuration is always the row's own.
 
@@ -132,7 +133,10 @@ class Recorded:
         theta = self.angles_rad()
         out = np.empty((len(self), 3), dtype=np.float64)
         for ps, rows in self._groups():
-            out[rows] = Model(params if params is not None else ps.model).points(theta[rows])
+            if params is None:
+                out[rows] = ps.points(theta[rows])  # with the set's error model, if any
+            else:
+                out[rows] = Model(params).points(theta[rows])
         return out
 
     def single_params(self, what: str) -> Params | Arm:
