@@ -163,8 +163,10 @@ def test_full_calibration_passes_and_carries_the_arm(
     s = sample(load_plan("kinematic-calibration"), truth, record(Params()), rng)  # type: ignore[arg-type]
     folder = write_session(tmp_path / "s", s, SERIAL)
     out = tmp_path / "c.toml"
+    # the arm alone: the synthetic sessions' device computes DH only (gate_study.sample)
     code, stdout, err = calibrate_cli(str(folder), "-o", str(out), "--workspace", "0", "-q",
-                                      "--report", str(tmp_path / "rep"))  # fmt: skip
+                                      "--report", str(tmp_path / "rep"),
+                                      "--harmonics", "0")  # fmt: skip
     assert code == 0, err
     assert f"arm: device serial {SERIAL}, firmware 0.1.0" in stdout
     assert "  passed: sessions complete" in stdout
@@ -184,7 +186,8 @@ def test_full_calibration_passes_and_carries_the_arm(
     s2 = sample(load_plan("kinematic-calibration"), truth, record(_kin(ps)), rng)  # type: ignore[arg-type]
     f2 = write_session(tmp_path / "s2", s2, SERIAL)
     p = run("calibrate", str(f2), "-o", str(tmp_path / "d.toml"), "-q", "--workspace", "0",
-            "--previous", str(tmp_path / "c.provenance.json"), timeout=300)  # fmt: skip
+            "--previous", str(tmp_path / "c.provenance.json"), "--harmonics", "0",
+            timeout=300)  # fmt: skip
     if p.returncode == REFUSED:
         one_error_line(p, REFUSED, "prediction" if "[session]" not in p.stdout else "session")
     else:

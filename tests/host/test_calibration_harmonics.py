@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from aacmm.calibration import ReferencePoints, calibrate
+from aacmm.calibration.gate import previous_from_provenance
 from aacmm.calibration.harmonics import WEAK_OBSERVABILITY, parse_harmonics
 from aacmm.calibration.parameters import CalibParams, arm_part, error_model
 from aacmm.calibration.results import TERM_ESTIMATED, TERM_UNOBSERVED, TERM_WEAK
@@ -26,6 +27,8 @@ from aacmm.cli import main
 from aacmm.core import Model, Params
 from aacmm.errmodel import ErrorModel, corrected_angles
 from aacmm.errmodel import points as em_points
+from aacmm.protocol import param_set_crc32
+from aacmm.protocol.errwire import with_error_model
 from aacmm.records.paramfile import ParamFileError, load_param_file, load_param_file_errmodel
 from calib_synth import perturbed_truth, plan_session, random_poses, synthetic
 from test_calibration import combos, obs_of, observations
@@ -277,6 +280,17 @@ def test_cli_harmonics(
     assert prov["result"]["chi_square"]["verdict"] == "consistent"
     # the file carries the coefficients: read back, near the truth
     ps, arm, got = load_param_file_errmodel(out_file)
+    # the CRC it and its provenance name is the one the device will hold (the harmonics
+    # in the wire's units: what `params set` sends), and as --previous the provenance
+    # gives the arm's parameters and their (marginal) covariance block
+    assert got is not None
+    want = f"0x{param_set_crc32(with_error_model(ps, got)):08x}"
+    assert prov["arm"]["calibrated_param_crc32"] == want
+    assert f"param_crc32 = {int(want, 16)}" in out_file.read_text()
+    prev = previous_from_provenance(prov, "cal.provenance.json", like=Params())
+    full = np.asarray(prov["result"]["covariance"])
+    assert full.shape == (25 + 24, 25 + 24) and prev.covariance.shape == (25, 25)
+    assert np.array_equal(prev.covariance, full[:25, :25])
     assert got is not None and arm is not None and ps.joints == 6
     sd = np.array([t["std_rad"] for t in terms])
     assert np.all(np.abs(coefficients(got) - coefficients(em)) <= 5 * sd)
@@ -286,9 +300,18 @@ def test_cli_harmonics(
     assert main(["params", "set", str(out_file), "--check"]) == 0
     out, _ = capsys.readouterr()
     assert "error model: encoder harmonics K per joint 2,2,2,2,2,2" in out
-    # the default: the arm alone, no [errmodel] table
+    # the default: auto, stated per joint; the session's true K = 2 on every joint
+    dflt = tmp_path / "default.toml"
+    assert main(["calibrate", str(session), "-o", str(dflt), "-q", "--workspace", "0"]) == 0
+    out, _ = capsys.readouterr()
+    assert "Encoder angle harmonics (auto: the largest K the data identify, 2,2,2,2,2,2)" in out
+    assert "note: encoder harmonics, auto: joint 1: K 2 (k = 3" in out
+    got = load_param_file_errmodel(dflt)[2]
+    assert got is not None and [len(h) for h in got.harmonics] == [2] * 6
+    # --harmonics 0: the arm alone, no [errmodel] table
     plain = tmp_path / "plain.toml"
-    assert main(["calibrate", str(session), "-o", str(plain), "-q", "--workspace", "0"]) in (0, 9)
+    args = ["-o", str(plain), "--harmonics", "0", "-q", "--workspace", "0"]
+    assert main(["calibrate", str(session), *args]) in (0, 9)
     capsys.readouterr()
     if plain.exists():
         assert "errmodel" not in plain.read_text()

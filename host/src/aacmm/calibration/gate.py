@@ -395,6 +395,9 @@ def previous_from_provenance(
     except (TypeError, ValueError):
         raise ValueError(f"{source}: result.calibrated / covariance are not numbers") from None
     k = len(names)
+    keys = [str(n) for n in cal]
+    if c.ndim == 2 and c.shape == (len(keys), len(keys)) and keys[:k] == list(names):
+        c = c[:k, :k]  # a calibration with encoder harmonics: the arm's (marginal) block
     if c.shape != (k, k) or not np.all(np.isfinite(c)) or not np.all(np.isfinite(v)):
         raise ValueError(f"{source}: result.covariance must be a finite {k} x {k} matrix")
     if not np.allclose(c, c.T, rtol=1e-9, atol=1e-30) or np.any(np.diag(c) < 0):

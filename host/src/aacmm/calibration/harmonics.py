@@ -28,7 +28,7 @@ of the wrong length.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -54,7 +54,9 @@ from aacmm.errmodel import HARMONICS_MAX, ErrorModel
 
 __all__ = [
     "AUTO",
+    "SIGNIFICANCE_CHI2",
     "WEAK_OBSERVABILITY",
+    "AutoChoice",
     "check_harmonics_option",
     "choose_auto",
     "dh_part",
@@ -64,9 +66,11 @@ __all__ = [
     "parse_harmonics",
     "screen",
     "start_params",
+    "wald_chi2",
 ]
 
-#: ``harmonics="auto"``: per joint the largest K (up to 4) the data identify.
+#: ``harmonics="auto"``: per joint the largest K (up to 4) the data identify and the
+#: fit finds significant (:func:`choose_auto`).
 AUTO = "auto"
 #: A term whose observability is below this is *weakly observed* (and ``auto``
 #: does not take it): less than 3 % of its effect on the probe points is its own.
@@ -183,20 +187,74 @@ def screen(ev: Evaluation, ks: Sequence[int]) -> tuple[tuple[int, ...], tuple[st
     return tuple(out), tuple(dead)
 
 
+#: ``auto`` takes harmonic order k of a joint only if the pair (c_k, s_k) differs
+#: from 0 by more than this chi-square quantile (2 degrees of freedom, 99.9 %:
+#: a false order in about 1 of 1000 tests) in the trial fit's covariance.
+SIGNIFICANCE_CHI2 = 13.8155
+
+
+@dataclasses.dataclass(frozen=True)
+class AutoChoice:
+    """``harmonics="auto"``'s answer: K per joint and, per joint, why it stopped there."""
+
+    ks: tuple[int, ...]
+    reasons: tuple[str, ...]
+
+    def text(self) -> str:
+        """``joint 1: K 2 (k = 3 not significant, chi^2 1.2 < 13.8); ...``."""
+        return "; ".join(
+            f"joint {j}: K {k} ({why})"
+            for j, (k, why) in enumerate(zip(self.ks, self.reasons, strict=True), start=1)
+        )
+
+
+def wald_chi2(res: CalibrationResult[Any], joint: int, order: int) -> float:
+    """How far the pair (c, s) of ``joint`` (from 1) and harmonic ``order`` is from 0
+    in the covariance of the stated uncertainties (unscaled): ``v^T C^-1 v``
+    (chi-square with 2 degrees of freedom when it is 0); 0 for a pair not
+    estimated."""
+    names = param_names(res.params)
+    pair = [f"{w}{joint}_{order}" for w in ("c", "s")]
+    if not all(n in names and n in res.free for n in pair):
+        return 0.0
+    idx = [names.index(n) for n in pair]
+    v = res.params.to_vector()[idx]
+    # the stated uncertainties, not scaled up by what the trial model still misses
+    cov = res.covariance[np.ix_(idx, idx)]
+    try:
+        return float(v @ np.linalg.solve(cov, v))
+    except np.linalg.LinAlgError:
+        return 0.0
+
+
 def choose_auto(
-    problem: Problem, start: ArmParams | CalibParams, cand: Sequence[str], kappa: float
-) -> tuple[int, ...]:
+    problem: Problem,
+    start: ArmParams | CalibParams,
+    cand: Sequence[str],
+    kappa: float,
+    fit: Callable[[CalibParams], CalibrationResult[Any]] | None = None,
+) -> AutoChoice:
     """``harmonics="auto"``: per joint the largest K <= 4 whose terms are all
-    identified (estimated, not weakly observed) with those of the other joints,
-    the harmonics added one order at a time for every joint still growing.
+    identified (estimated, not weakly observed) with those of the other joints
+    and, with ``fit`` (a calibration from a start with given K), significant: the
+    pair of order k differs from 0 (:func:`wald_chi2` above
+    :data:`SIGNIFICANCE_CHI2`, in the covariance of the stated uncertainties:
+    scaled by the trial's chi-square, the orders it still lacks would hide
+    themselves) in the fit with order k on every joint still growing. The
+    harmonics are added one order at a time for every joint still growing; a
+    joint stops at its first order not identified, or after two orders in a row
+    not significant (one order may be small where the next is not), K being its
+    last significant order.
 
     ``cand``: the arm's parameter names to estimate (the harmonics are added).
     """
     joints = n_joints(start)
     ks = [0] * joints
     growing = [True] * joints
+    why = [f"the most the model takes (K <= {HARMONICS_MAX})"] * joints
+    misses: list[list[tuple[int, float]]] = [[] for _ in range(joints)]
     for h in range(1, HARMONICS_MAX + 1):
-        trial = [k + 1 if g else k for k, g in zip(ks, growing, strict=True)]
+        trial = [h if g else k for k, g in zip(ks, growing, strict=True)]
         if trial == ks:
             break
         p0 = start_params(start, trial)
@@ -206,15 +264,56 @@ def choose_auto(
         cols = [i for i, n in enumerate(param_names(p0)) if n in kept]
         ident = analyse(ev, cols, kappa)
         obs = observability(ev, ident)
+        identified = list(ks)
         for j in range(joints):
             if not growing[j]:
                 continue
             terms = [f"{w}{j + 1}_{i}" for i in range(1, h + 1) for w in ("c", "s")]
             if cut[j] >= h and all(obs.get(t, 0.0) >= WEAK_OBSERVABILITY for t in terms):
-                ks[j] = h
+                identified[j] = h
+                continue
+            growing[j] = False
+            if cut[j] < h:
+                why[j] = (
+                    "its angle does not move the probe point"
+                    if h == 1
+                    else f"k = {h} does not move the probe point"
+                )
             else:
+                low = min(obs.get(t, 0.0) for t in terms)
+                why[j] = (
+                    f"k = {h} weakly observed, observability {low:.3g} < {WEAK_OBSERVABILITY:g}"
+                )
+            if misses[j]:
+                why[j] = f"{_not_significant(misses[j])}; {why[j]}"
+        if fit is None:
+            ks = identified
+            continue
+        if not any(k == h for k in identified):
+            break
+        res = fit(start_params(start, identified))
+        for j in range(joints):
+            if identified[j] != h:
+                continue
+            chi2 = wald_chi2(res, j + 1, h)
+            if chi2 >= SIGNIFICANCE_CHI2:
+                ks[j] = h
+                misses[j] = []
+                continue
+            # one order may be small where the next is not (an encoder's k = 2
+            # without much k = 1): a joint stops after two insignificant orders
+            misses[j].append((h, chi2))
+            if len(misses[j]) == 2 or h == HARMONICS_MAX:
                 growing[j] = False
-    return tuple(ks)
+                why[j] = _not_significant(misses[j])
+    return AutoChoice(tuple(ks), tuple(why))
+
+
+def _not_significant(misses: Sequence[tuple[int, float]]) -> str:
+    """``k = 3, 4 not significant, chi^2 0.4, 1.2 < 13.8``."""
+    orders = ", ".join(str(k) for k, _ in misses)
+    values = ", ".join(f"{x:.1f}" for _, x in misses)
+    return f"k = {orders} not significant, chi^2 {values} < {SIGNIFICANCE_CHI2:.1f}"
 
 
 def error_terms(

@@ -373,7 +373,12 @@ def calibrate(
     p0: AnyParams = start or Params()
     validate(p0)
     t0 = time.perf_counter()
-    requested, modelled, dead, text = _harmonics(obs, p0, harmonics, free, fix, kappa)
+
+    def fit(p: AnyParams) -> CalibrationResult[Any]:  # auto's trial fits
+        c = _candidates(free, fix, p)
+        return _solve(obs, p, c, strategy, kappa, alpha_chi2, max_nfev, None, [])
+
+    requested, modelled, dead, text, why = _harmonics(obs, p0, harmonics, free, fix, kappa, fit)
     if requested is not None:
         p0 = start_params(p0, modelled)
     cand = _candidates(free, fix, p0)
@@ -397,6 +402,8 @@ def calibrate(
         notes.append(
             "held at their start values (unobservable from these data): " + ", ".join(res.held)
         )
+    if why:
+        notes.append(f"encoder harmonics, auto: {why}")
     if requested is None and text != "0":
         notes.append(f"encoder harmonics ({text}): none estimated")
     if requested is not None:
@@ -428,10 +435,12 @@ def _harmonics(
     free: Sequence[str] | None,
     fix: Sequence[str],
     kappa: float,
-) -> tuple[tuple[int, ...] | None, tuple[int, ...], tuple[str, ...], str]:
+    fit: Callable[[Any], CalibrationResult[Any]],
+) -> tuple[tuple[int, ...] | None, tuple[int, ...], tuple[str, ...], str, str]:
     """K per joint asked for (None: the arm alone, as without harmonics), K per
-    joint in the model, the terms left out (no effect on the probe point) and how
-    it was asked (for the notes)."""
+    joint in the model, the terms left out (no effect on the probe point), how
+    it was asked (for the notes) and, for ``auto``, why each joint's K (``fit``:
+    its trial fits, :func:`~aacmm.calibration.harmonics.choose_auto`)."""
     joints = n_joints(p0)
     if harmonics is None:
         harmonics = list(p0.harmonics) if isinstance(p0, CalibParams) else 0
@@ -442,17 +451,19 @@ def _harmonics(
         else (str(harmonics) if isinstance(harmonics, int) else ",".join(str(k) for k in harmonics))
     )
     if ks is not None and not any(ks) and not isinstance(p0, CalibParams):
-        return None, (), (), "0"
+        return None, (), (), "0", ""
     problem = Problem(obs)
+    why = ""
     if ks is None:
         arm = arm_part(p0)
         cand = [param_names(arm)[c] for c in _candidates(free, fix, arm)]
-        ks = choose_auto(problem, p0, cand, kappa)
+        choice = choose_auto(problem, p0, cand, kappa, fit)
+        ks, why = choice.ks, choice.text()
         text = f"auto: the largest K the data identify, {','.join(str(k) for k in ks)}"
         if not any(ks) and not isinstance(p0, CalibParams):
-            return None, (), (), text
+            return None, (), (), text, why
     modelled, dead = screen(problem.evaluate(start_params(p0, ks)), ks)
-    return ks, modelled, dead, text
+    return ks, modelled, dead, text, why
 
 
 def _solve(

@@ -82,12 +82,12 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--harmonics",
-        default="0",
+        default=None,
         metavar="K",
         help="also estimate encoder angle harmonics c<j>_<k>, s<j>_<k>, k = 1..K on every "
         "joint (K 0..4), or 'auto': per joint the largest K the data identify (stated in "
-        "the output); written to the file's [errmodel] table. Default 0: the device does "
-        "not take the error model yet",
+        "the output, per joint with why); written to the file's [errmodel] table, which "
+        "aacmm params set sends to the device. Default auto (0 with --probe)",
     )
     p.add_argument(
         "--validate",
@@ -167,6 +167,8 @@ def _check_args(args: argparse.Namespace) -> None:
         raise UsageError("--probe sets the free parameters itself: drop --free/--fix")
     from aacmm.calibration.harmonics import check_harmonics_option
 
+    if args.harmonics is None:  # the default: auto, the tip alone with --probe
+        args.harmonics = "0" if args.probe else "auto"
     try:
         args.harmonics = check_harmonics_option(args.harmonics)
     except ValueError as exc:
@@ -233,6 +235,9 @@ def _previous(args: argparse.Namespace, data: Any) -> Any:
             raise UsageError(f"--previous {exc}") from None
         return None
     crc = _crc_hex(prev.params, data.encoders)
+    recorded = _recorded_crc(load_json(path))  # with its error model, as the device took it
+    if data.param_set.crc_hex in (crc, recorded):
+        crc = data.param_set.crc_hex
     if crc != data.param_set.crc_hex:
         if explicit:
             raise UsageError(
@@ -243,10 +248,20 @@ def _previous(args: argparse.Namespace, data: Any) -> Any:
     return prev
 
 
-def _crc_hex(params: Any, encoders: Any) -> str:
+def _crc_hex(params: Any, encoders: Any, errors: Any = None) -> str:
+    """The CRC of the set the device holds for an arm's ``params`` with ``encoders`` and
+    the encoder harmonics ``errors`` (an ErrorModel, or None)."""
     from aacmm.records import ParamSetRecord
 
-    return str(ParamSetRecord.from_device(ParamSetRecord(0, params, encoders).to_device()).crc_hex)
+    rec = ParamSetRecord(0, params, encoders, errors)
+    return str(ParamSetRecord.from_device(rec.to_device()).crc_hex)
+
+
+def _recorded_crc(prov: Any) -> str | None:
+    """A provenance's ``arm.calibrated_param_crc32`` (None if absent)."""
+    arm = prov.get("arm") if isinstance(prov, dict) else None
+    crc = arm.get("calibrated_param_crc32") if isinstance(arm, dict) else None
+    return crc if isinstance(crc, str) else None
 
 
 def _check_outputs(args: argparse.Namespace, step_names: tuple[str, ...]) -> None:
@@ -516,7 +531,9 @@ def _param_file_text(data: Any, res: Any, args: argparse.Namespace, gate: Any) -
         head += "# WRITTEN WITH --override: the quality gate refused this calibration:\n"
         head += "".join(f"#   [{r.check}] {_comment(r.message)}\n" for r in gate.refusals)
     em = error_model(res.params)
-    return head + dump_param_set(ps, "toml", param_set_crc32(ps), arm=_arm_table(data), errmodel=em)
+    # the CRC the device will hold: the arm with the harmonics in the wire's units
+    crc = param_set_crc32(ParamSetRecord(0, arm_part(res.params), data.encoders, em).to_device())
+    return head + dump_param_set(ps, "toml", crc, arm=_arm_table(data), errmodel=em)
 
 
 def _write(
@@ -553,7 +570,9 @@ def _write(
             "serial_number": data.serial_number,
             "firmware": data.firmware,
             "start_param_crc32": data.param_set.crc_hex,
-            "calibrated_param_crc32": _crc_hex(arm_part(res.params), data.encoders),
+            "calibrated_param_crc32": _crc_hex(
+                arm_part(res.params), data.encoders, error_model(res.params)
+            ),
         },
         "start_param_set": data.param_set.to_json(),
         "probing_sigma_mm": args.sigma_um / 1000.0,

@@ -47,10 +47,14 @@ from pathlib import Path
 from typing import IO, Any
 
 from aacmm.commands.common import add_force_option
-from aacmm.commands.exitcodes import NOT_MET, OK, USAGE, WORSE
+from aacmm.commands.exitcodes import NOT_MET, OK, REFUSED, USAGE, WORSE
 
 VERIFY_PLAN = "arm-verification"
 CALIBRATION_PLAN = "kinematic-calibration"
+#: The calibration of the same data without the error model (the arm alone), written
+#: beside calibrated.toml when that has an [errmodel] table.
+DH_ONLY = "calibrated-dh-only.toml"  # demo_report.DH_ONLY_FILE
+DH_ONLY_ARGS = ("calibrate", "calibration", "-o", DH_ONLY, "--harmonics", "0", "--override")
 SIM_READY_S = 60.0  # planning the articulations of a plan takes a few seconds
 TITLE = "aacmm demo: an arm out of calibration, verified, calibrated, verified again"
 
@@ -88,6 +92,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME|FILE",
         help="the simulated arm's model: a shipped model (aacmm model list) or a model file "
         "(default gao2013, the paper's arm); its true geometry is a random arm of the model",
+    )
+    p.add_argument(
+        "--encoder-grade",
+        metavar="GRADE",
+        help="the simulated arm's encoders (aacmm sim --encoder-grade: two-head, the "
+        "default; one-head; magnetic): their reading errors are encoder angle harmonics "
+        "the calibration estimates beside the arm",
     )
     p.add_argument(
         "--pace",
@@ -305,12 +316,15 @@ def _table_lines(text: str) -> list[str]:
 
 
 def _calibrate_lines(text: str) -> list[str]:
-    """From ``aacmm calibrate``: rank, chi-square, the before/after table, files."""
+    """From ``aacmm calibrate``: rank, chi-square, the encoder harmonics, the
+    before/after table, files."""
     lines = text.splitlines()
     out: list[str] = []
     if any("rank" in s for s in lines):
         out.append(next(s.strip() for s in lines if s.strip().startswith("rank")))
     out += [s for s in lines if s.startswith(("chi^2", "note: held"))]
+    # which error terms beside the arm were estimated, and why (auto: per joint)
+    out += [s for s in lines if s.startswith(("Encoder angle harmonics", "note: encoder"))]
     gate = [s.strip() for s in lines if s.strip().startswith(("predicted length", "passed:"))]
     out += [f"quality gate: {s}" for s in gate]
     start = next((i for i, s in enumerate(lines) if s.startswith("Before / after")), None)
@@ -321,6 +335,12 @@ def _calibrate_lines(text: str) -> list[str]:
             out.append(s)
     out += [s for s in lines if s.startswith("wrote ")]
     return out
+
+
+def _dh_only_lines(text: str) -> list[str]:
+    """From ``aacmm calibrate --harmonics 0``: the chi-square verdict and the file."""
+    lines = text.splitlines()
+    return [s for s in lines if s.startswith(("chi^2", "wrote ")) and "provenance" not in s]
 
 
 def _last_line(text: str) -> list[str]:
@@ -395,6 +415,11 @@ def _bad_arguments(args: argparse.Namespace) -> str | None:
         return f"--seconds must be in (0, {MAX_SECONDS:g}], got {args.seconds:g}"
     if not 1 <= args.poses <= MAX_POSES:
         return f"--poses must be in 1 .. {MAX_POSES}, got {args.poses}"
+    if args.encoder_grade is not None:
+        from aacmm.simulation.encgrade import GRADES
+
+        if args.encoder_grade not in GRADES:
+            return f"--encoder-grade must be one of {', '.join(GRADES)}, got {args.encoder_grade!r}"
     return None
 
 
@@ -453,7 +478,13 @@ def _story(demo: Demo, seed: int, args: argparse.Namespace, model: Any = None) -
         )
     _log_and_table2(demo, args, on_model)
     fast = ["--fast"] if args.pace == "fast" else []
-    truth = [*on_model, "--truth", f"random:{seed}"]
+    grade = ["--encoder-grade", args.encoder_grade] if args.encoder_grade else []
+    truth = [*on_model, "--truth", f"random:{seed}", *grade]
+    if grade:
+        demo.say(
+            f"demo: its encoders are {args.encoder_grade} encoders (aacmm sim "
+            f"--encoder-grade {args.encoder_grade}): reading errors DH cannot describe"
+        )
     store = ["--storage", "arm/arm.bin", "--link", "arm/port"]
 
     def session(plan: str, name: str, op_seed: int, extra: list[str]) -> None:
@@ -490,6 +521,15 @@ def _story(demo: Demo, seed: int, args: argparse.Namespace, model: Any = None) -
         "calibrate.txt",
         show=_calibrate_lines,
     )
+    if "[errmodel]" in (out / "calibrated.toml").read_text(encoding="utf-8"):
+        # the same data without the error model: the arm alone (DH only), for the
+        # truth check's comparison (--override: its quality gate may refuse it)
+        demo.run(
+            [*DH_ONLY_ARGS, "-q", "--workspace", "0"],
+            "calibrate-dh-only.txt",
+            ok=(OK, REFUSED),
+            show=_dh_only_lines,
+        )
     demo.step("load the calibrated parameters into the arm and save them (its storage file)")
     with demo.simulator(["sim", *truth, *store], "sim-params.log") as url:
         demo.run(["params", "set", "calibrated.toml", "--save", "--port", url], "params-set.txt")

@@ -269,17 +269,28 @@ def truth_check(
         "true_length_mm": [float(true_len.min()), float(true_len.max())],
         "serial_number": truth.device_serial,
     }
-    for name in ("before", "after"):
-        ps = read_session(folder / name).param_set_of(0)
+
+    def figures(ps: Any) -> dict[str, Any]:
         pts = ps.points(counts_to_angles(counts, ps.encoders))  # with its error model
         err = np.linalg.norm(pts[0::2] - pts[1::2], axis=1) - true_len
-        out[name] = {
-            "session": name,
+        return {
             "params_crc32": ps.crc_hex,
+            "errmodel": ps.errmodel_text(),
             "rms_mm": float(np.sqrt(np.mean(err**2))),
             "p95_mm": float(np.quantile(np.abs(err), 0.95)),
             "max_mm": float(np.max(np.abs(err))),
         }
+
+    for name in ("before", "after"):
+        ps = read_session(folder / name).param_set_of(0)
+        out[name] = {"session": name, **figures(ps)}
+    dh = folder / DH_ONLY_FILE
+    if dh.is_file():  # the same calibration data, the arm alone (aacmm demo writes it)
+        from aacmm.records.paramfile import load_param_file
+        from aacmm.records.paramsets import ParamSetRecord
+
+        ps = ParamSetRecord.from_device(load_param_file(dh))
+        out["dh_only"] = {"session": None, "file": DH_ONLY_FILE, **figures(ps)}
     # what the true geometry itself measures through these encoders: the part
     # of the error (eccentricity) that no calibration of the DH model removes
     pts = truth.model().points(counts_to_angles(counts, truth.encoders))
@@ -293,6 +304,11 @@ def truth_check(
     }
     out["factor"] = out["before"]["rms_mm"] / out["after"]["rms_mm"]
     return out
+
+
+#: ``aacmm demo``'s calibration of the same data without the error model
+#: (:data:`aacmm.commands.demo.DH_ONLY`), checked against the truth when present.
+DH_ONLY_FILE = "calibrated-dh-only.toml"
 
 
 def truth_limits(truth: Any) -> Any:
@@ -353,15 +369,21 @@ def truth_check_text(c: dict[str, Any]) -> str:
         "what the arm measures (its own encoders, eccentric, without noise) - the true distance",
         "           rms mm    95 % mm    max mm  parameters",
     ]
-    for name in ("before", "after", "floor"):
-        r = c[name]
-        what = (
-            f"{r['params_crc32']} (session {r['session']})"
-            if r["session"]
-            else "the true parameters: what the encoders' eccentricity alone leaves"
-        )
+    for name in ("before", "after", "dh_only", "floor"):
+        r = c.get(name)
+        if r is None:
+            continue
+        if r["session"]:
+            em = r.get("errmodel", "none (DH only)")
+            what = f"{r['params_crc32']} (session {r['session']})"
+            what += f", error model: {em}" if em != "none (DH only)" else ""
+        elif name == "dh_only":
+            what = f"{r['file']}: the same data calibrated without the error model (the arm alone)"
+        else:
+            what = "the true parameters: what the encoders' reading errors alone leave to DH"
+        label = "DH only" if name == "dh_only" else name
         lines.append(
-            f"{name:<8} {r['rms_mm']:>8.4f}  {r['p95_mm']:>9.4f}  {r['max_mm']:>8.4f}  {what}"
+            f"{label:<8} {r['rms_mm']:>8.4f}  {r['p95_mm']:>9.4f}  {r['max_mm']:>8.4f}  {what}"
         )
     f = c["factor"]
     if f >= 1:

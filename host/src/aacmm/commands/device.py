@@ -279,12 +279,9 @@ def _check_arm(file: str, arm: Any, serial: int, override: bool) -> str:
 def errmodel_text(ps: ParamSet) -> str:
     """The error model a parameter set carries, in words: ``encoder harmonics K per
     joint 2,2,2,2,2,2`` (and ``, thermal expansion``), or ``none (DH only)``."""
-    parts = []
-    if any(ps.harmonics):
-        parts.append("encoder harmonics K per joint " + ",".join(map(str, ps.harmonics)))
-    if ps.cte:
-        parts.append("thermal expansion")
-    return ", ".join(parts) or "none (DH only)"
+    from aacmm.records.paramsets import errmodel_text as text
+
+    return text(ps.harmonics, bool(ps.cte))
 
 
 def _with_file_errmodel(file: str, ps: ParamSet, em: Any) -> ParamSet:

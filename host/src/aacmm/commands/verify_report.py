@@ -63,7 +63,7 @@ def text_report(rep: Report, source: str) -> str:
     lines = [f"aacmm verify: {source}"]
     lines.append(f"plan       {rep.plan_name}" + (f" ({rep.plan_title})" if rep.plan_title else ""))
     lines.append(f"plan hash  sha256 {rep.plan_sha256[:16]}")
-    for k in ("device", "firmware", "params_crc32", "captured"):
+    for k in ("device", "firmware", "params_crc32", "errmodel", "captured"):
         if k in rep.meta:
             lines.append(f"{k:<10} {rep.meta[k]}")
     lines.append(f"probe      ball diameter {rep.probe_diameter_mm:.4f} mm")
@@ -500,6 +500,7 @@ def _one_page(rep: Report, source: str, when: _dt.datetime | None) -> Figure:
             ("device", "device"),
             ("firmware", "firmware"),
             ("params_crc32", "parameter set"),
+            ("errmodel", "error model"),
             ("captured", "captured"),
         )
         if k in rep.meta

@@ -104,6 +104,9 @@ def _session_meta(s: Any) -> dict[str, Any]:
     crcs = sorted({p.param_set.crc_hex for p in s.points})
     if crcs:
         meta["params_crc32"] = ", ".join(crcs)
+        # which error terms beside the arm the device corrected (issue 27)
+        models = sorted({p.param_set.errmodel_text() for p in s.points})
+        meta["errmodel"] = "; ".join(models)
     runs = s.meta.get("runs") or []
     if runs and isinstance(runs[0], dict) and "start" in runs[0]:
         meta["captured"] = str(runs[0]["start"])[:19].replace("T", " ") + " UTC"

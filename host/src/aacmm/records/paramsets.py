@@ -81,6 +81,11 @@ class ParamSetRecord:
             return Model(self.model).points(theta)
         return errmodel_points(Model(self.model), self.errors, theta)
 
+    def errmodel_text(self) -> str:
+        """The set's error model in words (:func:`errmodel_text`)."""
+        ks = self.errors.harmonics if self.errors is not None else ()
+        return errmodel_text(tuple(len(h) for h in ks))
+
     def errmodel_json(self) -> dict[str, Any] | None:
         """The set's ``errmodel`` entry (a parameter file's ``[errmodel]`` table), or None."""
         from aacmm.records.paramfile import errmodel_dict
@@ -221,6 +226,17 @@ class ParamSetRecord:
                 f"({crc_hex(actual)}, recorded {crc_hex(crc)}): edited or damaged"
             )
         return cls.from_device(ps)
+
+
+def errmodel_text(harmonics: tuple[int, ...], thermal: bool = False) -> str:
+    """An error model in words: ``encoder harmonics K per joint 2,2,2,2,2,0`` (and
+    ``, thermal expansion``), or ``none (DH only)``; ``harmonics``: K per joint."""
+    parts = []
+    if any(harmonics):
+        parts.append("encoder harmonics K per joint " + ",".join(map(str, harmonics)))
+    if thermal:
+        parts.append("thermal expansion")
+    return ", ".join(parts) or "none (DH only)"
 
 
 def _with_errmodel_json(ps: ParamSet, value: Any, where: str) -> ParamSet:
