@@ -199,6 +199,13 @@ def run_calibrate(args: argparse.Namespace) -> int:
 
     sigma = args.sigma_um / 1000.0
     data = load_sessions(args.sessions, sigma, args.base_frame)
+    if data.param_set.errors is not None:  # not carried into the fit's start yet
+        print_err(
+            "calibrate",
+            f"warning: the sessions were taken with parameter set {data.param_set.crc_hex}, "
+            f"whose {data.param_set.errmodel_text()} the fit does not start from: its "
+            "'before' figures and the quality gate's set in force are its arm alone",
+        )
     held_out = (
         load_sessions(
             args.validate,
