@@ -608,3 +608,10 @@ def test_demo_refuses_a_bad_model_before_anything(tmp_path: Path) -> None:
         assert len(lines) == 1 and lines[0].startswith("demo: "), p.stderr
         assert all(w in lines[0] for w in words), lines
         assert not out.exists() and p.stdout == ""
+    # an unknown encoder grade: the same
+    out = tmp_path / "out"
+    p = run("demo", "--encoder-grade", "three-head", "--out", str(out))
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1, (p.returncode, p.stderr)
+    assert "--encoder-grade" in lines[0] and "one-head" in lines[0], lines
+    assert not out.exists() and p.stdout == ""
