@@ -311,7 +311,11 @@ def _calibrate_lines(text: str) -> list[str]:
     if any("rank" in s for s in lines):
         out.append(next(s.strip() for s in lines if s.strip().startswith("rank")))
     out += [s for s in lines if s.startswith(("chi^2", "note: held"))]
-    gate = [s.strip() for s in lines if s.strip().startswith(("predicted length", "passed:"))]
+    gate = [
+        s.strip()
+        for s in lines
+        if s.strip().startswith(("predicted length", "uncertainty limits", "passed:"))
+    ]
     out += [f"quality gate: {s}" for s in gate]
     start = next((i for i, s in enumerate(lines) if s.startswith("Before / after")), None)
     if start is not None:
