@@ -6,8 +6,9 @@ one-head truths on the shipped kinematic-calibration plan, each calibrated
 with ``harmonics=2`` and as the arm alone, and its ideal-encoder twin likewise;
 every calibration judged as ``aacmm demo --check`` judges an arm. Writes
 docs/figures/harmonics-study.png and docs/figures/harmonics-study.json (the
-distributions over runs, the verdicts, the 3-sigma rates and every run's RMS
-length errors) and prints the summary (about 30 s).
+distributions over runs, the verdicts, the 3-sigma rates, every run's RMS
+length errors, and run 0's precision budget: the predicted RMS with each
+joint's harmonics known) and prints the summary (about 30 s).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from matplotlib.figure import Figure
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "host"))
 
-from harmonics_study import Study, study, summary  # noqa: E402
+from harmonics_study import Study, precision_budget, study, summary  # noqa: E402
 
 RUNS = 200
 LABELS = {
@@ -80,8 +81,14 @@ def main() -> None:
         "make harmonics-study-figures  (.venv/bin/python scripts/harmonics_study_figures.py)"
     )
     s["seconds"] = seconds
-    (figures / "harmonics-study.json").write_text(json.dumps(s, indent=1) + "\n")
-    s.pop("per_run")
+    s["precision_budget_seed_0_um"] = precision_budget(0)
+    runs = s.pop("per_run")
+    assert isinstance(runs, list)
+    text = json.dumps(s, indent=1)[:-2]  # every run on one line of its own
+    lines = ",\n  ".join(json.dumps(r) for r in runs)
+    text += f',\n "per_run": [\n  {lines}\n ]\n}}\n'
+    json.loads(text)
+    (figures / "harmonics-study.json").write_text(text)
     print(json.dumps(s, indent=1))
     print("(wrote docs/figures/harmonics-study.png, docs/figures/harmonics-study.json)")
 

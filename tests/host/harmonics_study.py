@@ -4,11 +4,14 @@ Each run is one seeded random truth of the simulator with one-head encoders
 (:func:`aacmm.simulation.truth.random_truth`, grade ``one-head``: harmonics 1
 and 2 of 10-30 arcsec on every joint, any phase) and the same arm with ideal
 encoders (eccentricity and harmonics removed, the geometry unchanged). Data
-are generated in-process as tests/host/gate_study.py does: every slot of the
+are generated in-process, not by the simulator process: every slot of the
 shipped kinematic-calibration plan (3 seats x 25 articulations, 3 ball bars x
-10 positions) is reached by inverse kinematics on the *true* geometry from a
-random articulation, the tip displaced by the truth's probing noise (2 um per
-axis); the encoders read those exact angles as the simulator's do
+10 positions) is reached on the *true* geometry, the tip displaced by the
+truth's probing noise (2 um per axis), by Newton steps from the simulated
+operator's articulation of that slot (:func:`aacmm.simulation.scenario.plan_poses`
+on the nominal arm, one of four choreographies per run: the joint ranges
+``aacmm sim --scenario`` probes with, within the simulator's joint limits, as
+the check's postures are); the encoders read those exact angles as the simulator's do
 (:meth:`Truth.counts`, here without the 0.3 arcsec encoder noise: the
 calibration states the probing noise only). The calibration sees the counts
 converted with the device's encoder configuration, never the truth.
@@ -46,9 +49,10 @@ from aacmm.calibration.sessions import observations_from_plan
 from aacmm.core import EncoderConfig, Model, Params, counts_to_angles
 from aacmm.errmodel import points as em_points
 from aacmm.plans import Plan, load_plan
+from aacmm.simulation.scenario import plan_poses
 from aacmm.simulation.truth import Truth, random_truth
 from aacmm.simulation.truthcheck import ReachLengths, length_errors, reach_lengths
-from calib_synth import random_poses, reach
+from calib_synth import solve_ik
 from test_calibration import SINGLES, K, tip, tip_grad
 
 PLAN = "kinematic-calibration"
@@ -56,6 +60,8 @@ GRADE = "one-head"
 ORDERS = 2
 #: the lengths of each run's check (``aacmm demo --check`` takes 2,000: the same)
 CHECK_LENGTHS = 2000
+#: the operator's articulations the runs start from (run i: one of them, drawn)
+CHOREOGRAPHIES = 4
 COMBOS = [*SINGLES, "tip_x", "tip_y", "tip_z"] + [
     f"{w}{j}_{k}" for j in range(1, 7) for k in range(1, ORDERS + 1) for w in "cs"
 ]
@@ -123,14 +129,27 @@ def combos_and_sd(p: CalibParams, cov: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return c, np.sqrt(np.diag(g @ cov @ g.T))
 
 
-def sample_angles(plan: Plan, truth: Truth, rng: np.random.Generator) -> np.ndarray:
-    """Exact joint angles (n, 6) of the true arm on every slot's target plus probing noise."""
+def choreographies(plan: Plan, n: int = CHOREOGRAPHIES) -> list[np.ndarray]:
+    """The simulated operator's articulations of every slot (``aacmm sim --scenario PLAN
+    --seed S``, S = 1 .. n) on the nominal arm: (n_slots, 6) each, within the
+    simulator's joint limits."""
+    return [plan_poses(plan, Params(), seed) for seed in range(1, n + 1)]
+
+
+def sample_angles(
+    plan: Plan, truth: Truth, rng: np.random.Generator, starts: list[np.ndarray]
+) -> np.ndarray:
+    """Exact joint angles (n, 6) of the true arm on every slot's target plus probing
+    noise: Newton steps on the true geometry from one of the operator's
+    articulations ``starts`` (drawn by ``rng``), so the poses stay in its branch."""
     targets = np.array([s.target.tip_mm for s in plan.slots if s.target is not None], dtype=float)
     assert targets.shape[0] == len(plan.slots), "every slot needs a nominal target"
     sigma = truth.errors.probing_sigma_um * 1e-3
     targets = targets + rng.normal(0.0, sigma, targets.shape)
-    start = random_poses(rng, len(plan.slots), (0.3, 1.4), (0.6, 1.8))
-    return reach(Model(truth.params), targets, start, rng, 0.5, tries=20)
+    start = starts[int(rng.integers(len(starts)))]
+    q, err = solve_ik(Model(truth.params), targets, start)
+    assert err.max() < 1e-11, err.max()
+    return q
 
 
 def measured_points(p: Params | CalibParams, counts: np.ndarray) -> np.ndarray:
@@ -155,12 +174,12 @@ class Run:
     seconds: float
 
 
-def one_run(seed: int, plan: Plan, lengths: int = CHECK_LENGTHS) -> Run:
+def one_run(seed: int, plan: Plan, starts: list[np.ndarray], lengths: int = CHECK_LENGTHS) -> Run:
     t0 = time.perf_counter()
     truth = random_truth(seed, grade=GRADE)
     clean = ideal(truth)
     sigma = truth.errors.probing_sigma_um * 1e-3
-    q = sample_angles(plan, truth, np.random.default_rng(seed))
+    q = sample_angles(plan, truth, np.random.default_rng(seed), starts)
     results = {}
     for name, t in (("one-head", truth), ("ideal", clean)):
         r = counts_to_angles(t.counts(q).astype(np.uint64), EncoderConfig())
@@ -222,7 +241,8 @@ class Study:
 
 def study(runs: int, first_seed: int = 0, lengths: int = CHECK_LENGTHS) -> Study:
     plan = load_plan(PLAN)
-    return Study([one_run(first_seed + i, plan, lengths) for i in range(runs)])
+    starts = choreographies(plan)
+    return Study([one_run(first_seed + i, plan, starts, lengths) for i in range(runs)])
 
 
 def distribution(x: np.ndarray) -> dict[str, float]:
@@ -262,3 +282,48 @@ def summary(st: Study) -> dict[str, object]:
             {"seed": r.seed, **{f"{k}_um": 1e3 * v for k, v in r.rms_mm.items()}} for r in st.runs
         ],
     }
+
+
+def precision_budget(seed: int, lengths: int = 500) -> dict[str, float]:
+    """What the full model's RMS length error over the reach is made of, from its
+    covariance (um): the predicted RMS with every parameter estimated (``all``),
+    with one joint's harmonic coefficients known (``joint J known``) and with
+    all of them known (``arm alone``: the covariance of the arm's part given
+    the harmonics, about the DH-only calibration's on the same poses)."""
+    from aacmm.errmodel import points_jacobians as em_points_jacobians
+
+    plan = load_plan(PLAN)
+    truth = random_truth(seed, grade=GRADE)
+    q = sample_angles(plan, truth, np.random.default_rng(seed), choreographies(plan))
+    r = counts_to_angles(truth.counts(q).astype(np.uint64), EncoderConfig())
+    obs, _, _ = observations_from_plan(plan, r, truth.errors.probing_sigma_um * 1e-3)
+    res = calibrate(obs, harmonics=ORDERS)
+    p = res.params
+    assert isinstance(p, CalibParams) and isinstance(p.arm, Params)
+    check = reach_lengths(truth, lengths)
+    rc = counts_to_angles(check.counts.astype(np.uint64), EncoderConfig())
+    pts, jac = em_points_jacobians(Model(p.arm), p.errors, rc)
+    u = pts[0::2] - pts[1::2]
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    g = np.einsum("na,nap->np", u, jac[0::2] - jac[1::2])  # d length / d parameter
+    cov = res.covariance
+    names = list(p.param_names)
+
+    def predicted(known: list[int]) -> float:
+        rest = [i for i in range(len(names)) if i not in known]
+        c = cov[np.ix_(rest, rest)]
+        k = [i for i in known if cov[i, i] > 0]
+        if k:
+            crk = cov[np.ix_(rest, k)]
+            c = c - crk @ np.linalg.solve(cov[np.ix_(k, k)], crk.T)
+        gr = g[:, rest]
+        return float(1e3 * np.sqrt(np.mean(np.einsum("np,pq,nq->n", gr, c, gr))))
+
+    out = {"all": predicted([])}
+    for j in range(1, 7):
+        cols = [names.index(f"{w}{j}_{k}") for k in range(1, ORDERS + 1) for w in "cs"]
+        out[f"joint {j} known"] = predicted(cols)
+    out["arm alone"] = predicted([i for i, n in enumerate(names) if n[0] in "cs" and "_" in n])
+    for t in res.error_terms:
+        out[f"observability {t.name}"] = t.observability
+    return out
