@@ -7,8 +7,9 @@ with ``harmonics=2`` and as the arm alone, and its ideal-encoder twin likewise;
 every calibration judged as ``aacmm demo --check`` judges an arm. Writes
 docs/figures/harmonics-study.png and docs/figures/harmonics-study.json (the
 distributions over runs, the verdicts, the 3-sigma rates, every run's RMS
-length errors, and run 0's precision budget: the predicted RMS with each
-joint's harmonics known) and prints the summary (about 30 s).
+length errors, run 0's precision budget: the predicted RMS with each
+joint's harmonics known; and the precision cost of the shipped plan against
+two nine-seat designs) and prints the summary (about 50 s).
 """
 
 from __future__ import annotations
@@ -22,12 +23,13 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from aacmm.plans import load_plan
 from matplotlib.figure import Figure
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "host"))
 
-from harmonics_study import Study, precision_budget, study, summary  # noqa: E402
+from harmonics_study import PLAN, Study, precision_budget, spread_plan, study, summary  # noqa: E402
 
 RUNS = 200
 LABELS = {
@@ -70,6 +72,34 @@ def figure(st: Study, out: Path) -> None:
     fig.savefig(out, dpi=100)
 
 
+def designs() -> list[dict[str, object]]:
+    """The precision cost (predicted RMS of the full model over the arm alone's) of
+    the shipped plan and of two nine-seat designs, runs 0 and 1 (operator seeds 1, 2)."""
+    out: list[dict[str, object]] = []
+    for name, plan in (
+        (PLAN, load_plan(PLAN)),
+        ("9 seats x 9 articulations + the same bars", spread_plan(9)),
+        ("9 seats x 18 articulations + the same bars", spread_plan(18)),
+    ):
+        for seed in (0, 1):
+            b = precision_budget(seed, plan, seed + 1)
+            out.append(
+                {
+                    "design": name,
+                    "points": len(plan.slots),
+                    "seed": seed,
+                    "full_um": b["all"],
+                    "arm_alone_um": b["arm alone"],
+                    "cost": b["all"] / b["arm alone"],
+                    "joint_4_known_um": b["joint 4 known"],
+                    "observability_joint_4": [
+                        b[f"observability {w}4_{k}"] for k in (1, 2) for w in "cs"
+                    ],
+                }
+            )
+    return out
+
+
 def main() -> None:
     t0 = time.perf_counter()
     st = study(RUNS)
@@ -82,6 +112,7 @@ def main() -> None:
     )
     s["seconds"] = seconds
     s["precision_budget_seed_0_um"] = precision_budget(0)
+    s["designs"] = designs()
     runs = s.pop("per_run")
     assert isinstance(runs, list)
     text = json.dumps(s, indent=1)[:-2]  # every run on one line of its own

@@ -284,17 +284,55 @@ def summary(st: Study) -> dict[str, object]:
     }
 
 
-def precision_budget(seed: int, lengths: int = 500) -> dict[str, float]:
+#: the 9 seats of :func:`spread_plan`: three distances, azimuths and heights (mm)
+SPREAD_SEATS = (
+    (450, -350, -350), (450, 0, -100), (450, 350, 200),
+    (750, -350, -100), (750, 0, 200), (750, 350, -350),
+    (1050, -350, 200), (1050, 0, -350), (1050, 350, -100),
+)  # fmt: skip
+
+
+def spread_plan(articulations: int) -> Plan:
+    """A design study, not a shipped plan: the kinematic-calibration plan with its 3
+    seats replaced by the 9 of :data:`SPREAD_SEATS`, ``articulations`` each (the
+    same 3 ball bars at the same 30 positions)."""
+    from aacmm.plans import loads_plan, shipped_plan_path
+
+    text = shipped_plan_path(PLAN).read_text()
+    a, b = text.index("[artefacts.cone1]"), text.index("# Ball bars with a cone seat")
+    seats = "".join(
+        f'[artefacts.cone{k}]\ntype = "cone"\nlocation_mm = [{x}.0, {y}.0, {z}.0]\n\n'
+        for k, (x, y, z) in enumerate(SPREAD_SEATS, 1)
+    )
+    text = text[:a] + seats + text[b:]
+    a, b = text.index('[[steps]]\nid = "cone1"'), text.index('[[steps]]\nid = "bar500"')
+    steps = "".join(
+        f'[[steps]]\nid = "cone{k}"\nprocedure = "cone"\nartefact = "cone{k}"\n'
+        f"articulations = {articulations}\n\n"
+        for k in range(1, len(SPREAD_SEATS) + 1)
+    )
+    text = text[:a] + steps + text[b:]
+    return loads_plan(text.replace('title = "Kinematic calibration"', 'title = "Nine seats"'))
+
+
+def precision_budget(
+    seed: int, plan: Plan | None = None, choreography: int | None = None, lengths: int = 500
+) -> dict[str, float]:
     """What the full model's RMS length error over the reach is made of, from its
     covariance (um): the predicted RMS with every parameter estimated (``all``),
     with one joint's harmonic coefficients known (``joint J known``) and with
     all of them known (``arm alone``: the covariance of the arm's part given
-    the harmonics, about the DH-only calibration's on the same poses)."""
+    the harmonics, the DH-only calibration's on the same poses); and each
+    term's observability. ``plan``: default the shipped one; ``choreography``:
+    the operator's seed (default: one of the study's four, drawn)."""
     from aacmm.errmodel import points_jacobians as em_points_jacobians
 
-    plan = load_plan(PLAN)
+    plan = plan or load_plan(PLAN)
+    starts = (
+        choreographies(plan) if choreography is None else [plan_poses(plan, Params(), choreography)]
+    )
     truth = random_truth(seed, grade=GRADE)
-    q = sample_angles(plan, truth, np.random.default_rng(seed), choreographies(plan))
+    q = sample_angles(plan, truth, np.random.default_rng(seed), starts)
     r = counts_to_angles(truth.counts(q).astype(np.uint64), EncoderConfig())
     obs, _, _ = observations_from_plan(plan, r, truth.errors.probing_sigma_um * 1e-3)
     res = calibrate(obs, harmonics=ORDERS)
