@@ -239,8 +239,11 @@ class Study:
         return out
 
 
-def study(runs: int, first_seed: int = 0, lengths: int = CHECK_LENGTHS) -> Study:
-    plan = load_plan(PLAN)
+def study(
+    runs: int, first_seed: int = 0, lengths: int = CHECK_LENGTHS, plan: Plan | None = None
+) -> Study:
+    """``runs`` runs of seeds ``first_seed ..`` on the shipped plan (or ``plan``)."""
+    plan = plan or load_plan(PLAN)
     starts = choreographies(plan)
     return Study([one_run(first_seed + i, plan, starts, lengths) for i in range(runs)])
 
