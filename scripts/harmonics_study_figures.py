@@ -9,7 +9,8 @@ docs/figures/harmonics-study.png and docs/figures/harmonics-study.json (the
 distributions over runs, the verdicts, the 3-sigma rates, every run's RMS
 length errors, run 0's precision budget: the predicted RMS with each
 joint's harmonics known; and the precision cost of the shipped plan against
-two nine-seat designs, and the same 200 runs on the first of them) and prints the summary (about 80 s).
+two nine-seat designs, and the same 200 runs on the first of them) and prints
+the summary (about 80 s).
 """
 
 from __future__ import annotations
