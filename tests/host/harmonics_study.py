@@ -174,7 +174,16 @@ class Run:
     seconds: float
 
 
-def one_run(seed: int, plan: Plan, starts: list[np.ndarray], lengths: int = CHECK_LENGTHS) -> Run:
+def one_run(
+    seed: int,
+    plan: Plan,
+    starts: list[np.ndarray],
+    lengths: int = CHECK_LENGTHS,
+    encoder_noise: bool = False,
+) -> Run:
+    """One run (module doc); ``encoder_noise``: the counts with the truth's encoder
+    noise too (the same draw for the one-head truth and its twin), the stated
+    sigma still the probing noise's."""
     t0 = time.perf_counter()
     truth = random_truth(seed, grade=GRADE)
     clean = ideal(truth)
@@ -182,7 +191,8 @@ def one_run(seed: int, plan: Plan, starts: list[np.ndarray], lengths: int = CHEC
     q = sample_angles(plan, truth, np.random.default_rng(seed), starts)
     results = {}
     for name, t in (("one-head", truth), ("ideal", clean)):
-        r = counts_to_angles(t.counts(q).astype(np.uint64), EncoderConfig())
+        noise = np.random.default_rng(10_000 + seed) if encoder_noise else None
+        r = counts_to_angles(t.counts(q, noise).astype(np.uint64), EncoderConfig())
         obs, _, _ = observations_from_plan(plan, r, sigma)
         results[f"{name}/full"] = calibrate(obs, harmonics=ORDERS)
         results[f"{name}/dh"] = calibrate(obs)
@@ -240,12 +250,18 @@ class Study:
 
 
 def study(
-    runs: int, first_seed: int = 0, lengths: int = CHECK_LENGTHS, plan: Plan | None = None
+    runs: int,
+    first_seed: int = 0,
+    lengths: int = CHECK_LENGTHS,
+    plan: Plan | None = None,
+    encoder_noise: bool = False,
 ) -> Study:
     """``runs`` runs of seeds ``first_seed ..`` on the shipped plan (or ``plan``)."""
     plan = plan or load_plan(PLAN)
     starts = choreographies(plan)
-    return Study([one_run(first_seed + i, plan, starts, lengths) for i in range(runs)])
+    return Study(
+        [one_run(first_seed + i, plan, starts, lengths, encoder_noise) for i in range(runs)]
+    )
 
 
 def distribution(x: np.ndarray) -> dict[str, float]:
