@@ -12,22 +12,35 @@ core's thermal model, and on 20 random arms (seeds 1..20, about 1 s)
   true CTEs 22..24e-6 /K) |E_Uni| passes its MPE on every arm, is at least
   5x below the uncompensated one, and within 1.3x of the isothermal run in
   the median (per arm: the count is printed; docs/calibration.md,
-  "Temperature").
+  "Temperature");
+
+and ``aacmm verify --params FILE --temperature C`` on such a session: the
+study's compensated figure from the session's counts, the report's
+temperature and compensation lines, and every bad input refused in one line
+(exit status 2, nothing written).
 """
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
+from aacmm.core import Params
 from aacmm.simulation.thermal import true_points
 from calib_synth import random_poses
 from thermal_study import (
     CASES,
     ORACLE,
+    T_REF_C,
     T_WARM_C,
     Outcome,
     aluminium_truth,
+    calibrated,
+    compensation,
     run,
+    sessions,
     table,
     warm_params,
 )
@@ -78,3 +91,169 @@ def test_e_uni_20_to_28_degc(outcomes: list[Outcome]) -> None:
         f"worst {max(ratios):.2f}; within 1.3x on {within} of {len(ratios)} arms"
     )
     assert float(np.median(ratios)) <= 1.3
+
+
+# ------------------------------------------------------------------ aacmm verify --temperature
+
+
+def _one_line(err: str) -> str:
+    lines = [x for x in err.splitlines() if x.strip()]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def warm_session(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Params, float]:
+    """A verification session of arm 2 at 28 degC with its 20 degC calibration in force
+    (the sessions of ``run(2)``), the calibration's parameter file with the data-sheet
+    CTE in its [errmodel] table, and what the study finds for it compensated."""
+    from aacmm.plans import load_plan
+    from aacmm.records.paramfile import dump_param_set
+    from gate_study import Sampled, record, write_session
+
+    seed = 2
+    truth = aluminium_truth(seed)
+    cal = calibrated(truth, 1000 + seed)
+    plan = load_plan("arm-verification")
+    warm = sessions(plan, truth, 2000 + seed, (T_REF_C, T_WARM_C))[T_WARM_C]
+    folder = tmp_path_factory.mktemp("thermal")
+    in_force = record(cal)
+    session = write_session(folder / "s28", Sampled(plan, warm.counts, in_force), serial=7)
+    params = folder / "cal.toml"
+    params.write_text(dump_param_set(in_force.to_device(), "toml", errmodel=compensation()))
+    return session, params, cal, run(seed).e_uni[CASES[2]]
+
+
+def _e_uni(out: str) -> float:
+    doc = json.loads(out)
+    (res,) = [r for r in doc["results"] if r["key"] == "e_uni"]
+    return abs(float(res["value_mm"]))
+
+
+def test_cli_verify_temperature(
+    warm_session: tuple[Path, Path, Params, float],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from aacmm.cli import main
+
+    session, params, _, expected = warm_session
+    # without compensation the warm arm fails its length test
+    assert main(["verify", str(session), "--json", "-"]) == 7
+    plain = _e_uni(capsys.readouterr().out)
+    assert plain > 0.15
+    # compensated: the study's figure, recomputed from the session's counts
+    code = main(["verify", str(session), "--params", str(params), "--temperature", "28"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert "temp.      28 C on every link, range 28 .. 28 C (stated with --temperature" in out
+    assert (
+        "compens.   thermal expansion CTE per link 23e-6 /K, reference 20 degC "
+        f"({params}, at 28 C)" in out
+    )
+    assert "the plan states the test at 20 C; the session was taken at 28 C" in out
+    js = tmp_path / "r.json"
+    assert main(["verify", str(session), "--params", str(params), "--temperature", "28",
+                 "--json", str(js), "-q"]) == 0  # fmt: skip
+    capsys.readouterr()
+    doc = json.loads(js.read_text())
+    assert doc["temperature_c"] == 28.0 and "28 C on every link" in doc["session"]["temperature"]
+    assert _e_uni(js.read_text()) == pytest.approx(expected, abs=1e-9)
+    assert _e_uni(js.read_text()) < plain / 5.0
+
+
+def test_cli_verify_temperature_refusals(
+    warm_session: tuple[Path, Path, Params, float],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from aacmm.cli import main
+    from aacmm.core import EncoderConfig
+    from aacmm.errmodel import ErrorModel
+    from aacmm.protocol import ParamSet
+    from aacmm.records.paramfile import dump_param_set
+
+    session, params, cal, _ = warm_session
+    other = tmp_path / "other.toml"  # the nominal set: not the one in force
+    other.write_text(
+        dump_param_set(
+            ParamSet.from_core(Params(), EncoderConfig()), "toml", errmodel=compensation()
+        )
+    )
+    bare = tmp_path / "bare.toml"  # the set in force, no error model
+    bare.write_text(dump_param_set(ParamSet.from_core(cal, EncoderConfig()), "toml"))
+    harm = tmp_path / "harm.toml"  # the set in force, harmonics only
+    em = ErrorModel(harmonics=(((1e-6, 0.0),),) + ((),) * 5)
+    harm.write_text(dump_param_set(ParamSet.from_core(cal, EncoderConfig()), "toml", errmodel=em))
+    out = tmp_path / "r.json"
+    p = ["--params", str(params)]
+    cases = [
+        (["--temperature", "100", *p], "--temperature 100: the links' temperature must be"),
+        (["--temperature", "-41", *p], "within -40 .. 85 degC"),
+        (["--temperature", "nan", *p], "--temperature nan: the links' temperature must be"),
+        (["--temperature", "inf", *p], "--temperature inf"),
+        (
+            ["--temperature", "warm", *p],
+            "--temperature warm: the links' temperature must be a number",
+        ),
+        (["--temperature", "28"], "--temperature needs the links' thermal expansion"),
+        (p, "state their temperature during the session with --temperature C"),
+        (["--params", str(other), "--temperature", "28"], "the session was captured with"),
+        (["--params", str(bare)], "no [errmodel] table, nothing to apply"),
+        (["--params", str(harm), "--temperature", "28"], "has no thermal expansion coefficients"),
+        (["--params", str(tmp_path / "none.toml"), "--temperature", "28"], "none.toml"),
+    ]
+    for args, want in cases:
+        code = main(["verify", str(session), *args, "--json", str(out)])
+        _, err = capsys.readouterr()
+        assert code == 2 and want in _one_line(err), (args, err)
+        assert "Traceback" not in err and not out.exists(), args
+
+
+def test_errmodel_thermal_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from aacmm.cli import main
+    from aacmm.core import EncoderConfig
+    from aacmm.errmodel import ErrorModel
+    from aacmm.protocol import ParamSet
+    from aacmm.records.paramfile import (
+        ParamFileError,
+        dump_param_set,
+        load_param_file,
+        load_param_file_errmodel,
+    )
+
+    ps = ParamSet.from_core(Params(), EncoderConfig())
+    em = ErrorModel(
+        ((),) * 6,
+        cte_per_k=(23e-6, 23e-6, 0.5e-6, 23e-6, 0.5e-6, 11.5e-6),
+        tref_c=(20.0, 20.0, 20.0, 20.0, 20.0, 21.5),
+    )
+    f = tmp_path / "p.toml"
+    f.write_text(dump_param_set(ps, "toml", errmodel=em))
+    assert load_param_file_errmodel(f)[1:] == (None, em)
+    with pytest.raises(ParamFileError, match="cannot apply the error model"):
+        load_param_file(f)  # every other reader refuses it, as with harmonics
+    # a thermal part only, written by hand: no harmonics, tref defaults to 20 degC
+    hand = tmp_path / "hand.toml"
+    head = dump_param_set(ps, "toml")
+    hand.write_text(head + "\n[errmodel]\ncte_per_k = [23e-6, 23e-6, 23e-6, 23e-6, 23e-6, 23e-6]\n")
+    got = load_param_file_errmodel(hand)[2]
+    assert got == ErrorModel(((),) * 6, cte_per_k=(23e-6,) * 6, tref_c=(20.0,) * 6)
+    assert main(["params", "set", str(hand), "--check"]) == 0
+    out, _ = capsys.readouterr()
+    assert "[errmodel] thermal expansion CTE per link 23e-6 /K, reference 20 degC" in out
+    # harmonics only: written as before, no thermal keys
+    harm = ErrorModel((((1e-5, -2e-6),),) + ((),) * 5)
+    assert "cte_per_k" not in dump_param_set(ps, "toml", errmodel=harm)
+    for body, needle in (
+        ("cte_per_k = [23e-6, 23e-6]", "cte_per_k must be a list of 6 numbers"),
+        ("cte_per_k = [23e-6, 23e-6, 23e-6, 23e-6, 23e-6, nan]", r"cte_per_k\[5\] is not finite"),
+        ("cte_per_k = [0.01, 0, 0, 0, 0, 0]", "link 1: cte must be finite and within"),
+        ("cte_per_k = [0, 0, 0, 0, 0, 0]\ntref_c = [20, 20, 20, 20, 20, 90]", "link 6: reference"),
+        ("tref_c = [20, 20, 20, 20, 20, 20]", "tref_c goes with cte_per_k"),
+        ("c_rad = [[], [], [], [], [], []]", "c_rad and s_rad go together"),
+        ("", "an empty table"),
+    ):
+        hand.write_text(head + "\n[errmodel]\n" + body + "\n")
+        with pytest.raises(ParamFileError, match=needle):
+            load_param_file_errmodel(hand)

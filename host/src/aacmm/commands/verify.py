@@ -6,16 +6,33 @@ tests the plan's steps allow (:mod:`aacmm.verification.report`) and prints
 the text report; ``--report DIR`` also writes the JSON, the figures and a
 one-page PDF. Exit status 7 when the verdict is FAIL (everything is still
 written), 2 for a session that cannot be verified.
+
+``--params FILE`` applies the error model of FILE's ``[errmodel]`` table
+(encoder harmonics, the links' thermal expansion) to the session's raw
+counts; FILE must hold the parameter set the session was captured with.
+``--temperature C`` states the links' temperature during the session (the
+arm reads none yet): the lengths are scaled by FILE's CTEs at it, and the
+report says which temperature and which compensation it used. Bad input
+(a temperature outside -40 .. 85 degC or not a number, a FILE of another
+set, without an error model, or with CTEs but no ``--temperature``): one
+line, exit status 2, nothing written.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from aacmm.commands.common import add_force_option
+
+if TYPE_CHECKING:
+    from aacmm.errmodel import ErrorModel
+    from aacmm.records.measured import Measured
 
 REPORT_TEXT = "report.txt"
 REPORT_JSON = "report.json"
@@ -52,12 +69,97 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="L_Dia: fit each articulation's sphere with a free radius (default) or with the "
         "calibrated radius (centre only; less sensitive to probing noise)",
     )
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="apply the error model of FILE's [errmodel] table (encoder harmonics, the links' "
+        "thermal expansion cte_per_k, tref_c) to the session's readings; FILE must hold the "
+        "parameter set the session was captured with",
+    )
+    p.add_argument(
+        "--temperature",
+        metavar="C",
+        help="the links' temperature during the session, degC (-40 .. 85; the arm measures "
+        "none yet): the lengths are scaled by --params FILE's CTEs at it",
+    )
     add_force_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
     p.set_defaults(func=run_verify)
 
 
+def _compensation(args: argparse.Namespace) -> tuple[ErrorModel | None, float | None]:
+    """The error model of ``--params`` and the ``--temperature``, checked (UsageError)."""
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.errmodel import TEMP_MAX_C, TEMP_MIN_C
+    from aacmm.records.paramfile import has_thermal, load_param_file_errmodel
+
+    temp: float | None = None
+    if args.temperature is not None:
+        try:
+            temp = float(args.temperature)
+        except ValueError:
+            temp = math.nan
+        if not (math.isfinite(temp) and TEMP_MIN_C <= temp <= TEMP_MAX_C):
+            raise UsageError(
+                f"--temperature {args.temperature}: the links' temperature must be a number "
+                f"within {TEMP_MIN_C:g} .. {TEMP_MAX_C:g} degC"
+            )
+    if args.params is None:
+        if temp is not None:
+            raise UsageError(
+                "--temperature needs the links' thermal expansion coefficients: "
+                "--params FILE with cte_per_k in its [errmodel] table"
+            )
+        return None, None
+    _, _, em = load_param_file_errmodel(args.params)
+    if em is None:
+        raise UsageError(f"--params {args.params}: no [errmodel] table, nothing to apply")
+    if temp is not None and not has_thermal(em):
+        raise UsageError(
+            f"--temperature: {args.params} has no thermal expansion coefficients "
+            "(cte_per_k in its [errmodel] table): nothing to compensate"
+        )
+    if temp is None and has_thermal(em):
+        raise UsageError(
+            f"--params {args.params}: its [errmodel] table has the links' thermal expansion: "
+            "state their temperature during the session with --temperature C"
+        )
+    return em, temp
+
+
+def _check_set(m: Measured, file: str) -> None:
+    """The parameter file holds the set every point was captured with (UsageError)."""
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.records import ParamSetRecord
+    from aacmm.records.paramfile import load_param_file_errmodel
+
+    assert m.labels is not None
+    own = ParamSetRecord.from_device(load_param_file_errmodel(file)[0])
+    for rec in {p.param_set.crc32: p.param_set for p in m.labels}.values():
+        if rec.model != own.model or rec.encoders != own.encoders:
+            raise UsageError(
+                f"--params {file}: holds parameter set {own.crc_hex}, the session was captured "
+                f"with {rec.crc_hex}: its error model belongs to another set"
+            )
+
+
+def _compensation_meta(em: ErrorModel, temp: float | None, file: str) -> dict[str, Any]:
+    """The report's lines for the compensation: what was applied, at what temperature."""
+    from aacmm.records.paramfile import describe_errmodel
+
+    at = "" if temp is None else f", at {temp:g} C"
+    out: dict[str, Any] = {"compensation": f"{describe_errmodel(em)} ({file}{at})"}
+    if temp is not None:
+        out["temperature"] = (
+            f"{temp:g} C on every link, range {temp:g} .. {temp:g} C "
+            "(stated with --temperature; the arm measures none)"
+        )
+    return out
+
+
 def run_verify(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from aacmm.commands import verify_report as vr
     from aacmm.commands.exitcodes import NOT_MET, UsageError
     from aacmm.fileio import check_outputs, save_figure, write_output
@@ -77,11 +179,29 @@ def run_verify(args: argparse.Namespace) -> int:
             args.force,
             what=f"--report {args.report}",
         )
-    m = load_session(Path(args.session), partial=args.partial)
+    em, temp = _compensation(args)
+    temps = None
+    if em is not None and temp is not None:
+        temps = np.full(em.joints, temp)
+    m = load_session(Path(args.session), partial=args.partial, errmodel=em, temp_c=temps)
     assert m.plan is not None and m.labels is not None
+    meta = dict(m.meta)
+    if em is not None:
+        _check_set(m, args.params)
+        meta.update(_compensation_meta(em, temp, args.params))
     rep = evaluate(
-        m.plan, m.labels, m.points, meta=m.meta, name=m.meta.get("plan"), l_dia_fit=args.l_dia_fit
+        m.plan, m.labels, m.points, meta=meta, name=m.meta.get("plan"), l_dia_fit=args.l_dia_fit
     )
+    if temp is not None:
+        planned = rep.temperature_c
+        notes = rep.notes
+        if planned is not None and planned != temp:
+            notes = (
+                *notes,
+                f"the plan states the test at {planned:g} C; the session was taken at "
+                f"{temp:g} C (--temperature) and compensated to the parameters' reference",
+            )
+        rep = replace(rep, temperature_c=temp, notes=notes)
     source = str(args.session)
     text = vr.text_report(rep, source)
     doc = json.dumps(vr.report_json(rep, source), indent=2) + "\n"

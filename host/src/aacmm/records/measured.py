@@ -20,6 +20,7 @@ import numpy as np
 from aacmm.records.files import RecordError
 
 if TYPE_CHECKING:
+    from aacmm.errmodel import ErrorModel
     from aacmm.geometry._base import FloatArray
     from aacmm.plans import Plan
     from aacmm.records import CapturedPoint
@@ -110,8 +111,18 @@ def _session_meta(s: Any) -> dict[str, Any]:
     return meta
 
 
-def load_session(path: Path, partial: bool = False) -> Measured:
+def load_session(
+    path: Path,
+    partial: bool = False,
+    errmodel: ErrorModel | None = None,
+    temp_c: FloatArray | None = None,
+) -> Measured:
     """A capture session's points (recomputed from counts), labels and plan.
+
+    ``errmodel``: the points computed with this error model (encoder
+    harmonics, thermal expansion) at link temperatures ``temp_c`` (degC, one
+    per link; None: the reference), each row with its own set in force
+    (:meth:`aacmm.records.Recorded.points_mm`).
 
     Raises:
         RecordError: not a session (a log was given), or an incomplete session
@@ -134,7 +145,7 @@ def load_session(path: Path, partial: bool = False) -> Measured:
     return Measured(
         source=path,
         kind="session",
-        points=s.points_mm(),
+        points=s.points_mm(errmodel=errmodel, temp_c=temp_c),
         names=[_name(p) for p in s.points],
         step_ids=[p.step_id for p in s.points],
         probe_diameter_mm=s.plan.probe.ball_diameter_mm,
