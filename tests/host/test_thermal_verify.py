@@ -119,6 +119,10 @@ def warm_session(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, 
     folder = tmp_path_factory.mktemp("thermal")
     in_force = record(cal)
     session = write_session(folder / "s28", Sampled(plan, warm.counts, in_force), serial=7)
+    # the same, its temperature stated at capture (aacmm capture --temperature 28)
+    write_session(
+        folder / "s28-stated", Sampled(plan, warm.counts, in_force), serial=7, temperature_c=28.0
+    )
     params = folder / "cal.toml"
     params.write_text(dump_param_set(in_force.to_device(), "toml", errmodel=compensation()))
     return session, params, cal, run(seed).e_uni[CASES[2]]
@@ -146,12 +150,11 @@ def test_cli_verify_temperature(
     code = main(["verify", str(session), "--params", str(params), "--temperature", "28"])
     out, err = capsys.readouterr()
     assert code == 0, err
-    assert "temp.      28 C on every link, range 28 .. 28 C (stated with --temperature" in out
+    assert "temp.      28 C on every link (stated with --temperature; the arm measures" in out
     assert (
-        "compens.   thermal expansion CTE per link 23e-6 /K, reference 20 degC "
-        f"({params}, at 28 C)" in out
+        f"compens.   thermal expansion CTE per link 23e-6 /K, reference 20 degC ({params})" in out
     )
-    assert "the plan states the test at 20 C; the session was taken at 28 C" in out
+    assert "the plan states the test at 20 C; the session was taken at 28 C (compensated" in out
     js = tmp_path / "r.json"
     assert main(["verify", str(session), "--params", str(params), "--temperature", "28",
                  "--json", str(js), "-q"]) == 0  # fmt: skip
@@ -197,7 +200,7 @@ def test_cli_verify_temperature_refusals(
             "--temperature warm: the links' temperature must be a number",
         ),
         (["--temperature", "28"], "--temperature needs the links' thermal expansion"),
-        (p, "state their temperature during the session with --temperature C"),
+        (p, "point 1's capture run states no temperature: give --temperature C"),
         (["--params", str(other), "--temperature", "28"], "the session was captured with"),
         (["--params", str(bare)], "no [errmodel] table, nothing to apply"),
         (["--params", str(harm), "--temperature", "28"], "has no thermal expansion coefficients"),
@@ -257,3 +260,89 @@ def test_errmodel_thermal_table(tmp_path: Path, capsys: pytest.CaptureFixture[st
         hand.write_text(head + "\n[errmodel]\n" + body + "\n")
         with pytest.raises(ParamFileError, match=needle):
             load_param_file_errmodel(hand)
+
+
+def test_cli_verify_stated_at_capture(
+    warm_session: tuple[Path, Path, Params, float], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A session whose capture run states its temperature: verify uses it with
+    --params, reports it without, and --temperature overrides it."""
+    from aacmm.cli import main
+    from aacmm.plans import load_plan
+
+    session, params, _, expected = warm_session
+    stated = session.with_name("s28-stated")
+    assert main(["verify", str(stated), "--params", str(params), "--json", "-"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert _e_uni(json.dumps(doc)) == pytest.approx(expected, abs=1e-9)
+    assert doc["session"]["temperature"].startswith("28 C on every link (stated at capture")
+    assert doc["session"]["temperature_range_c"] == [28.0, 28.0] and doc["temperature_c"] == 28.0
+    # no --params: the temperature is reported, nothing compensated
+    assert main(["verify", str(stated)]) == 7
+    out = capsys.readouterr().out
+    n = len(load_plan("arm-verification").slots)
+    assert f"temp.      28 C (stated at capture for {n} of {n} points; not compensated: no " in out
+    assert "the session was taken at 28 C (not compensated)" in out
+    # --temperature wins (and says what the session states): at the reference 20 degC
+    # the compensation scales nothing, so it is the plain figure
+    assert main(["verify", str(stated), "--json", "-"]) == 7
+    plain = _e_uni(capsys.readouterr().out)
+    args = ["verify", str(stated), "--params", str(params), "--temperature", "20"]
+    assert main([*args, "--json", "-"]) == 7
+    doc = json.loads(capsys.readouterr().out)
+    assert _e_uni(json.dumps(doc)) == pytest.approx(plain, abs=1e-12)
+    assert "the session's capture runs state 28 C" in doc["session"]["temperature"]
+
+
+def test_stated_temperatures_per_run() -> None:
+    """Each point takes the temperature of the last run started before it."""
+    from types import SimpleNamespace
+
+    from aacmm.records.files import utc_iso
+    from aacmm.records.measured import stated_temperatures
+
+    runs = [
+        {"kind": "capture", "start": utc_iso(1000.0), "temperature_c": 21.5},
+        {"kind": "resume", "start": utc_iso(2000.0)},
+        {"kind": "resume", "start": utc_iso(3000.0), "temperature_c": 23.0},
+    ]
+    points = [SimpleNamespace(host_time=t) for t in (999.0, 1000.0, 1500.0, 2500.0, 3000.5)]
+    got = stated_temperatures(SimpleNamespace(meta={"runs": runs}, points=points))
+    assert got == (None, 21.5, 21.5, None, 23.0)
+    assert stated_temperatures(SimpleNamespace(meta={}, points=points)) == (None,) * 5
+
+
+def test_cli_capture_temperature_refusals(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from aacmm.cli import main
+
+    log = tmp_path / "x.csv"
+    log.write_text("")
+    for args, want in (
+        (["--temperature", "90"], "--temperature 90: the links' temperature must be a number"),
+        (["--temperature", "nan"], "--temperature nan"),
+        (
+            ["--temperature", "28", "--from-log", str(log)],
+            "with --from-log give it to aacmm verify",
+        ),
+    ):
+        out = tmp_path / "s"
+        code = main(["capture", "probe-calibration", "-o", str(out), *args, "--port", "tcp://x:9"])
+        _, err = capsys.readouterr()
+        assert code == 2 and want in _one_line(err), (args, err)
+        assert not out.exists()
+
+
+def test_capture_temperature_on_the_simulator(tmp_path: Path) -> None:
+    """aacmm capture --temperature records it in the session's run; verify reads it."""
+    from aacmm.records.measured import load_session
+    from clihelp import capture_scenario
+
+    session, _, _ = capture_scenario(
+        tmp_path, "probe-calibration", "random:5", extra=("--temperature", "27.5")
+    )
+    runs = json.loads((session / "session.json").read_text())["runs"]
+    assert [r.get("temperature_c") for r in runs] == [27.5]
+    m = load_session(session)
+    assert m.stated_temperature_c == (27.5,) * len(m.points)

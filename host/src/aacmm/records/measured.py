@@ -10,6 +10,7 @@ status 2) for a missing, unreadable or unusable input, naming the file.
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +45,9 @@ class Measured:
     plan: Plan | None = None
     labels: tuple[CapturedPoint, ...] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    #: per point of a session, the links' temperature its capture run states (degC,
+    #: ``aacmm capture --temperature``; None where the run states none)
+    stated_temperature_c: tuple[float | None, ...] | None = None
 
     def step_table(self) -> list[str]:
         """The plan's steps as ``id (procedure, artefact)``, by step index."""
@@ -111,6 +115,31 @@ def _session_meta(s: Any) -> dict[str, Any]:
     return meta
 
 
+def stated_temperatures(s: Any) -> tuple[float | None, ...]:
+    """Per point of session ``s``, the links' temperature its capture run states
+    (``temperature_c`` of the run, ``aacmm capture --temperature``), None where none:
+    a point belongs to the last run that started at or before its host time."""
+    starts: list[tuple[float, float | None]] = []
+    for run in s.meta.get("runs") or []:
+        if not isinstance(run, dict) or not isinstance(run.get("start"), str):
+            continue
+        try:
+            t0 = dt.datetime.fromisoformat(run["start"]).timestamp()
+        except ValueError:
+            continue
+        temp = run.get("temperature_c")
+        if isinstance(temp, (int, float)) and not isinstance(temp, bool) and math.isfinite(temp):
+            starts.append((t0, float(temp)))
+        else:
+            starts.append((t0, None))
+    starts.sort(key=lambda r: r[0])
+    out: list[float | None] = []
+    for p in s.points:
+        before = [t for t0, t in starts if t0 <= p.host_time]
+        out.append(before[-1] if before else None)
+    return tuple(out)
+
+
 def load_session(
     path: Path,
     partial: bool = False,
@@ -152,6 +181,7 @@ def load_session(
         plan=s.plan,
         labels=s.points,
         meta=_session_meta(s),
+        stated_temperature_c=stated_temperatures(s),
     )
 
 
