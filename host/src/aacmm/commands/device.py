@@ -267,15 +267,11 @@ def _check_arm(file: str, arm: Any, serial: int, override: bool) -> str:
 
 def cmd_params_set(args: argparse.Namespace) -> int:
     from aacmm.protocol import ParamSource
-    from aacmm.records.paramfile import load_param_file_errmodel
+    from aacmm.records.paramfile import describe_errmodel, load_param_file_errmodel
 
     ps, arm, em = load_param_file_errmodel(args.file)  # validated before anything is sent
     want = _local_crc(ps)
-    harm = (
-        "encoder harmonics K per joint " + ",".join(str(len(h)) for h in em.harmonics)
-        if em is not None
-        else ""
-    )
+    harm = describe_errmodel(em) if em is not None else ""
     if args.check:
         whose = (
             f", for the arm with serial number {arm.serial_number}"

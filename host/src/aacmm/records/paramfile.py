@@ -53,6 +53,20 @@ empty list: no harmonics)::
     c_rad = [[1.2e-5, -3.0e-6], [], [4.1e-5], [], [], []]   # c_1 .. c_K of each joint
     s_rad = [[-8.0e-6, 2.2e-6], [], [9.5e-5], [], [], []]   # s_1 .. s_K
 
+The same table may carry the links' thermal expansion (issue 27): per link
+(one per joint; the tip belongs to the last) a coefficient of thermal
+expansion (1/K, ``|x| <= 1e-3``) and the reference temperature (degC,
+-40 .. 85, default 20) at which the file's lengths hold; at link temperatures
+``T`` every length of link ``i`` (``d_i``, ``a_i``) is ``L (1 + cte_i (T_i -
+tref_i))``. Nothing measures them yet: they are the arm maker's (data-sheet)
+values, written by hand; ``aacmm verify --params FILE --temperature C``
+applies them (docs/cli.md). ``c_rad`` and ``s_rad`` (together) and
+``cte_per_k`` are each optional; ``tref_c`` goes with ``cte_per_k``::
+
+    [errmodel]
+    cte_per_k = [23e-6, 23e-6, 23e-6, 23e-6, 23e-6, 23e-6]   # aluminium links
+    tref_c = [20.0, 20.0, 20.0, 20.0, 20.0, 20.0]            # optional (default 20)
+
 Only :func:`load_param_file_errmodel` reads it (``aacmm params set --check``
 shows it); every other reader refuses such a file in one line
 (:class:`ParamFileError`): it would apply the arm's parameters without the
@@ -102,7 +116,7 @@ LENGTH_MAX_MM = 10_000.0
 ARM_TABLE = "arm"
 ARM_KEYS = ("serial_number", "firmware", "start_param_crc32")
 ERRMODEL_TABLE = "errmodel"
-ERRMODEL_KEYS = ("c_rad", "s_rad")
+ERRMODEL_KEYS = ("c_rad", "s_rad", "cte_per_k", "tref_c")
 
 
 class ParamFileError(RecordError):
@@ -236,8 +250,16 @@ def errmodel_from_mapping(value: Any, joints: int, src: str = "parameters") -> A
             raise ParamFileError(
                 f"{src}: unknown key {ERRMODEL_TABLE}.{k} (expected {', '.join(ERRMODEL_KEYS)})"
             )
-    lists: dict[str, list[tuple[float, ...]]] = {}
-    for k in ERRMODEL_KEYS:
+    if not value:
+        raise ParamFileError(f"{where}: an empty table (give c_rad and s_rad, or cte_per_k)")
+    if ("c_rad" in value) != ("s_rad" in value):
+        raise ParamFileError(f"{where}: c_rad and s_rad go together")
+    if "tref_c" in value and "cte_per_k" not in value:
+        raise ParamFileError(f"{where}: tref_c goes with cte_per_k")
+    lists: dict[str, list[tuple[float, ...]]] = {"c_rad": [()] * joints, "s_rad": [()] * joints}
+    for k in ("c_rad", "s_rad"):
+        if k not in value:
+            continue
         v = value.get(k)
         if not isinstance(v, list) or len(v) != joints or not all(isinstance(x, list) for x in v):
             raise ParamFileError(f"{where}.{k} must be {joints} lists (one per joint)")
@@ -255,18 +277,50 @@ def errmodel_from_mapping(value: Any, joints: int, src: str = "parameters") -> A
                 f"{HARMONICS_MAX}"
             )
         hs.append(tuple(zip(c, sv, strict=True)))
+    cte: tuple[float, ...] = ()
+    tref: tuple[float, ...] = ()
+    if "cte_per_k" in value:
+        cte = _floats(src, f"{ERRMODEL_TABLE}.cte_per_k", value["cte_per_k"], joints)
+        if "tref_c" in value:
+            tref = _floats(src, f"{ERRMODEL_TABLE}.tref_c", value["tref_c"], joints)
     try:
-        return ErrorModel(tuple(hs))
+        return ErrorModel(tuple(hs), cte_per_k=cte, tref_c=tref)
     except ValueError as exc:
         raise ParamFileError(f"{where}: {exc}") from None
 
 
 def errmodel_dict(em: Any) -> dict[str, Any]:
-    """The ``errmodel`` table of an :class:`aacmm.errmodel.ErrorModel` (harmonics)."""
-    return {
+    """The ``errmodel`` table of an :class:`aacmm.errmodel.ErrorModel`: its harmonics,
+    and its thermal part when it has one (a CTE other than 0: :func:`has_thermal`)."""
+    out: dict[str, Any] = {
         "c_rad": [[c for c, _ in h] for h in em.harmonics],
         "s_rad": [[s for _, s in h] for h in em.harmonics],
     }
+    if has_thermal(em):
+        out["cte_per_k"] = list(em.cte_per_k)
+        out["tref_c"] = list(em.tref_c)
+    return out
+
+
+def describe_errmodel(em: Any) -> str:
+    """One line for an :class:`aacmm.errmodel.ErrorModel`: its harmonics per joint (if
+    any, or if it has nothing else) and its thermal part (if any): ``encoder harmonics K
+    per joint 2,2,0,0,0,0; thermal expansion CTE per link 22e-6 .. 23.5e-6 /K,
+    reference 20 degC``."""
+    parts = []
+    if any(em.harmonics) or not has_thermal(em):
+        parts.append("encoder harmonics K per joint " + ",".join(str(len(h)) for h in em.harmonics))
+    if has_thermal(em):
+        lo, hi = min(em.cte_per_k), max(em.cte_per_k)
+        ref = ", ".join(f"{t:g}" for t in sorted(set(em.tref_c)))
+        span = f"{lo * 1e6:g}e-6" if lo == hi else f"{lo * 1e6:g}e-6 .. {hi * 1e6:g}e-6"
+        parts.append(f"thermal expansion CTE per link {span} /K, reference {ref} degC")
+    return "; ".join(parts)
+
+
+def has_thermal(em: Any) -> bool:
+    """An :class:`aacmm.errmodel.ErrorModel` with a thermal part: a CTE other than 0."""
+    return any(x != 0.0 for x in em.cte_per_k)
 
 
 def param_set_from_mapping(
