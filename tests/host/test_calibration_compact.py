@@ -16,7 +16,10 @@ points computed with the nominal arm (before) and with the calibrated arm (after
 same counts. The truth is read only to make the simulator's arm.
 
 Checked: the length error E_Uni (the worst ball-bar length error) and the worst
-single-point articulation 2 sigma (SPAT) fall by at least 20x. Both arms are simulated
+single-point articulation 2 sigma (SPAT) fall by at least 20x; the rank and the null
+space agree with an SVD built in the test from the session's readings; every null
+direction is one the quality gate accepts, and desk4's two ``geometry`` ones move no
+distance (checked by moving the arm along them). Both arms are simulated
 with 2^24-count encoders (the model file given to the simulator says so): their own
 (microscribe5 2^14 counts per turn, 0.38 mrad, 0.2 mm at 0.6 m; desk4 2^16, 96 urad,
 60 um) set a floor near or above what a 20x fall needs from a truth whose errors are
@@ -126,6 +129,7 @@ def test_arm_calibrated_and_verified_with_its_own_plans(
     res = calibrate(obs, model.arm)
     assert isinstance(res.params, Arm) and res.params.n_joints == model.n_joints
     _check_null_space(name, model, res)
+    _check_rank_against_an_independent_svd(name, s_cal, res)
 
     ver = read_session(s_ver)
     plan = ver.plan
@@ -182,3 +186,27 @@ def _check_null_space(name: str, model: ArmModel, res: object) -> None:
     e = np.zeros_like(v0)
     e[list(arm.param_names).index("a2")] = step_mm
     assert np.abs(_distances(arm.with_vector(v0 + e), theta) - d0).max() > 1e-3
+
+
+def _check_rank_against_an_independent_svd(name: str, session: Path, res: object) -> None:
+    """The rank and the null space the calibration reports agree with an SVD of the
+    nuisance-projected Jacobian built in the test (test_calibration_models_e2e's, from
+    the core's point Jacobians of the session's own readings), at the calibrated arm."""
+    from aacmm.core import Model
+    from test_calibration_models_e2e import projected_jacobian
+
+    arm = res.params  # type: ignore[attr-defined]
+    idn = res.identifiability  # type: ignore[attr-defined]
+    cols = list(idn.columns)  # the parameters not fixed by the model (d of a beta joint)
+    a = projected_jacobian(session, arm)[:, cols]
+    _, j = Model(arm).points_jacobians(read_session(session).angles_rad())
+    scale = np.sqrt(np.einsum("nak,nak->k", j, j))[cols]
+    _, sv, vt = np.linalg.svd(a / scale, full_matrices=True)
+    rank = int(np.sum(sv > 1e-4 * sv[0]))
+    assert sv[rank - 1] > 100 * sv[rank], (name, sv[rank - 1], sv[rank])  # a clean gap
+    assert idn.rank == rank and len(idn.null) == len(cols) - rank, name
+    ours = vt[rank:].T
+    named = np.column_stack([d.vector[cols] * scale for d in idn.null])
+    named /= np.linalg.norm(named, axis=0)
+    assert np.all(np.linalg.norm((a / scale) @ named, axis=0) <= 1e-4 * sv[0]), name
+    assert np.linalg.matrix_rank(np.column_stack([named, ours]), tol=1e-3) == ours.shape[1]
