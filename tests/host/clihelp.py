@@ -72,7 +72,8 @@ def capture_scenario(
     The link is a pty (``serial://folder/arm``), or with ``can=(IFACE, NODE)``
     SocketCAN (``aacmm sim --can IFACE --node NODE``, ``socketcan://IFACE?node=NODE``).
 
-    Returns the session folder, the simulator's report and the truth file it used.
+    Returns the session folder, the simulator's report and the truth file it used;
+    capture's stderr is in ``folder/capture.stderr``.
     """
     import json
     import subprocess
@@ -100,6 +101,7 @@ def capture_scenario(
         cap = run(
             "capture", str(plan), "-o", str(session), "--port", url, "-q", *extra, timeout=timeout
         )
+        (folder / "capture.stderr").write_text(cap.stderr, encoding="utf-8")
         if cap.returncode != 0:
             sim.kill()
             raise AssertionError(cap.stderr + sim.communicate()[1])

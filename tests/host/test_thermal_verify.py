@@ -346,3 +346,83 @@ def test_capture_temperature_on_the_simulator(tmp_path: Path) -> None:
     assert [r.get("temperature_c") for r in runs] == [27.5]
     m = load_session(session)
     assert m.stated_temperature_c == (27.5,) * len(m.points)
+
+
+# ------------------------------------------------------------------ the plan's stability band
+
+
+def _banded_plan(folder: Path, name: str, band: float = 3.0) -> Path:
+    """A shipped plan with a [verification] stability band of ``band`` degC around 20."""
+    from aacmm.plans import shipped_plan_path
+
+    text = shipped_plan_path(name).read_text(encoding="utf-8")
+    if "[verification]" in text:
+        text = text.replace(
+            "temperature_c = 20.0", f"temperature_c = 20.0\ntemperature_band_c = {band}"
+        )
+    else:
+        text += f"\n[verification]\ntemperature_c = 20.0\ntemperature_band_c = {band}\n"
+    out = folder / f"{name}-banded.toml"
+    out.write_text(text, encoding="utf-8")
+    return out
+
+
+def test_band_problem() -> None:
+    """The band is the span of the stated temperatures and their distance from the plan's."""
+    from aacmm.plans.model import Verification
+
+    v = Verification(temperature_c=20.0, temperature_band_c=3.0)
+    assert v.band_problem([]) is None and v.band_problem([20.0, 22.9]) is None
+    span = v.band_problem([21.0, 24.5])
+    assert span is not None and "spans 21 .. 24.5 C, more than the plan's 3 C" in span
+    far = v.band_problem([23.5])
+    assert far is not None and "23.5 C is 3.5 C from the plan's 20 C" in far
+    assert Verification(temperature_band_c=3.0).band_problem([30.0]) is None  # no reference
+    assert Verification().band_problem([20.0, 40.0]) is None  # no band
+
+
+def test_capture_warns_outside_the_band(tmp_path: Path) -> None:
+    """A plan with a 3 degC band around 20: a run stated at 24.5 degC gets one warning on
+    stderr (the capture goes on and completes); a run that states nothing gets a note."""
+    from clihelp import capture_scenario
+
+    plan = _banded_plan(tmp_path, "probe-calibration")
+    warm, _, _ = capture_scenario(
+        tmp_path / "warm", plan, "random:5", extra=("--temperature", "24.5")
+    )
+    err = (tmp_path / "warm" / "capture.stderr").read_text(encoding="utf-8")
+    assert (
+        "warning: the links' temperature 24.5 C is 4.5 C from the plan's 20 C, outside its 3 C"
+        in err
+    )
+    assert json.loads((warm / "session.json").read_text())["status"] == "complete"
+    capture_scenario(tmp_path / "unstated", plan, "random:5")
+    err = (tmp_path / "unstated" / "capture.stderr").read_text(encoding="utf-8")
+    assert "note: the plan asks for the links' temperature within a 3 C band" in err
+    assert "warning" not in err
+
+
+def test_verify_notes_a_session_outside_the_band(
+    warm_session: tuple[Path, Path, Params, float],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """verify of a session stated at 28 degC on a plan with a 3 degC band says it was not
+    taken in stable conditions (and still compensates); at 21 degC it says nothing."""
+    from aacmm.cli import main
+    from aacmm.plans import load_plan
+    from aacmm.records import read_session
+    from gate_study import Sampled, record, write_session
+
+    session, params, cal, _ = warm_session
+    plan = load_plan(_banded_plan(tmp_path, "arm-verification"))
+    counts = np.asarray(read_session(session).counts, dtype=np.int64)
+    in_force = record(cal)
+    for temp, noted in ((28.0, True), (21.0, False)):
+        s = write_session(
+            tmp_path / f"s{temp:g}", Sampled(plan, counts, in_force), serial=7, temperature_c=temp
+        )
+        main(["verify", str(s), "--params", str(params)])
+        out = capsys.readouterr().out
+        said = "outside its 3 C stability band: the session was not taken in stable conditions"
+        assert (said in out) == noted, out

@@ -191,7 +191,26 @@ class Capture:
             param_crc32=ps.crc_hex,
             **({} if stated is None else {"temperature_c": stated}),
         )
+        self._check_band(w, stated)
         return w
+
+    def _check_band(self, w: SessionWriter, stated: float | None) -> None:
+        """A plan's stability band: a warning when the temperatures stated for the
+        session's runs break it, a note when this run states none (the arm reads none)."""
+        band = self.plan.verification.temperature_band_c
+        if band is None:
+            return
+        if stated is None:
+            print_err(
+                "capture",
+                f"note: the plan asks for the links' temperature within a {band:g} C band; the "
+                "arm reads none: state it with --temperature C (a thermometer on the arm)",
+            )
+            return
+        temps = [r["temperature_c"] for r in w.meta["runs"] if "temperature_c" in r]
+        problem = self.plan.verification.band_problem(temps)
+        if problem is not None:
+            print_err("capture", f"warning: {problem}: let the arm settle before measuring")
 
     def _on_trigger(self, trig: Trigger) -> None:  # reader thread
         self.events.put((time.time(), trig))

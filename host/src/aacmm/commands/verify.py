@@ -232,6 +232,9 @@ def run_verify(args: argparse.Namespace) -> int:
                 f"the plan states the test at {planned:g} C; the session was taken at "
                 f"{_span([lo, hi])} ({done})",
             )
+        band = m.plan.verification.band_problem([lo, hi])
+        if band is not None:
+            notes = (*notes, f"{band}: the session was not taken in stable conditions")
         rep = replace(rep, temperature_c=hi if lo == hi else None, notes=notes)
     source = str(args.session)
     text = vr.text_report(rep, source)
