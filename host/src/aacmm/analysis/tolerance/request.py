@@ -254,7 +254,13 @@ class Workspace:
         if self.random:
             rng = self.ranges_rad
             full = np.allclose(rng, np.tile([-math.pi, math.pi], (self.joints, 1)))
-            how = "joints uniform in [-180, 180) deg" if full else "joints uniform in their ranges"
+            how = (
+                "joints uniform in [-180, 180) deg"
+                if full
+                else "joints uniform in "
+                + ", ".join(f"[{lo:g}, {hi:g})" for lo, hi in np.degrees(rng))
+                + " deg"
+            )
             parts.append(f"{self.random} random ({how}, seed {self.seed})")
         return ", ".join(parts) + " poses"
 

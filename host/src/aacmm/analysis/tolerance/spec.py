@@ -25,7 +25,7 @@ poses and joint ranges have N angles, encoders fit joints 1..N, and
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -252,7 +252,12 @@ def _poses(value: Any, unit: str, where: str, joints: int) -> FloatArray:
     return np.radians(a) if unit == "deg" else a
 
 
-def _workspace(doc: Mapping[str, Any], base: Path | None, joints: int) -> Workspace:
+def _workspace(
+    doc: Mapping[str, Any],
+    base: Path | None,
+    joints: int,
+    limits: Sequence[tuple[float, float]] | None = None,
+) -> Workspace:
     w = _table(doc, "workspace", "[workspace]")
     _no_unknown(w, _WORKSPACE, "[workspace]")
     pu = _str(w, "pose_unit", "[workspace]", "deg", ("deg", "rad"))
@@ -289,6 +294,9 @@ def _workspace(doc: Mapping[str, Any], base: Path | None, joints: int) -> Worksp
     if seed < 0:
         raise SpecError(f"[workspace].seed: must be >= 0, got {seed}")
     rng = np.tile([-180.0, 180.0], (joints, 1))
+    if limits is not None:  # an arm model's joint limits (rad): its random poses within them
+        rng = np.degrees(np.asarray(limits, dtype=np.float64))
+        rng[~np.isfinite(rng).all(axis=1)] = [-180.0, 180.0]
     if "joint_range_deg" in w:
         try:
             rng = np.asarray(w["joint_range_deg"], dtype=np.float64)
@@ -404,13 +412,18 @@ def parse_spec(
     base: Path | None = None,
     arm: Arm | None = None,
     model: str | None = None,
+    limits: Sequence[tuple[float, float]] | None = None,
 ) -> ToleranceSpec:
     """Build a :class:`ToleranceSpec` from a parsed TOML document.
 
     ``base`` is the directory relative file names (``[workspace].log``) are
     resolved against. ``arm``: the nominal arm (an arm model's, ``model`` its
     name); None or the paper's arm itself: the paper's arm, ``[nominal]``
-    allowed. Raises SpecError naming the field for anything invalid
+    allowed. ``limits``: the arm's joint limits (N pairs in rad, ``(-inf,
+    inf)`` for none: an arm model's ``joint_limits_rad``), the default range of
+    the random workspace poses (without: every joint in [-180, 180) deg; a
+    joint without limits keeps that); ``[workspace].joint_range_deg`` overrides
+    it. Raises SpecError naming the field for anything invalid
     (ArmParameterError: a parameter this arm does not have).
     """
     _no_unknown(doc, _TOP, "top level")
@@ -433,7 +446,9 @@ def parse_spec(
         params = the_arm = arm
     target = _target(doc, lu)
     costs = _param_costs(doc, au, lu, the_arm)
-    workspace = _workspace(doc, base, the_arm.n_joints)
+    if limits is not None and len(limits) != the_arm.n_joints:
+        raise ValueError(f"{len(limits)} joint limits for an arm of {the_arm.n_joints} joints")
+    workspace = _workspace(doc, base, the_arm.n_joints, limits)
     encoders = _encoders(doc, the_arm.n_joints)
     res = _table(doc, "residual", "[residual]")
     _no_unknown(res, _RESIDUAL, "[residual]")
@@ -458,9 +473,15 @@ def parse_spec(
         raise SpecError(f"{e}") from e
 
 
-def load_spec(path: str | Path, arm: Arm | None = None, model: str | None = None) -> ToleranceSpec:
+def load_spec(
+    path: str | Path,
+    arm: Arm | None = None,
+    model: str | None = None,
+    limits: Sequence[tuple[float, float]] | None = None,
+) -> ToleranceSpec:
     """Read and parse a tolerance spec file (see :func:`parse_spec`; ``arm``,
-    ``model``: the nominal arm and its model's name, default the paper's).
+    ``model``, ``limits``: the nominal arm, its model's name and its joint
+    limits, default the paper's arm with every joint in [-180, 180) deg).
 
     Raises SpecError ("FILE: FIELD: reason") if the file cannot be read, is
     not TOML (or is nested absurdly deep), or is invalid.
@@ -473,7 +494,7 @@ def load_spec(path: str | Path, arm: Arm | None = None, model: str | None = None
     except InputFileError as e:
         raise SpecError(str(e)) from e
     try:
-        spec = parse_spec(doc, p.parent, arm, model)
+        spec = parse_spec(doc, p.parent, arm, model, limits)
     except SpecError as e:
         raise type(e)(f"{p}: {e}") from e
     except ValueError as e:
