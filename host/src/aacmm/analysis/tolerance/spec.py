@@ -468,6 +468,11 @@ def parse_spec(
             lu,
             calibration,
             model=model,
+            joint_limits_rad=(
+                None
+                if limits is None or isinstance(params, Params)
+                else tuple((float(lo), float(hi)) for lo, hi in limits)
+            ),
         )
     except ValueError as e:
         raise SpecError(f"{e}") from e
