@@ -18,6 +18,7 @@ from aacmm.analysis import tolerance as tl
 from aacmm.arm import Arm
 from aacmm.cli import main
 from aacmm.commands.exitcodes import USAGE, WRONG_ARM
+from aacmm.core import Params
 from aacmm.models import load_model
 from aacmm.uncertainty import ArmParameterError
 from test_core_arm import oracle
@@ -252,3 +253,48 @@ def test_calibrated_allocation_of_any_arm(
     doc = json.loads(out_json.read_text())
     assert doc["calibration"]["set_by_calibration"] == list(a.set_by_calibration)
     assert "calibrated arm (plan " in out.out
+
+
+def test_nominal_from_a_parameter_file_of_any_arm(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``[nominal] file = "cal.toml"``: allocate around a calibrated set (here a
+    random truth's arm written as a parameter file) of the model's shape: the
+    design's points at the workspace poses are the numpy oracle's on that arm,
+    not on the model's nominal one; the paper's arm takes a file of its shape; a
+    file of another shape is one line, exit status 10."""
+    from importlib import resources
+
+    from aacmm.protocol import ParamSet
+    from aacmm.records.paramfile import dump_param_set
+    from aacmm.simulation.truth import model_truth
+
+    example = resources.files("aacmm").joinpath("data", "example_tolerance.toml").read_text()
+    for name in ("commercial7", "gao2013"):
+        model = load_model(name)
+        cal = model_truth(3, model).params
+        (tmp_path / f"{name}.toml").write_text(
+            dump_param_set(ParamSet.from_arm(cal, model.encoder_config()), "toml")
+        )
+        spec_file = tmp_path / f"spec_{name}.toml"
+        spec_file.write_text(example + f'\n[nominal]\nfile = "{name}.toml"\n')
+        if name == "gao2013":
+            spec = tl.load_spec(spec_file)
+            q = np.random.default_rng(2).uniform(-3.0, 3.0, (5, 6))
+            got = np.array([oracle(spec.arm, x)[0] for x in q])
+            want = np.array([oracle(cal, x)[0] for x in q])
+            assert isinstance(spec.params, Params) and np.allclose(got, want, rtol=0, atol=1e-9)
+            continue
+        spec = tl.load_spec(spec_file, model.arm, name, model.joint_limits_rad)
+        assert spec.arm == cal and spec.arm != model.arm
+        d = tl.allocate(spec).design
+        want = np.array([oracle(cal, q)[0] for q in d.poses])
+        assert np.max(np.abs(d.points - want)) < 1e-9
+        off = np.array([oracle(model.arm, q)[0] for q in d.poses])
+        assert np.max(np.abs(d.points - off)) > 0.1  # mm: the file's arm, not the model's
+    rc = main(["tolerance", str(tmp_path / "spec_commercial7.toml"), "--trials", "0"])
+    err = capsys.readouterr().err
+    assert rc == WRONG_ARM and err.count("\n") == 1 and "not of the paper's arm" in err
+    rc = main(["tolerance", str(tmp_path / "spec_gao2013.toml"), "--model", "commercial7"])
+    err = capsys.readouterr().err
+    assert rc == WRONG_ARM and err.count("\n") == 1 and "not of model commercial7" in err

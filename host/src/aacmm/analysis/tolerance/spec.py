@@ -44,10 +44,12 @@ from aacmm.analysis.tolerance.request import (
 )
 from aacmm.arm import Arm
 from aacmm.core import FloatArray, Params
+from aacmm.errors import AacmmError
 from aacmm.uncertainty.spec import (
     ANGLE_UNITS,
     DISTRIBUTIONS,
     LENGTH_UNITS,
+    ArmParameterError,
     SpecError,
     expand_name,
 )
@@ -407,6 +409,42 @@ def _calibration(doc: Mapping[str, Any], lu: str, base: Path | None) -> Calibrat
         raise SpecError(f"[calibration]: {e}") from e
 
 
+def _nominal_file(
+    nominal: Mapping[str, Any], base: Path | None, arm: Arm | None, model: str | None
+) -> Params | Arm:
+    """``[nominal] file = "FILE"``: the nominal arm from a parameter file (a
+    calibrated set, ``aacmm calibrate -o``; relative to the spec), of the shape
+    of ``arm`` (None: the paper's arm). Raises SpecError (ArmParameterError for
+    a file of another arm's shape)."""
+    from aacmm.records.paramfile import load_param_file
+
+    if set(nominal) != {"file"} or not isinstance(nominal["file"], str) or not nominal["file"]:
+        raise SpecError("[nominal].file: a parameter file's name, and nothing else in [nominal]")
+    path = Path(nominal["file"])
+    if base is not None and not path.is_absolute():
+        path = base / path
+    try:
+        ps = load_param_file(path)
+    except AacmmError as e:
+        raise SpecError(f"[nominal].file: {e}") from e
+    got = ps.to_arm()[0]
+    want = Arm.paper() if arm is None else arm
+    if (got.n_joints, got.tip, [(j.convention, j.beta_rad is None) for j in got.joints]) != (
+        want.n_joints,
+        want.tip,
+        [(j.convention, j.beta_rad is None) for j in want.joints],
+    ):
+        what = "the paper's arm" if arm is None else f"model {model or '(given)'}"
+        raise ArmParameterError(
+            f"[nominal].file: {path} is a set of an arm of {got.n_joints} joints and "
+            f"{got.n_params} parameters, not of {what} ({want.n_joints} joints, "
+            f"{want.n_params} parameters)"
+        )
+    if arm is None:
+        return ps.to_core()[0]
+    return got
+
+
 def parse_spec(
     doc: Mapping[str, Any],
     base: Path | None = None,
@@ -430,9 +468,14 @@ def parse_spec(
     au = _str(doc, "angle_unit", "top level", "arcsec", tuple(ANGLE_UNITS))
     lu = _str(doc, "length_unit", "top level", "um", tuple(LENGTH_UNITS))
     params: Params | Arm
-    if arm is None or arm == Arm.paper():
+    paper = arm is None or arm == Arm.paper()
+    nominal = _table(doc, "nominal", "[nominal]")
+    if "file" in nominal:
+        params = _nominal_file(nominal, base, arm if not paper else None, model)
+        the_arm = params.to_arm() if isinstance(params, Params) else params
+    elif paper:
         try:
-            params = Params(**_table(doc, "nominal", "[nominal]"))
+            params = Params(**nominal)
             params.validate()
         except (TypeError, ValueError) as e:
             raise SpecError(f"[nominal]: {e}") from e
@@ -441,8 +484,10 @@ def parse_spec(
         if "nominal" in doc:
             raise SpecError(
                 f"[nominal]: gives the paper's arm's values; the nominal arm here is the "
-                f"model {model or '(given)'}: remove [nominal] (or edit the model file)"
+                f"model {model or '(given)'}: remove [nominal], give a parameter file of "
+                "the arm (file = ...) or edit the model file"
             )
+        assert arm is not None
         params = the_arm = arm
     target = _target(doc, lu)
     costs = _param_costs(doc, au, lu, the_arm)
