@@ -56,6 +56,14 @@ SPAN_US = 200_000_000
 EPS_RAD = 1e-5  # float32 angles and the count rounding (< 1e-6 rad at these resolutions)
 
 
+class SimRanges(ctypes.Structure):
+    _fields_ = [
+        ("limited", ctypes.c_uint8 * JOINTS_MAX),
+        ("lo_rad", ctypes.c_float * JOINTS_MAX),
+        ("hi_rad", ctypes.c_float * JOINTS_MAX),
+    ]
+
+
 class SimConfig(ctypes.Structure):
     _fields_ = [
         ("motion", ctypes.c_int),
@@ -65,10 +73,7 @@ class SimConfig(ctypes.Structure):
         ("replay", ctypes.POINTER(ctypes.c_uint32)),
         ("replay_poses", ctypes.c_uint32),
         ("button_period_us", ctypes.c_uint64),
-        ("use_ranges", ctypes.c_uint8),
-        ("range_limited", ctypes.c_uint8 * JOINTS_MAX),
-        ("range_lo_rad", ctypes.c_float * JOINTS_MAX),
-        ("range_hi_rad", ctypes.c_float * JOINTS_MAX),
+        ("ranges", ctypes.POINTER(SimRanges)),
     ]
 
 
@@ -125,12 +130,13 @@ def _readings(
 ) -> np.ndarray:
     """The simulator's readings (rad in [0, 2 pi)) of joints 1..N over SPAN_US."""
     cfg = SimConfig(motion=motion, seed=17, counts_per_rev=cpr)
+    r = SimRanges()  # kept alive here while the simulation runs
     if ranges:
-        cfg.use_ranges = 1
         for j, lim in enumerate(limits):
             if lim is not None:
-                cfg.range_limited[j] = 1
-                cfg.range_lo_rad[j], cfg.range_hi_rad[j] = lim
+                r.limited[j] = 1
+                r.lo_rad[j], r.hi_rad[j] = lim
+        cfg.ranges = ctypes.pointer(r)
     sim = Sim()
     assert LIB.aacmm_sim_init(ctypes.byref(sim), ctypes.byref(cfg)) == 0
     counts = (ctypes.c_uint32 * JOINTS_MAX)()
@@ -191,19 +197,14 @@ def test_the_built_in_motion_would_leave_the_7_axis_limits() -> None:
 
 
 def test_bad_ranges_are_refused_by_the_library() -> None:
-    cfg = SimConfig(motion=WALK, seed=1, counts_per_rev=4096, use_ranges=1)
+    r = SimRanges()
+    cfg = SimConfig(motion=WALK, seed=1, counts_per_rev=4096, ranges=ctypes.pointer(r))
     sim = Sim()
-    cfg.range_limited[1] = 1
-    for lo, hi in (
-        (1.0, 1.0),
-        (2.0, 1.0),
-        (-3.2, 3.2),
-        (float("nan"), 1.0),
-        (0.0, 20.0),
-    ):
-        cfg.range_lo_rad[1], cfg.range_hi_rad[1] = lo, hi
+    r.limited[1] = 1
+    for lo, hi in ((1.0, 1.0), (2.0, 1.0), (-3.2, 3.2), (float("nan"), 1.0), (0.0, 20.0)):
+        r.lo_rad[1], r.hi_rad[1] = lo, hi
         assert LIB.aacmm_sim_init(ctypes.byref(sim), ctypes.byref(cfg)) != 0, (lo, hi)
-    cfg.range_lo_rad[1], cfg.range_hi_rad[1] = -1.0, 1.0
+    r.lo_rad[1], r.hi_rad[1] = -1.0, 1.0
     assert LIB.aacmm_sim_init(ctypes.byref(sim), ctypes.byref(cfg)) == 0
 
 

@@ -91,9 +91,7 @@ typedef struct {
     int have_motion;
     uint64_t serial_number;
     int have_limits; /* --joint-limits: the motion inside an arm model's ranges */
-    uint8_t limited[AACMM_JOINTS_MAX];
-    float limit_lo_rad[AACMM_JOINTS_MAX];
-    float limit_hi_rad[AACMM_JOINTS_MAX];
+    aacmm_sim_ranges_t ranges;
     uint8_t encoder; /* AACMM_ENC_* */
     uint64_t encoder_faults;
     int quiet;
@@ -142,7 +140,7 @@ static int parse_joint_limits(const char *v, options_t *o)
             return -1;
         }
         if (p[0] == '-' && (p[1] == ',' || p[1] == '\0')) {
-            o->limited[j] = 0u;
+            o->ranges.limited[j] = 0u;
             p += 1;
         } else {
             char *end;
@@ -161,9 +159,9 @@ static int parse_joint_limits(const char *v, options_t *o)
             if (!(lo >= -720.0 && hi <= 720.0 && lo < hi && hi - lo < 360.0)) {
                 return -1;
             }
-            o->limited[j] = 1u;
-            o->limit_lo_rad[j] = (float)(lo * 0.017453292519943295);
-            o->limit_hi_rad[j] = (float)(hi * 0.017453292519943295);
+            o->ranges.limited[j] = 1u;
+            o->ranges.lo_rad[j] = (float)(lo * 0.017453292519943295);
+            o->ranges.hi_rad[j] = (float)(hi * 0.017453292519943295);
             p = end;
         }
         j++;
@@ -401,12 +399,7 @@ int main(int argc, char **argv)
     sc.replay_poses = replay_n;
     sc.button_period_us = o.button_us;
     if (o.have_limits) {
-        sc.use_ranges = 1u;
-        for (i = 0; i < AACMM_JOINTS_MAX; i++) {
-            sc.range_limited[i] = o.limited[i];
-            sc.range_lo_rad[i] = o.limit_lo_rad[i];
-            sc.range_hi_rad[i] = o.limit_hi_rad[i];
-        }
+        sc.ranges = &o.ranges; /* o lives as long as main */
     }
     if (aacmm_sim_init(&port.sim, &sc) != AACMM_OK) {
         fprintf(stderr, "aacmm-sim: bad simulation settings\n");

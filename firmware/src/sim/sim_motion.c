@@ -12,10 +12,10 @@
 static const float centre_rad[AACMM_JOINTS] = {0.0f, 0.2f, -0.3f, 0.0f, 0.0f, 0.0f};
 static const float amplitude_rad[AACMM_JOINTS] = {3.0f, 1.3f, 2.2f, 3.0f, 1.5f, 3.0f};
 /* SWEEP periods, us: all different so the arm visits many combinations
- * (the seventh: joint 7's, also with use_ranges). */
+ * (the seventh: joint 7's, also with ranges). */
 static const uint32_t sweep_period_us[AACMM_JOINTS_MAX] = {
     25000000u, 19000000u, 15000000u, 12000000u, 9000000u, 7000000u, 11000000u};
-/* use_ranges: a joint without limits moves as the built-in rolls. */
+/* ranges: a joint without limits moves as the built-in rolls. */
 #define ROLL_AMPLITUDE_RAD 3.0f
 #define ROLL_STATIC_RAD 0.5f
 #define RANGE_LIMIT_MAX_RAD 12.5663706f /* 4 pi */
@@ -63,13 +63,13 @@ static float catmull_rom(float p0, float p1, float p2, float p3, float u)
                    (3.0f * p1 - p0 - 3.0f * p2 + p3) * u3);
 }
 
-/* use_ranges: joint j's centre and its sweep, walk and static amplitudes. */
-static void range_of(const aacmm_sim_config_t *cfg, int j, float *c, float *sweep, float *walk,
+/* ranges: joint j's centre and its sweep, walk and static amplitudes. */
+static void range_of(const aacmm_sim_ranges_t *r, int j, float *c, float *sweep, float *walk,
                      float *stat)
 {
-    if (cfg->range_limited[j] != 0u) {
-        float h = 0.5f * (cfg->range_hi_rad[j] - cfg->range_lo_rad[j]);
-        *c = 0.5f * (cfg->range_hi_rad[j] + cfg->range_lo_rad[j]);
+    if (r->limited[j] != 0u) {
+        float h = 0.5f * (r->hi_rad[j] - r->lo_rad[j]);
+        *c = 0.5f * (r->hi_rad[j] + r->lo_rad[j]);
         *sweep = 0.95f * h;
         *walk = 0.75f * h; /* Catmull-Rom overshoots by at most 1.25x */
         *stat = 0.25f * h;
@@ -81,7 +81,7 @@ static void range_of(const aacmm_sim_config_t *cfg, int j, float *c, float *swee
     }
 }
 
-/* use_ranges: joint j (0 .. AACMM_JOINTS_MAX - 1) at time t_us, inside its range. */
+/* ranges: joint j (0 .. AACMM_JOINTS_MAX - 1) at time t_us, inside its range. */
 static float range_angle(const aacmm_sim_t *sim, int j, uint64_t t_us)
 {
     const aacmm_sim_config_t *cfg = &sim->cfg;
@@ -89,7 +89,7 @@ static float range_angle(const aacmm_sim_t *sim, int j, uint64_t t_us)
     float sweep;
     float walk;
     float stat;
-    range_of(cfg, j, &c, &sweep, &walk, &stat);
+    range_of(cfg->ranges, j, &c, &sweep, &walk, &stat);
     switch (cfg->motion) {
     case AACMM_SIM_SWEEP: {
         uint32_t period = sweep_period_us[j];
@@ -115,13 +115,13 @@ static float range_angle(const aacmm_sim_t *sim, int j, uint64_t t_us)
     }
 }
 
-static int ranges_ok(const aacmm_sim_config_t *cfg)
+static int ranges_ok(const aacmm_sim_ranges_t *r)
 {
     int j;
     for (j = 0; j < AACMM_JOINTS_MAX; j++) {
-        float lo = cfg->range_lo_rad[j];
-        float hi = cfg->range_hi_rad[j];
-        if (cfg->range_limited[j] == 0u) {
+        float lo = r->lo_rad[j];
+        float hi = r->hi_rad[j];
+        if (r->limited[j] == 0u) {
             continue;
         }
         /* !(a <= b) also catches NaN */
@@ -164,7 +164,7 @@ aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg)
     default:
         return AACMM_ERR_RANGE;
     }
-    if (cfg->use_ranges != 0u && !ranges_ok(cfg)) {
+    if (cfg->ranges != NULL && !ranges_ok(cfg->ranges)) {
         return AACMM_ERR_RANGE;
     }
     sim->cfg = *cfg;
@@ -183,7 +183,7 @@ aacmm_status_t aacmm_sim_angles(const aacmm_sim_t *sim, uint64_t t_us,
     if (sim == NULL || theta_rad == NULL) {
         return AACMM_ERR_NULL;
     }
-    if (sim->cfg.use_ranges != 0u && sim->cfg.motion != AACMM_SIM_REPLAY) {
+    if (sim->cfg.ranges != NULL && sim->cfg.motion != AACMM_SIM_REPLAY) {
         for (j = 0; j < AACMM_JOINTS; j++) {
             theta_rad[j] = range_angle(sim, j, t_us);
         }
@@ -290,7 +290,7 @@ static float joint7_rad(const aacmm_sim_t *sim, uint64_t t_us)
     float phase;
     float s;
     float c;
-    if (sim->cfg.use_ranges != 0u) {
+    if (sim->cfg.ranges != NULL) {
         return range_angle(sim, AACMM_JOINTS, t_us);
     }
     if (sim->cfg.motion == AACMM_SIM_STATIC || sim->cfg.motion == AACMM_SIM_REPLAY) {
