@@ -12,6 +12,7 @@ ANALYSIS_PY_FILES := host/setup.py host/src/aacmm/_build_core.py host/src/aacmm/
                      tests/host/test_mc_arms.py \
                      tests/host/test_uncertainty.py tests/host/test_analysis_api.py \
                      tests/host/test_uncertainty_arms.py tests/host/test_mc_arms_cli.py \
+                     tests/host/test_analysis_model_limits.py \
                      tests/host/interrupt.py tests/host/portability.py \
                      tests/host/test_packaging.py host/src/aacmm/commands/mc.py \
                      host/src/aacmm/commands/uncertainty.py bench/bench_analysis.py
@@ -26,7 +27,8 @@ test-analysis:
 	$(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_core.py tests/host/test_core_oracle.py tests/host/test_core_kernels.py \
 	    tests/host/test_core_encoder.py tests/host/test_core_arm.py tests/host/test_core_binding.py \
-	    tests/host/test_core_errmodel.py tests/host/test_mc*.py tests/host/test_analysis_api.py tests/host/test_uncertainty*.py
+	    tests/host/test_core_errmodel.py tests/host/test_mc*.py tests/host/test_analysis_api.py tests/host/test_uncertainty*.py \
+	    tests/host/test_analysis_model_limits.py
 
 # The core suite again on the scalar kernel, forced as a user on a CPU without
 # the wide kernels would have it (issue 17: the wheel runs without AVX2).

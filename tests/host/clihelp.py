@@ -63,14 +63,17 @@ def capture_scenario(
     params: Path | None = None,
     timeout: float = 280,
     can: tuple[str, int] | None = None,
+    extra: tuple[str, ...] = (),
 ) -> tuple[Path, dict[str, Any], Path]:
     """A plan captured from the simulated operator, the way a user runs it:
     ``aacmm sim --scenario PLAN --truth TRUTH --fast`` and ``aacmm capture PLAN``
-    into ``folder/s``; ``params``: a parameter file loaded into the device first.
+    into ``folder/s``; ``params``: a parameter file loaded into the device first;
+    ``extra``: more options of ``aacmm capture``.
     The link is a pty (``serial://folder/arm``), or with ``can=(IFACE, NODE)``
     SocketCAN (``aacmm sim --can IFACE --node NODE``, ``socketcan://IFACE?node=NODE``).
 
-    Returns the session folder, the simulator's report and the truth file it used.
+    Returns the session folder, the simulator's report and the truth file it used;
+    capture's stderr is in ``folder/capture.stderr``.
     """
     import json
     import subprocess
@@ -95,7 +98,10 @@ def capture_scenario(
         if params is not None:
             p = run("params", "set", str(params), "--port", url)
             assert p.returncode == 0, p.stderr
-        cap = run("capture", str(plan), "-o", str(session), "--port", url, "-q", timeout=timeout)
+        cap = run(
+            "capture", str(plan), "-o", str(session), "--port", url, "-q", *extra, timeout=timeout
+        )
+        (folder / "capture.stderr").write_text(cap.stderr, encoding="utf-8")
         if cap.returncode != 0:
             sim.kill()
             raise AssertionError(cap.stderr + sim.communicate()[1])

@@ -100,13 +100,15 @@ def write_session(
     serial: int,
     status: str | None = None,
     firmware: str = "0.1.0",
+    **run_info: float,
 ) -> Path:
     """The session as ``aacmm capture`` writes it (device serial ``serial``); its status
-    ``complete`` when every slot has its point, else ``interrupted``, unless given."""
+    ``complete`` when every slot has its point, else ``interrupted``, unless given;
+    ``run_info``: more keys of its run (``temperature_c``, as ``capture --temperature``)."""
     w = SessionWriter.create(
         folder, s.plan, device={"serial_number": serial, "firmware": firmware}, port="sim"
     )
-    w.begin_run("capture", serial_number=serial, param_crc32=s.in_force.crc_hex)
+    w.begin_run("capture", serial_number=serial, param_crc32=s.in_force.crc_hex, **run_info)
     w.set_param_set(s.in_force)
     pts = s.points()
     for i in range(s.n):

@@ -117,7 +117,11 @@ def test_short_verification_session_refused_then_overridden(
     prov = json.loads(out.with_name("bad.provenance.json").read_text())
     gate = prov["quality_gate"]
     assert gate["override"] is True and gate["passed"] is False
-    assert {r["check"] for r in gate["refusals"]} >= {"session", "uncertainty", "prediction"}
+    assert {r["check"] for r in gate["refusals"]} >= {
+        "session",
+        "uncertainty",
+        "prediction",
+    }
     text = out.read_text()
     assert "# WRITTEN WITH --override" in text
     _, ident = load_param_file_arm(out)
@@ -136,7 +140,13 @@ def test_interrupted_session_refused(arm: dict[str, object], tmp_path: Path) -> 
     one_error_line(p, REFUSED, "interrupted", "100 of 135 points", "capture --resume")
     assert _no_outputs(tmp_path) == []
     code, _, err = calibrate_cli(
-        str(folder), "-o", str(tmp_path / "c.toml"), "-q", "--override", "--workspace", "0"
+        str(folder),
+        "-o",
+        str(tmp_path / "c.toml"),
+        "-q",
+        "--override",
+        "--workspace",
+        "0",
     )
     assert code == 0, err
     prov = json.loads((tmp_path / "c.provenance.json").read_text())
@@ -211,7 +221,15 @@ def test_sessions_of_two_arms_are_refused(arm: dict[str, object], tmp_path: Path
     b = write_session(tmp_path / "b", sample(plan, truth, record(Params()), rng), SERIAL + 1)  # type: ignore[arg-type]
     p = run("calibrate", str(a), str(b), "-o", str(tmp_path / "c.toml"), timeout=300)
     one_error_line(p, USAGE, "serial number", str(SERIAL + 1), "one arm")
-    p = run("calibrate", str(a), "-o", str(tmp_path / "c.toml"), "--validate", str(b), timeout=300)
+    p = run(
+        "calibrate",
+        str(a),
+        "-o",
+        str(tmp_path / "c.toml"),
+        "--validate",
+        str(b),
+        timeout=300,
+    )
     one_error_line(p, USAGE, "serial number", "one arm")
 
 
@@ -232,7 +250,10 @@ def test_twenty_random_arms_never_made_worse() -> None:
     bad = [a for a in written if study.worse(a)]
     assert not bad, [(a.seed, a.state, a.data, a.before, a.after) for a in bad]
     for a in study.rows("uncalibrated", "kinematic-calibration"):
-        assert a.written, (a.seed, a.refusals)  # every arm's own calibration goes through
+        assert a.written, (
+            a.seed,
+            a.refusals,
+        )  # every arm's own calibration goes through
         assert a.after["e_uni"] * 20 < a.before["e_uni"] and a.after["spat"] * 20 < a.before["spat"]
     for state in ("uncalibrated", "calibrated"):
         for data, check in (
@@ -242,7 +263,12 @@ def test_twenty_random_arms_never_made_worse() -> None:
             ("seats only 3x25", "rank"),
         ):
             for a in study.rows(state, data):
-                assert not a.written and check in a.refusals, (a.seed, state, data, a.refusals)
+                assert not a.written and check in a.refusals, (
+                    a.seed,
+                    state,
+                    data,
+                    a.refusals,
+                )
     # the repro: cut to 40 points, the calibrated arm would get worse, every time
     cut = study.rows("calibrated", "verification cut to 40")
     assert all(study.worse(a) for a in cut)
@@ -325,7 +351,10 @@ def test_validation_worse_and_limits() -> None:
         previous_from_provenance(
             {
                 "format": "aacmm-calibration-1",
-                "result": {"calibrated": dict.fromkeys(PARAM_NAMES, 0.0), "covariance": [[0.0]]},
+                "result": {
+                    "calibrated": dict.fromkeys(PARAM_NAMES, 0.0),
+                    "covariance": [[0.0]],
+                },
             },
             "p.json",
         )
@@ -357,7 +386,12 @@ def test_probe_calibration_of_an_uncalibrated_arm_is_honest(tmp_path: Path) -> N
     0.9 um. Now the uncertainty is scaled by sqrt(chi^2/dof) and agrees with a
     jackknife of the calibration's own points and with the pivot scatter."""
     truth = random_truth(7)
-    s = sample(load_plan("probe-calibration"), truth, record(Params()), np.random.default_rng(70))
+    s = sample(
+        load_plan("probe-calibration"),
+        truth,
+        record(Params()),
+        np.random.default_rng(70),
+    )
     obs = s.observations(0.005)
     pr = calibrate_probe(obs, Params())
     res = pr.result
@@ -428,3 +462,30 @@ def test_params_set_refuses_another_arms_calibration(tmp_path: Path) -> None:
         assert p.returncode == 0 and "read back and identical" in p.stdout, p.stderr
     p = run("params", "set", str(out), "--check")
     assert p.returncode == 0 and f"for the arm with serial number {SERIAL}" in p.stdout
+
+
+def test_limits_widen_for_a_small_arm_or_coarse_encoders() -> None:
+    """``GateLimits.for_arm``: the paper's arm (2^32 counts, points some 860 mm out) keeps
+    the defaults exactly; a 16-bit arm at a 300 mm lever gets the angle worth the length
+    limit there; a 14-bit digitizer three quantisation steps, computed here from the
+    uniform distribution's variance (one count squared over 12) by numerical integration."""
+    from aacmm.calibration.gate import ARCSEC_RAD, GateLimits
+
+    default = GateLimits()
+    paper = GateLimits.for_arm([1 << 32] * 6, 863.0)
+    assert (paper.max_u_length_mm, paper.max_u_angle_rad) == (
+        default.max_u_length_mm,
+        default.max_u_angle_rad,
+    )
+    desk = GateLimits.for_arm([1 << 16] * 4, 300.0)
+    assert desk.max_u_length_mm == default.max_u_length_mm
+    assert desk.max_u_angle_rad / ARCSEC_RAD == pytest.approx(0.050 / 300.0 / ARCSEC_RAD)
+    count = 2 * math.pi / (1 << 14)
+    x = np.linspace(-count / 2, count / 2, 200001)
+    u_q = math.sqrt(float(np.trapezoid(x**2, x)) / count)
+    digitizer = GateLimits.for_arm([1 << 14, 1 << 16], 300.0)  # the coarsest encoder counts
+    assert digitizer.max_u_angle_rad == pytest.approx(3 * u_q, rel=1e-6)
+    assert digitizer.max_u_length_mm == pytest.approx(3 * u_q * 300.0, rel=1e-6)
+    for bad in (([], 300.0), ([1], 300.0), ([1 << 16], 0.0), ([1 << 16], math.nan)):
+        with pytest.raises(ValueError):
+            GateLimits.for_arm(*bad)

@@ -595,6 +595,36 @@ def test_demo_of_a_seven_axis_model(demo_model: Run) -> None:
     assert got["before"] >= 20 * got["after"]
 
 
+def test_demo_of_a_desktop_digitizer(tmp_path: Path) -> None:
+    """``aacmm demo --model microscribe5``: a 5-axis arm with 14-bit encoders (one count
+    is 79" of arc) calibrates and then passes its plan's desktop-class MPEs. The quality
+    gate's uncertainty limits are widened for its encoders and its short lever (the
+    default 20" is ten times what the paper's arm reaches), and it says so; the truth
+    check improves at least 5x (the encoders' quantisation is a floor of some 45 um)."""
+    from aacmm.calibration.gate import GateLimits
+
+    out = tmp_path / "run"
+    p = subprocess.run(
+        [str(AACMM), "demo", "--model", "microscribe5", "--out", str(out), "--seed", "6"],
+        capture_output=True,
+        text=True,
+        timeout=500,
+        env=cli_env(),
+        check=False,
+    )
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr
+    limits = re.search(r'uncertainty limits: ([\d.]+) um, ([\d.]+)" \(defaults', p.stdout)
+    assert limits is not None, p.stdout
+    default = GateLimits()
+    assert float(limits[1]) > default.max_u_length_mm * 1e3
+    assert float(limits[2]) > 20.0 and "widened for this arm's encoders" in p.stdout
+    rows = before_after_table(p.stdout)
+    assert rows["verdict"]["verdicts"] == ("FAIL", "PASS")
+    text = _block(p.stdout, "aacmm demo --check .")
+    got = {s.split()[0]: float(s.split()[1]) for s in text if s.split()[0] in ("before", "after")}
+    assert got["before"] >= 5 * got["after"], got
+
+
 def test_demo_refuses_a_bad_model_before_anything(tmp_path: Path) -> None:
     """An unknown model, or a model file that is not valid, is one line and exit 2, and
     nothing is written (not even the output folder)."""

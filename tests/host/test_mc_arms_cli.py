@@ -81,7 +81,16 @@ def test_mc_model_of_a_seven_axis_arm(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "theta7" in out and "paper" not in out.split("\n", 2)[2]
     doc = json.loads(out_json.read_text())
     assert "table2" not in doc and doc["arm"]["model"] == "commercial7"
-    theta = mc_poses.draw_poses(1500, seed=5, count=7)
+    # the poses: within the model's joint limits (its hinges' own ranges), each
+    # joint drawn uniformly between its limits ([-180, 180) deg for a roll)
+    model = load_model("commercial7")
+    ranges = [
+        (-math.pi, math.pi) if math.isinf(lo) else (lo, hi) for lo, hi in model.joint_limits_rad
+    ]
+    assert "uniform[-150, 150) deg" in out and "uniform[-115, 115) deg" in out
+    js = [mc_poses.JointDistribution.uniform(lo, hi) for lo, hi in ranges]
+    theta = mc_poses.draw_poses(1500, js, seed=5, count=7)
+    assert all(model.within_limits(q) for q in theta)
     ref = np.abs(np.array([oracle(arm, q)[1] for q in theta])).mean(axis=0)
     assert np.allclose(_coefficients(doc, arm.param_names), ref, rtol=1e-9, atol=1e-9)
     rows = list(csv.DictReader(out_csv.open()))

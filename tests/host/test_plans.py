@@ -425,6 +425,18 @@ def test_plan_cli(tmp_path: Path) -> None:
             "verification.temperature_c",
             "outside -20..60 deg C",
         ),
+        (
+            'preset = "iso10360-12"\n',
+            'preset = "iso10360-12"\n[verification]\ntemperature_band_c = 0\n',
+            "verification.temperature_band_c",
+            "a stability band of 0 deg C: it must be above 0 and at most 20 deg C",
+        ),
+        (
+            'preset = "iso10360-12"\n',
+            'preset = "iso10360-12"\n[verification]\ntemperature_band_c = 25\n',
+            "verification.temperature_band_c",
+            "at most 20 deg C",
+        ),
     ],
 )
 def test_implausible_plans(tmp_path: Path, old: str, new: str, field: str, words: str) -> None:

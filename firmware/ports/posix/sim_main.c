@@ -42,7 +42,7 @@ static void usage(FILE *f)
           "                 [--noise-counts N] [--encoder-bits B | --cpr N]\n"
           "                 [--encoder biss|ssi|ssi-gray|counts] [--encoder-faults N]\n"
           "                 [--button-every SECONDS] [--control FD] [--serial-number N]\n"
-          "                 [--param-set FILE] [--quiet]\n"
+          "                 [--param-set FILE] [--joint-limits LO:HI,..|-,..] [--quiet]\n"
           "At least one of --serial and --can. See docs/simulator.md.\n",
           f);
 }
@@ -90,6 +90,8 @@ typedef struct {
     const char *control;
     int have_motion;
     uint64_t serial_number;
+    int have_limits; /* --joint-limits: the motion inside an arm model's ranges */
+    aacmm_sim_ranges_t ranges;
     uint8_t encoder; /* AACMM_ENC_* */
     uint64_t encoder_faults;
     int quiet;
@@ -124,6 +126,53 @@ static int load_param_set(const char *path, aacmm_param_set_t *set, char *err, s
     }
     *set = p;
     return 0;
+}
+
+/* --joint-limits: 1 to AACMM_JOINTS_MAX comma-separated items, each LO:HI in
+ * degrees (LO < HI, within +-720, a span under 360) or '-' (no limit, a roll);
+ * joints past the list have none. 0, or -1 for a malformed list. */
+static int parse_joint_limits(const char *v, options_t *o)
+{
+    const char *p = v;
+    int j = 0;
+    for (;;) {
+        if (j >= AACMM_JOINTS_MAX) {
+            return -1;
+        }
+        if (p[0] == '-' && (p[1] == ',' || p[1] == '\0')) {
+            o->ranges.limited[j] = 0u;
+            p += 1;
+        } else {
+            char *end;
+            double lo;
+            double hi;
+            errno = 0;
+            lo = strtod(p, &end);
+            if (errno != 0 || end == p || *end != ':') {
+                return -1;
+            }
+            p = end + 1;
+            hi = strtod(p, &end);
+            if (errno != 0 || end == p || (*end != ',' && *end != '\0')) {
+                return -1;
+            }
+            if (!(lo >= -720.0 && hi <= 720.0 && lo < hi && hi - lo < 360.0)) {
+                return -1;
+            }
+            o->ranges.limited[j] = 1u;
+            o->ranges.lo_rad[j] = (float)(lo * 0.017453292519943295);
+            o->ranges.hi_rad[j] = (float)(hi * 0.017453292519943295);
+            p = end;
+        }
+        j++;
+        if (*p == '\0') {
+            return 0;
+        }
+        p++; /* the comma */
+        if (*p == '\0') {
+            return -1;
+        }
+    }
 }
 
 static int parse_args(int argc, char **argv, options_t *o)
@@ -236,6 +285,13 @@ static int parse_args(int argc, char **argv, options_t *o)
             if (parse_u64(v, 0u, UINT32_MAX, &o->encoder_faults) != 0) {
                 return usage_error("--encoder-faults: '%s' is not a number 0..4294967295", v);
             }
+        } else if (strcmp(name, "--joint-limits") == 0) {
+            if (parse_joint_limits(v, o) != 0) {
+                return usage_error("--joint-limits: '%s' is not 1..7 comma-separated LO:HI "
+                                   "(deg, LO < HI, within +-720, a span under 360) or '-'",
+                                   v);
+            }
+            o->have_limits = 1;
         } else if (strcmp(name, "--control") == 0) {
             o->control = v;
         } else if (strcmp(name, "--serial-number") == 0) {
@@ -248,6 +304,10 @@ static int parse_args(int argc, char **argv, options_t *o)
     }
     if (o->have_bits && o->have_cpr) {
         return usage_error("%s", "--encoder-bits and --cpr are mutually exclusive");
+    }
+    if (o->have_limits && (o->control != NULL || o->motion == AACMM_SIM_REPLAY)) {
+        return usage_error("%s", "--joint-limits shapes the simulator's own motion: not with "
+                                 "--control or --motion replay:FILE");
     }
     if (o->control != NULL && (o->have_motion || o->noise != 0u || o->button_us != 0u)) {
         return usage_error("%s", "--control drives the encoders and buttons: no --motion, "
@@ -338,6 +398,9 @@ int main(int argc, char **argv)
     sc.replay = replay;
     sc.replay_poses = replay_n;
     sc.button_period_us = o.button_us;
+    if (o.have_limits) {
+        sc.ranges = &o.ranges; /* o lives as long as main */
+    }
     if (aacmm_sim_init(&port.sim, &sc) != AACMM_OK) {
         fprintf(stderr, "aacmm-sim: bad simulation settings\n");
         return SIM_EXIT_USAGE;

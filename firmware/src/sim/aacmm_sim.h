@@ -56,6 +56,22 @@ typedef enum {
 #define AACMM_SIM_NOISE_MAX 0x40000000u     /* largest noise amplitude, counts */
 #define AACMM_SIM_BUTTON_HOLD_US 200000u    /* how long a press lasts (at most half the period) */
 
+/*
+ * Joint ranges of an arm model for the motion (aacmm_sim_config_t.ranges):
+ * every joint 1..7 then moves inside its own range (docs/simulator.md,
+ * "Joint limits of the simulator's own motion"). A limited joint
+ * (limited[j] = 1, lo_rad[j] < hi_rad[j], a span under 2 pi, within +-4 pi)
+ * about its centre c with half range h: SWEEP c + 0.95 h sin, WALK waypoints
+ * c + 0.75 h u (the spline overshoots by at most 1.25x: within 0.94 h),
+ * STATIC c + 0.25 h; a joint without limits (limited[j] = 0) as a roll:
+ * SWEEP +-3 rad, WALK waypoints +-2.7 rad, STATIC 0.5 rad.
+ */
+typedef struct {
+    uint8_t limited[AACMM_JOINTS_MAX];
+    float lo_rad[AACMM_JOINTS_MAX];
+    float hi_rad[AACMM_JOINTS_MAX];
+} aacmm_sim_ranges_t;
+
 typedef struct {
     aacmm_sim_motion_t motion;
     uint32_t seed;            /* WALK waypoints and the noise generator */
@@ -64,6 +80,10 @@ typedef struct {
     const uint32_t *replay;   /* REPLAY: replay_poses * 6 counts, each < counts_per_rev */
     uint32_t replay_poses;    /* >= 1 for REPLAY */
     uint64_t button_period_us; /* a press every period (first at t = period); 0 = never */
+    /* An arm model's joint limits (aacmm-sim --joint-limits), the caller's
+     * (it must outlive the simulation): NULL (memset) keeps the built-in
+     * motion of the paper's arm on joints 1..6 and joint 7's roll. */
+    const aacmm_sim_ranges_t *ranges;
 } aacmm_sim_config_t;
 
 typedef struct {
@@ -74,7 +94,9 @@ typedef struct {
 
 /*
  * Check *cfg and set up *sim. AACMM_ERR_NULL, AACMM_ERR_RANGE (unknown
- * motion, resolution, noise, empty replay or a replay count >= cpr), else
+ * motion, resolution, noise, empty replay or a replay count >= cpr; with
+ * ranges a limited joint's range not finite, lo >= hi, a span of 2 pi or
+ * more or a limit beyond +-4 pi), else
  * AACMM_OK. Cost: O(replay_poses) for the replay check.
  */
 aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg);
@@ -90,7 +112,8 @@ aacmm_status_t aacmm_sim_angles(const aacmm_sim_t *sim, uint64_t t_us,
 /*
  * One encoder reading at time t_us: counts[i] < cpr (REPLAY: the next pose)
  * for joints 1..6 and a seventh (for 7-joint arm models: 0.7 rad, or a
- * noise-free sweep of +-2.5 rad in 11 s with SWEEP and WALK). Advances the
+ * noise-free sweep of +-2.5 rad in 11 s with SWEEP and WALK; with ranges
+ * the seventh joint's own range, noise-free). Advances the
  * noise generator and the replay position. AACMM_ERR_NULL or
  * AACMM_OK. Cost: as aacmm_sim_angles plus 6 conversions.
  */

@@ -11,9 +11,14 @@
  * 4 and 6 turn almost all the way round; 2, 3 and 5 are hinge-like. */
 static const float centre_rad[AACMM_JOINTS] = {0.0f, 0.2f, -0.3f, 0.0f, 0.0f, 0.0f};
 static const float amplitude_rad[AACMM_JOINTS] = {3.0f, 1.3f, 2.2f, 3.0f, 1.5f, 3.0f};
-/* SWEEP periods, us: all different so the arm visits many combinations. */
-static const uint32_t sweep_period_us[AACMM_JOINTS] = {25000000u, 19000000u, 15000000u,
-                                                       12000000u, 9000000u,  7000000u};
+/* SWEEP periods, us: all different so the arm visits many combinations
+ * (the seventh: joint 7's, also with ranges). */
+static const uint32_t sweep_period_us[AACMM_JOINTS_MAX] = {
+    25000000u, 19000000u, 15000000u, 12000000u, 9000000u, 7000000u, 11000000u};
+/* ranges: a joint without limits moves as the built-in rolls. */
+#define ROLL_AMPLITUDE_RAD 3.0f
+#define ROLL_STATIC_RAD 0.5f
+#define RANGE_LIMIT_MAX_RAD 12.5663706f /* 4 pi */
 /* STATIC pose, rad. */
 static const float static_pose_rad[AACMM_JOINTS] = {0.5f, 0.6f, -0.9f, 0.4f, 1.2f, -0.3f};
 
@@ -34,13 +39,98 @@ static float unit_from_hash(uint32_t h)
     return (float)(h >> 8) * (2.0f / 16777215.0f) - 1.0f;
 }
 
-static float waypoint(uint32_t seed, int joint, uint64_t k)
+/* Uniform in [-1, 1]: the waypoint of (seed, joint, segment k). */
+static float waypoint_unit(uint32_t seed, int joint, uint64_t k)
 {
     uint32_t h = mix32(seed ^ mix32((uint32_t)joint * 0x9E3779B9u + 0x632BE5ABu));
     h = mix32(h ^ (uint32_t)(k & 0xFFFFFFFFu));
     h = mix32(h ^ (uint32_t)(k >> 32) ^ 0x5BD1E995u);
+    return unit_from_hash(h);
+}
+
+static float waypoint(uint32_t seed, int joint, uint64_t k)
+{
     /* 0.9 of the range leaves room for the spline's overshoot. */
-    return centre_rad[joint] + 0.9f * amplitude_rad[joint] * unit_from_hash(h);
+    return centre_rad[joint] + 0.9f * amplitude_rad[joint] * waypoint_unit(seed, joint, k);
+}
+
+/* Catmull-Rom through p0..p3 at u in [0, 1) (between p1 and p2). */
+static float catmull_rom(float p0, float p1, float p2, float p3, float u)
+{
+    float u2 = u * u;
+    float u3 = u2 * u;
+    return 0.5f * (2.0f * p1 + (p2 - p0) * u + (2.0f * p0 - 5.0f * p1 + 4.0f * p2 - p3) * u2 +
+                   (3.0f * p1 - p0 - 3.0f * p2 + p3) * u3);
+}
+
+/* ranges: joint j's centre and its sweep, walk and static amplitudes. */
+static void range_of(const aacmm_sim_ranges_t *r, int j, float *c, float *sweep, float *walk,
+                     float *stat)
+{
+    if (r->limited[j] != 0u) {
+        float h = 0.5f * (r->hi_rad[j] - r->lo_rad[j]);
+        *c = 0.5f * (r->hi_rad[j] + r->lo_rad[j]);
+        *sweep = 0.95f * h;
+        *walk = 0.75f * h; /* Catmull-Rom overshoots by at most 1.25x */
+        *stat = 0.25f * h;
+    } else {
+        *c = 0.0f;
+        *sweep = ROLL_AMPLITUDE_RAD;
+        *walk = 0.9f * ROLL_AMPLITUDE_RAD;
+        *stat = ROLL_STATIC_RAD;
+    }
+}
+
+/* ranges: joint j (0 .. AACMM_JOINTS_MAX - 1) at time t_us, inside its range. */
+static float range_angle(const aacmm_sim_t *sim, int j, uint64_t t_us)
+{
+    const aacmm_sim_config_t *cfg = &sim->cfg;
+    float c;
+    float sweep;
+    float walk;
+    float stat;
+    range_of(cfg->ranges, j, &c, &sweep, &walk, &stat);
+    switch (cfg->motion) {
+    case AACMM_SIM_SWEEP: {
+        uint32_t period = sweep_period_us[j];
+        float phase = (float)(uint32_t)(t_us % period) / (float)period;
+        float s;
+        float co;
+        aacmm_sincos_f32(TWO_PI_F * phase, &s, &co);
+        return c + sweep * s;
+    }
+    case AACMM_SIM_WALK: {
+        uint64_t k = t_us / AACMM_SIM_WALK_SEGMENT_US + 1u; /* +1: k - 1 never wraps */
+        float u = (float)(uint32_t)(t_us % AACMM_SIM_WALK_SEGMENT_US) /
+                  (float)AACMM_SIM_WALK_SEGMENT_US;
+        return c + walk * catmull_rom(waypoint_unit(cfg->seed, j, k - 1u),
+                                      waypoint_unit(cfg->seed, j, k),
+                                      waypoint_unit(cfg->seed, j, k + 1u),
+                                      waypoint_unit(cfg->seed, j, k + 2u), u);
+    }
+    case AACMM_SIM_STATIC:
+    case AACMM_SIM_REPLAY:
+    default:
+        return c + stat;
+    }
+}
+
+static int ranges_ok(const aacmm_sim_ranges_t *r)
+{
+    int j;
+    for (j = 0; j < AACMM_JOINTS_MAX; j++) {
+        float lo = r->lo_rad[j];
+        float hi = r->hi_rad[j];
+        if (r->limited[j] == 0u) {
+            continue;
+        }
+        /* !(a <= b) also catches NaN */
+        if (!(lo >= -RANGE_LIMIT_MAX_RAD) || !(hi <= RANGE_LIMIT_MAX_RAD) || !(lo < hi) ||
+            !(hi - lo < TWO_PI_F)) {
+            return 0;
+        }
+    }
+    return 1;
 }
 
 aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg)
@@ -74,6 +164,9 @@ aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg)
     default:
         return AACMM_ERR_RANGE;
     }
+    if (cfg->ranges != NULL && !ranges_ok(cfg->ranges)) {
+        return AACMM_ERR_RANGE;
+    }
     sim->cfg = *cfg;
     sim->rng = mix32(cfg->seed ^ 0xA5A5A5A5u);
     if (sim->rng == 0u) {
@@ -89,6 +182,12 @@ aacmm_status_t aacmm_sim_angles(const aacmm_sim_t *sim, uint64_t t_us,
     int j;
     if (sim == NULL || theta_rad == NULL) {
         return AACMM_ERR_NULL;
+    }
+    if (sim->cfg.ranges != NULL && sim->cfg.motion != AACMM_SIM_REPLAY) {
+        for (j = 0; j < AACMM_JOINTS; j++) {
+            theta_rad[j] = range_angle(sim, j, t_us);
+        }
+        return AACMM_OK;
     }
     switch (sim->cfg.motion) {
     case AACMM_SIM_STATIC:
@@ -191,6 +290,9 @@ static float joint7_rad(const aacmm_sim_t *sim, uint64_t t_us)
     float phase;
     float s;
     float c;
+    if (sim->cfg.ranges != NULL) {
+        return range_angle(sim, AACMM_JOINTS, t_us);
+    }
     if (sim->cfg.motion == AACMM_SIM_STATIC || sim->cfg.motion == AACMM_SIM_REPLAY) {
         return 0.7f;
     }

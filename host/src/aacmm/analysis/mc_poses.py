@@ -86,6 +86,15 @@ def joint_distributions(
     return out
 
 
+def limit_distributions(
+    ranges_rad: Sequence[tuple[float, float]],
+) -> tuple[JointDistribution, ...]:
+    """One uniform distribution per joint in [lowest, highest) rad: random poses within
+    an arm's joint limits (an arm model's ``sampling_ranges_rad()``); ValueError if a
+    range is not finite or low >= high."""
+    return tuple(JointDistribution.uniform(lo, hi) for lo, hi in ranges_rad)
+
+
 def seed_entropy(seed: int | None) -> int:
     """The seed as entropy (``None``: a fresh one); ValueError unless a non-negative integer."""
     if seed is None:

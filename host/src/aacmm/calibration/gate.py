@@ -11,7 +11,8 @@ calibration and returns the reasons to refuse it (none: it may be written):
 ``rank``
     an unobservable direction that is not a symmetry of the model: the data
     cannot see the arm's scale, or a combination of parameters at all
-    (``scale``, ``other``; :mod:`aacmm.calibration.identifiability`). The
+    (``scale``, ``parallel``, ``other``; :mod:`aacmm.calibration.identifiability`;
+    ``geometry``, a combination no pose can observe, is a symmetry). The
     solve holds such directions at their start values, which leaves the
     calibrated set as wrong there as the set in force, while the covariance
     (zero for held parameters) says nothing about it;
@@ -88,13 +89,16 @@ from aacmm.core import JOINTS, FloatArray, Model, Params
 ARCSEC_RAD = math.pi / 648000.0
 _HARMONIC = re.compile(r"[cs]\d+_\d+")
 #: the null-space kinds that are symmetries of the model (no data see them): the base's
-#: rigid motions (alpha1 and a1 too for a modified first joint, issue 26) and the tip's split
-SYMMETRIES = frozenset({"theta1", "d1", "alpha1", "a1", "tip"})
+#: rigid motions (alpha1 and a1 too for a modified first joint, issue 26), the tip's split
+#: and any other combination that moves no probe point at any pose ("geometry")
+SYMMETRIES = frozenset({"theta1", "d1", "alpha1", "a1", "tip", "geometry"})
 #: the checks, in the order they are run and reported
 CHECKS = ("session", "rank", "uncertainty", "correlation", "prediction", "validation")
 DEFAULT_PAIRS = 500
 DEFAULT_SEED = 2024
 DEFAULT_CONFIDENCE = 0.99
+#: limits of coarse encoders: this many times their quantisation (GateLimits.for_arm)
+ENCODER_FACTOR = 3.0
 
 
 @dataclass(frozen=True)
@@ -104,7 +108,8 @@ class GateLimits:
     ``max_u_length_mm``: the largest standard uncertainty of a length
     parameter (d, a, l); ``max_u_angle_rad``: of an angle (theta offset,
     alpha); the defaults are about ten times what the shipped
-    kinematic-calibration plan gives on the paper's arm (docs/calibration.md).
+    kinematic-calibration plan gives on the paper's arm (docs/calibration.md);
+    :meth:`for_arm` widens them for a small arm or coarse encoders.
     ``max_correlation``: |r| at or above it is a correlation at +-1 (printed
     as 1.000). ``pairs`` and ``seed``: the workspace pose pairs of the
     prediction.
@@ -128,6 +133,47 @@ class GateLimits:
             raise ValueError(f"pairs must be >= 1, got {self.pairs}")
         if not 0.5 <= self.confidence < 1:
             raise ValueError(f"confidence must be in [0.5, 1), got {self.confidence}")
+
+    @classmethod
+    def for_arm(
+        cls, counts_per_rev: Sequence[int], lever_mm: float, factor: float = ENCODER_FACTOR
+    ) -> GateLimits:
+        """The default limits, widened for a small arm or coarse encoders.
+
+        An encoder of ``cpr`` counts reads each angle with a quantisation error
+        uniform over one count, standard deviation ``u_q = 2 pi / cpr / sqrt(12)``
+        (GUM 4.3.7): unmodelled by the kinematics, it scatters the residuals, and
+        the calibration's uncertainties (scaled by chi^2/dof) grow with it. The
+        length limit is at least ``factor`` times ``u_q`` of the coarsest encoder
+        at ``lever_mm`` (the RMS distance of the calibration's points from the
+        base); the angle limit at least ``factor`` times ``u_q`` and at least the
+        angle whose effect at the lever is the length limit (an angle matters by
+        what it does to the tip: 50 um at 300 mm is 34"). With the paper's arm
+        (2^32 counts, points some 860 mm out) the defaults hold; a 2^14-count
+        digitizer (u_q = 22.8") at a 300 mm lever gets 99 um and 68".
+        Raises ValueError for no encoders, a count below 2 or a lever that is not
+        a positive number.
+        """
+        if not counts_per_rev or min(counts_per_rev) < 2:
+            raise ValueError("counts_per_rev: one count of 2 or more per joint")
+        if not (math.isfinite(lever_mm) and lever_mm > 0):
+            raise ValueError(f"lever_mm must be a positive number, got {lever_mm}")
+        u_q = 2.0 * math.pi / min(counts_per_rev) / math.sqrt(12.0)
+        base = cls()
+        length = max(base.max_u_length_mm, factor * u_q * lever_mm)
+        return cls(
+            max_u_length_mm=length,
+            max_u_angle_rad=max(base.max_u_angle_rad, factor * u_q, length / lever_mm),
+        )
+
+
+def arm_limits(res: CalibrationResult[Any], counts_per_rev: Sequence[int]) -> GateLimits:
+    """:meth:`GateLimits.for_arm` for a calibration: the lever is the RMS
+    distance of its points from the base origin (at least 1 mm). Raises
+    ValueError for bad encoder counts."""
+    pts = res.after.points
+    lever = float(np.sqrt(np.mean(np.einsum("na,na->n", pts, pts)))) if pts.size else 1.0
+    return GateLimits.for_arm(counts_per_rev, max(lever, 1.0))
 
 
 @dataclass(frozen=True)

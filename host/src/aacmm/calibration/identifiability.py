@@ -34,7 +34,12 @@ that 3 x k map, e.g. the tip's component along the last axis against d_N);
 ``parallel``: d of two consecutive joints against each other, the position
 of the common normal along two parallel axes (exact where the axes are
 parallel: Hayati's beta replaces the second d, which the solve then holds);
-and scale, every length (d, a, tip).
+and scale, every length (d, a, tip). What is left of the null space is
+tested against the model itself: a direction that moves no probe point beyond
+a rigid motion of the whole arm at any of 64 random poses (every joint over a
+full turn) is ``geometry``, a degeneracy of the model that no plan can
+observe (desk4's stylus at right angles to its last link makes alpha4 act as
+d2 does); only the rest is ``other``, missing from the data.
 
 Observability indices (Borm and Menq; Driels and Pathre; Nahvi and Hollerbach
 1996) are computed over the identifiable singular values.
@@ -53,12 +58,14 @@ from aacmm.calibration.parameters import (
     AnyParams,
     CalibParams,
     arm_part,
+    n_joints,
     param_names,
     tip_columns,
     tip_in_last_frame,
 )
 from aacmm.calibration.problem import Evaluation
-from aacmm.core import PARAM_NAMES, FloatArray, Params
+from aacmm.core import PARAM_NAMES, FloatArray, Model, Params
+from aacmm.errmodel import points_jacobians
 
 #: Parameters the 'fix' strategy prefers to hold when they are unobservable
 #: (the convention of published AACMM calibrations, and the tip's angles).
@@ -69,6 +76,8 @@ RANK_FLOOR = 1e-10
 _IN_NULL = 0.02  # a candidate symmetry lies in the null space if <2 % of it sticks out
 _COMPONENT_MIN = 0.1
 _HARMONIC_HELD = 0.3  # with harmonics: a preferred parameter's least null-space leverage
+_GEOMETRY_POSES = 64  # random poses that tell a geometry degeneracy from missing data
+_GEOMETRY_SEED = 26
 
 
 @dataclass(frozen=True)
@@ -77,7 +86,9 @@ class NullDirection:
 
     ``kind``: ``theta1``, ``d1``, ``tip``, ``scale`` or ``other`` (any arm
     also ``alpha1``, ``a1``: a modified first joint's base motions, and
-    ``parallel``: two parallel axes' common normal);
+    ``parallel``: two parallel axes' common normal; ``geometry``: a
+    combination that moves no probe point at any pose, a degeneracy of the
+    model's geometry found numerically);
     ``components``: (parameter name, weight) with |weight| >= 0.1 in scaled
     units (the direction has unit norm there), largest first; ``vector``
     (P,): the direction in parameter units (rad, mm); ``meaning``: what it
@@ -294,6 +305,12 @@ _MEANING = {
         "at any scale",
         "add a calibrated length (ball bar, gauge), a calibrated sphere, or reference points",
     ),
+    "geometry": (
+        "moves no probe point at any pose of the arm beyond a motion of the whole arm: a "
+        "degeneracy of this model's geometry, not of the data",
+        "no probing data can observe it (held at the model's values); a model without it "
+        "drops one of its parameters",
+    ),
     "other": (
         "not a symmetry of the model: the poses do not excite it",
         "add articulations that move these joints more (wider joint ranges, more seats or "
@@ -364,13 +381,19 @@ def _scaled_orthonormal(
 
 
 def _name_null(
-    null: FloatArray, scale: FloatArray, columns: Sequence[int], params: AnyParams
+    null: FloatArray,
+    scale: FloatArray,
+    columns: Sequence[int],
+    params: AnyParams,
+    tol: float = 0.0,
 ) -> tuple[NullDirection, ...]:
     """Named directions spanning the null space (scaled coords, columns = ``columns``).
 
     A known symmetry is reported as itself (pure theta1, every length for
     scale, ...) when it lies in the null space and is independent of those
-    already named; what is left is reported as orthonormal 'other' directions.
+    already named; of what is left, the directions no probing data can see at
+    all (:func:`_geometry_null`, relative effect at most ``tol``) are
+    'geometry', the rest orthonormal 'other' directions.
     """
     all_names = param_names(params)
     names = [all_names[c] for c in columns]
@@ -401,9 +424,10 @@ def _name_null(
         # the rest of the null space, orthogonal to the named directions
         q, _ = np.linalg.qr(accepted) if accepted.shape[1] else (np.zeros((len(cols), 0)), None)
         rest = null - q @ (q.T @ null)
-        u = np.linalg.svd(rest, full_matrices=False)[0]
-        for j in range(k - accepted.shape[1]):
-            found.append(("other", u[:, j]))
+        u = np.linalg.svd(rest, full_matrices=False)[0][:, : k - accepted.shape[1]]
+        geometry = _geometry_null(u, scale, cols, params, tol)
+        found += [("geometry", d) for d in geometry]
+        found += [("other", d) for d in _remainder(u, geometry)]
     out = []
     for kind, s in found:
         vec = np.zeros(len(all_names))
@@ -411,6 +435,73 @@ def _name_null(
         meaning, remedy = _meaning(kind, params)
         out.append(NullDirection(kind, _components(s, names), vec, meaning, remedy))
     return tuple(out)
+
+
+def _point_jacobians(params: AnyParams, theta_rad: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The point Jacobian (3n, P[+E]) at ``theta_rad`` (n, N), and the same with
+    what a rigid motion of the whole arm can do removed (what distances, seats
+    and spheres cannot tell from a motion of the base)."""
+    model = Model(arm_part(params))
+    if isinstance(params, CalibParams):
+        pts, jac = points_jacobians(model, params.errors, theta_rad)
+    else:
+        pts, jac = model.points_jacobians(theta_rad)
+    n = pts.shape[0]
+    rigid = np.zeros((n, 3, 6))
+    rigid[:, :, :3] = np.eye(3)
+    for k in range(3):  # rotation about base axis k: e_k x p
+        e = np.zeros(3)
+        e[k] = 1.0
+        rigid[:, :, 3 + k] = np.cross(e, pts)
+    q, _ = np.linalg.qr(rigid.reshape(3 * n, 6))
+    a = np.asarray(jac, dtype=np.float64).reshape(3 * n, -1)
+    return a, a - q @ (q.T @ a)
+
+
+def _geometry_null(
+    rest: FloatArray, scale: FloatArray, cols: Sequence[int], params: AnyParams, tol: float
+) -> list[FloatArray]:
+    """The directions of ``rest`` (scaled coordinates of ``cols``, orthonormal
+    columns) that move no probe point beyond a rigid motion of the whole arm at
+    any pose: over :data:`_GEOMETRY_POSES` random poses (every joint uniform in
+    [-pi, pi), fixed seed) their effect, as a fraction of the parameters' whole
+    effect there (unit columns, as :func:`analyse` scales the data's), is at
+    most ``max(tol, RANK_FLOOR)``. Such a direction is a degeneracy of the
+    model's geometry (desk4's stylus at right angles to its last link: alpha4
+    against the d of a parallel hinge), not a shortcoming of the data: no plan
+    can observe it, and holding it changes no measurement. Returned in the same
+    scaled coordinates, unit norm."""
+    if rest.shape[1] == 0:
+        return []
+    rng = np.random.default_rng(_GEOMETRY_SEED)
+    theta = rng.uniform(-math.pi, math.pi, (_GEOMETRY_POSES, n_joints(params)))
+    raw, free = _point_jacobians(params, theta)
+    whole = np.linalg.norm(raw[:, list(cols)], axis=0)
+    if np.any(whole <= 0):
+        return []
+    b = free[:, list(cols)] / whole
+    # rest in parameter units, then in the workspace's normalised coordinates
+    t, _ = np.linalg.qr((rest / scale[:, None]) * whole[:, None])
+    _, sv, vt = np.linalg.svd(b @ t, full_matrices=True)
+    sv_full = np.zeros(t.shape[1])
+    sv_full[: sv.size] = sv
+    out = []
+    for j in np.flatnonzero(sv_full <= max(tol, RANK_FLOOR)):
+        d = (t @ vt[j]) / whole * scale
+        out.append(d / np.linalg.norm(d))
+    return out
+
+
+def _remainder(u: FloatArray, named: Sequence[FloatArray]) -> list[FloatArray]:
+    """Orthonormal directions of span(``u``) orthogonal to ``named``."""
+    k = u.shape[1] - len(named)
+    if k <= 0:
+        return []
+    if named:
+        q, _ = np.linalg.qr(np.column_stack(named))
+        u = u - q @ (q.T @ u)
+    left = np.linalg.svd(u, full_matrices=False)[0]
+    return [left[:, j] for j in range(k)]
 
 
 def _held(
@@ -474,7 +565,7 @@ def analyse(
     rank = int(np.sum(s_full > tol))
     basis, null = v[:, :rank], v[:, rank:]
     scale = raw / math.sqrt(float(w.sum()))
-    named = _name_null(null, scale, cols, ev.params)
+    named = _name_null(null, scale, cols, ev.params, tol)
     preferred = preferred_held(ev.params)
     if isinstance(ev.params, CalibParams) and ev.params.errors.n_cols and null.shape[1]:
         # with harmonics a preferred parameter is held only where it is mostly in the

@@ -138,16 +138,17 @@ def register(sub: Any) -> None:
     gate.add_argument(
         "--max-u-um",
         type=float,
-        default=50.0,
         metavar="UM",
-        help="largest standard uncertainty of a length parameter, um (default 50)",
+        help="largest standard uncertainty of a length parameter, um (default 50, or 3x the "
+        "coarsest encoder's quantisation at the data's lever if that is more)",
     )
     gate.add_argument(
         "--max-u-arcsec",
         type=float,
-        default=20.0,
         metavar="ARCSEC",
-        help="largest standard uncertainty of an angle parameter, arcsec (default 20)",
+        help="largest standard uncertainty of an angle parameter, arcsec (default 20, or 3x "
+        "the coarsest encoder's quantisation, 2 pi / counts / sqrt 12, or the angle whose "
+        "effect at the data's lever is the length limit, if that is more)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no solver progress on stderr")
     add_force_option(p)
@@ -178,7 +179,7 @@ def _check_args(args: argparse.Namespace) -> None:
     if not args.output.lower().endswith(".toml"):
         raise UsageError(f"{args.output}: the parameter file must be a .toml file")
     for opt, v in (("--max-u-um", args.max_u_um), ("--max-u-arcsec", args.max_u_arcsec)):
-        if not (v > 0 and v < 1e9):
+        if v is not None and not (v > 0 and v < 1e9):
             raise UsageError(f"{opt} must be a positive number, got {v}")
 
 
@@ -357,7 +358,25 @@ def _arm_text(data: Any) -> str:
 
 
 def _gate_text(gate: Any, args: argparse.Namespace) -> str:
+    from aacmm.calibration.gate import ARCSEC_RAD, GateLimits
+
     lines = ["Quality gate:", f"  {gate.prediction.describe()}"]
+    lim, default = gate.limits, GateLimits()
+    if (lim.max_u_length_mm, lim.max_u_angle_rad) != (
+        default.max_u_length_mm,
+        default.max_u_angle_rad,
+    ):
+        lines.append(
+            f"  uncertainty limits: {lim.max_u_length_mm * 1e3:.3g} um, "
+            f'{lim.max_u_angle_rad / ARCSEC_RAD:.3g}" (defaults {default.max_u_length_mm * 1e3:g} '
+            f'um, {default.max_u_angle_rad / ARCSEC_RAD:g}"; '
+            + (
+                "as given"
+                if args.max_u_um is not None or args.max_u_arcsec is not None
+                else "widened for this arm's encoders and lever"
+            )
+            + ")"
+        )
     if gate.passed:
         lines.append(
             "  passed: sessions complete, rank, parameter uncertainties, correlations, "
@@ -371,10 +390,20 @@ def _gate_text(gate: Any, args: argparse.Namespace) -> str:
 
 
 def _gate(args: argparse.Namespace, data: Any, res: Any, val: Any, previous: Any) -> Any:
-    from aacmm.calibration.gate import ARCSEC_RAD, GateLimits, SessionState, assess
+    from aacmm.calibration.gate import (
+        ARCSEC_RAD,
+        GateLimits,
+        SessionState,
+        arm_limits,
+        assess,
+    )
 
+    auto = arm_limits(res, data.encoders.counts_per_rev)
     limits = GateLimits(
-        max_u_length_mm=args.max_u_um / 1000.0, max_u_angle_rad=args.max_u_arcsec * ARCSEC_RAD
+        max_u_length_mm=auto.max_u_length_mm if args.max_u_um is None else args.max_u_um / 1e3,
+        max_u_angle_rad=(
+            auto.max_u_angle_rad if args.max_u_arcsec is None else args.max_u_arcsec * ARCSEC_RAD
+        ),
     )
     states = [SessionState(s.path, s.status, s.points, s.plan_points) for s in data.sources]
     gate = assess(res, states, limits, previous, val)

@@ -28,7 +28,13 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aacmm.commands.common import add_connection_options, device_param_set, is_tty, print_err
+from aacmm.commands.common import (
+    add_connection_options,
+    device_param_set,
+    is_tty,
+    link_temperature,
+    print_err,
+)
 from aacmm.commands.exitcodes import INTERRUPTED, OK, UsageError
 from aacmm.commands.stopflag import StopFlag
 from aacmm.commands.view import CAPTURE_VIEW_RATE_HZ, add_bind_options
@@ -76,6 +82,13 @@ def register(sub: Any) -> None:
         default=3.0,
         metavar="S",
         help="no sample for S seconds means the link is lost (default 3)",
+    )
+    p.add_argument(
+        "--temperature",
+        metavar="C",
+        help="the links' temperature during this run, degC (-40 .. 85), as a thermometer on "
+        "the arm reads it (the arm measures none yet): recorded in the session's run for "
+        "aacmm verify --params",
     )
     p.add_argument("--no-keys", action="store_true", help="do not read keys from the terminal")
     p.add_argument(
@@ -170,13 +183,34 @@ class Capture:
                 )
         if w.set_param_set(ps) and self.args.resume and len(w.param_sets) > 1:
             print_err("capture", f"note: the device's parameter set is now {ps.crc_hex}")
+        stated = link_temperature(self.args.temperature)
         w.begin_run(
             "resume" if self.args.resume else "capture",
             port=dev.url,
             serial_number=dev.info.serial_number,
             param_crc32=ps.crc_hex,
+            **({} if stated is None else {"temperature_c": stated}),
         )
+        self._check_band(w, stated)
         return w
+
+    def _check_band(self, w: SessionWriter, stated: float | None) -> None:
+        """A plan's stability band: a warning when the temperatures stated for the
+        session's runs break it, a note when this run states none (the arm reads none)."""
+        band = self.plan.verification.temperature_band_c
+        if band is None:
+            return
+        if stated is None:
+            print_err(
+                "capture",
+                f"note: the plan asks for the links' temperature within a {band:g} C band; the "
+                "arm reads none: state it with --temperature C (a thermometer on the arm)",
+            )
+            return
+        temps = [r["temperature_c"] for r in w.meta["runs"] if "temperature_c" in r]
+        problem = self.plan.verification.band_problem(temps)
+        if problem is not None:
+            print_err("capture", f"warning: {problem}: let the arm settle before measuring")
 
     def _on_trigger(self, trig: Trigger) -> None:  # reader thread
         self.events.put((time.time(), trig))
@@ -433,10 +467,16 @@ def cmd_capture(args: argparse.Namespace) -> int:
 
     if not (args.stall > 0 and args.stall <= 3600):
         raise UsageError("--stall must be in (0, 3600] seconds")
+    link_temperature(args.temperature)  # refused before anything else
     plan = load_plan(args.plan)
     folder = Path(args.output)
     if args.from_log is not None and args.view:
         raise UsageError("--view shows a device: it does not go with --from-log")
+    if args.from_log is not None and args.temperature is not None:
+        raise UsageError(
+            "--temperature is the temperature of a capture run: with --from-log give it to "
+            "aacmm verify --temperature"
+        )
     if args.from_log is not None and not Path(args.from_log).is_file():
         raise UsageError(f"--from-log {args.from_log}: no such file")
     if args.resume:

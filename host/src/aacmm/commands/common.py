@@ -22,6 +22,7 @@ functions so that ``aacmm --help`` and the analysis commands start fast.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -259,6 +260,29 @@ class StatusLine:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+
+
+def link_temperature(text: str | None, option: str = "--temperature") -> float | None:
+    """The links' temperature an operator states (degC), or None when not given.
+
+    Raises:
+        UsageError: not a number, NaN, or outside the core's -40 .. 85 degC.
+    """
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.errmodel import TEMP_MAX_C, TEMP_MIN_C
+
+    if text is None:
+        return None
+    try:
+        temp = float(text)
+    except ValueError:
+        temp = math.nan
+    if not (math.isfinite(temp) and TEMP_MIN_C <= temp <= TEMP_MAX_C):
+        raise UsageError(
+            f"{option} {text}: the links' temperature must be a number within "
+            f"{TEMP_MIN_C:g} .. {TEMP_MAX_C:g} degC"
+        )
+    return temp
 
 
 def print_err(cmd: str, text: str) -> None:

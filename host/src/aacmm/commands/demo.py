@@ -325,7 +325,11 @@ def _calibrate_lines(text: str) -> list[str]:
     out += [s for s in lines if s.startswith(("chi^2", "note: held"))]
     # which error terms beside the arm were estimated, and why (auto: per joint)
     out += [s for s in lines if s.startswith(("Encoder angle harmonics", "note: encoder"))]
-    gate = [s.strip() for s in lines if s.strip().startswith(("predicted length", "passed:"))]
+    gate = [
+        s.strip()
+        for s in lines
+        if s.strip().startswith(("predicted length", "uncertainty limits", "passed:"))
+    ]
     out += [f"quality gate: {s}" for s in gate]
     start = next((i for i, s in enumerate(lines) if s.startswith("Before / after")), None)
     if start is not None:

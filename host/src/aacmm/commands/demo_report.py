@@ -25,12 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from aacmm.simulation.truthcheck import CHECK_LENGTHS, CHECK_SEED
+
 #: results whose sign matters (a size or length deviation), printed with it
 SIGNED = frozenset({"p_size", "e_uni", "effective_diameter"})
 #: the figures the demo's story is told with: length error and single-point articulation
 HEADLINE = (("e_uni", "length error E_Uni"), ("spat_range", "SPAT (max - min)/2"))
-CHECK_LENGTHS = 2000
-CHECK_SEED = 2024
 
 
 @dataclass(frozen=True)
@@ -243,7 +243,8 @@ def truth_check(
     limits; each end's true point from the truth's geometry, its measured
     point from the true encoders' noise-free readings (with their
     eccentricity) converted by the parameter set the device used for the
-    ``before`` and ``after`` sessions of ``folder``.
+    ``before`` and ``after`` sessions of ``folder``
+    (:mod:`aacmm.simulation.truthcheck`).
 
     Raises:
         aacmm.errors.AacmmError / ValueError: a missing or damaged file.
@@ -251,34 +252,28 @@ def truth_check(
     from aacmm.core import counts_to_angles
     from aacmm.records import read_session
     from aacmm.simulation.truth import load_truth
+    from aacmm.simulation.truthcheck import length_errors, reach_lengths
 
     truth = load_truth(folder / "arm" / "truth.toml")
     check_truth_arm(truth, folder)
-    rng = np.random.default_rng(seed)
-    limits = truth_limits(truth)
-    theta = np.array([limits.sample(rng) for _ in range(2 * lengths)])
-    true_pts = truth.model().points(theta)
-    counts = truth.counts(theta)  # no rng: the readings without noise
-    true_len = np.linalg.norm(true_pts[0::2] - true_pts[1::2], axis=1)
+    check = reach_lengths(truth, lengths, seed)
+    counts = check.counts
     out: dict[str, Any] = {
         "format": "aacmm-demo-truth-check-1",
         "truth": "arm/truth.toml",
         "origin": truth.origin,
         "lengths": lengths,
         "seed": seed,
-        "true_length_mm": [float(true_len.min()), float(true_len.max())],
+        "true_length_mm": [float(check.true_mm.min()), float(check.true_mm.max())],
         "serial_number": truth.device_serial,
     }
 
     def figures(ps: Any) -> dict[str, Any]:
         pts = ps.points(counts_to_angles(counts, ps.encoders))  # with its error model
-        err = np.linalg.norm(pts[0::2] - pts[1::2], axis=1) - true_len
         return {
             "params_crc32": ps.crc_hex,
             "errmodel": ps.errmodel_text(),
-            "rms_mm": float(np.sqrt(np.mean(err**2))),
-            "p95_mm": float(np.quantile(np.abs(err), 0.95)),
-            "max_mm": float(np.max(np.abs(err))),
+            **length_errors(check, pts).to_json(),
         }
 
     for name in ("before", "after"):
@@ -294,13 +289,10 @@ def truth_check(
     # what the true geometry itself measures through these encoders: the part
     # of the error (eccentricity) that no calibration of the DH model removes
     pts = truth.model().points(counts_to_angles(counts, truth.encoders))
-    err = np.linalg.norm(pts[0::2] - pts[1::2], axis=1) - true_len
     out["floor"] = {
         "session": None,
         "params_crc32": "truth",
-        "rms_mm": float(np.sqrt(np.mean(err**2))),
-        "p95_mm": float(np.quantile(np.abs(err), 0.95)),
-        "max_mm": float(np.max(np.abs(err))),
+        **length_errors(check, pts).to_json(),
     }
     out["factor"] = out["before"]["rms_mm"] / out["after"]["rms_mm"]
     return out
@@ -309,32 +301,6 @@ def truth_check(
 #: ``aacmm demo``'s calibration of the same data without the error model
 #: (:data:`aacmm.commands.demo.DH_ONLY`), checked against the truth when present.
 DH_ONLY_FILE = "calibrated-dh-only.toml"
-
-
-def truth_limits(truth: Any) -> Any:
-    """The joint limits the truth check's postures keep within: the simulator's
-    (:data:`~aacmm.simulation.ik.ARM_LIMITS`) for the paper's arm; for an arm model's
-    truth (``[origin] model``, ``aacmm sim --model``) the shipped model's limits, and
-    none (every joint a full turn) for an arm the shipped models do not name."""
-    import math
-
-    from aacmm.core import Params
-    from aacmm.errors import ModelError
-    from aacmm.models import load_model
-    from aacmm.simulation.ik import ARM_LIMITS, JointLimits
-
-    if isinstance(truth.params, Params):
-        return ARM_LIMITS
-    n = truth.params.n_joints
-    name = truth.origin.get("model")
-    if isinstance(name, str):
-        try:
-            model = load_model(name)
-        except ModelError:
-            model = None
-        if model is not None and model.file is None and model.n_joints == n:
-            return JointLimits.from_ranges(model.joint_limits_rad)
-    return JointLimits((0.0,) * n, (math.inf,) * n)
 
 
 def check_truth_arm(truth: Any, folder: Path) -> None:

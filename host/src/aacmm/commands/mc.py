@@ -84,7 +84,8 @@ def register(sub: Any) -> None:
         default=[],
         metavar=("J", "LOW", "HIGH"),
         help="joint J (1..N or all) uniform in [LOW, HIGH) deg; repeatable "
-        "(default: all joints uniform in [-180, 180))",
+        "(default: all joints uniform in [-180, 180); another arm model than the paper's: "
+        "within its joint limits, [-180, 180) for a joint without limits)",
     )
     mc.add_argument(
         "--normal",
@@ -138,11 +139,18 @@ def register(sub: Any) -> None:
     mc.set_defaults(func=run_mc)
 
 
-def _joints(args: argparse.Namespace, joints: int) -> Any:
-    """The joint distributions of ``--range``/``--normal`` for an arm of ``joints`` joints."""
-    from aacmm.analysis.mc_poses import JointDistribution, joint_distributions
+def _joints(args: argparse.Namespace, model: ArmModel) -> Any:
+    """The joint distributions of ``--range``/``--normal`` for the arm of ``model``:
+    by default every joint uniform in [-180, 180) deg on the paper's arm (Table 2),
+    within the model's joint limits on another arm (:meth:`ArmModel.sampling_ranges_rad`)."""
+    from aacmm.analysis.mc_poses import JointDistribution, joint_distributions, limit_distributions
+    from aacmm.arm import Arm
 
-    js = list(joint_distributions(None, joints))
+    joints = model.n_joints
+    if model.arm == Arm.paper():
+        js = list(joint_distributions(None, joints))
+    else:
+        js = list(limit_distributions(model.sampling_ranges_rad()))
     for j, lo, hi in args.range:
         for i in _joint_index(j, joints):
             js[i] = JointDistribution.uniform(math.radians(float(lo)), math.radians(float(hi)))
@@ -200,7 +208,7 @@ def run_mc(args: argparse.Namespace) -> int:
                 tolerance=args.tol,
                 block=args.block,
                 max_trials=args.max_trials,
-                joints=_joints(args, model.n_joints),
+                joints=_joints(args, model),
                 seed=args.seed,
                 params=params,
                 threads=args.threads,
@@ -210,7 +218,7 @@ def run_mc(args: argparse.Namespace) -> int:
         else:
             if args.ndig is not None or args.tol is not None:
                 raise ValueError("--ndig and --tol need --adaptive")
-            joints = _joints(args, model.n_joints)
+            joints = _joints(args, model)
             bar = _progress(args, args.poses, limit_s, f"-n {format_count(args.poses)}")
             res = mc.error_transfer_coefficients(
                 args.poses,

@@ -22,6 +22,7 @@ by the tests and the demo).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -182,7 +183,25 @@ def model_sim_args(args: argparse.Namespace, model: ArmModel, param_file: Path) 
     interfaces = {e.interface for e in model.encoders}
     if args.encoder is None and len(interfaces) == 1:
         out += ["--encoder", interfaces.pop()]
+    from aacmm.commands import simtruth
+
+    motion = args.motion or ""
+    if not simtruth.wants_truth(args) and not motion.startswith("replay:"):
+        # the simulator's own motion (sweep, walk, static) inside the model's joint limits
+        out += ["--joint-limits", joint_limits_arg(model)]
     return out
+
+
+def joint_limits_arg(model: ArmModel) -> str:
+    """``aacmm-sim --joint-limits`` of a model: ``LO:HI`` in degrees per joint
+    (``-``: a joint without limits), comma-separated."""
+    items = []
+    for lo, hi in model.joint_limits_rad:
+        if math.isinf(lo):
+            items.append("-")
+        else:
+            items.append(f"{math.degrees(lo):.12g}:{math.degrees(hi):.12g}")
+    return ",".join(items)
 
 
 def model_text(model: ArmModel | None) -> str:

@@ -83,25 +83,28 @@ def _load(name: str, args: argparse.Namespace) -> Any:
     from importlib import resources
 
     from aacmm.analysis import tolerance as tl
+    from aacmm.arm import Arm
     from aacmm.commands.exitcodes import WrongArmError
     from aacmm.uncertainty.spec import ArmParameterError
 
-    arm, model = None, None
+    arm, model, limits = None, None, None
     if args.model is not None:
         m = model_arm(args)
         arm, model = m.arm, m.name
+        if m.arm != Arm.paper():  # random poses within the arm's own joint limits
+            limits = m.joint_limits_rad
     try:
         if name == EXAMPLE:
             from aacmm.fileio import loads_toml
 
             src = resources.files("aacmm").joinpath("data", "example_tolerance.toml")
             text = loads_toml(src.read_text("utf-8"), "example_tolerance.toml")
-            spec = tl.parse_spec(text, None, arm, model)
+            spec = tl.parse_spec(text, None, arm, model, limits)
             from dataclasses import replace
 
             what = "the paper's arm" if model is None else f"model {model}"
             return replace(spec, source=f"packaged example ({what})")
-        return tl.load_spec(name, arm, model)
+        return tl.load_spec(name, arm, model, limits)
     except ArmParameterError as e:
         raise WrongArmError(str(e)) from None
 

@@ -50,7 +50,9 @@ def register(sub: Any) -> None:
         "--workspace",
         type=int,
         default=None,
-        help="random workspace poses to add (default 100, with --log 0; 0 = only given poses)",
+        help="random workspace poses to add (default 100, with --log 0; 0 = only given poses): "
+        "joints uniform in [-180, 180) deg, within the joint limits of another arm model than "
+        "the paper's",
     )
     un.add_argument(
         "--pose",
@@ -131,6 +133,7 @@ def run_uncertainty(args: argparse.Namespace) -> int:
     import numpy as np
 
     from aacmm import uncertainty as unc
+    from aacmm.arm import Arm
     from aacmm.errors import AacmmError
     from aacmm.fileio import atomic_output, check_outputs, save_figure, write_output
 
@@ -186,6 +189,8 @@ def run_uncertainty(args: argparse.Namespace) -> int:
             ndig=args.ndig,
             threads=args.threads,
             progress=bar.update,
+            # another arm than the paper's: its workspace poses within its joint limits
+            joint_ranges_rad=None if model.arm == Arm.paper() else model.sampling_ranges_rad(),
         )
         bar.close()
         # the files first: a closed stdout (uncertainty | head) must not cost them

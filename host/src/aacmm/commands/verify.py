@@ -6,6 +6,19 @@ tests the plan's steps allow (:mod:`aacmm.verification.report`) and prints
 the text report; ``--report DIR`` also writes the JSON, the figures and a
 one-page PDF. Exit status 7 when the verdict is FAIL (everything is still
 written), 2 for a session that cannot be verified.
+
+``--params FILE`` applies the error model of FILE's ``[errmodel]`` table
+(encoder harmonics, the links' thermal expansion) to the session's raw
+counts; FILE must hold the parameter set the session was captured with.
+``--temperature C`` states the links' temperature during the session (the
+arm reads none yet); without it, the temperature each capture run states
+(``aacmm capture --temperature``, the session's ``runs``) is used. The
+lengths are scaled by FILE's CTEs at it, and the report says which
+temperature (range) and which compensation it used; a session whose runs
+state a temperature reports it even without ``--params``. Bad input (a
+temperature outside -40 .. 85 degC or not a number, a FILE of another set,
+without an error model, or with CTEs and a point whose temperature nobody
+stated): one line, exit status 2, nothing written.
 """
 
 from __future__ import annotations
@@ -13,9 +26,18 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from aacmm.commands.common import add_force_option
+from aacmm.commands.common import add_force_option, link_temperature
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
+    from aacmm.errmodel import ErrorModel
+    from aacmm.records.measured import Measured
 
 REPORT_TEXT = "report.txt"
 REPORT_JSON = "report.json"
@@ -52,9 +74,112 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="L_Dia: fit each articulation's sphere with a free radius (default) or with the "
         "calibrated radius (centre only; less sensitive to probing noise)",
     )
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="apply the error model of FILE's [errmodel] table (encoder harmonics, the links' "
+        "thermal expansion cte_per_k, tref_c) to the session's readings; FILE must hold the "
+        "parameter set the session was captured with",
+    )
+    p.add_argument(
+        "--temperature",
+        metavar="C",
+        help="the links' temperature during the session, degC (-40 .. 85; the arm measures "
+        "none yet): the lengths are scaled by --params FILE's CTEs at it (default: what "
+        "each capture run states, aacmm capture --temperature)",
+    )
     add_force_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
     p.set_defaults(func=run_verify)
+
+
+def _compensation(args: argparse.Namespace) -> tuple[ErrorModel | None, float | None]:
+    """The error model of ``--params`` and the ``--temperature``, checked (UsageError)."""
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.records.paramfile import has_thermal, load_param_file_errmodel
+
+    temp = link_temperature(args.temperature)
+    if args.params is None:
+        if temp is not None:
+            raise UsageError(
+                "--temperature needs the links' thermal expansion coefficients: "
+                "--params FILE with cte_per_k in its [errmodel] table"
+            )
+        return None, None
+    _, _, em = load_param_file_errmodel(args.params)
+    if em is None:
+        raise UsageError(f"--params {args.params}: no [errmodel] table, nothing to apply")
+    if temp is not None and not has_thermal(em):
+        raise UsageError(
+            f"--temperature: {args.params} has no thermal expansion coefficients "
+            "(cte_per_k in its [errmodel] table): nothing to compensate"
+        )
+    return em, temp
+
+
+def _span(values: list[float]) -> str:
+    lo, hi = min(values), max(values)
+    return f"{lo:g} C" if lo == hi else f"{lo:g} .. {hi:g} C"
+
+
+def _temperatures(
+    m: Measured, em: ErrorModel | None, temp: float | None, file: str | None
+) -> tuple[npt.NDArray[np.float64] | None, dict[str, Any]]:
+    """The link temperatures (n, N) to compensate at (None: no thermal compensation)
+    and the report's entries for them: ``--temperature``, else what the session's
+    capture runs state (``aacmm capture --temperature``). UsageError: CTEs to apply
+    and a point whose temperature nobody stated."""
+    import numpy as np
+
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.records.paramfile import has_thermal
+
+    stated = list(m.stated_temperature_c or ())
+    given = [t for t in stated if t is not None]
+    n, joints = len(m.points), (em.joints if em is not None else 0)
+    if temp is not None:
+        line = f"{temp:g} C on every link (stated with --temperature; the arm measures none)"
+        if given and (min(given) != temp or max(given) != temp):
+            line += f"; the session's capture runs state {_span(given)}"
+        return np.full((n, joints), temp), {"temperature": line, "temperature_range_c": [temp] * 2}
+    if em is not None and has_thermal(em):
+        if not stated or None in stated:
+            k = stated.index(None) + 1 if None in stated else 1
+            raise UsageError(
+                f"--params {file}: its [errmodel] table has the links' thermal expansion and "
+                f"point {k}'s capture run states no temperature: give --temperature C "
+                "(or aacmm capture --temperature C)"
+            )
+        line = (
+            f"{_span(given)} on every link (stated at capture, aacmm capture --temperature; "
+            "the arm measures none)"
+        )
+        temps = np.repeat(np.array(given)[:, None], joints, axis=1)
+        return temps, {"temperature": line, "temperature_range_c": [min(given), max(given)]}
+    if given:
+        why = "no --params with cte_per_k" if em is None else f"{file} has no cte_per_k"
+        line = f"{_span(given)} (stated at capture for {len(given)} of {n} points; "
+        return None, {
+            "temperature": line + f"not compensated: {why})",
+            "temperature_range_c": [min(given), max(given)],
+        }
+    return None, {}
+
+
+def _check_set(m: Measured, file: str) -> None:
+    """The parameter file holds the set every point was captured with (UsageError)."""
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.records import ParamSetRecord
+    from aacmm.records.paramfile import load_param_file_errmodel
+
+    assert m.labels is not None
+    own = ParamSetRecord.from_device(load_param_file_errmodel(file)[0])
+    for rec in {p.param_set.crc32: p.param_set for p in m.labels}.values():
+        if rec.model != own.model or rec.encoders != own.encoders:
+            raise UsageError(
+                f"--params {file}: holds parameter set {own.crc_hex}, the session was captured "
+                f"with {rec.crc_hex}: its error model belongs to another set"
+            )
 
 
 def run_verify(args: argparse.Namespace) -> int:
@@ -77,11 +202,40 @@ def run_verify(args: argparse.Namespace) -> int:
             args.force,
             what=f"--report {args.report}",
         )
+    em, temp = _compensation(args)
     m = load_session(Path(args.session), partial=args.partial)
+    temps, temp_meta = _temperatures(m, em, temp, args.params)
+    if em is not None:
+        from aacmm.records.paramfile import describe_errmodel
+
+        _check_set(m, args.params)
+        m = load_session(Path(args.session), partial=args.partial, errmodel=em, temp_c=temps)
     assert m.plan is not None and m.labels is not None
+    meta = {**m.meta, **temp_meta}
+    if em is not None:
+        meta["compensation"] = f"{describe_errmodel(em)} ({args.params})"
     rep = evaluate(
-        m.plan, m.labels, m.points, meta=m.meta, name=m.meta.get("plan"), l_dia_fit=args.l_dia_fit
+        m.plan, m.labels, m.points, meta=meta, name=m.meta.get("plan"), l_dia_fit=args.l_dia_fit
     )
+    if temp_meta:
+        lo, hi = temp_meta["temperature_range_c"]
+        planned = rep.temperature_c
+        notes = rep.notes
+        if planned is not None and not lo == hi == planned:
+            done = (
+                "compensated to the parameters' reference"
+                if temps is not None
+                else ("not compensated")
+            )
+            notes = (
+                *notes,
+                f"the plan states the test at {planned:g} C; the session was taken at "
+                f"{_span([lo, hi])} ({done})",
+            )
+        band = m.plan.verification.band_problem([lo, hi])
+        if band is not None:
+            notes = (*notes, f"{band}: the session was not taken in stable conditions")
+        rep = replace(rep, temperature_c=hi if lo == hi else None, notes=notes)
     source = str(args.session)
     text = vr.text_report(rep, source)
     doc = json.dumps(vr.report_json(rep, source), indent=2) + "\n"

@@ -67,8 +67,12 @@ def text_report(rep: Report, source: str) -> str:
         if k in rep.meta:
             lines.append(f"{k:<10} {rep.meta[k]}")
     lines.append(f"probe      ball diameter {rep.probe_diameter_mm:.4f} mm")
-    if rep.temperature_c is not None:
+    if "temperature" in rep.meta:
+        lines.append(f"temp.      {rep.meta['temperature']}")
+    elif rep.temperature_c is not None:
         lines.append(f"temp.      {rep.temperature_c:g} C")
+    if "compensation" in rep.meta:
+        lines.append(f"compens.   {rep.meta['compensation']}")
     lines.append(f"rule       {rep.decision_rule}: {RULE_TEXT[rep.decision_rule]}")
     lines.append("")
     table = [HEADER, *result_rows(rep)]
@@ -509,6 +513,10 @@ def _one_page(rep: Report, source: str, when: _dt.datetime | None) -> Figure:
         page.text(f"Arm: {arm}")
     tc = f", temperature {rep.temperature_c:g} C" if rep.temperature_c is not None else ""
     page.text(f"Probe ball diameter {rep.probe_diameter_mm:.4f} mm{tc}")
+    if "temperature" in rep.meta:
+        page.text(f"Temperature: {rep.meta['temperature']}")
+    if "compensation" in rep.meta:
+        page.text(f"Compensation: {rep.meta['compensation']}")
     page.text(f"Decision rule: {rep.decision_rule} -- {RULE_TEXT[rep.decision_rule]}")
     page.text(f"Evaluated {when.strftime('%Y-%m-%d %H:%M UTC')}")
     page.y -= 0.01

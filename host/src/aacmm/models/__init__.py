@@ -31,6 +31,7 @@ API:
   ``file``; :attr:`ArmModel.n_joints`, :attr:`ArmModel.n_params`,
   :attr:`ArmModel.reach_mm`, :meth:`ArmModel.encoder_config` (an
   :class:`aacmm.core.EncoderConfig`), :meth:`ArmModel.within_limits`,
+  :meth:`ArmModel.sampling_ranges_rad` (the ranges random poses are drawn in),
   :meth:`ArmModel.to_dict` (JSON-ready).
 * :class:`aacmm.errors.ModelError` (here as :class:`ModelError`) -- every
   problem, one line ``FILE:LINE: FIELD: problem``; an :class:`AacmmError`

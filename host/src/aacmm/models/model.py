@@ -127,6 +127,16 @@ class ArmModel:
             tuple(e.direction for e in self.encoders),
         )
 
+    def sampling_ranges_rad(self) -> tuple[tuple[float, float], ...]:
+        """N pairs (lowest, highest) in rad to draw random poses from: each joint's
+        finite limits, [-pi, pi) for a joint without limits. Every pose drawn in
+        them is :meth:`within_limits` (what ``aacmm mc``, ``uncertainty`` and
+        ``tolerance`` draw for an arm model other than the paper's)."""
+        return tuple(
+            (-math.pi, math.pi) if math.isinf(lo) else (float(lo), float(hi))
+            for lo, hi in self.joint_limits_rad
+        )
+
     def within_limits(self, theta_rad: Any) -> bool:
         """True if every reading of one pose (N values, rad) is inside its joint's limits.
 

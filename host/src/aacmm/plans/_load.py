@@ -21,6 +21,7 @@ from aacmm.plans.model import (
     PLAN_FORMAT,
     PROCEDURE_ARTEFACTS,
     PROCEDURES,
+    TEMPERATURE_BAND_MAX_C,
     TEMPERATURE_RANGE_C,
     Artefact,
     ConeSeat,
@@ -512,7 +513,7 @@ def loads_plan(text: str, name: str = "<plan>", path: Path | None = None) -> Pla
     probe = Probe(ball or 0.0)
     mpe = _mpe(c, c.table(("mpe",), doc["mpe"])) if "mpe" in doc else Mpe()
     ver_t: dict[str, Any] = c.get(doc, root, "verification", c.table, {}) or {}
-    c.keys(ver_t, ("verification",), ("decision_rule", "temperature_c"))
+    c.keys(ver_t, ("verification",), ("decision_rule", "temperature_c", "temperature_band_c"))
     temp = c.get(ver_t, ("verification",), "temperature_c", c.number)
     lo, hi = TEMPERATURE_RANGE_C
     if temp is not None and not lo <= temp <= hi:
@@ -520,10 +521,18 @@ def loads_plan(text: str, name: str = "<plan>", path: Path | None = None) -> Pla
             ("verification", "temperature_c"),
             f"{_num(temp)} deg C is outside {lo:g}..{hi:g} deg C (no arm measures there)",
         )
+    band = c.get(ver_t, ("verification",), "temperature_band_c", c.number)
+    if band is not None and not 0 < band <= TEMPERATURE_BAND_MAX_C:
+        c.fail(
+            ("verification", "temperature_band_c"),
+            f"a stability band of {_num(band)} deg C: it must be above 0 and at most "
+            f"{TEMPERATURE_BAND_MAX_C:g} deg C",
+        )
     verification = Verification(
         c.get(ver_t, ("verification",), "decision_rule", c.choice(DECISION_RULES), "simple")
         or "simple",
         temp,
+        band,
     )
     return Plan(
         name=name,

@@ -10,6 +10,7 @@ divides by it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -38,6 +39,8 @@ MAX_PROBE_DIAMETER_MM = 100.0
 #: Temperatures a plan may record for its verification (deg C): beyond any
 #: arm's operating range, a typo (10^6 deg C) rather than a measurement.
 TEMPERATURE_RANGE_C = (-20.0, 60.0)
+#: A plan's stability band (``[verification] temperature_band_c``), degC.
+TEMPERATURE_BAND_MAX_C = 20.0
 ENDS: tuple[str, ...] = ("A", "B")
 
 
@@ -254,10 +257,38 @@ class Mpe:
 @dataclass(frozen=True)
 class Verification:
     """How results are judged: ``decision_rule`` "simple" (result <= MPE) or
-    "iso14253-1" (conformance zone = MPE reduced by the expanded uncertainty)."""
+    "iso14253-1" (conformance zone = MPE reduced by the expanded uncertainty);
+    ``temperature_c``: the temperature of the test; ``temperature_band_c``: the
+    stability band the links' temperature must stay within during the session
+    (the span of every temperature stated, and each one's distance from
+    ``temperature_c`` when the plan gives it; degC, e.g. 3: an arm maker's
+    "within 3 degC for 5 minutes before measuring")."""
 
     decision_rule: str = "simple"
     temperature_c: float | None = None
+    temperature_band_c: float | None = None
+
+    def band_problem(self, temps_c: Sequence[float]) -> str | None:
+        """Why the link temperatures ``temps_c`` (degC, every one stated for the
+        session) break the stability band, or None (within it, or no band)."""
+        band = self.temperature_band_c
+        if band is None or not temps_c:
+            return None
+        lo, hi = min(temps_c), max(temps_c)
+        if hi - lo > band:
+            return (
+                f"the links' temperature spans {lo:g} .. {hi:g} C, more than the plan's "
+                f"{band:g} C stability band"
+            )
+        ref = self.temperature_c
+        if ref is not None:
+            far = max(temps_c, key=lambda t: abs(t - ref))
+            if abs(far - ref) > band:
+                return (
+                    f"the links' temperature {far:g} C is {abs(far - ref):g} C from the plan's "
+                    f"{ref:g} C, outside its {band:g} C stability band"
+                )
+        return None
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ status 2) for a missing, unreadable or unusable input, naming the file.
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +21,7 @@ import numpy as np
 from aacmm.records.files import RecordError
 
 if TYPE_CHECKING:
+    from aacmm.errmodel import ErrorModel
     from aacmm.geometry._base import FloatArray
     from aacmm.plans import Plan
     from aacmm.records import CapturedPoint
@@ -43,6 +45,9 @@ class Measured:
     plan: Plan | None = None
     labels: tuple[CapturedPoint, ...] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    #: per point of a session, the links' temperature its capture run states (degC,
+    #: ``aacmm capture --temperature``; None where the run states none)
+    stated_temperature_c: tuple[float | None, ...] | None = None
 
     def step_table(self) -> list[str]:
         """The plan's steps as ``id (procedure, artefact)``, by step index."""
@@ -113,8 +118,43 @@ def _session_meta(s: Any) -> dict[str, Any]:
     return meta
 
 
-def load_session(path: Path, partial: bool = False) -> Measured:
+def stated_temperatures(s: Any) -> tuple[float | None, ...]:
+    """Per point of session ``s``, the links' temperature its capture run states
+    (``temperature_c`` of the run, ``aacmm capture --temperature``), None where none:
+    a point belongs to the last run that started at or before its host time."""
+    starts: list[tuple[float, float | None]] = []
+    for run in s.meta.get("runs") or []:
+        if not isinstance(run, dict) or not isinstance(run.get("start"), str):
+            continue
+        try:
+            t0 = dt.datetime.fromisoformat(run["start"]).timestamp()
+        except ValueError:
+            continue
+        temp = run.get("temperature_c")
+        if isinstance(temp, (int, float)) and not isinstance(temp, bool) and math.isfinite(temp):
+            starts.append((t0, float(temp)))
+        else:
+            starts.append((t0, None))
+    starts.sort(key=lambda r: r[0])
+    out: list[float | None] = []
+    for p in s.points:
+        before = [t for t0, t in starts if t0 <= p.host_time]
+        out.append(before[-1] if before else None)
+    return tuple(out)
+
+
+def load_session(
+    path: Path,
+    partial: bool = False,
+    errmodel: ErrorModel | None = None,
+    temp_c: FloatArray | None = None,
+) -> Measured:
     """A capture session's points (recomputed from counts), labels and plan.
+
+    ``errmodel``: the points computed with this error model (encoder
+    harmonics, thermal expansion) at link temperatures ``temp_c`` (degC, one
+    per link; None: the reference), each row with its own set in force
+    (:meth:`aacmm.records.Recorded.points_mm`).
 
     Raises:
         RecordError: not a session (a log was given), or an incomplete session
@@ -137,13 +177,14 @@ def load_session(path: Path, partial: bool = False) -> Measured:
     return Measured(
         source=path,
         kind="session",
-        points=s.points_mm(),
+        points=s.points_mm(errmodel=errmodel, temp_c=temp_c),
         names=[_name(p) for p in s.points],
         step_ids=[p.step_id for p in s.points],
         probe_diameter_mm=s.plan.probe.ball_diameter_mm,
         plan=s.plan,
         labels=s.points,
         meta=_session_meta(s),
+        stated_temperature_c=stated_temperatures(s),
     )
 
 

@@ -55,9 +55,16 @@ empty list: no harmonics)::
     cte_per_k = [2.3e-5, 2.3e-5, 2.3e-5, 2.3e-5, 2.3e-5, 2.3e-5]  # optional, per link
     tref_c = [20.0, 20.0, 20.0, 20.0, 20.0, 20.0]                # optional, per link
 
-The thermal keys (``cte_per_k``, 1/K, and ``tref_c``, degC, N values each;
-absent: 0 and 20 degC) are optional; :func:`errmodel_dict` writes them only
-for an error model with thermal expansion (:func:`has_thermal`).
+The thermal keys (``cte_per_k``, 1/K, ``|x| <= 1e-3``, and ``tref_c``,
+degC, -40 .. 85, N values each; absent: 0 and 20 degC) are the links'
+thermal expansion (issue 27): per link (one per joint; the tip belongs to the
+last) at link temperatures ``T`` every length of link ``i`` (``d_i``, ``a_i``)
+is ``L (1 + cte_i (T_i - tref_i))``. Nothing measures them yet: they are the
+arm maker's (data-sheet) values, written by hand; ``aacmm verify --params FILE
+--temperature C`` applies them (docs/cli.md). ``c_rad`` and ``s_rad``
+(together) and ``cte_per_k`` are each optional; ``tref_c`` goes with
+``cte_per_k``; :func:`errmodel_dict` writes the thermal keys only for an error
+model with thermal expansion (:func:`has_thermal`).
 
 Only :func:`load_param_file_errmodel` reads it (``aacmm params set`` sends the
 harmonics to the device, ``--check`` shows them; the device takes no thermal
@@ -245,8 +252,16 @@ def errmodel_from_mapping(value: Any, joints: int, src: str = "parameters") -> A
                 f"{src}: unknown key {ERRMODEL_TABLE}.{k} "
                 f"(expected {', '.join(ERRMODEL_KEYS + ERRMODEL_THERMAL_KEYS)})"
             )
-    lists: dict[str, list[tuple[float, ...]]] = {}
-    for k in ERRMODEL_KEYS:
+    if not value:
+        raise ParamFileError(f"{where}: an empty table (give c_rad and s_rad, or cte_per_k)")
+    if ("c_rad" in value) != ("s_rad" in value):
+        raise ParamFileError(f"{where}: c_rad and s_rad go together")
+    if "tref_c" in value and "cte_per_k" not in value:
+        raise ParamFileError(f"{where}: tref_c goes with cte_per_k")
+    lists: dict[str, list[tuple[float, ...]]] = {"c_rad": [()] * joints, "s_rad": [()] * joints}
+    for k in ("c_rad", "s_rad"):
+        if k not in value:
+            continue
         v = value.get(k)
         if not isinstance(v, list) or len(v) != joints or not all(isinstance(x, list) for x in v):
             raise ParamFileError(f"{where}.{k} must be {joints} lists (one per joint)")
@@ -264,22 +279,21 @@ def errmodel_from_mapping(value: Any, joints: int, src: str = "parameters") -> A
                 f"{HARMONICS_MAX}"
             )
         hs.append(tuple(zip(c, sv, strict=True)))
-    thermal = {
-        k: _floats(src, f"{ERRMODEL_TABLE}.{k}", value[k], joints)
-        for k in ERRMODEL_THERMAL_KEYS
-        if k in value
-    }
+    cte: tuple[float, ...] = ()
+    tref: tuple[float, ...] = ()
+    if "cte_per_k" in value:
+        cte = _floats(src, f"{ERRMODEL_TABLE}.cte_per_k", value["cte_per_k"], joints)
+        if "tref_c" in value:
+            tref = _floats(src, f"{ERRMODEL_TABLE}.tref_c", value["tref_c"], joints)
     try:
-        return ErrorModel(
-            tuple(hs), cte_per_k=thermal.get("cte_per_k", ()), tref_c=thermal.get("tref_c", ())
-        )
+        return ErrorModel(tuple(hs), cte_per_k=cte, tref_c=tref)
     except ValueError as exc:
         raise ParamFileError(f"{where}: {exc}") from None
 
 
 def errmodel_dict(em: Any) -> dict[str, Any]:
-    """The ``errmodel`` table of an :class:`aacmm.errmodel.ErrorModel` (harmonics; the
-    thermal keys only for an error model with thermal expansion)."""
+    """The ``errmodel`` table of an :class:`aacmm.errmodel.ErrorModel`: its harmonics,
+    and its thermal part when it has one (:func:`has_thermal`)."""
     out: dict[str, Any] = {
         "c_rad": [[c for c, _ in h] for h in em.harmonics],
         "s_rad": [[s for _, s in h] for h in em.harmonics],
@@ -288,6 +302,22 @@ def errmodel_dict(em: Any) -> dict[str, Any]:
         out["cte_per_k"] = list(em.cte_per_k)
         out["tref_c"] = list(em.tref_c)
     return out
+
+
+def describe_errmodel(em: Any) -> str:
+    """One line for an :class:`aacmm.errmodel.ErrorModel`: its harmonics per joint (if
+    any, or if it has nothing else) and its thermal part (if any): ``encoder harmonics K
+    per joint 2,2,0,0,0,0; thermal expansion CTE per link 22e-6 .. 23.5e-6 /K,
+    reference 20 degC``."""
+    parts = []
+    if any(em.harmonics) or not has_thermal(em):
+        parts.append("encoder harmonics K per joint " + ",".join(str(len(h)) for h in em.harmonics))
+    if has_thermal(em):
+        lo, hi = min(em.cte_per_k), max(em.cte_per_k)
+        ref = ", ".join(f"{t:g}" for t in sorted(set(em.tref_c)))
+        span = f"{lo * 1e6:g}e-6" if lo == hi else f"{lo * 1e6:g}e-6 .. {hi * 1e6:g}e-6"
+        parts.append(f"thermal expansion CTE per link {span} /K, reference {ref} degC")
+    return "; ".join(parts)
 
 
 def has_thermal(em: Any) -> bool:

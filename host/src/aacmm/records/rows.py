@@ -19,6 +19,8 @@ import numpy.typing as npt
 
 from aacmm.arm import Arm
 from aacmm.core import FloatArray, KinematicsError, Model, Params, counts_to_angles
+from aacmm.errmodel import ErrorModel
+from aacmm.errmodel import points as em_points
 from aacmm.records.files import RecordError, crc_hex
 from aacmm.records.paramsets import ParamSetRecord
 
@@ -117,26 +119,47 @@ class Recorded:
                 ) from None
         return out
 
-    def points_mm(self, params: Params | Arm | None = None) -> FloatArray:
+    def points_mm(
+        self,
+        params: Params | Arm | None = None,
+        errmodel: ErrorModel | None = None,
+        temp_c: FloatArray | None = None,
+    ) -> FloatArray:
         """Probe points (n, 3) recomputed from the counts in double precision.
 
         Each row uses the kinematic parameters (and encoder harmonics) of its own set
         in force, or
         ``params`` for every row if given (e.g. a calibrated set); the encoder
-        configuration is always the row's own.
+        configuration is always the row's own. ``errmodel``: the readings
+        corrected and the lengths scaled by this error model instead of the set's
+        (:func:`aacmm.errmodel.points`) at the link temperatures ``temp_c``
+        (degC, one per link; None: the reference temperatures).
 
         Raises:
-            RecordError: ``params`` is a model of another arm (:meth:`check_model`).
+            RecordError: ``params`` or ``errmodel`` is of another arm
+                (:meth:`check_model`), a temperature the core refuses.
         """
         if params is not None:
             self.check_model(params)
+        if errmodel is not None and errmodel.joints != self.joints:
+            raise RecordError(
+                f"{self.path}: taken with an arm of {self.joints} joints; the error model "
+                f"is of {errmodel.joints} joints"
+            )
         theta = self.angles_rad()
         out = np.empty((len(self), 3), dtype=np.float64)
         for ps, rows in self._groups():
-            if params is None:
-                out[rows] = ps.points(theta[rows])  # with the set's error model, if any
-            else:
-                out[rows] = Model(params).points(theta[rows])
+            if errmodel is None:
+                if params is None:
+                    out[rows] = ps.points(theta[rows])  # with the set's error model, if any
+                else:
+                    out[rows] = Model(params).points(theta[rows])
+                continue
+            model = Model(params if params is not None else ps.model)
+            try:
+                out[rows] = em_points(model, errmodel, theta[rows], temp_c)
+            except KinematicsError as exc:
+                raise RecordError(f"{self.path}: {exc}") from None
         return out
 
     def single_params(self, what: str) -> Params | Arm:

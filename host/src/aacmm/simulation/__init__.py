@@ -14,6 +14,9 @@ The host side of ``aacmm sim --truth`` and ``aacmm sim --scenario``
   :func:`~aacmm.simulation.truthspec.check_truth_model`;
 * :mod:`aacmm.simulation.encgrade` -- encoder grades (``--encoder-grade``): the
   harmonics of the true encoders' reading errors;
+* :mod:`aacmm.simulation.truthcheck` -- lengths across the reach measured
+  through the true encoders against the truth (``aacmm demo --check``'s
+  evaluation; the tests' studies of calibrations use it too);
 * :mod:`aacmm.simulation.thermal` -- a truth's thermal profile and its true
   points at link temperatures;
 * :mod:`aacmm.simulation.ik` -- inverse kinematics on the core (damped least

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -299,11 +299,14 @@ def propagate(
     workspace_seed: int | None = None,
     progress: Progress | None = None,
     memory_budget: int = MEMORY_BUDGET,
+    joint_ranges_rad: Sequence[tuple[float, float]] | None = None,
 ) -> UncertaintyResult:
     """Propagate the parameter uncertainties to the probe point, both ways.
 
     At the spec's poses and at ``workspace`` random poses (all joints uniform
-    in [-pi, pi), seeded by ``workspace_seed``, default ``seed + 1``), with
+    in [-pi, pi), or joint i uniform in ``joint_ranges_rad[i]`` = [low, high)
+    rad when given: an arm model's ``sampling_ranges_rad()``, poses within its
+    joint limits; seeded by ``workspace_seed``, default ``seed + 1``), with
     ``trials`` Monte Carlo draws (the same draws for every pose). ``ndig``
     sets the JCGM 101 section 8 tolerance; ``threads`` (default: all cores)
     computes chunks of trials in parallel (the result does not depend on it);
@@ -312,9 +315,10 @@ def propagate(
     at once (see the module).
 
     Raises ValueError for trials < 2, workspace < 0, no pose at all, ndig < 1,
-    a bad seed, or threads < 1; MemoryLimitError if the poses cannot fit in
-    the available memory; KinematicsError if a drawn arm is invalid (an
-    uncertainty far too large for the parameter limits).
+    a bad seed, threads < 1, or joint ranges not one finite [low < high) per
+    joint; MemoryLimitError if the poses cannot fit in the available memory;
+    KinematicsError if a drawn arm is invalid (an uncertainty far too large for
+    the parameter limits).
     """
     for name, v, lo in (
         ("trials", trials, 2),
@@ -337,7 +341,13 @@ def propagate(
             f"half the {avail / 2**30:.1f} GiB available: analyse fewer poses"
         )
     ws_seed = seed + 1 if workspace_seed is None else workspace_seed
-    ws = np.random.default_rng(ws_seed).uniform(-math.pi, math.pi, (workspace, spec.joints))
+    ranges = _joint_ranges(joint_ranges_rad, spec.joints)
+    if ranges is None:  # the paper's default: every joint in [-pi, pi), as before
+        ws = np.random.default_rng(ws_seed).uniform(-math.pi, math.pi, (workspace, spec.joints))
+    else:
+        r = np.asarray(ranges)
+        unit = np.random.default_rng(ws_seed).random((workspace, spec.joints))
+        ws = r[:, 0] + (r[:, 1] - r[:, 0]) * unit
     poses = np.concatenate([spec.poses_rad, ws])
     t0 = time.perf_counter()
     u = spec.u_vector()
@@ -430,4 +440,19 @@ def propagate(
         time.perf_counter() - t0,
         quantiles="exact" if exact else f"histogram ({HIST_BINS} bins between the extremes)",
         threads=nt,
+        workspace_ranges_rad=ranges,
     )
+
+
+def _joint_ranges(
+    ranges: Sequence[tuple[float, float]] | None, joints: int
+) -> tuple[tuple[float, float], ...] | None:
+    """The workspace's joint ranges checked: N finite pairs low < high (None: none)."""
+    if ranges is None:
+        return None
+    out = tuple((float(lo), float(hi)) for lo, hi in ranges)
+    if len(out) != joints or not all(
+        math.isfinite(lo) and math.isfinite(hi) and lo < hi for lo, hi in out
+    ):
+        raise ValueError(f"joint ranges need {joints} finite pairs [low, high) with low < high")
+    return out

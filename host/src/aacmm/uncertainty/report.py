@@ -87,6 +87,16 @@ class UncertaintyResult:
     elapsed_s: float
     quantiles: str = "exact"
     threads: int = 1
+    #: The workspace poses' joint ranges [low, high) rad (None: every joint in [-pi, pi)).
+    workspace_ranges_rad: tuple[tuple[float, float], ...] | None = None
+
+    def workspace_text(self) -> str:
+        """How the workspace poses were drawn, in words (degrees)."""
+        r = self.workspace_ranges_rad
+        if r is None:
+            return "joints uniform in [-180, 180) deg"
+        parts = ", ".join(f"[{math.degrees(lo):g}, {math.degrees(hi):g})" for lo, hi in r)
+        return f"joints uniform within the arm's limits: {parts} deg"
 
     @property
     def given(self) -> tuple[PoseResult, ...]:
@@ -158,7 +168,7 @@ def format_report(res: UncertaintyResult, top: int = 10, pose_rows: int = 8) -> 
         umc = np.array([p.u_mc for p in ws])
         lines += [
             "",
-            f"workspace ({len(ws)} random poses, joints uniform in [-180, 180) deg):",
+            f"workspace ({len(ws)} random poses, {res.workspace_text()}):",
             "  RMS u per axis (x, y, z), linear: "
             + ", ".join(f"{v * um:.3f}" for v in np.sqrt((ul**2).mean(axis=0)))
             + "; Monte Carlo: "
@@ -241,6 +251,15 @@ def to_json(res: UncertaintyResult) -> dict[str, Any]:
         },
         "given_poses": [pose(p) for p in res.given],
         "workspace_poses": [pose(p) for p in res.workspace],
+        **(
+            {}
+            if res.workspace_ranges_rad is None
+            else {
+                "workspace_joint_ranges_deg": [
+                    [math.degrees(lo), math.degrees(hi)] for lo, hi in res.workspace_ranges_rad
+                ]
+            }
+        ),
         "agreement": {"ratio_min": lo, "ratio_max": hi, "valid_fraction": res.valid_fraction()},
         "budget": [
             {

@@ -30,7 +30,7 @@ from aacmm.analysis.tolerance.solve import (
     optimise,
     prune,
 )
-from aacmm.core import FloatArray, Params
+from aacmm.core import FloatArray
 from aacmm.errors import InfeasibleError
 from aacmm.uncertainty.spec import SpecError
 
@@ -262,9 +262,10 @@ def allocate(spec: ToleranceSpec, calibration: CalibrationModel | None = None) -
     """
     t0 = time.perf_counter()
     if calibration is None and spec.calibration is not None:
-        assert isinstance(spec.params, Params)  # ToleranceSpec: the paper's arm only, for now
         try:
-            calibration = CalibrationModel.from_plan(spec.calibration, spec.params)
+            calibration = CalibrationModel.from_plan(
+                spec.calibration, spec.params, spec.operator_limits()
+            )
         except ValueError as e:
             raise SpecError(f"{spec.source}: [calibration].plan: {e}") from e
     design = build_design(spec, calibration)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -29,6 +29,9 @@ from aacmm.uncertainty.spec import (
     TOLERANCE_FACTOR,
     is_param_name,
 )
+
+if TYPE_CHECKING:
+    from aacmm.simulation.ik import JointLimits
 
 ARCSEC_RAD = ANGLE_UNITS["arcsec"]
 DEFAULT_RANDOM_POSES = 200
@@ -254,7 +257,13 @@ class Workspace:
         if self.random:
             rng = self.ranges_rad
             full = np.allclose(rng, np.tile([-math.pi, math.pi], (self.joints, 1)))
-            how = "joints uniform in [-180, 180) deg" if full else "joints uniform in their ranges"
+            how = (
+                "joints uniform in [-180, 180) deg"
+                if full
+                else "joints uniform in "
+                + ", ".join(f"[{lo:g}, {hi:g})" for lo, hi in np.degrees(rng))
+                + " deg"
+            )
             parts.append(f"{self.random} random ({how}, seed {self.seed})")
         return ", ".join(parts) + " poses"
 
@@ -289,8 +298,11 @@ class ToleranceSpec:
 
     ``params``: the nominal arm, the paper's (:class:`Params`, default) or any
     :class:`aacmm.arm.Arm`; ``model``: its arm model's name for reports (None:
-    the paper's arm, or an arm made in code). A calibrated allocation
-    (``calibration``) is for the paper's arm only, for now.
+    the paper's arm, or an arm made in code); ``joint_limits_rad``: the arm's
+    joint limits (N pairs, ``(-inf, inf)`` for none; an arm model's), where the
+    simulated operator of a calibrated allocation (``calibration``) keeps the
+    arm: needed for an arm other than the paper's (None: the paper's arm's,
+    :data:`aacmm.simulation.ik.ARM_LIMITS`).
     """
 
     costs: tuple[ParamCost, ...]
@@ -304,6 +316,7 @@ class ToleranceSpec:
     calibration: CalibrationDesign | None = None
     source: str = "<spec>"
     model: str | None = None
+    joint_limits_rad: tuple[tuple[float, float], ...] | None = None
 
     def __post_init__(self) -> None:
         names = self.param_names
@@ -328,11 +341,26 @@ class ToleranceSpec:
             for j in range(1, n + 1):
                 if not any(j in e.joints for e in self.encoders):
                     raise ValueError(f"no encoder in the catalogue fits joint {j}")
-        if self.calibration is not None and not isinstance(self.params, Params):
+        if self.joint_limits_rad is not None and len(self.joint_limits_rad) != n:
+            raise ValueError(f"{len(self.joint_limits_rad)} joint limits for an arm of {n} joints")
+        if (
+            self.calibration is not None
+            and not isinstance(self.params, Params)
+            and self.joint_limits_rad is None
+        ):
             raise ValueError(
-                "[calibration]: the calibrated allocation is for the paper's arm only "
-                "(gao2013) for now; allocate this arm without [calibration]"
+                "[calibration]: a calibrated allocation of an arm other than the paper's "
+                "needs its joint limits (an arm model's: --model)"
             )
+
+    def operator_limits(self) -> JointLimits | None:
+        """The simulated operator's joint limits for a calibration plan: the arm's
+        (``joint_limits_rad``), or None (the paper's arm's default)."""
+        from aacmm.simulation.ik import JointLimits
+
+        if self.joint_limits_rad is None:
+            return None
+        return JointLimits.from_ranges(self.joint_limits_rad)
 
     @property
     def arm(self) -> Arm:

@@ -25,7 +25,7 @@ poses and joint ranges have N angles, encoders fit joints 1..N, and
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -44,10 +44,12 @@ from aacmm.analysis.tolerance.request import (
 )
 from aacmm.arm import Arm
 from aacmm.core import FloatArray, Params
+from aacmm.errors import AacmmError
 from aacmm.uncertainty.spec import (
     ANGLE_UNITS,
     DISTRIBUTIONS,
     LENGTH_UNITS,
+    ArmParameterError,
     SpecError,
     expand_name,
 )
@@ -252,7 +254,12 @@ def _poses(value: Any, unit: str, where: str, joints: int) -> FloatArray:
     return np.radians(a) if unit == "deg" else a
 
 
-def _workspace(doc: Mapping[str, Any], base: Path | None, joints: int) -> Workspace:
+def _workspace(
+    doc: Mapping[str, Any],
+    base: Path | None,
+    joints: int,
+    limits: Sequence[tuple[float, float]] | None = None,
+) -> Workspace:
     w = _table(doc, "workspace", "[workspace]")
     _no_unknown(w, _WORKSPACE, "[workspace]")
     pu = _str(w, "pose_unit", "[workspace]", "deg", ("deg", "rad"))
@@ -289,6 +296,9 @@ def _workspace(doc: Mapping[str, Any], base: Path | None, joints: int) -> Worksp
     if seed < 0:
         raise SpecError(f"[workspace].seed: must be >= 0, got {seed}")
     rng = np.tile([-180.0, 180.0], (joints, 1))
+    if limits is not None:  # an arm model's joint limits (rad): its random poses within them
+        rng = np.degrees(np.asarray(limits, dtype=np.float64))
+        rng[~np.isfinite(rng).all(axis=1)] = [-180.0, 180.0]
     if "joint_range_deg" in w:
         try:
             rng = np.asarray(w["joint_range_deg"], dtype=np.float64)
@@ -399,27 +409,73 @@ def _calibration(doc: Mapping[str, Any], lu: str, base: Path | None) -> Calibrat
         raise SpecError(f"[calibration]: {e}") from e
 
 
+def _nominal_file(
+    nominal: Mapping[str, Any], base: Path | None, arm: Arm | None, model: str | None
+) -> Params | Arm:
+    """``[nominal] file = "FILE"``: the nominal arm from a parameter file (a
+    calibrated set, ``aacmm calibrate -o``; relative to the spec), of the shape
+    of ``arm`` (None: the paper's arm). Raises SpecError (ArmParameterError for
+    a file of another arm's shape)."""
+    from aacmm.records.paramfile import load_param_file
+
+    if set(nominal) != {"file"} or not isinstance(nominal["file"], str) or not nominal["file"]:
+        raise SpecError("[nominal].file: a parameter file's name, and nothing else in [nominal]")
+    path = Path(nominal["file"])
+    if base is not None and not path.is_absolute():
+        path = base / path
+    try:
+        ps = load_param_file(path)
+    except AacmmError as e:
+        raise SpecError(f"[nominal].file: {e}") from e
+    got = ps.to_arm()[0]
+    want = Arm.paper() if arm is None else arm
+    if (got.n_joints, got.tip, [(j.convention, j.beta_rad is None) for j in got.joints]) != (
+        want.n_joints,
+        want.tip,
+        [(j.convention, j.beta_rad is None) for j in want.joints],
+    ):
+        what = "the paper's arm" if arm is None else f"model {model or '(given)'}"
+        raise ArmParameterError(
+            f"[nominal].file: {path} is a set of an arm of {got.n_joints} joints and "
+            f"{got.n_params} parameters, not of {what} ({want.n_joints} joints, "
+            f"{want.n_params} parameters)"
+        )
+    if arm is None:
+        return ps.to_core()[0]
+    return got
+
+
 def parse_spec(
     doc: Mapping[str, Any],
     base: Path | None = None,
     arm: Arm | None = None,
     model: str | None = None,
+    limits: Sequence[tuple[float, float]] | None = None,
 ) -> ToleranceSpec:
     """Build a :class:`ToleranceSpec` from a parsed TOML document.
 
     ``base`` is the directory relative file names (``[workspace].log``) are
     resolved against. ``arm``: the nominal arm (an arm model's, ``model`` its
     name); None or the paper's arm itself: the paper's arm, ``[nominal]``
-    allowed. Raises SpecError naming the field for anything invalid
+    allowed. ``limits``: the arm's joint limits (N pairs in rad, ``(-inf,
+    inf)`` for none: an arm model's ``joint_limits_rad``), the default range of
+    the random workspace poses (without: every joint in [-180, 180) deg; a
+    joint without limits keeps that); ``[workspace].joint_range_deg`` overrides
+    it. Raises SpecError naming the field for anything invalid
     (ArmParameterError: a parameter this arm does not have).
     """
     _no_unknown(doc, _TOP, "top level")
     au = _str(doc, "angle_unit", "top level", "arcsec", tuple(ANGLE_UNITS))
     lu = _str(doc, "length_unit", "top level", "um", tuple(LENGTH_UNITS))
     params: Params | Arm
-    if arm is None or arm == Arm.paper():
+    paper = arm is None or arm == Arm.paper()
+    nominal = _table(doc, "nominal", "[nominal]")
+    if "file" in nominal:
+        params = _nominal_file(nominal, base, arm if not paper else None, model)
+        the_arm = params.to_arm() if isinstance(params, Params) else params
+    elif paper:
         try:
-            params = Params(**_table(doc, "nominal", "[nominal]"))
+            params = Params(**nominal)
             params.validate()
         except (TypeError, ValueError) as e:
             raise SpecError(f"[nominal]: {e}") from e
@@ -428,12 +484,16 @@ def parse_spec(
         if "nominal" in doc:
             raise SpecError(
                 f"[nominal]: gives the paper's arm's values; the nominal arm here is the "
-                f"model {model or '(given)'}: remove [nominal] (or edit the model file)"
+                f"model {model or '(given)'}: remove [nominal], give a parameter file of "
+                "the arm (file = ...) or edit the model file"
             )
+        assert arm is not None
         params = the_arm = arm
     target = _target(doc, lu)
     costs = _param_costs(doc, au, lu, the_arm)
-    workspace = _workspace(doc, base, the_arm.n_joints)
+    if limits is not None and len(limits) != the_arm.n_joints:
+        raise ValueError(f"{len(limits)} joint limits for an arm of {the_arm.n_joints} joints")
+    workspace = _workspace(doc, base, the_arm.n_joints, limits)
     encoders = _encoders(doc, the_arm.n_joints)
     res = _table(doc, "residual", "[residual]")
     _no_unknown(res, _RESIDUAL, "[residual]")
@@ -453,14 +513,25 @@ def parse_spec(
             lu,
             calibration,
             model=model,
+            joint_limits_rad=(
+                None
+                if limits is None or isinstance(params, Params)
+                else tuple((float(lo), float(hi)) for lo, hi in limits)
+            ),
         )
     except ValueError as e:
         raise SpecError(f"{e}") from e
 
 
-def load_spec(path: str | Path, arm: Arm | None = None, model: str | None = None) -> ToleranceSpec:
+def load_spec(
+    path: str | Path,
+    arm: Arm | None = None,
+    model: str | None = None,
+    limits: Sequence[tuple[float, float]] | None = None,
+) -> ToleranceSpec:
     """Read and parse a tolerance spec file (see :func:`parse_spec`; ``arm``,
-    ``model``: the nominal arm and its model's name, default the paper's).
+    ``model``, ``limits``: the nominal arm, its model's name and its joint
+    limits, default the paper's arm with every joint in [-180, 180) deg).
 
     Raises SpecError ("FILE: FIELD: reason") if the file cannot be read, is
     not TOML (or is nested absurdly deep), or is invalid.
@@ -473,7 +544,7 @@ def load_spec(path: str | Path, arm: Arm | None = None, model: str | None = None
     except InputFileError as e:
         raise SpecError(str(e)) from e
     try:
-        spec = parse_spec(doc, p.parent, arm, model)
+        spec = parse_spec(doc, p.parent, arm, model, limits)
     except SpecError as e:
         raise type(e)(f"{p}: {e}") from e
     except ValueError as e:
