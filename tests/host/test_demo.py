@@ -53,11 +53,10 @@ class Run:
     stdout: str
 
 
-@pytest.fixture(scope="module")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> Run:
-    out = tmp_path_factory.mktemp("demo") / "run"
+def run_demo(out: Path, *args: str) -> Run:
+    """``aacmm demo --out OUT ARGS`` as a user runs it; it must pass (exit 0)."""
     p = subprocess.run(
-        [str(AACMM), "demo", "--out", str(out), "--seed", str(SEED)],
+        [str(AACMM), "demo", "--out", str(out), *args],
         capture_output=True,
         text=True,
         timeout=500,
@@ -66,6 +65,11 @@ def demo(tmp_path_factory: pytest.TempPathFactory) -> Run:
     )
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr
     return Run(out, p.stdout)
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory: pytest.TempPathFactory) -> Run:
+    return run_demo(tmp_path_factory.mktemp("demo") / "run", "--seed", str(SEED))
 
 
 # ------------------------------------------------------------------ parsing
@@ -316,22 +320,13 @@ def test_truth_check_agrees_with_an_independent_recomputation(demo: Run) -> None
 # ------------------------------------------------- one-head encoders (issue 27 item 5)
 
 ONE_HEAD_SEED = 27  # the arm random:27 with one-head encoders
-ONE_HEAD_ARGS = (str(AACMM), "demo", "--encoder-grade", "one-head", "--seed", str(ONE_HEAD_SEED))
+ONE_HEAD_ARGS = ("--encoder-grade", "one-head", "--seed", str(ONE_HEAD_SEED))
 
 
 @pytest.fixture(scope="module")
 def demo_one_head(tmp_path_factory: pytest.TempPathFactory) -> Run:
-    out = tmp_path_factory.mktemp("demo-one-head") / "run"
-    p = subprocess.run(
-        [*ONE_HEAD_ARGS, "--out", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=500,
-        env=cli_env(),
-        check=False,
-    )
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr  # PASS after calibration
-    return Run(out, p.stdout)
+    # exit 0: PASS after calibration
+    return run_demo(tmp_path_factory.mktemp("demo-one-head") / "run", *ONE_HEAD_ARGS)
 
 
 def test_demo_with_one_head_encoders(demo_one_head: Run) -> None:
@@ -516,16 +511,7 @@ MODEL_SEED = 19
 @pytest.fixture(scope="module")
 def demo_model(tmp_path_factory: pytest.TempPathFactory) -> Run:
     out = tmp_path_factory.mktemp("demo-model") / "run"
-    p = subprocess.run(
-        [str(AACMM), "demo", "--model", MODEL, "--out", str(out), "--seed", str(MODEL_SEED)],
-        capture_output=True,
-        text=True,
-        timeout=500,
-        env=cli_env(),
-        check=False,
-    )
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr
-    return Run(out, p.stdout)
+    return run_demo(out, "--model", MODEL, "--seed", str(MODEL_SEED))
 
 
 def test_demo_of_a_seven_axis_model(demo_model: Run) -> None:
@@ -603,16 +589,7 @@ def test_demo_of_a_desktop_digitizer(tmp_path: Path) -> None:
     check improves at least 5x (the encoders' quantisation is a floor of some 45 um)."""
     from aacmm.calibration.gate import GateLimits
 
-    out = tmp_path / "run"
-    p = subprocess.run(
-        [str(AACMM), "demo", "--model", "microscribe5", "--out", str(out), "--seed", "6"],
-        capture_output=True,
-        text=True,
-        timeout=500,
-        env=cli_env(),
-        check=False,
-    )
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr
+    p = run_demo(tmp_path / "run", "--model", "microscribe5", "--seed", "6")
     limits = re.search(r'uncertainty limits: ([\d.]+) um, ([\d.]+)" \(defaults', p.stdout)
     assert limits is not None, p.stdout
     default = GateLimits()
