@@ -100,8 +100,21 @@ def session_points(folder: Path) -> tuple[list[dict[str, str]], np.ndarray]:
         )
         counts = [int(r[f"count{i}"]) for i in range(1, 7)]
         v = np.array([*ps.theta_offset_rad, *ps.alpha_rad, *ps.d_mm, *ps.a_mm, ps.l_mm])
-        pts.append(hostref.numpy_point(v, hostref.counts_to_angles(ps, counts)))
+        q = np.asarray(hostref.counts_to_angles(ps, counts), dtype=np.float64)
+        pts.append(hostref.numpy_point(v, corrected(q, d.get("errmodel"))))
     return rows, np.array(pts)
+
+
+def corrected(q: np.ndarray, errmodel: dict[str, Any] | None) -> np.ndarray:
+    """Readings corrected by a set's encoder harmonics (its sidecar ``errmodel`` entry):
+    q_j + sum_k c_jk cos(k q_j) + s_jk sin(k q_j), written out here (issue 27)."""
+    if errmodel is None:
+        return q
+    out = q.copy()
+    for j, (cs, ss) in enumerate(zip(errmodel["c_rad"], errmodel["s_rad"], strict=True)):
+        for k, (c, s) in enumerate(zip(cs, ss, strict=True), start=1):
+            out[j] += c * np.cos(k * q[j]) + s * np.sin(k * q[j])
+    return out
 
 
 def sphere_ls(p: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:

@@ -28,6 +28,7 @@ of the wrong length.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -244,7 +245,10 @@ def choose_auto(
     harmonics are added one order at a time for every joint still growing; a
     joint stops at its first order not identified, or after two orders in a row
     not significant (one order may be small where the next is not), K being its
-    last significant order.
+    last significant order. Then each joint's highest order is tested again in the
+    fit with every chosen order, against the scatter that fit leaves
+    (:func:`_against_the_scatter`: the Wald chi-square over chi^2/dof when the
+    model is still refuted, as with coarse encoders), and dropped if it fails.
 
     ``cand``: the arm's parameter names to estimate (the harmonics are added).
     """
@@ -306,7 +310,46 @@ def choose_auto(
             if len(misses[j]) == 2 or h == HARMONICS_MAX:
                 growing[j] = False
                 why[j] = _not_significant(misses[j])
+    if fit is not None:
+        ks = _against_the_scatter(start, ks, why, fit)
     return AutoChoice(tuple(ks), tuple(why))
+
+
+def _against_the_scatter(
+    start: ArmParams | CalibParams,
+    ks: list[int],
+    why: list[str],
+    fit: Callable[[CalibParams], CalibrationResult[Any]],
+) -> list[int]:
+    """The orders chosen, each tested again in the fit with all of them, against the
+    scatter that fit leaves: the Wald chi-square divided by its chi^2/dof when above 1.
+    Where the residuals stay far above the stated uncertainties with every chosen order
+    (coarse encoders' quantisation, no harmonic), terms that are only significant
+    against the stated uncertainties are noise fitted; the highest order of each joint
+    that fails is dropped and the rest tested again. ``why`` is updated in place."""
+    ks = list(ks)
+    for _ in range(HARMONICS_MAX * len(ks)):
+        if not any(ks):
+            break
+        res = fit(start_params(start, ks))
+        ratio = res.chi_square.ratio
+        if not (math.isfinite(ratio) and ratio > 1.0):
+            break
+        dropped = False
+        for j, k in enumerate(ks):
+            if k == 0:
+                continue
+            chi2 = wald_chi2(res, j + 1, k) / ratio
+            if chi2 < SIGNIFICANCE_CHI2:
+                ks[j] = k - 1
+                why[j] = (
+                    f"k = {k} not significant against the residual scatter (chi^2 {chi2:.3g} "
+                    f"< {SIGNIFICANCE_CHI2:.1f} with chi^2/dof {ratio:.3g})"
+                )
+                dropped = True
+        if not dropped:
+            break
+    return ks
 
 
 def _not_significant(misses: Sequence[tuple[int, float]]) -> str:

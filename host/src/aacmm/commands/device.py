@@ -306,12 +306,9 @@ def _with_file_errmodel(file: str, ps: ParamSet, em: Any) -> ParamSet:
 
 def cmd_params_set(args: argparse.Namespace) -> int:
     from aacmm.protocol import ParamSource
-    from aacmm.records.paramfile import load_param_file_errmodel
+    from aacmm.records.paramfile import describe_errmodel, has_thermal, load_param_file_errmodel
 
     ps, arm, em = load_param_file_errmodel(args.file)  # validated before anything is sent
-    ps = _with_file_errmodel(args.file, ps, em)
-    want = _local_crc(ps)
-    harm = f"; error model: {errmodel_text(ps)}" if em is not None else ""
     if args.check:
         whose = (
             f", for the arm with serial number {arm.serial_number}"
@@ -319,8 +316,19 @@ def cmd_params_set(args: argparse.Namespace) -> int:
             else ""
         )
         shape = "" if ps.is_paper_shape else f", {ps.joints} joints, {ps.n_params} parameters"
-        print(f"{args.file}: valid parameter set{shape}, crc 0x{want:08x}{whose}{harm}")
+        if em is not None and has_thermal(em):  # valid, but not for the device (yet)
+            harm = (
+                f"; [errmodel] {describe_errmodel(em)} (params set refuses it: the device "
+                "reads no link temperatures and takes no thermal block)"
+            )
+        else:
+            ps = _with_file_errmodel(args.file, ps, em)
+            harm = f"; error model: {errmodel_text(ps)}" if em is not None else ""
+        print(f"{args.file}: valid parameter set{shape}, crc 0x{_local_crc(ps):08x}{whose}{harm}")
         return OK
+    ps = _with_file_errmodel(args.file, ps, em)
+    want = _local_crc(ps)
+    harm = f"; error model: {errmodel_text(ps)}" if em is not None else ""
     with device_from_args(args) as dev:
         c = dev.client
         note = _check_arm(args.file, arm, dev.info.serial_number, args.override)
