@@ -427,3 +427,31 @@ def test_end_to_end_one_head_encoders(tmp_path: Path, capsys: pytest.CaptureFixt
     assert held_out["0"][0] == "incomplete"
     assert held_out["2"][0] in ("consistent", "overstated")
     assert held_out["2"][1] <= 0.010 and held_out["2"][1] * 10 <= held_out["0"][1], held_out
+
+
+def test_auto_takes_almost_no_harmonics_from_coarse_encoders_quantisation() -> None:
+    """Readings of 14- and 16-bit encoders (one count 384 and 96 urad: their
+    quantisation, an error no harmonic describes, far above the stated 5 um) of arms
+    without harmonics, three arms each. Against the stated uncertainties nearly every
+    order looks significant (measured: K 4 on almost every joint); against the scatter
+    the full fit leaves, auto takes at most one spurious order per arm and none on
+    most (measured: 2 orders in 6 arms of 24 joint orders each), and says why."""
+    taken, none = 0, 0
+    for bits in (14, 16):
+        for seed in (11, 21, 31):
+            truth = perturbed_truth(np.random.default_rng(seed))
+            rng = np.random.default_rng(seed + 1)
+            n = 300
+            q = rng.uniform(-3.0, 3.0, (n, 6))
+            count = 2 * math.pi / 2**bits
+            r = np.round(q / count) * count  # what the coarse encoders read
+            x = Model(truth).points(q)
+            cons = (ReferencePoints("tracker", np.arange(n), x, 0.0, base_known=True),)
+            auto = calibrate(obs_of(r, cons), harmonics="auto")
+            assert auto.chi_square.verdict == "incomplete"  # the quantisation is unmodelled
+            ks = auto.params.harmonics if isinstance(auto.params, CalibParams) else (0,) * 6
+            assert sum(1 for k in ks if k) <= 1, (bits, seed, ks)
+            taken += sum(ks)
+            none += not any(ks)
+            assert "not significant against the residual scatter" in " ".join(auto.notes)
+    assert none >= 4 and taken <= 8, (none, taken)
