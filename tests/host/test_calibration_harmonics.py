@@ -434,8 +434,8 @@ def test_auto_takes_almost_no_harmonics_from_coarse_encoders_quantisation() -> N
     quantisation, an error no harmonic describes, far above the stated 5 um) of arms
     without harmonics, three arms each. Against the stated uncertainties nearly every
     order looks significant (measured: K 4 on almost every joint); against the scatter
-    the full fit leaves, auto takes at most one spurious order per arm and none on
-    most (measured: 2 orders in 6 arms of 24 joint orders each), and says why."""
+    the full fit leaves, auto takes harmonics on at most one joint per arm and none on
+    most (measured: two joints of the six arms take any, K 4 and K 2), and says why."""
     taken, none = 0, 0
     for bits in (14, 16):
         for seed in (11, 21, 31):
