@@ -2553,6 +2553,77 @@ static void test_sim_replay_loops(void **state)
     assert_int_equal(aacmm_sim_angles(&s, 0, th), AACMM_ERR_UNSUPPORTED);
 }
 
+/* Replays of 4, 5 and 7 joints (replay_joints): joints 1..K from the pose,
+ * 0 past K, joint 7 held at 0.7 rad unless K = 7; noise on joints 1..K in
+ * joint order, so K = 6 given as 6 or as 0 gives the same readings. */
+static void test_sim_replay_joints(void **state)
+{
+    aacmm_sim_t s;
+    aacmm_sim_t t;
+    aacmm_sim_config_t c;
+    static const uint32_t poses[14] = {1, 2, 3, 4, 5, 6, 7, 10, 20, 30, 40, 50, 60, 4095};
+    uint32_t got[AACMM_JOINTS_MAX];
+    uint32_t ref[AACMM_JOINTS_MAX];
+    uint32_t hold7;
+    unsigned k;
+    int i;
+    int r;
+    (void)state;
+    sim_cfg(&c, AACMM_SIM_REPLAY, 4096);
+    hold7 = aacmm_sim_angle_to_counts(0.7f, 4096);
+    c.replay = poses;
+    for (k = 4; k <= 7; k++) {
+        c.replay_joints = (uint8_t)k;
+        c.replay_poses = 14u / k;
+        assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+        for (r = 0; r < 5; r++) {
+            const uint32_t *pose = poses + (size_t)((unsigned)r % (14u / k)) * k;
+            assert_int_equal(aacmm_sim_read(&s, 0, got), AACMM_OK);
+            for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+                uint32_t want = (unsigned)i < k ? pose[i] : (i == 6 ? hold7 : 0u);
+                assert_int_equal(got[i], want);
+            }
+        }
+    }
+    /* out of range */
+    c.replay_poses = 1;
+    c.replay_joints = 3;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE);
+    c.replay_joints = 8;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE);
+    c.replay_joints = 7;
+    c.replay_poses = 2; /* the second pose's joint 7 is 4095 < 4096: fine */
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    c.counts_per_rev = 4095; /* now it is not */
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_ERR_RANGE);
+    /* with noise: 6 as 0 or 6 the same stream; 7 keeps joints 1..6's noise */
+    sim_cfg(&c, AACMM_SIM_REPLAY, 4096);
+    c.replay = poses;
+    c.noise_counts = 50;
+    c.seed = 11;
+    c.replay_poses = 2;
+    c.replay_joints = 0;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    c.replay_joints = 6;
+    assert_int_equal(aacmm_sim_init(&t, &c), AACMM_OK);
+    for (r = 0; r < 6; r++) {
+        assert_int_equal(aacmm_sim_read(&s, 0, ref), AACMM_OK);
+        assert_int_equal(aacmm_sim_read(&t, 0, got), AACMM_OK);
+        assert_memory_equal(got, ref, sizeof got);
+    }
+    /* 7: joints 1..6 draw the noise of 6 (pose 1's first six are the same),
+     * then joint 7 its own from the pose's 7 */
+    c.replay_joints = 7;
+    assert_int_equal(aacmm_sim_init(&t, &c), AACMM_OK);
+    c.replay_joints = 0;
+    assert_int_equal(aacmm_sim_init(&s, &c), AACMM_OK);
+    assert_int_equal(aacmm_sim_read(&s, 0, ref), AACMM_OK);
+    assert_int_equal(aacmm_sim_read(&t, 0, got), AACMM_OK);
+    assert_memory_equal(got, ref, AACMM_JOINTS * sizeof got[0]);
+    assert_true(count_dist(got[6], 7u, 4096) <= 50u);
+    assert_int_equal(ref[6], hold7);
+}
+
 static void test_sim_button(void **state)
 {
     aacmm_sim_t s;
@@ -2690,6 +2761,7 @@ int main(void)
         cmocka_unit_test(test_sim_walk_seeded),
         cmocka_unit_test(test_sim_noise_bounds),
         cmocka_unit_test(test_sim_replay_loops),
+        cmocka_unit_test(test_sim_replay_joints),
         cmocka_unit_test(test_sim_button),
         cmocka_unit_test(test_sim_drives_device),
     };

@@ -64,14 +64,16 @@ static void expect_error(const char *path, uint64_t cpr, const char *want)
     uint32_t sentinel[1] = {0xDEADBEEFu};
     uint32_t *poses = sentinel;
     uint32_t n = 77u;
+    unsigned k = 99u;
     char err[512];
     memset(err, 'x', sizeof err);
     err[sizeof err - 1] = '\0';
-    if (replay_file_load(path, cpr, &poses, &n, err, sizeof err) != -1) {
+    if (replay_file_load(path, cpr, &poses, &n, &k, err, sizeof err) != -1) {
         fail_msg("accepted %s, expected an error with '%s'", path, want);
     }
     assert_ptr_equal(poses, sentinel);
     assert_int_equal(n, 77u);
+    assert_int_equal(k, 99u);
     assert_null(strchr(err, '\n'));
     if (strstr(err, want) == NULL) {
         fail_msg("error '%s' does not contain '%s'", err, want);
@@ -84,28 +86,38 @@ static void expect_line_error(const char *text, uint64_t cpr, unsigned line, con
     char prefix[sizeof g_path + 16];
     uint32_t *poses = NULL;
     uint32_t n = 0;
+    unsigned k = 0;
     char err[512];
     write_text(text);
     snprintf(prefix, sizeof prefix, "%s:%u: ", g_path, line);
-    assert_int_equal(replay_file_load(g_path, cpr, &poses, &n, err, sizeof err), -1);
+    assert_int_equal(replay_file_load(g_path, cpr, &poses, &n, &k, err, sizeof err), -1);
     if (strncmp(err, prefix, strlen(prefix)) != 0 || strstr(err, want) == NULL) {
         fail_msg("file '%s': error '%s', expected '%s...%s'", text, err, prefix, want);
     }
     expect_error(g_path, cpr, want);
 }
 
-static void expect_poses(const char *text, uint64_t cpr, const uint32_t *want, uint32_t want_n)
+/* The file must give want_n poses of want_k joints: want, pose after pose. */
+static void expect_poses_k(const char *text, uint64_t cpr, unsigned want_k, const uint32_t *want,
+                           uint32_t want_n)
 {
     uint32_t *poses = NULL;
     uint32_t n = 0;
+    unsigned k = 0;
     char err[256] = "";
     write_text(text);
-    if (replay_file_load(g_path, cpr, &poses, &n, err, sizeof err) != 0) {
+    if (replay_file_load(g_path, cpr, &poses, &n, &k, err, sizeof err) != 0) {
         fail_msg("file '%s' refused: %s", text, err);
     }
+    assert_int_equal(k, want_k);
     assert_int_equal(n, want_n);
-    assert_memory_equal(poses, want, (size_t)want_n * AACMM_JOINTS * sizeof *want);
+    assert_memory_equal(poses, want, (size_t)want_n * want_k * sizeof *want);
     free(poses);
+}
+
+static void expect_poses(const char *text, uint64_t cpr, const uint32_t *want, uint32_t want_n)
+{
+    expect_poses_k(text, cpr, AACMM_JOINTS, want, want_n);
 }
 
 static void test_plain_poses(void **state)
@@ -157,8 +169,9 @@ static void test_missing_and_empty(void **state)
 static void test_malformed_lines(void **state)
 {
     (void)state;
-    expect_line_error("1 2 3 4 5 6\n1 2 3 4 5\n", CPR32, 2, "5 counts, expected 6");
-    expect_line_error("1 2 3 4 5 6 7\n", CPR32, 1, "more than 6 counts");
+    expect_line_error("1 2 3 4 5 6\n1 2 3 4 5\n", CPR32, 2, "5 counts, expected 6 as on line 1");
+    expect_line_error("1 2 3 4 5 6\n1 2 3 4 5 6 7\n", CPR32, 2, "more than 6 counts, as on line 1");
+    expect_line_error("1 2 3 4 5 6 7 8\n", CPR32, 1, "more than 7 counts (a pose has 4 to 7)");
     expect_line_error("1 2 3 4 5 6\n\n1 2 x 4 5 6\n", CPR32, 3, "expected an unsigned count");
     expect_line_error("1 2 3 4 5 6\n-1 2 3 4 5 6\n", CPR32, 2, "expected an unsigned count");
     expect_line_error("1 2 3 4 5 +6\n", CPR32, 1, "expected an unsigned count");
@@ -254,12 +267,108 @@ static void test_long_lines_columns_nul(void **state)
         uint32_t *poses = NULL;
         uint32_t n = 0;
         char prefix[sizeof g_path + 16];
+        unsigned joints = 0;
         write_file(nul, sizeof nul - 1u);
-        assert_int_equal(replay_file_load(g_path, CPR32, &poses, &n, err, sizeof err), -1);
+        assert_int_equal(replay_file_load(g_path, CPR32, &poses, &n, &joints, err, sizeof err),
+                         -1);
         snprintf(prefix, sizeof prefix, "%s:2: a NUL byte", g_path);
         if (strncmp(err, prefix, strlen(prefix)) != 0) {
             fail_msg("error '%s', expected '%s'", err, prefix);
         }
+    }
+}
+
+/* 4, 5 and 7 joints (issue 26): K from the first pose or the header, the
+ * buffer K counts a pose. */
+static void test_other_joint_counts(void **state)
+{
+    static const uint32_t four[] = {1, 2, 3, 4, 5, 6, 7, 8};
+    static const uint32_t five[] = {10, 20, 30, 40, 50, 11, 21, 31, 41, 51};
+    static const uint32_t seven[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 4294967295u};
+    (void)state;
+    expect_poses_k("1 2 3 4\n# four joints\n5,6,7,8\n", CPR32, 4, four, 2);
+    expect_poses_k("10 20 30 40 50\r\n\r\n11\t21 31 41 51", CPR32, 5, five, 2);
+    expect_poses_k("1 2 3 4 5 6 7 # seven\n8 9 10 11 12 13 4294967295\n", CPR32, 7, seven, 2);
+    /* CSV: an aacmm log of a 4-, 5- and 7-joint arm, columns in any order */
+    expect_poses_k("seq,device_time_us,count1,count2,count3,count4,flags\n"
+                   "1,1000,1,2,3,4,0\n"
+                   "2,2000,9,9,9,9,2\n"
+                   "3,3000,5,6,7,8,0\n",
+                   CPR32, 4, four, 2);
+    expect_poses_k("count5,count4,count3,count2,count1,x\n50,40,30,20,10,a\n51,41,31,21,11,b\n",
+                   CPR32, 5, five, 2);
+    expect_poses_k("seq,count1,count2,count3,count4,count5,count6,count7,flags\r\n"
+                   "1,1,2,3,4,5,6,7,0\r\n"
+                   "2,8,9,10,11,12,13,4294967295,1\r\n",
+                   CPR32, 7, seven, 2);
+    /* names that only look like counts are other columns */
+    expect_poses_k("counts,count,count1x,count1,count2,count3,count4\n9,9,9,1,2,3,4\n"
+                   "9,9,9,5,6,7,8\n",
+                   CPR32, 4, four, 2);
+}
+
+static void test_joint_count_errors(void **state)
+{
+    (void)state;
+    /* plain: too few on the first pose, then every pose as the first */
+    expect_line_error("# three\n1 2 3\n", CPR32, 2, "3 counts (a pose has 4 to 7)");
+    expect_line_error("1\n", CPR32, 1, "1 counts (a pose has 4 to 7)");
+    expect_line_error("1 2 3 4\n\n5 6 7 8 9\n", CPR32, 3, "more than 4 counts, as on line 1");
+    expect_line_error("# c\n1 2 3 4 5\n1 2 3 4\n", CPR32, 3, "4 counts, expected 5 as on line 2");
+    expect_line_error("1 2 3 4 5 6 7\n1 2 3 4 5 6\n", CPR32, 2,
+                      "6 counts, expected 7 as on line 1");
+    expect_line_error("1 2 3 4 5 6 7\n1 2 3 4 5 6 7 8\n", CPR32, 2, "more than 7 counts");
+    /* CSV: K of 4..7, consecutive from count1, each once */
+    expect_line_error("count1,count2,count3\n1,2,3\n", CPR32, 1, "no column count4");
+    expect_line_error("count1,count2,count3,count5\n1,2,3,5\n", CPR32, 1, "no column count4");
+    expect_line_error("count2,count3,count4,count5\n1,2,3,5\n", CPR32, 1, "no column count1");
+    expect_line_error("count1,count2,count3,count4,count5,count7\n1,2,3,4,5,7\n", CPR32, 1,
+                      "no column count6");
+    expect_line_error("count1,count2,count3,count4,count5,count6,count7,count8\n"
+                      "1,2,3,4,5,6,7,8\n",
+                      CPR32, 1, "column 'count8': not a joint of a replay");
+    expect_line_error("count0,count1,count2,count3,count4\n0,1,2,3,4\n", CPR32, 1,
+                      "column 'count0'");
+    expect_line_error("count1,count2,count3,count4,count01\n1,2,3,4,1\n", CPR32, 1,
+                      "column 'count01'");
+    expect_line_error("count1,count2,count3,count4,count99999999999999999999\n1,2,3,4,5\n",
+                      CPR32, 1, "not a joint of a replay");
+    expect_line_error("count1,count2,count3,count4,count2\n1,2,3,4,5\n", CPR32, 1,
+                      "column count2 twice");
+    /* the rows: every one of K columns present and a count */
+    expect_line_error("count1,count2,count3,count4,count5,count6,count7\n1,2,3,4,5,6\n", CPR32, 2,
+                      "6 fields, the header has more");
+    expect_line_error("count1,count2,count3,count4,count5,count6,count7\n1,2,3,4,5,6,nan\n",
+                      CPR32, 2, "count7: expected an unsigned count");
+    expect_line_error("count1,count2,count3,count4,count5,count6,count7\n"
+                      "1,2,3,4,5,6,18446744073709551616\n",
+                      CPR32, 2, "count7: expected an unsigned count");
+    expect_line_error("count1,count2,count3,count4,count5,count6,count7\n0,0,0,0,0,0,4096\n",
+                      4096u, 2, "count7 4096 is not below 4096");
+    expect_line_error("1 2 3 4 5 6 4096\n", 4096u, 1, "count 4096 is not below 4096");
+    expect_line_error("1 2 3 4\n1 2 3 -4\n", CPR32, 2, "expected an unsigned count");
+    expect_error(write_text("count1,count2,count3,count4\n"), CPR32, "no poses");
+    expect_error(write_text("count1,count2,count3,count4,count5,flags\n1,2,3,4,5,2\n"), CPR32,
+                 "no poses");
+    /* a NUL byte and an overlong line in a 4-joint file */
+    {
+        static const char nul[] = "1 2 3 4\n1 2\0 3 4\n";
+        char err[256];
+        char prefix[sizeof g_path + 16];
+        uint32_t *poses = NULL;
+        uint32_t n = 0;
+        unsigned k = 0;
+        static char text[6000];
+        write_file(nul, sizeof nul - 1u);
+        assert_int_equal(replay_file_load(g_path, CPR32, &poses, &n, &k, err, sizeof err), -1);
+        snprintf(prefix, sizeof prefix, "%s:2: a NUL byte", g_path);
+        if (strncmp(err, prefix, strlen(prefix)) != 0) {
+            fail_msg("error '%s', expected '%s'", err, prefix);
+        }
+        memcpy(text, "count1,count2,count3,count4\n", 28);
+        memset(text + 28, '0', 5000);
+        text[28 + 5000] = '\0';
+        expect_line_error(text, CPR32, 2, "line too long");
     }
 }
 
@@ -268,31 +377,41 @@ static void test_small_error_buffer(void **state)
     char err[8];
     uint32_t *poses = NULL;
     uint32_t n = 0;
+    unsigned k = 0;
     (void)state;
-    write_text("1 2 3 4 5\n");
-    assert_int_equal(replay_file_load(g_path, CPR32, &poses, &n, err, sizeof err), -1);
+    write_text("1 2 3\n");
+    assert_int_equal(replay_file_load(g_path, CPR32, &poses, &n, &k, err, sizeof err), -1);
     assert_int_equal(strlen(err), sizeof err - 1u); /* cut, still terminated */
     assert_null(poses);
 }
 
+/* POSES poses of k joints through the file: every pose in order, past the
+ * first doublings of the buffer. */
+static void many_poses(unsigned k)
+{
+    enum { POSES = 1000 };
+    static char text[POSES * 80];
+    static uint32_t want[POSES * AACMM_JOINTS_MAX];
+    size_t len = 0;
+    uint32_t i, j;
+    for (i = 0; i < POSES; i++) {
+        for (j = 0; j < k; j++) {
+            want[i * k + j] = i * 7919u + j * 104729u;
+            len += (size_t)sprintf(text + len, j ? ",%u" : "%u", want[i * k + j]);
+        }
+        text[len++] = '\n';
+    }
+    text[len] = '\0';
+    expect_poses_k(text, CPR32, k, want, POSES);
+}
+
 static void test_many_poses(void **state)
 {
-    /* past the first doublings of the buffer: every pose in order */
-    enum { POSES = 1000 };
-    static char text[POSES * 64];
-    static uint32_t want[POSES * AACMM_JOINTS];
-    size_t k = 0;
-    uint32_t i, j;
+    unsigned k;
     (void)state;
-    for (i = 0; i < POSES; i++) {
-        for (j = 0; j < AACMM_JOINTS; j++) {
-            want[i * AACMM_JOINTS + j] = i * 7919u + j * 104729u;
-            k += (size_t)sprintf(text + k, j ? ",%u" : "%u", want[i * AACMM_JOINTS + j]);
-        }
-        text[k++] = '\n';
+    for (k = 4; k <= 7; k++) {
+        many_poses(k);
     }
-    text[k] = '\0';
-    expect_poses(text, CPR32, want, POSES);
 }
 
 int main(void)
@@ -305,6 +424,8 @@ int main(void)
         cmocka_unit_test(test_nan_inf_exponents),
         cmocka_unit_test(test_huge_values),
         cmocka_unit_test(test_long_lines_columns_nul),
+        cmocka_unit_test(test_other_joint_counts),
+        cmocka_unit_test(test_joint_count_errors),
         cmocka_unit_test(test_small_error_buffer),
         cmocka_unit_test(test_many_poses),
     };

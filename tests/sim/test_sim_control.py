@@ -10,13 +10,17 @@ and 6), against the real ``aacmm-sim`` binary and the host client.
   the stream's next seq, and takes no stream number (docs/protocol.md 2.6);
   button 1 (undo) reports index 1;
 - ``--motion replay:`` takes a CSV written by ``aacmm log`` (header row) and
-  replays its counts in order, skipping rows flagged ENCODER_FAULT.
+  replays its counts in order, skipping rows flagged ENCODER_FAULT; the log
+  of a 5- and a 7-axis model (``aacmm sim --model``), replayed on the same
+  model, streams the same counts on every joint (issue 26); a log of another
+  joint count than the arm's is refused (one line, exit status 2).
 """
 
 from __future__ import annotations
 
 import csv
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -162,10 +166,69 @@ def test_replay_reads_an_aacmm_log(tmp_path: Path) -> None:
     assert got == want + want[:2]  # in order, looping at the end
 
 
+def _sim_url(proc: subprocess.Popen[str]) -> str:
+    assert proc.stdout is not None and proc.stderr is not None
+    url = proc.stdout.readline().strip()
+    if not url.startswith("serial://"):
+        proc.kill()
+        pytest.fail(f"aacmm sim did not start: {proc.stderr.read()}")
+    return url
+
+
+def _log_of(args: list[str], log: Path, n: int) -> list[tuple[int, ...]]:
+    """``aacmm log`` of n samples at 200 Hz from ``aacmm sim ARGS``: the rows' counts."""
+    env = {k: v for k, v in os.environ.items() if k != "AACMM_PORT"}
+    proc = subprocess.Popen(
+        [str(AACMM), "sim", "--quiet", *args],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    try:
+        r = _aacmm("log", str(log), "--port", _sim_url(proc), "-n", str(n), "-r", "200", "-q")
+        assert r.returncode == 0, r.stderr
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    rows = list(csv.DictReader(log.open()))
+    seqs = [int(r["seq"]) for r in rows]
+    assert seqs == list(range(seqs[0], seqs[0] + n)), "a gap in the stream"
+    k = sum(1 for c in rows[0] if c.startswith("count"))
+    return [tuple(int(r[f"count{i}"]) for i in range(1, k + 1)) for r in rows]
+
+
+@pytest.mark.parametrize(("name", "joints"), [("microscribe5", 5), ("commercial7", 7)])
+def test_replay_of_a_model_log_streams_its_counts(name: str, joints: int, tmp_path: Path) -> None:
+    """The log of an N-joint arm replayed on the same model: every joint's counts again."""
+    log = tmp_path / "run.csv"
+    want = _log_of(["--model", name, "--motion", "walk", "--seed", "5"], log, 40)
+    assert {len(c) for c in want} == {joints}
+    # the arm moves on every joint, the last too (7: not the old 0.7 rad hold)
+    assert all(len({c[j] for c in want}) > 1 for j in range(joints))
+    got = _log_of(["--model", name, "--motion", f"replay:{log}"], tmp_path / "again.csv", 100)
+    # a stream starts somewhere in the loop: the counts are the log's, in its order, looping
+    start = want.index(got[0])
+    assert got == [want[(start + i) % len(want)] for i in range(len(got))]
+    # the same log on an arm of another joint count: refused, one line (the
+    # 7-axis log's counts are past microscribe5's 16384 per revolution: that
+    # is said first)
+    if joints == 5:
+        r = _aacmm("sim", "--quiet", "--model", "commercial7", "--motion", f"replay:{log}")
+        assert r.returncode == 2, r.stderr
+        assert f"aacmm-sim: replay file {log} has 5 joints, the arm 7\n" in r.stderr
+    r = _aacmm("sim", "--quiet", "--motion", f"replay:{log}")  # the paper's arm: 6 joints
+    assert r.returncode == 2, r.stderr
+    assert f"aacmm-sim: replay file {log} has {joints} joints, the arm 6\n" in r.stderr
+
+
 def test_replay_csv_errors(tmp_path: Path) -> None:
     bad = tmp_path / "bad.csv"
     for text, msg in (
         ("seq,count1,count2\n1,2,3\n", "no column count3"),
+        ("count1,count2,count3,count4,count6\n1,2,3,4,6\n", "no column count5"),
+        ("count1,count2,count3,count4,count5,count6,count7,count8\n1,2,3,4,5,6,7,8\n", "count8"),
+        ("1 2 3 4 5\n1 2 3 4\n", ":2: 4 counts, expected 5 as on line 1"),
+        ("1 2 3 4 5\n", f"replay file {bad} has 5 joints, the arm 6"),
+        ("count1,count2,count3,count4,count5,count6,count7\n1,2,3,4,5,6,7\n", "has 7 joints"),
         ("count1,count2,count3,count4,count5,count6\n1,2,3,4,5\n", ":2:"),
         ("count1,count2,count3,count4,count5,count6\n1,2,3,4,5,-6\n", "count6"),
     ):

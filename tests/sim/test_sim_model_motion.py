@@ -74,6 +74,7 @@ class SimConfig(ctypes.Structure):
         ("replay_poses", ctypes.c_uint32),
         ("button_period_us", ctypes.c_uint64),
         ("ranges", ctypes.POINTER(SimRanges)),
+        ("replay_joints", ctypes.c_uint8),
     ]
 
 

@@ -1,6 +1,6 @@
 /*
  * Replay files (contract: replay_file.h): the plain format and aacmm's log
- * CSV, every line checked before a pose is taken.
+ * CSV of 4 to 7 joints, every line checked before a pose is taken.
  */
 #include "replay_file.h"
 
@@ -17,24 +17,27 @@ typedef struct {
     uint32_t *buf;
     size_t count;
     size_t cap;
+    size_t joints; /* counts per pose, AACMM_JOINTS_MIN .. AACMM_JOINTS_MAX */
 } pose_list_t;
 
-static int pose_add(pose_list_t *l, const uint32_t pose[AACMM_JOINTS])
+/* Append one pose of l->joints counts; -1 past UINT32_MAX / joints poses or
+ * when the heap says no. */
+static int pose_add(pose_list_t *l, const uint32_t *pose)
 {
     if (l->count == l->cap) {
         size_t ncap = l->cap == 0 ? 64 : l->cap * 2;
         uint32_t *nb;
-        if (ncap > (size_t)UINT32_MAX / AACMM_JOINTS) {
+        if (ncap > (size_t)UINT32_MAX / l->joints || ncap > SIZE_MAX / (l->joints * sizeof *nb)) {
             return -1;
         }
-        nb = realloc(l->buf, ncap * AACMM_JOINTS * sizeof *nb);
+        nb = realloc(l->buf, ncap * l->joints * sizeof *nb);
         if (nb == NULL) {
             return -1;
         }
         l->buf = nb;
         l->cap = ncap;
     }
-    memcpy(l->buf + l->count * AACMM_JOINTS, pose, AACMM_JOINTS * sizeof *pose);
+    memcpy(l->buf + l->count * l->joints, pose, l->joints * sizeof *pose);
     l->count++;
     return 0;
 }
@@ -112,16 +115,42 @@ static void trim(char **s)
     }
 }
 
-/* A log CSV (docs/cli.md): the header names count1..count6 (and perhaps
- * flags); every row gives one pose; rows flagged ENCODER_FAULT are skipped. */
+/* A column name "countD..." (D decimal digits): its joint number, 1 ..
+ * 999 (a longer or zero-led number reads as 999, beyond any arm), or 0 for
+ * any other name. */
+static int count_column(const char *name)
+{
+    int v = 0;
+    size_t i;
+    if (strncmp(name, "count", 5) != 0 || name[5] == '\0') {
+        return 0;
+    }
+    for (i = 5; name[i] != '\0'; i++) {
+        if (name[i] < '0' || name[i] > '9') {
+            return 0;
+        }
+    }
+    if (name[5] == '0' || i - 5 > 3) {
+        return 999;
+    }
+    for (i = 5; name[i] != '\0'; i++) {
+        v = v * 10 + (name[i] - '0');
+    }
+    return v;
+}
+
+/* A log CSV (docs/cli.md): the header names count1..countK, K = 4..7 (and
+ * perhaps flags); every row gives one pose; rows flagged ENCODER_FAULT are
+ * skipped. */
 static int replay_csv(FILE *f, const char *path, char *header, uint64_t cpr, pose_list_t *l,
                       char *err, size_t err_cap)
 {
     char line[REPLAY_LINE_MAX];
     char *fields[REPLAY_COLS_MAX];
-    int col[AACMM_JOINTS];
+    int col[AACMM_JOINTS_MAX];
     int flags_col = -1;
     int need = 0;
+    int joints = 0;
     int n;
     int i;
     unsigned long lineno = 1;
@@ -130,25 +159,40 @@ static int replay_csv(FILE *f, const char *path, char *header, uint64_t cpr, pos
         snprintf(err, err_cap, "%s:1: more than %d columns", path, REPLAY_COLS_MAX);
         return -1;
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
         col[i] = -1;
     }
     for (i = 0; i < n; i++) {
         char *name = fields[i];
+        int j;
         trim(&name);
-        if (strncmp(name, "count", 5) == 0 && name[5] >= '1' && name[5] <= '6' &&
-            name[6] == '\0') {
-            col[name[5] - '1'] = i;
+        j = count_column(name);
+        if (j > AACMM_JOINTS_MAX) {
+            snprintf(err, err_cap,
+                     "%s:1: column '%.20s': not a joint of a replay (count1..count%d, at most "
+                     "%d joints)",
+                     path, name, AACMM_JOINTS_MAX, AACMM_JOINTS_MAX);
+            return -1;
+        }
+        if (j > 0) {
+            if (col[j - 1] >= 0) {
+                snprintf(err, err_cap, "%s:1: column count%d twice", path, j);
+                return -1;
+            }
+            col[j - 1] = i;
+            if (j > joints) {
+                joints = j;
+            }
         } else if (strcmp(name, "flags") == 0) {
             flags_col = i;
         }
     }
-    for (i = 0; i < AACMM_JOINTS; i++) {
-        if (col[i] < 0) {
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        if (col[i] < 0 && (i < joints || i < AACMM_JOINTS_MIN)) {
             snprintf(err, err_cap,
-                     "%s:1: no column count%d (a CSV replay needs count1..count6, as in an "
-                     "aacmm log)",
-                     path, i + 1);
+                     "%s:1: no column count%d (a CSV replay needs count1..countK, K = %d to %d, "
+                     "as in an aacmm log)",
+                     path, i + 1, AACMM_JOINTS_MIN, AACMM_JOINTS_MAX);
             return -1;
         }
         if (col[i] + 1 > need) {
@@ -158,8 +202,9 @@ static int replay_csv(FILE *f, const char *path, char *header, uint64_t cpr, pos
     if (flags_col + 1 > need) {
         need = flags_col + 1;
     }
+    l->joints = (size_t)joints;
     while (fgets(line, sizeof line, f) != NULL) {
-        uint32_t pose[AACMM_JOINTS];
+        uint32_t pose[AACMM_JOINTS_MAX];
         uint64_t v;
         char *end;
         lineno++;
@@ -189,7 +234,7 @@ static int replay_csv(FILE *f, const char *path, char *header, uint64_t cpr, pos
                 continue;
             }
         }
-        for (i = 0; i < AACMM_JOINTS; i++) {
+        for (i = 0; i < joints; i++) {
             if (parse_count(fields[col[i]], &v, &end) != 0 || *end != '\0') {
                 snprintf(err, err_cap, "%s:%lu: count%d: expected an unsigned count, got '%.20s'",
                          path, lineno, i + 1, fields[col[i]]);
@@ -211,13 +256,14 @@ static int replay_csv(FILE *f, const char *path, char *header, uint64_t cpr, pos
     return 0;
 }
 
-int replay_file_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t *n, char *err,
-                     size_t err_cap)
+int replay_file_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t *n,
+                     unsigned *joints, char *err, size_t err_cap)
 {
     FILE *f = fopen(path, "r");
     char line[REPLAY_LINE_MAX];
     unsigned long lineno = 0;
-    pose_list_t l = {NULL, 0, 0};
+    unsigned long first_line = 0; /* the plain format's first pose */
+    pose_list_t l = {NULL, 0, 0, 0};
     if (f == NULL) {
         snprintf(err, err_cap, "cannot open replay file %s: %s", path, strerror(errno));
         return -1;
@@ -225,7 +271,7 @@ int replay_file_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t 
     while (fgets(line, sizeof line, f) != NULL) {
         char *p = line;
         char *hash;
-        uint32_t pose[AACMM_JOINTS];
+        uint32_t pose[AACMM_JOINTS_MAX];
         int k = 0;
         lineno++;
         if (strchr(line, '\n') == NULL && !feof(f)) {
@@ -263,8 +309,14 @@ int replay_file_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t 
                 snprintf(err, err_cap, "%s:%lu: bad count '%.20s'", path, lineno, p);
                 goto fail;
             }
-            if (k == AACMM_JOINTS) {
-                snprintf(err, err_cap, "%s:%lu: more than %d counts", path, lineno, AACMM_JOINTS);
+            if (k == (l.joints != 0u ? (int)l.joints : AACMM_JOINTS_MAX)) {
+                if (l.joints != 0u) {
+                    snprintf(err, err_cap, "%s:%lu: more than %d counts, as on line %lu", path,
+                             lineno, k, first_line);
+                } else {
+                    snprintf(err, err_cap, "%s:%lu: more than %d counts (a pose has %d to %d)",
+                             path, lineno, k, AACMM_JOINTS_MIN, AACMM_JOINTS_MAX);
+                }
                 goto fail;
             }
             if (v >= cpr) {
@@ -278,9 +330,18 @@ int replay_file_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t 
         if (k == 0) {
             continue; /* blank or comment line */
         }
-        if (k != AACMM_JOINTS) {
-            snprintf(err, err_cap, "%s:%lu: %d counts, expected %d", path, lineno, k,
-                     AACMM_JOINTS);
+        if (l.joints == 0u) {
+            /* the first pose: every other has as many counts */
+            if (k < AACMM_JOINTS_MIN) {
+                snprintf(err, err_cap, "%s:%lu: %d counts (a pose has %d to %d)", path, lineno,
+                         k, AACMM_JOINTS_MIN, AACMM_JOINTS_MAX);
+                goto fail;
+            }
+            l.joints = (size_t)k;
+            first_line = lineno;
+        } else if ((size_t)k != l.joints) {
+            snprintf(err, err_cap, "%s:%lu: %d counts, expected %d as on line %lu", path, lineno,
+                     k, (int)l.joints, first_line);
             goto fail;
         }
         if (pose_add(&l, pose) != 0) {
@@ -294,13 +355,15 @@ int replay_file_load(const char *path, uint64_t cpr, uint32_t **poses, uint32_t 
     }
     fclose(f);
     if (l.count == 0) {
-        snprintf(err, err_cap, "%s: no poses (expected lines of %d counts, or a log CSV)", path,
-                 AACMM_JOINTS);
+        snprintf(err, err_cap,
+                 "%s: no poses (expected lines of %d to %d counts, or a log CSV)", path,
+                 AACMM_JOINTS_MIN, AACMM_JOINTS_MAX);
         free(l.buf);
         return -1;
     }
     *poses = l.buf;
     *n = (uint32_t)l.count;
+    *joints = (unsigned)l.joints;
     return 0;
 fail:
     fclose(f);

@@ -344,6 +344,7 @@ int main(int argc, char **argv)
     int rc;
     uint32_t *replay = NULL;
     uint32_t replay_n = 0;
+    unsigned replay_joints = 0;
     aacmm_sim_config_t sc;
     aacmm_param_set_t defaults;
     aacmm_device_config_t dc;
@@ -386,7 +387,8 @@ int main(int argc, char **argv)
 
     /* Encoder source. */
     if (o.motion == AACMM_SIM_REPLAY &&
-        replay_file_load(o.replay_path, o.cpr, &replay, &replay_n, err, sizeof err) != 0) {
+        replay_file_load(o.replay_path, o.cpr, &replay, &replay_n, &replay_joints, err,
+                         sizeof err) != 0) {
         fprintf(stderr, "aacmm-sim: %s\n", err);
         return SIM_EXIT_USAGE;
     }
@@ -397,6 +399,7 @@ int main(int argc, char **argv)
     sc.counts_per_rev = o.cpr;
     sc.replay = replay;
     sc.replay_poses = replay_n;
+    sc.replay_joints = (uint8_t)replay_joints;
     sc.button_period_us = o.button_us;
     if (o.have_limits) {
         sc.ranges = &o.ranges; /* o lives as long as main */
@@ -475,6 +478,19 @@ int main(int argc, char **argv)
         fprintf(stderr, "aacmm-sim: device set-up failed: %s\n", aacmm_status_str(st));
         posix_close(&port);
         return SIM_EXIT_USAGE;
+    }
+    if (o.motion == AACMM_SIM_REPLAY) {
+        /* The replay gives joints 1..K: the arm the device starts with (its
+         * stored set, else --param-set's, else the paper's 6) must have K. */
+        aacmm_msg_info_t info;
+        (void)aacmm_device_info(&dev, &info);
+        if (info.joints != replay_joints) {
+            fprintf(stderr, "aacmm-sim: replay file %s has %u joints, the arm %u\n",
+                    o.replay_path, replay_joints, (unsigned)info.joints);
+            posix_close(&port);
+            free(replay);
+            return SIM_EXIT_USAGE;
+        }
     }
     if (!o.quiet) {
         aacmm_msg_diag_t diag;

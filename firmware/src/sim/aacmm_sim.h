@@ -21,9 +21,12 @@
  *           spline (continuous position and velocity). The waypoints are a
  *           hash of (seed, joint, segment), so the pose is a pure function of
  *           seed and time.
- *   REPLAY  raw counts from a caller buffer of poses, one pose per read, in
- *           order, looping at the end (the resolution is not applied; noise
- *           is).
+ *   REPLAY  raw counts from a caller buffer of poses of replay_joints (K,
+ *           4..7) joints, one pose per read, in order, looping at the end
+ *           (the resolution is not applied; noise is, on joints 1..K).
+ *           Joints past K read 0, except joint 7, which holds 0.7 rad as
+ *           with STATIC (a port refuses a file of another N than the arm's,
+ *           so the device never uses them).
  *
  * Counts: reading = round(theta * cpr / (2 pi)) mod cpr, i.e. zero offset 0
  * and direction +1 at every joint: this matches the device's encoder
@@ -77,13 +80,17 @@ typedef struct {
     uint32_t seed;            /* WALK waypoints and the noise generator */
     uint32_t noise_counts;    /* uniform +-noise_counts on every reading, 0 .. AACMM_SIM_NOISE_MAX */
     uint64_t counts_per_rev;  /* every joint, 2 .. 2^32 */
-    const uint32_t *replay;   /* REPLAY: replay_poses * 6 counts, each < counts_per_rev */
+    const uint32_t *replay;   /* REPLAY: replay_poses * K counts, each < counts_per_rev */
     uint32_t replay_poses;    /* >= 1 for REPLAY */
     uint64_t button_period_us; /* a press every period (first at t = period); 0 = never */
     /* An arm model's joint limits (aacmm-sim --joint-limits), the caller's
      * (it must outlive the simulation): NULL (memset) keeps the built-in
      * motion of the paper's arm on joints 1..6 and joint 7's roll. */
     const aacmm_sim_ranges_t *ranges;
+    /* REPLAY: K, the counts per pose (pose i's joint j at replay[K * i + j]),
+     * AACMM_JOINTS_MIN .. AACMM_JOINTS_MAX; 0 (memset) means 6. Last, so
+     * the struct keeps its size on 32-bit boards. */
+    uint8_t replay_joints;
 } aacmm_sim_config_t;
 
 typedef struct {
@@ -94,7 +101,8 @@ typedef struct {
 
 /*
  * Check *cfg and set up *sim. AACMM_ERR_NULL, AACMM_ERR_RANGE (unknown
- * motion, resolution, noise, empty replay or a replay count >= cpr; with
+ * motion, resolution, noise, empty replay, replay_joints not 0 or 4..7, or
+ * a replay count >= cpr; with
  * ranges a limited joint's range not finite, lo >= hi, a span of 2 pi or
  * more or a limit beyond +-4 pi), else
  * AACMM_OK. Cost: O(replay_poses) for the replay check.
@@ -110,8 +118,9 @@ aacmm_status_t aacmm_sim_angles(const aacmm_sim_t *sim, uint64_t t_us,
                                 float theta_rad[AACMM_JOINTS]);
 
 /*
- * One encoder reading at time t_us: counts[i] < cpr (REPLAY: the next pose)
- * for joints 1..6 and a seventh (for 7-joint arm models: 0.7 rad, or a
+ * One encoder reading at time t_us: counts[i] < cpr (REPLAY: the next pose
+ * on joints 1..K, see above) for joints 1..6 and a seventh (for 7-joint arm
+ * models: 0.7 rad, the replay's own with K = 7, or a
  * noise-free sweep of +-2.5 rad in 11 s with SWEEP and WALK; with ranges
  * the seventh joint's own range, noise-free). Advances the
  * noise generator and the replay position. AACMM_ERR_NULL or

@@ -133,6 +133,12 @@ static int ranges_ok(const aacmm_sim_ranges_t *r)
     return 1;
 }
 
+/* REPLAY: the counts per pose (0 in the configuration: the six of old). */
+static uint32_t replay_joints(const aacmm_sim_config_t *cfg)
+{
+    return cfg->replay_joints == 0u ? (uint32_t)AACMM_JOINTS : (uint32_t)cfg->replay_joints;
+}
+
 aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg)
 {
     uint64_t i;
@@ -152,10 +158,12 @@ aacmm_status_t aacmm_sim_init(aacmm_sim_t *sim, const aacmm_sim_config_t *cfg)
         if (cfg->replay == NULL) {
             return AACMM_ERR_NULL;
         }
-        if (cfg->replay_poses == 0u) {
+        if (cfg->replay_poses == 0u ||
+            (cfg->replay_joints != 0u && (cfg->replay_joints < AACMM_JOINTS_MIN ||
+                                          cfg->replay_joints > AACMM_JOINTS_MAX))) {
             return AACMM_ERR_RANGE;
         }
-        for (i = 0; i < (uint64_t)cfg->replay_poses * AACMM_JOINTS; i++) {
+        for (i = 0; i < (uint64_t)cfg->replay_poses * replay_joints(cfg); i++) {
             if ((uint64_t)cfg->replay[i] >= cfg->counts_per_rev) {
                 return AACMM_ERR_RANGE;
             }
@@ -308,26 +316,33 @@ aacmm_status_t aacmm_sim_read(aacmm_sim_t *sim, uint64_t t_us, uint32_t counts[A
         return AACMM_ERR_NULL;
     }
     if (sim->cfg.motion == AACMM_SIM_REPLAY) {
-        const uint32_t *pose = sim->cfg.replay + (size_t)sim->replay_pos * AACMM_JOINTS;
+        /* joints 1..K of the pose, noise in joint order (K = 6: the
+         * sequence of old); 0 past K, joint 7 as below unless K = 7 */
+        uint32_t k = replay_joints(&sim->cfg);
+        const uint32_t *pose = sim->cfg.replay + (size_t)sim->replay_pos * k;
         for (j = 0; j < AACMM_JOINTS; j++) {
-            counts[j] = pose[j];
+            counts[j] = (uint32_t)j < k ? add_noise(sim, pose[j]) : 0u;
         }
+        counts[AACMM_JOINTS] =
+            k == AACMM_JOINTS_MAX
+                ? add_noise(sim, pose[AACMM_JOINTS])
+                : aacmm_sim_angle_to_counts(joint7_rad(sim, t_us), sim->cfg.counts_per_rev);
         sim->replay_pos++;
         if (sim->replay_pos >= sim->cfg.replay_poses) {
             sim->replay_pos = 0u;
         }
-    } else {
+        return AACMM_OK;
+    }
+    {
         float theta[AACMM_JOINTS];
         aacmm_status_t st = aacmm_sim_angles(sim, t_us, theta);
         if (st != AACMM_OK) {
             return st;
         }
         for (j = 0; j < AACMM_JOINTS; j++) {
-            counts[j] = aacmm_sim_angle_to_counts(theta[j], sim->cfg.counts_per_rev);
+            counts[j] =
+                add_noise(sim, aacmm_sim_angle_to_counts(theta[j], sim->cfg.counts_per_rev));
         }
-    }
-    for (j = 0; j < AACMM_JOINTS; j++) {
-        counts[j] = add_noise(sim, counts[j]);
     }
     counts[AACMM_JOINTS] = aacmm_sim_angle_to_counts(joint7_rad(sim, t_us), sim->cfg.counts_per_rev);
     return AACMM_OK;
