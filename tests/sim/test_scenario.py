@@ -237,11 +237,16 @@ def test_rendezvous_without_port(tmp_path: Path) -> None:
         [str(AACMM), "sim", "--scenario", "probe-calibration", "--fast", "--truth", "nominal"],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
     )  # fmt: skip
-    cap = subprocess.run(
-        [str(AACMM), "capture", "probe-calibration", "-o", "s1", "-q"],
-        capture_output=True, text=True, timeout=180, env=env, cwd=tmp_path,
-    )  # fmt: skip
-    _, err = sim.communicate(timeout=60)
+    try:
+        cap = subprocess.run(
+            [str(AACMM), "capture", "probe-calibration", "-o", "s1", "-q"],
+            capture_output=True, text=True, timeout=180, env=env, cwd=tmp_path,
+        )  # fmt: skip
+        _, err = sim.communicate(timeout=60)
+    finally:  # a failed rendezvous must not leave the simulator running for other tests
+        if sim.poll() is None:
+            sim.kill()
+            sim.communicate()
     assert cap.returncode == 0, cap.stderr
     assert "using the simulator at serial://" in cap.stderr
     assert sim.returncode == 0, err
