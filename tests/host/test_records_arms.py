@@ -420,7 +420,7 @@ def test_reconnect_to_an_arm_of_another_joint_count_ends_the_log(tmp_path: Path)
             env=cli_env(),
         )
         end = time.monotonic() + 20
-        while not (out.exists() and out.read_text().count("\n") > 50):
+        while not (out.exists() and out.read_text().count("\n") > 51):  # header + 51 rows
             assert time.monotonic() < end, "no rows"
             time.sleep(0.05)
     finally:
