@@ -30,6 +30,7 @@ Errors: :class:`SessionDataError` (a ValueError: exit status 2 in the CLI).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,9 +50,10 @@ from aacmm.calibration.observations import (
     combine,
 )
 from aacmm.calibration.parameters import ArmParams
-from aacmm.core import EncoderConfig
+from aacmm.core import EncoderConfig, FloatArray
 from aacmm.plans import model as pm
 from aacmm.records import ParamSetRecord, RecordError, Session, read_session
+from aacmm.records.measured import stated_temperatures
 
 DEFAULT_SIGMA_MM = 0.005
 IntArray = npt.NDArray[np.intp]
@@ -226,16 +228,23 @@ def observations_from_plan(
 
 
 def session_observations(
-    session: Session, sigma_mm: float = DEFAULT_SIGMA_MM, base_known: bool = False
+    session: Session,
+    sigma_mm: float = DEFAULT_SIGMA_MM,
+    base_known: bool = False,
+    temperatures: bool = False,
 ) -> tuple[Observations, list[str], list[str]]:
     """The observations of one session, and the step ids used and not used.
 
-    Raises SessionDataError (empty session, too few points in a step),
-    RecordError (a reading beyond the encoder's resolution).
+    ``temperatures``: the observations carry each point's link temperature,
+    the one its capture run states (:func:`stated_link_temperatures`).
+
+    Raises SessionDataError (empty session, too few points in a step, with
+    ``temperatures`` a point whose run states none), RecordError (a reading
+    beyond the encoder's resolution).
     """
     if len(session) == 0:
         raise SessionDataError(f"{session.path}: the session has no points")
-    return observations_from_plan(
+    obs, used, unused = observations_from_plan(
         session.plan,
         session.angles_rad(),
         sigma_mm,
@@ -243,6 +252,25 @@ def session_observations(
         session.points,
         str(session.path),
     )
+    if temperatures:
+        t = stated_link_temperatures(session)
+        if t is None:
+            raise SessionDataError(
+                f"{session.path}: a capture run states no link temperature "
+                "(aacmm capture --temperature)"
+            )
+        obs = dataclasses.replace(obs, temp_c=t)
+    return obs, used, unused
+
+
+def stated_link_temperatures(session: Session) -> FloatArray | None:
+    """Per point the link temperature its capture run states (degC,
+    :func:`aacmm.records.measured.stated_temperatures`); None unless every
+    point's run states one."""
+    t = stated_temperatures(session)
+    if not t or any(x is None for x in t):
+        return None
+    return np.array([float(x) for x in t if x is not None], dtype=np.float64)
 
 
 def _shape(ps: ParamSetRecord) -> tuple[tuple[str, ...], tuple[str, ...]]:
