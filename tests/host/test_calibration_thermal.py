@@ -14,12 +14,17 @@ the truth's CTEs are compared here, afterwards.
   from one temperature holds every CTE as not identified (named: confounded
   with its link's lengths);
 - without temperatures (or ``thermal=False``) the calibration is the one of
-  before, bit for bit.
+  before, bit for bit;
+- ``aacmm calibrate`` on session files stating 15 and 25 degC writes the
+  library's CTEs into the file's [errmodel] table and says params set refuses
+  it; at 19 and 21 degC, or with a session stating none, it estimates none
+  and says why; ``--thermal on`` without temperatures: exit 2, one line.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -124,3 +129,71 @@ def test_default_path_unchanged() -> None:
         combine([obs, bare])
     with pytest.raises(ObservationError, match="link temperature must be within"):
         calibrate(replace(obs, temp_c=np.full(obs.n_poses, 99.0)), Params())
+
+
+def _session_files(tmp: Path, temps: tuple[float | None, ...]) -> list[str]:
+    """Kinematic-calibration sessions of aluminium arm 3 as ``aacmm capture`` writes
+    them, each with its run's stated temperature (None: not stated, probed at 20 degC)."""
+    from aacmm.plans import load_plan
+    from gate_study import Sampled, record, write_session
+    from thermal_study import sessions
+
+    truth = aluminium_truth(3)
+    plan = load_plan("kinematic-calibration")
+    tmp.mkdir(parents=True, exist_ok=True)
+    out = []
+    for k, t in enumerate(temps):
+        at = 20.0 if t is None else t
+        s = sessions(plan, truth, 1003 + 100 * k, (at,))[at]
+        folder = tmp / f"s{k}"
+        sampled = Sampled(plan, s.counts, record(Params()))
+        if t is None:
+            write_session(folder, sampled, serial=7)
+        else:
+            write_session(folder, sampled, serial=7, temperature_c=t)
+        out.append(str(folder))
+    return out
+
+
+def test_calibrate_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from aacmm.cli import main
+    from aacmm.records.paramfile import load_param_file_errmodel
+
+    paths = _session_files(tmp_path, (15.0, 25.0))
+    out = tmp_path / "cal.toml"
+    assert main(["calibrate", *paths, "-o", str(out), "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "link CTEs estimated from link temperatures spanning 10.0 degC" in text
+    assert "cte2" in text and "ppm/K" in text
+    assert "aacmm params set refuses the file (the device takes no thermal block)" in text
+    *_, em = load_param_file_errmodel(out)
+    # the library on the same data (the study's observations of the same sessions)
+    lib = calibrate(observations(aluminium_truth(3), 1003, (15.0, 25.0)), Params())
+    assert isinstance(lib.params, CalibParams)
+    assert np.allclose(em.cte_per_k, lib.params.errors.cte_per_k, rtol=1e-9, atol=1e-15)
+    assert em.tref_c == (20.0,) * 6
+    # params set keeps refusing a thermal file (says so in its check)
+    assert main(["params", "set", str(out), "--check"]) == 0
+    assert "params set refuses it" in capsys.readouterr().out
+
+
+def test_calibrate_command_without_estimate(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from aacmm.cli import main
+    from aacmm.records.paramfile import load_param_file_errmodel
+
+    narrow = _session_files(tmp_path / "narrow", (19.0, 21.0))
+    out = tmp_path / "n.toml"
+    assert main(["calibrate", *narrow, "-o", str(out), "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "span 2.0 degC, at least 5 degC needed" in text
+    *_, em = load_param_file_errmodel(out)
+    assert em is None or not any(em.cte_per_k)
+    unstated = _session_files(tmp_path / "unstated", (15.0, None))
+    assert main(["calibrate", *unstated, "-o", str(tmp_path / "u.toml"), "-q"]) == 0
+    assert "a capture run states no link temperature" in capsys.readouterr().out
+    bad = tmp_path / "bad.toml"
+    assert main(["calibrate", *unstated, "-o", str(bad), "-q", "--thermal", "on"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--thermal on" in err[0] and not bad.exists()

@@ -88,6 +88,9 @@ class SessionData:
     start: ArmParams
     param_set: ParamSetRecord
     sources: tuple[SessionSource, ...]
+    #: with ``load_sessions(temperatures=True)``: the sessions with a point whose
+    #: capture run states no link temperature (then no observation carries one)
+    unstated_temperature: tuple[str, ...] = ()
 
     @property
     def encoders(self) -> EncoderConfig:
@@ -363,6 +366,7 @@ def load_sessions(
     like: ParamSetRecord | None = None,
     any_params: bool = False,
     arm: Sequence[SessionSource] | None = None,
+    temperatures: bool = False,
 ) -> SessionData:
     """Read sessions and turn them into one set of observations.
 
@@ -372,6 +376,10 @@ def load_sessions(
     validation data taken after a calibration). Every session must come from
     one arm (the device serial number its sidecar records), the arm of the
     sessions ``arm`` too when given (the calibration's, for held-out data).
+    ``temperatures``: the observations carry the stated link temperature of
+    every point (:func:`stated_link_temperatures`) when every session states
+    one for each of its points; otherwise none does, and
+    :attr:`SessionData.unstated_temperature` names the sessions that do not.
 
     Raises SessionDataError, RecordError (unreadable or damaged session).
     """
@@ -381,6 +389,8 @@ def load_sessions(
         raise ValueError(f"the probing uncertainty must be > 0, got {sigma_mm}")
     parts: list[Observations] = []
     sources: list[SessionSource] = []
+    temps: list[FloatArray | None] = []
+    unstated: list[str] = []
     ref = like
     ref_path = "the calibration sessions"
     for p in paths:
@@ -397,6 +407,11 @@ def load_sessions(
         else:
             _same_set(ref, ref_path, ps, str(s.path))
         obs, used, unused = session_observations(s, sigma_mm, base_known)
+        if temperatures:
+            t = stated_link_temperatures(s)
+            if t is None:
+                unstated.append(str(s.path))
+            temps.append(t)
         parts.append(obs)
         serial, firmware = _device_identity(s)
         src = SessionSource(
@@ -416,5 +431,7 @@ def load_sessions(
             _same_arm(other, src)
         sources.append(src)
     assert ref is not None
+    if temperatures and not unstated:
+        parts = [dataclasses.replace(o, temp_c=t) for o, t in zip(parts, temps, strict=True)]
     obs = parts[0] if len(parts) == 1 else combine(parts)
-    return SessionData(obs, ref.model, ref, tuple(sources))
+    return SessionData(obs, ref.model, ref, tuple(sources), tuple(unstated))
