@@ -54,10 +54,8 @@ from aacmm.calibration.diagnostics import (
 )
 from aacmm.calibration.features import CalibrationError
 from aacmm.calibration.harmonics import (
-    WEAK_OBSERVABILITY,
     choose_auto,
     error_terms,
-    observability,
     parse_harmonics,
     screen,
     start_params,
@@ -82,12 +80,11 @@ from aacmm.calibration.results import (
     Outlier,
     Progress,
 )
+from aacmm.calibration.thermal import thermal_choice, thermal_outcome, with_ctes
 from aacmm.core import PARAM_GROUPS, FloatArray, Params
-from aacmm.errmodel import ErrorModel
 
 __all__ = [
     "STRATEGIES",
-    "THERMAL_SPAN_C",
     "calibrate",
     "length_observations",
     "parse_names",
@@ -378,13 +375,13 @@ def calibrate(
     ``thermal`` (issue 27): estimate each link's coefficient of thermal
     expansion ``cte<i>`` (1/K, reference temperature 20 degC, or the start
     error model's) with the arm, from the observations' link temperatures
-    (:attr:`Observations.temp_c`): ``"auto"`` (default) when they span at least
-    :data:`THERMAL_SPAN_C` (5 degC), ``True`` whenever they are stated, ``False``
-    never. A CTE is confounded with its link's lengths unless the temperatures
-    differ: the identifiability analysis holds (and names) the ones the data do
-    not identify. The result's ``thermal`` says what was done and why (its
-    notes too, when temperatures were stated); without temperatures nothing
-    changes.
+    (:attr:`Observations.temp_c`): ``"auto"`` (default) when they span at
+    least :data:`~aacmm.calibration.thermal.THERMAL_SPAN_C` (5 degC),
+    ``True`` whenever they are stated, ``False`` never. A CTE is confounded
+    with its link's lengths unless the temperatures differ: the
+    identifiability analysis holds (and names) the ones the data do not
+    identify. The result's ``thermal`` says what was done and why (its notes
+    too, when temperatures were stated); without temperatures nothing changes.
 
     Raises ObservationError (bad data), CalibrationError (no solution: the
     parameters left the valid range, degenerate constraints), ValueError (bad
@@ -403,10 +400,10 @@ def calibrate(
     requested, modelled, dead, text, why = _harmonics(obs, p0, harmonics, free, fix, kappa, fit)
     if requested is not None:
         p0 = start_params(p0, modelled)
-    estimate, thermal_text = _thermal(obs, thermal)
+    estimate, thermal_text = thermal_choice(obs, thermal)
     fix_all = tuple(fix)
     if estimate:
-        p0, no_length = _with_ctes(obs, p0)
+        p0, no_length = with_ctes(obs, p0)
         fix_all += no_length
     cand = _candidates(free, fix_all, p0)
     history: list[Progress] = []
@@ -453,89 +450,12 @@ def calibrate(
     if requested is not None:
         out = dataclasses.replace(out, error_terms=error_terms(out, requested, dead))
     if estimate:
-        thermal_text = _thermal_outcome(out)
+        thermal_text = thermal_outcome(out)
     if thermal_text:
         out = dataclasses.replace(out, thermal=thermal_text)
         if obs.temp_c is not None:
             out = dataclasses.replace(out, notes=(*out.notes, thermal_text))
     return out
-
-
-#: ``thermal="auto"`` estimates the link CTEs from link temperatures spanning at least this.
-THERMAL_SPAN_C = 5.0
-
-
-def _thermal(obs: Observations, thermal: bool | str) -> tuple[bool, str]:
-    """Whether to estimate the link CTEs, and if not, why (the text of the notes)."""
-    if thermal not in (True, False, "auto"):
-        raise ValueError(f"thermal must be True, False or 'auto', got {thermal!r}")
-    span = obs.temperature_span()
-    if thermal is False:
-        return False, "link CTEs: not estimated (not asked for)"
-    if span is None:
-        if thermal is True:
-            raise ValueError("thermal=True needs the observations' link temperatures (temp_c)")
-        return False, "link CTEs: not estimated (the observations state no link temperature)"
-    if thermal == "auto" and span < THERMAL_SPAN_C:
-        return False, (
-            f"link CTEs: not estimated (the stated link temperatures span {span:.1f} degC, "
-            f"at least {THERMAL_SPAN_C:g} degC needed)"
-        )
-    return True, ""
-
-
-def _with_ctes(obs: Observations, p0: AnyParams) -> tuple[CalibParams, tuple[str, ...]]:
-    """``p0`` with the link CTE columns (start values: the start's CTEs, 0 for an arm;
-    reference temperatures the start's, 20 degC for an arm), and the CTEs of links
-    without a length (no effect on any probe point: fixed at the start value)."""
-    if isinstance(p0, CalibParams):
-        e = p0.errors
-        cp = CalibParams(p0.arm, ErrorModel(e.harmonics, e.cte_per_k, e.tref_c, True))
-    else:
-        cp = CalibParams(p0, ErrorModel(((),) * n_joints(p0), cte_columns=True))
-    ev = Problem(obs).evaluate(cp)
-    names = param_names(cp)
-    raw = np.sqrt(ev.raw_norm2)
-    top = float(raw.max())
-    dead = tuple(n for i, n in enumerate(names) if n.startswith("cte") and raw[i] <= 1e-9 * top)
-    return cp, dead
-
-
-def _thermal_outcome(res: CalibrationResult[Any]) -> str:
-    """What the CTE estimate gave: the CTEs identified (with their values), weakly
-    observed (:data:`~aacmm.calibration.harmonics.WEAK_OBSERVABILITY`, as for a
-    harmonic term), held (not identified) or fixed (a link without a length)."""
-    names = param_names(res.params)
-    ctes = [n for n in names if n.startswith("cte")]
-    share = observability(res.after, res.identifiability)
-    free = [n for n in ctes if n in res.free]
-    est = [n for n in free if share.get(n, 0.0) >= WEAK_OBSERVABILITY]
-    weak = [n for n in free if n not in est]
-    held = [n for n in ctes if n in res.held]
-    fixed = [n for n in ctes if n in res.fixed]
-    span = res.observations.temperature_span() or 0.0
-    parts = [f"link CTEs estimated from link temperatures spanning {span:.1f} degC"]
-    if est:
-        v, sd = res.params.to_vector(), res.scaled_std
-        parts.append(
-            "identified (1e-6/K, +- 1 sigma): "
-            + ", ".join(
-                f"{n} {v[names.index(n)] * 1e6:.2f} +- {sd[names.index(n)] * 1e6:.2f}" for n in est
-            )
-        )
-    if weak:
-        parts.append(
-            f"weakly observed (under {WEAK_OBSERVABILITY:.0%} of the effect on the probe "
-            "points their own: the link barely has a length the data see): " + ", ".join(weak)
-        )
-    if held:
-        parts.append(
-            "not identified (confounded with their links' lengths at these temperatures; "
-            "held at the start value): " + ", ".join(held)
-        )
-    if fixed:
-        parts.append("left out (the link has no length): " + ", ".join(fixed))
-    return "; ".join(parts)
 
 
 def _harmonics(
