@@ -14,7 +14,9 @@ A pure library (arrays and dataclasses in, results out; nothing printed):
   outliers at the solution;
 * :mod:`~aacmm.calibration.results` -- :class:`CalibrationResult` and its parts;
 * :mod:`~aacmm.calibration.parameters` -- the paper's ``Params`` or any
-  :class:`aacmm.arm.Arm` (issue 26): names, vectors, the tip's parameters.
+  :class:`aacmm.arm.Arm` (issue 26): names, vectors, the tip's parameters;
+* :mod:`~aacmm.calibration.thermal` -- the link CTEs a calibration estimates
+  from stated link temperatures (issue 27).
 
 The method and the figures are in docs/calibration.md.
 

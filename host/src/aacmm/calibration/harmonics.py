@@ -137,13 +137,16 @@ def harmonic_names(ks: Sequence[int]) -> tuple[str, ...]:
 
 def start_params(start: ArmParams | CalibParams, ks: Sequence[int]) -> CalibParams:
     """The arm of ``start`` with K per joint ``ks``: the start's own coefficients
-    where it has them (a :class:`CalibParams`), 0 elsewhere."""
+    where it has them (a :class:`CalibParams`, its link CTEs too), 0 elsewhere."""
     arm = arm_part(start)
     old = start.errors.harmonics if isinstance(start, CalibParams) else ((),) * len(ks)
     hs = tuple(
         tuple(h[i] if i < len(h) else (0.0, 0.0) for i in range(k))
         for h, k in zip(old, ks, strict=True)
     )
+    if isinstance(start, CalibParams):  # its link CTEs (and their columns) as they are
+        e = start.errors
+        return CalibParams(arm, ErrorModel(hs, e.cte_per_k, e.tref_c, e.cte_columns))
     return CalibParams(arm, ErrorModel(hs))
 
 

@@ -187,12 +187,15 @@ def preferred_held(p: AnyParams) -> tuple[str, ...]:
     """The parameters the 'fix' strategy tries first to hold (:data:`PREFERRED_HELD`
     for the paper's arm): the base's (theta1, d1, and alpha1, a1 for a modified
     first joint), then the last joint's tip parameters but the tip itself; with
-    encoder harmonics (a :class:`CalibParams`) then the harmonics, highest order
-    first, rather than a theta offset they are confounded with (a joint over a
-    limited range)."""
+    encoder harmonics (a :class:`CalibParams`) then the link CTEs (rather than
+    the lengths they are confounded with at one temperature), then the
+    harmonics, highest order first, rather than a theta offset they are
+    confounded with (a joint over a limited range)."""
     if isinstance(p, CalibParams):
-        order = sorted(p.errors.param_names, key=lambda n: -int(n.split("_")[1]))
-        return (*preferred_held(p.arm), *order)
+        names = p.errors.param_names
+        ctes = tuple(n for n in names if n.startswith("cte"))
+        order = sorted((n for n in names if "_" in n), key=lambda n: -int(n.split("_")[1]))
+        return (*preferred_held(p.arm), *ctes, *order)
     params = p
     if isinstance(params, Params):
         return PREFERRED_HELD
@@ -311,6 +314,12 @@ _MEANING = {
         "no probing data can observe it (held at the model's values); a model without it "
         "drops one of its parameters",
     ),
+    "thermal": (
+        "a link's coefficient of thermal expansion against its lengths: at one link "
+        "temperature a CTE only rescales its link's lengths (d, a; the tip for the last link)",
+        "calibrate from sessions at link temperatures at least 5 degC apart (aacmm capture "
+        "--temperature)",
+    ),
     "other": (
         "not a symmetry of the model: the poses do not excite it",
         "add articulations that move these joints more (wider joint ranges, more seats or "
@@ -427,7 +436,11 @@ def _name_null(
         u = np.linalg.svd(rest, full_matrices=False)[0][:, : k - accepted.shape[1]]
         geometry = _geometry_null(u, scale, cols, params, tol)
         found += [("geometry", d) for d in geometry]
-        found += [("other", d) for d in _remainder(u, geometry)]
+        cte = np.array([n.startswith("cte") for n in names], dtype=bool)
+        found += [
+            ("thermal" if float(np.linalg.norm(d[cte])) >= 0.5 else "other", d)
+            for d in _remainder(u, geometry)
+        ]
     out = []
     for kind, s in found:
         vec = np.zeros(len(all_names))
@@ -443,7 +456,13 @@ def _point_jacobians(params: AnyParams, theta_rad: FloatArray) -> tuple[FloatArr
     and spheres cannot tell from a motion of the base)."""
     model = Model(arm_part(params))
     if isinstance(params, CalibParams):
-        pts, jac = points_jacobians(model, params.errors, theta_rad)
+        temps = None
+        if params.errors.cte_columns:  # every pose at its own link temperatures
+            rng = np.random.default_rng(_GEOMETRY_SEED + 1)
+            temps = np.asarray(params.errors.tref_c) + rng.uniform(
+                -20.0, 20.0, (theta_rad.shape[0], params.errors.joints)
+            )
+        pts, jac = points_jacobians(model, params.errors, theta_rad, temps)
     else:
         pts, jac = model.points_jacobians(theta_rad)
     n = pts.shape[0]

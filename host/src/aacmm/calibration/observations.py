@@ -36,6 +36,7 @@ import numpy.typing as npt
 
 from aacmm.arm import JOINTS_MAX, JOINTS_MIN
 from aacmm.core import FloatArray
+from aacmm.errmodel import TEMP_MAX_C, TEMP_MIN_C
 from aacmm.errors import AacmmError
 
 IntArray = npt.NDArray[np.intp]
@@ -232,6 +233,9 @@ class Observations:
     tip point. ``step`` and ``index`` (n,): where each pose came from (plan
     step number and point index within the step), for reports and outliers.
     ``step_names``: a name per step number (optional).
+    ``temp_c`` (n,): the links' temperature at each pose, degC (issue 27; the
+    operator's stated temperature of the pose's capture run, every link at
+    it), or None (not stated: the error model's reference temperatures).
     """
 
     theta_rad: FloatArray
@@ -240,6 +244,7 @@ class Observations:
     step: IntArray = field(default_factory=lambda: np.empty(0, np.intp))
     index: IntArray = field(default_factory=lambda: np.empty(0, np.intp))
     step_names: tuple[str, ...] = ()
+    temp_c: FloatArray | None = None
 
     def __post_init__(self) -> None:
         th = np.ascontiguousarray(self.theta_rad, dtype=np.float64)
@@ -264,6 +269,14 @@ class Observations:
         object.__setattr__(self, "step", step)
         object.__setattr__(self, "index", index)
         object.__setattr__(self, "constraints", tuple(self.constraints))
+        if self.temp_c is not None:
+            t = np.array(self.temp_c, dtype=np.float64)
+            t = np.full(n, float(t)) if t.ndim == 0 else t
+            if t.shape != (n,):
+                raise ObservationError(
+                    f"temp_c needs one link temperature per pose ({n}), got shape {t.shape}"
+                )
+            object.__setattr__(self, "temp_c", t)
 
     @property
     def n_poses(self) -> int:
@@ -320,6 +333,26 @@ class Observations:
             raise ObservationError(
                 f"{self.label(i)}: probing uncertainty must be finite and > 0, got {sig[i]}"
             )
+        if self.temp_c is not None:
+            t = self.temp_c
+            bad = used & ~(np.isfinite(t) & (t >= TEMP_MIN_C) & (t <= TEMP_MAX_C))
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise ObservationError(
+                    f"{self.label(i)}: link temperature must be within {TEMP_MIN_C:g} .. "
+                    f"{TEMP_MAX_C:g} degC, got {t[i]}"
+                )
+
+    def temperature_span(self) -> float | None:
+        """Highest less lowest link temperature (degC) of the poses a constraint
+        uses; None without temperatures."""
+        if self.temp_c is None:
+            return None
+        used = np.zeros(self.n_poses, dtype=bool)
+        for c in self.constraints:
+            used[c.poses] = True
+        t = self.temp_c[used]
+        return float(t.max() - t.min()) if t.size else 0.0
 
     def without_poses(self, drop: Sequence[int] | IntArray) -> Observations:
         """The same observations with some poses left out of every constraint.
@@ -362,6 +395,9 @@ def combine(parts: Sequence[Observations]) -> Observations:
     """
     if not parts:
         raise ObservationError("no observations to combine")
+    stated = [p.temp_c is not None for p in parts]
+    if any(stated) and not all(stated):
+        raise ObservationError("link temperatures are stated for some observations, not all")
     thetas, sigmas, steps, idx, names = [], [], [], [], []
     cons: list[Constraint] = []
     off = 0
@@ -384,6 +420,7 @@ def combine(parts: Sequence[Observations]) -> Observations:
         np.concatenate(steps),
         np.concatenate(idx),
         tuple(names),
+        np.concatenate([p.temp_c for p in parts if p.temp_c is not None]) if all(stated) else None,
     )
 
 

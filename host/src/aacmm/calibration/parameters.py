@@ -12,7 +12,10 @@ A calibration of the encoder angle harmonics as well (issue 27) works on a
 :class:`~aacmm.errmodel.ErrorModel`, the vector the arm's P values followed by
 the E harmonic coefficients ``c<j>_<k>``, ``s<j>_<k>`` (rad; joint ``j`` and
 harmonic ``k`` from 1, :attr:`aacmm.errmodel.ErrorModel.param_names`), the
-columns of :func:`aacmm.errmodel.points_jacobians`. The functions here take it
+columns of :func:`aacmm.errmodel.points_jacobians`. With link expansion
+coefficients estimated too (an error model with ``cte_columns``), the vector
+ends with one ``cte<i>`` per link (1/K, at the error model's reference
+temperatures). The functions here take it
 as they take an arm; :func:`arm_part` and :func:`error_model` split it.
 
 Main names: :data:`ArmParams`, :class:`CalibParams`, :data:`AnyParams`,
@@ -63,10 +66,10 @@ class CalibParams:
     """An arm's parameters and its encoder angle harmonics, calibrated together.
 
     ``arm``: the paper's :class:`~aacmm.core.Params` or an :class:`~aacmm.arm.Arm`;
-    ``errors``: its :class:`~aacmm.errmodel.ErrorModel` (harmonics only: no CTE
-    columns). The vector is the arm's P values, then the E coefficients
-    (``errors.param_names`` order). Raises ValueError for an error model of
-    another joint count or with CTE columns.
+    ``errors``: its :class:`~aacmm.errmodel.ErrorModel`. The vector is the
+    arm's P values, then the E coefficients (``errors.param_names`` order: the
+    harmonics, then with ``cte_columns`` the N link CTEs). Raises ValueError
+    for an error model of another joint count.
     """
 
     arm: ArmParams
@@ -77,8 +80,6 @@ class CalibParams:
             raise ValueError(
                 f"the error model has {self.errors.joints} joints, the arm {n_joints(self.arm)}"
             )
-        if self.errors.cte_columns:
-            raise ValueError("a calibration's error model carries harmonics only (no CTE columns)")
 
     @property
     def harmonics(self) -> tuple[int, ...]:
@@ -90,8 +91,11 @@ class CalibParams:
         return (*param_names(self.arm), *self.errors.param_names)
 
     def to_vector(self) -> FloatArray:
-        """The P + E values: the arm's, then ``c<j>_<k>``, ``s<j>_<k>`` joint after joint."""
+        """The P + E values: the arm's, then ``c<j>_<k>``, ``s<j>_<k>`` joint after joint
+        (then ``cte<i>`` per link with CTE columns)."""
         coeffs = [v for h in self.errors.harmonics for pair in h for v in pair]
+        if self.errors.cte_columns:
+            coeffs += list(self.errors.cte_per_k)
         return np.concatenate([self.arm.to_vector(), np.asarray(coeffs, dtype=np.float64)])
 
     def with_vector(self, v: npt.ArrayLike) -> CalibParams:
@@ -103,7 +107,9 @@ class CalibParams:
             raise ValueError(f"expected {p + self.errors.n_cols} values, got {x.size}")
         it = iter(x[p:].tolist())
         hs = tuple(tuple((next(it), next(it)) for _ in h) for h in self.errors.harmonics)
-        em = ErrorModel(hs, self.errors.cte_per_k, self.errors.tref_c)
+        e = self.errors
+        cte = tuple(next(it) for _ in range(e.joints)) if e.cte_columns else e.cte_per_k
+        em = ErrorModel(hs, cte, e.tref_c, e.cte_columns)
         return CalibParams(with_vector(self.arm, x[:p]), em)
 
 
@@ -137,7 +143,9 @@ def param_names(p: AnyParams) -> tuple[str, ...]:
 def param_units(p: AnyParams) -> tuple[str, ...]:
     """The unit (``rad`` or ``mm``) of each parameter, in column order."""
     if isinstance(p, CalibParams):
-        return (*param_units(p.arm), *("rad",) * p.errors.n_cols)
+        e = p.errors
+        cte = ("1/K",) * e.joints if e.cte_columns else ()
+        return (*param_units(p.arm), *("rad",) * (e.n_cols - len(cte)), *cte)
     return PARAM_UNITS if isinstance(p, Params) else p.param_units
 
 

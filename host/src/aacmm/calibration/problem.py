@@ -5,9 +5,11 @@ once; :meth:`Problem.evaluate` then gives, for one parameter set, the whitened
 residual vector and its Jacobian with respect to the arm's P parameters (25 for
 the paper's arm; any :class:`~aacmm.arm.Arm` as well; a
 :class:`~aacmm.calibration.parameters.CalibParams` adds its E encoder-harmonic
-columns, from :func:`aacmm.errmodel.points_jacobians`), the
-probe points and Jacobians coming from the C core in one batch call (analytic,
-no finite differences).
+columns, from :func:`aacmm.errmodel.points_jacobians`, and with link CTE
+columns their N), the probe points and Jacobians coming from the C core in one
+batch call (analytic, no finite differences; one per link temperature when the
+observations state temperatures: an error model is evaluated at the pose's
+temperature, the arm alone has no thermal model).
 
 Nuisance unknowns (a seat's centre, a sphere's centre and radius, a plane, a
 registration, the true value of an uncertain length) are eliminated by
@@ -410,34 +412,60 @@ class Problem:
 
     @staticmethod
     def _core(
-        model: tuple[Model, ErrorModel | None], th: FloatArray, jacobian: bool
+        model: tuple[Model, ErrorModel | None],
+        th: FloatArray,
+        jacobian: bool,
+        temp_c: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray | None]:
-        """Points (and Jacobians) of readings ``th``: the arm's own, or with its error model."""
+        """Points (and Jacobians) of readings ``th``: the arm's own, or with its error
+        model, at the link temperatures ``temp_c`` (n,) (None: its reference ones)."""
         m, em = model
         if em is None:
             return m.points_jacobians(th) if jacobian else (m.points(th), None)
         try:
+            if temp_c is not None:
+                return Problem._core_at(m, em, th, jacobian, temp_c)
             if jacobian:
                 return em_points_jacobians(m, em, th)
             return em_points(m, em, th), None
         except KinematicsError as e:  # the harmonics' sum beyond the core's limit
             raise CalibrationError(f"error model out of range during the fit: {e}") from None
 
+    @staticmethod
+    def _core_at(
+        m: Model, em: ErrorModel, th: FloatArray, jacobian: bool, temp_c: FloatArray
+    ) -> tuple[FloatArray, FloatArray | None]:
+        """As :meth:`_core` with the poses grouped by link temperature: one batch call
+        per temperature (every link at it)."""
+        n = th.shape[0]
+        pts = np.empty((n, 3))
+        pj = np.empty((n, 3, m.n_params + em.n_cols)) if jacobian else None
+        for t in np.unique(temp_c):
+            sel = temp_c == t
+            temps = np.full(em.joints, float(t))
+            if pj is not None:
+                pts[sel], pj[sel] = em_points_jacobians(m, em, th[sel], temps)
+            else:
+                pts[sel] = em_points(m, em, th[sel], temps)
+        return pts, pj
+
     def _points(
         self, model: tuple[Model, ErrorModel | None], jacobian: bool
     ) -> tuple[FloatArray, FloatArray | None]:
         th = self.obs.theta_rad
+        temps = self.obs.temp_c
         if self.all_used:
-            return self._core(model, th, jacobian)
+            return self._core(model, th, jacobian, temps)
         n = th.shape[0]
         pts = np.zeros((n, 3))
         u = self.used
+        tu = None if temps is None else temps[u]
         if not jacobian:
-            pts[u] = self._core(model, th[u], False)[0]
+            pts[u] = self._core(model, th[u], False, tu)[0]
             return pts, None
         extra = model[1].n_cols if model[1] is not None else 0
         pj = np.zeros((n, 3, model[0].n_params + extra))
-        p_u, j_u = self._core(model, th[u], True)
+        p_u, j_u = self._core(model, th[u], True, tu)
         pts[u], pj[u] = p_u, j_u
         return pts, pj
 

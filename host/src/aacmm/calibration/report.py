@@ -68,15 +68,21 @@ def unit_residuals(problem: Problem, ev: Evaluation) -> UnitResiduals:
 
 
 def _fmt_param(unit: str, v: float) -> str:
+    if unit == "1/K":  # a link CTE, in 1e-6/K
+        return f"{v * 1e6:.2f} ppm/K"
     return f"{math.degrees(v):.6f} deg" if unit == "rad" else f"{v:.4f} mm"
 
 
 def _fmt_small(unit: str, v: float) -> str:
-    """A change or an uncertainty: arcsec for angles, um for lengths."""
+    """A change or an uncertainty: arcsec for angles, um for lengths, ppm/K for CTEs."""
+    if unit == "1/K":
+        return f"{v * 1e6:+.2f} ppm/K"
     return f'{v / ARCSEC:+.2f}"' if unit == "rad" else f"{v * 1e3:+.2f} um"
 
 
 def _fmt_u(unit: str, v: float) -> str:
+    if unit == "1/K":
+        return f"{v * 1e6:.2f} ppm/K"
     return f'{v / ARCSEC:.2f}"' if unit == "rad" else f"{v * 1e3:.2f} um"
 
 

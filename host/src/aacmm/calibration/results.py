@@ -196,7 +196,9 @@ class CalibrationResult(Generic[P]):
     encoder harmonics considered (empty without ``harmonics``; with it ``params``
     is a :class:`~aacmm.calibration.parameters.CalibParams`, P + E wide) and
     ``harmonics_requested``: what was asked for (``"0"``, ``"2"``, ``"auto"``, a
-    per-joint list).
+    per-joint list). ``thermal``: whether the link CTEs (``cte<i>`` of a
+    :class:`~aacmm.calibration.parameters.CalibParams`) were estimated, which
+    were identified, and if not, why (issue 27).
     """
 
     params: P
@@ -222,6 +224,7 @@ class CalibrationResult(Generic[P]):
     notes: tuple[str, ...] = field(default_factory=tuple)
     error_terms: tuple[ErrorTerm, ...] = ()
     harmonics_requested: str = "0"
+    thermal: str = ""
 
     @property
     def std(self) -> FloatArray:

@@ -30,6 +30,7 @@ Errors: :class:`SessionDataError` (a ValueError: exit status 2 in the CLI).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,9 +50,10 @@ from aacmm.calibration.observations import (
     combine,
 )
 from aacmm.calibration.parameters import ArmParams
-from aacmm.core import EncoderConfig
+from aacmm.core import EncoderConfig, FloatArray
 from aacmm.plans import model as pm
 from aacmm.records import ParamSetRecord, RecordError, Session, read_session
+from aacmm.records.measured import stated_temperatures
 
 DEFAULT_SIGMA_MM = 0.005
 IntArray = npt.NDArray[np.intp]
@@ -86,6 +88,9 @@ class SessionData:
     start: ArmParams
     param_set: ParamSetRecord
     sources: tuple[SessionSource, ...]
+    #: with ``load_sessions(temperatures=True)``: the sessions with a point whose
+    #: capture run states no link temperature (then no observation carries one)
+    unstated_temperature: tuple[str, ...] = ()
 
     @property
     def encoders(self) -> EncoderConfig:
@@ -226,16 +231,23 @@ def observations_from_plan(
 
 
 def session_observations(
-    session: Session, sigma_mm: float = DEFAULT_SIGMA_MM, base_known: bool = False
+    session: Session,
+    sigma_mm: float = DEFAULT_SIGMA_MM,
+    base_known: bool = False,
+    temperatures: bool = False,
 ) -> tuple[Observations, list[str], list[str]]:
     """The observations of one session, and the step ids used and not used.
 
-    Raises SessionDataError (empty session, too few points in a step),
-    RecordError (a reading beyond the encoder's resolution).
+    ``temperatures``: the observations carry each point's link temperature,
+    the one its capture run states (:func:`stated_link_temperatures`).
+
+    Raises SessionDataError (empty session, too few points in a step, with
+    ``temperatures`` a point whose run states none), RecordError (a reading
+    beyond the encoder's resolution).
     """
     if len(session) == 0:
         raise SessionDataError(f"{session.path}: the session has no points")
-    return observations_from_plan(
+    obs, used, unused = observations_from_plan(
         session.plan,
         session.angles_rad(),
         sigma_mm,
@@ -243,6 +255,25 @@ def session_observations(
         session.points,
         str(session.path),
     )
+    if temperatures:
+        t = stated_link_temperatures(session)
+        if t is None:
+            raise SessionDataError(
+                f"{session.path}: a capture run states no link temperature "
+                "(aacmm capture --temperature)"
+            )
+        obs = dataclasses.replace(obs, temp_c=t)
+    return obs, used, unused
+
+
+def stated_link_temperatures(session: Session) -> FloatArray | None:
+    """Per point the link temperature its capture run states (degC,
+    :func:`aacmm.records.measured.stated_temperatures`); None unless every
+    point's run states one."""
+    t = stated_temperatures(session)
+    if not t or any(x is None for x in t):
+        return None
+    return np.array([float(x) for x in t if x is not None], dtype=np.float64)
 
 
 def _shape(ps: ParamSetRecord) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -335,6 +366,7 @@ def load_sessions(
     like: ParamSetRecord | None = None,
     any_params: bool = False,
     arm: Sequence[SessionSource] | None = None,
+    temperatures: bool = False,
 ) -> SessionData:
     """Read sessions and turn them into one set of observations.
 
@@ -344,6 +376,10 @@ def load_sessions(
     validation data taken after a calibration). Every session must come from
     one arm (the device serial number its sidecar records), the arm of the
     sessions ``arm`` too when given (the calibration's, for held-out data).
+    ``temperatures``: the observations carry the stated link temperature of
+    every point (:func:`stated_link_temperatures`) when every session states
+    one for each of its points; otherwise none does, and
+    :attr:`SessionData.unstated_temperature` names the sessions that do not.
 
     Raises SessionDataError, RecordError (unreadable or damaged session).
     """
@@ -353,6 +389,8 @@ def load_sessions(
         raise ValueError(f"the probing uncertainty must be > 0, got {sigma_mm}")
     parts: list[Observations] = []
     sources: list[SessionSource] = []
+    temps: list[FloatArray | None] = []
+    unstated: list[str] = []
     ref = like
     ref_path = "the calibration sessions"
     for p in paths:
@@ -369,6 +407,11 @@ def load_sessions(
         else:
             _same_set(ref, ref_path, ps, str(s.path))
         obs, used, unused = session_observations(s, sigma_mm, base_known)
+        if temperatures:
+            t = stated_link_temperatures(s)
+            if t is None:
+                unstated.append(str(s.path))
+            temps.append(t)
         parts.append(obs)
         serial, firmware = _device_identity(s)
         src = SessionSource(
@@ -388,5 +431,7 @@ def load_sessions(
             _same_arm(other, src)
         sources.append(src)
     assert ref is not None
+    if temperatures and not unstated:
+        parts = [dataclasses.replace(o, temp_c=t) for o, t in zip(parts, temps, strict=True)]
     obs = parts[0] if len(parts) == 1 else combine(parts)
-    return SessionData(obs, ref.model, ref, tuple(sources))
+    return SessionData(obs, ref.model, ref, tuple(sources), tuple(unstated))

@@ -80,6 +80,7 @@ from aacmm.calibration.results import (
     Outlier,
     Progress,
 )
+from aacmm.calibration.thermal import thermal_choice, thermal_outcome, with_ctes
 from aacmm.core import PARAM_GROUPS, FloatArray, Params
 
 __all__ = [
@@ -98,7 +99,7 @@ _MAX_REJECT_ROUNDS = 4
 def parse_names(names: Sequence[str], params: AnyParams | None = None) -> tuple[str, ...]:
     """Parameter names from names and groups (``theta``, ``alpha``, ``d``, ``a``,
     ``beta``, ``tip`` = theta6 alpha6 d6 a6 l, ``all``; with encoder harmonics
-    also ``harmonics``), comma lists allowed; in
+    also ``harmonics``, with link CTE columns ``cte``), comma lists allowed; in
     column order. The names are those of ``params`` (default: the paper's arm;
     for any arm ``tip`` is :func:`~aacmm.calibration.parameters.tip_columns`).
 
@@ -110,7 +111,9 @@ def parse_names(names: Sequence[str], params: AnyParams | None = None) -> tuple[
     groups = {g: {n for n in all_names if n.rstrip("0123456789") == g} for g in PARAM_GROUPS[:4]}
     groups["beta"] = {n for n in all_names if n.startswith("beta")}
     if isinstance(p, CalibParams):
-        groups["harmonics"] = set(p.errors.param_names)
+        groups["harmonics"] = {n for n in p.errors.param_names if not n.startswith("cte")}
+        if p.errors.cte_columns:
+            groups["cte"] = {n for n in p.errors.param_names if n.startswith("cte")}
     out: set[str] = set()
     for item in names:
         for n in (x.strip() for x in str(item).split(",")):
@@ -279,6 +282,7 @@ def calibrate(
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
     harmonics: int | str | Sequence[int] | None = None,
+    thermal: bool | str = "auto",
 ) -> CalibrationResult[Params]: ...
 @overload
 def calibrate(
@@ -295,6 +299,7 @@ def calibrate(
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
     harmonics: int | str | Sequence[int] | None = None,
+    thermal: bool | str = "auto",
 ) -> CalibrationResult[Arm]: ...
 @overload
 def calibrate(
@@ -311,6 +316,7 @@ def calibrate(
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
     harmonics: int | str | Sequence[int] | None = None,
+    thermal: bool | str = "auto",
 ) -> CalibrationResult[CalibParams]: ...
 @overload
 def calibrate(
@@ -327,6 +333,7 @@ def calibrate(
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
     harmonics: int | str | Sequence[int] | None = None,
+    thermal: bool | str = "auto",
 ) -> CalibrationResult[Any]: ...
 def calibrate(
     obs: Observations,
@@ -342,6 +349,7 @@ def calibrate(
     max_nfev: int = 200,
     progress: Callable[[Progress], None] | None = None,
     harmonics: int | str | Sequence[int] | None = None,
+    thermal: bool | str = "auto",
 ) -> CalibrationResult[Any]:
     """Identify the arm's parameters from ``obs``, starting at ``start`` (default Table 1).
 
@@ -364,6 +372,17 @@ def calibrate(
     which terms were estimated, weakly observed or unobserved; K = 0 for an arm
     is the arm alone, exactly as without it.
 
+    ``thermal`` (issue 27): estimate each link's coefficient of thermal
+    expansion ``cte<i>`` (1/K, reference temperature 20 degC, or the start
+    error model's) with the arm, from the observations' link temperatures
+    (:attr:`Observations.temp_c`): ``"auto"`` (default) when they span at
+    least :data:`~aacmm.calibration.thermal.THERMAL_SPAN_C` (5 degC),
+    ``True`` whenever they are stated, ``False`` never. A CTE is confounded
+    with its link's lengths unless the temperatures differ: the
+    identifiability analysis holds (and names) the ones the data do not
+    identify. The result's ``thermal`` says what was done and why (its notes
+    too, when temperatures were stated); without temperatures nothing changes.
+
     Raises ObservationError (bad data), CalibrationError (no solution: the
     parameters left the valid range, degenerate constraints), ValueError (bad
     arguments).
@@ -381,7 +400,12 @@ def calibrate(
     requested, modelled, dead, text, why = _harmonics(obs, p0, harmonics, free, fix, kappa, fit)
     if requested is not None:
         p0 = start_params(p0, modelled)
-    cand = _candidates(free, fix, p0)
+    estimate, thermal_text = thermal_choice(obs, thermal)
+    fix_all = tuple(fix)
+    if estimate:
+        p0, no_length = with_ctes(obs, p0)
+        fix_all += no_length
+    cand = _candidates(free, fix_all, p0)
     history: list[Progress] = []
     rejected: list[Outlier] = []
     current = obs
@@ -425,6 +449,12 @@ def calibrate(
     )
     if requested is not None:
         out = dataclasses.replace(out, error_terms=error_terms(out, requested, dead))
+    if estimate:
+        thermal_text = thermal_outcome(out)
+    if thermal_text:
+        out = dataclasses.replace(out, thermal=thermal_text)
+        if obs.temp_c is not None:
+            out = dataclasses.replace(out, notes=(*out.notes, thermal_text))
     return out
 
 

@@ -90,6 +90,17 @@ def register(sub: Any) -> None:
         "aacmm params set sends to the device. Default auto (0 with --probe)",
     )
     p.add_argument(
+        "--thermal",
+        choices=("auto", "on", "off"),
+        default=None,
+        help="also estimate each link's CTE (cte1..cteN, 1/K, reference 20 degC) from the "
+        "sessions' stated link temperatures (aacmm capture --temperature): auto (default; "
+        "off with --probe) when they span at least 5 degC, on whatever the span (every point "
+        "must state one), off never; written to the file's [errmodel] table (cte_per_k, "
+        "tref_c), which aacmm params set refuses (the device takes no thermal block) and "
+        "aacmm verify --params applies",
+    )
+    p.add_argument(
         "--validate",
         action="append",
         default=[],
@@ -176,6 +187,10 @@ def _check_args(args: argparse.Namespace) -> None:
         raise UsageError(f"--harmonics: {exc}") from None
     if args.probe and args.harmonics != "0":
         raise UsageError("--probe calibrates the tip only: drop --harmonics")
+    if args.thermal is None:
+        args.thermal = "off" if args.probe else "auto"
+    if args.probe and args.thermal != "off":
+        raise UsageError("--probe calibrates the tip only: drop --thermal")
     if not args.output.lower().endswith(".toml"):
         raise UsageError(f"{args.output}: the parameter file must be a .toml file")
     for opt, v in (("--max-u-um", args.max_u_um), ("--max-u-arcsec", args.max_u_arcsec)):
@@ -199,7 +214,15 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from aacmm.calibration.sessions import load_sessions
 
     sigma = args.sigma_um / 1000.0
-    data = load_sessions(args.sessions, sigma, args.base_frame)
+    thermal = args.thermal != "off"
+    data = load_sessions(args.sessions, sigma, args.base_frame, temperatures=thermal)
+    if args.thermal == "on" and data.unstated_temperature:
+        from aacmm.commands.exitcodes import UsageError
+
+        raise UsageError(
+            f"--thermal on: {data.unstated_temperature[0]}: a capture run states no link "
+            "temperature (aacmm capture --temperature)"
+        )
     if data.param_set.errors is not None:  # not carried into the fit's start yet
         print_err(
             "calibrate",
@@ -215,6 +238,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
             like=data.param_set,
             any_params=True,
             arm=data.sources,
+            temperatures=thermal and data.observations.temp_c is not None,
         )
         if args.validate
         else None
@@ -419,6 +443,32 @@ def _gate(args: argparse.Namespace, data: Any, res: Any, val: Any, previous: Any
     return gate
 
 
+_THERMAL: dict[str, bool | str] = {"auto": "auto", "on": True, "off": False}
+
+
+def _thermal_text(args: argparse.Namespace, data: Any, res: Any) -> str:
+    """Whether the link CTEs were estimated (and which), or why not."""
+    from aacmm.calibration.parameters import error_model
+
+    if data.unstated_temperature:
+        why = (
+            f"link CTEs: not estimated ({data.unstated_temperature[0]}: a capture run states "
+            "no link temperature)"
+        )
+    else:  # the notes said it already when the sessions state temperatures
+        why = "" if res.thermal in res.notes else res.thermal
+    em = error_model(res.params)
+    if em is not None and em.cte_columns:
+        why += (
+            "written to the file's [errmodel] table (cte_per_k, tref_c): aacmm verify "
+            "--params applies them; aacmm params set refuses the file (the device takes no "
+            "thermal block)"
+        )
+    if not why:
+        return ""
+    return f"Thermal (--thermal {args.thermal}): {why}"
+
+
 def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any = None) -> int:
     from aacmm.calibration import Problem, analyse, parse_names, report
     from aacmm.calibration.parameters import param_names, tip_columns
@@ -463,9 +513,13 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
             reject=args.reject,
             progress=_progress(args),
             harmonics=args.harmonics,
+            thermal=_THERMAL[args.thermal],
         )
     cmp_ = compare(res.observations, res.start, res.params)
     print(report.format_result(res, cmp_))
+    thermal_text = "" if args.probe else _thermal_text(args, data, res)
+    if thermal_text:
+        print(thermal_text)
     if probe is not None:
         print(_probe_text(probe))
     val = None
@@ -483,6 +537,7 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
             fix=fix,
             strategy=args.strategy,
             harmonics=args.harmonics,
+            thermal=_THERMAL[args.thermal],
         )
         print()
         print(
@@ -620,6 +675,7 @@ def _write(
             "reject": args.reject,
             "base_frame": args.base_frame,
             "harmonics": args.harmonics,
+            "thermal": args.thermal,
         },
         "result": report.to_json(res, cmp_),
         "quality_gate": {
@@ -650,8 +706,15 @@ def _write(
     write_output(provenance_path(args.output), json.dumps(prov, indent=1) + "\n", force=args.force)
     write_output(args.output, text, force=args.force)
     print()
-    with_em = "" if error_model(res.params) is None else " and its [errmodel] table"
-    print(f"wrote {args.output} (load it{with_em} with: aacmm params set {args.output} --save)")
+    em = error_model(res.params)
+    with_em = "" if em is None else " and its [errmodel] table"
+    if em is not None and em.cte_columns:
+        print(
+            f"wrote {args.output} (with thermal expansion: aacmm params set refuses it; "
+            f"aacmm verify --params {args.output} applies it)"
+        )
+    else:
+        print(f"wrote {args.output} (load it{with_em} with: aacmm params set {args.output} --save)")
     print(f"wrote {provenance_path(args.output)}")
 
 
