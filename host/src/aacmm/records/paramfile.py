@@ -59,8 +59,9 @@ The thermal keys (``cte_per_k``, 1/K, ``|x| <= 1e-3``, and ``tref_c``,
 degC, -40 .. 85, N values each; absent: 0 and 20 degC) are the links'
 thermal expansion (issue 27): per link (one per joint; the tip belongs to the
 last) at link temperatures ``T`` every length of link ``i`` (``d_i``, ``a_i``)
-is ``L (1 + cte_i (T_i - tref_i))``. Nothing measures them yet: they are the
-arm maker's (data-sheet) values, written by hand; ``aacmm verify --params FILE
+is ``L (1 + cte_i (T_i - tref_i))``. They are the arm maker's (data-sheet)
+values, written by hand, or ``aacmm calibrate --thermal``'s from sessions at
+temperatures at least 5 degC apart; ``aacmm verify --params FILE
 --temperature C`` applies them (docs/cli.md). ``c_rad`` and ``s_rad``
 (together) and ``cte_per_k`` are each optional; ``tref_c`` goes with
 ``cte_per_k``; :func:`errmodel_dict` writes the thermal keys only for an error
