@@ -43,7 +43,9 @@ def check(elf: Path) -> None:
     try:
         port = serial.serial_for_url(url, timeout=0.2)
         try:
-            banner_bytes = read_until(port, b"\r\n")
+            # the guest starts when we connect; under a loaded machine QEMU's TCG may
+            # take seconds before the first byte (a CI run once saw none in 10 s)
+            banner_bytes = read_until(port, b"\r\n", timeout=30.0)
             banner = banner_bytes.decode()
             print(f"{board}: {banner.strip()}  ({url})")
             assert f"aacmm boot {board} tick_hz=" in banner, banner
