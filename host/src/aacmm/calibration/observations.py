@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -254,14 +254,8 @@ class Observations:
                 f"got {th.shape}"
             )
         n = th.shape[0]
-        sig = np.asarray(self.sigma_mm, dtype=np.float64)
-        sig = np.full(n, float(sig)) if sig.ndim == 0 else sig
-        if sig.shape != (n,):
-            raise ObservationError(
-                f"sigma_mm needs one value per pose ({n}), got shape {sig.shape}"
-            )
         object.__setattr__(self, "theta_rad", th)
-        object.__setattr__(self, "sigma_mm", sig)
+        object.__setattr__(self, "sigma_mm", _per_pose(self.sigma_mm, n, "sigma_mm", "value"))
         step = np.asarray(self.step, dtype=np.intp) if len(self.step) else np.zeros(n, np.intp)
         index = np.asarray(self.index, dtype=np.intp) if len(self.index) else np.arange(n)
         if step.shape != (n,) or index.shape != (n,):
@@ -270,12 +264,7 @@ class Observations:
         object.__setattr__(self, "index", index)
         object.__setattr__(self, "constraints", tuple(self.constraints))
         if self.temp_c is not None:
-            t = np.array(self.temp_c, dtype=np.float64)
-            t = np.full(n, float(t)) if t.ndim == 0 else t
-            if t.shape != (n,):
-                raise ObservationError(
-                    f"temp_c needs one link temperature per pose ({n}), got shape {t.shape}"
-                )
+            t = _per_pose(self.temp_c, n, "temp_c", "link temperature")
             object.__setattr__(self, "temp_c", t)
 
     @property
@@ -432,3 +421,13 @@ def _shift(c: Constraint, off: int) -> Constraint:
             ends_b=tuple(e + off for e in c.ends_b),
         )
     return replace(c, poses=c.poses + off)
+
+
+def _per_pose(value: Any, n: int, name: str, what: str) -> FloatArray:
+    """A value per pose (n,) from one for every pose or one each (ObservationError)."""
+    v = np.array(value, dtype=np.float64)
+    v = np.full(n, float(v)) if v.ndim == 0 else v
+    if v.shape != (n,):
+        raise ObservationError(f"{name} needs one {what} per pose ({n}), got shape {v.shape}")
+    out: FloatArray = v
+    return out
