@@ -28,14 +28,11 @@ import json
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from aacmm.commands.common import add_force_option, link_temperature
 
 if TYPE_CHECKING:
-    import numpy as np
-    import numpy.typing as npt
-
     from aacmm.errmodel import ErrorModel
     from aacmm.records.measured import Measured
 
@@ -117,55 +114,6 @@ def _compensation(args: argparse.Namespace) -> tuple[ErrorModel | None, float | 
     return em, temp
 
 
-def _span(values: list[float]) -> str:
-    lo, hi = min(values), max(values)
-    return f"{lo:g} C" if lo == hi else f"{lo:g} .. {hi:g} C"
-
-
-def _temperatures(
-    m: Measured, em: ErrorModel | None, temp: float | None, file: str | None
-) -> tuple[npt.NDArray[np.float64] | None, dict[str, Any]]:
-    """The link temperatures (n, N) to compensate at (None: no thermal compensation)
-    and the report's entries for them: ``--temperature``, else what the session's
-    capture runs state (``aacmm capture --temperature``). UsageError: CTEs to apply
-    and a point whose temperature nobody stated."""
-    import numpy as np
-
-    from aacmm.commands.exitcodes import UsageError
-    from aacmm.records.paramfile import has_thermal
-
-    stated = list(m.stated_temperature_c or ())
-    given = [t for t in stated if t is not None]
-    n, joints = len(m.points), (em.joints if em is not None else 0)
-    if temp is not None:
-        line = f"{temp:g} C on every link (stated with --temperature; the arm measures none)"
-        if given and (min(given) != temp or max(given) != temp):
-            line += f"; the session's capture runs state {_span(given)}"
-        return np.full((n, joints), temp), {"temperature": line, "temperature_range_c": [temp] * 2}
-    if em is not None and has_thermal(em):
-        if not stated or None in stated:
-            k = stated.index(None) + 1 if None in stated else 1
-            raise UsageError(
-                f"--params {file}: its [errmodel] table has the links' thermal expansion and "
-                f"point {k}'s capture run states no temperature: give --temperature C "
-                "(or aacmm capture --temperature C)"
-            )
-        line = (
-            f"{_span(given)} on every link (stated at capture, aacmm capture --temperature; "
-            "the arm measures none)"
-        )
-        temps = np.repeat(np.array(given)[:, None], joints, axis=1)
-        return temps, {"temperature": line, "temperature_range_c": [min(given), max(given)]}
-    if given:
-        why = "no --params with cte_per_k" if em is None else f"{file} has no cte_per_k"
-        line = f"{_span(given)} (stated at capture for {len(given)} of {n} points; "
-        return None, {
-            "temperature": line + f"not compensated: {why})",
-            "temperature_range_c": [min(given), max(given)],
-        }
-    return None, {}
-
-
 def _check_set(m: Measured, file: str) -> None:
     """The parameter file holds the set every point was captured with (UsageError)."""
     from aacmm.commands.exitcodes import UsageError
@@ -186,7 +134,12 @@ def run_verify(args: argparse.Namespace) -> int:
     from aacmm.commands import verify_report as vr
     from aacmm.commands.exitcodes import NOT_MET, UsageError
     from aacmm.fileio import check_outputs, save_figure, write_output
-    from aacmm.records.measured import load_session
+    from aacmm.records.measured import (
+        TemperatureNotStatedError,
+        link_temperatures,
+        load_session,
+        span_text,
+    )
     from aacmm.verification.report import evaluate
     from aacmm.verification.rules import FAIL, NO_MPE
 
@@ -204,7 +157,13 @@ def run_verify(args: argparse.Namespace) -> int:
         )
     em, temp = _compensation(args)
     m = load_session(Path(args.session), partial=args.partial)
-    temps, temp_meta = _temperatures(m, em, temp, args.params)
+    try:
+        temps, temp_meta = link_temperatures(m, em, temp, args.params)
+    except TemperatureNotStatedError as exc:
+        raise UsageError(
+            f"--params {args.params}: its [errmodel] table has the links' thermal expansion "
+            f"and {exc}: give --temperature C (or aacmm capture --temperature C)"
+        ) from None
     if em is not None:
         from aacmm.records.paramfile import describe_errmodel
 
@@ -230,7 +189,7 @@ def run_verify(args: argparse.Namespace) -> int:
             notes = (
                 *notes,
                 f"the plan states the test at {planned:g} C; the session was taken at "
-                f"{_span([lo, hi])} ({done})",
+                f"{span_text([lo, hi])} ({done})",
             )
         band = m.plan.verification.band_problem([lo, hi])
         if band is not None:

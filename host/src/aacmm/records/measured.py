@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from aacmm.records.files import RecordError
 
@@ -141,6 +143,63 @@ def stated_temperatures(s: Any) -> tuple[float | None, ...]:
         before = [t for t0, t in starts if t0 <= p.host_time]
         out.append(before[-1] if before else None)
     return tuple(out)
+
+
+class TemperatureNotStatedError(RecordError):
+    """Thermal expansion to apply and a point whose link temperature nobody stated."""
+
+
+def span_text(values: Sequence[float]) -> str:
+    """``20 C`` or ``20 .. 28 C``: the range of some temperatures."""
+    lo, hi = min(values), max(values)
+    return f"{lo:g} C" if lo == hi else f"{lo:g} .. {hi:g} C"
+
+
+def link_temperatures(
+    m: Measured, em: ErrorModel | None, temp_c: float | None, source: str | None = None
+) -> tuple[npt.NDArray[np.float64] | None, dict[str, Any]]:
+    """The link temperatures (n, N) to compensate ``m``'s points at, None for no
+    thermal compensation, and the report's entries for them (``temperature``,
+    ``temperature_range_c``): ``temp_c`` on every link if given (the operator's
+    statement, ``aacmm verify --temperature``), else, when ``em`` has thermal
+    expansion, what each point's capture run states (``aacmm capture
+    --temperature``); a session whose runs state temperatures without CTEs to
+    apply reports them, not compensated. ``source``: the error model's file, for
+    the words.
+
+    Raises:
+        TemperatureNotStatedError: ``em`` has thermal expansion, no ``temp_c``,
+            and a point's run states no temperature (the message names it).
+    """
+    from aacmm.records.paramfile import has_thermal
+
+    stated = list(m.stated_temperature_c or ())
+    given = [t for t in stated if t is not None]
+    n, joints = len(m.points), (em.joints if em is not None else 0)
+    if temp_c is not None:
+        line = f"{temp_c:g} C on every link (stated with --temperature; the arm measures none)"
+        if given and (min(given) != temp_c or max(given) != temp_c):
+            line += f"; the session's capture runs state {span_text(given)}"
+        entries = {"temperature": line, "temperature_range_c": [temp_c] * 2}
+        return np.full((n, joints), temp_c), entries
+    if em is not None and has_thermal(em):
+        if not stated or None in stated:
+            k = stated.index(None) + 1 if None in stated else 1
+            raise TemperatureNotStatedError(f"point {k}'s capture run states no temperature")
+        line = (
+            f"{span_text(given)} on every link (stated at capture, aacmm capture "
+            "--temperature; the arm measures none)"
+        )
+        temps = np.repeat(np.array(given)[:, None], joints, axis=1)
+        return temps, {"temperature": line, "temperature_range_c": [min(given), max(given)]}
+    if given:
+        why = "no --params with cte_per_k" if em is None else f"{source} has no cte_per_k"
+        line = f"{span_text(given)} (stated at capture for {len(given)} of {n} points; "
+        return None, {
+            "temperature": line + f"not compensated: {why})",
+            "temperature_range_c": [min(given), max(given)],
+        }
+    return None, {}
 
 
 def load_session(
