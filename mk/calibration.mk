@@ -12,6 +12,7 @@ CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
                   tests/host/test_calibration_harmonics_study.py tests/host/harmonics_study.py \
                   scripts/harmonics_study_figures.py tests/host/test_calibration_probe_e2e.py \
                   tests/host/gate_study.py host/src/aacmm/commands/calibrate.py \
+                  host/src/aacmm/commands/calibrate_output.py \
                   tests/host/calib_synth.py bench/bench_calibration.py bench/calibration_figures.py \
                   bench/harmonics_figures.py tests/host/test_calibration_thermal.py \
                   tests/host/thermal_calib_study.py
