@@ -85,6 +85,22 @@ typedef struct {
      * Optional. */
     aacmm_status_t (*read_buttons)(void *ctx, uint8_t *pressed);
 
+    /* Link temperatures (issue 27). Optional: NULL means the device has no
+     * temperature sensors (INFO without AACMM_BUILD_TEMPERATURES; the
+     * TEMPERATURES content and a parameter set with the thermal block are
+     * refused with AACMM_ERR_UNSUPPORTED). read_temperatures fills temp[i]
+     * (links i = 0 .. AACMM_JOINTS_MAX - 1, in AACMM_TEMP_UNIT_C = 0.01 degC)
+     * and sets bit i of *valid when link i's sensor gave a reading (a board
+     * with one sensor copies it to every link). It never blocks: it returns
+     * the latest completed conversion, and a sensor with no conversion for
+     * longer than the port's own timeout is not valid. AACMM_ERR_IO: no
+     * reading at all (every link not valid). The device reads it once per
+     * sample; a link of the arm without a valid reading in
+     * AACMM_REF_TEMP_MIN .. AACMM_REF_TEMP_MAX flags the sample
+     * (AACMM_SAMPLE_TEMP_FAULT) and, with the thermal block in force, leaves
+     * it without a point. */
+    aacmm_status_t (*read_temperatures)(void *ctx, int16_t temp[AACMM_JOINTS_MAX], uint8_t *valid);
+
     /* Non-volatile storage of storage_bytes bytes addressed from 0 (an EEPROM
      * or a flash sector pair behind the port). A read of never-written bytes
      * may return anything (erased flash reads 0xFF). A write may be cut by a

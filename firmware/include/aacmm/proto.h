@@ -97,7 +97,15 @@ typedef enum {
 
 /* Content flags (MEASURE_REQ, COMPUTE_REQ, STREAM_START_REQ, samples). */
 #define AACMM_CONTENT_JACOBIAN 0x01u /* append the 3 x P Jacobian (float32) */
-#define AACMM_CONTENT_KNOWN 0x01u
+/* samples: the N link temperatures follow the counts (i16, AACMM_TEMP_UNIT_C,
+ * AACMM_TEMP_NONE for a link without a reading); COMPUTE_REQ: the N link
+ * temperatures to compute at follow the counts (COMPUTE_RSP echoes the bit,
+ * no extra bytes). A device without sensors (no AACMM_BUILD_TEMPERATURES)
+ * refuses it in MEASURE_REQ and STREAM_START_REQ with AACMM_ERR_UNSUPPORTED.
+ * Both bits on a sample that would exceed the body (N 7, P 37) are
+ * AACMM_ERR_RANGE. docs/protocol.md 2.4, 2.5. */
+#define AACMM_CONTENT_TEMPERATURES 0x02u
+#define AACMM_CONTENT_KNOWN 0x01u /* 0x03 once the codec carries TEMPERATURES */
 
 /* Sample status flags (u32; unknown bits are passed through, not rejected). */
 #define AACMM_SAMPLE_POINT_VALID 0x0001u    /* point (and Jacobian) computed */
@@ -117,6 +125,11 @@ typedef enum {
 #define AACMM_SAMPLE_JOINT7_FAULT 0x4000u
 #define AACMM_SAMPLE_JOINT_FAULT(j) (AACMM_SAMPLE_JOINT1_FAULT << (j)) /* j = 0..6 */
 #define AACMM_SAMPLE_JOINT_FAULTS 0x7F00u /* any joint */
+/* A link temperature of the arm's N links was missing (the sensor did not
+ * answer) or outside AACMM_REF_TEMP_MIN .. AACMM_REF_TEMP_MAX. With the
+ * thermal block in force the sample then has no point (POINT_VALID clear);
+ * without it the point is valid and only the temperatures are suspect. */
+#define AACMM_SAMPLE_TEMP_FAULT 0x8000u
 #define AACMM_SAMPLE_TRIGGER_EVENT 0x0080u /* read at a button edge: the sample of a trigger
                                               event, never a stream sample (docs/protocol.md 2.7) */
 
@@ -131,6 +144,9 @@ typedef enum {
 #define AACMM_BUILD_JACOBIAN 0x0004u   /* Jacobian content supported */
 #define AACMM_BUILD_SERIAL 0x0008u     /* serial transport built in */
 #define AACMM_BUILD_CAN 0x0010u        /* CAN transport built in */
+#define AACMM_BUILD_TEMPERATURES 0x0020u /* the platform reads link temperatures (known at run
+                                            time: a board whose sensor did not answer at
+                                            start-up has none) */
 
 /* Device info param_source: where the active parameter set came from. */
 #define AACMM_PARAM_SOURCE_DEFAULTS 0u /* the built-in defaults */
@@ -212,9 +228,14 @@ typedef enum {
 #define AACMM_PARAM_SET_MAX_BYTES 495u   /* N 7, P 37, K 4 on every joint (S 28), H 1 */
 #define AACMM_INFO_BYTES 25u
 #define AACMM_SAMPLE_BASE_BYTES 31u             /* before the N counts */
-#define AACMM_SAMPLE_BYTES(n, p, jac) (AACMM_SAMPLE_BASE_BYTES + 4u * (n) + ((jac) ? 12u * (p) : 0u))
+/* content: the sample's AACMM_CONTENT_* byte (a plain 1 still means Jacobian) */
+#define AACMM_SAMPLE_BYTES(n, p, content)                                                   \
+    (AACMM_SAMPLE_BASE_BYTES + 4u * (n) +                                                   \
+     (((unsigned)(content) & AACMM_CONTENT_TEMPERATURES) ? 2u * (n) : 0u) +                \
+     (((unsigned)(content) & AACMM_CONTENT_JACOBIAN) ? 12u * (p) : 0u))
 #define AACMM_SAMPLE_MAX_BYTES 503u             /* N 7, P 37, with Jacobian */
-#define AACMM_COMPUTE_REQ_BYTES(n) (2u + 4u * (n))
+#define AACMM_COMPUTE_REQ_BYTES(n, content)                                                 \
+    (2u + 4u * (n) + (((unsigned)(content) & AACMM_CONTENT_TEMPERATURES) ? 2u * (n) : 0u))
 #define AACMM_COMPUTE_RSP_BASE_BYTES 30u /* without Jacobian */
 #define AACMM_COMPUTE_RSP_BYTES(p, jac) (AACMM_COMPUTE_RSP_BASE_BYTES + ((jac) ? 12u * (p) : 0u))
 #define AACMM_TRIGGER_EXTRA_BYTES 2u     /* before the embedded sample */
@@ -242,6 +263,9 @@ typedef enum {
 #define AACMM_REF_TEMP_MIN (-4000)     /* -40 degC: AACMM_TEMP_MIN_C */
 #define AACMM_REF_TEMP_MAX 8500        /* 85 degC: AACMM_TEMP_MAX_C */
 #define AACMM_PARAM_THERMAL_BIT 28u    /* H in the header's u32 at offset 4 */
+/* A link temperature on the wire (samples, COMPUTE_REQ): i16 in
+ * AACMM_TEMP_UNIT_C; AACMM_TEMP_NONE = no reading. */
+#define AACMM_TEMP_NONE INT16_MIN
 
 typedef struct {
     uint8_t harmonics[AACMM_JOINTS_MAX]; /* K_i, 0 .. AACMM_HARMONICS_MAX; 0 past N */
@@ -295,6 +319,8 @@ typedef struct {
     uint8_t joints;                    /* N, 4..7 */
     uint8_t params;                    /* P, 4N + 1 .. 5N + 2 */
     uint32_t counts[AACMM_JOINTS_MAX]; /* raw encoder readings, joints 1..N */
+    int16_t temp[AACMM_JOINTS_MAX];    /* links 1..N, AACMM_TEMP_UNIT_C or AACMM_TEMP_NONE,
+                                          if content has TEMPERATURES */
     float jacobian[AACMM_JAC_SIZE_MAX]; /* row-major 3 x P if content has JACOBIAN */
 } aacmm_sample_t;
 
@@ -306,6 +332,8 @@ typedef struct {
     uint8_t content;
     uint8_t joints; /* N, 4..7: must be the device's (else ERR_RANGE from the device) */
     uint32_t counts[AACMM_JOINTS_MAX];
+    int16_t temp[AACMM_JOINTS_MAX]; /* if content has TEMPERATURES: links 1..N, AACMM_TEMP_UNIT_C,
+                                       AACMM_REF_TEMP_MIN .. _MAX (else ERR_RANGE) */
 } aacmm_msg_compute_req_t;
 
 typedef struct {
@@ -357,6 +385,7 @@ typedef struct {
     uint32_t samples_late;       /* stream samples skipped: the device fell behind */
     uint8_t joints;              /* N, 4..7 */
     aacmm_diag_joint_t joint[AACMM_JOINTS_MAX];
+    uint32_t temp_faults; /* samples with AACMM_SAMPLE_TEMP_FAULT (after the joints) */
 } aacmm_msg_diag_t;
 
 typedef struct {

@@ -747,7 +747,7 @@ size_t aacmm_msg_payload_len(uint8_t type, const uint8_t *payload, size_t len)
     case AACMM_MSG_MEASURE_REQ:
         return 1u;
     case AACMM_MSG_COMPUTE_REQ:
-        return len < 2u ? 2u : AACMM_COMPUTE_REQ_BYTES((size_t)payload[1]);
+        return len < 2u ? 2u : AACMM_COMPUTE_REQ_BYTES((size_t)payload[1], payload[0]);
     case AACMM_MSG_STREAM_START_REQ:
     case AACMM_MSG_STREAM_START_RSP:
     case AACMM_MSG_ERROR_RSP:

@@ -27,6 +27,10 @@ row-major, columns in aacmm/kinematics.h's order."""
 
 POINT_UNIT_MM: Final = 1e-4
 """Wire unit of the sample point: int32 counts of 1e-4 mm (100 nm)."""
+TEMP_UNIT_C: Final = 0.01
+"""A link temperature on the wire (samples, COMPUTE_REQ): i16 in 0.01 degC."""
+TEMP_NONE: Final = -32768
+"""The wire value of a link temperature the sensor did not give."""
 STREAM_RATE_MIN_HZ: Final = 1
 STREAM_RATE_MAX_HZ: Final = 1000
 COUNTS_PER_REV_MAX: Final = 1 << 32
@@ -68,6 +72,9 @@ class Content(IntFlag):
 
     NONE = 0
     JACOBIAN = 0x01
+    #: samples: the N link temperatures follow the counts; COMPUTE_REQ: the
+    #: temperatures to compute at (docs/protocol.md 2.4, 2.5)
+    TEMPERATURES = 0x02
 
 
 class SampleStatus(IntFlag):
@@ -90,6 +97,9 @@ class SampleStatus(IntFlag):
     JOINT5_FAULT = 0x1000
     JOINT6_FAULT = 0x2000
     JOINT7_FAULT = 0x4000
+    #: a link temperature was missing or outside -40 .. 85 degC; with the
+    #: thermal block in force the sample has no point
+    TEMP_FAULT = 0x8000
 
 
 class Button(IntEnum):
@@ -107,6 +117,8 @@ class BuildFlags(IntFlag):
     JACOBIAN = 0x0004
     SERIAL = 0x0008
     CAN = 0x0010
+    #: the platform reads link temperatures (known at run time)
+    TEMPERATURES = 0x0020
 
 
 class ParamSource(IntEnum):

@@ -222,6 +222,7 @@ class MeasureRequest:
     """MEASURE_REQ."""
 
     jacobian: bool = False
+    temperatures: bool = False
 
 
 @dataclass(frozen=True)
@@ -242,6 +243,9 @@ class Sample:
     status: int
     jacobian: Jacobian | None = None
     params: int = 25
+    temp: tuple[int, ...] | None = None
+    """The N link temperatures as on the wire (0.01 degC, :data:`TEMP_NONE` for a
+    link without a reading) when the content has TEMPERATURES, else ``None``."""
 
     @property
     def point_mm(self) -> tuple[float, float, float]:
@@ -256,6 +260,9 @@ class ComputeRequest:
 
     counts: tuple[int, ...]
     jacobian: bool = False
+    temp: tuple[int, ...] | None = None
+    """The N link temperatures to compute at (0.01 degC, -4000 .. 8500), or ``None``:
+    the reference temperatures."""
 
 
 @dataclass(frozen=True)
@@ -267,6 +274,8 @@ class ComputeResult:
     point_mm: tuple[float, ...]
     jacobian: Jacobian | None = None
     params: int = 25
+    temperatures: bool = False
+    """True when the point was computed at the request's temperatures."""
 
 
 @dataclass(frozen=True)
@@ -275,6 +284,7 @@ class Stream:
 
     rate_hz: int
     jacobian: bool = False
+    temperatures: bool = False
 
 
 @dataclass(frozen=True)
@@ -328,6 +338,8 @@ class Diagnostics:
     samples_dropped: int
     samples_late: int
     joints: tuple[JointDiagnostics, ...]
+    temp_faults: int = 0
+    """Samples with :attr:`SampleStatus.TEMP_FAULT` (version 4: after the joints)."""
 
 
 @dataclass(frozen=True)
