@@ -10,7 +10,8 @@
 #                     arm within its noise, a random arm failing as its truth predicts,
 #                     the same arm passing after aacmm calibrate; an aluminium arm
 #                     calibrated at 20 degC verified at 28 degC, with and without
-#                     thermal compensation (issue 27, tests/host/thermal_study.py)
+#                     thermal compensation (issue 27, tests/host/thermal_study.py); the
+#                     device's link temperatures in sessions, verify and calibrate
 #   test-verify-lint  ruff, ruff format, mypy --strict over the above
 
 VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
@@ -20,7 +21,8 @@ VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
                    tests/host/test_verification.py tests/host/test_verify_cli.py \
                    tests/host/verify_sessions.py tests/host/verify_predict.py \
                    tests/host/test_verify_sim.py scripts/verification_figures.py \
-                   tests/host/test_thermal_verify.py tests/host/thermal_study.py
+                   tests/host/test_thermal_verify.py tests/host/thermal_study.py \
+                   tests/host/test_device_temps.py
 VERIFY_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-geometry test-verify test-verify-lint verification-figures
@@ -32,7 +34,8 @@ test-geometry:
 #> test-verify          verification quantities, rules; verify/fit/export on synthetic and simulator sessions; 20 to 28 degC
 test-verify: sim
 	$(VERIFY_PYTEST) tests/host/test_verification.py tests/host/test_verify_cli.py \
-	    tests/host/test_verify_sim.py tests/host/test_thermal_verify.py
+	    tests/host/test_verify_sim.py tests/host/test_thermal_verify.py \
+	    tests/host/test_device_temps.py
 
 #> test-verify-lint     ruff, ruff format, mypy --strict on geometry, verification, their commands
 test-verify-lint:

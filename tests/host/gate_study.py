@@ -100,10 +100,12 @@ def write_session(
     serial: int,
     status: str | None = None,
     firmware: str = "0.1.0",
+    temp: tuple[int, ...] | None = None,
     **run_info: float,
 ) -> Path:
     """The session as ``aacmm capture`` writes it (device serial ``serial``); its status
     ``complete`` when every slot has its point, else ``interrupted``, unless given;
+    ``temp``: every sample's link temperatures as the device sends them (0.01 degC);
     ``run_info``: more keys of its run (``temperature_c``, as ``capture --temperature``)."""
     w = SessionWriter.create(
         folder, s.plan, device={"serial_number": serial, "firmware": firmware}, port="sim"
@@ -114,7 +116,7 @@ def write_session(
     for i in range(s.n):
         c = tuple(int(v) for v in s.counts[i])
         p = tuple(round(float(v) * 1e4) for v in pts[i])
-        w.record(Sample(i, 1000 * i, c, p, 1), time.time())
+        w.record(Sample(i, 1000 * i, c, p, 1, temp=temp), time.time())
     done = s.n == len(s.plan.slots)
     w.close(status or ("complete" if done else "interrupted"), "test")
     return folder

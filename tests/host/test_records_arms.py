@@ -268,7 +268,8 @@ def _session(tmp_path: Path, name: str, arm: Arm, joints: int, k: int = 3) -> Pa
 
 def test_todays_six_joint_session_still_reads(tmp_path: Path) -> None:
     """A session in today's format: the sidecar without ``joints``, points.csv with
-    today's header (checked here literally)."""
+    today's header (checked here literally; the link temperatures since issue 27, a
+    session without them: tests/host/test_device_temps.py)."""
     folder = _session(tmp_path, "old", Arm.paper(), 6)
     side = json.loads((folder / "session.json").read_text())
     del side["joints"]  # what sessions held before arms of other joint counts
@@ -277,7 +278,8 @@ def test_todays_six_joint_session_still_reads(tmp_path: Path) -> None:
     assert head == (
         "slot,step_index,step_id,procedure,artefact,position_index,end,articulation_index,"
         "point_index,seq,device_time_us,host_time,button,count1,count2,count3,count4,count5,"
-        "count6,x_mm,y_mm,z_mm,flags,param_crc32"
+        "count6,temp1_c,temp2_c,temp3_c,temp4_c,temp5_c,temp6_c,x_mm,y_mm,z_mm,flags,"
+        "param_crc32"
     )
     s = read_session(folder)
     assert s.joints == 6 and len(s) == 3 and s.param_set_of(0).params == Params()

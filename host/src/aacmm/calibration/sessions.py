@@ -53,7 +53,7 @@ from aacmm.calibration.parameters import ArmParams
 from aacmm.core import EncoderConfig, FloatArray
 from aacmm.plans import model as pm
 from aacmm.records import ParamSetRecord, RecordError, Session, read_session
-from aacmm.records.measured import stated_temperatures
+from aacmm.records.measured import per_point_temperatures, stated_temperatures
 
 DEFAULT_SIGMA_MM = 0.005
 IntArray = npt.NDArray[np.intp]
@@ -91,6 +91,9 @@ class SessionData:
     #: with ``load_sessions(temperatures=True)``: the sessions with a point whose
     #: capture run states no link temperature (then no observation carries one)
     unstated_temperature: tuple[str, ...] = ()
+    #: with ``load_sessions(temperatures=True)``: where the device's link temperatures
+    #: and the stated ones differ by more than 1 degC (:func:`link_temperature_warning`)
+    temperature_warnings: tuple[str, ...] = ()
 
     @property
     def encoders(self) -> EncoderConfig:
@@ -267,13 +270,27 @@ def session_observations(
 
 
 def stated_link_temperatures(session: Session) -> FloatArray | None:
-    """Per point the link temperature its capture run states (degC,
-    :func:`aacmm.records.measured.stated_temperatures`); None unless every
-    point's run states one."""
-    t = stated_temperatures(session)
-    if not t or any(x is None for x in t):
+    """Per point the links' temperature (degC): the mean of the device's readings of
+    its links where the point has them, else the one its capture run states
+    (:func:`aacmm.records.measured.stated_temperatures`); None unless every point
+    has one (:func:`link_temperature_warning` says when readings and statements
+    disagree)."""
+    temps, _, _ = per_point_temperatures(
+        stated_temperatures(session), session.device_temp_c, session.joints
+    )
+    if not len(temps) or not np.isfinite(temps).any(axis=1).all():
         return None
-    return np.array([float(x) for x in t if x is not None], dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.nanmean(temps, axis=1), dtype=np.float64)
+
+
+def link_temperature_warning(session: Session) -> str | None:
+    """A warning when the device's link temperatures and the ones the capture runs
+    state differ by more than 1 degC (the readings are used)."""
+    _, _, warning = per_point_temperatures(
+        stated_temperatures(session), session.device_temp_c, session.joints
+    )
+    return None if warning is None else f"{session.path}: {warning}"
 
 
 def _shape(ps: ParamSetRecord) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -391,6 +408,7 @@ def load_sessions(
     sources: list[SessionSource] = []
     temps: list[FloatArray | None] = []
     unstated: list[str] = []
+    warnings: list[str] = []
     ref = like
     ref_path = "the calibration sessions"
     for p in paths:
@@ -412,6 +430,9 @@ def load_sessions(
             if t is None:
                 unstated.append(str(s.path))
             temps.append(t)
+            warning = link_temperature_warning(s)
+            if warning is not None:
+                warnings.append(warning)
         parts.append(obs)
         serial, firmware = _device_identity(s)
         src = SessionSource(
@@ -434,4 +455,4 @@ def load_sessions(
     if temperatures and not unstated:
         parts = [dataclasses.replace(o, temp_c=t) for o, t in zip(parts, temps, strict=True)]
     obs = parts[0] if len(parts) == 1 else combine(parts)
-    return SessionData(obs, ref.model, ref, tuple(sources), tuple(unstated))
+    return SessionData(obs, ref.model, ref, tuple(sources), tuple(unstated), tuple(warnings))

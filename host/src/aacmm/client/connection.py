@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import operator
 import os
 import random
@@ -55,9 +56,15 @@ from aacmm.protocol.constants import (
     RESPONSE_BIT,
     STREAM_RATE_MAX_HZ,
     STREAM_RATE_MIN_HZ,
+    TEMP_UNIT_C,
 )
 from aacmm.protocol.status import Status
 from aacmm.transport import Transport, open_transport
+
+TEMP_MIN_WIRE = -4000
+"""The coldest link temperature COMPUTE_REQ takes (0.01 degC: -40 degC)."""
+TEMP_MAX_WIRE = 8500
+"""The warmest (85 degC)."""
 
 
 @dataclass
@@ -132,6 +139,28 @@ def _counts(counts: Sequence[int]) -> tuple[int, ...]:
         if not 0 <= v <= 0xFFFFFFFF:
             raise ValueError(f"counts[{i}]={v} outside 0..2**32-1")
     return values
+
+
+def wire_temperatures(temps_c: Sequence[float], joints: int) -> tuple[int, ...]:
+    """Link temperatures in degC as COMPUTE_REQ carries them (i16 of 0.01 degC,
+    rounded half away from zero).
+
+    Raises:
+        ValueError: not ``joints`` values, or one not finite or outside -40 .. 85 degC.
+    """
+    values = list(temps_c)
+    if len(values) != joints:
+        raise ValueError(f"need {joints} link temperatures (one a joint), got {len(values)}")
+    out = []
+    for i, t in enumerate(values):
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
+            raise ValueError(f"link {i + 1}'s temperature must be a finite number of degC")
+        q = math.floor(abs(t) / TEMP_UNIT_C + 0.5)
+        w = int(-q if t < 0 else q)
+        if not TEMP_MIN_WIRE <= w <= TEMP_MAX_WIRE:
+            raise ValueError(f"link {i + 1}'s temperature {t:g} C is outside -40 .. 85 C")
+        out.append(w)
+    return tuple(out)
 
 
 def _flag(name: str, value: object) -> bool:
@@ -393,18 +422,28 @@ class Client:
         assert isinstance(payload, ParamCrc)
         return payload.param_crc32
 
-    def measure(self, jacobian: bool = False) -> Sample:
-        """Read the encoders now and return the sample (with the 3 x P Jacobian if asked)."""
-        payload = self.request(
-            MsgType.MEASURE_REQ, MeasureRequest(_flag("jacobian", jacobian))
-        ).payload
+    def measure(self, jacobian: bool = False, temperatures: bool = False) -> Sample:
+        """Read the encoders now and return the sample (with the 3 x P Jacobian if asked,
+        and with the N link temperatures if asked: a device without
+        :attr:`BuildFlags.TEMPERATURES` refuses that with ERR_UNSUPPORTED)."""
+        req = MeasureRequest(_flag("jacobian", jacobian), _flag("temperatures", temperatures))
+        payload = self.request(MsgType.MEASURE_REQ, req).payload
         assert isinstance(payload, Sample)
         return payload
 
-    def compute(self, counts: Sequence[int], jacobian: bool = False) -> ComputeResult:
+    def compute(
+        self,
+        counts: Sequence[int],
+        jacobian: bool = False,
+        temperatures_c: Sequence[float] | None = None,
+    ) -> ComputeResult:
         """Have the device evaluate its model at its N encoder readings (0..2**32-1;
-        N = :attr:`DeviceInfo.joints`: the device refuses another count with ERR_RANGE)."""
-        req = ComputeRequest(_counts(counts), _flag("jacobian", jacobian))
+        N = :attr:`DeviceInfo.joints`: the device refuses another count with ERR_RANGE),
+        at the link temperatures ``temperatures_c`` (degC, one per joint's link,
+        -40 .. 85; rounded to 0.01 degC) or, without them, at the reference ones."""
+        values = _counts(counts)
+        temp = None if temperatures_c is None else wire_temperatures(temperatures_c, len(values))
+        req = ComputeRequest(values, _flag("jacobian", jacobian), temp)
         payload = self.request(MsgType.COMPUTE_REQ, req).payload
         assert isinstance(payload, ComputeResult)
         return payload
@@ -414,11 +453,15 @@ class Client:
         rate_hz: int,
         jacobian: bool = False,
         *,
+        temperatures: bool = False,
         timeout: float | None = None,
         max_queue: int = 1_000_000,
     ) -> SampleStream:
         """Start streaming at ``rate_hz`` (1..1000) and return the :class:`SampleStream`.
 
+        ``temperatures``: every sample carries the N link temperatures (a device
+        without :attr:`BuildFlags.TEMPERATURES` refuses with ERR_UNSUPPORTED); the
+        probe-button events' samples carry what the stream's do.
         ``timeout`` is the longest wait for one sample (default: the request
         timeout plus two sample periods, at least 1 s more); ``max_queue`` bounds the samples
         buffered for a slow consumer (the oldest are dropped and counted).
@@ -437,6 +480,7 @@ class Client:
             raise ValueError("max_queue must be at least 1")
         wait = self.timeout + max(1.0, 2.0 / rate_hz) if timeout is None else check_timeout(timeout)
         content = _flag("jacobian", jacobian)
+        temps = _flag("temperatures", temperatures)
         with self._lock:
             if self._stream is not None:
                 raise OperationError("a stream is already open on this client")
@@ -458,7 +502,7 @@ class Client:
                 raise OperationError("a stream is already open on this client")
             self._stream = stream
         try:
-            rsp = self.request(MsgType.STREAM_START_REQ, Stream(rate_hz, jacobian))
+            rsp = self.request(MsgType.STREAM_START_REQ, Stream(rate_hz, jacobian, temps))
         except BaseException:
             with self._lock:
                 self._stream = None

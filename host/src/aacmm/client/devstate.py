@@ -1,6 +1,7 @@
 """Device state in words: where the parameters came from, where they are stored
 and whether that survives power-off, why the device last started, and the
-encoder inputs (device info + diagnostics, docs/protocol.md 2.2 and 2.6).
+encoder inputs and the link temperature sensors (device info + diagnostics,
+docs/protocol.md 2.2 and 2.6).
 
 Used by ``aacmm info`` (text and ``--json``), the ``params`` commands and the
 log's sidecar (:func:`info_dict`).
@@ -188,6 +189,26 @@ def encoder_lines(d: Diagnostics) -> list[str]:
     return [f"joint {i + 1}: {t}" for i, t in enumerate(texts)]
 
 
+def has_temperatures(info: DeviceInfo) -> bool:
+    """The device reads its link temperatures (build flag TEMPERATURES, set at run time)."""
+    return bool(info.build_flags & BuildFlags.TEMPERATURES)
+
+
+def temperature_text(info: DeviceInfo, d: Diagnostics | None) -> str:
+    """One line: whether the device reads link temperatures, and its samples with a
+    temperature fault (a counter never cleared)."""
+    if not has_temperatures(info):
+        return "no sensors (the device reads no link temperature)"
+    text = "a sensor per link"
+    if d is not None:
+        text += (
+            f", {d.temp_faults} samples with a temperature fault"
+            if d.temp_faults
+            else ", no temperature faults"
+        )
+    return text
+
+
 def diag_dict(d: Diagnostics) -> dict[str, Any]:
     """Diagnostics as JSON-ready data, with names beside the codes."""
     out: dict[str, Any] = asdict(d)
@@ -212,6 +233,7 @@ def info_dict(info: DeviceInfo) -> dict[str, Any]:
     d["firmware"] = f"{info.fw_major}.{info.fw_minor}.{info.fw_patch}"
     d["build_flags_names"] = [f.name for f in BuildFlags if f.name and info.build_flags & f.value]
     d["param_crc32_hex"] = f"0x{info.param_crc32:08x}"
+    d["temperature_sensors"] = has_temperatures(info)
     try:
         d["param_source_name"] = ParamSource(info.param_source).name.lower()
     except ValueError:

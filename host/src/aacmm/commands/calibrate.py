@@ -221,6 +221,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
     sigma = args.sigma_um / 1000.0
     thermal = args.thermal != "off"
     data = load_sessions(args.sessions, sigma, args.base_frame, temperatures=thermal)
+    for warning in data.temperature_warnings:
+        print_err("calibrate", f"warning: {warning}")
     if args.thermal == "on" and data.unstated_temperature:
         from aacmm.commands.exitcodes import UsageError
 

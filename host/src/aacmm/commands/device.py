@@ -21,12 +21,14 @@ from aacmm.commands.common import (
     add_force_option,
     device_from_args,
     flag_names,
+    link_temperature,
     print_err,
 )
 from aacmm.commands.exitcodes import OK, UsageError
 from aacmm.errors import DeviceError
 from aacmm.fileio import check_outputs
 from aacmm.records.files import fmt_point
+from aacmm.records.schema import temps_c
 
 if TYPE_CHECKING:
     from aacmm.client import Client
@@ -113,7 +115,7 @@ def register(sub: Any) -> None:
         help="include the 3 x P Jacobian (P = 25: the paper's arm)",
     )
     meas.add_argument("--json", action="store_true", help="print JSON")
-    meas.set_defaults(func=cmd_measure)
+    meas.set_defaults(func=cmd_measure)  # with the link temperatures when the device reads them
 
     comp = sub.add_parser(
         "compute",
@@ -133,6 +135,12 @@ def register(sub: Any) -> None:
         "--jacobian",
         action="store_true",
         help="include the 3 x P Jacobian (P = 25: the paper's arm)",
+    )
+    comp.add_argument(
+        "--temperature",
+        metavar="C[,C...]",
+        help="compute at these link temperatures, degC (-40 .. 85): one for every link or one "
+        "per link (default: the parameters' reference temperatures)",
     )
     comp.add_argument("--json", action="store_true", help="print JSON")
     comp.set_defaults(func=cmd_compute)
@@ -218,6 +226,7 @@ def cmd_info(args: argparse.Namespace) -> int:
             f"link        {diag.serial_frames_bad} bad frames, {diag.samples_dropped} samples "
             f"dropped, {diag.samples_late} late, {diag.encoder_faults} without a point"
         )
+    print(f"temperature {devstate.temperature_text(dev.info, diag)}")
     print(f"max body    {d['max_body_bytes']} bytes, CAN node {d['can_node_id']}")
     print(f"ping        {d['ping_ms']:.3f} ms")
     return OK
@@ -453,14 +462,24 @@ def sample_dict(s: Sample) -> dict[str, Any]:
         "flags": s.status,
         "flag_names": flag_names(s.status).split("|"),
     }
+    t = temps_c(s.temp)
+    if t is not None:
+        d["temperatures_c"] = list(t)
     if s.jacobian is not None:
         d["jacobian"] = _jacobian_rows(s.jacobian)
     return d
 
 
+def temps_text(temps: Sequence[float | None]) -> str:
+    """``20.00 20.10 - ... C``: link temperatures (``-``: no reading)."""
+    return " ".join("-" if t is None else f"{t:.2f}" for t in temps) + " C"
+
+
 def cmd_measure(args: argparse.Namespace) -> int:
+    from aacmm.client.devstate import has_temperatures
+
     with device_from_args(args) as dev:
-        s = dev.client.measure(jacobian=args.jacobian)
+        s = dev.client.measure(jacobian=args.jacobian, temperatures=has_temperatures(dev.info))
         names = _column_names(dev) if s.jacobian is not None else ()
     if args.json:
         _print_json(sample_dict(s))
@@ -471,14 +490,20 @@ def cmd_measure(args: argparse.Namespace) -> int:
     print(f"counts      {' '.join(str(c) for c in s.counts)}")
     print(f"point       x {x}  y {y}  z {z} mm")
     print(f"flags       0x{s.status:04x} {flag_names(s.status)}")
+    t = temps_c(s.temp)
+    if t is not None:
+        print(f"temps       {temps_text(t)} (links 1-{len(t)})")
     if s.jacobian is not None:
         print(_jacobian_text(s.jacobian, names))
     return OK
 
 
-def compute_dict(counts: list[int], r: ComputeResult) -> dict[str, Any]:
+def compute_dict(
+    counts: list[int], r: ComputeResult, temps: list[float] | None = None
+) -> dict[str, Any]:
     d: dict[str, Any] = {
         "counts": counts,
+        "temperatures_c": temps if r.temperatures else None,
         "point_mm": list(r.point_mm),
         "flags": r.status,
         "flag_names": flag_names(r.status).split("|"),
@@ -488,20 +513,45 @@ def compute_dict(counts: list[int], r: ComputeResult) -> dict[str, Any]:
     return d
 
 
+def compute_temperatures(text: str | None, joints: int) -> list[float] | None:
+    """``compute --temperature``: one value for every link or one per link (degC).
+
+    Raises:
+        UsageError: not numbers within -40 .. 85 degC, or neither 1 nor N values.
+    """
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.split(",")]
+    values = [link_temperature(p) for p in parts]
+    if len(values) == 1:
+        values = values * joints
+    if len(values) != joints:
+        raise UsageError(
+            f"--temperature {text}: give one temperature for every link or {joints} (one per "
+            f"link of the {joints} counts), got {len(parts)}"
+        )
+    return [float(v) for v in values if v is not None]
+
+
 def cmd_compute(args: argparse.Namespace) -> int:
     if not 4 <= len(args.counts) <= 7:
         raise UsageError(
             f"compute needs the arm model's 4 to 7 encoder counts (its joints: `aacmm info`), "
             f"got {len(args.counts)}"
         )
+    temps = compute_temperatures(args.temperature, len(args.counts))
     with device_from_args(args) as dev:
-        r = dev.client.compute(args.counts, jacobian=args.jacobian)
+        r = dev.client.compute(args.counts, jacobian=args.jacobian, temperatures_c=temps)
         names = _column_names(dev) if r.jacobian is not None else ()
+    if temps is not None and not r.temperatures:
+        print_err("compute", "warning: the device computed at its reference temperatures")
     if args.json:
-        _print_json(compute_dict(args.counts, r))
+        _print_json(compute_dict(args.counts, r, temps))
         return OK
     x, y, z = r.point_mm
     print(f"counts      {' '.join(str(c) for c in args.counts)}")
+    if temps is not None:
+        print(f"temps       {temps_text(temps)} (links 1-{len(temps)})")
     print(f"point       x {x:.6f}  y {y:.6f}  z {z:.6f} mm")
     print(f"flags       0x{r.status:04x} {flag_names(r.status)}")
     if r.jacobian is not None:

@@ -164,6 +164,9 @@ def run_verify(args: argparse.Namespace) -> int:
             f"--params {args.params}: its [errmodel] table has the links' thermal expansion "
             f"and {exc}: give --temperature C (or aacmm capture --temperature C)"
         ) from None
+    temp_warning = temp_meta.pop("temperature_warning", None)
+    if temp_warning is not None:
+        print(f"aacmm verify: warning: {temp_warning}", file=sys.stderr, flush=True)
     if em is not None:
         from aacmm.records.paramfile import describe_errmodel
 
@@ -191,6 +194,8 @@ def run_verify(args: argparse.Namespace) -> int:
                 f"the plan states the test at {planned:g} C; the session was taken at "
                 f"{span_text([lo, hi])} ({done})",
             )
+        if temp_warning is not None:
+            notes = (*notes, temp_warning)
         band = m.plan.verification.band_problem([lo, hi])
         if band is not None:
             notes = (*notes, f"{band}: the session was not taken in stable conditions")

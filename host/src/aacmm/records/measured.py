@@ -50,6 +50,9 @@ class Measured:
     #: per point of a session, the links' temperature its capture run states (degC,
     #: ``aacmm capture --temperature``; None where the run states none)
     stated_temperature_c: tuple[float | None, ...] | None = None
+    #: per point of a session (n, N), the device's link temperatures (degC, NaN where
+    #: a link has no reading); None for a session without them
+    device_temp_c: npt.NDArray[np.float64] | None = None
 
     def step_table(self) -> list[str]:
         """The plan's steps as ``id (procedure, artefact)``, by step index."""
@@ -145,6 +148,46 @@ def stated_temperatures(s: Any) -> tuple[float | None, ...]:
     return tuple(out)
 
 
+#: device readings and a statement differing by more than this (degC) are warned of
+TEMP_DISAGREE_C = 1.0
+
+
+def per_point_temperatures(
+    stated: Sequence[float | None],
+    device: npt.NDArray[np.float64] | None,
+    joints: int,
+    statement: str = "aacmm capture --temperature",
+) -> tuple[npt.NDArray[np.float64], int, str | None]:
+    """The link temperatures (n, N) of a session's points (degC, NaN where nothing is
+    known): the device's reading of each link where it has one, else the ``stated``
+    temperature of the point (on every link); how many points have all N readings,
+    and a warning when readings and statements differ by more than
+    :data:`TEMP_DISAGREE_C` (the readings are used)."""
+    n = len(stated)
+    out = np.array(
+        [[np.nan if t is None else t] * joints for t in stated], dtype=np.float64
+    ).reshape(n, joints)
+    if device is None or device.shape != (n, joints):
+        return out, 0, None
+    read = np.isfinite(device)
+    full = int(np.count_nonzero(read.all(axis=1)))
+    with np.errstate(invalid="ignore"):
+        diff = np.where(read & np.isfinite(out), np.abs(device - out), 0.0)
+    worst = diff.max(axis=1) if n else np.zeros(0)
+    bad = np.flatnonzero(worst > TEMP_DISAGREE_C)
+    warning = None
+    if bad.size:
+        k = int(bad[0])
+        warning = (
+            f"the device's link temperatures differ from the stated ones ({statement}) by up "
+            f"to {float(worst.max()):.1f} C at {bad.size} of {n} points (first: point {k + 1}, "
+            f"read {span_text([float(v) for v in device[k][read[k]]])}, stated "
+            f"{float(np.nanmax(out[k])):g} C): the device's readings are used"
+        )
+    out = np.where(read, device, out)
+    return out, full, warning
+
+
 class TemperatureNotStatedError(RecordError):
     """Thermal expansion to apply and a point whose link temperature nobody stated."""
 
@@ -160,17 +203,59 @@ def link_temperatures(
 ) -> tuple[npt.NDArray[np.float64] | None, dict[str, Any]]:
     """The link temperatures (n, N) to compensate ``m``'s points at, None for no
     thermal compensation, and the report's entries for them (``temperature``,
-    ``temperature_range_c``): ``temp_c`` on every link if given (the operator's
-    statement, ``aacmm verify --temperature``), else, when ``em`` has thermal
-    expansion, what each point's capture run states (``aacmm capture
-    --temperature``); a session whose runs state temperatures without CTEs to
-    apply reports them, not compensated. ``source``: the error model's file, for
-    the words.
+    ``temperature_range_c``, and ``temperature_warning`` when the device's readings
+    and a statement differ by more than :data:`TEMP_DISAGREE_C`).
+
+    Per point and link the device's reading wins (a session whose samples carry the
+    link temperatures); where it has none: ``temp_c`` on every link if given (the
+    operator's statement, ``aacmm verify --temperature``), else, when ``em`` has
+    thermal expansion, what the point's capture run states (``aacmm capture
+    --temperature``). A session with temperatures and no CTEs to apply reports them,
+    not compensated. ``source``: the error model's file, for the words.
 
     Raises:
-        TemperatureNotStatedError: ``em`` has thermal expansion, no ``temp_c``,
-            and a point's run states no temperature (the message names it).
+        TemperatureNotStatedError: ``em`` has thermal expansion and a point has a link
+            whose temperature nobody read nor stated (the message names it).
     """
+    dev = m.device_temp_c
+    if dev is None or not np.isfinite(dev).any():
+        return _stated_link_temperatures(m, em, temp_c, source)
+    from aacmm.records.paramfile import has_thermal
+
+    n, joints = len(m.points), dev.shape[1]
+    if em is not None and em.joints != joints:  # refused by the points' recomputation
+        return _stated_link_temperatures(m, em, temp_c, source)
+    what = "--temperature" if temp_c is not None else "aacmm capture --temperature"
+    stated = [temp_c] * n if temp_c is not None else list(m.stated_temperature_c or [None] * n)
+    temps, full, warning = per_point_temperatures(stated, dev, joints, what)
+    entries: dict[str, Any] = {}
+    if warning is not None:
+        entries["temperature_warning"] = warning
+    origin = f"read by the device at {full} of {n} points"
+    if full < n:
+        origin += f"; elsewhere {'--temperature' if temp_c is not None else 'stated at capture'}"
+    known = temps[np.isfinite(temps)]
+    lo, hi = float(known.min()), float(known.max())
+    entries["temperature_range_c"] = [lo, hi]
+    complete = bool(np.isfinite(temps).all())
+    if em is not None and has_thermal(em):
+        if not complete:
+            k = int(np.flatnonzero(~np.isfinite(temps).all(axis=1))[0]) + 1
+            raise TemperatureNotStatedError(
+                f"point {k} has a link whose temperature the device did not read and its "
+                "capture run states none"
+            )
+        entries["temperature"] = f"{span_text([lo, hi])} ({origin})"
+        return temps, entries
+    why = "no --params with cte_per_k" if em is None else f"{source} has no cte_per_k"
+    entries["temperature"] = f"{span_text([lo, hi])} ({origin}; not compensated: {why})"
+    return None, entries
+
+
+def _stated_link_temperatures(
+    m: Measured, em: ErrorModel | None, temp_c: float | None, source: str | None
+) -> tuple[npt.NDArray[np.float64] | None, dict[str, Any]]:
+    """:func:`link_temperatures` of a session without the device's readings."""
     from aacmm.records.paramfile import has_thermal
 
     stated = list(m.stated_temperature_c or ())
@@ -244,6 +329,7 @@ def load_session(
         labels=s.points,
         meta=_session_meta(s),
         stated_temperature_c=stated_temperatures(s),
+        device_temp_c=s.device_temp_c,
     )
 
 

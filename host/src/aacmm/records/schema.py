@@ -65,6 +65,30 @@ def trigger_columns(joints: int = JOINTS) -> tuple[str, ...]:
     )
 
 
+def temp_columns(joints: int = JOINTS) -> tuple[str, ...]:
+    """``temp1_c .. tempN_c``: the device's link temperatures in degC (empty: no reading)."""
+    return tuple(f"temp{i}_c" for i in range(1, joints + 1))
+
+
+def temps_c(temp: tuple[int, ...] | None) -> tuple[float | None, ...] | None:
+    """A sample's link temperatures (wire units, :attr:`aacmm.protocol.Sample.temp`) in
+    degC, None for a link without a reading; None for a sample without temperatures."""
+    if temp is None:
+        return None
+    return tuple(None if t == TEMP_NONE_WIRE else t / 100.0 for t in temp)
+
+
+def temp_fields(temp: tuple[int, ...] | None, joints: int) -> list[str]:
+    """The :func:`temp_columns` fields of a sample (all empty without temperatures)."""
+    if temp is None:
+        return [""] * joints
+    return ["" if t == TEMP_NONE_WIRE else f"{t / 100.0:.2f}" for t in temp]
+
+
+TEMP_NONE_WIRE = -32768
+""":data:`aacmm.protocol.TEMP_NONE` (this module imports nothing heavy)."""
+
+
 def joint_count(header: tuple[str, ...] | list[str], stem: str) -> int:
     """N for a header holding ``<stem>1 .. <stem>N`` (0: no ``<stem>1``): the longest
     run from 1."""

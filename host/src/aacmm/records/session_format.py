@@ -24,7 +24,10 @@ capture killed at any moment loses no acknowledged point; an undo rewrites
 A session of an arm of N joints (4 to 7) has the count columns
 ``count1..countN`` in ``points.csv`` and ``events.csv`` and ``"joints": N``
 in its sidecar; a session without ``joints`` (written before arms of other
-joint counts) is of the paper's six. The functions below give the columns
+joint counts) is of the paper's six. After the counts come the device's link
+temperatures ``temp1_c..tempN_c`` (degC; empty where the sample has none);
+sessions written before device temperatures lack these columns, and a
+resumed one keeps its columns. The functions below give the columns
 for N; the constants are the paper's arm's.
 """
 
@@ -33,6 +36,7 @@ from __future__ import annotations
 from aacmm.plans import Slot
 from aacmm.protocol import Sample
 from aacmm.records.files import crc_hex, fmt_point
+from aacmm.records.schema import temp_columns, temp_fields
 
 SESSION_FORMAT = "aacmm-session-1"
 SIDECAR = "session.json"
@@ -60,14 +64,17 @@ def count_columns(joints: int = JOINTS) -> tuple[str, ...]:
     return tuple(f"count{i}" for i in range(1, joints + 1))
 
 
-def sample_columns(joints: int = JOINTS) -> tuple[str, ...]:
-    """The latched sample's columns (in ``points.csv`` and ``events.csv``)."""
+def sample_columns(joints: int = JOINTS, temps: bool = True) -> tuple[str, ...]:
+    """The latched sample's columns (in ``points.csv`` and ``events.csv``); ``temps``:
+    with the device's link temperatures ``temp1_c .. tempN_c`` (every session written
+    since device temperatures; older ones have none)."""
     return (
         "seq",
         "device_time_us",
         "host_time",
         "button",
         *count_columns(joints),
+        *(temp_columns(joints) if temps else ()),
         "x_mm",
         "y_mm",
         "z_mm",
@@ -76,19 +83,23 @@ def sample_columns(joints: int = JOINTS) -> tuple[str, ...]:
     )
 
 
-def point_columns(joints: int = JOINTS) -> tuple[str, ...]:
+def point_columns(joints: int = JOINTS, temps: bool = True) -> tuple[str, ...]:
     """The columns of ``points.csv`` of an arm of ``joints`` joints."""
-    return LABEL_COLUMNS + sample_columns(joints)
+    return LABEL_COLUMNS + sample_columns(joints, temps)
 
 
-def event_columns(joints: int = JOINTS) -> tuple[str, ...]:
+def event_columns(joints: int = JOINTS, temps: bool = True) -> tuple[str, ...]:
     """The columns of ``events.csv`` of an arm of ``joints`` joints."""
-    return ("event_time", "event", "slot", "pressed", *sample_columns(joints), "detail")
+    return ("event_time", "event", "slot", "pressed", *sample_columns(joints, temps), "detail")
 
 
 def units(joints: int = JOINTS) -> dict[str, str]:
     """The sidecar's ``units`` for ``joints`` joints."""
-    return {f"count1..count{joints}" if k == "count1..count6" else k: v for k, v in UNITS.items()}
+    names = {
+        "count1..count6": f"count1..count{joints}",
+        "temp1_c..temp6_c": f"temp1_c..temp{joints}_c",
+    }
+    return {names.get(k, k): v for k, v in UNITS.items()}
 
 
 COUNT_COLUMNS: tuple[str, ...] = count_columns()
@@ -108,6 +119,8 @@ UNITS: dict[str, str] = {
     "event_time": "events.csv: s since the Unix epoch (UTC), when the event was journaled",
     "button": "0 front (capture), 1 second button",
     "count1..count6": "raw encoder counts (u32)",
+    "temp1_c..temp6_c": "the device's link temperatures, degC (0.01); empty: no reading "
+    "(a sensor that did not answer, or a device without sensors)",
     "x_mm,y_mm,z_mm": "probe point computed by the device, mm (resolution 0.0001 mm)",
     "flags": "sample status bits (docs/protocol.md 2.4)",
     "param_crc32": "CRC of the parameter set in force (session.json param_sets)",
@@ -120,8 +133,10 @@ def opt_field(v: int | None) -> str:
     return "" if v is None else str(v)
 
 
-def sample_fields(sample: Sample, host_time: float, button: int, crc: int) -> list[str]:
-    """The :data:`SAMPLE_COLUMNS` fields of a latched sample."""
+def sample_fields(
+    sample: Sample, host_time: float, button: int, crc: int, temps: bool = True
+) -> list[str]:
+    """The :func:`sample_columns` fields of a latched sample."""
     x, y, z = sample.point_100nm
     return [
         str(sample.seq),
@@ -129,6 +144,7 @@ def sample_fields(sample: Sample, host_time: float, button: int, crc: int) -> li
         f"{host_time:.6f}",
         str(button),
         *(str(c) for c in sample.counts),
+        *(temp_fields(sample.temp, len(sample.counts)) if temps else ()),
         fmt_point(x),
         fmt_point(y),
         fmt_point(z),

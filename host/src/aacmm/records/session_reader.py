@@ -7,6 +7,7 @@ are ``aacmm.records.read_session``, ``Session``, ``CapturedPoint``,
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,7 @@ from aacmm.plans import Plan, PlanError, loads_plan
 from aacmm.records.files import CsvTable, RecordError, read_json, truncate_partial_line
 from aacmm.records.paramsets import ParamSetRecord
 from aacmm.records.rows import Recorded
-from aacmm.records.schema import joint_count
+from aacmm.records.schema import joint_count, temp_columns
 from aacmm.records.session_format import (
     JOINTS,
     LABEL_COLUMNS,
@@ -53,6 +54,9 @@ class CapturedPoint:
     point_mm: tuple[float, float, float]
     flags: int
     param_set: ParamSetRecord
+    temp_c: tuple[float | None, ...] | None = None
+    """The device's link temperatures of the sample (degC; None for a link without a
+    reading); None in a session written before device temperatures."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +77,9 @@ class Session(Recorded):
     step_index: npt.NDArray[np.int64]
     point_index: npt.NDArray[np.int64]
     warnings: tuple[str, ...] = ()
+    device_temp_c: npt.NDArray[np.float64] | None = None
+    """(n, N) the device's link temperatures per point, degC (NaN: no reading); None
+    when the session has no temperature columns (written before device temperatures)."""
 
     @property
     def status(self) -> str:
@@ -131,6 +138,19 @@ def _int(t: CsvTable, line: int, name: str, v: str, lo: int, hi: int) -> int:
     return x
 
 
+def _temp(t: CsvTable, line: int, name: str, v: str) -> float | None:
+    """A link temperature field: degC, or empty for no reading."""
+    if v == "":
+        return None
+    try:
+        x = float(v)
+    except ValueError:
+        x = math.nan
+    if not (math.isfinite(x) and -327.68 <= x <= 327.67):
+        raise t.fail(line, f"{name}: {v!r} is not a temperature in degC")
+    return x
+
+
 def _opt_int(t: CsvTable, line: int, name: str, v: str) -> int | None:
     return None if v == "" else _int(t, line, name, v, 0, 1 << 31)
 
@@ -183,11 +203,13 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
     if t.cut_short:
         warnings.append(f"{pts_path}: ignored a last row cut short (never acknowledged)")
     joints = joint_count(t.header, "count")
-    if not 4 <= joints <= 7 or tuple(t.header) != point_columns(joints):
+    has_temps = "temp1_c" in t.header
+    if not 4 <= joints <= 7 or tuple(t.header) != point_columns(joints, has_temps):
         raise RecordError(f"{pts_path}:{t.header_line}: header is not that of {SESSION_FORMAT}")
     _check_joints(meta, side, pts_path, joints, sets)
-    columns = point_columns(joints)
+    columns = point_columns(joints, has_temps)
     count_cols = count_columns(joints)
+    temp_cols = temp_columns(joints) if has_temps else ()
     points: list[CapturedPoint] = []
     for n, (line, row) in enumerate(t):
         if len(row) != len(columns):
@@ -212,6 +234,7 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
         if crc not in sets:
             raise t.fail(line, f"parameter set {crc_s!r} is not listed in {SIDECAR}")
         counts = tuple(_int(t, line, c, f[c], 0, 0xFFFFFFFF) for c in count_cols)
+        temps = tuple(_temp(t, line, c, f[c]) for c in temp_cols) if has_temps else None
         try:
             xyz = (float(f["x_mm"]), float(f["y_mm"]), float(f["z_mm"]))
             host_time = float(f["host_time"])
@@ -236,9 +259,16 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
                 point_mm=xyz,
                 flags=_int(t, line, "flags", f["flags"], 0, 0xFFFFFFFF),
                 param_set=sets[crc],
+                temp_c=temps,
             )
         )
     n = len(points)
+    dev_temps = None
+    if has_temps:
+        dev_temps = np.array(
+            [[np.nan if v is None else v for v in p.temp_c or ()] for p in points],
+            dtype=np.float64,
+        ).reshape(n, joints)
     return Session(
         path=path,
         counts=np.array([p.counts for p in points], dtype=np.uint64).reshape(n, joints),
@@ -252,6 +282,7 @@ def read_session(folder: str | Path, repair: bool = False) -> Session:
         step_index=np.array([p.step_index for p in points], dtype=np.int64),
         point_index=np.array([p.point_index for p in points], dtype=np.int64),
         warnings=tuple(warnings),
+        device_temp_c=dev_temps,
     )
 
 

@@ -52,6 +52,10 @@ class SessionWriter:
         j = meta.get("joints", JOINTS)
         #: N: the joints of the session's arm (its count columns).
         self.joints = j if isinstance(j, int) and not isinstance(j, bool) else JOINTS
+        #: the session's rows carry the link temperatures (a session written before
+        #: device temperatures keeps its columns when resumed)
+        cols = meta.get("columns")
+        self.temps = not isinstance(cols, list) or "temp1_c" in cols
         self._sets: dict[int, ParamSetRecord] = {}
         for i, d in enumerate(meta.get("param_sets", [])):
             ps = ParamSetRecord.from_json(d, f"{folder / SIDECAR}: param_sets[{i}]")
@@ -62,11 +66,11 @@ class SessionWriter:
         #: resumed one what the last run left: ``running`` after a kill).
         self.opened_status = str(meta.get("status", "running"))
         self._points = DurableAppender(
-            folder / POINTS_CSV, point_columns(self.joints), create=not lines
+            folder / POINTS_CSV, point_columns(self.joints, self.temps), create=not lines
         )
         self._events = DurableAppender(
             folder / EVENTS_CSV,
-            event_columns(self.joints),
+            event_columns(self.joints, self.temps),
             create=not (folder / EVENTS_CSV).exists(),
         )
 
@@ -243,7 +247,7 @@ class SessionWriter:
             raise RecordError(f"{self.folder}: the plan is complete; no slot for another point")
         if self.current is None:
             raise RecordError(f"{self.folder}: no parameter set in force (set_param_set first)")
-        fields = sample_fields(sample, host_time, button, self.current.crc32)
+        fields = sample_fields(sample, host_time, button, self.current.crc32, self.temps)
         self._event("point", slot=slot.index, pressed=1, fields=fields)
         line = ",".join(label_fields(slot) + fields) + "\n"
         self._points.append(line)
@@ -272,7 +276,7 @@ class SessionWriter:
         fields = None
         if sample is not None and button is not None:
             crc = self.current.crc32 if self.current is not None else 0
-            fields = sample_fields(sample, host_time, button, crc)
+            fields = sample_fields(sample, host_time, button, crc, self.temps)
         pressed = None if fields is None else 1
         self._event("confirm", pressed=pressed, fields=fields, detail=how, host_time=host_time)
 
@@ -283,7 +287,7 @@ class SessionWriter:
         fields = None
         if sample is not None:
             crc = self.current.crc32 if self.current is not None else 0
-            fields = sample_fields(sample, host_time, button, crc)
+            fields = sample_fields(sample, host_time, button, crc, self.temps)
         self._event("ignored", pressed=int(pressed), fields=fields, detail=why, host_time=host_time)
 
     def _event(
@@ -297,7 +301,9 @@ class SessionWriter:
         host_time: float | None = None,
     ) -> None:
         t = time.time() if host_time is None else host_time
-        sample = fields if fields is not None else [""] * len(sample_columns(self.joints))
+        sample = (
+            fields if fields is not None else [""] * len(sample_columns(self.joints, self.temps))
+        )
         row = [f"{t:.6f}", event, opt_field(slot), opt_field(pressed), *sample, _csv_text(detail)]
         self._events.append(",".join(row) + "\n")
 

@@ -1,0 +1,201 @@
+"""Issue 27, item 2 (host side): the device's link temperatures in sessions, and what
+verify and calibrate make of them.
+
+- a session's points carry the device's link temperatures (``temp1_c .. tempN_c``,
+  empty for a link without a reading); a session written before them (no columns)
+  reads as before, and a resumed one keeps its columns;
+- ``aacmm verify --params`` on a session whose samples read 28 degC on every link
+  (nothing stated) gives the thermal study's compensated figure (the same as the
+  session stated at 28 degC, tests/host/test_thermal_verify.py), and reports the range
+  it read; readings that differ from a stated ``capture --temperature`` by more than
+  1 degC win, with one warning; a thermal model and a point without readings nor a
+  statement is refused in one line;
+- calibrate's per-pose temperature is the mean of the device's link readings.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from aacmm.core import EncoderConfig, Params
+from aacmm.protocol import Sample
+from thermal_study import CASES, aluminium_truth, calibrated, compensation, run, sessions
+
+T_WARM_C = 28.0
+
+
+def _e_uni(out: str) -> float:
+    doc = json.loads(out)
+    (res,) = [r for r in doc["results"] if r["key"] == "e_uni"]
+    return abs(float(res["value_mm"]))
+
+
+@pytest.fixture(scope="module")
+def warm(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, float]:
+    """Arm 2 of the thermal study at 28 degC, with its 20 degC calibration in force,
+    written three ways: read by the device (2800 on every link), read and stated at
+    20 degC (a wrong statement), and read with link 3 missing; the parameter file with
+    the data-sheet CTE; the study's compensated |E_Uni|."""
+    from aacmm.plans import load_plan
+    from aacmm.records.paramfile import dump_param_set
+    from gate_study import Sampled, record, write_session
+
+    seed = 2
+    truth = aluminium_truth(seed)
+    cal = calibrated(truth, 1000 + seed)
+    plan = load_plan("arm-verification")
+    counts = sessions(plan, truth, 2000 + seed, (20.0, T_WARM_C))[T_WARM_C].counts
+    folder = tmp_path_factory.mktemp("devtemps")
+    in_force = record(cal)
+    read = (2800,) * 6
+    write_session(folder / "read", Sampled(plan, counts, in_force), serial=7, temp=read)
+    write_session(
+        folder / "read-stated20",
+        Sampled(plan, counts, in_force),
+        serial=7,
+        temp=read,
+        temperature_c=20.0,
+    )
+    missing = (2800, 2800, -32768, 2800, 2800, 2800)
+    write_session(folder / "missing", Sampled(plan, counts, in_force), serial=7, temp=missing)
+    params = folder / "cal.toml"
+    params.write_text(dump_param_set(in_force.to_device(), "toml", errmodel=compensation()))
+    return folder, params, run(seed).e_uni[CASES[2]]
+
+
+def test_session_columns_round_trip(warm: tuple[Path, Path, float]) -> None:
+    from aacmm.records import read_session
+
+    folder, _, _ = warm
+    s = read_session(folder / "read")
+    header = (folder / "read" / "points.csv").read_text().splitlines()[0].split(",")
+    assert header[header.index("count6") + 1 : header.index("x_mm")] == [
+        f"temp{i}_c" for i in range(1, 7)
+    ]
+    assert s.device_temp_c is not None and s.device_temp_c.shape == (len(s), 6)
+    assert np.all(s.device_temp_c == 28.0) and s.points[0].temp_c == (28.0,) * 6
+    m = read_session(folder / "missing")
+    assert m.points[0].temp_c == (28.0, 28.0, None, 28.0, 28.0, 28.0)
+    assert m.device_temp_c is not None and np.isnan(m.device_temp_c[:, 2]).all()
+
+
+def test_session_without_temperature_columns(tmp_path: Path) -> None:
+    """A session written before device temperatures: read, and resumed with its columns."""
+    from aacmm.plans import load_plan
+    from aacmm.records import ParamSetRecord, SessionWriter, read_session
+    from aacmm.records.session_format import point_columns
+
+    plan = load_plan("probe-calibration")
+    ps = ParamSetRecord.from_device(ParamSetRecord(0, Params(), EncoderConfig()).to_device())
+    folder = tmp_path / "old"
+    w = SessionWriter.create(folder, plan)
+    w.begin_run("capture")
+    w.set_param_set(ps)
+    w.record(Sample(1, 1000, (1, 2, 3, 4, 5, 6), (0, 0, 0), 1, temp=(2000,) * 6), time.time())
+    w.close("interrupted")
+    # rewrite it as an old session: no temperature columns anywhere
+    old_cols = point_columns(6, temps=False)
+    lines = (folder / "points.csv").read_text().splitlines()
+    row = lines[1].split(",")
+    new_cols = lines[0].split(",")
+    keep = [new_cols.index(c) for c in old_cols]
+    (folder / "points.csv").write_text(
+        ",".join(old_cols) + "\n" + ",".join(row[k] for k in keep) + "\n"
+    )
+    (folder / "events.csv").unlink()
+    meta = json.loads((folder / "session.json").read_text())
+    meta["columns"] = list(old_cols)
+    (folder / "session.json").write_text(json.dumps(meta))
+    s = read_session(folder)
+    assert s.device_temp_c is None and s.points[0].temp_c is None
+    w = SessionWriter.resume(folder, plan)
+    assert not w.temps
+    w.begin_run("resume")
+    w.set_param_set(ps)
+    w.record(Sample(2, 2000, (1, 2, 3, 4, 5, 6), (0, 0, 0), 1, temp=(2000,) * 6), time.time())
+    w.close("interrupted")
+    s = read_session(folder)
+    assert len(s) == 2 and s.device_temp_c is None
+    assert (folder / "points.csv").read_text().splitlines()[0] == ",".join(old_cols)
+
+
+def test_verify_with_device_temperatures(
+    warm: tuple[Path, Path, float], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from aacmm.cli import main
+
+    folder, params, expected = warm
+    # read by the device, nothing stated: the study's compensated figure
+    assert main(["verify", str(folder / "read"), "--params", str(params), "--json", "-"]) == 0
+    out, err = capsys.readouterr()
+    doc = json.loads(out)
+    assert _e_uni(out) == pytest.approx(expected, abs=1e-9)
+    n = doc["session"]["points"].split()[0]
+    assert doc["session"]["temperature"] == f"28 C (read by the device at {n} of {n} points)"
+    assert doc["session"]["temperature_range_c"] == [28.0, 28.0] and not err
+    # without --params: reported, not compensated
+    assert main(["verify", str(folder / "read")]) == 7
+    out = capsys.readouterr().out
+    assert f"28 C (read by the device at {n} of {n} points; not compensated: no --params" in out
+    # readings win over a wrong statement, with one warning
+    args = ["verify", str(folder / "read-stated20"), "--params", str(params), "--json", "-"]
+    assert main(args) == 0
+    out, err = capsys.readouterr()
+    assert _e_uni(out) == pytest.approx(expected, abs=1e-9)
+    (line,) = err.splitlines()
+    assert "warning: the device's link temperatures differ from the stated ones" in line
+    assert "by up to 8.0 C" in line and "the device's readings are used" in line
+    # and over verify --temperature
+    args = ["verify", str(folder / "read"), "--params", str(params), "--temperature", "20"]
+    assert main([*args, "--json", "-"]) == 0
+    out, err = capsys.readouterr()
+    assert _e_uni(out) == pytest.approx(expected, abs=1e-9)
+    assert "(--temperature) by up to 8.0 C" in err
+    # a link without a reading, nothing stated: refused in one line
+    code = main(["verify", str(folder / "missing"), "--params", str(params)])
+    out, err = capsys.readouterr()
+    assert code == 2 and not out and len(err.splitlines()) == 1
+    assert "point 1 has a link whose temperature the device did not read" in err
+    # ... unless stated: --temperature fills the missing link
+    args = ["verify", str(folder / "missing"), "--params", str(params), "--temperature", "28"]
+    assert main([*args, "--json", "-"]) == 0
+    out, _ = capsys.readouterr()
+    assert _e_uni(out) == pytest.approx(expected, abs=1e-9)
+
+
+def test_per_point_temperatures() -> None:
+    from aacmm.records.measured import per_point_temperatures
+
+    nan = np.nan
+    dev = np.array([[21.0, 21.0, 23.0], [nan, nan, nan], [30.0, nan, 30.0]])
+    temps, full, warning = per_point_temperatures([21.5, 22.0, None], dev, 3)
+    assert full == 1
+    np.testing.assert_array_equal(temps[0], [21.0, 21.0, 23.0])
+    np.testing.assert_array_equal(temps[1], [22.0, 22.0, 22.0])
+    assert temps[2, 0] == 30.0 and np.isnan(temps[2, 1])
+    assert warning is not None and "by up to 1.5 C at 1 of 3 points (first: point 1" in warning
+    _, _, quiet = per_point_temperatures([21.5, 22.0, None], dev[:, :2], 2)
+    assert quiet is None  # within 1 degC: no warning
+
+
+def test_calibration_temperature_is_the_mean_reading(warm: tuple[Path, Path, float]) -> None:
+    from aacmm.calibration.sessions import (
+        link_temperature_warning,
+        load_sessions,
+        stated_link_temperatures,
+    )
+    from aacmm.records import read_session
+
+    folder, _, _ = warm
+    s = read_session(folder / "missing")
+    t = stated_link_temperatures(s)
+    assert t is not None and np.all(t == 28.0)  # the five links read
+    assert link_temperature_warning(s) is None
+    assert link_temperature_warning(read_session(folder / "read-stated20")) is not None
+    data = load_sessions([folder / "read-stated20"], 0.005, temperatures=True)
+    assert data.observations.temp_c is not None and np.all(data.observations.temp_c == 28.0)
+    assert len(data.temperature_warnings) == 1 and not data.unstated_temperature
