@@ -7,14 +7,14 @@
 #                  aacmm.records (15.1 repro, 15.5 reconnect to another set, 14.2
 #                  lost samples, 14.7 rate while connected, --from-log), whole
 #                  plans against the simulated operator (labels, joint spreads
-#                  per step); lint
+#                  per step); the device's link temperatures in logs and capture; lint
 
 CAPTURE_PY_FILES := host/src/aacmm/plans host/src/aacmm/records \
                     host/src/aacmm/commands/capture.py host/src/aacmm/commands/plan.py \
                     host/src/aacmm/analysis/poselog.py \
                     tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
                     tests/host/test_logs.py tests/host/test_records_arms.py \
-                    tests/host/test_capture_scenario.py \
+                    tests/host/test_capture_scenario.py tests/host/test_device_temps_capture.py \
                     bench/bench_capture.py
 CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pyproject.toml --rootdir=.
 
@@ -22,7 +22,7 @@ CAPTURE_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -ra -c host/pypro
 #> test-capture         plans, sessions, aacmm capture against the simulator
 test-capture: sim
 	$(CAPTURE_PYTEST) tests/host/test_plans.py tests/host/test_records.py tests/host/test_capture.py \
-	    tests/host/test_logs.py tests/host/test_records_arms.py
+	    tests/host/test_logs.py tests/host/test_records_arms.py tests/host/test_device_temps_capture.py
 	$(CAPTURE_PYTEST) -s tests/host/test_capture_scenario.py  # -s: its "measured:" joint spreads
 	@$(MAKE) --no-print-directory test-capture-lint
 

@@ -118,8 +118,9 @@ def test_log_of_an_arm_on_the_simulator(tmp_path: Path, name: str) -> None:
     assert p.returncode == 0, p.stderr
     header = out.read_text().splitlines()[0].split(",")
     counts = [f"count{i}" for i in range(1, n + 1)]
+    temps = [f"temp{i}_c" for i in range(1, n + 1)]
     assert header == ["seq", "device_time_us", "host_time", *counts, "x_mm", "y_mm", "z_mm",
-                      "flags", "param_crc32"]  # fmt: skip
+                      "flags", "param_crc32", *temps]  # fmt: skip
     meta = json.loads((tmp_path / "run.csv.json").read_text())
     assert meta["joints"] == n and meta["columns"] == header
     assert load_param_file(tmp_path / "run.csv.json") == ps  # what `params set run.csv.json` sends

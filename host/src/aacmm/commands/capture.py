@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from aacmm.client import SampleStream
     from aacmm.commands.common import Device
     from aacmm.plans import Plan, Slot
-    from aacmm.protocol import Trigger
+    from aacmm.protocol import Sample, Trigger
     from aacmm.records import ParamSetRecord, SessionWriter
     from aacmm.view.capture import CaptureView
 
@@ -52,6 +52,7 @@ if TYPE_CHECKING:
 #: simulated operator's sign that capture is ready).
 LISTEN_RATE_HZ = 20
 POINT_VALID = 0x0001
+TEMP_FAULT = 0x8000  # aacmm.protocol.SampleStatus.TEMP_FAULT
 BUTTON_CAPTURE = 0  # aacmm.protocol.Button.CAPTURE
 BUTTON_UNDO = 1  # aacmm.protocol.Button.UNDO
 
@@ -87,7 +88,8 @@ def register(sub: Any) -> None:
         "--temperature",
         metavar="C",
         help="the links' temperature during this run, degC (-40 .. 85), as a thermometer on "
-        "the arm reads it (the arm measures none yet): recorded in the session's run for "
+        "the arm reads it (a device with sensors records its own readings per point, which "
+        "win where both are known): recorded in the session's run for "
         "aacmm verify --params",
     )
     p.add_argument("--no-keys", action="store_true", help="do not read keys from the terminal")
@@ -125,6 +127,22 @@ ARTEFACT_WORDS = {
 }
 
 
+def no_point_reason(sample: Sample) -> str:
+    """Why a sample without a point gives none, in words (a ``TEMP_FAULT`` with the
+    thermal model in force: the links whose temperature was not read)."""
+    from aacmm.records.schema import temps_c
+
+    if not sample.status & TEMP_FAULT:
+        return "point not valid"
+    t = temps_c(sample.temp)
+    links = [str(i + 1) for i, v in enumerate(t or ()) if v is None or not -40.0 <= v <= 85.0]
+    which = f"link {', '.join(links)}" if links else "a link"
+    return (
+        f"no point: the temperature of {which} was not read (TEMP_FAULT; the device "
+        "compensates thermal expansion and needs every link's)"
+    )
+
+
 def step_announcement(plan: Plan, step_index: int) -> str:
     """The line that opens a step: its number, id, points and artefact, and its note."""
     st = plan.steps[step_index]
@@ -155,12 +173,17 @@ class Capture:
         self.confirm: bool = wants_keys if args.confirm_end is None else args.confirm_end
         self.confirmed: str | None = None  # how the end was confirmed
         self.view: CaptureView | None = None  # --view: the page, fed from here
+        self.sensors = False  # the device reads its link temperatures
+        self.live: tuple[float, float] | None = None  # their range during this run
+        self.live_warned = False
 
     # ---------------------------------------------------------- set-up
 
     def open_session(self, dev: Device, ps: ParamSetRecord) -> SessionWriter:
-        from aacmm.client.devstate import info_dict
+        from aacmm.client.devstate import has_temperatures, info_dict
         from aacmm.records import SessionWriter
+
+        self.sensors = has_temperatures(dev.info)
 
         if self.args.resume:
             w = SessionWriter.resume(self.folder, self.plan)
@@ -196,9 +219,12 @@ class Capture:
 
     def _check_band(self, w: SessionWriter, stated: float | None) -> None:
         """A plan's stability band: a warning when the temperatures stated for the
-        session's runs break it, a note when this run states none (the arm reads none)."""
+        session's runs break it, a note when this run states none and the arm reads
+        none (a device with sensors: :meth:`watch_band` checks its live readings)."""
         band = self.plan.verification.temperature_band_c
         if band is None:
+            return
+        if stated is None and self.sensors:
             return
         if stated is None:
             print_err(
@@ -211,6 +237,32 @@ class Capture:
         problem = self.plan.verification.band_problem(temps)
         if problem is not None:
             print_err("capture", f"warning: {problem}: let the arm settle before measuring")
+
+    def watch_band(self, sample: Sample) -> None:
+        """The device's live link temperatures: one warning when this run's readings
+        leave the plan's stability band (their span, or their distance from the plan's
+        temperature)."""
+        from aacmm.records.schema import temps_c
+
+        t = temps_c(sample.temp)
+        band = self.plan.verification.temperature_band_c
+        if t is None or band is None or self.live_warned:
+            return
+        read = [v for v in t if v is not None]
+        if not read:
+            return
+        lo, hi = min(read), max(read)
+        if self.live is not None:
+            lo, hi = min(lo, self.live[0]), max(hi, self.live[1])
+        self.live = (lo, hi)
+        problem = self.plan.verification.band_problem([lo, hi])
+        if problem is not None:
+            self.live_warned = True
+            print_err(
+                "capture",
+                f"warning: the device's link temperatures: {problem}: let the arm settle "
+                "before measuring",
+            )
 
     def _on_trigger(self, trig: Trigger) -> None:  # reader thread
         self.events.put((time.time(), trig))
@@ -297,9 +349,11 @@ class Capture:
             w.ignored(trig.sample, host_time, trig.button, True, f"button {trig.button}")
             return
         if not trig.sample.status & POINT_VALID:
-            w.ignored(trig.sample, host_time, trig.button, True, "point not valid")
-            say(f"  point not valid (flags 0x{trig.sample.status:04x}): press again")
+            why = no_point_reason(trig.sample)
+            w.ignored(trig.sample, host_time, trig.button, True, why)
+            say(f"  {why} (flags 0x{trig.sample.status:04x}): press again")
             return
+        self.watch_band(trig.sample)
         self.check_params(dev, w)
         slot = w.record(trig.sample, host_time, trig.button)
         x, y, z = trig.sample.point_mm
@@ -364,6 +418,7 @@ class Capture:
                 while True:
                     sample = stream.get(timeout=0.0)
                     last_sample = time.monotonic()
+                    self.watch_band(sample)
                     if self.view is not None:
                         self.view.on_sample(sample)
             except DeviceTimeoutError:
@@ -414,7 +469,7 @@ class Capture:
             # arrival cannot tell).
             self.fence_us = dev.client.measure().timestamp_us
             rate = LISTEN_RATE_HZ if self.view is None else CAPTURE_VIEW_RATE_HZ
-            stream = dev.client.stream(rate, timeout=self.args.stall)
+            stream = dev.client.stream(rate, timeout=self.args.stall, temperatures=self.sensors)
             try:
                 status = self.loop(dev, w, stream, stop)
             finally:
@@ -533,7 +588,7 @@ def label_log(args: argparse.Namespace, plan: Plan) -> int:
             extra += 1
             w.ignored(t.sample, t.host_time, t.button, True, "plan already complete")
         elif not t.sample.status & POINT_VALID:
-            w.ignored(t.sample, t.host_time, t.button, True, "point not valid")
+            w.ignored(t.sample, t.host_time, t.button, True, no_point_reason(t.sample))
         else:
             w.set_param_set(t.param_set)
             w.record(t.sample, t.host_time, t.button)

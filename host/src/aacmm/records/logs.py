@@ -43,12 +43,14 @@ from aacmm.records.schema import (
     LOG_FORMAT,
     LOG_FORMATS_READ,
     POINT_COLUMNS,
+    TEMP_NONE_WIRE,
     THETA_COLUMNS,
     count_aliases,
     count_columns,
     default_triggers_path,
     joint_count,
     sidecar_path,
+    temp_columns,
     theta_columns,
 )
 
@@ -108,6 +110,29 @@ class Log(Recorded):
             RecordError: no such column, or a value that is not a number (with its line).
         """
         return column(self.table, name, kind)
+
+    def temperatures_c(self) -> FloatArray | None:
+        """The device's link temperatures (n, N) in degC, NaN where a sample has no
+        reading; None for a log without the columns (written before issue 27).
+
+        Raises:
+            RecordError: a value that is not a number (with its line).
+        """
+        cols = temp_columns(self.joints)
+        if not all(c in self.table.header for c in cols):
+            return None
+        k = [self.table.index(c) for c in cols]
+        out = np.full((len(self.table), len(cols)), np.nan)
+        for r, (line, row) in enumerate(self.table):
+            for j, i in enumerate(k):
+                v = row[i] if i < len(row) else ""
+                if v == "":
+                    continue
+                try:
+                    out[r, j] = float(v)
+                except ValueError:
+                    raise self.table.fail(line, f"{cols[j]}: {v!r} is not a number") from None
+        return out
 
     @property
     def damage(self) -> tuple[str, ...]:
@@ -494,6 +519,7 @@ def read_triggers(log: Log, path: Path | None = None) -> list[LoggedTrigger]:
             f"{log.joints}: not this log's trigger file"
         )
     idx = {c: t.index(c) for c in (*need, *POINT_COLUMNS)}
+    temp_idx = [t.index(c) for c in temp_columns(log.joints)] if t.has("temp1_c") else None
     has_crc = "param_crc32" in t.header
     only = next(iter(log.param_sets.values()))
     out = []
@@ -501,12 +527,18 @@ def read_triggers(log: Log, path: Path | None = None) -> list[LoggedTrigger]:
         try:
             counts = tuple(int(row[idx[c]]) for c in count_cols)
             pt = tuple(round(float(row[idx[c]]) * 10000) for c in POINT_COLUMNS)
+            temp = None
+            if temp_idx is not None:
+                temp = tuple(
+                    TEMP_NONE_WIRE if row[k] == "" else round(float(row[k]) * 100) for k in temp_idx
+                )
             sample = Sample(
                 int(row[idx["seq"]]),
                 int(row[idx["device_time_us"]]),
                 counts,
                 pt,
                 int(row[idx["flags"]]),
+                temp=temp,
             )
             host_time = float(row[idx["host_time"]])
             button, pressed = int(row[idx["button"]]), int(row[idx["pressed"]])

@@ -37,8 +37,9 @@ def theta_columns(joints: int = JOINTS) -> tuple[str, ...]:
     return tuple(f"theta{i}" for i in range(1, joints + 1))
 
 
-def log_columns(joints: int = JOINTS) -> tuple[str, ...]:
-    """The columns of a log of an arm of ``joints`` joints."""
+def log_columns(joints: int = JOINTS, temps: bool = True) -> tuple[str, ...]:
+    """The columns of a log of an arm of ``joints`` joints; ``temps``: with the
+    device's link temperatures at the end (every log written since issue 27)."""
     return (
         "seq",
         "device_time_us",
@@ -47,10 +48,11 @@ def log_columns(joints: int = JOINTS) -> tuple[str, ...]:
         *POINT_COLUMNS,
         "flags",
         "param_crc32",
+        *(temp_columns(joints) if temps else ()),
     )
 
 
-def trigger_columns(joints: int = JOINTS) -> tuple[str, ...]:
+def trigger_columns(joints: int = JOINTS, temps: bool = True) -> tuple[str, ...]:
     """The columns of a log's trigger file of an arm of ``joints`` joints."""
     return (
         "seq",
@@ -62,6 +64,7 @@ def trigger_columns(joints: int = JOINTS) -> tuple[str, ...]:
         *POINT_COLUMNS,
         "flags",
         "param_crc32",
+        *(temp_columns(joints) if temps else ()),
     )
 
 
@@ -108,9 +111,11 @@ TRIGGER_COLUMNS: tuple[str, ...] = trigger_columns()
 
 def log_units(joints: int = JOINTS) -> dict[str, str]:
     """The sidecar's ``units`` for a log of ``joints`` joints."""
-    return {
-        f"count1..count{joints}" if k == "count1..count6" else k: v for k, v in LOG_UNITS.items()
+    names = {
+        "count1..count6": f"count1..count{joints}",
+        "temp1_c..temp6_c": f"temp1_c..temp{joints}_c",
     }
+    return {names.get(k, k): v for k, v in LOG_UNITS.items()}
 
 
 LOG_UNITS: dict[str, str] = {
@@ -121,6 +126,8 @@ LOG_UNITS: dict[str, str] = {
     "x_mm,y_mm,z_mm": "mm (resolution 0.0001 mm)",
     "flags": "sample status bits (docs/protocol.md 2.4)",
     "param_crc32": "CRC of the parameter set in force (sidecar param_sets)",
+    "temp1_c..temp6_c": "the device's link temperatures, degC (0.01); empty: no reading (a "
+    "sensor that did not answer, or a device without sensors; flags bit 15 TEMP_FAULT)",
     "button,pressed": "triggers file: button index (0 capture, 1 undo), 1 press / 0 release",
 }
 
@@ -143,6 +150,7 @@ def sample_row(s: Sample, host_time: float, crc: str, extra: tuple[int, ...] = (
     parts += [str(v) for v in extra]
     parts += [str(c) for c in s.counts]
     parts += [fmt_point(x), fmt_point(y), fmt_point(z), str(s.status), crc]
+    parts += temp_fields(s.temp, len(s.counts))
     return ",".join(parts) + "\n"
 
 
