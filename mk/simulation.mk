@@ -32,11 +32,12 @@ test-sim-control: sim
 	$(SIMULATION_PYTEST) tests/sim/test_sim_control.py
 	@$(MAKE) --no-print-directory test-simulation-lint
 
-#> test-simulation      truth model and file, encoder model vs the core, encoder grades (the simulator's counts = the truth file's harmonics; documented ranges; two-head = the truth of before), thermal profiles (the true point at link temperatures = the scaled arm), IK to 1 nm, articulation spread; aacmm sim --scenario against aacmm capture (nominal and random truths, mis-probe + undo, kill -9 + resume, rendezvous); aacmm sim --model (7- and 5-axis on a pty, random truths within the joint limits, params files of any arm; the simulator's own motion within every model's limits, aacmm-sim --joint-limits)
+#> test-simulation      truth model and file, encoder model vs the core, encoder grades (the simulator's counts = the truth file's harmonics; documented ranges; two-head = the truth of before), thermal profiles (the true point at link temperatures = the scaled arm; the operator's poses on the warm arm, the control channel's temps), IK to 1 nm, articulation spread; aacmm sim --scenario against aacmm capture (nominal and random truths, mis-probe + undo, kill -9 + resume, rendezvous); aacmm sim --model (7- and 5-axis on a pty, random truths within the joint limits, params files of any arm; the simulator's own motion within every model's limits, aacmm-sim --joint-limits)
 test-simulation: export AACMM_SIM = $(abspath $(SIM_BIN))
 test-simulation: export AACMM_SIM_MOTION_LIB = $(abspath $(SIM_MOTION_LIB))
 test-simulation: sim $(SIM_MOTION_LIB)
 	$(SIMULATION_PYTEST) tests/sim/test_truth_ik.py tests/sim/test_encoder_grades.py tests/sim/test_thermal_truth.py \
+	    tests/sim/test_sim_temperatures.py \
 	    tests/sim/test_scenario.py tests/sim/test_sim_models.py tests/sim/test_sim_model_motion.py
 
 #> test-simulation-lint ruff, ruff format, mypy --strict on aacmm.simulation and its tests (part of test-sim-control)

@@ -199,3 +199,31 @@ def test_calibration_temperature_is_the_mean_reading(warm: tuple[Path, Path, flo
     data = load_sessions([folder / "read-stated20"], 0.005, temperatures=True)
     assert data.observations.temp_c is not None and np.all(data.observations.temp_c == 28.0)
     assert len(data.temperature_warnings) == 1 and not data.unstated_temperature
+
+
+def test_verify_with_the_device_thermal_block(
+    warm: tuple[Path, Path, float], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The session taken with the data-sheet CTEs in the device's parameter set (its
+    thermal block, applied by the device at its readings): verify without --params
+    recomputes each point at its own link temperatures, the study's compensated figure."""
+    from aacmm.cli import main
+    from aacmm.plans import load_plan
+    from aacmm.protocol.errwire import with_error_model
+    from aacmm.records import ParamSetRecord, read_session
+    from gate_study import Sampled, write_session
+
+    folder, _, expected = warm
+    cal_set = read_session(folder / "read").param_set_of(0)
+    thermal = ParamSetRecord.from_device(with_error_model(cal_set.to_device(), compensation()))
+    assert thermal.thermal and thermal.crc32 != cal_set.crc32
+    plan = load_plan("arm-verification")
+    counts = np.asarray(read_session(folder / "read").counts, dtype=np.int64)
+    s = write_session(
+        folder / "device-comp", Sampled(plan, counts, thermal), serial=7, temp=(2800,) * 6
+    )
+    assert read_session(s).param_set_of(0).thermal  # the sidecar keeps the thermal block
+    assert main(["verify", str(s), "--json", "-"]) == 0
+    out = capsys.readouterr().out
+    assert _e_uni(out) == pytest.approx(expected, abs=1e-9)
+    assert "compensated by the thermal block of the parameter set in force" in out

@@ -285,6 +285,31 @@ def link_temperature(text: str | None, option: str = "--temperature") -> float |
     return temp
 
 
+def link_temperatures(
+    text: str | None, joints: int, option: str = "--temperature"
+) -> list[float] | None:
+    """``C[,C...]``: one link temperature (degC) for every link or one per link of
+    ``joints``; None when not given.
+
+    Raises:
+        UsageError: not numbers within -40 .. 85 degC, or neither 1 nor ``joints`` values.
+    """
+    from aacmm.commands.exitcodes import UsageError
+
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.split(",")]
+    values = [link_temperature(p, option) for p in parts]
+    if len(values) == 1:
+        values = values * joints
+    if len(values) != joints:
+        raise UsageError(
+            f"{option} {text}: give one temperature for every link or {joints} (one per "
+            f"link), got {len(parts)}"
+        )
+    return [float(v) for v in values if v is not None]
+
+
 def print_err(cmd: str, text: str) -> None:
     print(f"aacmm {cmd}: {text}", file=sys.stderr, flush=True)
 

@@ -21,7 +21,7 @@ from aacmm.commands.common import (
     add_force_option,
     device_from_args,
     flag_names,
-    link_temperature,
+    link_temperatures,
     print_err,
 )
 from aacmm.commands.exitcodes import OK, UsageError
@@ -513,33 +513,13 @@ def compute_dict(
     return d
 
 
-def compute_temperatures(text: str | None, joints: int) -> list[float] | None:
-    """``compute --temperature``: one value for every link or one per link (degC).
-
-    Raises:
-        UsageError: not numbers within -40 .. 85 degC, or neither 1 nor N values.
-    """
-    if text is None:
-        return None
-    parts = [p.strip() for p in text.split(",")]
-    values = [link_temperature(p) for p in parts]
-    if len(values) == 1:
-        values = values * joints
-    if len(values) != joints:
-        raise UsageError(
-            f"--temperature {text}: give one temperature for every link or {joints} (one per "
-            f"link of the {joints} counts), got {len(parts)}"
-        )
-    return [float(v) for v in values if v is not None]
-
-
 def cmd_compute(args: argparse.Namespace) -> int:
     if not 4 <= len(args.counts) <= 7:
         raise UsageError(
             f"compute needs the arm model's 4 to 7 encoder counts (its joints: `aacmm info`), "
             f"got {len(args.counts)}"
         )
-    temps = compute_temperatures(args.temperature, len(args.counts))
+    temps = link_temperatures(args.temperature, len(args.counts))
     with device_from_args(args) as dev:
         r = dev.client.compute(args.counts, jacobian=args.jacobian, temperatures_c=temps)
         names = _column_names(dev) if r.jacobian is not None else ()

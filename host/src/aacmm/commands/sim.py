@@ -84,6 +84,13 @@ def register(sub: Any) -> None:
         "--button-every", type=float, metavar="S", help="press/release the probe button every S s"
     )
     p.add_argument("--serial-number", type=int, metavar="N", help="device serial number")
+    p.add_argument(
+        "--temperature",
+        metavar="C[,C...]",
+        help="the links' temperatures, degC (-40 .. 85): one for every link or one per link "
+        "(default: every link at 20); with --truth the true arm's lengths at them (its "
+        "thermal profile) and the device's sensors read them (control channel 'temps')",
+    )
     p.add_argument("--quiet", action="store_true", help="less simulator output on stderr")
     p.add_argument(
         "--board",
@@ -125,6 +132,7 @@ def sim_args(args: argparse.Namespace) -> list[str]:
         ("--encoder-faults", args.encoder_faults),
         ("--button-every", args.button_every),
         ("--serial-number", args.serial_number),
+        ("--temperature", getattr(args, "temperature", None)),
     ):
         if val is not None:
             out += [opt, str(val)]
@@ -288,6 +296,11 @@ def cmd_sim(args: argparse.Namespace) -> int:
     from aacmm.commands import simtruth
 
     simtruth.check_args(args)
+    if args.temperature is not None:  # numbers within -40 .. 85, before anything starts
+        from aacmm.commands.common import link_temperature
+
+        for part in args.temperature.split(","):
+            link_temperature(part.strip())
     check_sim_files(args)
     model = sim_model(args)
     if args.model is not None:

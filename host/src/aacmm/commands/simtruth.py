@@ -24,6 +24,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from aacmm.commands.common import link_temperatures
 from aacmm.commands.exitcodes import OK, UsageError
 from aacmm.errors import AacmmError
 
@@ -230,8 +231,17 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
 
     base = _without(
         sim_args,
-        ("--seed", "--motion", "--button-every", "--cpr", "--encoder-bits", "--serial-number"),
+        (
+            "--seed",
+            "--motion",
+            "--button-every",
+            "--cpr",
+            "--encoder-bits",
+            "--serial-number",
+            "--temperature",  # the control channel's temps, below
+        ),
     )
+    temps = link_temperatures(getattr(args, "temperature", None), truth.joints)
     base += ["--serial-number", str(truth.device_serial)]  # each true arm is its own device
     chan, fd = ControlChannel.pair()
     old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
@@ -247,13 +257,20 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
         finally:
             chan.child_started()
         chan.hello()
+        if temps is not None:  # before the first counts: every reading at them
+            chan.set_temperatures(temps)
+            chan.sync()
         for url in sim.urls:
             print(url, flush=True)
         others = publish_urls(sim.urls)
-        say(f"{sim.binary} running (pid {sim.proc.pid}) with {truth_text(truth)}; Ctrl-C to stop")
+        say(
+            f"{sim.binary} running (pid {sim.proc.pid}) with {truth_text(truth, temps)}; "
+            "Ctrl-C to stop"
+        )
         note_others(others)
         rng = np.random.default_rng(args.seed or 0)
-        op = Operator(chan, truth, rng, FAST if args.fast else Pace(), limits=limits, stop=stop)
+        pace = FAST if args.fast else Pace()
+        op = Operator(chan, truth, rng, pace, limits=limits, stop=stop, temperatures_c=temps)
 
         def work() -> None:
             try:
@@ -294,20 +311,30 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
     return OK
 
 
-def truth_text(truth: Any) -> str:
+def truth_text(truth: Any, temps: list[float] | None = None) -> str:
     """What ``aacmm sim`` says of its truth: its kind and, when its encoders have a
     reading error, their grade (a random truth's, ``[origin] encoder_grade``; one
-    without: two-head) or the harmonic orders a truth file gives them."""
+    without: two-head) or the harmonic orders a truth file gives them; with ``temps``
+    (``--temperature``) the links' temperatures and whether its lengths follow them."""
     from aacmm.simulation.encgrade import DEFAULT_GRADE
 
     kind = truth.origin.get("kind", "file")
     text = f"a {kind} truth"
     errors = truth.errors
     if kind == "random":
-        return f"{text}, encoder grade {truth.origin.get('encoder_grade', DEFAULT_GRADE)}"
-    orders = [k for k, (amp, _) in errors.harmonics_arcsec().items() if max(amp) > 0]
-    if orders:
-        text += f", encoder harmonics {', '.join(str(k) for k in orders)}"
+        text += f", encoder grade {truth.origin.get('encoder_grade', DEFAULT_GRADE)}"
+    else:
+        orders = [k for k, (amp, _) in errors.harmonics_arcsec().items() if max(amp) > 0]
+        if orders:
+            text += f", encoder harmonics {', '.join(str(k) for k in orders)}"
+    if temps is not None:
+        lo, hi = min(temps), max(temps)
+        at = f"{lo:g} C" if lo == hi else f"{lo:g} .. {hi:g} C"
+        text += f", links at {at} " + (
+            "(its thermal profile scales the lengths)"
+            if truth.thermal is not None
+            else "(no thermal profile: the lengths of 20 C)"
+        )
     return text
 
 

@@ -111,6 +111,9 @@ class Log(Recorded):
         """
         return column(self.table, name, kind)
 
+    def row_temperatures(self) -> FloatArray | None:
+        return self.temperatures_c()
+
     def temperatures_c(self) -> FloatArray | None:
         """The device's link temperatures (n, N) in degC, NaN where a sample has no
         reading; None for a log without the columns (written before issue 27).

@@ -247,6 +247,14 @@ def link_temperatures(
             )
         entries["temperature"] = f"{span_text([lo, hi])} ({origin})"
         return temps, entries
+    in_force = {p.param_set.crc32: p.param_set for p in m.labels or ()}
+    if em is None and in_force and all(ps.thermal for ps in in_force.values()):
+        crcs = ", ".join(ps.crc_hex for ps in in_force.values())
+        entries["temperature"] = (
+            f"{span_text([lo, hi])} ({origin}; compensated by the thermal block of the "
+            f"parameter set in force, {crcs})"
+        )
+        return temps, entries
     why = "no --params with cte_per_k" if em is None else f"{source} has no cte_per_k"
     entries["temperature"] = f"{span_text([lo, hi])} ({origin}; not compensated: {why})"
     return None, entries

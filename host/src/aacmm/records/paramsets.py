@@ -23,7 +23,11 @@ A set with encoder angle harmonics (issue 27, ``aacmm params set`` of a file
 with an ``[errmodel]`` table) adds ``errmodel`` beside ``params``: the
 parameter file's table, exactly the wire's values, so the entry's CRC is the
 device's; :meth:`ParamSetRecord.points` (and every recomputed point) applies
-it. A thermal block is not recorded yet (refused in one line).
+it. A set with the thermal block (issue 27: link CTEs and reference
+temperatures, a device that reads its link temperatures) records them there
+too (``cte_per_k``, ``tref_c``): its points are recomputed at each row's link
+temperatures, the device's readings the row carries
+(:meth:`aacmm.records.Recorded.points_mm`).
 """
 
 from __future__ import annotations
@@ -71,20 +75,29 @@ class ParamSetRecord:
     def __post_init__(self) -> None:
         if isinstance(self.model, Arm) and self.model.is_paper_shape:
             object.__setattr__(self, "model", Params.from_arm(self.model))  # one form per set
-        if self.errors is not None and not any(self.errors.harmonics):
-            object.__setattr__(self, "errors", None)  # one form: no harmonics, no error model
+        if self.errors is not None and not any(self.errors.harmonics) and not self.thermal:
+            object.__setattr__(self, "errors", None)  # one form: no error terms, no error model
 
-    def points(self, theta: Any) -> FloatArray:
+    @property
+    def thermal(self) -> bool:
+        """The set has the thermal block: its points depend on the link temperatures."""
+        from aacmm.records.paramfile import has_thermal
+
+        return self.errors is not None and has_thermal(self.errors)
+
+    def points(self, theta: Any, temp_c: Any = None) -> FloatArray:
         """Probe points (n, 3) of joint readings ``theta`` (n, N) in double precision,
-        as the device computes them with this set: its arm and its error model."""
+        as the device computes them with this set: its arm and its error model, at the
+        link temperatures ``temp_c`` (degC, (N,) or (n, N); None: the reference ones,
+        where a thermal block scales nothing)."""
         if self.errors is None:
             return Model(self.model).points(theta)
-        return errmodel_points(Model(self.model), self.errors, theta)
+        return errmodel_points(Model(self.model), self.errors, theta, temp_c)
 
     def errmodel_text(self) -> str:
         """The set's error model in words (:func:`errmodel_text`)."""
         ks = self.errors.harmonics if self.errors is not None else ()
-        return errmodel_text(tuple(len(h) for h in ks))
+        return errmodel_text(tuple(len(h) for h in ks), self.thermal)
 
     def errmodel_json(self) -> dict[str, Any] | None:
         """The set's ``errmodel`` entry (a parameter file's ``[errmodel]`` table), or None."""
@@ -141,20 +154,11 @@ class ParamSetRecord:
     def from_device(cls, ps: ParamSet) -> ParamSetRecord:
         """From a device's GET_PARAMS answer (CRC computed as the device does).
 
-        Any arm model (4 to 7 joints) with its encoder harmonics (issue 27:
-        :attr:`errors`, exactly the wire's values).
-
-        Raises:
-            RecordError: the set carries a thermal block, which logs and
-                sessions do not hold yet.
+        Any arm model (4 to 7 joints) with its encoder harmonics and its thermal
+        block (issue 27: :attr:`errors`, exactly the wire's values).
         """
-        if ps.cte:
-            raise RecordError(
-                "the device's parameter set carries a thermal block: logs and sessions do "
-                "not hold it yet"
-            )
         crc = param_set_crc32(ps)
-        errors = error_model(ps) if ps.harm_cos else None
+        errors = error_model(ps) if ps.harm_cos or ps.cte else None
         if ps.is_paper_shape:
             params, encoders = ps.to_core()
             return cls(crc, params, encoders, errors)
@@ -243,16 +247,14 @@ def _with_errmodel_json(ps: ParamSet, value: Any, where: str) -> ParamSet:
     """``ps`` with a sidecar entry's ``errmodel`` (the wire's units, as the device held it).
 
     Raises:
-        RecordError: a bad table, thermal keys, or values the wire cannot carry.
+        RecordError: a bad table, or values the wire cannot carry.
     """
-    from aacmm.records.paramfile import ParamFileError, errmodel_from_mapping, has_thermal
+    from aacmm.records.paramfile import ParamFileError, errmodel_from_mapping
 
     try:
         em = errmodel_from_mapping(value, ps.joints, where)
     except ParamFileError as exc:
         raise RecordError(str(exc)) from None
-    if has_thermal(em):
-        raise RecordError(f"{where}: errmodel: logs and sessions hold no thermal block")
     try:
         return with_error_model(ps, em)
     except ValueError as exc:

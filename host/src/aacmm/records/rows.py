@@ -119,6 +119,33 @@ class Recorded:
                 ) from None
         return out
 
+    def row_temperatures(self) -> FloatArray | None:
+        """The device's link temperatures (n, N) of the rows, degC (NaN: no reading),
+        or None when the rows carry none (sessions and logs override this)."""
+        return None
+
+    def _thermal_points(
+        self, ps: ParamSetRecord, theta: FloatArray, rows: npt.NDArray[np.intp]
+    ) -> FloatArray:
+        """Rows taken with a set whose thermal block the device applied: each at its own
+        link temperatures (a row without all N readings has no point: NaN, as the
+        device gave none)."""
+        temps = self.row_temperatures()
+        if temps is None:
+            raise RecordError(
+                f"{self.path}: taken with parameter set {ps.crc_hex}, whose thermal block the "
+                "device applied at its link temperatures, but the rows carry none"
+            )
+        t = temps[rows]
+        out = np.full((len(rows), 3), np.nan)
+        ok = np.isfinite(t).all(axis=1)
+        if ok.any():
+            try:
+                out[ok] = ps.points(theta[rows][ok], t[ok])
+            except KinematicsError as exc:
+                raise RecordError(f"{self.path}: {exc}") from None
+        return out
+
     def points_mm(
         self,
         params: Params | Arm | None = None,
@@ -127,8 +154,9 @@ class Recorded:
     ) -> FloatArray:
         """Probe points (n, 3) recomputed from the counts in double precision.
 
-        Each row uses the kinematic parameters (and encoder harmonics) of its own set
-        in force, or
+        Each row uses the kinematic parameters (and encoder harmonics; with a thermal
+        block, at the row's own link temperatures, :meth:`row_temperatures`) of its own
+        set in force, or
         ``params`` for every row if given (e.g. a calibrated set); the encoder
         configuration is always the row's own. ``errmodel``: the readings
         corrected and the lengths scaled by this error model instead of the set's
@@ -150,7 +178,9 @@ class Recorded:
         out = np.empty((len(self), 3), dtype=np.float64)
         for ps, rows in self._groups():
             if errmodel is None:
-                if params is None:
+                if params is None and ps.thermal:
+                    out[rows] = self._thermal_points(ps, theta, rows)
+                elif params is None:
                     out[rows] = ps.points(theta[rows])  # with the set's error model, if any
                 else:
                     out[rows] = Model(params).points(theta[rows])

@@ -85,6 +85,9 @@ class Session(Recorded):
     def status(self) -> str:
         return str(self.meta.get("status", "unknown"))
 
+    def row_temperatures(self) -> npt.NDArray[np.float64] | None:
+        return self.device_temp_c
+
     @property
     def device(self) -> dict[str, Any] | None:
         d = self.meta.get("device")

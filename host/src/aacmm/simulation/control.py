@@ -1,7 +1,8 @@
 """Client of the simulator's control channel (``aacmm-sim --control FD``).
 
 The channel is a connected stream socket (one end inherited by the
-simulator). The host sets the encoder counts (4 to 7) and the button levels; the
+simulator). The host sets the encoder counts (4 to 7), the link temperatures and the
+button levels; the
 simulator says when a link's stream starts or stops (a capture client is
 listening) and answers ``sync`` barriers. Protocol: docs/simulator.md,
 "Control channel" (and ``firmware/ports/posix/sim_control.h``).
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import math
 import socket
 import threading
 import time
@@ -175,6 +177,23 @@ class ControlChannel:
             raise ValueError(f"4 to 7 counts expected, got {len(counts)}")
         values = [int(c) for c in counts] + [0] * max(0, 6 - len(counts))
         self._send("counts " + " ".join(str(c) for c in values))
+
+    def set_temperatures(self, temps_c: Sequence[float | None]) -> None:
+        """The link temperature sensors read ``temps_c`` (degC, one per link of the
+        device's arm, or one for every link; None: that link's sensor does not
+        answer) from now on: ``temps T1 .. Tn`` with 2 decimals (``-`` for None), six
+        or seven values (an arm of fewer links: the others read the first link's
+        value). No reply; :meth:`sync` orders it and reports a refusal."""
+        values = list(temps_c)
+        if not 1 <= len(values) <= 7:
+            raise ValueError(f"1 to 7 link temperatures expected, got {len(values)}")
+        for t in values:
+            if t is not None and not (math.isfinite(t) and -40.0 <= t <= 85.0):
+                raise ValueError(f"link temperature {t!r} outside -40 .. 85 degC")
+        if 1 < len(values) < 6:
+            values += [values[0]] * (6 - len(values))
+        words = ["-" if t is None else f"{t:.2f}" for t in values]
+        self._send("temps " + " ".join(words))
 
     def set_buttons(self, mask: int, timeout: float = DEFAULT_TIMEOUT_S) -> None:
         """Set the button levels (bit i = button i held) and wait until the device saw them."""

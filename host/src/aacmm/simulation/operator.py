@@ -12,7 +12,9 @@ What is true and what is measured at a probed point:
 
 1. the tip is put on ``target + probing noise`` (the truth's ``probing``
    sigma, isotropic, a fresh draw per press) by inverse kinematics on the
-   true model (:mod:`aacmm.simulation.ik`), to within 1e-9 mm;
+   true model (:mod:`aacmm.simulation.ik`) at the links' temperatures
+   (``temperatures_c``: the truth's thermal profile scales its lengths), to
+   within 1e-9 mm;
 2. the counts are the true encoders' readings of those angles: eccentricity
    plus a fresh draw of encoder noise for every update sent
    (:meth:`Truth.counts`); the press is taken with the counts in force;
@@ -46,6 +48,7 @@ from aacmm.errors import AacmmError
 from aacmm.protocol import Button
 from aacmm.simulation.articulation import Approach
 from aacmm.simulation.ik import ARM_LIMITS, Arm, JointLimits, solve, wrap
+from aacmm.simulation.thermal import params_at
 from aacmm.simulation.truth import Truth
 
 FloatArray = npt.NDArray[np.float64]
@@ -167,6 +170,7 @@ class Operator:
         limits: JointLimits = ARM_LIMITS,
         start: npt.ArrayLike | None = None,
         stop: threading.Event | None = None,
+        temperatures_c: Sequence[float] | None = None,
     ) -> None:
         if limits.joints != truth.joints:
             raise ValueError(
@@ -174,7 +178,15 @@ class Operator:
             )
         self.chan = chan
         self.truth = truth
-        self.arm = Arm(truth.params)
+        #: the links' temperatures (degC, one per link; None: the truth's reference)
+        self.temperatures_c = None if temperatures_c is None else tuple(temperatures_c)
+        #: the true arm the poses are solved on: the truth's lengths at the links'
+        #: temperatures (its thermal profile, :func:`~aacmm.simulation.thermal.params_at`)
+        self.arm = Arm(
+            truth.params
+            if self.temperatures_c is None
+            else params_at(truth.params, truth.thermal, self.temperatures_c)
+        )
         self.rng = rng
         self.pace = pace
         self.limits = limits

@@ -6,9 +6,10 @@ tref_i))``, the C core's thermal model (docs/kinematics.md, "Error model").
 A :class:`ThermalProfile` is the truth of it: per link a material, its true
 coefficient of thermal expansion (1/K) and the reference temperature at which
 the truth's lengths hold (20 degC). :func:`true_points` gives the true probe
-point of a :class:`~aacmm.simulation.truth.Truth` at link temperatures; the
-device and its protocol carry no temperatures yet, so no simulated reading
-depends on it.
+point of a :class:`~aacmm.simulation.truth.Truth` at link temperatures, and
+:func:`params_at` its arm with the lengths at them (what the simulated
+operator solves its poses on: ``aacmm sim --truth ... --temperature C``, the
+device told the same temperatures over the control channel).
 
 Materials (:data:`MATERIALS`, docs/simulator.md "Thermal expansion"): the
 nominal CTE and the range a random profile draws from, uniform:
@@ -32,7 +33,8 @@ Pure: no printing, no files.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
@@ -180,6 +182,42 @@ def profile_from_table(table: dict[str, Any], n: int) -> ThermalProfile:
         return ThermalProfile(tuple(material), values["cte_per_k"], values["tref_c"])
     except ValueError as exc:
         raise ValueError(f"thermal: {exc}") from None
+
+
+def params_at(
+    params: Params | Arm, profile: ThermalProfile | None, temp_c: Sequence[float]
+) -> Params | Arm:
+    """``params`` (a truth's, at its reference temperatures) with every length of link
+    i scaled by ``1 + cte_i (T_i - tref_i)`` at the link temperatures ``temp_c`` (degC,
+    one per link): ``d_i`` and ``a_i``, the tip (``l`` or the tip vector) with the
+    last link. Without a profile the lengths are those of every temperature.
+
+    Raises:
+        ValueError: not one temperature per link, or one outside -40 .. 85 degC.
+    """
+    if profile is None:
+        return params
+    temps = [float(t) for t in temp_c]
+    if len(temps) != profile.links:
+        raise ValueError(f"need {profile.links} link temperatures, got {len(temps)}")
+    if not all(math.isfinite(t) and -40.0 <= t <= 85.0 for t in temps):
+        raise ValueError("link temperatures must be within -40 .. 85 degC")
+    k = [
+        1.0 + a * (t - r) for a, t, r in zip(profile.cte_per_k, temps, profile.tref_c, strict=True)
+    ]
+    if isinstance(params, Params):
+        return Params(
+            params.theta_offset_rad,
+            params.alpha_rad,
+            tuple(d * s for d, s in zip(params.d_mm, k, strict=True)),
+            tuple(a * s for a, s in zip(params.a_mm, k, strict=True)),
+            params.l_mm * k[-1],
+        )
+    joints = tuple(
+        replace(j, d_mm=j.d_mm * s, a_mm=j.a_mm * s) for j, s in zip(params.joints, k, strict=True)
+    )
+    tip = (params.tip_mm[0] * k[-1], params.tip_mm[1] * k[-1], params.tip_mm[2] * k[-1])
+    return replace(params, joints=joints, tip_mm=tip)
 
 
 def true_points(
