@@ -220,8 +220,10 @@ typedef enum {
 /* Payload sizes in bytes. N joints (4..7), P parameters (Jacobian columns,
  * P = 4N + B + T, aacmm/kinematics.h), S = sum of the joints' encoder
  * harmonics K_i (0..4 each, so S <= 4N), H = 1 with the thermal block, else
- * 0. Every size is at most AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES
- * (509). */
+ * 0; content is the AACMM_CONTENT_* byte. Every size a message can have is
+ * at most AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES (509): the one
+ * combination beyond it, a sample of N 7, P 37 with temperatures and
+ * Jacobian (517), is refused (AACMM_SAMPLE_MAX_BYTES). */
 #define AACMM_PARAM_SET_HEADER_BYTES 8u
 #define AACMM_PARAM_SET_BYTES(n, p, s, h)                                                   \
     (AACMM_PARAM_SET_HEADER_BYTES + 8u * (p) + 9u * (n) + 4u * (s) + 2u * ((n) + 1u) * (h))
