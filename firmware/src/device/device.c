@@ -350,6 +350,7 @@ aacmm_status_t aacmm_device_diag(const aacmm_device_t *dev, aacmm_msg_diag_t *di
         diag->joint[i].faults = on ? j->faults : 0u;
         diag->joint[i].warnings = on ? j->warnings : 0u;
     }
+    diag->temp_faults = 0u; /* protocol version 4: no temperature readings counted yet */
     return AACMM_OK;
 }
 
@@ -657,8 +658,7 @@ static int serial_send_droppable(aacmm_device_t *dev, const aacmm_msg_t *msg)
                                     : &msg->u.sample;
     size_t need = AACMM_PROTO_HEADER_BYTES +
                   (msg->type == (uint8_t)AACMM_MSG_TRIGGER_EVT ? AACMM_TRIGGER_EXTRA_BYTES : 0u) +
-                  AACMM_SAMPLE_BYTES((size_t)smp->joints, (size_t)smp->params,
-                                     (smp->content & AACMM_CONTENT_JACOBIAN) != 0u);
+                  AACMM_SAMPLE_BYTES((size_t)smp->joints, (size_t)smp->params, smp->content);
     size_t n = 0u;
     uint8_t hdr[TXQ_HDR];
     uint32_t t = now_ms32(now_us(dev));
