@@ -113,11 +113,16 @@ class FakeDevice:
         self._stream_thread: threading.Thread | None = None
         self.stream_rate = 0
         self.stream_jacobian = False
+        self.stream_temps = False
+        #: the link temperatures its sensors read (wire units), None: no sensors
+        self.temps: tuple[int, ...] | None = None
         self._evt_seq = 0
 
     # ------------------------------------------------------------ samples
 
-    def make_sample(self, jacobian: bool = False, seq: int | None = None) -> Sample:
+    def make_sample(
+        self, jacobian: bool = False, seq: int | None = None, temps: bool = False
+    ) -> Sample:
         with self._lock:
             if seq is None:
                 seq = self._sample_seq
@@ -129,6 +134,7 @@ class FakeDevice:
             point_100nm=fake_point(self.counts),
             status=0x1 | (0x8 if self.params == DEFAULT_PARAMS else 0),
             jacobian=fake_jacobian(self.counts) if jacobian else None,
+            temp=self.temps if temps else None,
         )
 
     def _evt(self, t: MsgType, payload: Sample | Trigger) -> Message:
@@ -136,7 +142,7 @@ class FakeDevice:
         return Message(t, self._evt_seq, payload)
 
     def press(self, button: int = 0, pressed: bool = True) -> Trigger:
-        trig = Trigger(button, pressed, self.make_sample())
+        trig = Trigger(button, pressed, self.make_sample(temps=self.stream_temps))
         self.emit(self._evt(MsgType.TRIGGER_EVT, trig))
         return trig
 
@@ -149,7 +155,7 @@ class FakeDevice:
                 self._stream_stop.wait(t_next - now)
                 continue
             t_next += period
-            s = self.make_sample(jacobian)
+            s = self.make_sample(jacobian, temps=self.stream_temps)
             if s.seq in self.faults.skip_seqs:
                 continue
             self.emit(self._evt(MsgType.SAMPLE_EVT, s))
@@ -219,7 +225,7 @@ class FakeDevice:
                 fw_major=0,
                 fw_minor=1,
                 fw_patch=2,
-                build_flags=0x4 | 0x8 | 0x10,
+                build_flags=0x4 | 0x8 | 0x10 | (0x20 if self.temps is not None else 0),
                 param_crc32=param_crc(self.params),
                 param_source=0 if self.params == DEFAULT_PARAMS else 1,
                 storage_state=0 if self.stored is not None else 1,
@@ -242,7 +248,9 @@ class FakeDevice:
             return Message(rsp, seq, ParamCrc(param_crc(self.params)))
         if t == MsgType.MEASURE_REQ:
             assert isinstance(p, MeasureRequest)
-            return Message(rsp, seq, self.make_sample(p.jacobian))
+            if p.temperatures and self.temps is None:
+                return Message(MsgType.ERROR_RSP, seq, ErrorReply(int(Status.ERR_UNSUPPORTED), t))
+            return Message(rsp, seq, self.make_sample(p.jacobian, temps=p.temperatures))
         if t == MsgType.COMPUTE_REQ:
             assert isinstance(p, ComputeRequest)
             x, y, z = fake_point(p.counts)
@@ -250,10 +258,14 @@ class FakeDevice:
                 status=1,
                 point_mm=(x * 1e-4, y * 1e-4, z * 1e-4),
                 jacobian=fake_jacobian(p.counts) if p.jacobian else None,
+                temperatures=p.temp is not None,
             )
             return Message(rsp, seq, res)
         if t == MsgType.STREAM_START_REQ:
             assert isinstance(p, Stream)
+            if p.temperatures and self.temps is None:
+                return Message(MsgType.ERROR_RSP, seq, ErrorReply(int(Status.ERR_UNSUPPORTED), t))
+            self.stream_temps = p.temperatures
             self.start_stream(p.rate_hz, p.jacobian)
             return Message(rsp, seq, p)
         if t == MsgType.STREAM_STOP_REQ:

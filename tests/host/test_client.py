@@ -457,3 +457,39 @@ def test_env_var_not_needed_when_url_given(monkeypatch: pytest.MonkeyPatch) -> N
     with pytest.raises(InitError):
         connect("serial:///dev/aacmm-no-such-port")
     assert os.environ["AACMM_PORT"] == "bogus://x"
+
+
+# ------------------------------------------------------------------ link temperatures (issue 27)
+
+
+def test_measure_stream_and_compute_with_temperatures(client: Client, fake: Fake) -> None:
+    """The wire carries the link temperatures both ways: samples of a device with
+    sensors (measure, stream, trigger), COMPUTE_REQ's temperatures rounded to 0.01 degC
+    half away from zero; a device without sensors refuses the content."""
+    from aacmm.client.connection import wire_temperatures
+    from aacmm.client.devstate import has_temperatures, temperature_text
+    from aacmm.errors import DeviceError
+
+    dev = fake.device
+    assert not has_temperatures(client.info())
+    with pytest.raises(DeviceError, match="ERR_UNSUPPORTED"):
+        client.measure(temperatures=True)
+    assert temperature_text(client.info(), None).startswith("no sensors")
+    dev.temps = (2000, 2001, -150, 8500, -32768, 2800)
+    assert has_temperatures(client.info())
+    s = client.measure(temperatures=True)
+    assert s.temp == dev.temps and client.measure().temp is None
+    with client.stream(100, temperatures=True) as st:
+        got = [next(st) for _ in range(5)]
+        dev.press(0)
+        trig = client.wait_trigger(2.0)
+    if isinstance(fake, SerialFakeServer):  # CAN sample frames carry no temperatures
+        assert all(x.temp == dev.temps for x in got) and trig.sample.temp == dev.temps
+    r = client.compute(dev.counts, temperatures_c=[28.0, 20.125, -0.005, 85.0, -40.0, 19.994])
+    assert r.temperatures
+    assert dev.requests[-1].payload.temp == (2800, 2013, -1, 8500, -4000, 1999)
+    assert not client.compute(dev.counts).temperatures
+    assert dev.requests[-1].payload.temp is None
+    for bad in ([28.0] * 5, [90.0] * 6, [float("nan")] * 6):
+        with pytest.raises(ValueError):
+            wire_temperatures(bad, 6)

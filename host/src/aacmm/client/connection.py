@@ -151,7 +151,7 @@ def wire_temperatures(temps_c: Sequence[float], joints: int) -> tuple[int, ...]:
     for i, t in enumerate(values):
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
             raise ValueError(f"link {i + 1}'s temperature must be a finite number of degC")
-        q = math.floor(abs(t) / TEMP_UNIT_C + 0.5)
+        q = math.floor(round(abs(t) / TEMP_UNIT_C, 6) + 0.5)
         w = int(-q if t < 0 else q)
         if not TEMP_MIN_WIRE <= w <= TEMP_MAX_WIRE:
             raise ValueError(f"link {i + 1}'s temperature {t:g} C is outside -40 .. 85 C")
