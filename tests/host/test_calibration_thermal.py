@@ -18,9 +18,10 @@ afterwards.
 - without temperatures (or ``thermal=False``) the calibration is the one of
   before, bit for bit;
 - ``aacmm calibrate`` on session files stating 15 and 25 degC writes the
-  library's CTEs into the file's [errmodel] table and says params set refuses
-  it; at 19 and 21 degC, or with a session stating none, it estimates none
-  and says why; ``--thermal on`` without temperatures: exit 2, one line.
+  library's CTEs into the file's [errmodel] table and says params set sends
+  it only to a device that reads its link temperatures; at 19 and 21 degC,
+  or with a session stating none, it estimates none and says why;
+  ``--thermal on`` without temperatures: exit 2, one line.
 """
 
 from __future__ import annotations
@@ -177,16 +178,16 @@ def test_calibrate_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     text = capsys.readouterr().out
     assert "link CTEs estimated from link temperatures spanning 10.0 degC" in text
     assert "cte2" in text and "ppm/K" in text
-    assert "aacmm params set refuses the file (the device takes no thermal block)" in text
+    assert "aacmm params set sends them to a device that reads its link temperatures" in text
     *_, em = load_param_file_errmodel(out)
     # the library on the same data (the study's observations of the same sessions)
     lib = calibrate(observations(aluminium_truth(3), 1003, (15.0, 25.0)), Params())
     assert isinstance(lib.params, CalibParams)
     assert np.allclose(em.cte_per_k, lib.params.errors.cte_per_k, rtol=1e-9, atol=1e-15)
     assert em.tref_c == (20.0,) * 6
-    # params set keeps refusing a thermal file (says so in its check)
+    # params set sends a thermal file only to a device with sensors (its check says so)
     assert main(["params", "set", str(out), "--check"]) == 0
-    assert "params set refuses it" in capsys.readouterr().out
+    assert "only a device that reads its link temperatures takes it" in capsys.readouterr().out
 
 
 def test_calibrate_command_without_estimate(

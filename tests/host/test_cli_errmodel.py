@@ -8,7 +8,8 @@ points (:func:`aacmm.errmodel.points` of the file's error model, double
 precision) within the float path's class, and the set survives a restart of
 the simulator on the same storage file; a log records the set with its error
 model and recomputes the device's points. A file with thermal expansion is
-refused in one line, exit 2, and nothing reaches the device.
+refused by a device without link temperature sensors in one line, exit 2, and
+nothing reaches the device.
 """
 
 from __future__ import annotations
@@ -170,7 +171,7 @@ def test_thermal_expansion_is_refused_before_anything_is_sent(tmp_path: Path) ->
         p = run("params", "set", str(pfile), "--check")  # a valid file, not for the device
         assert p.returncode == exitcodes.OK, p.stderr
         assert "thermal expansion CTE per link 23e-6 /K" in p.stdout
-        assert "params set refuses it" in p.stdout
+        assert "only a device that reads its link temperatures takes it" in p.stdout
         assert params_get(s.url)["param_crc32"] == crc0  # the device's set is unchanged
         # coefficients the wire cannot carry (> 3.2767 mrad): one line, nothing sent
         data["errmodel"] = harmonics_table(4)

@@ -108,8 +108,8 @@ def register(sub: Any) -> None:
         "sessions' stated link temperatures (aacmm capture --temperature): auto (default; "
         "off with --probe) when they span at least 5 degC, on whatever the span (every point "
         "must state one), off never; written to the file's [errmodel] table (cte_per_k, "
-        "tref_c), which aacmm params set refuses (the device takes no thermal block) and "
-        "aacmm verify --params applies",
+        "tref_c), which aacmm params set sends to a device that reads its link temperatures "
+        "(its thermal block) and aacmm verify --params applies",
     )
     p.add_argument(
         "--validate",

@@ -135,8 +135,8 @@ def thermal_note(args: argparse.Namespace, data: Any, res: Any) -> str:
     if em is not None and em.cte_columns:
         why += (
             "written to the file's [errmodel] table (cte_per_k, tref_c): aacmm verify "
-            "--params applies them; aacmm params set refuses the file (the device takes no "
-            "thermal block)"
+            "--params applies them; aacmm params set sends them to a device that reads its link "
+            "temperatures (its thermal block)"
         )
     if not why:
         return ""
@@ -285,8 +285,9 @@ def write_outputs(
     with_em = "" if em is None else " and its [errmodel] table"
     if em is not None and em.cte_columns:
         print(
-            f"wrote {args.output} (with thermal expansion: aacmm params set refuses it; "
-            f"aacmm verify --params {args.output} applies it)"
+            f"wrote {args.output} (with thermal expansion: aacmm params set sends it to a "
+            f"device that reads its link temperatures; aacmm verify --params {args.output} "
+            "applies it)"
         )
     else:
         print(f"wrote {args.output} (load it{with_em} with: aacmm params set {args.output} --save)")

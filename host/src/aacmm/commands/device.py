@@ -294,19 +294,13 @@ def errmodel_text(ps: ParamSet) -> str:
 
 
 def _with_file_errmodel(file: str, ps: ParamSet, em: Any) -> ParamSet:
-    """``ps`` with the file's error model in its wire fields; UsageError (exit 2,
-    nothing sent) for thermal expansion (the device takes no thermal block yet) or
-    a value the wire cannot carry."""
+    """``ps`` with the file's error model in its wire fields (its thermal expansion as
+    the thermal block); UsageError (exit 2, nothing sent) for a value the wire cannot
+    carry."""
     from aacmm.protocol.errwire import with_error_model
-    from aacmm.records.paramfile import has_thermal
 
     if em is None:
         return ps
-    if has_thermal(em):
-        raise UsageError(
-            f"{file}: its [errmodel] table has thermal expansion (cte_per_k, tref_c): the "
-            "device reads no link temperatures and refuses a thermal block, nothing sent"
-        )
     try:
         return with_error_model(ps, em)
     except ValueError as exc:
@@ -314,6 +308,7 @@ def _with_file_errmodel(file: str, ps: ParamSet, em: Any) -> ParamSet:
 
 
 def cmd_params_set(args: argparse.Namespace) -> int:
+    from aacmm.client.devstate import has_temperatures
     from aacmm.protocol import ParamSource
     from aacmm.records.paramfile import describe_errmodel, has_thermal, load_param_file_errmodel
 
@@ -325,14 +320,10 @@ def cmd_params_set(args: argparse.Namespace) -> int:
             else ""
         )
         shape = "" if ps.is_paper_shape else f", {ps.joints} joints, {ps.n_params} parameters"
-        if em is not None and has_thermal(em):  # valid, but not for the device (yet)
-            harm = (
-                f"; [errmodel] {describe_errmodel(em)} (params set refuses it: the device "
-                "reads no link temperatures and takes no thermal block)"
-            )
-        else:
-            ps = _with_file_errmodel(args.file, ps, em)
-            harm = f"; error model: {errmodel_text(ps)}" if em is not None else ""
+        ps = _with_file_errmodel(args.file, ps, em)
+        harm = f"; error model: {describe_errmodel(em)}" if em is not None else ""
+        if em is not None and has_thermal(em):
+            harm += " (only a device that reads its link temperatures takes it)"
         print(f"{args.file}: valid parameter set{shape}, crc 0x{_local_crc(ps):08x}{whose}{harm}")
         return OK
     ps = _with_file_errmodel(args.file, ps, em)
@@ -340,6 +331,12 @@ def cmd_params_set(args: argparse.Namespace) -> int:
     harm = f"; error model: {errmodel_text(ps)}" if em is not None else ""
     with device_from_args(args) as dev:
         c = dev.client
+        if em is not None and has_thermal(em) and not has_temperatures(dev.info):
+            raise UsageError(
+                f"{args.file}: its [errmodel] table has thermal expansion (cte_per_k, tref_c): "
+                "the device reads no link temperatures (no TEMPERATURES build flag) and cannot "
+                "compensate it, nothing sent"
+            )
         note = _check_arm(args.file, arm, dev.info.serial_number, args.override)
         before = c.get_params()
         change = _model_change(before, ps)

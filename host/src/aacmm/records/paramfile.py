@@ -68,8 +68,8 @@ temperatures at least 5 degC apart; ``aacmm verify --params FILE
 model with thermal expansion (:func:`has_thermal`).
 
 Only :func:`load_param_file_errmodel` reads it (``aacmm params set`` sends the
-harmonics to the device, ``--check`` shows them; the device takes no thermal
-block yet, so ``params set`` refuses a file with thermal expansion); every
+error model to the device, ``--check`` shows it; thermal expansion only to a
+device that reads its link temperatures, build flag ``TEMPERATURES``); every
 other reader refuses such a file in one line (:class:`ParamFileError`): it
 would apply the arm's parameters without the error model they were calibrated
 with.
