@@ -64,11 +64,12 @@ def capture_scenario(
     timeout: float = 280,
     can: tuple[str, int] | None = None,
     extra: tuple[str, ...] = (),
+    sim_extra: tuple[str, ...] = (),
 ) -> tuple[Path, dict[str, Any], Path]:
     """A plan captured from the simulated operator, the way a user runs it:
     ``aacmm sim --scenario PLAN --truth TRUTH --fast`` and ``aacmm capture PLAN``
     into ``folder/s``; ``params``: a parameter file loaded into the device first;
-    ``extra``: more options of ``aacmm capture``.
+    ``extra``: more options of ``aacmm capture``, ``sim_extra`` of ``aacmm sim``.
     The link is a pty (``serial://folder/arm``), or with ``can=(IFACE, NODE)``
     SocketCAN (``aacmm sim --can IFACE --node NODE``, ``socketcan://IFACE?node=NODE``).
 
@@ -88,7 +89,7 @@ def capture_scenario(
         want_url = f"socketcan://{can[0]}?node={can[1]}"
     sim = subprocess.Popen(
         [str(AACMM), "sim", "--scenario", str(plan), "--truth", truth, "--fast",
-         "--truth-out", str(truth_out), *link_args, "--report", str(report)],
+         "--truth-out", str(truth_out), *link_args, "--report", str(report), *sim_extra],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(),
     )  # fmt: skip
     try:
