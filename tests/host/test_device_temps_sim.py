@@ -47,7 +47,7 @@ PLAN = "arm-verification"
 
 def _e_uni(doc: dict[str, Any]) -> tuple[float, bool]:
     (res,) = [r for r in doc["results"] if r["key"] == "e_uni"]
-    return abs(float(res["value_mm"])), res["decision"] == "pass"
+    return abs(float(res["value_mm"])), res["verdict"] == "PASS"
 
 
 def _verify(session: Path, *extra: str) -> dict[str, Any]:

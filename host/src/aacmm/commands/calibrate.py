@@ -105,7 +105,8 @@ def register(sub: Any) -> None:
         choices=("auto", "on", "off"),
         default=None,
         help="also estimate each link's CTE (cte1..cteN, 1/K, reference 20 degC) from the "
-        "sessions' stated link temperatures (aacmm capture --temperature): auto (default; "
+        "points' link temperatures (the device's readings, else aacmm capture --temperature): "
+        "auto (default; "
         "off with --probe) when they span at least 5 degC, on whatever the span (every point "
         "must state one), off never; written to the file's [errmodel] table (cte_per_k, "
         "tref_c), which aacmm params set sends to a device that reads its link temperatures "

@@ -10,12 +10,16 @@ written), 2 for a session that cannot be verified.
 ``--params FILE`` applies the error model of FILE's ``[errmodel]`` table
 (encoder harmonics, the links' thermal expansion) to the session's raw
 counts; FILE must hold the parameter set the session was captured with.
-``--temperature C`` states the links' temperature during the session (the
-arm reads none yet); without it, the temperature each capture run states
-(``aacmm capture --temperature``, the session's ``runs``) is used. The
-lengths are scaled by FILE's CTEs at it, and the report says which
-temperature (range) and which compensation it used; a session whose runs
-state a temperature reports it even without ``--params``. Bad input (a
+Per point and link the device's link temperature wins (a session whose
+points carry them); where it read none, ``--temperature C`` (the links'
+temperature stated for the session) or else the temperature each capture run
+states (``aacmm capture --temperature``, the session's ``runs``) is used;
+a statement more than 1 degC from the readings gets one warning
+(:func:`aacmm.records.measured.link_temperatures`). The lengths are scaled by
+FILE's CTEs at them, and the report says which temperature (range) and which
+compensation it used; a session with temperatures reports them even without
+``--params`` (compensated when the set in force has the thermal block: the
+device compensated, each point is recomputed at its readings). Bad input (a
 temperature outside -40 .. 85 degC or not a number, a FILE of another set,
 without an error model, or with CTEs and a point whose temperature nobody
 stated): one line, exit status 2, nothing written.
@@ -81,9 +85,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--temperature",
         metavar="C",
-        help="the links' temperature during the session, degC (-40 .. 85; the arm measures "
-        "none yet): the lengths are scaled by --params FILE's CTEs at it (default: what "
-        "each capture run states, aacmm capture --temperature)",
+        help="the links' temperature during the session, degC (-40 .. 85), for links the "
+        "device did not read (its readings win): the lengths are scaled by --params FILE's "
+        "CTEs at it (default: what each capture run states, aacmm capture --temperature)",
     )
     add_force_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="print only the verdict line")
