@@ -244,7 +244,10 @@ def test_errmodel_thermal_table(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert got == ErrorModel(((),) * 6, cte_per_k=(23e-6,) * 6, tref_c=(20.0,) * 6)
     assert main(["params", "set", str(hand), "--check"]) == 0
     out, _ = capsys.readouterr()
-    assert "[errmodel] thermal expansion CTE per link 23e-6 /K, reference 20 degC" in out
+    assert (
+        "error model: thermal expansion CTE per link 23e-6 /K, reference 20 degC (only a "
+        "device that reads its link temperatures takes it)"
+    ) in out
     # harmonics only: written as before, no thermal keys
     harm = ErrorModel((((1e-5, -2e-6),),) + ((),) * 5)
     assert "cte_per_k" not in dump_param_set(ps, "toml", errmodel=harm)

@@ -91,6 +91,11 @@ def register(sub: Any) -> None:
         "(default: every link at 20); with --truth the true arm's lengths at them (its "
         "thermal profile) and the device's sensors read them (control channel 'temps')",
     )
+    p.add_argument(
+        "--no-temperature-sensors",
+        action="store_true",
+        help="a device without link temperature sensors (aacmm-sim --no-temperature-sensors)",
+    )
     p.add_argument("--quiet", action="store_true", help="less simulator output on stderr")
     p.add_argument(
         "--board",
@@ -136,6 +141,8 @@ def sim_args(args: argparse.Namespace) -> list[str]:
     ):
         if val is not None:
             out += [opt, str(val)]
+    if getattr(args, "no_temperature_sensors", False):
+        out.append("--no-temperature-sensors")
     if args.quiet:
         out.append("--quiet")
     return out
@@ -296,6 +303,10 @@ def cmd_sim(args: argparse.Namespace) -> int:
     from aacmm.commands import simtruth
 
     simtruth.check_args(args)
+    if args.temperature is not None and args.no_temperature_sensors:
+        raise UsageError(
+            "--temperature is what the sensors read: not with --no-temperature-sensors"
+        )
     if args.temperature is not None:  # numbers within -40 .. 85, before anything starts
         from aacmm.commands.common import link_temperature
 
