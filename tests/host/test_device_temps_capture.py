@@ -89,3 +89,13 @@ def test_live_band_warning(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
         "warning: the device's link temperatures: the links' temperature 23.4 C is 3.4 C" in err[0]
     )
     assert json.dumps(err)  # one plain line
+
+
+def test_live_view_frame_carries_the_temperatures() -> None:
+    from aacmm.core import EncoderConfig, Params
+    from aacmm.view.live import LiveFeed
+
+    feed = LiveFeed(Params(), EncoderConfig(), lambda kind, msg: None)
+    frame = feed._frame(_sample(1, (2000, NONE, 2150, 2000, 2000, 2000)), 1.7e9)
+    assert frame["temps_c"] == [20.0, None, 21.5, 20.0, 20.0, 20.0]
+    assert "temps_c" not in feed._frame(_sample(2, None), 1.7e9)

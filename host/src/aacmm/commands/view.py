@@ -292,7 +292,11 @@ def live(args: argparse.Namespace) -> int:
             stop.install()
             print(srv.url, flush=True)
             print_err(CMD, f"live from {dev.url} at {args.rate} Hz; Ctrl-C to stop")
-            stream = dev.client.stream(args.rate, timeout=args.stall)
+            from aacmm.client.devstate import has_temperatures
+
+            stream = dev.client.stream(
+                args.rate, timeout=args.stall, temperatures=has_temperatures(dev.info)
+            )
             try:
                 drain(stream, feed, stop, args.stall)
             finally:

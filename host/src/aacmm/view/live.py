@@ -280,6 +280,9 @@ class LiveFeed:
             "received": self._received,
             "frame": self.frames + 1,  # frames made so far, this one included
         }
+        temp = getattr(sample, "temp", None)
+        if temp is not None:  # the device's link temperatures, degC (None: no reading)
+            frame["temps_c"] = [None if t == -32768 else t / 100.0 for t in temp]
         cap = self._capture
         if (
             cap is not None
