@@ -176,3 +176,22 @@ def test_capture_refuses_a_temp_fault_sample(
     assert len(s) == 1 and s.points[0].temp_c == (28.0,) * 6
     events = (session / "events.csv").read_text()
     assert "no point: the temperature of link 6 was not read" in events
+
+
+def test_log_records_the_device_temperatures(tmp_path: Path) -> None:
+    """``aacmm log`` of a simulator whose sensors read 21.5 degC on every link and one
+    without sensors: the rows carry 21.50 on every link, and nothing."""
+    from aacmm.records.logs import read_log
+    from aacmm.simulation.process import SimProcess
+
+    for opts, want in ((["--temperature", "21.5"], 21.5), (["--no-temperature-sensors"], None)):
+        out = tmp_path / f"run{len(opts)}.csv"
+        with SimProcess(["--serial", "pty", "--quiet", *opts]) as sim:
+            p = run("log", str(out), "-r", "200", "-n", "50", "-q", "-p", sim.urls[0])
+        assert p.returncode == 0, p.stderr
+        t = read_log(out).temperatures_c()
+        assert t is not None and t.shape == (50, 6)
+        if want is None:
+            assert np.isnan(t).all()
+        else:
+            assert np.all(t == want)
