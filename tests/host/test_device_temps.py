@@ -10,7 +10,9 @@ verify and calibrate make of them.
   it read; readings that differ from a stated ``capture --temperature`` by more than
   1 degC win, with one warning; a thermal model and a point without readings nor a
   statement is refused in one line;
-- calibrate's per-pose temperature is the mean of the device's link readings.
+- calibrate's per-pose temperature is the mean of the device's link readings; ``aacmm
+  calibrate`` estimates the link CTEs from sessions read at 15 and 25 degC as from the
+  same sessions stated at capture.
 """
 
 from __future__ import annotations
@@ -227,3 +229,36 @@ def test_verify_with_the_device_thermal_block(
     out = capsys.readouterr().out
     assert _e_uni(out) == pytest.approx(expected, abs=1e-9)
     assert "compensated by the thermal block of the parameter set in force" in out
+
+
+def test_calibrate_thermal_from_device_readings(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two kinematic-calibration sessions of aluminium arm 3 at 15 and 25 degC whose
+    samples carry the device's readings (nothing stated): ``aacmm calibrate`` (--thermal
+    auto) estimates the link CTEs, the same as from the same sessions with the
+    temperatures stated at capture instead (tests/host/test_calibration_thermal.py)."""
+    from aacmm.cli import main
+    from aacmm.plans import load_plan
+    from aacmm.records.paramfile import load_param_file_errmodel
+    from gate_study import Sampled, record, write_session
+
+    truth = aluminium_truth(3)
+    plan = load_plan("kinematic-calibration")
+    files: dict[str, list[str]] = {"read": [], "stated": []}
+    for k, t in enumerate((15.0, 25.0)):
+        counts = sessions(plan, truth, 1003 + 100 * k, (t,))[t].counts
+        sampled = Sampled(plan, counts, record(Params()))
+        read = write_session(tmp_path / f"read{k}", sampled, 7, temp=(round(t * 100),) * 6)
+        stated = write_session(tmp_path / f"stated{k}", sampled, 7, temperature_c=t)
+        files["read"].append(str(read))
+        files["stated"].append(str(stated))
+    cte = {}
+    for kind, paths in files.items():
+        out = tmp_path / f"cal-{kind}.toml"
+        assert main(["calibrate", *paths, "-o", str(out), "-q"]) == 0
+        text = capsys.readouterr().out
+        assert "link CTEs estimated from link temperatures spanning 10.0 degC" in text
+        cte[kind] = load_param_file_errmodel(out)[2].cte_per_k
+    assert cte["read"] == pytest.approx(cte["stated"], rel=1e-12, abs=1e-15)
+    assert all(20e-6 < a < 26e-6 for a in cte["read"][1:])  # aluminium (link 1: held)
