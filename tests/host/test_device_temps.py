@@ -10,6 +10,9 @@ verify and calibrate make of them.
   it read; readings that differ from a stated ``capture --temperature`` by more than
   1 degC win, with one warning; a thermal model and a point without readings nor a
   statement is refused in one line;
+- a session taken with the data-sheet CTE in the device's parameter set (its thermal
+  block): ``aacmm verify`` without ``--params`` recomputes each point at its readings,
+  the study's compensated figure;
 - calibrate's per-pose temperature is the mean of the device's link readings; ``aacmm
   calibrate`` estimates the link CTEs from sessions read at 15 and 25 degC as from the
   same sessions stated at capture.
