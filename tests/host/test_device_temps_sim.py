@@ -195,3 +195,20 @@ def test_log_records_the_device_temperatures(tmp_path: Path) -> None:
             assert np.isnan(t).all()
         else:
             assert np.all(t == want)
+
+
+def test_a_temperature_profile_reaches_the_session(
+    tmp_path: Path, files: tuple[Path, Path, Path]
+) -> None:
+    """``aacmm sim --temperature 20:30:0.02`` (20 -> 30 degC over 1.2 s): the captured
+    points carry rising device readings, the same on every link, within the profile."""
+    from aacmm.records import read_session
+
+    truth, _, _ = files
+    ramp = ("--temperature", "20:30:0.02")
+    session, _, _ = capture_scenario(tmp_path, "probe-calibration", str(truth), sim_extra=ramp)
+    t = read_session(session).device_temp_c
+    assert t is not None and np.all(t == t[:, :1])  # every link alike
+    first = t[:, 0]
+    assert np.all(np.diff(first) >= 0) and first[-1] > first[0]
+    assert 20.0 <= first.min() and first.max() <= 30.0

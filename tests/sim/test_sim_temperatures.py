@@ -104,3 +104,39 @@ def test_control_temps_line() -> None:
     finally:
         chan.close()
         theirs.close()
+
+
+def test_operator_follows_a_temperature_profile() -> None:
+    """``aacmm sim --temperature 20:30:2`` (every link 20 -> 30 degC over 2 minutes): at
+    every probe the operator rescales the true arm to the profile's temperature then
+    (a clock the test sets) and tells the device; each probed point is the warm truth's
+    at that temperature (true_points) within 1e-9 mm."""
+    from aacmm.commands.simtruth import temperature_profile
+
+    profile = temperature_profile("20:30:2")
+    assert [profile(s) for s in (-5.0, 0.0, 60.0, 120.0, 600.0)] == [20.0, 20.0, 25.0, 30.0, 30.0]
+    truth = random_truth(9, thermal=True)
+    now = [0.0]
+    chan = RecordingChannel()
+    op = Operator(
+        chan,
+        truth,
+        np.random.default_rng(4),
+        FAST,
+        temperatures_c=[20.0] * 6,
+        temperatures_at=lambda s: [profile(s)] * 6,
+        clock=lambda: now[0],
+    )
+    home = op.arm.tip(op.theta)
+    at = []
+    for k, t_s in enumerate((0.0, 30.0, 60.0, 90.0, 120.0, 150.0)):
+        now[0] = t_s
+        target = home + np.array([40.0 * k, -20.0 * k, 10.0 * k])
+        theta, _ = op.reach(target, op.theta)
+        op.probe(target, theta, f"p{k}")
+        at.append(profile(t_s))
+    assert [p.extra["temperatures_c"] for p in op.presses] == [[t] * 6 for t in at]
+    assert chan.temperatures == [(t,) * 6 for t in (22.5, 25.0, 27.5, 30.0)]  # changes only
+    for p, t in zip(op.presses, at, strict=True):
+        hot = true_points(truth, p.theta_rad[None, :], np.full(6, t))[0]
+        assert np.linalg.norm(hot - p.probed_mm) < 1e-9

@@ -89,7 +89,8 @@ def register(sub: Any) -> None:
         metavar="C[,C...]",
         help="the links' temperatures, degC (-40 .. 85): one for every link or one per link "
         "(default: every link at 20); with --truth the true arm's lengths at them (its "
-        "thermal profile) and the device's sensors read them (control channel 'temps')",
+        "thermal profile) and the device's sensors read them (control channel 'temps'), "
+        "or a profile START:END:MINUTES (every link, linear, followed at every probe)",
     )
     p.add_argument(
         "--no-temperature-sensors",
@@ -307,7 +308,11 @@ def cmd_sim(args: argparse.Namespace) -> int:
         raise UsageError(
             "--temperature is what the sensors read: not with --no-temperature-sensors"
         )
-    if args.temperature is not None:  # numbers within -40 .. 85, before anything starts
+    if args.temperature is not None and ":" in args.temperature:
+        if not simtruth.wants_truth(args):
+            raise UsageError("a --temperature profile START:END:MINUTES needs --truth")
+        simtruth.temperature_profile(args.temperature)  # refused before anything starts
+    elif args.temperature is not None:  # numbers within -40 .. 85, before anything starts
         from aacmm.commands.common import link_temperature
 
         for part in args.temperature.split(","):

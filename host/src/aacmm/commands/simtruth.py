@@ -241,7 +241,12 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
             "--temperature",  # the control channel's temps, below
         ),
     )
-    temps = link_temperatures(getattr(args, "temperature", None), truth.joints)
+    profile = temperature_profile(getattr(args, "temperature", None))
+    temps = (
+        [profile(0.0)] * truth.joints
+        if profile is not None
+        else link_temperatures(getattr(args, "temperature", None), truth.joints)
+    )
     base += ["--serial-number", str(truth.device_serial)]  # each true arm is its own device
     chan, fd = ControlChannel.pair()
     old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
@@ -270,7 +275,16 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
         note_others(others)
         rng = np.random.default_rng(args.seed or 0)
         pace = FAST if args.fast else Pace()
-        op = Operator(chan, truth, rng, pace, limits=limits, stop=stop, temperatures_c=temps)
+        op = Operator(
+            chan,
+            truth,
+            rng,
+            pace,
+            limits=limits,
+            stop=stop,
+            temperatures_c=temps,
+            temperatures_at=None if profile is None else (lambda s: [profile(s)] * truth.joints),
+        )
 
         def work() -> None:
             try:
@@ -309,6 +323,39 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
     if died and not received:
         raise AacmmError(f"the simulator ended by itself (exit status {rc})")
     return OK
+
+
+def temperature_profile(text: str | None) -> Any:
+    """``--temperature START:END:MINUTES``: every link from START to END degC, linearly
+    over MINUTES from the operator's start, then at END; a function of the seconds
+    since then. None for another form (a constant temperature) or none.
+
+    Raises:
+        UsageError: START or END not a temperature within -40 .. 85, MINUTES not > 0.
+    """
+    from aacmm.commands.common import link_temperature
+
+    if text is None or ":" not in text:
+        return None
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise UsageError(f"--temperature {text}: a profile is START:END:MINUTES")
+    start = link_temperature(parts[0], "--temperature START")
+    end = link_temperature(parts[1], "--temperature END")
+    try:
+        minutes = float(parts[2])
+    except ValueError:
+        minutes = math.nan
+    if not (math.isfinite(minutes) and 0 < minutes <= 24 * 60):
+        raise UsageError(f"--temperature {text}: MINUTES must be in (0, 1440]")
+    assert start is not None and end is not None
+    span_s = minutes * 60.0
+
+    def at(seconds: float) -> float:
+        f = min(max(seconds / span_s, 0.0), 1.0)
+        return start + (end - start) * f
+
+    return at
 
 
 def truth_text(truth: Any, temps: list[float] | None = None) -> str:

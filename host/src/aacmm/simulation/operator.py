@@ -99,10 +99,15 @@ class RecordingChannel:
     counts: tuple[int, ...] = ()
     presses: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     updates: int = 0
+    temperatures: list[tuple[float | None, ...]] = field(default_factory=list)
+    """Every ``temps`` the operator sent, in order."""
 
     @property
     def closed(self) -> bool:
         return False
+
+    def set_temperatures(self, temps_c: Sequence[float | None]) -> None:
+        self.temperatures.append(tuple(temps_c))
 
     def set_counts(self, counts: Sequence[int]) -> None:
         self.counts = tuple(int(c) for c in counts)
@@ -171,6 +176,8 @@ class Operator:
         start: npt.ArrayLike | None = None,
         stop: threading.Event | None = None,
         temperatures_c: Sequence[float] | None = None,
+        temperatures_at: Callable[[float], Sequence[float]] | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         if limits.joints != truth.joints:
             raise ValueError(
@@ -187,6 +194,11 @@ class Operator:
             if self.temperatures_c is None
             else params_at(truth.params, truth.thermal, self.temperatures_c)
         )
+        #: a temperature profile: the links' temperatures (degC) ``s`` seconds after the
+        #: operator started; followed at every probe (the arm rescaled, the device told)
+        self.temperatures_at = temperatures_at
+        self._clock = clock
+        self._t0 = clock()
         self.rng = rng
         self.pace = pace
         self.limits = limits
@@ -299,6 +311,7 @@ class Operator:
         ``target + probing noise`` (plus ``misprobe_mm`` in a random direction,
         a deliberate bad point), dwell, press, hold, release, back off.
         """
+        self.follow_temperatures()
         target = np.asarray(target_mm, dtype=np.float64).reshape(3)
         th = np.asarray(theta, dtype=np.float64).reshape(self.truth.joints)
         stylus = self.arm.stylus(th)
@@ -326,10 +339,27 @@ class Operator:
             misprobe_mm=misprobe_mm,
             slot=slot,
         )
+        if self.temperatures_c is not None:
+            press.extra["temperatures_c"] = list(self.temperatures_c)
         self.presses.append(press)
         if not self.pace.fast:
             self.move_to(back, duration=self.pace.approach_s)
         return press
+
+    def follow_temperatures(self) -> None:
+        """With a profile (:attr:`temperatures_at`): the links at its temperatures now
+        (to 0.01 degC): the true arm's lengths rescaled and the device's sensors told,
+        when they changed."""
+        if self.temperatures_at is None:
+            return
+        now = tuple(round(float(t), 2) for t in self.temperatures_at(self._clock() - self._t0))
+        if now == self.temperatures_c:
+            return
+        self.temperatures_c = now
+        self.arm = Arm(params_at(self.truth.params, self.truth.thermal, now))
+        send = getattr(self.chan, "set_temperatures", None)
+        if send is not None:
+            send(list(now))
 
     def undo(self, label: str = "undo") -> Press:
         """Press and release the undo button (1) where the arm is."""
