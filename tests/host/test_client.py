@@ -466,8 +466,8 @@ def test_measure_stream_and_compute_with_temperatures(client: Client, fake: Fake
     """The wire carries the link temperatures both ways: samples of a device with
     sensors (measure, stream, trigger), COMPUTE_REQ's temperatures rounded to 0.01 degC
     half away from zero; a device without sensors refuses the content."""
-    from aacmm.client.connection import wire_temperatures
     from aacmm.client.devstate import has_temperatures, temperature_text
+    from aacmm.client.options import wire_temperatures
     from aacmm.errors import DeviceError
 
     dev = fake.device

@@ -56,7 +56,7 @@ def test_log_rows_and_reader(tmp_path: Path) -> None:
 
 
 def test_no_point_reason() -> None:
-    from aacmm.commands.capture import no_point_reason
+    from aacmm.client.devstate import no_point_reason
 
     fault = int(SampleStatus.TEMP_FAULT)
     assert no_point_reason(_sample(1, None, 0)) == "point not valid"

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import operator
 import os
 import random
@@ -19,6 +18,7 @@ from aacmm.client.options import (
     IDEMPOTENT_REQUESTS,
     TRIGGER_QUEUE,
     check_timeout,
+    wire_temperatures,
 )
 from aacmm.client.stream import SampleStream
 from aacmm.errors import (
@@ -55,15 +55,9 @@ from aacmm.protocol.constants import (
     RESPONSE_BIT,
     STREAM_RATE_MAX_HZ,
     STREAM_RATE_MIN_HZ,
-    TEMP_UNIT_C,
 )
 from aacmm.protocol.status import Status
 from aacmm.transport import Transport, open_transport
-
-TEMP_MIN_WIRE = -4000
-"""The coldest link temperature COMPUTE_REQ takes (0.01 degC: -40 degC)."""
-TEMP_MAX_WIRE = 8500
-"""The warmest (85 degC)."""
 
 
 @dataclass
@@ -135,28 +129,6 @@ def _counts(counts: Sequence[int]) -> tuple[int, ...]:
         if not 0 <= v <= 0xFFFFFFFF:
             raise ValueError(f"counts[{i}]={v} outside 0..2**32-1")
     return values
-
-
-def wire_temperatures(temps_c: Sequence[float], joints: int) -> tuple[int, ...]:
-    """Link temperatures in degC as COMPUTE_REQ carries them (i16 of 0.01 degC,
-    rounded half away from zero).
-
-    Raises:
-        ValueError: not ``joints`` values, or one not finite or outside -40 .. 85 degC.
-    """
-    values = list(temps_c)
-    if len(values) != joints:
-        raise ValueError(f"need {joints} link temperatures (one a joint), got {len(values)}")
-    out = []
-    for i, t in enumerate(values):
-        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
-            raise ValueError(f"link {i + 1}'s temperature must be a finite number of degC")
-        q = math.floor(round(abs(t) / TEMP_UNIT_C, 6) + 0.5)
-        w = int(-q if t < 0 else q)
-        if not TEMP_MIN_WIRE <= w <= TEMP_MAX_WIRE:
-            raise ValueError(f"link {i + 1}'s temperature {t:g} C is outside -40 .. 85 C")
-        out.append(w)
-    return tuple(out)
 
 
 def _flag(name: str, value: object) -> bool:

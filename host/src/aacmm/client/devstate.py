@@ -20,11 +20,14 @@ from aacmm.protocol import (
     EncoderInterface,
     ParamSource,
     ResetCause,
+    Sample,
+    SampleStatus,
     SlotState,
     StorageFlags,
     StorageKind,
     StorageState,
 )
+from aacmm.protocol.constants import TEMP_NONE
 
 PARAM_SOURCE_TEXT = {
     ParamSource.DEFAULTS: "built-in defaults",
@@ -207,6 +210,23 @@ def temperature_text(info: DeviceInfo, d: Diagnostics | None) -> str:
             else ", no temperature faults"
         )
     return text
+
+
+def no_point_reason(sample: Sample) -> str:
+    """Why a sample without a point gives none, in words (a ``TEMP_FAULT`` with the
+    thermal model in force: the links whose temperature was not read)."""
+    if not sample.status & SampleStatus.TEMP_FAULT:
+        return "point not valid"
+    links = [
+        str(i + 1)
+        for i, v in enumerate(sample.temp or ())
+        if v == TEMP_NONE or not -4000 <= v <= 8500
+    ]
+    which = f"link {', '.join(links)}" if links else "a link"
+    return (
+        f"no point: the temperature of {which} was not read (TEMP_FAULT; the device "
+        "compensates thermal expansion and needs every link's)"
+    )
 
 
 def diag_dict(d: Diagnostics) -> dict[str, Any]:

@@ -1,10 +1,14 @@
-"""The client's defaults and limits (timeouts, retries, URL variable) and the timeout check."""
+"""The client's defaults and limits (timeouts, retries, URL variable, link temperatures)
+and the checks of timeouts and temperatures."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from typing import Final
 
 from aacmm.protocol import MsgType
+from aacmm.protocol.constants import TEMP_UNIT_C
 
 ENV_PORT: Final = "AACMM_PORT"
 """Environment variable with the default device URL."""
@@ -45,3 +49,31 @@ def check_timeout(value: object, name: str = "timeout", *, poll: bool = False) -
         bracket = "[" if poll else "("
         raise ValueError(f"{name} must be in {bracket}0, {TIMEOUT_MAX:g}] seconds, got {value!r}")
     return t
+
+
+TEMP_MIN_WIRE = -4000
+"""The coldest link temperature COMPUTE_REQ takes (0.01 degC: -40 degC)."""
+TEMP_MAX_WIRE = 8500
+"""The warmest (85 degC)."""
+
+
+def wire_temperatures(temps_c: Sequence[float], joints: int) -> tuple[int, ...]:
+    """Link temperatures in degC as COMPUTE_REQ carries them (i16 of 0.01 degC,
+    rounded half away from zero).
+
+    Raises:
+        ValueError: not ``joints`` values, or one not finite or outside -40 .. 85 degC.
+    """
+    values = list(temps_c)
+    if len(values) != joints:
+        raise ValueError(f"need {joints} link temperatures (one a joint), got {len(values)}")
+    out = []
+    for i, t in enumerate(values):
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
+            raise ValueError(f"link {i + 1}'s temperature must be a finite number of degC")
+        q = math.floor(round(abs(t) / TEMP_UNIT_C, 6) + 0.5)
+        w = int(-q if t < 0 else q)
+        if not TEMP_MIN_WIRE <= w <= TEMP_MAX_WIRE:
+            raise ValueError(f"link {i + 1}'s temperature {t:g} C is outside -40 .. 85 C")
+        out.append(w)
+    return tuple(out)

@@ -52,7 +52,6 @@ if TYPE_CHECKING:
 #: simulated operator's sign that capture is ready).
 LISTEN_RATE_HZ = 20
 POINT_VALID = 0x0001
-TEMP_FAULT = 0x8000  # aacmm.protocol.SampleStatus.TEMP_FAULT
 BUTTON_CAPTURE = 0  # aacmm.protocol.Button.CAPTURE
 BUTTON_UNDO = 1  # aacmm.protocol.Button.UNDO
 
@@ -125,22 +124,6 @@ ARTEFACT_WORDS = {
     "plane": "plane",
     "part": "part",
 }
-
-
-def no_point_reason(sample: Sample) -> str:
-    """Why a sample without a point gives none, in words (a ``TEMP_FAULT`` with the
-    thermal model in force: the links whose temperature was not read)."""
-    from aacmm.records.schema import temps_c
-
-    if not sample.status & TEMP_FAULT:
-        return "point not valid"
-    t = temps_c(sample.temp)
-    links = [str(i + 1) for i, v in enumerate(t or ()) if v is None or not -40.0 <= v <= 85.0]
-    which = f"link {', '.join(links)}" if links else "a link"
-    return (
-        f"no point: the temperature of {which} was not read (TEMP_FAULT; the device "
-        "compensates thermal expansion and needs every link's)"
-    )
 
 
 def step_announcement(plan: Plan, step_index: int) -> str:
@@ -349,6 +332,8 @@ class Capture:
             w.ignored(trig.sample, host_time, trig.button, True, f"button {trig.button}")
             return
         if not trig.sample.status & POINT_VALID:
+            from aacmm.client.devstate import no_point_reason
+
             why = no_point_reason(trig.sample)
             w.ignored(trig.sample, host_time, trig.button, True, why)
             say(f"  {why} (flags 0x{trig.sample.status:04x}): press again")
@@ -555,6 +540,7 @@ def cmd_capture(args: argparse.Namespace) -> int:
 def label_log(args: argparse.Namespace, plan: Plan) -> int:
     """``--from-log``: the presses of a log's trigger file, in order, as the plan's points
     (button 0 presses record, button 1 presses undo, releases are ignored)."""
+    from aacmm.client.devstate import no_point_reason
     from aacmm.records import SessionWriter
     from aacmm.records.logs import read_log, read_triggers
 
