@@ -210,6 +210,7 @@ typedef struct {
     uint32_t can_frames_dropped; /* CAN frames not queued (device CAN queue full) */
     uint32_t can_rsp_dropped;   /* ISO-TP responses lost (previous one still sending) */
     uint32_t button_edges;      /* button presses + releases seen (all buttons) */
+    uint32_t temp_faults;       /* samples with AACMM_SAMPLE_TEMP_FAULT (DIAG_RSP) */
 } aacmm_device_counters_t;
 
 /* ---- private state below: read only through the functions ------------- */
@@ -218,19 +219,37 @@ typedef struct {
  * model and the parameter set's error model in the backend's form;
  * corrected 0 when the set has none (every K_i 0): the plain core path, bit
  * for bit as before the error model. */
+/* thermal 1 when the set has the thermal block (H = 1): its points are
+ * computed at the link temperatures. The model at the last link
+ * temperatures is kept beside it (aacmm_device_thermal_t, recomputed only
+ * when a temperature changes). */
 #if defined(AACMM_DEVICE_KIN_FIXED)
 #include "aacmm/kinematics_q.h"
 typedef struct {
     aacmm_model_q_t m;
     aacmm_errmodel_q_t em;
     uint8_t corrected;
+    uint8_t thermal;
 } aacmm_device_model_t;
+typedef struct {
+    aacmm_model_q_t m;                  /* the model's m at temp */
+    int32_t temp_q8[AACMM_JOINTS_MAX];  /* temp in Q8 degC */
+    int16_t temp[AACMM_JOINTS_MAX];     /* AACMM_TEMP_UNIT_C, links 1..N */
+    uint8_t valid;                      /* m is the active model at temp */
+} aacmm_device_thermal_t;
 #else
 typedef struct {
     aacmm_model_f32_t m;
     aacmm_errmodel_f32_t em;
     uint8_t corrected;
+    uint8_t thermal;
 } aacmm_device_model_t;
+typedef struct {
+    aacmm_model_f32_t m;                /* the model's m at temp */
+    float temp_c[AACMM_JOINTS_MAX];     /* temp in degC */
+    int16_t temp[AACMM_JOINTS_MAX];     /* AACMM_TEMP_UNIT_C, links 1..N */
+    uint8_t valid;                      /* m is the active model at temp */
+} aacmm_device_thermal_t;
 #endif
 
 typedef struct {
@@ -287,6 +306,7 @@ typedef struct {
     aacmm_param_set_t defaults;
     aacmm_param_set_t active;
     aacmm_device_model_t model;
+    aacmm_device_thermal_t at_temp; /* the model at the last link temperatures */
     uint32_t active_crc32;
     uint8_t param_source;  /* AACMM_PARAM_SOURCE_* */
     uint8_t storage_state; /* AACMM_STORAGE_* */

@@ -38,9 +38,6 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_ar
     if (model == NULL || arm == NULL || err == NULL) {
         return AACMM_ERR_NULL;
     }
-    if (err->thermal != 0u) {
-        return AACMM_ERR_UNSUPPORTED; /* no link temperatures on the device yet */
-    }
     st = aacmm_device_errmodel_f64(&e, err, (int)arm->shape.joints);
     if (st == AACMM_OK) {
         st = aacmm_errmodel_q_from_f64(&eq, &e);
@@ -57,6 +54,49 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_ar
     model->m = m;
     model->em = eq;
     model->corrected = (uint8_t)aacmm_device_errmodel_any(err);
+    model->thermal = (uint8_t)(err->thermal != 0u);
+    return AACMM_OK;
+}
+
+aacmm_status_t aacmm_device_kin_at_temperature(const aacmm_device_model_t *model,
+                                               aacmm_device_thermal_t *at,
+                                               const int16_t temp[AACMM_JOINTS_MAX])
+{
+    int32_t t[AACMM_JOINTS_MAX];
+    aacmm_status_t st;
+    int n;
+    int i;
+    int same;
+    if (model == NULL || at == NULL || temp == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    n = (int)model->m.arm.shape.joints;
+    same = at->valid != 0u;
+    for (i = 0; i < n; i++) {
+        if (temp[i] < AACMM_REF_TEMP_MIN || temp[i] > AACMM_REF_TEMP_MAX) {
+            at->valid = 0u;
+            return AACMM_ERR_RANGE;
+        }
+        if (temp[i] != at->temp[i]) {
+            same = 0;
+        }
+    }
+    if (same) {
+        return AACMM_OK; /* the cache is at these temperatures */
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        t[i] = i < n ? aacmm_device_temp_q8(temp[i]) : AACMM_Q_TEMP_REF_DEFAULT;
+    }
+    at->valid = 0u;
+    st = aacmm_model_q_at_temperature(&at->m, &model->m, &model->em, t);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        at->temp_q8[i] = t[i];
+        at->temp[i] = i < n ? temp[i] : (int16_t)0;
+    }
+    at->valid = 1u;
     return AACMM_OK;
 }
 
@@ -78,6 +118,7 @@ static int32_t q48_to_100nm(int64_t v)
 }
 
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
+                                        const aacmm_device_thermal_t *at,
                                         const aacmm_arm_encoders_t *enc,
                                         const uint32_t *counts, int want_mm,
                                         aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE_MAX])
@@ -89,18 +130,29 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
     if (model == NULL || enc == NULL || counts == NULL || out == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_arm_encoders_to_bam(enc, counts, bam);
-    if (st == AACMM_OK && model->corrected != 0u) {
-        /* the corrected readings, then the plain chain: aacmm_point_em_q and
-         * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
-        st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+    if (at != NULL && at->valid == 0u) {
+        return AACMM_ERR_RANGE;
     }
+    st = aacmm_arm_encoders_to_bam(enc, counts, bam);
     if (st != AACMM_OK) {
         return st;
     }
     if (jac != NULL) {
         int64_t jq[AACMM_JAC_SIZE_MAX];
-        st = aacmm_point_jacobian_q(&model->m, bam, p, jq);
+        if (at != NULL) {
+            /* the 3 x P Jacobian at the temperatures, the length columns
+             * those of L0 (the core scales its own copy of the model) */
+            st = aacmm_point_jacobian_corrected_q(&model->m, &model->em, bam, at->temp_q8, p, jq);
+        } else {
+            if (model->corrected != 0u) {
+                /* the corrected readings, then the plain chain:
+                 * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
+                st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+            }
+            if (st == AACMM_OK) {
+                st = aacmm_point_jacobian_q(&model->m, bam, p, jq);
+            }
+        }
         if (st != AACMM_OK) {
             return st;
         }
@@ -108,7 +160,14 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
             jac[i] = (float)jq[i] * Q48_TO_MM_F;
         }
     } else {
-        st = aacmm_point_q(&model->m, bam, p);
+        if (model->corrected != 0u) {
+            /* the corrected readings, then the plain chain (at temperatures
+             * on the cached scaled model): aacmm_point_em_q bit for bit */
+            st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+        }
+        if (st == AACMM_OK) {
+            st = aacmm_point_q(at != NULL ? &at->m : &model->m, bam, p);
+        }
         if (st != AACMM_OK) {
             return st;
         }
