@@ -524,6 +524,21 @@ static aacmm_status_t read_buttons(void *ctx, uint8_t *pressed)
     return AACMM_OK;
 }
 
+/* The link temperatures: the control channel's (`temps`) when it is open,
+ * else the fixed ones of --temperature. Never blocks. */
+static aacmm_status_t read_temperatures(void *ctx, int16_t temp[AACMM_JOINTS_MAX], uint8_t *valid)
+{
+    posix_port_t *p = ctx;
+    if (p->control.fd >= 0) {
+        memcpy(temp, p->control.temp, sizeof p->control.temp);
+        *valid = p->control.temp_valid;
+    } else {
+        memcpy(temp, p->temp, sizeof p->temp);
+        *valid = p->temp_valid;
+    }
+    return AACMM_OK;
+}
+
 void posix_platform(posix_port_t *port, aacmm_platform_t *pf)
 {
     memset(pf, 0, sizeof *pf);
@@ -542,6 +557,9 @@ void posix_platform(posix_port_t *port, aacmm_platform_t *pf)
         pf->read_encoder_frames = read_encoder_frames;
     }
     pf->read_buttons = read_buttons;
+    if (port->has_temps) {
+        pf->read_temperatures = read_temperatures;
+    }
     pf->storage_read = storage_read;
     pf->storage_write = storage_write;
     pf->storage_bytes = AACMM_STORE_BYTES;

@@ -1,5 +1,5 @@
 /*
- * The device's kinematics seam: the three functions the device application
+ * The device's kinematics seam: the four functions the device application
  * needs from a kinematics backend. Exactly one backend is linked, chosen at
  * build time:
  *
