@@ -126,13 +126,15 @@ typedef struct {
  * aacmm_point_em_* at at's temperatures, bit for bit, from the cached
  * scaled model; the Jacobian is then the first P columns of
  * aacmm_point_jacobian_em_f32 / aacmm_point_jacobian_corrected_q at those
- * temperatures (the length columns those of the parameters L0, kinematics.h).
+ * temperatures, bit for bit (the length columns those of the parameters L0,
+ * kinematics.h; f32: the chain's columns on the cached model times the
+ * cached factors).
  * point_mm is filled only when want_mm is non-zero (COMPUTE; the fixed-point
  * backend avoids double arithmetic otherwise). Errors: AACMM_ERR_RANGE (a
  * reading >= its counts per revolution, an invalid at) or the core's; *out
  * and jac are not written on error. Cost: one encoder conversion + one point
- * (+ Jacobian) evaluation (with at and jac: + the core's scaling; f32: an
- * extended Jacobian of up to AACMM_EXT_JAC_SIZE_MAX - 21 floats on the stack).
+ * (+ Jacobian) evaluation (with at and jac: + 3 (2N + T) multiplies of the
+ * length columns; Q: + the core's scaling of a model copy on the stack).
  */
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
                                         const aacmm_device_thermal_t *at,

@@ -103,33 +103,47 @@ aacmm_status_t aacmm_device_kin_at_temperature(const aacmm_device_model_t *model
     for (i = 0; i < AACMM_JOINTS_MAX; i++) {
         at->temp_c[i] = t[i];
         at->temp[i] = i < n ? temp[i] : (int16_t)0;
+        /* the core's factor (kinematics.h, "Thermal expansion"), the same
+         * operations: dT first, then 1 + cte dT */
+        {
+            const float dt = t[i] - model->em.tref_c[i];
+            at->f[i] = 1.0f + model->em.cte_per_k[i] * dt;
+        }
     }
     at->valid = 1u;
     return AACMM_OK;
 }
 
-/* The first P columns of the extended 3 x (P + E) Jacobian of
- * aacmm_point_jacobian_em_f32 at at's temperatures (and its point). */
+/* The 3 x P Jacobian of the point at at's temperatures: the chain's on the
+ * cached scaled model at the corrected readings, its length columns (d, a of
+ * link i, the tip with link N) times link i's factor f_i: the columns of the
+ * parameters L0, as the first P columns of aacmm_point_jacobian_em_f32 (the
+ * same products, bit for bit), without its extended Jacobian on the stack. */
 static aacmm_status_t jacobian_at(const aacmm_device_model_t *model,
                                   const aacmm_device_thermal_t *at, const float *theta,
                                   float p[3], float jac[AACMM_JAC_SIZE_MAX])
 {
-    float ext[AACMM_JAC_ROWS * (AACMM_PARAMS_MAX + 2 * AACMM_HARMONICS_MAX * AACMM_JOINTS_MAX)];
-    int np = (int)model->m.n_params;
-    int w = np + aacmm_errmodel_cols_f32(&model->em);
+    const int n = (int)model->m.arm.shape.joints;
+    const int np = (int)model->m.n_params;
+    const int ct = (int)model->m.col_tip;
+    const int nt = (int)model->m.arm.shape.tip;
+    float q[AACMM_JOINTS_MAX];
+    aacmm_status_t st = aacmm_errmodel_angles_f32(&model->em, theta, q);
     int r;
-    int c;
-    aacmm_status_t st;
-    if (w < np || (size_t)(AACMM_JAC_ROWS * w) > sizeof ext / sizeof ext[0]) {
-        return AACMM_ERR_RANGE; /* cannot happen: the device's error model has no cte columns */
+    int i;
+    if (st == AACMM_OK) {
+        st = aacmm_point_jacobian_f32(&at->m, q, p, jac);
     }
-    st = aacmm_point_jacobian_em_f32(&model->m, &model->em, theta, at->temp_c, p, ext);
     if (st != AACMM_OK) {
         return st;
     }
     for (r = 0; r < AACMM_JAC_ROWS; r++) {
-        for (c = 0; c < np; c++) {
-            jac[r * np + c] = ext[r * w + c];
+        for (i = 0; i < n; i++) {
+            jac[r * np + AACMM_ARM_COL_D(n, i)] *= at->f[i];
+            jac[r * np + AACMM_ARM_COL_A(n, i)] *= at->f[i];
+        }
+        for (i = 0; i < nt; i++) {
+            jac[r * np + ct + i] *= at->f[n - 1];
         }
     }
     return AACMM_OK;

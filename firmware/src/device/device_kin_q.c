@@ -93,11 +93,26 @@ aacmm_status_t aacmm_device_kin_at_temperature(const aacmm_device_model_t *model
         return st;
     }
     for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        /* the core's e_i (kinematics_q.h, "Thermal"): the exact Q48 product
+         * rounded half up to Q30 */
+        const int64_t e48 = (int64_t)model->em.cte_q40[i] * (int64_t)(t[i] - model->em.tref_q8[i]);
+        at->e30[i] = (int32_t)((e48 + ((int64_t)1 << 17)) >> 18);
         at->temp_q8[i] = t[i];
         at->temp[i] = i < n ? temp[i] : (int16_t)0;
     }
     at->valid = 1u;
     return AACMM_OK;
+}
+
+/* A length column of the chain's Jacobian on the scaled model (a Q30 axis
+ * times 2^18, exactly) as the column of the parameter L0: times 1 + e
+ * (e Q30), rounded half up to Q48 -- kinematics_q.h, "Thermal", the core's
+ * operations. */
+static int64_t length_col_l0(int64_t col, int32_t e30)
+{
+    const int64_t axis = col >> 18; /* exact */
+    const int64_t v = axis * ((int64_t)AACMM_Q_ONE_Q30 + (int64_t)e30);
+    return (v + ((int64_t)1 << 11)) >> 12;
 }
 
 /* round(v * 10^4 / 2^48), half away from zero, exactly, for |v| < 2^62.
@@ -139,22 +154,38 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
     }
     if (jac != NULL) {
         int64_t jq[AACMM_JAC_SIZE_MAX];
-        if (at != NULL) {
-            /* the 3 x P Jacobian at the temperatures, the length columns
-             * those of L0 (the core scales its own copy of the model) */
-            st = aacmm_point_jacobian_corrected_q(&model->m, &model->em, bam, at->temp_q8, p, jq);
-        } else {
-            if (model->corrected != 0u) {
-                /* the corrected readings, then the plain chain:
-                 * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
-                st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
-            }
-            if (st == AACMM_OK) {
-                st = aacmm_point_jacobian_q(&model->m, bam, p, jq);
-            }
+        if (model->corrected != 0u) {
+            /* the corrected readings, then the plain chain:
+             * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
+            st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+        }
+        if (st == AACMM_OK) {
+            st = aacmm_point_jacobian_q(at != NULL ? &at->m : &model->m, bam, p, jq);
         }
         if (st != AACMM_OK) {
             return st;
+        }
+        if (at != NULL) {
+            /* at the temperatures: the chain ran on the cached scaled model;
+             * its length columns become those of L0, as in
+             * aacmm_point_jacobian_corrected_q (bit for bit, without its
+             * model copy on the stack) */
+            const int n = (int)model->m.arm.shape.joints;
+            const int np = (int)model->m.n_params;
+            const int ct = (int)model->m.col_tip;
+            const int nt = (int)model->m.arm.shape.tip;
+            int r;
+            for (r = 0; r < AACMM_JAC_ROWS; r++) {
+                for (i = 0; i < n; i++) {
+                    jq[r * np + AACMM_ARM_COL_D(n, i)] =
+                        length_col_l0(jq[r * np + AACMM_ARM_COL_D(n, i)], at->e30[i]);
+                    jq[r * np + AACMM_ARM_COL_A(n, i)] =
+                        length_col_l0(jq[r * np + AACMM_ARM_COL_A(n, i)], at->e30[i]);
+                }
+                for (i = 0; i < nt; i++) {
+                    jq[r * np + ct + i] = length_col_l0(jq[r * np + ct + i], at->e30[n - 1]);
+                }
+            }
         }
         for (i = 0; i < 3 * (int)model->m.n_params; i++) {
             jac[i] = (float)jq[i] * Q48_TO_MM_F;
