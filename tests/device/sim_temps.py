@@ -54,7 +54,9 @@ CTE = 2300  # 23e-6 / K in 1e-8 / K, every link
 REF_TEMP = 2000  # 20.00 degC
 
 
-def start(sim: str, *extra: str, pass_fds: tuple[int, ...] = ()) -> tuple[subprocess.Popen[str], str]:
+def start(
+    sim: str, *extra: str, pass_fds: tuple[int, ...] = ()
+) -> tuple[subprocess.Popen[str], str]:
     p = subprocess.Popen(
         [sim, "--serial", "pty", "--quiet", *extra],
         stdout=subprocess.PIPE,
@@ -148,7 +150,9 @@ def test_arguments(sim: str, tmp: str, thermal_file: str) -> None:
     )
     r = run([sim, "--help"])
     check(
-        r.returncode == 0 and "--temperature" in r.stdout and "--no-temperature-sensors" in r.stdout,
+        r.returncode == 0
+        and "--temperature" in r.stdout
+        and "--no-temperature-sensors" in r.stdout,
         "--help names --temperature and --no-temperature-sensors",
     )
 
@@ -188,7 +192,9 @@ def test_sensors_and_sets(sim: str, tmp: str) -> str:
     )
     rsp = link.request(SET_PARAMS, thermal)
     status = struct.unpack_from("<h", rsp, 3)[0] if rsp is not None and rsp[1] == ERROR_RSP else 0
-    check(status == ERR_UNSUPPORTED, f"SET_PARAMS with the thermal block: ERR_UNSUPPORTED ({status})")
+    check(
+        status == ERR_UNSUPPORTED, f"SET_PARAMS with the thermal block: ERR_UNSUPPORTED ({status})"
+    )
     m = measure(link)
     check(
         m is not None and m[0] & (POINT_VALID | TEMP_FAULT) == POINT_VALID,
@@ -202,7 +208,9 @@ def test_sensors_and_sets(sim: str, tmp: str) -> str:
 def test_thermal_point(sim: str, thermal_file: str) -> None:
     """--param-set with the thermal block at --temperature T: point = f x reference."""
     for t_c, arg in ((45.0, "45"), (-12.5, "-12.5"), (20.0, "20,20,20,20,20,20")):
-        p, path = start(sim, "--motion", "static", "--param-set", thermal_file, "--temperature", arg)
+        p, path = start(
+            sim, "--motion", "static", "--param-set", thermal_file, "--temperature", arg
+        )
         link = Link(path)
         m = measure(link)
         ref = compute_ref(link, m[2]) if m is not None else None
@@ -247,7 +255,7 @@ class Control:
         """Send lines, then a sync; the lines heard before the sync's answer."""
         self.token += 1
         self.ours.sendall(("".join(f"{x}\n" for x in lines) + f"sync t{self.token}\n").encode())
-        heard = []
+        heard: list[str] = []
         while True:
             got = self.line()
             if got is None or got == f"sync t{self.token}":
@@ -268,7 +276,10 @@ def test_control_temps(sim: str, thermal_file: str) -> None:
     m = measure(link)
     ref = compute_ref(link, m[2]) if m is not None else None
     check(
-        m is not None and ref is not None and m[0] & POINT_VALID != 0 and scaled_ok(m[1], ref, 45.0),
+        m is not None
+        and ref is not None
+        and m[0] & POINT_VALID != 0
+        and scaled_ok(m[1], ref, 45.0),
         "temps 45: the point at 45 degC on every link",
     )
     cases = [
@@ -288,7 +299,10 @@ def test_control_temps(sim: str, thermal_file: str) -> None:
         else:
             ok = m is not None and m[0] & (POINT_VALID | TEMP_FAULT) == TEMP_FAULT
             ok = ok and m is not None and m[1] == (0, 0, 0)
-        check(ok and heard == [], f"`{line}` ({what}): " + ("a point" if good else "TEMP_FAULT, no point"))
+        check(
+            ok and heard == [],
+            f"`{line}` ({what}): " + ("a point" if good else "TEMP_FAULT, no point"),
+        )
     for bad in ("temps 20 21", "temps warm", "temps 20.001", "temps 400"):
         heard = ctl.send(bad)
         check(
