@@ -393,8 +393,8 @@ def test_encoder_faults(sim: str) -> dict[str, int]:
         f"the clean samples of a static arm agree ({len(good_counts)})",
     )
     rsp = link.request(DIAG)
-    ok = rsp is not None and rsp[1] == DIAG | 0x80 and len(rsp) == 3 + 126
-    check(ok, "DIAG answered (126-byte payload)")
+    ok = rsp is not None and rsp[1] == DIAG | 0x80 and len(rsp) == 3 + 130
+    check(ok, "DIAG answered (130-byte payload: 60 + 6 joints x 11 + temp_faults)")
     joint_faults = 0
     if ok:
         assert rsp is not None
@@ -408,6 +408,8 @@ def test_encoder_faults(sim: str) -> dict[str, int]:
             joint_faults == faulty_readings == n * 6 // 9,
             f"DIAG: {joint_faults} joint faults = {faulty_readings} flagged = one frame in 9",
         )
+        (temp_faults,) = struct.unpack_from("<I", rsp, 3 + 60 + 11 * 6)
+        check(temp_faults == 0, f"DIAG: no temperature faults ({temp_faults})")
     link.close()
     check(stop(p) == 0, "SIGTERM: exit 0")
     return {"encoder_faults": joint_faults}

@@ -771,16 +771,17 @@ static void test_bad_requests(void **state)
     int v;
     (void)state;
     /* Wrong version (a future one). */
-    body[0] = 4;
+    body[0] = (uint8_t)(AACMM_PROTO_VERSION + 1u);
     body[1] = AACMM_MSG_PING_REQ;
     body[2] = 40;
     memset(body + 3, 0, 4);
     send_body(body, 7);
     expect_error(AACMM_ERR_VERSION, AACMM_MSG_PING_REQ, 40);
-    /* The older versions (2: before the error model's layout; 1: six
-     * joints): the answer is an ERROR_RSP in the request's own version,
-     * which that host can read (read raw here). */
-    for (v = 2; v >= 1; v--) {
+    /* The older versions (3: before device temperatures; 2: before the
+     * error model's layout; 1: six joints): the answer is an ERROR_RSP in
+     * the request's own version, which that host can read (read raw here). */
+    assert_int_equal(AACMM_PROTO_VERSION_PREVIOUS, 3);
+    for (v = (int)AACMM_PROTO_VERSION_PREVIOUS; v >= (int)AACMM_PROTO_VERSION_OLDEST; v--) {
         const uint8_t *b = NULL;
         size_t bl = 0;
         body[0] = (uint8_t)v;
@@ -876,7 +877,7 @@ static void test_bad_requests(void **state)
     assert_true((M.u.sample.status & AACMM_SAMPLE_ENCODER_FAULT) != 0u);
     assert_true((M.u.sample.status & AACMM_SAMPLE_POINT_VALID) == 0u);
     assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 1u);
-    assert_int_equal(aacmm_device_counters(&D)->error_responses, 11u);
+    assert_int_equal(aacmm_device_counters(&D)->error_responses, 12u); /* 3 old versions */
     assert_false(next_msg());
 }
 

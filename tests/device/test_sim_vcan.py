@@ -13,6 +13,7 @@ The full client tests live with the host package.
 from __future__ import annotations
 
 import os
+import re
 import select
 import signal
 import socket
@@ -28,6 +29,12 @@ NODE = 5
 REQ_ID = 0x600 + NODE
 RSP_ID = 0x680 + NODE
 CAN_FRAME = struct.Struct("=IB3x8s")
+# The version byte from the one place it is defined, the firmware's header.
+_PROTO_H = os.path.join(os.path.dirname(__file__), "..", "..", "firmware", "include", "aacmm")
+with open(os.path.join(_PROTO_H, "proto.h"), encoding="utf-8") as _f:
+    _m = re.search(r"#define AACMM_PROTO_VERSION (\d+)u", _f.read())
+assert _m is not None, "proto.h: AACMM_PROTO_VERSION not found"
+V = int(_m.group(1))
 
 pytestmark = pytest.mark.skipif(not hasattr(socket, "AF_CAN"), reason="no AF_CAN in Python")
 
@@ -130,22 +137,22 @@ def test_requests_stream_and_trigger(sim: subprocess.Popen[str]) -> None:
     bus = Bus(iface())
     other: list[tuple[int, bytes]] = []
     try:
-        rsp = isotp_request(bus, bytes([3, 0x01, 7]) + struct.pack("<I", 0xA5A5F00D), other)
-        assert rsp == bytes([3, 0x81, 7]) + struct.pack("<I", 0xA5A5F00D)
-        info = isotp_request(bus, bytes([3, 0x02, 8]), other)
-        assert info[:3] == bytes([3, 0x82, 8]) and len(info) == 3 + 25
+        rsp = isotp_request(bus, bytes([V, 0x01, 7]) + struct.pack("<I", 0xA5A5F00D), other)
+        assert rsp == bytes([V, 0x81, 7]) + struct.pack("<I", 0xA5A5F00D)
+        info = isotp_request(bus, bytes([V, 0x02, 8]), other)
+        assert info[:3] == bytes([V, 0x82, 8]) and len(info) == 3 + 25
         assert info[3 + 22] == NODE
         flags = struct.unpack_from("<I", info, 3 + 6)[0]
         assert flags & 0x18 == 0x18  # serial and CAN built in
-        rsp = isotp_request(bus, bytes([3, 0x09, 9]) + struct.pack("<HB", 200, 0), other)
-        assert rsp == bytes([3, 0x89, 9]) + struct.pack("<HB", 200, 0)
+        rsp = isotp_request(bus, bytes([V, 0x09, 9]) + struct.pack("<HB", 200, 0), other)
+        assert rsp == bytes([V, 0x89, 9]) + struct.pack("<HB", 200, 0)
         frames = list(other)
         t_end = time.monotonic() + 3.0
         while time.monotonic() < t_end:
             f = bus.recv(0.2)
             if f is not None:
                 frames.append(f)
-        isotp_request(bus, bytes([3, 0x0A, 10]), frames)
+        isotp_request(bus, bytes([V, 0x0A, 10]), frames)
     finally:
         bus.close()
     seqs = []

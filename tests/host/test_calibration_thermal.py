@@ -1,15 +1,17 @@
 """Issue 27 item 3, thermal: the link CTEs calibrated with the arm.
 
 The study is tests/host/thermal_calib_study.py (module doc: the aluminium
-truth, the sessions at 15 and 25 degC, the verification at 28 degC). The
-calibration reads the counts, the plan and the stated link temperatures only;
-the truth's CTEs are compared here, afterwards.
+truth, the sessions at 10 and 30 degC, the data sheet's CTEs as the start,
+the verification at 28 degC). The calibration reads the counts, the plan and
+the stated link temperatures only; the truth's CTEs are compared here,
+afterwards.
 
-- on the 8 arms where the data-sheet CTE did not give E_Uni within 1.3x of
-  the isothermal run (docs/calibration.md, "Temperature"), the CTEs the data
-  identify are within 3 reported sigma of the truth's, and |E_Uni| at 28 degC
-  with the calibrated CTEs is within 1.3x of the isothermal figure in the
-  median and within 1.6x on every arm (the count within 1.3x is printed);
+- on the 20 arms of the data-sheet study (docs/calibration.md,
+  "Temperature"; 8 of them not within 1.3x with the data sheet's CTE), the
+  CTEs the data identify are within 3 reported sigma of the truth's, link 1's
+  (a1 0.3 mm, d1 unobservable: not identified at the start) is held at the
+  data sheet's value, and |E_Uni| at 28 degC with the calibrated CTEs is
+  within 1.3x of the isothermal figure on every arm;
 - a 2 degC span: ``auto`` estimates no CTE and says why; ``thermal=True``
   from one temperature holds every CTE as not identified (named: confounded
   with its link's lengths);
@@ -29,12 +31,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 from aacmm.calibration import calibrate
+from aacmm.calibration.identifiability import DEFAULT_KAPPA, analyse
 from aacmm.calibration.observations import ObservationError, combine
 from aacmm.calibration.parameters import CalibParams
+from aacmm.calibration.problem import Problem
+from aacmm.calibration.thermal import with_ctes
 from aacmm.core import Params
 from thermal_calib_study import (
     CASES,
-    DATASHEET_MISSES,
     Outcome,
     ctes,
     observations,
@@ -43,6 +47,7 @@ from thermal_calib_study import (
 )
 from thermal_study import aluminium_truth
 
+ARMS = tuple(range(1, 21))
 _cache: dict[int, Outcome] = {}
 
 
@@ -52,18 +57,20 @@ def outcome(seed: int) -> Outcome:
     return _cache[seed]
 
 
-@pytest.mark.parametrize("seed", DATASHEET_MISSES)
+@pytest.mark.parametrize("seed", ARMS)
 def test_ctes_within_three_sigma(seed: int) -> None:
     o = outcome(seed)
     res = o.result
     assert isinstance(res.params, CalibParams)
-    assert res.thermal.startswith("link CTEs estimated from link temperatures spanning 10.0")
+    assert res.thermal.startswith("link CTEs estimated from link temperatures spanning 20.0")
+    assert "held at the start value, 1e-6/K): cte1 23.00" in res.thermal, res.thermal
+    assert "cte1" in res.fixed and res.params.errors.cte_per_k[0] == 23e-6
     assert res.thermal in res.notes
     assert res.chi_square.verdict != "refuted", res.chi_square
     v, sd = ctes(res)
     names = res.params.param_names
-    identified = [i for i in range(6) if f"cte{i + 1} " in res.thermal.split("weakly")[0]]
-    assert len(identified) >= 5, res.thermal  # link 1 (a1 0.3 mm) may be weak
+    identified = [i for i in range(6) if f"cte{i + 1} " in res.thermal.split("; not")[0]]
+    assert identified == [1, 2, 3, 4, 5], res.thermal
     for i in identified:
         assert f"cte{i + 1}" in res.free and sd[i] > 0
         true = o.true_cte_per_k[i]
@@ -73,13 +80,14 @@ def test_ctes_within_three_sigma(seed: int) -> None:
 
 
 def test_verified_at_28_degc() -> None:
-    outs = [outcome(s) for s in DATASHEET_MISSES]
+    outs = [outcome(s) for s in ARMS]
     print("\n" + table(outs))
     ratio = np.array([o.e_uni[CASES[1]] / o.e_uni[CASES[0]] for o in outs])
-    within = int(np.sum(ratio <= 1.3))
-    print(f"calibrated CTEs within 1.3x of the isothermal run on {within} of {len(outs)} arms")
-    assert float(np.median(ratio)) <= 1.3
-    assert float(ratio.max()) <= 1.6
+    assert float(ratio.max()) <= 1.3, ratio
+    datasheet = np.array([o.e_uni[CASES[2]] / o.e_uni[CASES[0]] for o in outs])
+    misses = tuple(o.seed for o, r in zip(outs, datasheet, strict=True) if r > 1.3)
+    print(f"the data sheet's CTE on the same calibrated arms: over 1.3x on arms {misses}")
+    assert len(misses) >= 4  # what the calibrated CTEs put right
     for o in outs:  # an MPE of 30 um + L/50 at least: every arm passes
         assert o.e_uni[CASES[1]] < 0.030
 
@@ -97,12 +105,16 @@ def test_two_degree_span_not_estimated() -> None:
 
 def test_one_temperature_not_identified() -> None:
     truth = aluminium_truth(3)
-    res = calibrate(observations(truth, 1003, (25.0, 25.0)), Params(), thermal=True)
+    obs = observations(truth, 1003, (25.0, 25.0))
+    res = calibrate(obs, Params(), thermal=True)
     assert isinstance(res.params, CalibParams)
     held = {f"cte{i}" for i in range(1, 7)}
-    assert held <= set(res.held)
+    assert held <= set(res.fixed)  # held at the start, for the whole fit
     assert "not identified" in res.thermal
-    kinds = [d.kind for d in res.identifiability.null]
+    assert all(n in res.thermal.split("not identified")[1] for n in held), res.thermal
+    start, _ = with_ctes(obs, Params())
+    ident = analyse(Problem(obs).evaluate(start), list(range(31)), DEFAULT_KAPPA)
+    kinds = [d.kind for d in ident.null]
     assert kinds.count("thermal") == 6
     assert res.params.errors.cte_per_k == (0.0,) * 6  # held at the start value
 

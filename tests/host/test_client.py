@@ -78,7 +78,7 @@ def test_ping_and_info(client: Client, fake: Fake) -> None:
     rtt = client.ping()
     assert 0 < rtt < 0.5
     info = client.info()
-    assert info.protocol_version == PROTOCOL_VERSION == 3
+    assert info.protocol_version == PROTOCOL_VERSION == 4
     assert info.serial_number == 4242
     assert info.can_node_id == 3
     assert info.param_crc32 == param_crc(DEFAULT_PARAMS)

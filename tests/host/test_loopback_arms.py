@@ -8,8 +8,8 @@ the device computes (COMPUTE, MEASURE, the stream) is checked against
 counts: within the float path's bound (1 um; the Jacobian to float32's
 accuracy). Also: a 7-joint set saved and reloaded across a restart, the
 device refusing counts of another joint count, and the version errors between
-protocol version 3 and the older versions 2 (before the error model's layout)
-and 1 (six joints) in both directions.
+protocol version 4 and the older versions 3 (before device temperatures), 2
+(before the error model's layout) and 1 (six joints) in both directions.
 """
 
 from __future__ import annotations
@@ -259,9 +259,9 @@ def _v1_body(t: int, seq: int, payload: bytes = b"", version: int = 1) -> bytes:
     return bytes([version, t, seq]) + payload
 
 
-@pytest.mark.parametrize("version", [1, 2])
+@pytest.mark.parametrize("version", [1, 2, 3])
 def test_old_host_gets_a_version_error_it_can_read(sim: Sim, version: int) -> None:
-    """A version 1 or 2 host's request is answered with ERROR_RSP ERR_VERSION
+    """A version 1, 2 or 3 host's request is answered with ERROR_RSP ERR_VERSION
     encoded in its own version (read here as such a decoder would: version byte,
     type 0xFF, seq echoed, i16 status, u8 request type)."""
     import serial
@@ -281,15 +281,15 @@ def test_old_host_gets_a_version_error_it_can_read(sim: Sim, version: int) -> No
         assert body[0] == version and body[1] == 0xFF and body[2] == seq
         status, rtype = struct.unpack("<hB", body[3:])
         assert (status, rtype) == (int(Status.ERR_VERSION), req)
-        # and the version 3 decoder names the version it saw
+        # and the version 4 decoder names the version it saw
         with pytest.raises(FrameError) as ei:
             decode_message(body)
         assert ei.value.status == Status.ERR_VERSION and ei.value.version == version
 
 
-@pytest.mark.parametrize("version", [1, 2])
+@pytest.mark.parametrize("version", [1, 2, 3])
 def test_new_host_gets_a_clear_version_error_from_an_old_device(version: int) -> None:
-    """A version 1 or 2 device answers every version 3 request with its own
+    """A version 1, 2 or 3 device answers every version 4 request with its own
     ERROR_RSP ERR_VERSION (its version byte): the client raises one clear
     DeviceError at once, naming the device's version, instead of timing out."""
     srv = SerialFakeServer()
@@ -310,6 +310,11 @@ def test_new_host_gets_a_clear_version_error_from_an_old_device(version: int) ->
             text = str(ei.value)
             assert f"protocol version {version} (" in text
             assert f"version {PROTOCOL_VERSION}: update the device's firmware" in text
+            if version == 3:
+                assert (
+                    "the device speaks protocol version 3 (before device temperatures); this "
+                    "host speaks version 4: update the device's firmware"
+                ) in text
             assert ei.value.request_type == MsgType.INFO_REQ
     finally:
         srv.close()

@@ -8,6 +8,7 @@ import math
 import re
 import struct
 import sys
+from dataclasses import replace
 from enum import IntEnum
 from pathlib import Path
 from types import ModuleType
@@ -135,21 +136,39 @@ def param_sets(draw: st.DrawFn) -> ParamSet:
 def samples_(draw: st.DrawFn) -> Sample:
     n = draw(joints_)
     p = draw(st.integers(4 * n + 1, 5 * n + 2))
+    jac = draw(jacobians(p))
+    temp = draw(st.none() | tup(i16, n))  # any i16: what the sensor said
+    if jac is not None and layout.sample_bytes(n, p, True, True) > layout.SAMPLE_MAX_BYTES:
+        temp = None  # N 7, P 37 cannot carry both (the encoders refuse it)
     return Sample(
         seq=draw(u32),
         timestamp_us=draw(u64),
         counts=draw(tup(u32, n)),  # type: ignore[arg-type]
         point_100nm=draw(tup(i32, 3)),  # type: ignore[arg-type]
         status=draw(u32),
-        jacobian=draw(jacobians(p)),  # type: ignore[arg-type]
+        jacobian=jac,  # type: ignore[arg-type]
         params=p,
+        temp=temp,  # type: ignore[arg-type]
+    )
+
+
+temps_c = st.integers(layout.REF_TEMP_MIN, layout.REF_TEMP_MAX)
+
+
+@st.composite
+def compute_requests(draw: st.DrawFn) -> ComputeRequest:
+    n = draw(joints_)
+    return ComputeRequest(
+        draw(tup(u32, n)),  # type: ignore[arg-type]
+        draw(st.booleans()),
+        draw(st.none() | tup(temps_c, n)),  # type: ignore[arg-type]
     )
 
 
 @st.composite
 def compute_results(draw: st.DrawFn) -> ComputeResult:
     p = draw(st.integers(17, 37))
-    return ComputeResult(draw(u32), draw(tup(f64, 3)), draw(jacobians(p)), p)  # type: ignore[arg-type]
+    return ComputeResult(draw(u32), draw(tup(f64, 3)), draw(jacobians(p)), p, draw(st.booleans()))  # type: ignore[arg-type]
 
 
 @st.composite
@@ -183,15 +202,13 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
     MsgType.SET_PARAMS_RSP: st.builds(ParamCrc, u32),
     MsgType.SAVE_PARAMS_RSP: st.builds(ParamCrc, u32),
     MsgType.RESTORE_DEFAULTS_RSP: st.builds(ParamCrc, u32),
-    MsgType.MEASURE_REQ: st.builds(MeasureRequest, st.booleans()),
+    MsgType.MEASURE_REQ: st.builds(MeasureRequest, st.booleans(), st.booleans()),
     MsgType.MEASURE_RSP: samples,
     MsgType.SAMPLE_EVT: samples,
-    MsgType.COMPUTE_REQ: st.builds(
-        ComputeRequest, joints_.flatmap(lambda n: tup(u32, n)), st.booleans()
-    ),
+    MsgType.COMPUTE_REQ: compute_requests(),
     MsgType.COMPUTE_RSP: compute_results(),
-    MsgType.STREAM_START_REQ: st.builds(Stream, st.integers(1, 1000), st.booleans()),
-    MsgType.STREAM_START_RSP: st.builds(Stream, st.integers(1, 1000), st.booleans()),
+    MsgType.STREAM_START_REQ: st.builds(Stream, st.integers(1, 1000), st.booleans(), st.booleans()),
+    MsgType.STREAM_START_RSP: st.builds(Stream, st.integers(1, 1000), st.booleans(), st.booleans()),
     MsgType.TRIGGER_EVT: st.builds(Trigger, u8, st.booleans(), samples),
     MsgType.ERROR_RSP: st.builds(ErrorReply, st.integers(-0x8000, -1), u8),
     MsgType.DIAG_RSP: st.builds(
@@ -225,6 +242,7 @@ PAYLOADS: dict[MsgType, st.SearchStrategy[object]] = {
                 n,
             )
         ),
+        temp_faults=u32,
     ),
 }
 
@@ -257,7 +275,7 @@ def test_vector_file_is_up_to_date() -> None:
 def test_message_vectors_decode_to_the_named_values() -> None:
     expected = GEN.messages()
     rows = records("msg")
-    assert len(rows) == len(expected) == 32
+    assert len(rows) == len(expected) == 40
     assert {m.type for m in expected.values()} == set(MsgType)  # every type has a vector
     for name, body_hex, wire_hex in rows:
         body, wire = unhex(body_hex), unhex(wire_hex)
@@ -276,6 +294,78 @@ def test_bad_body_vectors_fail_with_the_named_status() -> None:
         with pytest.raises(errors.FrameError) as info:
             protocol.decode_message(unhex(body_hex))
         assert info.value.status == Status[status], name
+
+
+def test_version_4_layouts_packed_by_hand() -> None:
+    """Version 4's temperature fields where docs/protocol.md 2.4 to 2.6 put them,
+    packed here with struct from the spec's layout (not with the codec)."""
+    s = GEN.SAMPLE_T
+    want = struct.pack(
+        "<IQ3iIBBB6I6h",
+        s.seq,
+        s.timestamp_us,
+        *s.point_100nm,
+        s.status,
+        0x02,  # content: TEMPERATURES
+        6,
+        25,
+        *s.counts,
+        *s.temp,
+    )
+    assert protocol.encode_message(GEN.messages()["sample_evt_t"])[3:] == want
+    assert want[-4:-2] == b"\x00\x80"  # TEMP_NONE on the wire
+    s7 = GEN.SAMPLE_7TJ
+    assert s7.jacobian is not None and s7.temp is not None
+    want7 = struct.pack(
+        "<IQ3iIBBB7I7h108f",
+        s7.seq,
+        s7.timestamp_us,
+        *s7.point_100nm,
+        s7.status,
+        0x03,  # JACOBIAN | TEMPERATURES: the temperatures before the Jacobian
+        7,
+        36,
+        *s7.counts,
+        *s7.temp,
+        *(v for row in s7.jacobian for v in row),
+    )
+    assert len(want7) == layout.SAMPLE_MAX_BYTES == 505
+    assert protocol.encode_message(GEN.messages()["measure_rsp7_tj"])[3:] == want7
+    c = GEN.COMPUTE_REQ_T
+    assert protocol.encode_message(GEN.messages()["compute_req_tj"])[3:] == struct.pack(
+        "<BB6I6h", 0x03, 6, *c.counts, *c.temp
+    )
+    r = GEN.COMPUTE_RSP_T
+    assert protocol.encode_message(GEN.messages()["compute_rsp_t"])[3:] == struct.pack(
+        "<I3dBB", r.status, *r.point_mm, 0x02, 25
+    )
+    diag = protocol.encode_message(GEN.messages()["diag_rsp_tf"])[3:]
+    assert len(diag) == 60 + 6 * 11 + 4
+    assert diag[-4:] == struct.pack("<I", 0x89ABCDEF)
+    assert diag[:-4] == protocol.encode_message(GEN.messages()["diag_rsp"])[3:-4]
+    assert protocol.encode_message(GEN.messages()["measure_req_tj"])[3:] == b"\x03"
+    assert protocol.encode_message(GEN.messages()["stream_start_req_t"])[3:] == struct.pack(
+        "<HB", 100, 0x02
+    )
+
+
+def test_version_errors_name_the_old_version() -> None:
+    """A body of version 1, 2 or 3 is named with what it lacks; any other with its number."""
+    ping = protocol.encode_message(GEN.messages()["ping_req"])
+    for version, what in (
+        (1, "six joints, before arm models"),
+        (2, "arm models, before the error model"),
+        (3, "before device temperatures"),
+    ):
+        with pytest.raises(errors.FrameError) as info:
+            protocol.decode_message(bytes([version]) + ping[1:])
+        assert info.value.status == Status.ERR_VERSION and info.value.version == version
+        assert str(info.value) == (
+            f"protocol version {version} ({what}); this host speaks version 4"
+        )
+    with pytest.raises(errors.FrameError) as info:
+        protocol.decode_message(bytes([5]) + ping[1:])
+    assert str(info.value) == "protocol version 5; this host speaks version 4"
 
 
 def test_bad_frame_vectors_are_dropped_counted_and_resynchronised() -> None:
@@ -326,6 +416,16 @@ def test_can_sample_vectors_and_assembler() -> None:
     phys = db.decode_message(0x140, unhex(sample_rows[4][2]))
     assert isinstance(phys, dict)
     assert math.isclose(float(phys["X"]), 1234.5678, abs_tol=1e-9)  # type: ignore[arg-type]
+    # temperatures do not travel over CAN; the TEMP_FAULT status bit does
+    t_rows = [r for r in rows if r[0].startswith("sample_t_n1_")]
+    t_frames = pcan.encode_sample_frames(GEN.SAMPLE_T, node_id=1)
+    assert [(f.arbitration_id, f.data) for f in t_frames] == [
+        (int(i, 16), unhex(d)) for _, i, d in t_rows
+    ]
+    t_asm = pcan.SampleAssembler(node_id=1)
+    t_out = [t_asm.feed(int(i, 16), unhex(d)) for _, i, d in t_rows][-1]
+    assert t_out is not None and t_out.temp is None
+    assert t_out.status == protocol.SampleStatus.POINT_VALID | protocol.SampleStatus.TEMP_FAULT
     (trig,) = [r for r in rows if r[0] == "trigger_n5"]
     assert int(trig[1], 16) == pcan.ID_TRIGGER + 5
     assert pcan.decode_trigger_frame(unhex(trig[2])) == pcan.TriggerFrame(s.seq, 0, True)
@@ -440,7 +540,11 @@ def test_c_message_types_and_sizes_match_python() -> None:
     d = _c_defines("proto.h")
     assert d["AACMM_PROTO_VERSION"] == protocol.PROTOCOL_VERSION
     assert d["AACMM_PROTO_MAX_BODY"] == constants.MAX_BODY == framing.MAX_BODY
-    assert d["AACMM_PROTO_VERSION_PREVIOUS"] == constants.PROTOCOL_VERSION_PREVIOUS == 2
+    assert d["AACMM_PROTO_VERSION"] == constants.PROTOCOL_VERSION == 4
+    assert d["AACMM_PROTO_VERSION_PREVIOUS"] == constants.PROTOCOL_VERSION_PREVIOUS == 3
+    assert set(constants.OLD_PROTOCOL_VERSIONS) == set(
+        range(constants.PROTOCOL_VERSION_OLDEST, constants.PROTOCOL_VERSION_PREVIOUS + 1)
+    )
     assert d["AACMM_PROTO_VERSION_OLDEST"] == constants.PROTOCOL_VERSION_OLDEST == 1
     assert re.search(r"#define AACMM_REF_TEMP_MIN \((-\d+)\)", text)[1] == str(layout.REF_TEMP_MIN)  # type: ignore[index]
     assert d["AACMM_REF_TEMP_MAX"] == layout.REF_TEMP_MAX
@@ -458,17 +562,32 @@ def test_c_message_types_and_sizes_match_python() -> None:
     assert d["AACMM_HARMONICS_MAX"] == layout.HARMONICS_MAX
     assert d["AACMM_INFO_BYTES"] == layout.INFO_BYTES == layout.INFO_LAYOUT.size
     assert d["AACMM_SAMPLE_BASE_BYTES"] == layout.SAMPLE_BASE_BYTES == layout.SAMPLE_LAYOUT.size
-    assert d["AACMM_SAMPLE_MAX_BYTES"] == layout.sample_bytes(7, 37, True)
-    assert 2 + layout.sample_bytes(7, 37, True) <= constants.MAX_BODY - constants.HEADER_BYTES
+    payload_max = constants.MAX_BODY - constants.HEADER_BYTES
+    assert d["AACMM_SAMPLE_MAX_BYTES"] == layout.SAMPLE_MAX_BYTES == 505
+    assert layout.SAMPLE_MAX_BYTES == max(
+        layout.sample_bytes(n, p, jac, temps)
+        for n in range(constants.JOINTS_MIN, constants.JOINTS_MAX + 1)
+        for p in range(4 * n + 1, 5 * n + 3)
+        for jac in (False, True)
+        for temps in (False, True)
+        if layout.sample_bytes(n, p, jac, temps) <= payload_max
+    )
+    assert layout.sample_bytes(7, 37, True, True) > payload_max  # the one refused
+    assert layout.sample_bytes(7, 36, True, True) == layout.SAMPLE_MAX_BYTES
+    assert layout.TRIGGER_EXTRA_BYTES + layout.SAMPLE_MAX_BYTES <= payload_max
     assert d["AACMM_COMPUTE_RSP_BASE_BYTES"] == layout.COMPUTE_RSP_BASE_BYTES
     assert d["AACMM_DIAG_BASE_BYTES"] == layout.DIAG_BASE_BYTES == layout.DIAG_LAYOUT.size
     assert d["AACMM_CONTENT_JACOBIAN"] == protocol.Content.JACOBIAN
+    assert d["AACMM_CONTENT_TEMPERATURES"] == protocol.Content.TEMPERATURES
+    assert d["AACMM_CONTENT_KNOWN"] == protocol.Content.JACOBIAN | protocol.Content.TEMPERATURES
+    assert "#define AACMM_TEMP_NONE INT16_MIN" in text and constants.TEMP_NONE == -(2**15)
+    assert d["AACMM_DIAG_TAIL_BYTES"] == layout.DIAG_TAIL_BYTES == 4
     for flag in protocol.SampleStatus:
         assert d[f"AACMM_SAMPLE_{flag.name}"] == flag.value
     for build in protocol.BuildFlags:
         assert d[f"AACMM_BUILD_{build.name}"] == build.value
     assert d["AACMM_DIAG_JOINT_BYTES"] == layout.DIAG_JOINT_BYTES
-    assert layout.DIAG_BYTES == 126  # 60 + 6 * 11 (the C macro is an expression)
+    assert layout.DIAG_BYTES == 130  # 60 + 6 * 11 + 4 (the C macro is an expression)
     enums: list[tuple[str, type[IntEnum], str]] = [
         ("AACMM_PARAM_SOURCE_", protocol.ParamSource, "AACMM_PARAM_SOURCE_MAX"),
         ("AACMM_STORAGE_KIND_", protocol.StorageKind, "AACMM_STORAGE_KIND_MAX"),
@@ -583,6 +702,7 @@ def test_can_sample_round_trip(sample: Sample, node: int) -> None:
 
 def test_encoder_rejects_bad_arguments_with_value_error() -> None:
     good = GEN.messages()
+    jac37 = tuple(tuple(0.5 for _ in range(37)) for _ in range(3))
     bad = [
         Message(MsgType.PING_REQ, 256, Ping(1)),
         Message(MsgType.PING_REQ, 0, Ping(-1)),
@@ -608,6 +728,27 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         Message(MsgType.COMPUTE_RSP, 0, ComputeResult(0, (0.0, 0.0, 0.0), None, params=38)),
         Message(MsgType.MEASURE_RSP, 0, Sample(0, 0, (0,) * 6, (2**31, 0, 0), 0)),
         Message(MsgType.TRIGGER_EVT, 0, Trigger(0, 2, GEN.SAMPLE_A)),  # type: ignore[arg-type]
+        # version 4: temperatures
+        Message(MsgType.MEASURE_RSP, 0, replace(GEN.SAMPLE_7TJ, params=37, jacobian=jac37)),
+        Message(
+            MsgType.TRIGGER_EVT,
+            0,
+            Trigger(0, False, replace(GEN.SAMPLE_7TJ, params=37, jacobian=jac37)),
+        ),
+        Message(MsgType.SAMPLE_EVT, 0, replace(GEN.SAMPLE_T, temp=(0,) * 5)),  # N 6
+        Message(MsgType.SAMPLE_EVT, 0, replace(GEN.SAMPLE_T, temp=(0,) * 5 + (32768,))),
+        Message(MsgType.COMPUTE_REQ, 0, replace(GEN.COMPUTE_REQ_T, temp=(0,) * 5 + (8501,))),
+        Message(MsgType.COMPUTE_REQ, 0, replace(GEN.COMPUTE_REQ_T, temp=(-4001,) + (0,) * 5)),
+        Message(
+            MsgType.COMPUTE_REQ,
+            0,
+            replace(GEN.COMPUTE_REQ_T, temp=(constants.TEMP_NONE,) * 6),
+        ),
+        Message(MsgType.COMPUTE_REQ, 0, replace(GEN.COMPUTE_REQ_T, temp=(0,) * 7)),
+        Message(MsgType.MEASURE_REQ, 0, MeasureRequest(temperatures=1)),  # type: ignore[arg-type]
+        Message(MsgType.STREAM_START_REQ, 0, Stream(10, temperatures=None)),  # type: ignore[arg-type]
+        Message(MsgType.COMPUTE_RSP, 0, replace(GEN.COMPUTE_RSP_T, temperatures=2)),
+        Message(MsgType.DIAG_RSP, 0, replace(GEN.DIAG, temp_faults=2**32)),
     ]
     p = good["set_params_req"].payload
     assert isinstance(p, ParamSet)
@@ -625,7 +766,10 @@ def test_encoder_rejects_bad_arguments_with_value_error() -> None:
         {"cte": (40000, 0, 0, 0, 0, 0)},
         {"cte": (0,) * 6, "ref_temp": 8501},  # above 85 degC
         {"cte": (0,) * 6, "ref_temp": -4001},  # below -40 degC
-        {"harm_cos": ((1,), (), (), (), (), ()), "harm_sin": ((1,), (), (), (), (), (1,))},
+        {
+            "harm_cos": ((1,), (), (), (), (), ()),
+            "harm_sin": ((1,), (), (), (), (), (1,)),
+        },
     ):
         bad.append(Message(MsgType.SET_PARAMS_REQ, 0, ParamSet(**{**p.__dict__, **change})))
     for m in bad:

@@ -179,7 +179,7 @@ static void test_vectors_encode_decode(void **state)
         }
         checked++;
     }
-    assert_int_equal(checked, 32);
+    assert_int_equal(checked, 40);
 }
 
 static void test_vectors_bad_bodies(void **state)
@@ -231,8 +231,9 @@ static void test_truncated_and_extended(void **state)
 static void test_unknown_types_and_version(void **state)
 {
     unsigned t;
-    uint8_t body[8] = {3, 0, 0, 0, 0, 0, 0, 0};
+    uint8_t body[8] = {AACMM_PROTO_VERSION, 0, 0, 0, 0, 0, 0, 0};
     aacmm_msg_t m;
+    unsigned v;
     (void)state;
     for (t = 0; t < 256; t++) {
         aacmm_status_t st;
@@ -247,15 +248,24 @@ static void test_unknown_types_and_version(void **state)
         assert_int_equal(m.type, t); /* header is reported for the error response */
         assert_int_equal(m.seq, 0x77);
     }
-    body[0] = 1; /* the six-joint version: type and seq still reported */
+    /* 1: six joints; 2: the arm model before the error model's layout; 3:
+     * the error model before device temperatures; 5: a future version. Type
+     * and seq are still reported (for the error response). */
+    assert_int_equal(AACMM_PROTO_VERSION, 4);
+    assert_int_equal(AACMM_PROTO_VERSION_PREVIOUS, 3);
+    assert_int_equal(AACMM_PROTO_VERSION_OLDEST, 1);
     body[1] = AACMM_MSG_INFO_REQ;
-    assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
-    assert_int_equal(m.type, AACMM_MSG_INFO_REQ);
-    assert_int_equal(m.seq, 0x77);
-    body[0] = 2; /* the arm model before the error model's layout */
-    assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
-    body[0] = 4;
-    assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
+    for (v = 0; v <= AACMM_PROTO_VERSION + 1u; v++) {
+        if (v == AACMM_PROTO_VERSION) {
+            continue;
+        }
+        body[0] = (uint8_t)v;
+        m.type = 0;
+        m.seq = 0;
+        assert_int_equal(aacmm_msg_decode(body, 3, &m), AACMM_ERR_VERSION);
+        assert_int_equal(m.type, AACMM_MSG_INFO_REQ);
+        assert_int_equal(m.seq, 0x77);
+    }
     assert_int_equal(aacmm_msg_decode(NULL, 3, &m), AACMM_ERR_NULL);
     assert_int_equal(aacmm_msg_decode(body, 3, NULL), AACMM_ERR_NULL);
 }
@@ -404,10 +414,10 @@ static void test_helpers_counted_decode_error_reply(void **state)
             assert_int_equal(aacmm_msg_decode_counted(g_vec[i].a, g_vec[i].a_len, &m, &stats), AACMM_OK);
         }
     }
-    assert_int_equal(stats.ok, 32);
+    assert_int_equal(stats.ok, 40);
     assert_int_equal(stats.length + stats.version + stats.unknown_type + stats.range +
                          stats.not_finite, bad);
-    assert_int_equal(stats.version, 4);
+    assert_int_equal(stats.version, 5); /* versions 0, 1, 2, 3 and 5 */
     assert_int_equal(stats.unknown_type, 3);
     assert_int_equal(stats.other, 0);
     for (t = 0; t < 256; t++) {
@@ -507,6 +517,131 @@ static void test_encode_rejects(void **state)
         assert_int_equal(aacmm_msg_encode(&m, out + sizeof out - cap, cap, &n), AACMM_ERR_BUFFER);
     }
     assert_int_equal(aacmm_msg_encode(NULL, out, sizeof out, &n), AACMM_ERR_NULL);
+}
+
+/* Version 4's device temperatures: the sizes, the layout written out here
+ * byte by byte, and the encoder's refusals (the decoder's are bad-body
+ * vectors). */
+static void put_u32(uint8_t *b, uint32_t v)
+{
+    b[0] = (uint8_t)(v & 0xFFu);
+    b[1] = (uint8_t)((v >> 8) & 0xFFu);
+    b[2] = (uint8_t)((v >> 16) & 0xFFu);
+    b[3] = (uint8_t)(v >> 24);
+}
+
+static void put_i16(uint8_t *b, int16_t v)
+{
+    uint16_t u = (uint16_t)v;
+    b[0] = (uint8_t)(u & 0xFFu);
+    b[1] = (uint8_t)(u >> 8);
+}
+
+static void test_temperatures(void **state)
+{
+    aacmm_msg_t m, got;
+    uint8_t out[AACMM_PROTO_MAX_BODY], want[64];
+    size_t n = 0, i;
+    (void)state;
+    /* sizes: 31 + 4N (+ 2N) (+ 12P); COMPUTE_REQ 2 + 4N (+ 2N); DIAG 64 + 11N */
+    assert_int_equal(AACMM_SAMPLE_BYTES(6u, 25u, AACMM_CONTENT_TEMPERATURES), 31 + 24 + 12);
+    assert_int_equal(AACMM_SAMPLE_BYTES(7u, 36u, 0x03u), 505);
+    assert_int_equal(AACMM_SAMPLE_MAX_BYTES, 505);
+    assert_int_equal(AACMM_SAMPLE_BYTES(7u, 37u, 0x01u), 503);
+    assert_true(AACMM_SAMPLE_BYTES(7u, 37u, 0x03u) >
+                AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES);
+    assert_true(AACMM_TRIGGER_EXTRA_BYTES + AACMM_SAMPLE_MAX_BYTES <=
+                AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES);
+    assert_int_equal(AACMM_COMPUTE_REQ_BYTES(6u, 0x02u), 2 + 24 + 12);
+    assert_int_equal(AACMM_COMPUTE_REQ_BYTES(6u, 0x01u), 2 + 24);
+    assert_int_equal(AACMM_DIAG_BYTES(6u), 130);
+    assert_int_equal(AACMM_DIAG_BYTES(4u), 108);
+    assert_int_equal(AACMM_CONTENT_KNOWN, 0x03);
+
+    /* the sample's layout: counts, then the temperatures, then the Jacobian */
+    assert_true(vec_expected_msg("sample_evt_t", &m));
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 31 + 24 + 12);
+    assert_int_equal(out[3 + 28], AACMM_CONTENT_TEMPERATURES);
+    for (i = 0; i < 6; i++) {
+        put_u32(want + 4 * i, m.u.sample.counts[i]);
+        put_i16(want + 24 + 2 * i, m.u.sample.temp[i]);
+    }
+    assert_memory_equal(out + 3 + 31, want, 36);
+    assert_int_equal(out[n - 4], 0x00); /* AACMM_TEMP_NONE: 0x8000 little-endian */
+    assert_int_equal(out[n - 3], 0x80);
+    /* any i16 reading passes both ways (the device sends what the sensor said) */
+    m.u.sample.temp[0] = INT16_MIN;
+    m.u.sample.temp[5] = INT16_MIN + 1;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(aacmm_msg_decode(out, n, &got), AACMM_OK);
+    assert_true(vec_msg_equal(&got, &m));
+    /* without the bit: no temperature bytes, and the decoder's temp[] is 0 */
+    m.u.sample.content = 0u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 31 + 24);
+    memset(&got, 0xA5, sizeof got);
+    assert_int_equal(aacmm_msg_decode(out, n, &got), AACMM_OK);
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        assert_int_equal(got.u.sample.temp[i], 0);
+    }
+    m.u.sample.content = 0x04u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+
+    /* N 7, P 37 with both: more than a body; with the Jacobian alone it fits */
+    assert_true(vec_expected_msg("measure_rsp7_tj", &m));
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 505);
+    m.u.sample.params = 37u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    assert_int_equal(n, 0);
+    m.u.sample.content = AACMM_CONTENT_JACOBIAN;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 503);
+    m.u.sample.content = AACMM_CONTENT_TEMPERATURES;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 31 + 28 + 14);
+    assert_true(vec_expected_msg("trigger_evt7_tj", &m));
+    m.u.trigger.sample.params = 37u;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+
+    /* COMPUTE_REQ: every temperature -4000 .. 8500; none needed without the bit */
+    assert_true(vec_expected_msg("compute_req_tj", &m));
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 2 + 24 + 12);
+    for (i = 0; i < 6; i++) {
+        put_i16(want + 2 * i, m.u.compute_req.temp[i]);
+    }
+    assert_memory_equal(out + 3 + 2 + 24, want, 12);
+    m.u.compute_req.temp[2] = 8501;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    m.u.compute_req.temp[2] = -4001;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    m.u.compute_req.temp[2] = AACMM_TEMP_NONE;
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_ERR_RANGE);
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN; /* not sent: not checked */
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 2 + 24);
+    memset(&got, 0xA5, sizeof got);
+    assert_int_equal(aacmm_msg_decode(out, n, &got), AACMM_OK);
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        assert_int_equal(got.u.compute_req.temp[i], 0);
+    }
+    /* the decoder checks each of the N (the last one too) */
+    assert_true(vec_expected_msg("compute_req_tj", &m));
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    put_i16(out + n - 2, 8501);
+    assert_int_equal(aacmm_msg_decode(out, n, &got), AACMM_ERR_RANGE);
+    put_i16(out + n - 2, 8500);
+    assert_int_equal(aacmm_msg_decode(out, n, &got), AACMM_OK);
+
+    /* DIAG_RSP: u32 temp_faults after the N joint entries */
+    assert_true(vec_expected_msg("diag_rsp_tf", &m));
+    assert_int_equal(aacmm_msg_encode(&m, out, sizeof out, &n), AACMM_OK);
+    assert_int_equal(n, 3 + 130);
+    put_u32(want, 0x89ABCDEFu);
+    assert_memory_equal(out + n - 4, want, 4);
+    assert_int_equal(aacmm_msg_payload_len(AACMM_MSG_DIAG_RSP, out + 3, n - 3), 130);
 }
 
 static void test_param_set_crc(void **state)
@@ -777,6 +912,25 @@ static void test_can_sample_frames(void **state)
         k++;
     }
     assert_int_equal(k, 7);
+    /* a sample with temperatures: the frames carry its TEMP_FAULT status bit
+     * (in PointZ's low 16 status bits), not the temperatures */
+    assert_true(vec_expected_msg("sample_evt_t", &m7));
+    assert_int_equal(aacmm_can_sample_encode(&m7.u.sample, 1, f, &nf), AACMM_OK);
+    assert_int_equal(nf, AACMM_CAN_SAMPLE_FRAMES(6u));
+    k = 0;
+    for (i = 0; i < g_nvec; i++) {
+        const vec_record_t *r = &g_vec[i];
+        if (strcmp(r->kind, "can") != 0 || strncmp(r->name, "sample_t_n1_", 12) != 0) {
+            continue;
+        }
+        assert_true(k < nf);
+        assert_int_equal(f[k].id, r->id);
+        assert_memory_equal(f[k].data, r->b, 8);
+        k++;
+    }
+    assert_int_equal(k, 6);
+    assert_int_equal(f[nf - 1].data[4] | (f[nf - 1].data[5] << 8),
+                     AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_TEMP_FAULT);
     k = 0;
     vec_sample_a(&s);
     assert_int_equal(aacmm_can_sample_encode(&s, 5, f, &nf), AACMM_OK);
@@ -1156,6 +1310,7 @@ int main(void)
         cmocka_unit_test(test_truncated_and_extended),
         cmocka_unit_test(test_unknown_types_and_version),
         cmocka_unit_test(test_encode_rejects),
+        cmocka_unit_test(test_temperatures),
         cmocka_unit_test(test_param_set_encoder_rule),
         cmocka_unit_test(test_param_set_shape_rules),
         cmocka_unit_test(test_helpers_counted_decode_error_reply),

@@ -215,6 +215,51 @@ void vec_sample_a(aacmm_sample_t *s)
     s->params = 25u;
 }
 
+/* Version 4: SAMPLE_T of the generator (six link temperatures, one
+ * AACMM_TEMP_NONE, one out of range; TEMP_FAULT set, point valid). */
+static void sample_t(aacmm_sample_t *s)
+{
+    static const int16_t temp[6] = {2000, 2150, -4000, 8500, AACMM_TEMP_NONE, 32767};
+    int i;
+    memset(s, 0, sizeof *s);
+    s->seq = 0x00010000u;
+    s->timestamp_us = 86400000000ull;
+    for (i = 0; i < 6; i++) {
+        s->counts[i] = (uint32_t)(1000 * (i + 1));
+    }
+    s->point_100nm[0] = 3000000;
+    s->point_100nm[1] = -1500000;
+    s->point_100nm[2] = 4500000;
+    s->status = AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_TEMP_FAULT;
+    s->content = AACMM_CONTENT_TEMPERATURES;
+    s->joints = 6u;
+    s->params = 25u;
+    memcpy(s->temp, temp, sizeof temp);
+}
+
+/* SAMPLE_7TJ: the largest sample (N 7, P 36, temperatures and Jacobian). */
+static void sample_7tj(aacmm_sample_t *s)
+{
+    static const uint32_t counts[7] = {0xFFFFFFFFu, 1u, 2u, 3u, 4u, 5u, 6u};
+    static const int16_t temp[7] = {-3999, -1, 0, 1, 2500, 8499, -32767};
+    int i;
+    memset(s, 0, sizeof *s);
+    s->seq = 0xFFFFFFFFu;
+    s->timestamp_us = 123456789u;
+    memcpy(s->counts, counts, sizeof counts);
+    s->point_100nm[0] = INT32_MIN;
+    s->point_100nm[1] = 0;
+    s->point_100nm[2] = INT32_MAX;
+    s->status = AACMM_SAMPLE_POINT_VALID;
+    s->content = AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN;
+    s->joints = 7u;
+    s->params = 36u;
+    memcpy(s->temp, temp, sizeof temp);
+    for (i = 0; i < 108; i++) {
+        s->jacobian[i] = (float)(i % 29 - 14) * 0.0625f;
+    }
+}
+
 static void sample_j(aacmm_sample_t *s)
 {
     int i;
@@ -254,7 +299,7 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         m->type = AACMM_MSG_INFO_REQ; m->seq = 1;
     } else if (IS("info_rsp")) {
         m->type = AACMM_MSG_INFO_RSP; m->seq = 1;
-        m->u.info.protocol_version = 3; m->u.info.fw_major = 0; m->u.info.fw_minor = 3;
+        m->u.info.protocol_version = 4; m->u.info.fw_major = 0; m->u.info.fw_minor = 3;
         m->u.info.fw_patch = 17; m->u.info.build_flags = 0x1Eu; m->u.info.param_crc32 = crc;
         m->u.info.param_source = 1; m->u.info.storage_state = 0; m->u.info.max_body_bytes = 512;
         m->u.info.serial_number = 0xA5C3E001u; m->u.info.can_node_id = 5;
@@ -265,8 +310,8 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         vec_params7(&p7);
         (void)aacmm_param_set_crc32(&p7, &crc7);
         m->type = AACMM_MSG_INFO_RSP; m->seq = 13;
-        m->u.info.protocol_version = 3; m->u.info.fw_major = 0; m->u.info.fw_minor = 1;
-        m->u.info.fw_patch = 0; m->u.info.build_flags = 0x0Cu; m->u.info.param_crc32 = crc7;
+        m->u.info.protocol_version = 4; m->u.info.fw_major = 0; m->u.info.fw_minor = 1;
+        m->u.info.fw_patch = 0; m->u.info.build_flags = 0x2Cu; m->u.info.param_crc32 = crc7;
         m->u.info.param_source = 2; m->u.info.storage_state = 1; m->u.info.max_body_bytes = 512;
         m->u.info.serial_number = 77u; m->u.info.can_node_id = 15;
         m->u.info.joints = 7; m->u.info.params = 33;
@@ -358,13 +403,44 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         m->u.trigger.button = 0; m->u.trigger.pressed = 1; vec_sample_a(&m->u.trigger.sample);
     } else if (IS("diag_req")) {
         m->type = AACMM_MSG_DIAG_REQ; m->seq = 12;
-    } else if (IS("diag_rsp") || IS("diag_rsp7")) {
+    } else if (IS("sample_evt_t")) {
+        m->type = AACMM_MSG_SAMPLE_EVT; m->seq = 19; sample_t(&m->u.sample);
+    } else if (IS("measure_rsp7_tj")) {
+        m->type = AACMM_MSG_MEASURE_RSP; m->seq = 20; sample_7tj(&m->u.sample);
+    } else if (IS("trigger_evt7_tj")) {
+        m->type = AACMM_MSG_TRIGGER_EVT; m->seq = 21;
+        m->u.trigger.button = AACMM_BUTTON_UNDO; m->u.trigger.pressed = 0;
+        sample_7tj(&m->u.trigger.sample);
+    } else if (IS("measure_req_tj")) {
+        m->type = AACMM_MSG_MEASURE_REQ; m->seq = 22;
+        m->u.measure.content = AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES;
+    } else if (IS("stream_start_req_t")) {
+        m->type = AACMM_MSG_STREAM_START_REQ; m->seq = 23;
+        m->u.stream.rate_hz = 100; m->u.stream.content = AACMM_CONTENT_TEMPERATURES;
+    } else if (IS("compute_req_tj")) {
+        static const int16_t temp[6] = {-4000, 8500, 2000, 2001, 0, -1};
+        m->type = AACMM_MSG_COMPUTE_REQ; m->seq = 24;
+        m->u.compute_req.content = AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES;
+        m->u.compute_req.joints = 6;
+        for (i = 0; i < 6; i++) {
+            m->u.compute_req.counts[i] = (uint32_t)(11 * (i + 1));
+        }
+        memcpy(m->u.compute_req.temp, temp, sizeof temp);
+    } else if (IS("compute_rsp_t")) {
+        m->type = AACMM_MSG_COMPUTE_RSP; m->seq = 24;
+        m->u.compute_rsp.status = 1;
+        m->u.compute_rsp.point_mm[0] = 100.25;
+        m->u.compute_rsp.point_mm[1] = -200.5;
+        m->u.compute_rsp.point_mm[2] = 300.125;
+        m->u.compute_rsp.content = AACMM_CONTENT_TEMPERATURES;
+        m->u.compute_rsp.params = 25;
+    } else if (IS("diag_rsp") || IS("diag_rsp7") || IS("diag_rsp_tf")) {
         static const aacmm_diag_joint_t joints[6] = {
             {1, 32, 0, 0u, 0u},         {1, 26, 1, 12u, 3u}, {2, 20, 6, 1u, 0u},
             {3, 13, 3, 0xFFFFFFFFu, 0u}, {0, 0, 7, 2u, 0u},  {1, 1, 8, 1u, 0xFFFFFFFFu},
         };
         aacmm_msg_diag_t *d = &m->u.diag;
-        m->type = AACMM_MSG_DIAG_RSP; m->seq = IS("diag_rsp") ? 12 : 18;
+        m->type = AACMM_MSG_DIAG_RSP; m->seq = IS("diag_rsp") ? 12 : IS("diag_rsp7") ? 18 : 25;
         d->storage_kind = AACMM_STORAGE_KIND_FLASH; d->storage_flags = AACMM_STORAGE_PERSISTENT;
         d->slot_state[0] = AACMM_SLOT_NEWEST; d->slot_state[1] = AACMM_SLOT_BAD_CRC;
         d->slot_generation[0] = 0x01020304u; d->slot_generation[1] = 0xFFFFFFFFu;
@@ -375,6 +451,7 @@ int vec_expected_msg(const char *name, aacmm_msg_t *m)
         d->samples_dropped = 5u; d->samples_late = 6u;
         memcpy(d->joint, joints, sizeof joints);
         d->joints = 6;
+        d->temp_faults = IS("diag_rsp_tf") ? 0x89ABCDEFu : 0u;
         if (IS("diag_rsp7")) {
             d->joints = 7;
             d->joint[6].interface = 2; d->joint[6].bits = 24; d->joint[6].last_fault = 5;
@@ -396,6 +473,10 @@ static int sample_equal(const aacmm_sample_t *a, const aacmm_sample_t *b)
         a->content != b->content || a->joints != b->joints || a->params != b->params ||
         memcmp(a->counts, b->counts, sizeof a->counts) != 0 ||
         memcmp(a->point_100nm, b->point_100nm, sizeof a->point_100nm) != 0) {
+        return 0;
+    }
+    if ((a->content & AACMM_CONTENT_TEMPERATURES) != 0u &&
+        memcmp(a->temp, b->temp, sizeof a->temp) != 0) {
         return 0;
     }
     if ((a->content & AACMM_CONTENT_JACOBIAN) != 0u &&
@@ -448,7 +529,10 @@ int vec_msg_equal(const aacmm_msg_t *x, const aacmm_msg_t *y)
         return x->u.compute_req.content == y->u.compute_req.content &&
                x->u.compute_req.joints == y->u.compute_req.joints &&
                memcmp(x->u.compute_req.counts, y->u.compute_req.counts,
-                      sizeof x->u.compute_req.counts) == 0;
+                      sizeof x->u.compute_req.counts) == 0 &&
+               ((x->u.compute_req.content & AACMM_CONTENT_TEMPERATURES) == 0u ||
+                memcmp(x->u.compute_req.temp, y->u.compute_req.temp,
+                       sizeof x->u.compute_req.temp) == 0);
     case AACMM_MSG_COMPUTE_RSP: {
         const aacmm_msg_compute_rsp_t *a = &x->u.compute_rsp;
         const aacmm_msg_compute_rsp_t *b = &y->u.compute_rsp;
@@ -483,7 +567,8 @@ int vec_msg_equal(const aacmm_msg_t *x, const aacmm_msg_t *y)
             a->boot_count != b->boot_count || a->watchdog_ms != b->watchdog_ms ||
             a->uptime_us != b->uptime_us || a->encoder_faults != b->encoder_faults ||
             a->serial_frames_bad != b->serial_frames_bad ||
-            a->samples_dropped != b->samples_dropped || a->samples_late != b->samples_late) {
+            a->samples_dropped != b->samples_dropped || a->samples_late != b->samples_late ||
+            a->temp_faults != b->temp_faults) {
             return 0;
         }
         if (a->joints != b->joints || a->joints > AACMM_JOINTS_MAX) {

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import isotp
 from aacmm.protocol import can as pcan
-from aacmm.protocol.constants import MsgType
+from aacmm.protocol.constants import TEMP_NONE, MsgType, SampleStatus
 from aacmm.protocol.encode import encode_message, param_set_crc32
 from aacmm.protocol.framing import crc32, encode_frame
 from aacmm.protocol.payloads import (
@@ -191,6 +191,44 @@ COMPUTE_RSP = ComputeResult(
     jacobian=rows3x25(tuple(i * 0.5 for i in range(75))),
 )
 
+# Version 4 (device temperatures). A paper-arm sample with its six link
+# temperatures (0.01 degC): one link without a reading (TEMP_NONE) and one
+# reading out of range that decoders still accept, so TEMP_FAULT is set; the
+# point is valid (no thermal block in force).
+SAMPLE_T = Sample(
+    seq=0x00010000,
+    timestamp_us=86_400_000_000,
+    counts=(1000, 2000, 3000, 4000, 5000, 6000),
+    point_100nm=(3000000, -1500000, 4500000),
+    status=int(SampleStatus.POINT_VALID | SampleStatus.TEMP_FAULT),
+    temp=(2000, 2150, -4000, 8500, TEMP_NONE, 32767),
+)
+
+# The largest sample: 7 joints, P 36, temperatures and Jacobian (505 bytes).
+SAMPLE_7TJ = Sample(
+    seq=0xFFFFFFFF,
+    timestamp_us=123456789,
+    counts=(0xFFFFFFFF, 1, 2, 3, 4, 5, 6),
+    point_100nm=(-2147483648, 0, 2147483647),
+    status=0x0001,
+    jacobian=rows3(tuple((i % 29 - 14) * 0.0625 for i in range(108)), 36),
+    params=36,
+    temp=(-3999, -1, 0, 1, 2500, 8499, -32767),
+)
+
+COMPUTE_REQ_T = ComputeRequest(
+    counts=(11, 22, 33, 44, 55, 66),
+    jacobian=True,
+    temp=(-4000, 8500, 2000, 2001, 0, -1),
+)
+
+COMPUTE_RSP_T = ComputeResult(
+    status=1,
+    point_mm=(100.25, -200.5, 300.125),
+    params=25,
+    temperatures=True,
+)
+
 
 def messages() -> dict[str, Message]:
     """The named valid messages of the vector file."""
@@ -203,7 +241,7 @@ def messages() -> dict[str, Message]:
             MsgType.INFO_RSP,
             1,
             DeviceInfo(
-                protocol_version=3,
+                protocol_version=4,
                 fw_major=0,
                 fw_minor=3,
                 fw_patch=17,
@@ -221,7 +259,7 @@ def messages() -> dict[str, Message]:
         "info_rsp7": Message(
             MsgType.INFO_RSP,
             13,
-            DeviceInfo(3, 0, 1, 0, 0x0C, param_set_crc32(PARAMS7), 2, 1, 512, 77, 15, 7, 33),
+            DeviceInfo(4, 0, 1, 0, 0x2C, param_set_crc32(PARAMS7), 2, 1, 512, 77, 15, 7, 33),
         ),
         "get_params_rsp7": Message(MsgType.GET_PARAMS_RSP, 14, PARAMS7),
         "set_params_req5e": Message(MsgType.SET_PARAMS_REQ, 15, PARAMS5E),
@@ -262,11 +300,24 @@ def messages() -> dict[str, Message]:
         "diag_req": Message(MsgType.DIAG_REQ, 12),
         "diag_rsp": Message(MsgType.DIAG_RSP, 12, DIAG),
         "error_rsp": Message(MsgType.ERROR_RSP, 3, ErrorReply(int(Status.ERR_RANGE), 0x04)),
+        # version 4: device temperatures
+        "sample_evt_t": Message(MsgType.SAMPLE_EVT, 19, SAMPLE_T),
+        "measure_rsp7_tj": Message(MsgType.MEASURE_RSP, 20, SAMPLE_7TJ),
+        "trigger_evt7_tj": Message(MsgType.TRIGGER_EVT, 21, Trigger(1, False, SAMPLE_7TJ)),
+        "measure_req_tj": Message(
+            MsgType.MEASURE_REQ, 22, MeasureRequest(jacobian=True, temperatures=True)
+        ),
+        "stream_start_req_t": Message(
+            MsgType.STREAM_START_REQ, 23, Stream(100, jacobian=False, temperatures=True)
+        ),
+        "compute_req_tj": Message(MsgType.COMPUTE_REQ, 24, COMPUTE_REQ_T),
+        "compute_rsp_t": Message(MsgType.COMPUTE_RSP, 24, COMPUTE_RSP_T),
+        "diag_rsp_tf": Message(MsgType.DIAG_RSP, 25, replace(DIAG, temp_faults=0x89ABCDEF)),
     }
 
 
 def _hdr(t: int, seq: int = 0) -> bytes:
-    return bytes([3, t, seq])
+    return bytes([4, t, seq])
 
 
 def _params_bytes(
@@ -306,13 +357,16 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
     )  # the paper's sample without Jacobian: 55 bytes
     good_ping = encode_message(messages()["ping_req"])
     diag = encode_message(messages()["diag_rsp"])[3:]
+    counts6 = struct.pack("<6I", *range(1, 7))
+    sample_7tj = encode_message(messages()["measure_rsp7_tj"])[3:]
     return [
         ("empty", b"", Status.ERR_LENGTH),
         ("header_short", bytes([1, 1]), Status.ERR_LENGTH),
         ("version_0", bytes([0]) + good_ping[1:], Status.ERR_VERSION),
         ("version_1", bytes([1]) + good_ping[1:], Status.ERR_VERSION),
         ("version_2", bytes([2]) + good_ping[1:], Status.ERR_VERSION),
-        ("version_4", bytes([4]) + good_ping[1:], Status.ERR_VERSION),
+        ("version_3", bytes([3]) + good_ping[1:], Status.ERR_VERSION),
+        ("version_5", bytes([5]) + good_ping[1:], Status.ERR_VERSION),
         ("type_unknown_0c", _hdr(0x0C), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_00", _hdr(0x00), Status.ERR_UNKNOWN_TYPE),
         ("type_unknown_c1", _hdr(0xC1, 9) + b"\x00" * 4, Status.ERR_UNKNOWN_TYPE),
@@ -326,11 +380,12 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
             Status.ERR_RANGE,
         ),
         (
-            "stream_content_bit1",
-            _hdr(0x89) + struct.pack("<HB", 10, 2),
+            "stream_content_04",
+            _hdr(0x89) + struct.pack("<HB", 10, 4),
             Status.ERR_RANGE,
         ),
         ("measure_content_80", _hdr(0x07) + b"\x80", Status.ERR_RANGE),
+        ("measure_content_04", _hdr(0x07) + b"\x04", Status.ERR_RANGE),
         (
             "params_nan",
             _hdr(0x04) + _params_bytes(f=(3, float("nan"))),
@@ -441,9 +496,24 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
             Status.ERR_LENGTH,
         ),
         (
-            "sample_content_2",
-            _hdr(0x40) + sample53[:28] + b"\x02" + sample53[29:],
+            "sample_content_04",
+            _hdr(0x40) + sample53[:28] + b"\x04" + sample53[29:],
             Status.ERR_RANGE,
+        ),
+        (  # TEMPERATURES set, the N temperatures missing
+            "sample_temps_missing",
+            _hdr(0x40) + sample53[:28] + b"\x02" + sample53[29:],
+            Status.ERR_LENGTH,
+        ),
+        (  # temperatures sent without the bit
+            "sample_temps_unflagged",
+            _hdr(0x40) + sample53 + struct.pack("<6h", *(2000,) * 6),
+            Status.ERR_LENGTH,
+        ),
+        (  # N 7, P 37 with temperatures and Jacobian: 517 bytes, more than a body holds
+            "sample_tj_n7_p37",
+            _hdr(0x87) + sample_7tj[:30] + bytes([37]) + sample_7tj[31:] + bytes(12),
+            Status.ERR_LENGTH,
         ),
         (
             "sample_joints_3",
@@ -507,6 +577,36 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
             Status.ERR_LENGTH,
         ),
         (
+            "compute_req_content_04",
+            _hdr(0x08) + bytes([4, 6]) + counts6,
+            Status.ERR_RANGE,
+        ),
+        (
+            "compute_req_temp_hot",
+            _hdr(0x08) + bytes([2, 6]) + counts6 + struct.pack("<6h", 2000, 0, 8501, 0, 0, 0),
+            Status.ERR_RANGE,
+        ),
+        (
+            "compute_req_temp_cold",
+            _hdr(0x08) + bytes([3, 6]) + counts6 + struct.pack("<6h", 0, 0, 0, 0, 0, -4001),
+            Status.ERR_RANGE,
+        ),
+        (  # no reading is no temperature to compute at
+            "compute_req_temp_none",
+            _hdr(0x08) + bytes([2, 6]) + counts6 + struct.pack("<6h", -32768, 0, 0, 0, 0, 0),
+            Status.ERR_RANGE,
+        ),
+        (
+            "compute_req_temps_missing",
+            _hdr(0x08) + bytes([2, 6]) + counts6,
+            Status.ERR_LENGTH,
+        ),
+        (
+            "compute_rsp_content_04",
+            _hdr(0x88) + struct.pack("<I3dBB", 1, 1.0, 2.0, 0.0, 4, 25),
+            Status.ERR_RANGE,
+        ),
+        (
             "info_storage_4",
             _hdr(0x82) + struct.pack("<HBBHIIBBHIBBB", 2, 0, 0, 0, 0, 0, 0, 4, 512, 0, 0, 6, 25),
             Status.ERR_RANGE,
@@ -533,6 +633,8 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
         ),
         ("diag_req_payload", _hdr(0x0B) + b"\x00", Status.ERR_LENGTH),
         ("diag_short", _hdr(0x8B) + diag[:-1], Status.ERR_LENGTH),
+        # a version 3 DIAG_RSP (no temp_faults) under a version 4 header
+        ("diag_no_temp_faults", _hdr(0x8B) + diag[:-4], Status.ERR_LENGTH),
         ("diag_kind_6", _hdr(0x8B) + b"\x06" + diag[1:], Status.ERR_RANGE),
         ("diag_flags_2", _hdr(0x8B) + diag[:1] + b"\x02" + diag[2:], Status.ERR_RANGE),
         ("diag_slot_10", _hdr(0x8B) + diag[:3] + b"\x0a" + diag[4:], Status.ERR_RANGE),
@@ -562,8 +664,8 @@ def bad_bodies() -> list[tuple[str, bytes, Status]]:
             Status.ERR_RANGE,
         ),
         (
-            "diag_fault_9",
-            _hdr(0x8B) + diag[:-9] + b"\x09" + diag[-8:],
+            "diag_fault_9",  # joint 6's last_fault (13 bytes before the end: temp_faults last)
+            _hdr(0x8B) + diag[:-13] + b"\x09" + diag[-12:],
             Status.ERR_RANGE,
         ),
         ("trigger_pressed_2", _hdr(0x41) + b"\x00\x02" + sample53, Status.ERR_RANGE),
@@ -659,6 +761,9 @@ def render() -> str:
         lines.append(f"can sample_a_n5_{i} {fr.arbitration_id:03x} {fr.data.hex()}")
     for i, fr in enumerate(pcan.encode_sample_frames(SAMPLE_7, node_id=2)):
         lines.append(f"can sample_7_n2_{i} {fr.arbitration_id:03x} {fr.data.hex()}")
+    # CAN carries the TEMP_FAULT status bit, not the temperatures
+    for i, fr in enumerate(pcan.encode_sample_frames(SAMPLE_T, node_id=1)):
+        lines.append(f"can sample_t_n1_{i} {fr.arbitration_id:03x} {fr.data.hex()}")
     trig = pcan.load_dbc().encode_message(
         pcan.ID_TRIGGER,
         {"Seq": SAMPLE_A.seq, "Button": 0, "Pressed": 1, "Reserved": 0},

@@ -1,5 +1,5 @@
 /*
- * aacmm link protocol, version 3: the message set shared by the device and
+ * aacmm link protocol, version 4: the message set shared by the device and
  * the host (docs/protocol.md is the specification; this header is its C form).
  *
  * A message body is a 3-byte header followed by a type-specific payload, all
@@ -49,14 +49,15 @@
 extern "C" {
 #endif
 
-#define AACMM_PROTO_VERSION 3u
-/* Older versions: 2 (the arm model, with the error-model block reserved in
- * an earlier layout) and 1 (six joints, 25 parameters). A body of version
+#define AACMM_PROTO_VERSION 4u
+/* Older versions: 3 (the error model, before device temperatures), 2 (the
+ * arm model, with the error-model block reserved in an earlier layout) and
+ * 1 (six joints, 25 parameters). A body of version
  * AACMM_PROTO_VERSION_OLDEST .. AACMM_PROTO_VERSION_PREVIOUS is answered
  * with ERROR_RSP ERR_VERSION encoded in the body's own version (ERROR_RSP
- * has the same layout in all three), so an old host reads a clear version
+ * has the same layout in all four), so an old host reads a clear version
  * error instead of a body it cannot decode (docs/protocol.md 6). */
-#define AACMM_PROTO_VERSION_PREVIOUS 2u
+#define AACMM_PROTO_VERSION_PREVIOUS 3u
 #define AACMM_PROTO_VERSION_OLDEST 1u
 #define AACMM_PROTO_HEADER_BYTES 3u
 #define AACMM_PROTO_MAX_BODY 512u /* equals AACMM_FRAME_MAX_BODY */
@@ -70,7 +71,7 @@ typedef enum {
     AACMM_MSG_SAVE_PARAMS_REQ = 0x05,      /* empty: store the active set */
     AACMM_MSG_RESTORE_DEFAULTS_REQ = 0x06, /* empty: activate the built-in defaults */
     AACMM_MSG_MEASURE_REQ = 0x07,          /* u8 content */
-    AACMM_MSG_COMPUTE_REQ = 0x08,          /* u8 content, u8 N, u32 counts[N] */
+    AACMM_MSG_COMPUTE_REQ = 0x08,          /* u8 content, u8 N, u32 counts[N] (, i16 temp[N]) */
     AACMM_MSG_STREAM_START_REQ = 0x09,     /* u16 rate_hz, u8 content */
     AACMM_MSG_STREAM_STOP_REQ = 0x0A,      /* empty */
     AACMM_MSG_DIAG_REQ = 0x0B,             /* empty: device diagnostics */
@@ -84,11 +85,11 @@ typedef enum {
     AACMM_MSG_SET_PARAMS_RSP = 0x84,       /* u32 param_crc32 of the now active set */
     AACMM_MSG_SAVE_PARAMS_RSP = 0x85,      /* u32 param_crc32 of the stored set */
     AACMM_MSG_RESTORE_DEFAULTS_RSP = 0x86, /* u32 param_crc32 of the now active set */
-    AACMM_MSG_MEASURE_RSP = 0x87,          /* sample (31 + 4N, + 12P with Jacobian) */
+    AACMM_MSG_MEASURE_RSP = 0x87,          /* sample (31 + 4N, + 2N temps, + 12P Jacobian) */
     AACMM_MSG_COMPUTE_RSP = 0x88,          /* compute result (30, + 12P with Jacobian) */
     AACMM_MSG_STREAM_START_RSP = 0x89,     /* u16 rate_hz accepted, u8 content */
     AACMM_MSG_STREAM_STOP_RSP = 0x8A,      /* empty */
-    AACMM_MSG_DIAG_RSP = 0x8B,             /* diagnostics (60 + 11N bytes) */
+    AACMM_MSG_DIAG_RSP = 0x8B,             /* diagnostics (64 + 11N bytes) */
 
     AACMM_MSG_ERROR_RSP = 0xFF /* i16 status (aacmm_status_t), u8 request type */
 } aacmm_msg_type_t;
@@ -105,7 +106,7 @@ typedef enum {
  * Both bits on a sample that would exceed the body (N 7, P 37) are
  * AACMM_ERR_RANGE. docs/protocol.md 2.4, 2.5. */
 #define AACMM_CONTENT_TEMPERATURES 0x02u
-#define AACMM_CONTENT_KNOWN 0x01u /* 0x03 once the codec carries TEMPERATURES */
+#define AACMM_CONTENT_KNOWN 0x03u /* any other bit: AACMM_ERR_RANGE */
 
 /* Sample status flags (u32; unknown bits are passed through, not rejected). */
 #define AACMM_SAMPLE_POINT_VALID 0x0001u    /* point (and Jacobian) computed */
@@ -219,8 +220,10 @@ typedef enum {
 /* Payload sizes in bytes. N joints (4..7), P parameters (Jacobian columns,
  * P = 4N + B + T, aacmm/kinematics.h), S = sum of the joints' encoder
  * harmonics K_i (0..4 each, so S <= 4N), H = 1 with the thermal block, else
- * 0. Every size is at most AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES
- * (509). */
+ * 0; content is the AACMM_CONTENT_* byte. Every size a message can have is
+ * at most AACMM_PROTO_MAX_BODY - AACMM_PROTO_HEADER_BYTES (509): the one
+ * combination beyond it, a sample of N 7, P 37 with temperatures and
+ * Jacobian (517), is refused (AACMM_SAMPLE_MAX_BYTES). */
 #define AACMM_PARAM_SET_HEADER_BYTES 8u
 #define AACMM_PARAM_SET_BYTES(n, p, s, h)                                                   \
     (AACMM_PARAM_SET_HEADER_BYTES + 8u * (p) + 9u * (n) + 4u * (s) + 2u * ((n) + 1u) * (h))
@@ -233,7 +236,11 @@ typedef enum {
     (AACMM_SAMPLE_BASE_BYTES + 4u * (n) +                                                   \
      (((unsigned)(content) & AACMM_CONTENT_TEMPERATURES) ? 2u * (n) : 0u) +                \
      (((unsigned)(content) & AACMM_CONTENT_JACOBIAN) ? 12u * (p) : 0u))
-#define AACMM_SAMPLE_MAX_BYTES 503u             /* N 7, P 37, with Jacobian */
+/* The largest sample: N 7, P 36 with temperatures and Jacobian (N 7, P 37
+ * with Jacobian alone is 503; with both it would be 517, more than a body
+ * holds: the encoder refuses it with AACMM_ERR_RANGE). A TRIGGER_EVT adds
+ * AACMM_TRIGGER_EXTRA_BYTES and still fits. */
+#define AACMM_SAMPLE_MAX_BYTES 505u
 #define AACMM_COMPUTE_REQ_BYTES(n, content)                                                 \
     (2u + 4u * (n) + (((unsigned)(content) & AACMM_CONTENT_TEMPERATURES) ? 2u * (n) : 0u))
 #define AACMM_COMPUTE_RSP_BASE_BYTES 30u /* without Jacobian */
@@ -241,7 +248,9 @@ typedef enum {
 #define AACMM_TRIGGER_EXTRA_BYTES 2u     /* before the embedded sample */
 #define AACMM_DIAG_JOINT_BYTES 11u
 #define AACMM_DIAG_BASE_BYTES 60u
-#define AACMM_DIAG_BYTES(n) (AACMM_DIAG_BASE_BYTES + (n) * AACMM_DIAG_JOINT_BYTES)
+#define AACMM_DIAG_TAIL_BYTES 4u /* u32 temp_faults after the joints */
+#define AACMM_DIAG_BYTES(n)                                                                 \
+    (AACMM_DIAG_BASE_BYTES + (n) * AACMM_DIAG_JOINT_BYTES + AACMM_DIAG_TAIL_BYTES)
 
 /* ---- the parameter set's error model (issue 27) ---------------------------
  * The core's error model (aacmm/kinematics.h, "Error model") as the wire
@@ -320,7 +329,7 @@ typedef struct {
     uint8_t params;                    /* P, 4N + 1 .. 5N + 2 */
     uint32_t counts[AACMM_JOINTS_MAX]; /* raw encoder readings, joints 1..N */
     int16_t temp[AACMM_JOINTS_MAX];    /* links 1..N, AACMM_TEMP_UNIT_C or AACMM_TEMP_NONE,
-                                          if content has TEMPERATURES */
+                                          if content has TEMPERATURES (else 0); any i16 */
     float jacobian[AACMM_JAC_SIZE_MAX]; /* row-major 3 x P if content has JACOBIAN */
 } aacmm_sample_t;
 
@@ -333,13 +342,14 @@ typedef struct {
     uint8_t joints; /* N, 4..7: must be the device's (else ERR_RANGE from the device) */
     uint32_t counts[AACMM_JOINTS_MAX];
     int16_t temp[AACMM_JOINTS_MAX]; /* if content has TEMPERATURES: links 1..N, AACMM_TEMP_UNIT_C,
-                                       AACMM_REF_TEMP_MIN .. _MAX (else ERR_RANGE) */
+                                       AACMM_REF_TEMP_MIN .. _MAX (else ERR_RANGE); else 0 */
 } aacmm_msg_compute_req_t;
 
 typedef struct {
     uint32_t status;                /* AACMM_SAMPLE_* (POINT_VALID etc.) */
     double point_mm[3];             /* the device's own result, mm, float64 */
-    uint8_t content;                /* AACMM_CONTENT_* present */
+    uint8_t content;                /* AACMM_CONTENT_* present; TEMPERATURES: computed at the
+                                       request's temperatures (no extra bytes) */
     uint8_t params;                 /* P of the device's arm model */
     float jacobian[AACMM_JAC_SIZE_MAX]; /* row-major 3 x P if content has JACOBIAN */
 } aacmm_msg_compute_rsp_t;

@@ -533,7 +533,10 @@ static uint8_t rd_content(rd_t *r)
 static void wr_sample(wr_t *w, const aacmm_sample_t *s)
 {
     size_t i;
-    if (!joints_params_ok(s->joints, s->params)) {
+    /* N 7, P 37 with temperatures and Jacobian would not fit a body. */
+    if (!joints_params_ok(s->joints, s->params) ||
+        AACMM_SAMPLE_BYTES((size_t)s->joints, (size_t)s->params, s->content) >
+            AACMM_SAMPLE_MAX_BYTES) {
         wr_fail(w, AACMM_ERR_RANGE);
         return;
     }
@@ -548,6 +551,11 @@ static void wr_sample(wr_t *w, const aacmm_sample_t *s)
     wr_u8(w, s->params);
     for (i = 0; i < s->joints; i++) {
         wr_u32(w, s->counts[i]);
+    }
+    if ((s->content & AACMM_CONTENT_TEMPERATURES) != 0u) {
+        for (i = 0; i < s->joints; i++) {
+            wr_i16(w, s->temp[i]);
+        }
     }
     if ((s->content & AACMM_CONTENT_JACOBIAN) != 0u) {
         wr_jacobian(w, s->jacobian, s->params);
@@ -580,8 +588,14 @@ static void rd_sample(rd_t *r, aacmm_sample_t *s)
         return;
     }
     memset(s->counts, 0, sizeof s->counts);
+    memset(s->temp, 0, sizeof s->temp);
     for (i = 0; i < s->joints && r->err == AACMM_OK; i++) {
         s->counts[i] = rd_u32(r);
+    }
+    if ((s->content & AACMM_CONTENT_TEMPERATURES) != 0u) {
+        for (i = 0; i < s->joints; i++) {
+            s->temp[i] = rd_i16(r); /* any i16: the device sends what the sensor said */
+        }
     }
     if ((s->content & AACMM_CONTENT_JACOBIAN) != 0u) {
         rd_jacobian(r, s->jacobian, s->params);
@@ -643,6 +657,7 @@ static void wr_diag(wr_t *w, const aacmm_msg_diag_t *d)
         wr_u32(w, j->faults);
         wr_u32(w, j->warnings);
     }
+    wr_u32(w, d->temp_faults);
 }
 
 static void rd_diag(rd_t *r, aacmm_msg_diag_t *d)
@@ -676,6 +691,7 @@ static void rd_diag(rd_t *r, aacmm_msg_diag_t *d)
         j->faults = rd_u32(r);
         j->warnings = rd_u32(r);
     }
+    d->temp_faults = rd_u32(r);
     if (r->err == AACMM_OK && !diag_in_range(d)) {
         rd_fail(r, AACMM_ERR_RANGE);
     }
@@ -723,7 +739,7 @@ static size_t sample_len_raw(const uint8_t *s, size_t n)
     if (n < AACMM_SAMPLE_BASE_BYTES) {
         return AACMM_SAMPLE_BASE_BYTES;
     }
-    return AACMM_SAMPLE_BYTES((size_t)s[29], (size_t)s[30], (s[28] & AACMM_CONTENT_JACOBIAN) != 0u);
+    return AACMM_SAMPLE_BYTES((size_t)s[29], (size_t)s[30], s[28]); /* raw content: its bits 0, 1 */
 }
 
 size_t aacmm_msg_payload_len(uint8_t type, const uint8_t *payload, size_t len)
@@ -844,6 +860,14 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         for (i = 0; i < msg->u.compute_req.joints; i++) {
             wr_u32(&w, msg->u.compute_req.counts[i]);
         }
+        if ((msg->u.compute_req.content & AACMM_CONTENT_TEMPERATURES) != 0u) {
+            for (i = 0; i < msg->u.compute_req.joints; i++) {
+                if (!ref_temp_ok(msg->u.compute_req.temp[i])) {
+                    wr_fail(&w, AACMM_ERR_RANGE);
+                }
+                wr_i16(&w, msg->u.compute_req.temp[i]);
+            }
+        }
         break;
     case AACMM_MSG_STREAM_START_REQ:
     case AACMM_MSG_STREAM_START_RSP:
@@ -901,7 +925,7 @@ aacmm_status_t aacmm_msg_encode(const aacmm_msg_t *msg, uint8_t *out, size_t out
         return w.err;
     }
     if (w.pos > AACMM_PROTO_MAX_BODY) {
-        return AACMM_ERR_LENGTH; /* cannot happen with version 2 layouts */
+        return AACMM_ERR_LENGTH; /* cannot happen: every layout fits (AACMM_SAMPLE_MAX_BYTES) */
     }
     *out_len = w.pos;
     return AACMM_OK;
@@ -984,12 +1008,21 @@ aacmm_status_t aacmm_msg_decode(const uint8_t *body, size_t len, aacmm_msg_t *ms
         msg->u.compute_req.content = rd_content(&r);
         msg->u.compute_req.joints = rd_u8(&r);
         memset(msg->u.compute_req.counts, 0, sizeof msg->u.compute_req.counts);
+        memset(msg->u.compute_req.temp, 0, sizeof msg->u.compute_req.temp);
         if (r.err == AACMM_OK && !joints_ok(msg->u.compute_req.joints)) {
             rd_fail(&r, AACMM_ERR_RANGE);
             break;
         }
         for (i = 0; i < msg->u.compute_req.joints; i++) {
             msg->u.compute_req.counts[i] = rd_u32(&r);
+        }
+        if ((msg->u.compute_req.content & AACMM_CONTENT_TEMPERATURES) != 0u) {
+            for (i = 0; i < msg->u.compute_req.joints; i++) {
+                msg->u.compute_req.temp[i] = rd_i16(&r);
+                if (!ref_temp_ok(msg->u.compute_req.temp[i])) {
+                    rd_fail(&r, AACMM_ERR_RANGE); /* AACMM_TEMP_NONE too */
+                }
+            }
         }
         break;
     case AACMM_MSG_STREAM_START_REQ:

@@ -80,7 +80,7 @@ from aacmm.calibration.results import (
     Outlier,
     Progress,
 )
-from aacmm.calibration.thermal import thermal_choice, thermal_outcome, with_ctes
+from aacmm.calibration.thermal import thermal_choice, thermal_outcome, unobserved_ctes, with_ctes
 from aacmm.core import PARAM_GROUPS, FloatArray, Params
 
 __all__ = [
@@ -402,9 +402,12 @@ def calibrate(
         p0 = start_params(p0, modelled)
     estimate, thermal_text = thermal_choice(obs, thermal)
     fix_all = tuple(fix)
+    unobserved: tuple[tuple[str, ...], tuple[str, ...]] = ((), ())
     if estimate:
         p0, no_length = with_ctes(obs, p0)
         fix_all += no_length
+        unobserved = unobserved_ctes(obs, p0, _candidates(free, fix_all, p0), kappa)
+        fix_all += unobserved[0] + unobserved[1]
     cand = _candidates(free, fix_all, p0)
     history: list[Progress] = []
     rejected: list[Outlier] = []
@@ -450,7 +453,7 @@ def calibrate(
     if requested is not None:
         out = dataclasses.replace(out, error_terms=error_terms(out, requested, dead))
     if estimate:
-        thermal_text = thermal_outcome(out)
+        thermal_text = thermal_outcome(out, unobserved)
     if thermal_text:
         out = dataclasses.replace(out, thermal=thermal_text)
         if obs.temp_c is not None:

@@ -17,13 +17,14 @@ from typing import Any
 import numpy as np
 
 from aacmm.calibration.harmonics import WEAK_OBSERVABILITY, observability
+from aacmm.calibration.identifiability import analyse
 from aacmm.calibration.observations import Observations
 from aacmm.calibration.parameters import AnyParams, CalibParams, n_joints, param_names
 from aacmm.calibration.problem import Problem
 from aacmm.calibration.results import CalibrationResult
 from aacmm.errmodel import ErrorModel
 
-__all__ = ["THERMAL_SPAN_C", "thermal_choice", "thermal_outcome", "with_ctes"]
+__all__ = ["THERMAL_SPAN_C", "thermal_choice", "thermal_outcome", "unobserved_ctes", "with_ctes"]
 
 #: ``thermal="auto"`` estimates the link CTEs from link temperatures spanning at least this.
 THERMAL_SPAN_C = 5.0
@@ -65,18 +66,43 @@ def with_ctes(obs: Observations, p0: AnyParams) -> tuple[CalibParams, tuple[str,
     return cp, dead
 
 
-def thermal_outcome(res: CalibrationResult[Any]) -> str:
+def unobserved_ctes(
+    obs: Observations, p0: CalibParams, cand: list[int], kappa: float
+) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The CTEs among the columns ``cand`` the data do not measure at the start
+    ``p0``: those not identified (confounded with their links' lengths) and those
+    observed only weakly (under :data:`~aacmm.calibration.harmonics.WEAK_OBSERVABILITY`
+    of their effect on the probe points their own). The calibration holds both at
+    their start values (the data sheet's, when the start states one) for the whole
+    fit: freed at a later stage, such a CTE takes up noise (hundreds of 1e-6/K, out
+    of the core's and the wire's range)."""
+    ev = Problem(obs).evaluate(p0)
+    ident = analyse(ev, cand, kappa)
+    share = observability(ev, ident)
+    ctes = [n for n in param_names(p0) if n.startswith("cte")]
+    held = tuple(n for n in ctes if n in ident.held)
+    weak = tuple(n for n in ctes if share.get(n, 1.0) < WEAK_OBSERVABILITY)
+    return held, weak
+
+
+def thermal_outcome(
+    res: CalibrationResult[Any],
+    unobserved: tuple[tuple[str, ...], tuple[str, ...]] = ((), ()),
+) -> str:
     """What the CTE estimate gave: the CTEs identified (with their values), weakly
     observed (:data:`~aacmm.calibration.harmonics.WEAK_OBSERVABILITY`, as for a
-    harmonic term), held (not identified) or fixed (a link without a length)."""
+    harmonic term), held (not identified) or fixed (a link without a length);
+    ``unobserved``: :func:`unobserved_ctes`, the CTEs the fit held at their start
+    values from the start."""
     names = param_names(res.params)
     ctes = [n for n in names if n.startswith("cte")]
     share = observability(res.after, res.identifiability)
     free = [n for n in ctes if n in res.free]
     est = [n for n in free if share.get(n, 0.0) >= WEAK_OBSERVABILITY]
-    weak = [n for n in free if n not in est]
-    held = [n for n in ctes if n in res.held]
-    fixed = [n for n in ctes if n in res.fixed]
+    not_identified, weak_start = unobserved
+    weak_all = [n for n in ctes if n in weak_start or (n in free and n not in est)]
+    held = [n for n in ctes if (n in res.held or n in not_identified) and n not in weak_all]
+    fixed = [n for n in ctes if n in res.fixed and n not in weak_all and n not in held]
     span = res.observations.temperature_span() or 0.0
     parts = [f"link CTEs estimated from link temperatures spanning {span:.1f} degC"]
     if est:
@@ -87,15 +113,20 @@ def thermal_outcome(res: CalibrationResult[Any]) -> str:
                 f"{n} {v[names.index(n)] * 1e6:.2f} +- {sd[names.index(n)] * 1e6:.2f}" for n in est
             )
         )
-    if weak:
+    if weak_all:
+        start = res.params.errors.cte_per_k
         parts.append(
             f"weakly observed (under {WEAK_OBSERVABILITY:.0%} of the effect on the probe "
-            "points their own: the link barely has a length the data see): " + ", ".join(weak)
+            "points their own: the link barely has a length the data see), held at the "
+            "start value (1e-6/K): "
+            + ", ".join(f"{n} {start[int(n[3:]) - 1] * 1e6:.2f}" for n in weak_all)
         )
     if held:
+        start = res.params.errors.cte_per_k
         parts.append(
             "not identified (confounded with their links' lengths at these temperatures; "
-            "held at the start value): " + ", ".join(held)
+            "held at the start value, 1e-6/K): "
+            + ", ".join(f"{n} {start[int(n[3:]) - 1] * 1e6:.2f}" for n in held)
         )
     if fixed:
         parts.append("left out (the link has no length): " + ", ".join(fixed))

@@ -50,8 +50,7 @@ from aacmm.protocol import (
 from aacmm.protocol.constants import (
     JOINTS_MAX,
     JOINTS_MIN,
-    PROTOCOL_VERSION_OLDEST,
-    PROTOCOL_VERSION_PREVIOUS,
+    OLD_PROTOCOL_VERSIONS,
     RESPONSE_BIT,
     STREAM_RATE_MAX_HZ,
     STREAM_RATE_MIN_HZ,
@@ -92,10 +91,7 @@ class _Pending:
 
 def version_mismatch(err: FrameError, request: MsgType) -> DeviceError:
     """The error for a device that answered ``request`` in another protocol version."""
-    old = {
-        PROTOCOL_VERSION_OLDEST: "six joints, before arm models",
-        PROTOCOL_VERSION_PREVIOUS: "arm models, before the error model",
-    }
+    old = OLD_PROTOCOL_VERSIONS
     if err.version in old:
         what = (
             f"the device speaks protocol version {err.version} ({old[err.version]}); this "

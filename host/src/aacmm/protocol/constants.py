@@ -5,13 +5,20 @@ from __future__ import annotations
 from enum import IntEnum, IntFlag
 from typing import Final
 
-PROTOCOL_VERSION: Final = 3
-PROTOCOL_VERSION_PREVIOUS: Final = 2
-"""The arm-model version before the error model's layout (issue 27): its requests are
-answered with an ERROR_RSP ERR_VERSION encoded in version 2, and a body of it is
+PROTOCOL_VERSION: Final = 4
+PROTOCOL_VERSION_PREVIOUS: Final = 3
+"""The error-model version before device temperatures (issue 27): its requests are
+answered with an ERROR_RSP ERR_VERSION encoded in version 3, and a body of it is
 reported as such."""
 PROTOCOL_VERSION_OLDEST: Final = 1
-"""The six-joint version before the arm model: answered alike, in version 1."""
+"""The six-joint version before the arm model: answered alike, in version 1 (and
+version 2, the arm model before the error model's layout, in version 2)."""
+OLD_PROTOCOL_VERSIONS: Final[dict[int, str]] = {
+    1: "six joints, before arm models",
+    2: "arm models, before the error model",
+    3: "before device temperatures",
+}
+"""What each older version (OLDEST .. PREVIOUS) lacks, as the version errors name it."""
 HEADER_BYTES: Final = 3
 MAX_BODY: Final = 512
 JOINTS: Final = 6

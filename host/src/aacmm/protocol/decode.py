@@ -13,10 +13,9 @@ from aacmm.protocol.constants import (
     JOINTS_MAX,
     JOINTS_MIN,
     MAX_BODY,
+    OLD_PROTOCOL_VERSIONS,
     PARAMS_MAX,
     PROTOCOL_VERSION,
-    PROTOCOL_VERSION_OLDEST,
-    PROTOCOL_VERSION_PREVIOUS,
     STREAM_RATE_MAX_HZ,
     STREAM_RATE_MIN_HZ,
     Content,
@@ -73,10 +72,14 @@ def _fail(text: str, status: Status) -> FrameError:
     return FrameError(text, int(status))
 
 
-def _content(b: int) -> bool:
-    if b & ~int(Content.JACOBIAN):
+_CONTENT_KNOWN = int(Content.JACOBIAN | Content.TEMPERATURES)
+
+
+def _content(b: int) -> tuple[bool, bool]:
+    """The content byte's (jacobian, temperatures) flags."""
+    if b & ~_CONTENT_KNOWN:
         raise _fail(f"unknown content bits 0x{b:02x}", Status.ERR_RANGE)
-    return bool(b & Content.JACOBIAN)
+    return bool(b & Content.JACOBIAN), bool(b & Content.TEMPERATURES)
 
 
 def _finite(values: tuple[float, ...]) -> tuple[float, ...]:
@@ -97,18 +100,22 @@ def _np_ok(n: int, p: int) -> bool:
 
 def _dec_sample(b: bytes) -> Sample:
     f = SAMPLE_LAYOUT.unpack_from(b)
-    jac = _content(f[6])
+    jac, temps = _content(f[6])
     n, p = f[7], f[8]
     if not _np_ok(n, p):
         raise _fail(f"sample of {n} joints and {p} parameters", Status.ERR_RANGE)
+    off = SAMPLE_BASE_BYTES + 4 * n
+    temp = struct.unpack_from(f"<{n}h", b, off) if temps else None  # any i16
+    off += 2 * n if temps else 0
     return Sample(
         seq=f[0],
         timestamp_us=f[1],
         counts=struct.unpack_from(f"<{n}I", b, SAMPLE_BASE_BYTES),
         point_100nm=tuple(f[2:5]),
         status=f[5],
-        jacobian=_dec_jacobian(b, SAMPLE_BASE_BYTES + 4 * n, p) if jac else None,
+        jacobian=_dec_jacobian(b, off, p) if jac else None,
         params=p,
+        temp=temp,
     )
 
 
@@ -216,6 +223,7 @@ def _dec_diag(b: bytes) -> Diagnostics:
         samples_dropped=f[16],
         samples_late=f[17],
         joints=joints,
+        temp_faults=struct.unpack_from("<I", b, DIAG_LAYOUT.size + n * DIAG_JOINT_BYTES)[0],
     )
     if (
         d.storage_kind > max(StorageKind)
@@ -249,19 +257,22 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
     if t in (MsgType.SET_PARAMS_RSP, MsgType.SAVE_PARAMS_RSP, MsgType.RESTORE_DEFAULTS_RSP):
         return ParamCrc(struct.unpack("<I", b)[0])
     if t == MsgType.MEASURE_REQ:
-        return MeasureRequest(_content(b[0]))
+        return MeasureRequest(*_content(b[0]))
     if t == MsgType.COMPUTE_REQ:
-        jac = _content(b[0])
+        jac, temps = _content(b[0])
         n = b[1]
         if not JOINTS_MIN <= n <= JOINTS_MAX:
             raise _fail(f"compute request of {n} joints", Status.ERR_RANGE)
-        return ComputeRequest(counts=struct.unpack_from(f"<{n}I", b, 2), jacobian=jac)
+        temp = struct.unpack_from(f"<{n}h", b, 2 + 4 * n) if temps else None
+        if temp is not None and not all(REF_TEMP_MIN <= v <= REF_TEMP_MAX for v in temp):
+            raise _fail("compute temperature outside -40 .. 85 degC", Status.ERR_RANGE)
+        return ComputeRequest(counts=struct.unpack_from(f"<{n}I", b, 2), jacobian=jac, temp=temp)
     if t in (MsgType.STREAM_START_REQ, MsgType.STREAM_START_RSP):
         rate, c = struct.unpack("<HB", b)
-        jac = _content(c)
+        jac, temps = _content(c)
         if not STREAM_RATE_MIN_HZ <= rate <= STREAM_RATE_MAX_HZ:
             raise _fail("stream rate out of range", Status.ERR_RANGE)
-        return Stream(rate, jac)
+        return Stream(rate, jac, temps)
     if t in (MsgType.MEASURE_RSP, MsgType.SAMPLE_EVT):
         return _dec_sample(b)
     if t == MsgType.TRIGGER_EVT:
@@ -271,7 +282,7 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
     if t == MsgType.COMPUTE_RSP:
         f = COMPUTE_RSP_LAYOUT.unpack_from(b)
         point = _finite(tuple(f[1:4]))
-        jac = _content(f[4])
+        jac, temps = _content(f[4])
         p = f[5]
         if not 4 * JOINTS_MIN + 1 <= p <= PARAMS_MAX:
             raise _fail(f"compute result of {p} parameters", Status.ERR_RANGE)
@@ -280,6 +291,7 @@ def _dec_payload(t: MsgType, b: bytes) -> Payload:
             point_mm=point,
             jacobian=_dec_jacobian(b, COMPUTE_RSP_BASE_BYTES, p) if jac else None,
             params=p,
+            temperatures=temps,
         )
     if t == MsgType.DIAG_RSP:
         return _dec_diag(b)
@@ -305,10 +317,8 @@ def decode_message(body: bytes | bytearray | memoryview) -> Message:
     if len(body) > MAX_BODY:
         raise _fail("body longer than 512 bytes", Status.ERR_LENGTH)
     if body[0] != PROTOCOL_VERSION:
-        old = {
-            PROTOCOL_VERSION_OLDEST: " (six joints, before arm models)",
-            PROTOCOL_VERSION_PREVIOUS: " (arm models, before the error model)",
-        }.get(body[0], "")
+        what = OLD_PROTOCOL_VERSIONS.get(body[0])
+        old = f" ({what})" if what else ""
         raise FrameError(
             f"protocol version {body[0]}{old}; this host speaks version {PROTOCOL_VERSION}",
             int(Status.ERR_VERSION),

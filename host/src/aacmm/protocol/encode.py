@@ -37,6 +37,8 @@ from aacmm.protocol.layout import (
     REF_TEMP_MAX,
     REF_TEMP_MIN,
     SAMPLE_LAYOUT,
+    SAMPLE_MAX_BYTES,
+    sample_bytes,
 )
 from aacmm.protocol.payloads import (
     PAYLOAD_CLASS,
@@ -59,6 +61,7 @@ from aacmm.protocol.payloads import (
 )
 
 _FLT_MAX: Final = 3.4028234663852886e38
+_I16: Final = (-0x8000, 0x7FFF)
 
 
 def _check_int(name: str, value: int, lo: int, hi: int) -> None:
@@ -88,6 +91,15 @@ def _check_floats(name: str, values: tuple[float, ...], n: int, f32: bool = Fals
 def _check_flag(name: str, value: bool) -> None:
     if not isinstance(value, bool):
         raise ValueError(f"{name} must be a bool")
+
+
+def _content(jacobian: bool, temperatures: bool) -> int:
+    """The content byte of these flags (checked to be bools)."""
+    _check_flag("jacobian", jacobian)
+    _check_flag("temperatures", temperatures)
+    return int(Content.JACOBIAN if jacobian else 0) | int(
+        Content.TEMPERATURES if temperatures else 0
+    )
 
 
 def _check_joints(name: str, n: int) -> None:
@@ -131,15 +143,23 @@ def _enc_sample(s: Sample) -> bytes:
     _check_ints("counts", s.counts, n, 0, 0xFFFFFFFF)
     _check_ints("point_100nm", s.point_100nm, 3, -(2**31), 2**31 - 1)
     _check_int("status", s.status, 0, 0xFFFFFFFF)
-    content = Content.JACOBIAN if s.jacobian is not None else Content.NONE
+    temps = b""
+    if s.temp is not None:
+        _check_ints("temp", tuple(s.temp), n, *_I16)  # any i16: what the sensor said
+        temps = struct.pack(f"<{n}h", *s.temp)
+    size = sample_bytes(n, s.params, s.jacobian is not None, s.temp is not None)
+    if size > SAMPLE_MAX_BYTES:
+        raise ValueError(
+            f"a sample of {n} joints and {s.params} parameters with temperatures and Jacobian "
+            f"needs {size} bytes, more than the {SAMPLE_MAX_BYTES} a message holds"
+        )
+    content = _content(s.jacobian is not None, s.temp is not None)
     return (
         SAMPLE_LAYOUT.pack(s.seq, s.timestamp_us, *s.point_100nm, s.status, content, n, s.params)
         + struct.pack(f"<{n}I", *s.counts)
+        + temps
         + _enc_jacobian(s.jacobian, s.params)
     )
-
-
-_I16 = (-0x8000, 0x7FFF)
 
 
 def encode_param_set(p: ParamSet) -> bytes:
@@ -253,28 +273,30 @@ def _enc_payload(t: MsgType, p: Payload) -> bytes:
         _check_int("param_crc32", p.param_crc32, 0, 0xFFFFFFFF)
         return struct.pack("<I", p.param_crc32)
     if isinstance(p, MeasureRequest):
-        _check_flag("jacobian", p.jacobian)
-        return bytes([int(p.jacobian)])
+        return bytes([_content(p.jacobian, p.temperatures)])
     if isinstance(p, Sample):
         return _enc_sample(p)
     if isinstance(p, ComputeRequest):
-        _check_flag("jacobian", p.jacobian)
         n = len(p.counts)
         _check_joints("counts", n)
         _check_ints("counts", p.counts, n, 0, 0xFFFFFFFF)
-        return struct.pack(f"<BB{n}I", int(p.jacobian), n, *p.counts)
+        content = _content(p.jacobian, p.temp is not None)
+        out = struct.pack(f"<BB{n}I", content, n, *p.counts)
+        if p.temp is not None:
+            _check_ints("temp", tuple(p.temp), n, REF_TEMP_MIN, REF_TEMP_MAX)
+            out += struct.pack(f"<{n}h", *p.temp)
+        return out
     if isinstance(p, ComputeResult):
         _check_int("status", p.status, 0, 0xFFFFFFFF)
         _check_floats("point_mm", p.point_mm, 3)
         _check_int("params", p.params, 4 * JOINTS_MIN + 1, PARAMS_MAX)
-        content = Content.JACOBIAN if p.jacobian is not None else Content.NONE
+        content = _content(p.jacobian is not None, p.temperatures)
         return COMPUTE_RSP_LAYOUT.pack(p.status, *p.point_mm, content, p.params) + _enc_jacobian(
             p.jacobian, p.params
         )
     if isinstance(p, Stream):
         _check_int("rate_hz", p.rate_hz, STREAM_RATE_MIN_HZ, STREAM_RATE_MAX_HZ)
-        _check_flag("jacobian", p.jacobian)
-        return struct.pack("<HB", p.rate_hz, int(p.jacobian))
+        return struct.pack("<HB", p.rate_hz, _content(p.jacobian, p.temperatures))
     if isinstance(p, Trigger):
         _check_int("button", p.button, 0, 0xFF)
         _check_flag("pressed", p.pressed)
@@ -308,6 +330,7 @@ def _enc_diag(d: Diagnostics) -> bytes:
         "serial_frames_bad",
         "samples_dropped",
         "samples_late",
+        "temp_faults",
     )
     for name in u32s:
         _check_int(name, getattr(d, name), 0, 0xFFFFFFFF)
@@ -340,7 +363,7 @@ def _enc_diag(d: Diagnostics) -> bytes:
         _check_int(f"joints[{i}].faults", j.faults, 0, 0xFFFFFFFF)
         _check_int(f"joints[{i}].warnings", j.warnings, 0, 0xFFFFFFFF)
         out += DIAG_JOINT_LAYOUT.pack(j.interface, j.bits, j.last_fault, j.faults, j.warnings)
-    return out
+    return out + struct.pack("<I", d.temp_faults)
 
 
 def encode_message(msg: Message) -> bytes:

@@ -1,4 +1,4 @@
-"""Byte layouts of the link protocol's payloads (version 3): sizes and ``struct`` formats.
+"""Byte layouts of the link protocol's payloads (version 4): sizes and ``struct`` formats.
 
 Sizes depend on the arm model: N joints (4..7), P parameters (Jacobian
 columns, ``P = 4N + B + T``), and for a parameter set S, the sum of the
@@ -24,10 +24,15 @@ REF_TEMP_MIN: Final = -4000
 REF_TEMP_MAX: Final = 8500
 INFO_BYTES: Final = 25
 SAMPLE_BASE_BYTES: Final = 31
-"""A sample's fixed part, before its N counts and its Jacobian."""
+"""A sample's fixed part, before its N counts, temperatures and Jacobian."""
+SAMPLE_MAX_BYTES: Final = 505
+"""The largest sample: N 7, P 36 with temperatures and Jacobian (N 7, P 37 with both
+would be 517 bytes, more than a body holds: the encoders refuse it)."""
 COMPUTE_RSP_BASE_BYTES: Final = 30
 DIAG_BASE_BYTES: Final = 60
 DIAG_JOINT_BYTES: Final = 11
+DIAG_TAIL_BYTES: Final = 4
+"""DIAG_RSP's u32 temp_faults after the joints."""
 TRIGGER_EXTRA_BYTES: Final = 2
 
 
@@ -37,14 +42,19 @@ def param_set_bytes(n: int, p: int, s: int = 0, h: int = 0) -> int:
     return PARAM_SET_HEADER_BYTES + 8 * p + 9 * n + 4 * s + 2 * (n + 1) * h
 
 
-def sample_bytes(n: int, p: int, jacobian: bool) -> int:
-    """Bytes of a sample of N counts (and a 3 x P Jacobian)."""
-    return SAMPLE_BASE_BYTES + 4 * n + (12 * p if jacobian else 0)
+def sample_bytes(n: int, p: int, jacobian: bool, temperatures: bool = False) -> int:
+    """Bytes of a sample of N counts (and N i16 temperatures, and a 3 x P Jacobian)."""
+    return SAMPLE_BASE_BYTES + 4 * n + (2 * n if temperatures else 0) + (12 * p if jacobian else 0)
+
+
+def compute_req_bytes(n: int, temperatures: bool = False) -> int:
+    """Bytes of COMPUTE_REQ for N counts (and N i16 temperatures)."""
+    return 2 + 4 * n + (2 * n if temperatures else 0)
 
 
 def diag_bytes(n: int) -> int:
-    """Bytes of DIAG_RSP for N joints."""
-    return DIAG_BASE_BYTES + DIAG_JOINT_BYTES * n
+    """Bytes of DIAG_RSP for N joints (their entries, then u32 temp_faults)."""
+    return DIAG_BASE_BYTES + DIAG_JOINT_BYTES * n + DIAG_TAIL_BYTES
 
 
 PARAM_SET_BYTES: Final = param_set_bytes(JOINTS, 25)
@@ -52,7 +62,7 @@ PARAM_SET_BYTES: Final = param_set_bytes(JOINTS, 25)
 JACOBIAN_BYTES: Final = 12 * 25
 """The paper's arm's Jacobian (3 x 25 float32)."""
 DIAG_BYTES: Final = diag_bytes(JOINTS)
-"""DIAG_RSP of a six-joint arm (126 bytes)."""
+"""DIAG_RSP of a six-joint arm (130 bytes)."""
 
 INFO_LAYOUT = struct.Struct("<HBBHIIBBHIBBB")
 SAMPLE_LAYOUT = struct.Struct("<IQ3iIBBB")
@@ -79,7 +89,7 @@ def param_set_len_raw(b: bytes) -> int:
 def _sample_len_raw(b: bytes) -> int:
     if len(b) < SAMPLE_BASE_BYTES:
         return SAMPLE_BASE_BYTES
-    return sample_bytes(b[29], b[30], bool(b[28] & 1))
+    return sample_bytes(b[29], b[30], bool(b[28] & 1), bool(b[28] & 2))
 
 
 def payload_length(t: MsgType, payload: bytes = b"") -> int:
@@ -89,7 +99,7 @@ def payload_length(t: MsgType, payload: bytes = b"") -> int:
     if t in (MsgType.SET_PARAMS_REQ, MsgType.GET_PARAMS_RSP):
         return param_set_len_raw(payload)
     if t == MsgType.COMPUTE_REQ:
-        return 2 + 4 * payload[1] if len(payload) >= 2 else 2
+        return compute_req_bytes(payload[1], bool(payload[0] & 2)) if len(payload) >= 2 else 2
     if t in (MsgType.MEASURE_RSP, MsgType.SAMPLE_EVT):
         return _sample_len_raw(payload)
     if t == MsgType.TRIGGER_EVT:

@@ -1,4 +1,4 @@
-"""Message codec of the aacmm link protocol, version 1 (see ``docs/protocol.md``).
+"""Message codec of the aacmm link protocol, version 4 (see ``docs/protocol.md``).
 
 A message body is ``version u8 | type u8 | seq u8 | payload``, little-endian.
 :func:`encode_message` and :func:`decode_message` convert between bodies and

@@ -227,7 +227,8 @@ class MeasureRequest:
 
 @dataclass(frozen=True)
 class Sample:
-    """MEASURE_RSP / SAMPLE_EVT (31 + 4N bytes, + 12P with the Jacobian).
+    """MEASURE_RSP / SAMPLE_EVT (31 + 4N bytes, + 2N with temperatures, + 12P with the
+    Jacobian).
 
     ``counts`` holds the N joint readings of the device's arm model;
     ``point_100nm`` is the probe point in units of 1e-4 mm (see :attr:`point_mm`);
@@ -318,8 +319,8 @@ class JointDiagnostics:
 
 @dataclass(frozen=True)
 class Diagnostics:
-    """DIAG_RSP (60 + 11N bytes): storage, reset cause, watchdog, encoder faults, link
-    counters; ``joints`` one entry per joint of the arm model."""
+    """DIAG_RSP (64 + 11N bytes): storage, reset cause, watchdog, encoder faults, link
+    counters; ``joints`` one entry per joint of the arm model, then ``temp_faults``."""
 
     storage_kind: int
     storage_flags: int
