@@ -3192,6 +3192,241 @@ static void test_temps_stored_thermal_set(void **state)
     assert_int_equal(M.u.info.param_crc32, set_crc(&set));
 }
 
+/* Protocol version 4 on the wire: the TEMPERATURES content of MEASURE and
+ * streams (serial; CAN as SAMPLE_EVT over ISO-TP), trigger events, DIAG's
+ * temp_faults. The readings are sent as the sensor gave them. */
+static void test_temps_content(void **state)
+{
+    static const int16_t temps[AACMM_JOINTS_MAX] = {2150, -1234, 8600, 777, 0, -4000, 3000};
+    aacmm_msg_t m;
+    int i;
+    (void)state;
+    memcpy(F.temp, temps, sizeof F.temp);
+    F.temp_valid = (uint8_t)(0x7Fu & ~(1u << 3)); /* link 4 does not answer */
+    F.counts[2] = 0x30000000u;
+    measure(AACMM_CONTENT_TEMPERATURES, 1);
+    assert_int_equal(M.u.sample.content, AACMM_CONTENT_TEMPERATURES);
+    assert_int_equal(M.u.sample.status, AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_PARAMS_DEFAULT |
+                                            AACMM_SAMPLE_TEMP_FAULT);
+    for (i = 0; i < 6; i++) {
+        assert_int_equal(M.u.sample.temp[i], i == 3 ? AACMM_TEMP_NONE : temps[i]);
+    }
+    /* both contents: the temperatures and the Jacobian */
+    {
+        aacmm_msg_t with_jac;
+        measure(AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN, 2);
+        with_jac = M;
+        measure(AACMM_CONTENT_JACOBIAN, 3);
+        assert_memory_equal(with_jac.u.sample.jacobian, M.u.sample.jacobian,
+                            sizeof M.u.sample.jacobian);
+        assert_memory_equal(with_jac.u.sample.point_100nm, M.u.sample.point_100nm,
+                            sizeof M.u.sample.point_100nm);
+        assert_memory_equal(with_jac.u.sample.temp, temps, 3 * sizeof(int16_t));
+    }
+    /* DIAG over the wire: the three samples so far */
+    send_simple(AACMM_MSG_DIAG_REQ, 4);
+    expect_response(AACMM_MSG_DIAG_RSP, 4);
+    assert_int_equal(M.u.diag.temp_faults, 3u);
+    /* a serial stream with temperatures; a trigger event during it carries them */
+    fake_use_temperatures(&F, &PF);
+    F.temp[0] = 2555;
+    memset(&m, 0, sizeof m);
+    start_stream(100, AACMM_CONTENT_TEMPERATURES);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+    assert_int_equal(M.u.sample.content, AACMM_CONTENT_TEMPERATURES);
+    assert_int_equal(M.u.sample.temp[0], 2555);
+    assert_int_equal(M.u.sample.temp[5], 2000);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_TEMP_FAULT, 0u);
+    F.button = 1u;
+    aacmm_device_poll(&D);
+    {
+        int seen = 0;
+        while (next_msg()) {
+            if (M.type == AACMM_MSG_TRIGGER_EVT) {
+                assert_int_equal(M.u.trigger.sample.content, AACMM_CONTENT_TEMPERATURES);
+                assert_int_equal(M.u.trigger.sample.temp[0], 2555);
+                seen = 1;
+            }
+        }
+        assert_true(seen);
+    }
+    send_simple(AACMM_MSG_DIAG_REQ, 5);
+    aacmm_device_poll(&D);
+    while (next_msg() && M.type != AACMM_MSG_DIAG_RSP) {
+    }
+    assert_int_equal(M.type, AACMM_MSG_DIAG_RSP);
+    assert_int_equal(M.u.diag.temp_faults, 3u); /* all good since */
+}
+
+/* A CAN stream with temperatures goes as SAMPLE_EVT over ISO-TP (the sample
+ * frames carry no temperatures). */
+static void test_temps_can_stream_over_isotp(void **state)
+{
+    aacmm_msg_t m;
+    uint32_t n = 0;
+    int rounds = 0;
+    size_t i;
+    (void)state;
+    F.temp[2] = -999;
+    host_isotp_init(3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 8;
+    m.u.stream.rate_hz = 50;
+    m.u.stream.content = AACMM_CONTENT_TEMPERATURES;
+    can_request(&m);
+    assert_true(can_exchange(5));
+    assert_int_equal(M.type, AACMM_MSG_STREAM_START_RSP);
+    assert_int_equal(M.u.stream.content, AACMM_CONTENT_TEMPERATURES);
+    while (n < 5u && rounds < 1000) {
+        advance(1000);
+        if (can_exchange(50)) {
+            assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+            assert_int_equal(M.u.sample.content, AACMM_CONTENT_TEMPERATURES);
+            assert_int_equal(M.u.sample.temp[2], -999);
+            assert_int_equal(M.u.sample.seq, n);
+            n++;
+        }
+        rounds++;
+    }
+    assert_int_equal(n, 5u);
+    for (i = 0; i < F.can_tx_len; i++) {
+        assert_int_not_equal(F.can_tx[i].id, AACMM_CAN_ID_SAMPLE_HEADER + 3u);
+    }
+}
+
+/* Without sensors the TEMPERATURES content is refused; COMPUTE with
+ * temperatures works on any device (without the thermal block: the point of
+ * COMPUTE without them, bit for bit). Both contents on N 7, P 37 do not fit
+ * a body: ERR_RANGE. */
+static void test_temps_content_refused(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_msg_t plain;
+    aacmm_param_set_t set;
+    int i;
+    (void)state;
+    measure(AACMM_CONTENT_JACOBIAN, 1); /* a device without sensors (setup_default) */
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_MEASURE_REQ;
+    m.seq = 2;
+    m.u.measure.content = AACMM_CONTENT_TEMPERATURES;
+    send_msg(&m);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_MEASURE_REQ, 2);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 3;
+    m.u.stream.rate_hz = 100;
+    m.u.stream.content = AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_STREAM_START_REQ, 3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 4;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+    m.u.compute_req.joints = 6;
+    m.u.compute_req.counts[0] = 0x12345678u;
+    m.u.compute_req.counts[4] = 0x9ABCDEF0u;
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 4);
+    plain = M;
+    m.seq = 5;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES;
+    for (i = 0; i < 6; i++) {
+        m.u.compute_req.temp[i] = (int16_t)(4500 + 100 * i);
+    }
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 5);
+    assert_int_equal(M.u.compute_rsp.content, AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES);
+    assert_memory_equal(M.u.compute_rsp.point_mm, plain.u.compute_rsp.point_mm,
+                        sizeof plain.u.compute_rsp.point_mm);
+    assert_memory_equal(M.u.compute_rsp.jacobian, plain.u.compute_rsp.jacobian,
+                        sizeof plain.u.compute_rsp.jacobian);
+    /* N 7, P 37 (six betas, a tip vector) on a device with sensors */
+    setup_links(1, 1, 1, 1, 0);
+    fake_use_temperatures(&F, &PF);
+    boot();
+    memset(&set, 0, sizeof set);
+    set.arm.shape.joints = 7u;
+    set.arm.shape.tip = (uint8_t)AACMM_TIP_XYZ;
+    for (i = 0; i < 7; i++) {
+        set.arm.alpha_rad[i] = (i % 2 == 0) ? 1.5707963267948966 : -1.5707963267948966;
+        set.arm.d_mm[i] = 100.0 + 50.0 * i;
+        if (i > 0) {
+            set.arm.shape.beta[i] = 1u;
+            set.arm.beta_rad[i] = 0.001 * i;
+        }
+    }
+    set.arm.tip_mm[2] = 110.0;
+    assert_int_equal(aacmm_arm_encoders_default(&set.enc, 7), AACMM_OK);
+    assert_int_equal(aacmm_shape_params(&set.arm.shape), 37);
+    set_params(&set, 6);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_MEASURE_REQ;
+    m.seq = 7;
+    m.u.measure.content = AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_MEASURE_REQ, 7);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 8;
+    m.u.stream.rate_hz = 100;
+    m.u.stream.content = AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_STREAM_START_REQ, 8);
+    measure(AACMM_CONTENT_TEMPERATURES, 9); /* each alone fits */
+    assert_int_equal(M.u.sample.temp[6], 2000);
+    measure(AACMM_CONTENT_JACOBIAN, 10);
+    assert_int_equal(M.u.sample.params, 37);
+}
+
+/* COMPUTE at the request's temperatures with the thermal block: the core's
+ * point and Jacobian there; the next sample is at the sensors' again. */
+static void test_temps_compute_thermal(void **state)
+{
+    static const int16_t req[AACMM_JOINTS_MAX] = {-2550, 6000, 2001, 4444, -1, 8500, 0};
+    static const uint32_t counts[AACMM_JOINTS] = {0x76543210u, 0x10000000u, 0xC0000000u,
+                                                  0x0F0F0F0Fu, 0x55555555u, 0xAAAAAAAAu};
+    aacmm_param_set_t set;
+    aacmm_msg_t m;
+    double want[3];
+    float jac[AACMM_JAC_SIZE_MAX];
+    int np;
+    (void)state;
+    thermal_set(&set, 1850);
+    np = aacmm_shape_params(&set.arm.shape);
+    set_params(&set, 1);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 2;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES;
+    m.u.compute_req.joints = 6;
+    memcpy(m.u.compute_req.counts, counts, sizeof counts);
+    memcpy(m.u.compute_req.temp, req, sizeof req);
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 2);
+    core_point_at(&set, counts, req, want, jac);
+    assert_int_equal(M.u.compute_rsp.content, AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES);
+    assert_int_equal(M.u.compute_rsp.status, AACMM_SAMPLE_POINT_VALID);
+    assert_memory_equal(M.u.compute_rsp.point_mm, want, sizeof want);
+    assert_memory_equal(M.u.compute_rsp.jacobian, jac, (size_t)(3 * np) * sizeof(float));
+    /* the point only */
+    m.seq = 3;
+    m.u.compute_req.content = AACMM_CONTENT_TEMPERATURES;
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 3);
+    assert_memory_equal(M.u.compute_rsp.point_mm, want, sizeof want);
+    /* a sample afterwards: at the sensors' 20.00 degC, not the request's */
+    memcpy(F.counts, counts, sizeof counts);
+    F.temp[3] = 3300;
+    core_point_at(&set, counts, F.temp, want, jac);
+    measure(AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN, 4);
+    assert_wire_point(M.u.sample.point_100nm, want);
+    assert_memory_equal(M.u.sample.jacobian, jac, (size_t)(3 * np) * sizeof(float));
+    assert_int_equal(M.u.sample.temp[3], 3300);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -3251,6 +3486,10 @@ int main(void)
         cmocka_unit_test_setup(test_temps_fault_plain, setup_default),
         cmocka_unit_test(test_temps_bytes_unchanged),
         cmocka_unit_test_setup(test_temps_stored_thermal_set, setup_temps),
+        cmocka_unit_test_setup(test_temps_content, setup_temps),
+        cmocka_unit_test_setup(test_temps_can_stream_over_isotp, setup_temps),
+        cmocka_unit_test_setup(test_temps_content_refused, setup_default),
+        cmocka_unit_test_setup(test_temps_compute_thermal, setup_temps),
     };
     return cmocka_run_group_tests_name("device", tests, NULL, NULL);
 }
