@@ -34,6 +34,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sim_smoke import (  # stdlib only, like this file
     COMPUTE,
+    DIAG,
     ERROR_RSP,
     GET_PARAMS,
     INFO,
@@ -263,6 +264,57 @@ class Control:
             heard.append(got)
 
 
+def test_wire_temperatures(sim: str, thermal_file: str) -> None:
+    """Protocol version 4 through the binary: the sample's temperatures
+    (content bit 1, i16[N] after the counts), DIAG's temp_faults (after the N
+    joint entries), COMPUTE at the request's temperatures."""
+    ctl = Control()
+    fd = ctl.theirs.fileno()
+    p, path = start(sim, "--control", str(fd), "--param-set", thermal_file, pass_fds=(fd,))
+    ctl.theirs.close()
+    ctl.line()
+    link = Link(path)
+    ctl.send("counts 1 2 3 4 5 6", "temps 21.5 -3.25 - 85.5 40 20")
+    rsp = link.request(MEASURE, b"\x02")
+    ok = rsp is not None and rsp[1] == MEASURE | 0x80 and len(rsp) == 3 + 31 + 24 + 12
+    check(ok, "MEASURE with TEMPERATURES: 67-byte sample (6 counts, 6 temperatures)")
+    if ok:
+        assert rsp is not None
+        temps = struct.unpack_from("<6h", rsp, 3 + 31 + 24)
+        status = struct.unpack_from("<I", rsp, 3 + 24)[0]
+        check(
+            temps == (2150, -325, -32768, 8550, 4000, 2000),
+            f"the sample's temperatures as the sensors read them, -32768 for link 3 ({temps})",
+        )
+        check(status & (TEMP_FAULT | POINT_VALID) == TEMP_FAULT, "TEMP_FAULT, no point")
+    rsp = link.request(DIAG)
+    ok = rsp is not None and rsp[1] == DIAG | 0x80 and len(rsp) == 3 + 130
+    faults = struct.unpack_from("<I", rsp, 3 + 126)[0] if ok and rsp is not None else -1
+    check(ok and faults == 1, f"DIAG: temp_faults 1 ({faults})")
+    counts = (0x20000000, 0xC0000000, 0x30000000, 0xF0000000, 0x2AAAAAAB, 0x9ABCDEF0)
+    ref = compute_ref(link, counts)
+    temps_req = (4500,) * 6
+    rsp = link.request(COMPUTE, struct.pack("<BB6I6h", 2, 6, *counts, *temps_req))
+    ok = rsp is not None and rsp[1] == COMPUTE | 0x80 and ref is not None
+    if ok:
+        assert rsp is not None and ref is not None
+        pt = struct.unpack_from("<3d", rsp, 3 + 4)
+        f = 1.0 + CTE * 1e-8 * 25.0
+        ok = rsp[3 + 28] == 2 and all(abs(a - f * b) < 2e-3 for a, b in zip(pt, ref, strict=True))
+    check(ok, "COMPUTE at 45 degC (request): (1 + cte dT) x the reference point, content echoed")
+    link.close()
+    ctl.ours.close()
+    check(stop(p) == 0, "SIGTERM: exit 0")
+
+    p, path = start(sim, "--no-temperature-sensors")
+    link = Link(path)
+    rsp = link.request(MEASURE, b"\x02")
+    status = struct.unpack_from("<h", rsp, 3)[0] if rsp is not None and rsp[1] == ERROR_RSP else 0
+    check(status == ERR_UNSUPPORTED, f"no sensors: MEASURE with TEMPERATURES refused ({status})")
+    link.close()
+    check(stop(p) == 0, "SIGTERM: exit 0")
+
+
 def test_control_temps(sim: str, thermal_file: str) -> None:
     ctl = Control()
     fd = ctl.theirs.fileno()
@@ -364,10 +416,11 @@ def main() -> int:
         test_arguments(sim, tmp, thermal_file)
         test_thermal_point(sim, thermal_file)
         test_control_temps(sim, thermal_file)
+        test_wire_temperatures(sim, thermal_file)
     if failures:
         print(f"sim temperatures: {len(failures)} failed", file=sys.stderr)
         return 1
-    print(f"sim temperatures: all passed ({time.monotonic() - t0:.1f} s)")
+    print(f"sim temperatures: all passed ({time.monotonic() - t0:.2f} s)")
     return 0
 
 
