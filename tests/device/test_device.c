@@ -3427,6 +3427,29 @@ static void test_temps_compute_thermal(void **state)
     assert_int_equal(M.u.sample.temp[3], 3300);
 }
 
+#ifdef AACMM_DEVICE_KIN_FIXED
+#include "device_kin.h"
+
+/* The fixed path's temperature: 0.01 degC to Q8 exactly, half away from
+ * zero, for every i16 (against the core's aacmm_temp_q8_from_f64 in range,
+ * and libm's round beyond). */
+static void test_temps_q8_rounding(void **state)
+{
+    int32_t t;
+    (void)state;
+    for (t = INT16_MIN; t <= INT16_MAX; t++) {
+        int32_t got = aacmm_device_temp_q8((int16_t)t);
+        double c = (double)t / 100.0;
+        if (t >= AACMM_REF_TEMP_MIN && t <= AACMM_REF_TEMP_MAX) {
+            int32_t want = 0;
+            assert_int_equal(aacmm_temp_q8_from_f64(&want, &c, 1u), AACMM_OK);
+            assert_int_equal(got, want);
+        }
+        assert_int_equal(got, (int32_t)round((double)t * 2.56));
+    }
+}
+#endif
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -3490,6 +3513,9 @@ int main(void)
         cmocka_unit_test_setup(test_temps_can_stream_over_isotp, setup_temps),
         cmocka_unit_test_setup(test_temps_content_refused, setup_default),
         cmocka_unit_test_setup(test_temps_compute_thermal, setup_temps),
+#ifdef AACMM_DEVICE_KIN_FIXED
+        cmocka_unit_test(test_temps_q8_rounding),
+#endif
     };
     return cmocka_run_group_tests_name("device", tests, NULL, NULL);
 }
