@@ -39,6 +39,7 @@ from sim_smoke import (  # stdlib only, like this file
     GET_PARAMS,
     INFO,
     MEASURE,
+    SAVE,
     SET_PARAMS,
     Link,
     check,
@@ -204,6 +205,52 @@ def test_sensors_and_sets(sim: str, tmp: str) -> str:
     link.close()
     check(stop(p) == 0, "SIGTERM: exit 0")
     return thermal_file
+
+
+def test_stored_thermal_set(sim: str, tmp: str) -> None:
+    """A thermal set saved on a simulator with sensors is not used by one without
+    (defaults, the start-up line says why), and is again with sensors."""
+    store = os.path.join(tmp, "store.bin")
+    p, path = start(sim, "--storage", store)
+    link = Link(path)
+    rsp = link.request(GET_PARAMS)
+    assert rsp is not None and rsp[1] == GET_PARAMS | 0x80, "GET_PARAMS answered"
+    ok = link.request(SET_PARAMS, thermal_payload(rsp[3:]))
+    saved = link.request(SAVE)
+    check(
+        ok is not None
+        and ok[1] == SET_PARAMS | 0x80
+        and saved is not None
+        and saved[1] == SAVE | 0x80,
+        "a thermal set set and saved",
+    )
+    link.close()
+    check(stop(p) == 0, "SIGTERM: exit 0")
+    for args, source, what in (
+        (("--no-temperature-sensors",), 0, "without sensors: the defaults"),
+        ((), 1, "with sensors: the stored set"),
+    ):
+        q = subprocess.Popen(
+            [sim, "--serial", "pty", "--storage", store, *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        assert q.stdout is not None and q.stderr is not None
+        report = q.stderr.readline().strip()
+        first = q.stdout.readline().strip()
+        q.stdout.readline()
+        link = Link(first.split(" ", 2)[2])
+        rsp = link.request(INFO)
+        got = rsp[3 + 14] if rsp is not None and rsp[1] == INFO | 0x80 else -1
+        check(got == source, f"stored thermal set, {what} (param_source {got})")
+        if source == 0:
+            check(
+                "thermal block without temperature sensors" in report,
+                f"the start-up line says why: {report!r}",
+            )
+        link.close()
+        check(stop(q) == 0, "SIGTERM: exit 0")
 
 
 def test_thermal_point(sim: str, thermal_file: str) -> None:
@@ -415,6 +462,7 @@ def main() -> int:
         thermal_file = test_sensors_and_sets(sim, tmp)
         test_arguments(sim, tmp, thermal_file)
         test_thermal_point(sim, thermal_file)
+        test_stored_thermal_set(sim, tmp)
         test_control_temps(sim, thermal_file)
         test_wire_temperatures(sim, thermal_file)
     if failures:

@@ -293,7 +293,9 @@ static const char *slot_text(uint8_t state)
     case AACMM_SLOT_NEWEST: return "newest record";
     case AACMM_SLOT_OLDER: return "older record, the fallback";
     case AACMM_SLOT_BAD_CRC: return "rejected: CRC mismatch (a cut save or damage)";
-    case AACMM_SLOT_BAD_CONTENTS: return "rejected: parameters out of range";
+    case AACMM_SLOT_BAD_CONTENTS:
+        return "rejected: parameters this device cannot use (out of range, or a thermal block "
+               "without temperature sensors)";
     case AACMM_SLOT_VERSION: return "rejected: record of another format version";
     case AACMM_SLOT_BAD_LENGTH: return "rejected: wrong payload length";
     case AACMM_SLOT_INCOMPLETE: return "rejected: incomplete record (a save cut after it began)";
