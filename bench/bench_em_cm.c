@@ -41,12 +41,16 @@ static int64_t pq[3], jq[JMAX];
 static aacmm_model_q_t mq;
 static aacmm_errmodel_q_t em2, em0;
 static int32_t temps[6] = {7168, 7168, 7168, 7168, 7168, 7168}; /* 28 degC */
+static int32_t temps2[6] = {5376, 5440, 5504, 5568, 5632, 5696}; /* 21 .. 22.25 degC */
+static aacmm_model_q_t mq_t;
 #else
 static float rad[NPOSE * 6];
 static float pf[3], jf[JMAX];
 static aacmm_model_f32_t mf;
 static aacmm_errmodel_f32_t em2, em0;
 static float temps[6] = {28.0f, 28.0f, 28.0f, 28.0f, 28.0f, 28.0f};
+static float temps2[6] = {21.0f, 21.25f, 21.5f, 21.75f, 22.0f, 22.25f};
+static aacmm_model_f32_t mf_t;
 #endif
 
 typedef void (*pose_fn)(int k);
@@ -79,6 +83,12 @@ static void em2_jac_p(int k)
     (void)aacmm_errmodel_q_correct(&mq, &em2, bam + 6 * k, qc);
     (void)aacmm_point_jacobian_q(&mq, qc, pq, jq);
 }
+/* The device's rescale on a change of link temperature (device_kin_q.c:
+ * aacmm_model_q_at_temperature into its cache), alternating two sets. */
+static void rescale(int k)
+{
+    (void)aacmm_model_q_at_temperature(&mq_t, &mq, &em2, (k & 1) != 0 ? temps : temps2);
+}
 #else
 static void plain_point(int k) { (void)aacmm_point_f32(&mf, rad + 6 * k, pf); }
 static void plain_jac(int k) { (void)aacmm_point_jacobian_f32(&mf, rad + 6 * k, pf, jf); }
@@ -96,6 +106,12 @@ static void em2_jac_p(int k)
 {
     (void)aacmm_errmodel_angles_f32(&em2, rad + 6 * k, qc);
     (void)aacmm_point_jacobian_f32(&mf, qc, pf, jf);
+}
+/* The device's rescale on a change of link temperature (device_kin_f32.c:
+ * aacmm_model_at_temperature_f32 into its cache), alternating two sets. */
+static void rescale(int k)
+{
+    (void)aacmm_model_at_temperature_f32(&mf_t, &mf, &em2, (k & 1) != 0 ? temps : temps2);
 }
 #endif
 static void empty(int k) { (void)k; }
@@ -202,6 +218,11 @@ int main(void)
            "probe point + the 3x25 Jacobian at the corrected readings, K = 2 on every joint "
            "(the device's sample and COMPUTE path)",
            per_pose(em2_jac_p, base));
+    report("em.rescale_model",
+           "the model scaled to new link temperatures (aacmm_model_at_temperature_f32 / "
+           "aacmm_model_q_at_temperature, 6 links): the device's cost per change of temperature "
+           "with the thermal block",
+           per_pose(rescale, base));
 #if defined(__ARM_ARCH_6M__)
     report("em.sincos_q_x6", "6 aacmm_sincos_q (the extra one per corrected joint), for scale",
            per_pose(sincos6, base));

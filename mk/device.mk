@@ -94,9 +94,16 @@ test-device-q: $(BUILD)/device/test_device_q
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 $<
 
 # The real binary: arguments, exit codes, stdout lines, a ping and a 1 kHz
-# stream over the pty (tests/device/sim_smoke.py, standard library only).
+# stream over the pty (tests/device/sim_smoke.py, standard library only);
+# link temperatures (--temperature, --no-temperature-sensors, the control
+# channel's temps, the thermal block's points: tests/device/sim_temps.py) on
+# both kinematics backends.
 test-device-sim: $(SIM_BIN) $(BUILD)/sim$(DEV_SUFFIX)/aacmm-sim-clang
 	/usr/bin/python3 tests/device/sim_smoke.py $(SIM_BIN)
+	/usr/bin/python3 tests/device/sim_temps.py $(SIM_BIN)
+	@$(MAKE) --no-print-directory sim DEVICE_KIN=$(if $(filter q,$(DEVICE_KIN)),f32,q) SAN=$(SAN)
+	/usr/bin/python3 tests/device/sim_temps.py \
+	    $(BUILD)/sim$(if $(filter q,$(DEVICE_KIN)),,-q)$(if $(SIM_SAN),-san)/aacmm-sim
 
 # The simulator's replay-file parser against hostile files (malformed lines,
 # huge values, NaN, long lines, NUL bytes, empty and missing files): gcc, and

@@ -4,7 +4,8 @@
 #   tests/host/test_sim_latency.py  a request after a host stall is answered
 #       behind the frame in progress, not the queue of stale samples
 #   tests/host/test_sim_hostile.py  the ASan+UBSan builds (make sim SAN=1, both
-#       kinematics backends) fed hostile link input and hostile storage files
+#       kinematics backends) fed hostile link input, hostile storage files and
+#       hostile `temps` lines on the control channel
 
 SIM_ROBUST_PY := tests/host/test_sim_storage.py tests/host/test_sim_latency.py \
                  tests/host/test_sim_hostile.py

@@ -26,7 +26,7 @@ $(SIM_MOTION_LIB): $(SIM_MOTION_LIB_SRCS) firmware/src/sim/aacmm_sim.h $(wildcar
 sim-motion-lib: $(SIM_MOTION_LIB)
 
 .PHONY: test-sim-control test-simulation test-simulation-lint
-#> test-sim-control     aacmm-sim --control with the host client: counts, buttons, barriers, stream events, the trigger rule on serial, both buttons, replay of an aacmm log (the paper's arm; microscribe5 and commercial7 through aacmm sim --model: the same counts on every joint, a log of another joint count refused)
+#> test-sim-control     aacmm-sim --control with the host client: counts, buttons, temps (link temperatures in the sample, the thermal point, TEMP_FAULT), barriers, stream events, the trigger rule on serial, both buttons, replay of an aacmm log (the paper's arm; microscribe5 and commercial7 through aacmm sim --model: the same counts on every joint, a log of another joint count refused)
 test-sim-control: export AACMM_SIM = $(abspath $(SIM_BIN))
 test-sim-control: sim
 	$(SIMULATION_PYTEST) tests/sim/test_sim_control.py

@@ -26,6 +26,7 @@ go to ``build/boards/loopback-<board>.json``.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import os
@@ -41,7 +42,8 @@ import test_loopback_arms as arms
 import test_loopback_pty as pty_suite
 from aacmm.boards import BOARDS, default_image, start_board, stop_board
 from aacmm.client import Client, connect
-from aacmm.protocol import BuildFlags, ParamSet, SampleStatus
+from aacmm.errors import DeviceError
+from aacmm.protocol import BuildFlags, ParamSet, SampleStatus, Status
 from streamclock import schedule_drift_us, schedule_rate_hz
 
 REPO = Path(__file__).resolve().parents[2]
@@ -113,6 +115,55 @@ def test_board_identity(board: tuple[str, str], client: Client) -> None:
     assert bool(info.build_flags & BuildFlags.KIN_FIXED) == fixed
     assert info.build_flags & BuildFlags.SERIAL and not info.build_flags & BuildFlags.CAN
     assert info.storage_state in (0, 1)  # RAM-backed store: blank (or written by a test)
+
+
+# ---------------------------------------------------------------- link temperatures
+
+
+def test_board_has_no_temperatures(board: tuple[str, str], client: Client) -> None:
+    """Neither emulated board reads link temperatures (docs/boards.md): the
+    MPS2 has no sensor, and the micro:bit's TEMP probe gets no conversion
+    under QEMU (test_microbit_temp_probe_under_qemu). So INFO has no
+    TEMPERATURES flag and a set with the thermal block is refused with
+    ERR_UNSUPPORTED (never a point at lengths the device cannot know); the
+    set in force is unchanged."""
+    info = client.handshake()
+    assert not info.build_flags & BuildFlags.TEMPERATURES
+    before = client.get_params()
+    thermal = dataclasses.replace(before, cte=(2300,) * before.joints, ref_temp=2000)
+    with pytest.raises(DeviceError) as ei:
+        client.set_params(thermal)
+    assert ei.value.status == Status.ERR_UNSUPPORTED
+    assert client.get_params() == before
+    sample = client.measure()
+    assert sample.status & SampleStatus.POINT_VALID
+
+
+def test_microbit_temp_probe_under_qemu() -> None:
+    """QEMU's microbit machine does not model the nRF51 TEMP peripheral: its
+    registers lie in the SoC's unimplemented I/O region (-d unimp logs each
+    access). The image's start-up probe starts a conversion (TASKS_START,
+    0x4000C000), polls EVENTS_DATARDY (0x4000C100) for at most its bounded
+    wait, gives up (TASKS_STOP, 0x4000C004) and never reads the TEMP register
+    (0x4000C508); the device then has no read_temperatures."""
+    log: list[str] = []
+    proc, url = start_board("microbit", default_image("microbit"), log=log, extra=["-d", "unimp"])
+    try:
+        with connect(url, timeout=2.0, retries=2) as c:
+            info = c.handshake()
+            c.measure()
+    finally:
+        stop_board(proc)
+    temp = [line for line in log if "nrf51_soc.io" in line and "offset 0x0000c" in line]
+    starts = [x for x in temp if "write" in x and "offset 0x0000c000," in x]
+    polls = [x for x in temp if "read" in x and "offset 0x0000c100)" in x]
+    stops = [x for x in temp if "write" in x and "offset 0x0000c004," in x]
+    assert len(starts) == 1 and len(stops) == 1, temp[:5]
+    assert polls, "the probe polls EVENTS_DATARDY"
+    assert not [x for x in temp if "offset 0x0000c508" in x], "TEMP never read"
+    last_poll = max(i for i, x in enumerate(temp) if "read" in x and "offset 0x0000c100)" in x)
+    assert temp.index(stops[0]) > last_poll, "stopped after the last poll"
+    assert not info.build_flags & BuildFlags.TEMPERATURES
 
 
 # ---------------------------------------------------------------- golden vectors via compute

@@ -93,6 +93,19 @@ static aacmm_status_t f_read_buttons(void *ctx, uint8_t *pressed)
     return AACMM_OK;
 }
 
+static aacmm_status_t f_read_temperatures(void *ctx, int16_t temp[AACMM_JOINTS_MAX],
+                                          uint8_t *valid)
+{
+    fake_t *f = ctx;
+    f->temp_reads++;
+    if (f->temp_status != AACMM_OK) {
+        return f->temp_status;
+    }
+    memcpy(temp, f->temp, sizeof f->temp);
+    *valid = f->temp_valid;
+    return AACMM_OK;
+}
+
 static aacmm_status_t f_storage_read(void *ctx, uint32_t offset, uint8_t *buf, size_t len)
 {
     fake_t *f = ctx;
@@ -151,6 +164,17 @@ void fake_use_frames(fake_t *f, aacmm_platform_t *pf)
 {
     (void)f;
     pf->read_encoder_frames = f_read_encoder_frames;
+}
+
+void fake_use_temperatures(fake_t *f, aacmm_platform_t *pf)
+{
+    int i;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        f->temp[i] = 2000;
+    }
+    f->temp_valid = 0x7Fu;
+    f->temp_status = AACMM_OK;
+    pf->read_temperatures = f_read_temperatures;
 }
 
 void fake_use_flash(fake_t *f, aacmm_platform_t *pf)

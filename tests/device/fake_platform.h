@@ -39,6 +39,12 @@ typedef struct {
     aacmm_status_t encoder_status;
     unsigned encoder_reads;
     uint8_t button; /* button levels, bit i = button i held */
+    /* link temperatures (fake_use_temperatures): read_temperatures gives
+     * temp[] and temp_valid, or fails with temp_status */
+    int16_t temp[AACMM_JOINTS_MAX];
+    uint8_t temp_valid;
+    aacmm_status_t temp_status;
+    unsigned temp_reads;
     /* storage */
     uint8_t storage[AACMM_STORE_BYTES];
     long write_budget; /* bytes still written before the "power cut"; < 0 = unlimited */
@@ -59,6 +65,11 @@ void fake_platform(fake_t *f, aacmm_platform_t *pf, int serial, int can, int sto
 
 /* Joints as frames: pf->read_encoder_frames returns f->frames. */
 void fake_use_frames(fake_t *f, aacmm_platform_t *pf);
+
+/* The platform reads link temperatures (pf->read_temperatures): every link
+ * at 20.00 degC and valid until the test changes f->temp / temp_valid /
+ * temp_status. */
+void fake_use_temperatures(fake_t *f, aacmm_platform_t *pf);
 
 /* Storage behaves as NOR flash with an erase function (see fake_t.flash). */
 void fake_use_flash(fake_t *f, aacmm_platform_t *pf);

@@ -436,8 +436,8 @@ static void test_seven_joint_arm_model(void **state)
     expect_response(AACMM_MSG_MEASURE_RSP, 34);
     assert_int_equal(M.u.sample.joints, 7);
     assert_int_equal(M.u.sample.params, p_cols);
-    /* the thermal block needs link temperatures, which the device does not
-     * read yet: refused (never a point at the wrong lengths) */
+    /* the thermal block needs link temperatures, which this platform does
+     * not read: refused (never a point at the wrong lengths) */
     set.err.thermal = 1u;
     set.err.cte[0] = 2300;
     set.err.ref_temp = 2000;
@@ -2712,6 +2712,744 @@ static void test_sim_drives_device(void **state)
     assert_int_equal(aacmm_device_counters(&D)->encoder_faults, 0u);
 }
 
+/* ------------------------------------------------------------------------ */
+/* link temperatures (issue 27)                                              */
+/* ------------------------------------------------------------------------ */
+
+/* A device whose platform reads link temperatures (every link at 20.00
+ * degC, valid, until the test changes F.temp / temp_valid / temp_status). */
+static int setup_temps(void **state)
+{
+    (void)state;
+    setup_links(1, 1, 1, 1, 0);
+    fake_use_temperatures(&F, &PF);
+    boot();
+    return 0;
+}
+
+/* The paper's arm with the thermal block (aluminium-like CTEs, one link of
+ * a smaller one, tref 20 degC) and K = 1 on two joints. */
+static void thermal_set(aacmm_param_set_t *s, int16_t ref_temp)
+{
+    int i;
+    default_set(s);
+    s->err.thermal = 1u;
+    s->err.ref_temp = ref_temp;
+    for (i = 0; i < 6; i++) {
+        s->err.cte[i] = (int16_t)(2300 - 250 * i); /* 23e-6 .. 10.5e-6 / K */
+    }
+    s->err.harmonics[1] = 1u;
+    s->err.harm_cos[1][0] = 1500;
+    s->err.harmonics[4] = 1u;
+    s->err.harm_sin[4][0] = -900;
+}
+
+static void set_params(const aacmm_param_set_t *s, uint8_t seq)
+{
+    aacmm_msg_t m;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = seq;
+    m.u.params = *s;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, seq);
+}
+
+/* MEASURE with content into M (a response, checked). */
+static void measure(uint8_t content, uint8_t seq)
+{
+    aacmm_msg_t m;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_MEASURE_REQ;
+    m.seq = seq;
+    m.u.measure.content = content;
+    send_msg(&m);
+    expect_response(AACMM_MSG_MEASURE_RSP, seq);
+}
+
+/* The error model of a set in the core's double form, built here from the
+ * wire units (aacmm/proto.h), not by the device's helper. */
+static void ref_errmodel_f64(const aacmm_param_set_t *set, aacmm_errmodel_f64_t *e)
+{
+    int n = (int)set->arm.shape.joints;
+    int i;
+    int k;
+    assert_int_equal(aacmm_errmodel_default_f64(e, n), AACMM_OK);
+    for (i = 0; i < n; i++) {
+        e->harmonics[i] = set->err.harmonics[i];
+        for (k = 0; k < AACMM_HARMONICS_MAX; k++) {
+            e->c_rad[i][k] = 1e-7 * (double)set->err.harm_cos[i][k];
+            e->s_rad[i][k] = 1e-7 * (double)set->err.harm_sin[i][k];
+        }
+        if (set->err.thermal) {
+            e->cte_per_k[i] = 1e-8 * (double)set->err.cte[i];
+            e->tref_c[i] = 0.01 * (double)set->err.ref_temp;
+        }
+    }
+}
+
+/* The core's point (and first P columns of its extended Jacobian) of the
+ * set at counts and link temperatures temp (0.01 degC; NULL: the reference
+ * temperatures), computed here: f32, aacmm_point_em_f32 at temp / 100 (the
+ * nearest float in degC); Q, aacmm_point_em_q at aacmm_temp_q8_from_f64.
+ * mm: the point in mm as COMPUTE sends it; x_wire: the point in 1e-4 mm
+ * before rounding (f32: as the wire rounds it, exact). */
+static void core_point_at(const aacmm_param_set_t *set, const uint32_t *counts,
+                          const int16_t *temp, double mm[3], float jac[AACMM_JAC_SIZE_MAX])
+{
+    int n = (int)set->arm.shape.joints;
+    int np = aacmm_shape_params(&set->arm.shape);
+    aacmm_errmodel_f64_t e64;
+    int i;
+    int r;
+    ref_errmodel_f64(set, &e64);
+#ifndef AACMM_DEVICE_KIN_FIXED
+    {
+        aacmm_arm_f32_t a32;
+        aacmm_model_f32_t m32;
+        aacmm_errmodel_f32_t e32;
+        float th[AACMM_JOINTS_MAX];
+        float tc[AACMM_JOINTS_MAX];
+        float p[3];
+        float pj[3];
+        static float ext[AACMM_EXT_JAC_SIZE_MAX];
+        int w;
+        a32.shape = set->arm.shape;
+        for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+            a32.theta_offset_rad[i] = (float)set->arm.theta_offset_rad[i];
+            a32.alpha_rad[i] = (float)set->arm.alpha_rad[i];
+            a32.d_mm[i] = (float)set->arm.d_mm[i];
+            a32.a_mm[i] = (float)set->arm.a_mm[i];
+            a32.beta_rad[i] = (float)set->arm.beta_rad[i];
+        }
+        for (i = 0; i < 3; i++) {
+            a32.tip_mm[i] = (float)set->arm.tip_mm[i];
+        }
+        assert_int_equal(aacmm_model_init_arm_f32(&m32, &a32), AACMM_OK);
+        assert_int_equal(aacmm_errmodel_default_f32(&e32, n), AACMM_OK);
+        for (i = 0; i < n; i++) {
+            int k;
+            e32.harmonics[i] = e64.harmonics[i];
+            for (k = 0; k < AACMM_HARMONICS_MAX; k++) {
+                e32.c_rad[i][k] = (float)e64.c_rad[i][k];
+                e32.s_rad[i][k] = (float)e64.s_rad[i][k];
+            }
+            e32.cte_per_k[i] = (float)e64.cte_per_k[i];
+            e32.tref_c[i] = (float)e64.tref_c[i];
+            if (temp != NULL) {
+                tc[i] = (float)temp[i] / 100.0f;
+            }
+        }
+        assert_int_equal(aacmm_arm_encoders_to_angles_f32(&set->enc, counts, th), AACMM_OK);
+        assert_int_equal(aacmm_point_em_f32(&m32, &e32, th, temp != NULL ? tc : NULL, p),
+                         AACMM_OK);
+        assert_int_equal(aacmm_point_jacobian_em_f32(&m32, &e32, th, temp != NULL ? tc : NULL, pj,
+                                                     ext),
+                         AACMM_OK);
+        assert_memory_equal(p, pj, sizeof p);
+        w = np + aacmm_errmodel_cols_f32(&e32);
+        for (i = 0; i < 3; i++) {
+            mm[i] = (double)p[i];
+        }
+        for (r = 0; r < 3; r++) {
+            for (i = 0; i < np; i++) {
+                jac[r * np + i] = ext[r * w + i];
+            }
+        }
+    }
+#else
+    {
+        aacmm_arm_q_t aq;
+        aacmm_model_q_t mq;
+        aacmm_errmodel_q_t eq;
+        uint32_t bam[AACMM_JOINTS_MAX];
+        double tc[AACMM_JOINTS_MAX];
+        int32_t tq[AACMM_JOINTS_MAX];
+        int64_t p[3];
+        int64_t pj[3];
+        int64_t jq[AACMM_JAC_SIZE_MAX];
+        assert_int_equal(aacmm_arm_q_from_f64(&aq, &set->arm), AACMM_OK);
+        assert_int_equal(aacmm_model_q_init_arm(&mq, &aq), AACMM_OK);
+        assert_int_equal(aacmm_errmodel_q_from_f64(&eq, &e64), AACMM_OK);
+        assert_int_equal(aacmm_arm_encoders_to_bam(&set->enc, counts, bam), AACMM_OK);
+        if (temp != NULL) {
+            for (i = 0; i < n; i++) {
+                tc[i] = (double)temp[i] / 100.0;
+            }
+            assert_int_equal(aacmm_temp_q8_from_f64(tq, tc, (size_t)n), AACMM_OK);
+        }
+        assert_int_equal(aacmm_point_em_q(&mq, &eq, bam, temp != NULL ? tq : NULL, p), AACMM_OK);
+        assert_int_equal(aacmm_point_jacobian_corrected_q(&mq, &eq, bam, temp != NULL ? tq : NULL,
+                                                          pj, jq),
+                         AACMM_OK);
+        assert_memory_equal(p, pj, sizeof p);
+        for (i = 0; i < 3; i++) {
+            mm[i] = (double)p[i] * 3.552713678800501e-15; /* 2^-48 */
+        }
+        (void)r;
+        for (i = 0; i < 3 * np; i++) {
+            jac[i] = (float)jq[i] * 3.5527137e-15f;
+        }
+    }
+#endif
+}
+
+/* A sample's wire point is the core's point mm rounded to 1e-4 mm. */
+static void assert_wire_point(const int32_t wire[3], const double mm[3])
+{
+    int i;
+    for (i = 0; i < 3; i++) {
+#ifndef AACMM_DEVICE_KIN_FIXED
+        assert_int_equal(wire[i], aacmm_point_mm_to_wire(mm[i], NULL));
+#else
+        /* the exact integer rounding of the Q48 point: within half a unit
+         * of the (double) point, 1e-8 units of slack for the double */
+        double x = mm[i] * 1e4;
+        assert_true(fabs((double)wire[i] - x) <= 0.5 + 1e-6);
+#endif
+    }
+}
+
+static void test_temps_info_flag(void **state)
+{
+    (void)state;
+    send_simple(AACMM_MSG_INFO_REQ, 1);
+    expect_response(AACMM_MSG_INFO_RSP, 1);
+    assert_int_equal(M.u.info.build_flags, KIN_FLAGS | AACMM_BUILD_JACOBIAN | AACMM_BUILD_SERIAL |
+                                               AACMM_BUILD_CAN | AACMM_BUILD_TEMPERATURES);
+    assert_int_equal(aacmm_device_build_flags(&D) & AACMM_BUILD_TEMPERATURES,
+                     AACMM_BUILD_TEMPERATURES);
+    /* the same device without sensors: no flag */
+    setup_links(1, 1, 1, 1, 0);
+    boot();
+    assert_int_equal(aacmm_device_build_flags(&D) & AACMM_BUILD_TEMPERATURES, 0u);
+}
+
+/* The thermal block in force: every sample's point is the core's at the
+ * link temperatures, through changes of temperature and back (the cached
+ * model follows), with and without the Jacobian; one reading per sample. */
+static void test_temps_thermal_point(void **state)
+{
+    static const int16_t temps[5][AACMM_JOINTS_MAX] = {
+        {2000, 2000, 2000, 2000, 2000, 2000, 0},    /* the reference: nothing scaled */
+        {4500, 4500, 4500, 4500, 4500, 4500, 0},    /* 25 K warmer */
+        {3125, 2850, -1050, 6025, 2000, 8500, 0},   /* per link, one at the top */
+        {-4000, 1, -1, 3999, 7777, 4500, 0},        /* the bottom, 0.01 degC steps */
+        {4500, 4500, 4500, 4500, 4500, 4500, 0},    /* back: the point of before */
+    };
+    static const uint32_t counts[AACMM_JOINTS] = {0x12345678u, 0xE0000000u, 0x30000000u,
+                                                  0xF0000000u, 0x2AAAAAABu, 0x9ABCDEF0u};
+    aacmm_param_set_t set;
+    double want[3];
+    double ref[3];
+    double warm[3];
+    float jac[AACMM_JAC_SIZE_MAX];
+    int np;
+    int k;
+    int i;
+    (void)state;
+    thermal_set(&set, 2000);
+    np = aacmm_shape_params(&set.arm.shape);
+    set_params(&set, 2);
+    memcpy(F.counts, counts, sizeof counts);
+    for (k = 0; k < 5; k++) {
+        unsigned reads;
+        memcpy(F.temp, temps[k], sizeof F.temp);
+        core_point_at(&set, counts, temps[k], want, jac);
+        reads = F.temp_reads;
+        measure(0, (uint8_t)(10 + k));
+        assert_int_equal(F.temp_reads, reads + 1u);
+        assert_int_equal(M.u.sample.status, AACMM_SAMPLE_POINT_VALID);
+        assert_wire_point(M.u.sample.point_100nm, want);
+        measure(AACMM_CONTENT_JACOBIAN, (uint8_t)(20 + k));
+        assert_int_equal(M.u.sample.status, AACMM_SAMPLE_POINT_VALID);
+        assert_wire_point(M.u.sample.point_100nm, want);
+        assert_memory_equal(M.u.sample.jacobian, jac, (size_t)(3 * np) * sizeof(float));
+        if (k == 0) {
+            memcpy(ref, want, sizeof ref);
+        }
+        if (k == 1) {
+            memcpy(warm, want, sizeof warm);
+        }
+        if (k == 4) {
+            assert_memory_equal(want, warm, sizeof want);
+        }
+    }
+    /* 25 K on ~1.2 m of aluminium-like links moves the tip by far more
+     * than the wire's resolution */
+    {
+        double d = 0.0;
+        for (i = 0; i < 3; i++) {
+            d += (warm[i] - ref[i]) * (warm[i] - ref[i]);
+        }
+        assert_true(sqrt(d) > 0.2);
+    }
+    /* COMPUTE without temperatures: at the reference temperatures */
+    {
+        aacmm_msg_t m;
+        double at_ref[3];
+        core_point_at(&set, counts, NULL, at_ref, jac);
+        memset(&m, 0, sizeof m);
+        m.type = AACMM_MSG_COMPUTE_REQ;
+        m.seq = 30;
+        m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+        m.u.compute_req.joints = 6;
+        memcpy(m.u.compute_req.counts, counts, sizeof counts);
+        send_msg(&m);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 30);
+        assert_memory_equal(M.u.compute_rsp.point_mm, at_ref, sizeof at_ref);
+        assert_memory_equal(M.u.compute_rsp.jacobian, jac, (size_t)(3 * np) * sizeof(float));
+        /* the same as at 20.00 degC on every link = tref (not scaled) */
+        assert_memory_equal(ref, at_ref, sizeof ref);
+    }
+    /* another thermal set at the same temperatures: its own point (the
+     * cached model of the previous set is not used) */
+    thermal_set(&set, 2500);
+    set.err.cte[2] = -1200;
+    set_params(&set, 31);
+    core_point_at(&set, counts, temps[4], want, jac);
+    measure(0, 32);
+    assert_wire_point(M.u.sample.point_100nm, want);
+}
+
+/* With the thermal block, a sample whose temperatures are not good has no
+ * point: TEMP_FAULT, POINT_VALID clear, point and Jacobian 0, not an
+ * encoder fault; temp_faults counts every one. */
+static void test_temps_fault_thermal(void **state)
+{
+    aacmm_param_set_t set;
+    aacmm_msg_diag_t diag;
+    uint32_t faults = 0u;
+    int c;
+    int i;
+    (void)state;
+    thermal_set(&set, 2000);
+    set_params(&set, 2);
+    for (c = 0; c < 7; c++) {
+        int good = 0;
+        fake_use_temperatures(&F, &PF);
+        switch (c) {
+        case 0: F.temp_valid = (uint8_t)(0x7Fu & ~(1u << 3)); break; /* link 4 does not answer */
+        case 1: F.temp[0] = 8501; break;                              /* above 85 degC */
+        case 2: F.temp[5] = -4001; break;                             /* below -40 degC */
+        case 3: F.temp_status = AACMM_ERR_IO; break;                  /* no reading at all */
+        case 4: F.temp_valid = 0u; break;                             /* none valid */
+        case 5: F.temp[0] = 8500; F.temp[5] = -4000; good = 1; break; /* the limits: good */
+        default: F.temp_valid = 0x3Fu; F.temp[6] = AACMM_TEMP_NONE; good = 1; break; /* link 7: not the arm's */
+        }
+        measure(AACMM_CONTENT_JACOBIAN, (uint8_t)(10 + c));
+        if (good) {
+            assert_int_equal(M.u.sample.status, AACMM_SAMPLE_POINT_VALID);
+        } else {
+            faults++;
+            assert_int_equal(M.u.sample.status, AACMM_SAMPLE_TEMP_FAULT);
+            for (i = 0; i < 3; i++) {
+                assert_int_equal(M.u.sample.point_100nm[i], 0);
+            }
+            {
+                static const float zero[AACMM_JAC_SIZE_MAX];
+                assert_memory_equal(M.u.sample.jacobian, zero,
+                                    (size_t)(3 * (int)M.u.sample.params) * sizeof(float));
+            }
+        }
+        assert_int_equal(aacmm_device_diag(&D, &diag), AACMM_OK);
+        assert_int_equal(diag.temp_faults, faults);
+        assert_int_equal(diag.encoder_faults, 0u);
+        assert_int_equal(aacmm_device_counters(&D)->temp_faults, faults);
+    }
+    assert_int_equal(faults, 5u);
+    /* the stream's samples too */
+    fake_use_temperatures(&F, &PF);
+    F.temp_valid = 0x3Eu; /* link 1 */
+    start_stream(100, 0);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+    assert_int_equal(M.u.sample.status & (AACMM_SAMPLE_TEMP_FAULT | AACMM_SAMPLE_POINT_VALID),
+                     AACMM_SAMPLE_TEMP_FAULT);
+    assert_int_equal(aacmm_device_counters(&D)->temp_faults, faults + 1u);
+}
+
+/* Without the thermal block the temperatures are only reported and flagged:
+ * the point is the one of a device without sensors, bit for bit. */
+static void test_temps_fault_plain(void **state)
+{
+    static const uint32_t counts[AACMM_JOINTS] = {0x01234567u, 0x89ABCDEFu, 0x7FFFFFFFu,
+                                                  0x80000000u, 0x00000001u, 0xFFFFFFFEu};
+    aacmm_msg_t plain;
+    aacmm_msg_diag_t diag;
+    int c;
+    (void)state;
+    memcpy(F.counts, counts, sizeof counts);
+    PF.read_temperatures = NULL; /* the same device without sensors */
+    boot();
+    measure(AACMM_CONTENT_JACOBIAN, 1);
+    plain = M;
+    fake_use_temperatures(&F, &PF);
+    boot();
+    for (c = 0; c < 4; c++) {
+        fake_use_temperatures(&F, &PF);
+        switch (c) {
+        case 0: F.temp_valid = 0x5Fu; break;        /* link 6 */
+        case 1: F.temp[2] = 9000; break;            /* hot */
+        case 2: F.temp_status = AACMM_ERR_IO; break;
+        default: F.temp[1] = 3000; break;           /* good: no flag */
+        }
+        measure(AACMM_CONTENT_JACOBIAN, (uint8_t)(2 + c));
+        assert_int_equal(M.u.sample.status, plain.u.sample.status |
+                                                (c < 3 ? AACMM_SAMPLE_TEMP_FAULT : 0u));
+        assert_memory_equal(M.u.sample.point_100nm, plain.u.sample.point_100nm,
+                            sizeof plain.u.sample.point_100nm);
+        assert_memory_equal(M.u.sample.jacobian, plain.u.sample.jacobian,
+                            sizeof plain.u.sample.jacobian);
+    }
+    assert_int_equal(aacmm_device_diag(&D, &diag), AACMM_OK);
+    assert_int_equal(diag.temp_faults, 3u);
+}
+
+/* Sensors present, no thermal block, content without TEMPERATURES: the
+ * bytes on the wire are those of a device without sensors. */
+static void test_temps_bytes_unchanged(void **state)
+{
+    static uint8_t first[65536];
+    size_t first_len = 0;
+    int pass;
+    (void)state;
+    for (pass = 0; pass < 2; pass++) {
+        aacmm_msg_t m;
+        setup_links(1, 0, 1, 1, 0);
+        if (pass == 1) {
+            fake_use_temperatures(&F, &PF);
+            F.temp[0] = 3750;
+            F.temp[4] = -500;
+        }
+        boot();
+        F.counts[0] = 0x40000000u;
+        F.counts[3] = 0x12345678u;
+        measure(0, 1);
+        measure(AACMM_CONTENT_JACOBIAN, 2);
+        memset(&m, 0, sizeof m);
+        m.type = AACMM_MSG_COMPUTE_REQ;
+        m.seq = 3;
+        m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+        m.u.compute_req.joints = 6;
+        m.u.compute_req.counts[1] = 0x30000000u;
+        send_msg(&m);
+        expect_response(AACMM_MSG_COMPUTE_RSP, 3);
+        start_stream(1000, AACMM_CONTENT_JACOBIAN);
+        advance(5000);
+        aacmm_device_poll(&D);
+        while (next_msg()) {
+        }
+        if (pass == 0) {
+            assert_true(F.tx_len <= sizeof first);
+            memcpy(first, F.tx, F.tx_len);
+            first_len = F.tx_len;
+        } else {
+            assert_true(F.temp_reads >= 7u); /* two measures, six stream samples */
+            assert_int_equal(F.tx_len, first_len);
+            assert_memory_equal(F.tx, first, first_len);
+        }
+    }
+}
+
+/* A stored set with the thermal block on a device without sensors is not
+ * used (defaults, said in INFO and DIAG); the same storage with sensors
+ * uses it. */
+static void test_temps_stored_thermal_set(void **state)
+{
+    aacmm_param_set_t set;
+    aacmm_msg_diag_t diag;
+    (void)state;
+    thermal_set(&set, 2150);
+    set_params(&set, 2);
+    save_via_request(3);
+    assert_int_equal(M.type, AACMM_MSG_SAVE_PARAMS_RSP);
+    setup_links(1, 1, 1, 1, 1);
+    boot(); /* no sensors */
+    send_simple(AACMM_MSG_INFO_REQ, 4);
+    expect_response(AACMM_MSG_INFO_RSP, 4);
+    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_DEFAULTS);
+    assert_int_equal(M.u.info.storage_state, AACMM_STORAGE_CORRUPT);
+    assert_int_equal(aacmm_device_diag(&D, &diag), AACMM_OK);
+    assert_true(diag.slot_state[0] == AACMM_SLOT_BAD_CONTENTS ||
+                diag.slot_state[1] == AACMM_SLOT_BAD_CONTENTS);
+    /* and SET_PARAMS of it is refused there */
+    {
+        aacmm_msg_t m;
+        memset(&m, 0, sizeof m);
+        m.type = AACMM_MSG_SET_PARAMS_REQ;
+        m.seq = 5;
+        m.u.params = set;
+        send_msg(&m);
+        expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SET_PARAMS_REQ, 5);
+    }
+    setup_links(1, 1, 1, 1, 1);
+    fake_use_temperatures(&F, &PF);
+    boot();
+    send_simple(AACMM_MSG_INFO_REQ, 6);
+    expect_response(AACMM_MSG_INFO_RSP, 6);
+    assert_int_equal(M.u.info.param_source, AACMM_PARAM_SOURCE_STORAGE);
+    assert_int_equal(M.u.info.param_crc32, set_crc(&set));
+}
+
+/* Protocol version 4 on the wire: the TEMPERATURES content of MEASURE and
+ * streams (serial; CAN as SAMPLE_EVT over ISO-TP), trigger events, DIAG's
+ * temp_faults. The readings are sent as the sensor gave them. */
+static void test_temps_content(void **state)
+{
+    static const int16_t temps[AACMM_JOINTS_MAX] = {2150, -1234, 8600, 777, 0, -4000, 3000};
+    aacmm_msg_t m;
+    int i;
+    (void)state;
+    memcpy(F.temp, temps, sizeof F.temp);
+    F.temp_valid = (uint8_t)(0x7Fu & ~(1u << 3)); /* link 4 does not answer */
+    F.counts[2] = 0x30000000u;
+    measure(AACMM_CONTENT_TEMPERATURES, 1);
+    assert_int_equal(M.u.sample.content, AACMM_CONTENT_TEMPERATURES);
+    assert_int_equal(M.u.sample.status, AACMM_SAMPLE_POINT_VALID | AACMM_SAMPLE_PARAMS_DEFAULT |
+                                            AACMM_SAMPLE_TEMP_FAULT);
+    for (i = 0; i < 6; i++) {
+        assert_int_equal(M.u.sample.temp[i], i == 3 ? AACMM_TEMP_NONE : temps[i]);
+    }
+    /* both contents: the temperatures and the Jacobian */
+    {
+        aacmm_msg_t with_jac;
+        measure(AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN, 2);
+        with_jac = M;
+        measure(AACMM_CONTENT_JACOBIAN, 3);
+        assert_memory_equal(with_jac.u.sample.jacobian, M.u.sample.jacobian,
+                            sizeof M.u.sample.jacobian);
+        assert_memory_equal(with_jac.u.sample.point_100nm, M.u.sample.point_100nm,
+                            sizeof M.u.sample.point_100nm);
+        assert_memory_equal(with_jac.u.sample.temp, temps, 3 * sizeof(int16_t));
+    }
+    /* DIAG over the wire: the three samples so far */
+    send_simple(AACMM_MSG_DIAG_REQ, 4);
+    expect_response(AACMM_MSG_DIAG_RSP, 4);
+    assert_int_equal(M.u.diag.temp_faults, 3u);
+    /* a serial stream with temperatures; a trigger event during it carries them */
+    fake_use_temperatures(&F, &PF);
+    F.temp[0] = 2555;
+    memset(&m, 0, sizeof m);
+    start_stream(100, AACMM_CONTENT_TEMPERATURES);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+    assert_int_equal(M.u.sample.content, AACMM_CONTENT_TEMPERATURES);
+    assert_int_equal(M.u.sample.temp[0], 2555);
+    assert_int_equal(M.u.sample.temp[5], 2000);
+    assert_int_equal(M.u.sample.status & AACMM_SAMPLE_TEMP_FAULT, 0u);
+    F.button = 1u;
+    aacmm_device_poll(&D);
+    {
+        int seen = 0;
+        while (next_msg()) {
+            if (M.type == AACMM_MSG_TRIGGER_EVT) {
+                assert_int_equal(M.u.trigger.sample.content, AACMM_CONTENT_TEMPERATURES);
+                assert_int_equal(M.u.trigger.sample.temp[0], 2555);
+                seen = 1;
+            }
+        }
+        assert_true(seen);
+    }
+    send_simple(AACMM_MSG_DIAG_REQ, 5);
+    aacmm_device_poll(&D);
+    while (next_msg() && M.type != AACMM_MSG_DIAG_RSP) {
+    }
+    assert_int_equal(M.type, AACMM_MSG_DIAG_RSP);
+    assert_int_equal(M.u.diag.temp_faults, 3u); /* all good since */
+}
+
+/* A CAN stream with temperatures goes as SAMPLE_EVT over ISO-TP (the sample
+ * frames carry no temperatures). */
+static void test_temps_can_stream_over_isotp(void **state)
+{
+    aacmm_msg_t m;
+    uint32_t n = 0;
+    int rounds = 0;
+    size_t i;
+    (void)state;
+    F.temp[2] = -999;
+    host_isotp_init(3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 8;
+    m.u.stream.rate_hz = 50;
+    m.u.stream.content = AACMM_CONTENT_TEMPERATURES;
+    can_request(&m);
+    assert_true(can_exchange(5));
+    assert_int_equal(M.type, AACMM_MSG_STREAM_START_RSP);
+    assert_int_equal(M.u.stream.content, AACMM_CONTENT_TEMPERATURES);
+    while (n < 5u && rounds < 1000) {
+        advance(1000);
+        if (can_exchange(50)) {
+            assert_int_equal(M.type, AACMM_MSG_SAMPLE_EVT);
+            assert_int_equal(M.u.sample.content, AACMM_CONTENT_TEMPERATURES);
+            assert_int_equal(M.u.sample.temp[2], -999);
+            assert_int_equal(M.u.sample.seq, n);
+            n++;
+        }
+        rounds++;
+    }
+    assert_int_equal(n, 5u);
+    for (i = 0; i < F.can_tx_len; i++) {
+        assert_int_not_equal(F.can_tx[i].id, AACMM_CAN_ID_SAMPLE_HEADER + 3u);
+    }
+}
+
+/* Without sensors the TEMPERATURES content is refused; COMPUTE with
+ * temperatures works on any device (without the thermal block: the point of
+ * COMPUTE without them, bit for bit). Both contents on N 7, P 37 do not fit
+ * a body: ERR_RANGE. */
+static void test_temps_content_refused(void **state)
+{
+    aacmm_msg_t m;
+    aacmm_msg_t plain;
+    aacmm_param_set_t set;
+    int i;
+    (void)state;
+    measure(AACMM_CONTENT_JACOBIAN, 1); /* a device without sensors (setup_default) */
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_MEASURE_REQ;
+    m.seq = 2;
+    m.u.measure.content = AACMM_CONTENT_TEMPERATURES;
+    send_msg(&m);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_MEASURE_REQ, 2);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 3;
+    m.u.stream.rate_hz = 100;
+    m.u.stream.content = AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_STREAM_START_REQ, 3);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 4;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN;
+    m.u.compute_req.joints = 6;
+    m.u.compute_req.counts[0] = 0x12345678u;
+    m.u.compute_req.counts[4] = 0x9ABCDEF0u;
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 4);
+    plain = M;
+    m.seq = 5;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES;
+    for (i = 0; i < 6; i++) {
+        m.u.compute_req.temp[i] = (int16_t)(4500 + 100 * i);
+    }
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 5);
+    assert_int_equal(M.u.compute_rsp.content, AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES);
+    assert_memory_equal(M.u.compute_rsp.point_mm, plain.u.compute_rsp.point_mm,
+                        sizeof plain.u.compute_rsp.point_mm);
+    assert_memory_equal(M.u.compute_rsp.jacobian, plain.u.compute_rsp.jacobian,
+                        sizeof plain.u.compute_rsp.jacobian);
+    /* N 7, P 37 (six betas, a tip vector) on a device with sensors */
+    setup_links(1, 1, 1, 1, 0);
+    fake_use_temperatures(&F, &PF);
+    boot();
+    memset(&set, 0, sizeof set);
+    set.arm.shape.joints = 7u;
+    set.arm.shape.tip = (uint8_t)AACMM_TIP_XYZ;
+    for (i = 0; i < 7; i++) {
+        set.arm.alpha_rad[i] = (i % 2 == 0) ? 1.5707963267948966 : -1.5707963267948966;
+        set.arm.d_mm[i] = 100.0 + 50.0 * i;
+        if (i > 0) {
+            set.arm.shape.beta[i] = 1u;
+            set.arm.beta_rad[i] = 0.001 * i;
+        }
+    }
+    set.arm.tip_mm[2] = 110.0;
+    assert_int_equal(aacmm_arm_encoders_default(&set.enc, 7), AACMM_OK);
+    assert_int_equal(aacmm_shape_params(&set.arm.shape), 37);
+    set_params(&set, 6);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_MEASURE_REQ;
+    m.seq = 7;
+    m.u.measure.content = AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_MEASURE_REQ, 7);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_STREAM_START_REQ;
+    m.seq = 8;
+    m.u.stream.rate_hz = 100;
+    m.u.stream.content = AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN;
+    send_msg(&m);
+    expect_error(AACMM_ERR_RANGE, AACMM_MSG_STREAM_START_REQ, 8);
+    measure(AACMM_CONTENT_TEMPERATURES, 9); /* each alone fits */
+    assert_int_equal(M.u.sample.temp[6], 2000);
+    measure(AACMM_CONTENT_JACOBIAN, 10);
+    assert_int_equal(M.u.sample.params, 37);
+}
+
+/* COMPUTE at the request's temperatures with the thermal block: the core's
+ * point and Jacobian there; the next sample is at the sensors' again. */
+static void test_temps_compute_thermal(void **state)
+{
+    static const int16_t req[AACMM_JOINTS_MAX] = {-2550, 6000, 2001, 4444, -1, 8500, 0};
+    static const uint32_t counts[AACMM_JOINTS] = {0x76543210u, 0x10000000u, 0xC0000000u,
+                                                  0x0F0F0F0Fu, 0x55555555u, 0xAAAAAAAAu};
+    aacmm_param_set_t set;
+    aacmm_msg_t m;
+    double want[3];
+    float jac[AACMM_JAC_SIZE_MAX];
+    int np;
+    (void)state;
+    thermal_set(&set, 1850);
+    np = aacmm_shape_params(&set.arm.shape);
+    set_params(&set, 1);
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_COMPUTE_REQ;
+    m.seq = 2;
+    m.u.compute_req.content = AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES;
+    m.u.compute_req.joints = 6;
+    memcpy(m.u.compute_req.counts, counts, sizeof counts);
+    memcpy(m.u.compute_req.temp, req, sizeof req);
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 2);
+    core_point_at(&set, counts, req, want, jac);
+    assert_int_equal(M.u.compute_rsp.content, AACMM_CONTENT_JACOBIAN | AACMM_CONTENT_TEMPERATURES);
+    assert_int_equal(M.u.compute_rsp.status, AACMM_SAMPLE_POINT_VALID);
+    assert_memory_equal(M.u.compute_rsp.point_mm, want, sizeof want);
+    assert_memory_equal(M.u.compute_rsp.jacobian, jac, (size_t)(3 * np) * sizeof(float));
+    /* the point only */
+    m.seq = 3;
+    m.u.compute_req.content = AACMM_CONTENT_TEMPERATURES;
+    send_msg(&m);
+    expect_response(AACMM_MSG_COMPUTE_RSP, 3);
+    assert_memory_equal(M.u.compute_rsp.point_mm, want, sizeof want);
+    /* a sample afterwards: at the sensors' 20.00 degC, not the request's */
+    memcpy(F.counts, counts, sizeof counts);
+    F.temp[3] = 3300;
+    core_point_at(&set, counts, F.temp, want, jac);
+    measure(AACMM_CONTENT_TEMPERATURES | AACMM_CONTENT_JACOBIAN, 4);
+    assert_wire_point(M.u.sample.point_100nm, want);
+    assert_memory_equal(M.u.sample.jacobian, jac, (size_t)(3 * np) * sizeof(float));
+    assert_int_equal(M.u.sample.temp[3], 3300);
+}
+
+#ifdef AACMM_DEVICE_KIN_FIXED
+#include "device_kin.h"
+
+/* The fixed path's temperature: 0.01 degC to Q8 exactly, half away from
+ * zero, for every i16 (against the core's aacmm_temp_q8_from_f64 in range,
+ * and libm's round beyond). */
+static void test_temps_q8_rounding(void **state)
+{
+    int32_t t;
+    (void)state;
+    for (t = INT16_MIN; t <= INT16_MAX; t++) {
+        int32_t got = aacmm_device_temp_q8((int16_t)t);
+        double c = (double)t / 100.0;
+        if (t >= AACMM_REF_TEMP_MIN && t <= AACMM_REF_TEMP_MAX) {
+            int32_t want = 0;
+            assert_int_equal(aacmm_temp_q8_from_f64(&want, &c, 1u), AACMM_OK);
+            assert_int_equal(got, want);
+        }
+        assert_int_equal(got, (int32_t)round((double)t * 2.56));
+    }
+}
+#endif
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -2765,6 +3503,19 @@ int main(void)
         cmocka_unit_test(test_sim_replay_joints),
         cmocka_unit_test(test_sim_button),
         cmocka_unit_test(test_sim_drives_device),
+        cmocka_unit_test_setup(test_temps_info_flag, setup_temps),
+        cmocka_unit_test_setup(test_temps_thermal_point, setup_temps),
+        cmocka_unit_test_setup(test_temps_fault_thermal, setup_temps),
+        cmocka_unit_test_setup(test_temps_fault_plain, setup_default),
+        cmocka_unit_test(test_temps_bytes_unchanged),
+        cmocka_unit_test_setup(test_temps_stored_thermal_set, setup_temps),
+        cmocka_unit_test_setup(test_temps_content, setup_temps),
+        cmocka_unit_test_setup(test_temps_can_stream_over_isotp, setup_temps),
+        cmocka_unit_test_setup(test_temps_content_refused, setup_default),
+        cmocka_unit_test_setup(test_temps_compute_thermal, setup_temps),
+#ifdef AACMM_DEVICE_KIN_FIXED
+        cmocka_unit_test(test_temps_q8_rounding),
+#endif
     };
     return cmocka_run_group_tests_name("device", tests, NULL, NULL);
 }

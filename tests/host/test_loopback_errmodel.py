@@ -24,7 +24,14 @@ from aacmm.arm import Arm
 from aacmm.client import Client, connect
 from aacmm.errmodel import ErrorModel, points, points_jacobians
 from aacmm.errors import DeviceError
-from aacmm.protocol import ParamSet, SampleStatus
+from aacmm.protocol import (
+    BuildFlags,
+    ComputeRequest,
+    ComputeResult,
+    MsgType,
+    ParamSet,
+    SampleStatus,
+)
 from aacmm.protocol.errwire import error_model, with_error_model
 from aacmm.protocol.status import Status
 from simproc import Sim
@@ -116,15 +123,53 @@ def test_error_models_the_wire_cannot_carry_are_refused_on_the_host() -> None:
     assert with_error_model(ps, ErrorModel.none(6)) == ps
 
 
-def test_thermal_block_round_trips_and_the_device_refuses_it(client: Client) -> None:
-    ps = ParamSet.from_arm(Arm.paper())
-    em = ErrorModel(harmonics=((),) * 6, cte_per_k=(2.3e-5,) * 6, tref_c=(20.0,) * 6)
+def test_thermal_block_round_trips_and_the_device_computes_at_the_link_temperatures(
+    client: Client,
+) -> None:
+    """The thermal block (issue 27) on the wire, then on the simulator, which
+    reads link temperatures (INFO TEMPERATURES): COMPUTE at the request's
+    temperatures agrees with the host's double-precision model at them
+    (``aacmm.errmodel.points`` with ``temp_c``) within the float path's class,
+    and moves the point far beyond it; a simulator without sensors refuses the
+    set (ERR_UNSUPPORTED) and keeps its own."""
+    arm = Arm.paper()
+    enc = encoders(arm)
+    ps = ParamSet.from_arm(arm, enc)
+    ctes = (2.3e-5, 2.2e-5, 1.2e-5, 2.4e-5, 5e-7, 2.3e-5)
+    em = ErrorModel(harmonics=((),) * 6, cte_per_k=ctes, tref_c=(20.0,) * 6)
     wire = with_error_model(ps, em)
-    assert wire.cte == (2300,) * 6 and wire.ref_temp == 2000
+    assert wire.cte == (2300, 2200, 1200, 2400, 50, 2300) and wire.ref_temp == 2000
     back = error_model(wire)
     assert back.cte_per_k == pytest.approx(em.cte_per_k, rel=1e-12)
     assert back.tref_c == em.tref_c
-    with pytest.raises(DeviceError) as ei:
-        client.set_params(wire)
-    assert ei.value.status == Status.ERR_UNSUPPORTED  # no link temperatures yet
-    assert not client.get_params().cte  # the set in use is unchanged
+    assert client.info().build_flags & BuildFlags.TEMPERATURES
+    client.set_params(wire)
+    assert client.get_params() == wire
+    model = core.Model(arm)
+    temps = (3150, 2875, -1020, 6025, 2000, 8500)  # 0.01 degC
+    temp_c = np.array([t / 100.0 for t in temps])
+    rng = random.Random(27)
+    worst = 0.0
+    moved = 0.0
+    for _ in range(12):
+        counts = tuple(rng.randrange(c) for c in enc.counts_per_rev)
+        r = client.request(MsgType.COMPUTE_REQ, ComputeRequest(counts, temp=temps)).payload
+        assert isinstance(r, ComputeResult) and r.temperatures
+        assert r.status & SampleStatus.POINT_VALID
+        theta = core.counts_to_angles(np.array([counts], dtype=np.int64), enc)
+        want = points(model, back, theta, temp_c)[0]
+        got = np.array(r.point_mm)
+        worst = max(worst, float(np.max(np.abs(got - want))))
+        moved = max(moved, float(np.max(np.abs(got - points(model, back, theta)[0]))))
+    assert worst < FLOAT_PATH_BOUND_MM
+    assert moved > 0.05
+    s = Sim("--serial", "pty", "--no-temperature-sensors")
+    try:
+        with connect(s.serial_url, timeout=2.0, retries=2) as c:
+            assert not c.info().build_flags & BuildFlags.TEMPERATURES
+            with pytest.raises(DeviceError) as ei:
+                c.set_params(wire)
+            assert ei.value.status == Status.ERR_UNSUPPORTED
+            assert not c.get_params().cte  # the set in use is unchanged
+    finally:
+        assert s.stop() == 0, s.stderr_lines

@@ -9,8 +9,11 @@ but encodable values (parameter sets at and beyond the limits, counts at the
 edges, every stream rate), a stalled host while streaming with the Jacobian,
 and corrupted encoder frames on every joint; and hostile storage files at
 start-up (random, truncated, oversized, a record with a good CRC around
-garbage). Every run must end with exit status 0 on SIGTERM and nothing from
-a sanitizer on stderr, and the device must still answer afterwards.
+garbage); and hostile `temps` lines on the control channel (issue 27: random
+numbers, signs, decimals, dashes and blanks; overlong words and lines), each
+followed by a sample with the temperatures. Every run must end with exit
+status 0 on SIGTERM and nothing from a sanitizer on stderr, and the device
+must still answer afterwards.
 
 The binaries come from $AACMM_SIM_SAN and $AACMM_SIM_SAN_Q (mk/sim-robust.mk).
 """
@@ -38,6 +41,8 @@ from aacmm.protocol import (
     encode_frame,
     frame_message,
 )
+from aacmm.simulation.control import ControlChannel, ControlError
+from aacmm.simulation.process import SimProcess
 from simproc import Sim
 
 pytestmark = pytest.mark.timeout(300)
@@ -116,8 +121,9 @@ V = PROTOCOL_VERSION
 
 def check_body(body: bytes) -> Message | None:
     """A body the device sent: a message of this version, or (the answer to a
-    version 1 request) a version 1 ERROR_RSP ERR_VERSION, which is None here."""
-    if body[:1] == b"\x01":
+    request of an older version: version 1 in the mix, 2 .. V - 1 from a mutated
+    version byte) an ERROR_RSP ERR_VERSION in that version, which is None here."""
+    if 1 <= body[0] < V:
         assert len(body) == 6 and body[1] == 0xFF, body.hex()
         assert struct.unpack_from("<h", body, 3)[0] == -16, body.hex()  # ERR_VERSION
         return None
@@ -273,3 +279,69 @@ def test_hostile_storage_files(sim_bin: str, tmp_path: Path, content: bytes) -> 
         link.close()
         check_clean_exit(sim)
     assert store.stat().st_size == 1024
+
+
+def hostile_temps_lines(rng: random.Random) -> Iterator[str]:
+    """`temps` lines: 0 .. 9 words of digits, signs, dots, dashes and junk."""
+    alphabet = "0123456789-+.-"
+    edge = ["-", "+", ".", "-.", "1.", ".5", "-0", "+0.00", "327.67", "-327.67", "327.68"]
+    edge += ["-327.68", "85.001", "1e2", "0x10", "999999999999999999999", "--", "1..2", "\x7f"]
+    for _ in range(1500):
+        n = rng.choice([0, 1, 1, 2, 5, 6, 6, 7, 7, 8, 9])
+        words = []
+        for _ in range(n):
+            if rng.random() < 0.3:
+                words.append(rng.choice(edge))
+            else:
+                words.append("".join(rng.choice(alphabet) for _ in range(rng.randrange(1, 9))))
+        yield " ".join(["temps", *words])[:250]
+    yield "temps " + "1" * 300  # an overlong line
+    yield "temps " + " ".join(["20"] * 40)
+
+
+def test_hostile_temps_lines(sim_bin: str, tmp_path: Path) -> None:
+    rng = random.Random(27)
+    chan, fd = ControlChannel.pair()
+    errlog = (tmp_path / "stderr.txt").open("w")
+    try:
+        sim = SimProcess(
+            ["--serial", "pty", "--control", str(fd)],
+            stderr=errlog,
+            binary=Path(sim_bin),
+            pass_fds=[fd],
+        )
+    finally:
+        chan.child_started()
+    chan.hello()
+    assert sim.serial_path is not None
+    link = Link(sim.serial_path)
+    refused = 0
+    for k, line in enumerate(hostile_temps_lines(rng)):
+        chan.send_raw(line)
+        if k % 50 == 49:
+            try:
+                chan.sync()
+            except ControlError:
+                refused += 1
+            # a sample with the temperatures, whatever the sensors read now
+            link.send(framed(bytes([V, 0x07, k & 0xFF, 0x03])))
+            link.drain(0.02)
+    chan.send_raw("temps 20")
+    for _ in range(10):  # the refusals of the last lines, reported one per sync
+        try:
+            chan.sync()
+            break
+        except ControlError:
+            refused += 1
+    else:
+        raise AssertionError("the channel keeps reporting refusals")
+    assert refused > 2
+    assert link.ping(0x7E3B), "the device stopped answering"
+    link.close()
+    chan.close()  # end of file on the channel ends the simulator
+    code = sim.proc.wait(timeout=10)
+    errlog.close()
+    text = (tmp_path / "stderr.txt").read_text()
+    assert code == 0, text[-3000:]
+    for word in SANITIZER_WORDS:
+        assert word not in text, text[-3000:]

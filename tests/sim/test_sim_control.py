@@ -13,12 +13,18 @@ and 6), against the real ``aacmm-sim`` binary and the host client.
   replays its counts in order, skipping rows flagged ENCODER_FAULT; the log
   of a 5- and a 7-axis model (``aacmm sim --model``), replayed on the same
   model, streams the same counts on every joint (issue 26); a log of another
-  joint count than the arm's is refused (one line, exit status 2).
+  joint count than the arm's is refused (one line, exit status 2);
+- ``temps`` on the channel is what the device's link temperature sensors read
+  (issue 27): the sample carries them, a set with the thermal block computes
+  at them, a sensor that does not answer (``-``) flags TEMP_FAULT and leaves
+  no point, DIAG counts it, a malformed line is refused.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
+import math
 import os
 import signal
 import socket
@@ -29,7 +35,15 @@ from pathlib import Path
 
 import pytest
 from aacmm.client import connect
-from aacmm.protocol import Button, SampleStatus
+from aacmm.protocol import (
+    Button,
+    ComputeResult,
+    MeasureRequest,
+    MsgType,
+    Sample,
+    SampleStatus,
+)
+from aacmm.protocol.constants import TEMP_NONE
 from aacmm.simulation.control import ControlChannel, ControlError
 from aacmm.simulation.process import SimProcess, SimulatorUsageError
 from simctl import ControlledSim, check_stream
@@ -37,6 +51,47 @@ from simctl import ControlledSim, check_stream
 pytestmark = pytest.mark.timeout(120)
 AACMM = Path(sys.executable).with_name("aacmm")
 COUNTS = (1 << 30, 3 << 29, 5, 1 << 31, 123456789, 4000000000)
+
+
+def test_temps_reach_the_device(controlled: ControlledSim) -> None:
+    chan = controlled.chan
+    with connect(controlled.url, timeout=2.0) as c:
+
+        def measure_temps() -> Sample:
+            s = c.request(MsgType.MEASURE_REQ, MeasureRequest(temperatures=True)).payload
+            assert isinstance(s, Sample)
+            return s
+
+        plain = c.get_params()
+        cte = 2300  # 23e-6 / K on every link, tref 20 degC
+        c.set_params(dataclasses.replace(plain, cte=(cte,) * plain.joints, ref_temp=2000))
+        chan.set_counts(COUNTS)
+        chan.send_raw("temps 45")
+        chan.sync()
+        s = measure_temps()
+        assert s.temp == (4500,) * 6
+        assert s.status & SampleStatus.POINT_VALID and not s.status & SampleStatus.TEMP_FAULT
+        # one CTE and one temperature on every link scale every length, and so
+        # the point, by 1 + cte dT (COMPUTE without temperatures: the reference)
+        ref = c.compute(COUNTS)
+        assert isinstance(ref, ComputeResult) and not ref.temperatures
+        f = 1.0 + cte * 1e-8 * 25.0
+        assert all(abs(a - f * b) < 2e-3 for a, b in zip(s.point_mm, ref.point_mm, strict=True))
+        assert math.dist(s.point_mm, ref.point_mm) > 0.1
+        chan.send_raw("temps 20 20 - 20.25 20 -3.5")
+        chan.sync()
+        s = measure_temps()
+        assert s.temp == (2000, 2000, TEMP_NONE, 2025, 2000, -350)
+        assert s.status & SampleStatus.TEMP_FAULT and not s.status & SampleStatus.POINT_VALID
+        diag = c.diagnostics()
+        assert diag is not None and diag.temp_faults == 1
+        chan.send_raw("temps warm")
+        with pytest.raises(ControlError, match="temps"):
+            chan.sync()
+        # without the thermal block a missing sensor only flags the sample
+        c.set_params(plain)
+        s = measure_temps()
+        assert s.status & SampleStatus.TEMP_FAULT and s.status & SampleStatus.POINT_VALID
 
 
 def test_counts_and_buttons_reach_the_device(controlled: ControlledSim) -> None:

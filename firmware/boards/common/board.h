@@ -68,6 +68,24 @@ void board_watchdog_warning(void);
 /* Reset the whole chip now (SYSRESETREQ). */
 void board_system_reset(void) __attribute__((noreturn));
 
+/* ---- temperature sensor ---- */
+
+/* Look for the board's temperature sensor once, at start-up: start a
+ * conversion and wait at most BOARD_TEMP_PROBE_US for it. 1 when it
+ * answered (board_temp_read then serves readings), 0 when the board has no
+ * sensor or it did not answer (the device then has no read_temperatures). */
+int board_temp_probe(void);
+
+/* The latest completed conversion in 0.01 degC into *centi, without
+ * blocking: takes a conversion that completed since the last call and
+ * starts the next one. 0, or -1 when no conversion completed within
+ * BOARD_TEMP_TIMEOUT_US (a sensor that stopped answering) or the board has
+ * none. */
+int board_temp_read(int16_t *centi);
+
+#define BOARD_TEMP_PROBE_US 10000u    /* start-up wait for the first conversion */
+#define BOARD_TEMP_TIMEOUT_US 500000u /* a reading older than this is not valid */
+
 /* ---- parameter storage ---- */
 
 /* AACMM_STORE_BYTES (1 KiB) of storage addressed from 0; bytes 0..511 (slot

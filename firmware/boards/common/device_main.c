@@ -14,6 +14,8 @@
  *                   2^32 counts/turn) at the board's clock; the device
  *                   decodes them (BOARD_ENC_FAULT_EVERY corrupts some)
  *   button          the simulated arm's (off unless BOARD_BUTTON_PERIOD_US)
+ *   temperatures    the board's sensor (board_temp_probe at start-up; its one
+ *                   reading for every link), none if it did not answer
  *   storage         the board's: two flash pages on the micro:bit (NVMC),
  *                   RAM kept across resets on the MPS2 (board.c)
  *
@@ -288,6 +290,23 @@ static aacmm_status_t pf_read_buttons(void *ctx, uint8_t *pressed)
     return AACMM_OK;
 }
 
+/* One sensor on the boards: its reading stands for every link. */
+static aacmm_status_t pf_read_temperatures(void *ctx, int16_t temp[AACMM_JOINTS_MAX],
+                                           uint8_t *valid)
+{
+    int16_t t = 0;
+    int j;
+    (void)ctx;
+    if (board_temp_read(&t) != 0) {
+        return AACMM_ERR_IO; /* no conversion within the timeout */
+    }
+    for (j = 0; j < AACMM_JOINTS_MAX; j++) {
+        temp[j] = t;
+    }
+    *valid = (uint8_t)((1u << AACMM_JOINTS_MAX) - 1u);
+    return AACMM_OK;
+}
+
 static aacmm_status_t pf_storage_read(void *ctx, uint32_t offset, uint8_t *buf, size_t len)
 {
     (void)ctx;
@@ -356,6 +375,7 @@ int main(void)
     pf.serial_write = pf_serial_write;
     pf.read_encoder_frames = pf_read_encoder_frames;
     pf.read_buttons = pf_read_buttons;
+    pf.read_temperatures = board_temp_probe() ? pf_read_temperatures : NULL;
     pf.storage_read = pf_storage_read;
     pf.storage_write = pf_storage_write;
     pf.storage_erase = board_storage_has_erase ? pf_storage_erase : NULL;

@@ -16,6 +16,14 @@
  * loop calls it on every pass. QEMU's microbit machine models the same timer
  * on its virtual clock, so with -icount shift=0 one tick is 62.5 instructions
  * (measured by the self-test: see docs/boards.md).
+ *
+ * Temperature: the nRF51's TEMP peripheral (0x4000C000, the die's
+ * temperature in 0.25 degC steps, one conversion in about 36 us), read
+ * without blocking: each board_temp_read takes the conversion that
+ * completed since the previous call and starts the next one. Probed once at
+ * start-up with a bounded wait. QEMU's microbit machine does not model TEMP
+ * (its registers read 0 in the SoC's unimplemented I/O region), so there
+ * the probe fails and the device has no link temperatures (docs/boards.md).
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -72,6 +80,96 @@ static void uart_init(void)
     UART_TASKS_STARTRX = 1u;
     UART_INTENSET = UART_INT_RXDRDY | UART_INT_TXDRDY | UART_INT_ERROR;
     cortexm_irq_enable(UART0_IRQ);
+}
+
+/* ---- TEMP: die temperature sensor ---- */
+#define TEMP_BASE 0x4000C000u
+#define TEMP_TASKS_START AACMM_REG32(TEMP_BASE + 0x000u)
+#define TEMP_TASKS_STOP AACMM_REG32(TEMP_BASE + 0x004u)
+#define TEMP_EVENTS_DATARDY AACMM_REG32(TEMP_BASE + 0x100u)
+#define TEMP_INTENCLR AACMM_REG32(TEMP_BASE + 0x308u)
+#define TEMP_TRIM AACMM_REG32(TEMP_BASE + 0x504u) /* nRF51 anomaly: load 0 before use */
+#define TEMP_TEMP AACMM_REG32(TEMP_BASE + 0x508u)
+#define TEMP_RESTART_US 1000u /* a conversion not done by then is started again */
+
+static uint8_t temp_present;  /* the probe saw a conversion */
+static uint8_t temp_running;  /* a conversion was started and not yet taken */
+static uint8_t temp_have;     /* temp_centi holds a reading */
+static int16_t temp_centi;    /* the latest reading, 0.01 degC */
+static uint64_t temp_done_us; /* when it was taken */
+static uint64_t temp_start_us;
+
+/* TEMP in 0.25 degC steps as 0.01 degC: the register's 10-bit two's
+ * complement value (the nRF51 leaves the upper bits of a negative one
+ * clear), sign-extended. */
+static int16_t temp_convert(uint32_t reg)
+{
+    int32_t q = (int32_t)(reg & 0x3FFu);
+    if ((q & 0x200) != 0) {
+        q -= 0x400;
+    }
+    return (int16_t)(q * 25);
+}
+
+static void temp_start(uint64_t now)
+{
+    TEMP_EVENTS_DATARDY = 0u;
+    TEMP_TASKS_START = 1u;
+    temp_running = 1u;
+    temp_start_us = now;
+}
+
+/* Take a completed conversion (and start the next); restart one that did
+ * not complete. Never waits. */
+static void temp_service(uint64_t now)
+{
+    if (temp_running && TEMP_EVENTS_DATARDY != 0u) {
+        temp_centi = temp_convert(TEMP_TEMP);
+        temp_have = 1u;
+        temp_done_us = now;
+        temp_running = 0u;
+        TEMP_TASKS_STOP = 1u; /* power the sensor down between conversions */
+    }
+    if (!temp_running || now - temp_start_us > TEMP_RESTART_US) {
+        if (temp_running) {
+            TEMP_TASKS_STOP = 1u;
+        }
+        temp_start(now);
+    }
+}
+
+int board_temp_probe(void)
+{
+    uint64_t t0;
+    TEMP_INTENCLR = 1u; /* polled, no interrupt */
+    TEMP_TRIM = 0u;
+    t0 = board_time_us();
+    temp_start(t0);
+    while (TEMP_EVENTS_DATARDY == 0u) {
+        if (board_time_us() - t0 > BOARD_TEMP_PROBE_US) {
+            TEMP_TASKS_STOP = 1u;
+            temp_running = 0u;
+            return 0; /* no conversion: no sensor (QEMU) */
+        }
+    }
+    temp_present = 1u;
+    temp_service(board_time_us());
+    return 1;
+}
+
+int board_temp_read(int16_t *centi)
+{
+    uint64_t now;
+    if (!temp_present) {
+        return -1;
+    }
+    now = board_time_us();
+    temp_service(now);
+    if (!temp_have || now - temp_done_us > BOARD_TEMP_TIMEOUT_US) {
+        return -1;
+    }
+    *centi = temp_centi;
+    return 0;
 }
 
 /* ---- TIMER0 time base ---- */

@@ -218,6 +218,20 @@ int board_storage_erase(uint32_t offset, size_t len)
     return -1; /* RAM needs no erase (board_storage_has_erase is 0) */
 }
 
+/* ---- temperature sensor: the MPS2 has none (the device gets no
+ * read_temperatures) ---- */
+
+int board_temp_probe(void)
+{
+    return 0;
+}
+
+int board_temp_read(int16_t *centi)
+{
+    (void)centi;
+    return -1;
+}
+
 void board_init(void)
 {
     systick_init();

@@ -48,6 +48,17 @@
  *
  * Timestamps are the platform's time_us at the encoder reading.
  *
+ * Link temperatures. With the platform's read_temperatures the device reads
+ * them once per sample, after the encoders: a link of the arm model without
+ * a valid reading in AACMM_REF_TEMP_MIN .. _MAX sets AACMM_SAMPLE_TEMP_FAULT
+ * (counted: temp_faults). With the thermal block in force the point is
+ * computed at the link temperatures (the scaled model is cached and
+ * recomputed only when a temperature changes: N comparisons per sample
+ * otherwise) and a sample with TEMP_FAULT has no point; without it the
+ * point is that of a device without sensors, bit for bit. Without
+ * read_temperatures the TEMPERATURES content and the thermal block are
+ * AACMM_ERR_UNSUPPORTED. docs/architecture.md, "Link temperatures".
+ *
  * Output. Serial output goes through a caller-owned byte queue of sample and
  * event bodies, framed one at a time into the device's frame buffer (the
  * stage) as the driver takes bytes. A request is only taken from the link
@@ -210,6 +221,7 @@ typedef struct {
     uint32_t can_frames_dropped; /* CAN frames not queued (device CAN queue full) */
     uint32_t can_rsp_dropped;   /* ISO-TP responses lost (previous one still sending) */
     uint32_t button_edges;      /* button presses + releases seen (all buttons) */
+    uint32_t temp_faults;       /* samples with AACMM_SAMPLE_TEMP_FAULT (DIAG_RSP) */
 } aacmm_device_counters_t;
 
 /* ---- private state below: read only through the functions ------------- */
@@ -218,19 +230,39 @@ typedef struct {
  * model and the parameter set's error model in the backend's form;
  * corrected 0 when the set has none (every K_i 0): the plain core path, bit
  * for bit as before the error model. */
+/* thermal 1 when the set has the thermal block (H = 1): its points are
+ * computed at the link temperatures. The model at the last link
+ * temperatures is kept beside it (aacmm_device_thermal_t, recomputed only
+ * when a temperature changes). */
 #if defined(AACMM_DEVICE_KIN_FIXED)
 #include "aacmm/kinematics_q.h"
 typedef struct {
     aacmm_model_q_t m;
     aacmm_errmodel_q_t em;
     uint8_t corrected;
+    uint8_t thermal;
 } aacmm_device_model_t;
+typedef struct {
+    aacmm_model_q_t m;                  /* the model's m at temp */
+    int32_t temp_q8[AACMM_JOINTS_MAX];  /* temp in Q8 degC */
+    int32_t e30[AACMM_JOINTS_MAX];      /* link i's cte_i (T_i - tref_i), Q30 */
+    int16_t temp[AACMM_JOINTS_MAX];     /* AACMM_TEMP_UNIT_C, links 1..N */
+    uint8_t valid;                      /* m is the active model at temp */
+} aacmm_device_thermal_t;
 #else
 typedef struct {
     aacmm_model_f32_t m;
     aacmm_errmodel_f32_t em;
     uint8_t corrected;
+    uint8_t thermal;
 } aacmm_device_model_t;
+typedef struct {
+    aacmm_model_f32_t m;                /* the model's m at temp */
+    float temp_c[AACMM_JOINTS_MAX];     /* temp in degC */
+    float f[AACMM_JOINTS_MAX];          /* link i's length factor 1 + cte_i (T_i - tref_i) */
+    int16_t temp[AACMM_JOINTS_MAX];     /* AACMM_TEMP_UNIT_C, links 1..N */
+    uint8_t valid;                      /* m is the active model at temp */
+} aacmm_device_thermal_t;
 #endif
 
 typedef struct {
@@ -287,6 +319,7 @@ typedef struct {
     aacmm_param_set_t defaults;
     aacmm_param_set_t active;
     aacmm_device_model_t model;
+    aacmm_device_thermal_t at_temp; /* the model at the last link temperatures */
     uint32_t active_crc32;
     uint8_t param_source;  /* AACMM_PARAM_SOURCE_* */
     uint8_t storage_state; /* AACMM_STORAGE_* */
@@ -347,8 +380,9 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
  * AACMM_DEVICE_SERIAL_RX_BYTES_PER_POLL received serial bytes, i.e. at most
  * that / 7 requests (each one deframe + decode + kinematics with Jacobian +
  * encode) and only while the output queue has room for a response; up to
- * max_catch_up stream samples per link (each one encoder read + kinematics
- * + encode). AACMM_ERR_NULL for NULL, else AACMM_OK (link failures are
+ * max_catch_up stream samples per link (each one encoder read, one
+ * temperature read + kinematics + encode; with the thermal block and a
+ * changed temperature + one model scaling, 2N + 3 multiplies). AACMM_ERR_NULL for NULL, else AACMM_OK (link failures are
  * counted, never returned).
  */
 aacmm_status_t aacmm_device_poll(aacmm_device_t *dev);

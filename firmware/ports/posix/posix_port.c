@@ -293,7 +293,9 @@ static const char *slot_text(uint8_t state)
     case AACMM_SLOT_NEWEST: return "newest record";
     case AACMM_SLOT_OLDER: return "older record, the fallback";
     case AACMM_SLOT_BAD_CRC: return "rejected: CRC mismatch (a cut save or damage)";
-    case AACMM_SLOT_BAD_CONTENTS: return "rejected: parameters out of range";
+    case AACMM_SLOT_BAD_CONTENTS:
+        return "rejected: parameters this device cannot use (out of range, or a thermal block "
+               "without temperature sensors)";
     case AACMM_SLOT_VERSION: return "rejected: record of another format version";
     case AACMM_SLOT_BAD_LENGTH: return "rejected: wrong payload length";
     case AACMM_SLOT_INCOMPLETE: return "rejected: incomplete record (a save cut after it began)";
@@ -524,6 +526,21 @@ static aacmm_status_t read_buttons(void *ctx, uint8_t *pressed)
     return AACMM_OK;
 }
 
+/* The link temperatures: the control channel's (`temps`) when it is open,
+ * else the fixed ones of --temperature. Never blocks. */
+static aacmm_status_t read_temperatures(void *ctx, int16_t temp[AACMM_JOINTS_MAX], uint8_t *valid)
+{
+    posix_port_t *p = ctx;
+    if (p->control.fd >= 0) {
+        memcpy(temp, p->control.temp, sizeof p->control.temp);
+        *valid = p->control.temp_valid;
+    } else {
+        memcpy(temp, p->temp, sizeof p->temp);
+        *valid = p->temp_valid;
+    }
+    return AACMM_OK;
+}
+
 void posix_platform(posix_port_t *port, aacmm_platform_t *pf)
 {
     memset(pf, 0, sizeof *pf);
@@ -542,6 +559,9 @@ void posix_platform(posix_port_t *port, aacmm_platform_t *pf)
         pf->read_encoder_frames = read_encoder_frames;
     }
     pf->read_buttons = read_buttons;
+    if (port->has_temps) {
+        pf->read_temperatures = read_temperatures;
+    }
     pf->storage_read = storage_read;
     pf->storage_write = storage_write;
     pf->storage_bytes = AACMM_STORE_BYTES;

@@ -30,7 +30,13 @@ typedef struct {
     aacmm_sim_t sim;
     int use_frames;           /* joints as BiSS-C/SSI frames (else counts) */
     aacmm_sim_encoders_t enc; /* the simulated encoders behind the frames */
-    sim_control_t control; /* control.fd >= 0: encoders and buttons come from it */
+    sim_control_t control; /* control.fd >= 0: encoders, buttons and temperatures come from it */
+    /* link temperatures (AACMM_TEMP_UNIT_C; valid bit i = link i answers):
+     * --temperature, default 20.00 degC on every link; has_temps 0 with
+     * --no-temperature-sensors (no read_temperatures) */
+    int has_temps;
+    int16_t temp[AACMM_JOINTS_MAX];
+    uint8_t temp_valid;
 } posix_port_t;
 
 /* The six joint readings at time t_us since the start, in counts: the one

@@ -87,6 +87,51 @@ static int parse_u64(const char *s, uint64_t *out)
     return 0;
 }
 
+int sim_parse_temp_c(const char *s, int32_t lo, int32_t hi, int16_t *out)
+{
+    int32_t v = 0;
+    int neg = 0;
+    int digits = 0;
+    int dec = 0;
+    if (*s == '-' || *s == '+') {
+        neg = *s == '-';
+        s++;
+    }
+    while (*s >= '0' && *s <= '9') {
+        if (++digits > 3) {
+            return -1;
+        }
+        v = v * 10 + (*s++ - '0');
+    }
+    if (digits == 0) {
+        return -1;
+    }
+    v *= 100;
+    if (*s == '.') {
+        s++;
+        while (*s >= '0' && *s <= '9') {
+            if (++dec > 2) {
+                return -1;
+            }
+            v += (*s++ - '0') * (dec == 1 ? 10 : 1);
+        }
+        if (dec == 0) {
+            return -1;
+        }
+    }
+    if (*s != '\0') {
+        return -1;
+    }
+    if (neg) {
+        v = -v;
+    }
+    if (v < lo || v > hi) {
+        return -1;
+    }
+    *out = (int16_t)v;
+    return 0;
+}
+
 /* Split line into at most max blank-separated words; returns the count, or
  * max + 1 if there are more. */
 static int split(char *line, char **words, int max)
@@ -138,6 +183,42 @@ static void command(sim_control_t *c, char *line)
             counts[i] = (uint32_t)v;
         }
         memcpy(c->counts, counts, sizeof counts);
+    } else if (strcmp(w[0], "temps") == 0) {
+        int16_t t[AACMM_JOINTS_MAX] = {0};
+        uint8_t valid = 0u;
+        if (!c->temps) {
+            emit(c, "error temps: the simulator has no temperature sensors");
+            return;
+        }
+        if (n != 2 && n != 1 + AACMM_JOINTS && n != 1 + AACMM_JOINTS_MAX) {
+            emit(c, "error temps needs 1, %d or %d values", AACMM_JOINTS, AACMM_JOINTS_MAX);
+            return;
+        }
+        for (i = 0; i < n - 1; i++) {
+            if (strcmp(w[1 + i], "-") == 0) {
+                t[i] = AACMM_TEMP_NONE;
+                continue;
+            }
+            if (sim_parse_temp_c(w[1 + i], -32767, 32767, &t[i]) != 0) {
+                emit(c, "error temps: '%.24s' is not a temperature in degC (-327.67 .. 327.67, "
+                        "up to 2 decimals) or '-'",
+                     w[1 + i]);
+                return;
+            }
+            valid = (uint8_t)(valid | (1u << i));
+        }
+        if (n == 2) { /* one value for every link */
+            for (i = 1; i < AACMM_JOINTS_MAX; i++) {
+                t[i] = t[0];
+            }
+            valid = (valid & 1u) != 0u ? 0x7Fu : 0u;
+        } else {
+            for (i = n - 1; i < AACMM_JOINTS_MAX; i++) {
+                t[i] = AACMM_TEMP_NONE;
+            }
+        }
+        memcpy(c->temp, t, sizeof t);
+        c->temp_valid = valid;
     } else if (strcmp(w[0], "buttons") == 0) {
         if (n != 2 || parse_u64(w[1], &v) != 0 || v > 3u) {
             emit(c, "error buttons needs a mask 0..3");

@@ -9,6 +9,11 @@
  *     counts C1 C2 C3 C4 C5 C6   the encoders read these counts from now on
  *                                (each < the simulated counts per revolution)
  *     buttons MASK               button levels, bit i = button i held (0..3)
+ *     temps T1 .. Tn             the link temperatures the sensors read from
+ *                                now on (degC, up to 2 decimals, -327.67 ..
+ *                                327.67; '-': that link's sensor does not
+ *                                answer); n = 6 or 7 as for counts (6: link 7
+ *                                has no reading), or one value for every link
  *     sync TOKEN                 answered with "sync TOKEN" (TOKEN: 1..64
  *                                printable characters without spaces)
  *
@@ -44,6 +49,9 @@ typedef struct {
     uint64_t cpr;           /* counts must be below this */
     uint32_t counts[AACMM_JOINTS_MAX]; /* a 7th joint only for 7-joint arm models */
     uint8_t buttons;
+    int temps;              /* the simulator has temperature sensors: `temps` is taken */
+    int16_t temp[AACMM_JOINTS_MAX]; /* AACMM_TEMP_UNIT_C */
+    uint8_t temp_valid;     /* bit i: link i's sensor answers */
     /* input: bytes received, not yet applied */
     char in[2u * SIM_CONTROL_LINE_MAX];
     size_t in_len;
@@ -66,6 +74,11 @@ typedef struct {
  * channel: checked open, made non-blocking and close-on-exec, "control 1"
  * queued. Returns 0, or -1 with a one-line message in err. */
 int sim_control_open(sim_control_t *c, const char *spec, uint64_t cpr, char *err, size_t err_cap);
+
+/* A temperature "[-+]D[.D[D]]" in degC (1 to 3 integer digits, up to 2
+ * decimals) as AACMM_TEMP_UNIT_C in *out, exactly. 0, or -1 for anything
+ * else or a value outside lo .. hi (0.01 degC). */
+int sim_parse_temp_c(const char *s, int32_t lo, int32_t hi, int16_t *out);
 
 /* Read what the host sent and apply commands up to the next barrier. Call
  * when the descriptor is readable, and again after each device poll while

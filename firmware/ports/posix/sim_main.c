@@ -42,8 +42,11 @@ static void usage(FILE *f)
           "                 [--noise-counts N] [--encoder-bits B | --cpr N]\n"
           "                 [--encoder biss|ssi|ssi-gray|counts] [--encoder-faults N]\n"
           "                 [--button-every SECONDS] [--control FD] [--serial-number N]\n"
-          "                 [--param-set FILE] [--joint-limits LO:HI,..|-,..] [--quiet]\n"
-          "At least one of --serial and --can. See docs/simulator.md.\n",
+          "                 [--param-set FILE] [--joint-limits LO:HI,..|-,..]\n"
+          "                 [--temperature C[,C..] | --no-temperature-sensors] [--quiet]\n"
+          "At least one of --serial and --can. Link temperature sensors read 20.00 degC\n"
+          "unless --temperature (degC, -40..85, one value or one per joint) says otherwise.\n"
+          "See docs/simulator.md.\n",
           f);
 }
 
@@ -94,12 +97,16 @@ typedef struct {
     aacmm_sim_ranges_t ranges;
     uint8_t encoder; /* AACMM_ENC_* */
     uint64_t encoder_faults;
+    int no_temps;          /* --no-temperature-sensors */
+    int ntemps;            /* --temperature values: 0 (default 20.00 degC), 1, 6 or 7 */
+    int16_t temp[AACMM_JOINTS_MAX];
     int quiet;
 } options_t;
 
 /* Read a parameter set in its wire encoding (docs/protocol.md 2.3) from
  * path into *set, checked as SET_PARAMS checks it. 0, or -1 with err. */
-static int load_param_set(const char *path, aacmm_param_set_t *set, char *err, size_t err_cap)
+static int load_param_set(const char *path, int sensors, aacmm_param_set_t *set, char *err,
+                          size_t err_cap)
 {
     uint8_t buf[AACMM_PARAM_SET_MAX_BYTES + 1u];
     size_t n;
@@ -116,8 +123,12 @@ static int load_param_set(const char *path, aacmm_param_set_t *set, char *err, s
     if (st == AACMM_OK) {
         st = aacmm_arm_validate_f64(&p.arm);
     }
-    if (st == AACMM_OK && p.err.thermal != 0u) {
-        st = AACMM_ERR_UNSUPPORTED; /* no link temperatures on the device yet */
+    if (st == AACMM_OK && p.err.thermal != 0u && !sensors) {
+        snprintf(err, err_cap,
+                 "--param-set %s: has the thermal block, which needs the link temperature "
+                 "sensors (not with --no-temperature-sensors)",
+                 path);
+        return -1;
     }
     if (st != AACMM_OK) {
         snprintf(err, err_cap, "--param-set %s: not a parameter set this device takes (%s)", path,
@@ -175,6 +186,40 @@ static int parse_joint_limits(const char *v, options_t *o)
     }
 }
 
+/* --temperature: 1, 6 or 7 comma-separated degC values, each -40 .. 85 with
+ * up to 2 decimals. 0, or -1 for a malformed list. */
+static int parse_temperatures(const char *v, options_t *o)
+{
+    char buf[128];
+    char *p;
+    int n = 0;
+    if (strlen(v) >= sizeof buf) {
+        return -1;
+    }
+    memcpy(buf, v, strlen(v) + 1u);
+    p = buf;
+    for (;;) {
+        char *comma = strchr(p, ',');
+        if (comma != NULL) {
+            *comma = '\0';
+        }
+        if (n >= AACMM_JOINTS_MAX ||
+            sim_parse_temp_c(p, AACMM_REF_TEMP_MIN, AACMM_REF_TEMP_MAX, &o->temp[n]) != 0) {
+            return -1;
+        }
+        n++;
+        if (comma == NULL) {
+            break;
+        }
+        p = comma + 1;
+    }
+    if (n != 1 && n != AACMM_JOINTS && n != AACMM_JOINTS_MAX) {
+        return -1;
+    }
+    o->ntemps = n;
+    return 0;
+}
+
 static int parse_args(int argc, char **argv, options_t *o)
 {
     int i;
@@ -195,6 +240,13 @@ static int parse_args(int argc, char **argv, options_t *o)
         }
         memcpy(name, a, nlen);
         name[nlen] = '\0';
+        if (strcmp(name, "--no-temperature-sensors") == 0) {
+            if (eq != NULL) {
+                return usage_error("%s takes no value", name);
+            }
+            o->no_temps = 1;
+            continue;
+        }
         if (strcmp(name, "--quiet") == 0 || strcmp(name, "--help") == 0) {
             if (eq != NULL) {
                 return usage_error("%s takes no value", name);
@@ -292,6 +344,12 @@ static int parse_args(int argc, char **argv, options_t *o)
                                    v);
             }
             o->have_limits = 1;
+        } else if (strcmp(name, "--temperature") == 0) {
+            if (parse_temperatures(v, o) != 0) {
+                return usage_error("--temperature: '%s' is not 1, 6 or 7 comma-separated "
+                                   "temperatures in degC (-40..85, up to 2 decimals)",
+                                   v);
+            }
         } else if (strcmp(name, "--control") == 0) {
             o->control = v;
         } else if (strcmp(name, "--serial-number") == 0) {
@@ -313,6 +371,10 @@ static int parse_args(int argc, char **argv, options_t *o)
         return usage_error("%s", "--control drives the encoders and buttons: no --motion, "
                                  "--noise-counts or --button-every with it");
     }
+    if (o->no_temps && o->ntemps != 0) {
+        return usage_error("%s", "--temperature and --no-temperature-sensors are mutually "
+                                 "exclusive");
+    }
     if (o->serial == NULL && o->can == NULL) {
         return usage_error("%s", "at least one of --serial and --can is required");
     }
@@ -330,11 +392,12 @@ static void print_counters(void)
             "aacmm-sim: stopped: requests %u, errors %u, samples sent %u, dropped %u (stale %u), "
             "late %u, "
             "events %u (dropped %u), serial frames ok %u, crc errors %u, cobs errors %u, "
-            "storage errors %u, bad records %u, io errors %u/%u\n",
+            "storage errors %u, bad records %u, io errors %u/%u, temperature faults %u\n",
             c->requests, c->error_responses, c->samples_sent, c->samples_dropped, c->samples_stale,
             c->samples_late,
             c->events_sent, c->events_dropped, d->frames_ok, d->crc_errors, d->cobs_errors,
-            c->storage_errors, c->storage_bad_records, c->serial_io_errors, c->can_io_errors);
+            c->storage_errors, c->storage_bad_records, c->serial_io_errors, c->can_io_errors,
+            c->temp_faults);
 }
 
 int main(int argc, char **argv)
@@ -428,11 +491,24 @@ int main(int argc, char **argv)
         fprintf(stderr, "aacmm-sim: %s\n", err);
         return SIM_EXIT_USAGE;
     }
+    /* Link temperatures: 20.00 degC on every link, or --temperature's. */
+    port.has_temps = !o.no_temps;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        port.temp[i] = o.ntemps == 0   ? (int16_t)2000
+                       : o.ntemps == 1 ? o.temp[0]
+                       : i < o.ntemps  ? o.temp[i]
+                                       : AACMM_TEMP_NONE;
+    }
+    port.temp_valid = (uint8_t)(o.ntemps == AACMM_JOINTS ? 0x3Fu : 0x7Fu);
     port.control.fd = -1;
     if (o.control != NULL && sim_control_open(&port.control, o.control, o.cpr, err, sizeof err) != 0) {
         fprintf(stderr, "aacmm-sim: %s\n", err);
         return SIM_EXIT_USAGE;
     }
+    /* the control channel's `temps` starts from them */
+    port.control.temps = port.has_temps;
+    memcpy(port.control.temp, port.temp, sizeof port.temp);
+    port.control.temp_valid = port.temp_valid;
 
     /* Links. */
     if (o.serial != NULL && posix_serial_open(&port, o.serial, err, sizeof err) != 0) {
@@ -454,7 +530,8 @@ int main(int argc, char **argv)
     for (i = 0; i < AACMM_JOINTS; i++) {
         defaults.enc.counts_per_rev[i] = o.cpr;
     }
-    if (o.param_set != NULL && load_param_set(o.param_set, &defaults, err, sizeof err) != 0) {
+    if (o.param_set != NULL &&
+        load_param_set(o.param_set, port.has_temps, &defaults, err, sizeof err) != 0) {
         fprintf(stderr, "aacmm-sim: %s\n", err);
         posix_close(&port);
         return SIM_EXIT_USAGE;
@@ -478,6 +555,19 @@ int main(int argc, char **argv)
         fprintf(stderr, "aacmm-sim: device set-up failed: %s\n", aacmm_status_str(st));
         posix_close(&port);
         return SIM_EXIT_USAGE;
+    }
+    if (o.ntemps > 1) {
+        /* one temperature per link: as many as the arm the device starts with */
+        aacmm_msg_info_t info;
+        (void)aacmm_device_info(&dev, &info);
+        if ((unsigned)o.ntemps != (unsigned)info.joints) {
+            fprintf(stderr, "aacmm-sim: --temperature gives %d temperatures, the arm has %u "
+                            "links\n",
+                    o.ntemps, (unsigned)info.joints);
+            posix_close(&port);
+            free(replay);
+            return SIM_EXIT_USAGE;
+        }
     }
     if (o.motion == AACMM_SIM_REPLAY) {
         /* The replay gives joints 1..K: the arm the device starts with (its

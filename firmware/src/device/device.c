@@ -130,6 +130,9 @@ static aacmm_status_t check_set(const aacmm_device_t *dev, const aacmm_param_set
     if (st == AACMM_OK && set->arm.shape.joints > dev->frame_joints) {
         st = AACMM_ERR_UNSUPPORTED; /* more joints than the port has encoders */
     }
+    if (st == AACMM_OK && set->err.thermal != 0u && dev->pf.read_temperatures == NULL) {
+        st = AACMM_ERR_UNSUPPORTED; /* no link temperatures: never a point at wrong lengths */
+    }
     if (st == AACMM_OK) {
         st = aacmm_device_kin_load(model, &set->arm, &set->err);
     }
@@ -153,6 +156,7 @@ static void activate(aacmm_device_t *dev, const aacmm_param_set_t *set,
 {
     dev->active = *set;
     dev->model = *model;
+    dev->at_temp.valid = 0u; /* the cache belongs to the previous model */
     dev->active_crc32 = crc;
     dev->param_source = source;
 }
@@ -227,22 +231,82 @@ static uint32_t read_joints(aacmm_device_t *dev, uint32_t counts[AACMM_JOINTS_MA
     return flags;
 }
 
-/* Read the encoders now and fill *s (all but seq). */
+/* Read the link temperatures (once per sample) into temp[] (AACMM_JOINTS_MAX
+ * entries: the reading where its valid bit is set, even out of range, else
+ * AACMM_TEMP_NONE; AACMM_TEMP_NONE past N). Returns 1 when every link of
+ * the arm model is good (valid and within AACMM_REF_TEMP_MIN .. _MAX), else
+ * 0 (counted in temp_faults). A platform without sensors: 1, every entry
+ * AACMM_TEMP_NONE. */
+static int read_temps(aacmm_device_t *dev, int16_t temp[AACMM_JOINTS_MAX])
+{
+    int16_t raw[AACMM_JOINTS_MAX];
+    uint8_t valid = 0u;
+    int n = (int)active_joints(dev);
+    int good = 1;
+    int i;
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        temp[i] = AACMM_TEMP_NONE;
+        raw[i] = AACMM_TEMP_NONE;
+    }
+    if (dev->pf.read_temperatures == NULL) {
+        return 1;
+    }
+    if (dev->pf.read_temperatures(dev->pf.ctx, raw, &valid) != AACMM_OK) {
+        valid = 0u; /* no reading at all: every link not valid */
+    }
+    for (i = 0; i < n; i++) {
+        if (((valid >> i) & 1u) == 0u) {
+            good = 0;
+            continue;
+        }
+        temp[i] = raw[i];
+        if (raw[i] < AACMM_REF_TEMP_MIN || raw[i] > AACMM_REF_TEMP_MAX) {
+            good = 0;
+        }
+    }
+    if (!good) {
+        dev->counters.temp_faults++;
+    }
+    return good;
+}
+
+/* Read the encoders and the link temperatures now and fill *s (all but
+ * seq). With the thermal block the point is computed at the link
+ * temperatures; a sample whose temperatures are not good then has none. */
 static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
 {
     aacmm_status_t st = AACMM_ERR_RANGE;
     aacmm_device_point_t pt;
     uint32_t joint_flags;
+    int temps_good;
+    int no_temps = 0; /* the thermal block and no usable temperatures */
     int i;
     s->timestamp_us = now_us(dev);
     s->content = content;
     s->joints = active_joints(dev);
     s->params = active_params(dev);
     joint_flags = read_joints(dev, s->counts);
+    temps_good = read_temps(dev, s->temp);
     s->status = joint_flags;
+    if (!temps_good) {
+        s->status |= AACMM_SAMPLE_TEMP_FAULT;
+    }
     if ((joint_flags & AACMM_SAMPLE_JOINT_FAULTS) == 0u) {
-        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, s->counts, 0, &pt,
-                                      (content & AACMM_CONTENT_JACOBIAN) != 0u ? s->jacobian : NULL);
+        const aacmm_device_thermal_t *at = NULL;
+        st = AACMM_OK;
+        if (dev->model.thermal != 0u) {
+            /* no point without good temperatures (never one at wrong lengths) */
+            st = temps_good ? aacmm_device_kin_at_temperature(&dev->model, &dev->at_temp, s->temp)
+                            : AACMM_ERR_RANGE;
+            at = &dev->at_temp;
+        }
+        if (st == AACMM_OK) {
+            st = aacmm_device_kin_compute(&dev->model, at, &dev->active.enc, s->counts, 0, &pt,
+                                          (content & AACMM_CONTENT_JACOBIAN) != 0u ? s->jacobian
+                                                                                   : NULL);
+        } else {
+            no_temps = 1; /* not an encoder fault */
+        }
     }
     if (st == AACMM_OK) {
         for (i = 0; i < 3; i++) {
@@ -253,8 +317,13 @@ static void take_sample(aacmm_device_t *dev, uint8_t content, aacmm_sample_t *s)
             s->status |= AACMM_SAMPLE_POINT_CLIPPED;
         }
     } else {
-        dev->counters.encoder_faults++;
-        s->status |= AACMM_SAMPLE_ENCODER_FAULT;
+        if (!no_temps) {
+            dev->counters.encoder_faults++;
+            s->status |= AACMM_SAMPLE_ENCODER_FAULT;
+        } else if (temps_good) { /* the scaling itself failed (a length beyond the limit) */
+            s->status |= AACMM_SAMPLE_TEMP_FAULT;
+            dev->counters.temp_faults++;
+        }
         for (i = 0; i < 3; i++) {
             s->point_100nm[i] = 0;
         }
@@ -287,6 +356,9 @@ uint32_t aacmm_device_build_flags(const aacmm_device_t *dev)
     }
     if (dev->can.present) {
         f |= AACMM_BUILD_CAN;
+    }
+    if (dev->pf.read_temperatures != NULL) {
+        f |= AACMM_BUILD_TEMPERATURES;
     }
     return f;
 }
@@ -350,7 +422,7 @@ aacmm_status_t aacmm_device_diag(const aacmm_device_t *dev, aacmm_msg_diag_t *di
         diag->joint[i].faults = on ? j->faults : 0u;
         diag->joint[i].warnings = on ? j->warnings : 0u;
     }
-    diag->temp_faults = 0u; /* protocol version 4: no temperature readings counted yet */
+    diag->temp_faults = dev->counters.temp_faults;
     return AACMM_OK;
 }
 
@@ -363,6 +435,24 @@ static void set_error(aacmm_msg_t *rsp, aacmm_status_t st, uint8_t req_type)
     rsp->type = (uint8_t)AACMM_MSG_ERROR_RSP;
     rsp->u.error.status = (int16_t)st;
     rsp->u.error.request_type = req_type;
+}
+
+/* A sample content the device can deliver: TEMPERATURES needs sensors; both
+ * contents must fit one body (not N 7 with P 37). */
+static aacmm_status_t check_content(const aacmm_device_t *dev, uint8_t content)
+{
+    if ((content & AACMM_CONTENT_TEMPERATURES) == 0u) {
+        return AACMM_OK;
+    }
+    if (dev->pf.read_temperatures == NULL) {
+        return AACMM_ERR_UNSUPPORTED;
+    }
+    if (AACMM_PROTO_HEADER_BYTES +
+            AACMM_SAMPLE_BYTES((size_t)active_joints(dev), (size_t)active_params(dev), content) >
+        AACMM_PROTO_MAX_BODY) {
+        return AACMM_ERR_RANGE;
+    }
+    return AACMM_OK;
 }
 
 static void stream_start(aacmm_device_t *dev, aacmm_device_stream_t *s, uint16_t rate_hz,
@@ -456,6 +546,11 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
         break;
     }
     case AACMM_MSG_MEASURE_REQ:
+        st = check_content(dev, req->u.measure.content);
+        if (st != AACMM_OK) {
+            set_error(rsp, st, req->type);
+            break;
+        }
         take_sample(dev, req->u.measure.content, &rsp->u.sample);
         rsp->u.sample.seq = dev->measure_seq++;
         break;
@@ -463,13 +558,25 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
         aacmm_msg_compute_rsp_t *c = &rsp->u.compute_rsp;
         uint8_t content = req->u.compute_req.content;
         aacmm_device_point_t pt;
+        const aacmm_device_thermal_t *at = NULL;
         int i;
         if (req->u.compute_req.joints != active_joints(dev)) {
             set_error(rsp, AACMM_ERR_RANGE, req->type); /* counts of another arm model */
             break;
         }
-        st = aacmm_device_kin_compute(&dev->model, &dev->active.enc, req->u.compute_req.counts, 1,
-                                      &pt,
+        if ((content & AACMM_CONTENT_TEMPERATURES) != 0u && dev->model.thermal != 0u) {
+            /* at the request's temperatures (the cache then holds them);
+             * without the thermal block they change nothing */
+            st = aacmm_device_kin_at_temperature(&dev->model, &dev->at_temp,
+                                                 req->u.compute_req.temp);
+            if (st != AACMM_OK) {
+                set_error(rsp, st, req->type);
+                break;
+            }
+            at = &dev->at_temp;
+        }
+        st = aacmm_device_kin_compute(&dev->model, at, &dev->active.enc, req->u.compute_req.counts,
+                                      1, &pt,
                                       (content & AACMM_CONTENT_JACOBIAN) != 0u ? c->jacobian : NULL);
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
@@ -491,6 +598,11 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
                                                              : &dev->can.stream;
         uint8_t content = req->u.stream.content;
         uint16_t rate = req->u.stream.rate_hz;
+        st = check_content(dev, content);
+        if (st != AACMM_OK) {
+            set_error(rsp, st, req->type);
+            break;
+        }
         if (link != AACMM_LINK_SERIAL && content != 0u && rate > AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ) {
             rate = (uint16_t)AACMM_DEVICE_CAN_JAC_RATE_MAX_HZ;
         }
@@ -847,8 +959,9 @@ static int emit_stream_sample(aacmm_device_t *dev, unsigned link, aacmm_device_s
         if (ok) {
             dev->event_seq++;
         }
-    } else if ((s->content & AACMM_CONTENT_JACOBIAN) != 0u) {
-        /* With the Jacobian: SAMPLE_EVT over ISO-TP, if the endpoint is free. */
+    } else if (s->content != 0u) {
+        /* With the Jacobian or the temperatures (the sample frames carry
+         * neither): SAMPLE_EVT over ISO-TP, if the endpoint is free. */
         aacmm_device_can_t *c = &dev->can;
         size_t n = 0u;
         ok = 0;

@@ -1,5 +1,5 @@
 /*
- * The device's kinematics seam: the three functions the device application
+ * The device's kinematics seam: the four functions the device application
  * needs from a kinematics backend. Exactly one backend is linked, chosen at
  * build time:
  *
@@ -27,10 +27,10 @@ uint32_t aacmm_device_kin_flags(void);
  * aacmm_arm_validate_f64) and the parameter set's error model err (wire
  * units, aacmm/proto.h; checked by the codec). The error model is converted
  * with aacmm_device_errmodel_f64 and validated by the core
- * (aacmm_errmodel_validate_*). A set with the thermal block is
- * AACMM_ERR_UNSUPPORTED (the device reads no link temperatures yet). On
- * error *model is unchanged. Returns AACMM_OK or the core's error. Cost: one
- * model set-up.
+ * (aacmm_errmodel_validate_*); model->thermal says whether it has the
+ * thermal block (whether the platform can read link temperatures is the
+ * device's check, not the backend's). On error *model is unchanged.
+ * Returns AACMM_OK or the core's error. Cost: one model set-up.
  */
 aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_arm_f64_t *arm,
                                      const aacmm_error_model_t *err);
@@ -79,6 +79,32 @@ static inline int aacmm_device_errmodel_any(const aacmm_error_model_t *err)
     return err->thermal != 0u;
 }
 
+/*
+ * *at = model's arm at the link temperatures temp[0 .. N-1] (AACMM_TEMP_UNIT_C,
+ * each within AACMM_REF_TEMP_MIN .. AACMM_REF_TEMP_MAX, else AACMM_ERR_RANGE):
+ * aacmm_model_at_temperature_f32 of temp / 100 (the float nearest each
+ * reading in degC) or aacmm_model_q_at_temperature of temp in Q8 (rounded
+ * exactly, half away from zero: aacmm_device_temp_q8). Nothing is recomputed
+ * when *at is valid and already at temp (the cache of a device whose
+ * temperatures do not change). Errors: AACMM_ERR_NULL, AACMM_ERR_RANGE (a
+ * temperature, or a scaled length beyond the core's limit); at->valid is 0
+ * afterwards. Cost: N comparisons; on a change 2N + 3 multiplies (the core's
+ * scaling) and a model copy.
+ */
+aacmm_status_t aacmm_device_kin_at_temperature(const aacmm_device_model_t *model,
+                                               aacmm_device_thermal_t *at,
+                                               const int16_t temp[AACMM_JOINTS_MAX]);
+
+/* A link temperature in AACMM_TEMP_UNIT_C as Q8 degC: round(t 256 / 100),
+ * half away from zero, exactly (there are no ties: 25 does not divide 2).
+ * Integer only. */
+static inline int32_t aacmm_device_temp_q8(int16_t t)
+{
+    int32_t m = t < 0 ? -(int32_t)t : (int32_t)t;
+    int32_t q = (2 * 64 * m + 25) / 50; /* floor(64 m / 25 + 1/2) */
+    return t < 0 ? -q : q;
+}
+
 /* A computed point in the forms the device sends. */
 typedef struct {
     int32_t point_100nm[3]; /* wire unit 1e-4 mm, rounded half away from zero, clamped */
@@ -93,13 +119,25 @@ typedef struct {
  * corrected first (aacmm_point_em_* of the core) and the Jacobian holds the
  * structural columns at the corrected readings (the first P columns of the
  * core's extended Jacobian, bit for bit); the harmonic columns follow on the
- * host from the theta columns (docs/protocol.md 2.3). point_mm is filled
- * only when want_mm is non-zero (COMPUTE; the fixed-point backend avoids
- * double arithmetic otherwise). Errors: AACMM_ERR_RANGE (a reading >= its
- * counts per revolution) or the core's; *out and jac are not written on
- * error. Cost: one encoder conversion + one point (+ Jacobian) evaluation.
+ * host from the theta columns (docs/protocol.md 2.3). at NULL: at the
+ * reference temperatures (no scaling: the points of a set without the
+ * thermal block, bit for bit). at not NULL (a valid
+ * aacmm_device_kin_at_temperature of this model): the point of
+ * aacmm_point_em_* at at's temperatures, bit for bit, from the cached
+ * scaled model; the Jacobian is then the first P columns of
+ * aacmm_point_jacobian_em_f32 / aacmm_point_jacobian_corrected_q at those
+ * temperatures, bit for bit (the length columns those of the parameters L0,
+ * kinematics.h; f32: the chain's columns on the cached model times the
+ * cached factors).
+ * point_mm is filled only when want_mm is non-zero (COMPUTE; the fixed-point
+ * backend avoids double arithmetic otherwise). Errors: AACMM_ERR_RANGE (a
+ * reading >= its counts per revolution, an invalid at) or the core's; *out
+ * and jac are not written on error. Cost: one encoder conversion + one point
+ * (+ Jacobian) evaluation (with at and jac: + 3 (2N + T) multiplies of the
+ * length columns; Q: + the core's scaling of a model copy on the stack).
  */
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
+                                        const aacmm_device_thermal_t *at,
                                         const aacmm_arm_encoders_t *enc,
                                         const uint32_t *counts, int want_mm,
                                         aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE_MAX]);

@@ -38,9 +38,6 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_ar
     if (model == NULL || arm == NULL || err == NULL) {
         return AACMM_ERR_NULL;
     }
-    if (err->thermal != 0u) {
-        return AACMM_ERR_UNSUPPORTED; /* no link temperatures on the device yet */
-    }
     st = aacmm_device_errmodel_f64(&e, err, (int)arm->shape.joints);
     if (st == AACMM_OK) {
         st = aacmm_errmodel_q_from_f64(&eq, &e);
@@ -57,7 +54,65 @@ aacmm_status_t aacmm_device_kin_load(aacmm_device_model_t *model, const aacmm_ar
     model->m = m;
     model->em = eq;
     model->corrected = (uint8_t)aacmm_device_errmodel_any(err);
+    model->thermal = (uint8_t)(err->thermal != 0u);
     return AACMM_OK;
+}
+
+aacmm_status_t aacmm_device_kin_at_temperature(const aacmm_device_model_t *model,
+                                               aacmm_device_thermal_t *at,
+                                               const int16_t temp[AACMM_JOINTS_MAX])
+{
+    int32_t t[AACMM_JOINTS_MAX];
+    aacmm_status_t st;
+    int n;
+    int i;
+    int same;
+    if (model == NULL || at == NULL || temp == NULL) {
+        return AACMM_ERR_NULL;
+    }
+    n = (int)model->m.arm.shape.joints;
+    same = at->valid != 0u;
+    for (i = 0; i < n; i++) {
+        if (temp[i] < AACMM_REF_TEMP_MIN || temp[i] > AACMM_REF_TEMP_MAX) {
+            at->valid = 0u;
+            return AACMM_ERR_RANGE;
+        }
+        if (temp[i] != at->temp[i]) {
+            same = 0;
+        }
+    }
+    if (same) {
+        return AACMM_OK; /* the cache is at these temperatures */
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        t[i] = i < n ? aacmm_device_temp_q8(temp[i]) : AACMM_Q_TEMP_REF_DEFAULT;
+    }
+    at->valid = 0u;
+    st = aacmm_model_q_at_temperature(&at->m, &model->m, &model->em, t);
+    if (st != AACMM_OK) {
+        return st;
+    }
+    for (i = 0; i < AACMM_JOINTS_MAX; i++) {
+        /* the core's e_i (kinematics_q.h, "Thermal"): the exact Q48 product
+         * rounded half up to Q30 */
+        const int64_t e48 = (int64_t)model->em.cte_q40[i] * (int64_t)(t[i] - model->em.tref_q8[i]);
+        at->e30[i] = (int32_t)((e48 + ((int64_t)1 << 17)) >> 18);
+        at->temp_q8[i] = t[i];
+        at->temp[i] = i < n ? temp[i] : (int16_t)0;
+    }
+    at->valid = 1u;
+    return AACMM_OK;
+}
+
+/* A length column of the chain's Jacobian on the scaled model (a Q30 axis
+ * times 2^18, exactly) as the column of the parameter L0: times 1 + e
+ * (e Q30), rounded half up to Q48 -- kinematics_q.h, "Thermal", the core's
+ * operations. */
+static int64_t length_col_l0(int64_t col, int32_t e30)
+{
+    const int64_t axis = col >> 18; /* exact */
+    const int64_t v = axis * ((int64_t)AACMM_Q_ONE_Q30 + (int64_t)e30);
+    return (v + ((int64_t)1 << 11)) >> 12;
 }
 
 /* round(v * 10^4 / 2^48), half away from zero, exactly, for |v| < 2^62.
@@ -78,6 +133,7 @@ static int32_t q48_to_100nm(int64_t v)
 }
 
 aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
+                                        const aacmm_device_thermal_t *at,
                                         const aacmm_arm_encoders_t *enc,
                                         const uint32_t *counts, int want_mm,
                                         aacmm_device_point_t *out, float jac[AACMM_JAC_SIZE_MAX])
@@ -89,26 +145,60 @@ aacmm_status_t aacmm_device_kin_compute(const aacmm_device_model_t *model,
     if (model == NULL || enc == NULL || counts == NULL || out == NULL) {
         return AACMM_ERR_NULL;
     }
-    st = aacmm_arm_encoders_to_bam(enc, counts, bam);
-    if (st == AACMM_OK && model->corrected != 0u) {
-        /* the corrected readings, then the plain chain: aacmm_point_em_q and
-         * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
-        st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+    if (at != NULL && at->valid == 0u) {
+        return AACMM_ERR_RANGE;
     }
+    st = aacmm_arm_encoders_to_bam(enc, counts, bam);
     if (st != AACMM_OK) {
         return st;
     }
     if (jac != NULL) {
         int64_t jq[AACMM_JAC_SIZE_MAX];
-        st = aacmm_point_jacobian_q(&model->m, bam, p, jq);
+        if (model->corrected != 0u) {
+            /* the corrected readings, then the plain chain:
+             * aacmm_point_jacobian_corrected_q bit for bit (kinematics_q.h) */
+            st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+        }
+        if (st == AACMM_OK) {
+            st = aacmm_point_jacobian_q(at != NULL ? &at->m : &model->m, bam, p, jq);
+        }
         if (st != AACMM_OK) {
             return st;
+        }
+        if (at != NULL) {
+            /* at the temperatures: the chain ran on the cached scaled model;
+             * its length columns become those of L0, as in
+             * aacmm_point_jacobian_corrected_q (bit for bit, without its
+             * model copy on the stack) */
+            const int n = (int)model->m.arm.shape.joints;
+            const int np = (int)model->m.n_params;
+            const int ct = (int)model->m.col_tip;
+            const int nt = (int)model->m.arm.shape.tip;
+            int r;
+            for (r = 0; r < AACMM_JAC_ROWS; r++) {
+                for (i = 0; i < n; i++) {
+                    jq[r * np + AACMM_ARM_COL_D(n, i)] =
+                        length_col_l0(jq[r * np + AACMM_ARM_COL_D(n, i)], at->e30[i]);
+                    jq[r * np + AACMM_ARM_COL_A(n, i)] =
+                        length_col_l0(jq[r * np + AACMM_ARM_COL_A(n, i)], at->e30[i]);
+                }
+                for (i = 0; i < nt; i++) {
+                    jq[r * np + ct + i] = length_col_l0(jq[r * np + ct + i], at->e30[n - 1]);
+                }
+            }
         }
         for (i = 0; i < 3 * (int)model->m.n_params; i++) {
             jac[i] = (float)jq[i] * Q48_TO_MM_F;
         }
     } else {
-        st = aacmm_point_q(&model->m, bam, p);
+        if (model->corrected != 0u) {
+            /* the corrected readings, then the plain chain (at temperatures
+             * on the cached scaled model): aacmm_point_em_q bit for bit */
+            st = aacmm_errmodel_q_correct(&model->m, &model->em, bam, bam);
+        }
+        if (st == AACMM_OK) {
+            st = aacmm_point_q(at != NULL ? &at->m : &model->m, bam, p);
+        }
         if (st != AACMM_OK) {
             return st;
         }
