@@ -11,7 +11,9 @@
 #                     the same arm passing after aacmm calibrate; an aluminium arm
 #                     calibrated at 20 degC verified at 28 degC, with and without
 #                     thermal compensation (issue 27, tests/host/thermal_study.py); the
-#                     device's link temperatures in sessions, verify and calibrate
+#                     device's link temperatures in sessions, verify and calibrate; end to
+#                     end on the simulator: an aluminium arm at 28 degC compensated by the
+#                     device's thermal block vs none and vs 20 degC, TEMP_FAULT in capture
 #   test-verify-lint  ruff, ruff format, mypy --strict over the above
 
 VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
@@ -22,7 +24,7 @@ VERIFY_PY_FILES := host/src/aacmm/geometry host/src/aacmm/verification \
                    tests/host/verify_sessions.py tests/host/verify_predict.py \
                    tests/host/test_verify_sim.py scripts/verification_figures.py \
                    tests/host/test_thermal_verify.py tests/host/thermal_study.py \
-                   tests/host/test_device_temps.py
+                   tests/host/test_device_temps.py tests/host/test_device_temps_sim.py
 VERIFY_PYTEST   := $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=.
 
 .PHONY: test-geometry test-verify test-verify-lint verification-figures
@@ -35,7 +37,7 @@ test-geometry:
 test-verify: sim
 	$(VERIFY_PYTEST) tests/host/test_verification.py tests/host/test_verify_cli.py \
 	    tests/host/test_verify_sim.py tests/host/test_thermal_verify.py \
-	    tests/host/test_device_temps.py
+	    tests/host/test_device_temps.py tests/host/test_device_temps_sim.py
 
 #> test-verify-lint     ruff, ruff format, mypy --strict on geometry, verification, their commands
 test-verify-lint:

@@ -156,7 +156,7 @@ def test_params_set_sends_the_error_model_and_it_survives_a_restart(tmp_path: Pa
 
 def test_thermal_expansion_is_refused_before_anything_is_sent(tmp_path: Path) -> None:
     _sim_or_skip()
-    with SimProcess(["--serial", "pty", "--quiet"]) as s:
+    with SimProcess(["--serial", "pty", "--quiet", "--no-temperature-sensors"]) as s:
         data = params_get(s.url)
         crc0 = data.pop("param_crc32")
         data["errmodel"] = {

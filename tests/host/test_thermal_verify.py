@@ -386,7 +386,9 @@ def test_band_problem() -> None:
 
 def test_capture_warns_outside_the_band(tmp_path: Path) -> None:
     """A plan with a 3 degC band around 20: a run stated at 24.5 degC gets one warning on
-    stderr (the capture goes on and completes); a run that states nothing gets a note."""
+    stderr (the capture goes on and completes); a run that states nothing on a device
+    without sensors gets a note; a device reading 24.5 degC one warning, and one reading
+    20 degC (the simulator's default) neither."""
     from clihelp import capture_scenario
 
     plan = _banded_plan(tmp_path, "probe-calibration")
@@ -399,10 +401,23 @@ def test_capture_warns_outside_the_band(tmp_path: Path) -> None:
         in err
     )
     assert json.loads((warm / "session.json").read_text())["status"] == "complete"
-    capture_scenario(tmp_path / "unstated", plan, "random:5")
+    no_sensors = ("--no-temperature-sensors",)
+    capture_scenario(tmp_path / "unstated", plan, "random:5", sim_extra=no_sensors)
     err = (tmp_path / "unstated" / "capture.stderr").read_text(encoding="utf-8")
     assert "note: the plan asks for the links' temperature within a 3 C band" in err
     assert "warning" not in err
+    read = ("--temperature", "24.5")
+    capture_scenario(tmp_path / "read-warm", plan, "random:5", sim_extra=read)
+    err = (tmp_path / "read-warm" / "capture.stderr").read_text(encoding="utf-8")
+    (line,) = [x for x in err.splitlines() if "warning" in x]
+    assert line == (
+        "aacmm capture: warning: the device's link temperatures: the links' temperature 24.5 C "
+        "is 4.5 C from the plan's 20 C, outside its 3 C stability band: let the arm settle "
+        "before measuring"
+    )
+    capture_scenario(tmp_path / "read-20", plan, "random:5")
+    err = (tmp_path / "read-20" / "capture.stderr").read_text(encoding="utf-8")
+    assert "warning" not in err and "note" not in err
 
 
 def test_verify_notes_a_session_outside_the_band(
