@@ -24,7 +24,15 @@ from aacmm.errors import (
     InitError,
     OperationError,
 )
-from aacmm.protocol import PROTOCOL_VERSION, MsgType, ParamSet, Ping, Sample, Trigger
+from aacmm.protocol import (
+    PROTOCOL_VERSION,
+    ComputeRequest,
+    MsgType,
+    ParamSet,
+    Ping,
+    Sample,
+    Trigger,
+)
 from aacmm.protocol.status import Status
 from aacmm.transport import SerialTransport
 from fakedevice import (
@@ -487,9 +495,11 @@ def test_measure_stream_and_compute_with_temperatures(client: Client, fake: Fake
         assert all(x.temp == dev.temps for x in got) and trig.sample.temp == dev.temps
     r = client.compute(dev.counts, temperatures_c=[28.0, 20.125, -0.005, 85.0, -40.0, 19.994])
     assert r.temperatures
-    assert dev.requests[-1].payload.temp == (2800, 2013, -1, 8500, -4000, 1999)
+    req = dev.requests[-1].payload
+    assert isinstance(req, ComputeRequest) and req.temp == (2800, 2013, -1, 8500, -4000, 1999)
     assert not client.compute(dev.counts).temperatures
-    assert dev.requests[-1].payload.temp is None
+    req = dev.requests[-1].payload
+    assert isinstance(req, ComputeRequest) and req.temp is None
     for bad in ([28.0] * 5, [90.0] * 6, [float("nan")] * 6):
         with pytest.raises(ValueError):
             wire_temperatures(bad, 6)
