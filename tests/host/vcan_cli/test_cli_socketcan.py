@@ -10,7 +10,12 @@ seconds in the emulated VM.
   (.blf, .asc, .log): the CSV is a complete log, and python-can's readers
   open the raw file, whose sample frames decode with the packaged DBC to the
   rows of the CSV;
-- ``aacmm log --reconnect`` across a simulator restart on the same bus.
+- ``aacmm log --reconnect`` across a simulator restart on the same bus;
+- with a thermal block in force on a device with sensors, ``aacmm log``
+  asks for the link temperatures over CAN (the samples then come as
+  SAMPLE_EVT over ISO-TP, not sample frames: docs/protocol.md 4.1), so
+  every row carries the device's readings and a valid point; without it
+  (the tests above) the compact sample frames, no temperatures.
 """
 
 from __future__ import annotations
@@ -151,3 +156,28 @@ def test_log_reconnects_on_the_bus(iface: str, sim: SimProcess, tmp_path: Path) 
     meta = json.loads(side.read_text())
     assert meta["reconnects"] == 1 and len(meta["gaps"]) == 1
     assert len(csv_rows(out)) == meta["samples"]
+
+
+def test_log_thermal_set_carries_temperatures(iface: str, sim: SimProcess, tmp_path: Path) -> None:
+    from aacmm.core import EncoderConfig, Params
+    from aacmm.errmodel import ErrorModel
+    from aacmm.protocol import ParamSet, encode_param_set
+    from aacmm.protocol.errwire import with_error_model
+
+    sim.stop()  # the module's simulator makes way (the bus is shared)
+    em = ErrorModel(((),) * 6, (23e-6,) * 6, (20.0,) * 6)
+    ps = with_error_model(ParamSet.from_core(Params(), EncoderConfig()), em)
+    set_file = tmp_path / "thermal.set"
+    set_file.write_bytes(encode_param_set(ps))
+    out = tmp_path / "warm.csv"
+    args = [*sim_args(iface), "--param-set", str(set_file), "--temperature", "27.5"]
+    with SimProcess(args) as warm:
+        p = aacmm(
+            "log", str(out), "--port", warm.url, "--timeout", TIMEOUT, "-r", "20", "-n", "30",
+        )  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    rows = list(csv.DictReader(out.read_text().splitlines()))
+    assert len(rows) == 30
+    for r in rows:
+        assert [r[f"temp{i}_c"] for i in range(1, 7)] == ["27.50"] * 6, r
+        assert r["x_mm"] != "", r

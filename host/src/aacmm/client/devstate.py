@@ -197,6 +197,25 @@ def has_temperatures(info: DeviceInfo) -> bool:
     return bool(info.build_flags & BuildFlags.TEMPERATURES)
 
 
+def stream_temperatures(transport: object, info: DeviceInfo, thermal: bool) -> bool:
+    """Whether a stream on ``transport`` asks the device for its link temperatures.
+
+    Yes when the device reads them, with one exception: on a CAN link with a set
+    in force without the thermal block (``thermal`` False). A sample with
+    temperatures does not fit the CAN sample frames and goes as SAMPLE_EVT over
+    ISO-TP, as one with the Jacobian does (docs/protocol.md 4.1): about twice the
+    bus frames, beyond a 1 Mbit/s bus at 1 kHz, for readings the points do not
+    depend on. With the thermal block the points depend on them, so they are
+    asked for (and records recompute each row at its readings); the device still
+    flags a sample with a temperature fault either way (TEMP_FAULT is in the
+    PointZ frame)."""
+    from aacmm.transport import CanTransport
+
+    if not has_temperatures(info):
+        return False
+    return thermal or not isinstance(transport, CanTransport)
+
+
 def temperature_text(info: DeviceInfo, d: Diagnostics | None) -> str:
     """One line: whether the device reads link temperatures, and its samples with a
     temperature fault (a counter never cleared)."""

@@ -156,17 +156,17 @@ class Capture:
         self.confirm: bool = wants_keys if args.confirm_end is None else args.confirm_end
         self.confirmed: str | None = None  # how the end was confirmed
         self.view: CaptureView | None = None  # --view: the page, fed from here
-        self.sensors = False  # the device reads its link temperatures
+        self.sensors = False  # the stream carries the device's link temperatures
         self.live: tuple[float, float] | None = None  # their range during this run
         self.live_warned = False
 
     # ---------------------------------------------------------- set-up
 
     def open_session(self, dev: Device, ps: ParamSetRecord) -> SessionWriter:
-        from aacmm.client.devstate import has_temperatures, info_dict
+        from aacmm.client.devstate import info_dict, stream_temperatures
         from aacmm.records import SessionWriter
 
-        self.sensors = has_temperatures(dev.info)
+        self.sensors = stream_temperatures(dev.client.transport, dev.info, ps.thermal)
 
         if self.args.resume:
             w = SessionWriter.resume(self.folder, self.plan)

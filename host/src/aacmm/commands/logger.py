@@ -97,11 +97,11 @@ class Logger(LogWriter):
         a = self.args
         client = dev.client
         stall = max(a.stall, 2.0 / a.rate + 0.1)
-        from aacmm.client.devstate import has_temperatures
+        from aacmm.client.devstate import stream_temperatures
 
-        stream = client.stream(
-            a.rate, timeout=stall, max_queue=1_000_000, temperatures=has_temperatures(dev.info)
-        )
+        ps = self.param_sets[self.param_crc]
+        temps = stream_temperatures(client.transport, dev.info, ps.thermal)
+        stream = client.stream(a.rate, timeout=stall, max_queue=1_000_000, temperatures=temps)
         if stream.accepted is not None:
             self.granted_rate = stream.accepted.rate_hz
         last_sample = time.monotonic()

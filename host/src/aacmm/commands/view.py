@@ -292,11 +292,12 @@ def live(args: argparse.Namespace) -> int:
             stop.install()
             print(srv.url, flush=True)
             print_err(CMD, f"live from {dev.url} at {args.rate} Hz; Ctrl-C to stop")
-            from aacmm.client.devstate import has_temperatures
+            from aacmm.client.devstate import stream_temperatures
 
-            stream = dev.client.stream(
-                args.rate, timeout=args.stall, temperatures=has_temperatures(dev.info)
-            )
+            # the view draws the device's points: the readings ride along where they
+            # cost the link nothing it needs (not over CAN)
+            temps = stream_temperatures(dev.client.transport, dev.info, thermal=False)
+            stream = dev.client.stream(args.rate, timeout=args.stall, temperatures=temps)
             try:
                 drain(stream, feed, stop, args.stall)
             finally:
