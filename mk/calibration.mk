@@ -15,12 +15,12 @@ CALIB_PY_FILES := host/src/aacmm/calibration tests/host/test_calibration.py \
                   host/src/aacmm/commands/calibrate_output.py \
                   tests/host/calib_synth.py bench/bench_calibration.py bench/calibration_figures.py \
                   bench/harmonics_figures.py tests/host/test_calibration_thermal.py \
-                  tests/host/thermal_calib_study.py
+                  tests/host/thermal_calib_study.py tests/host/test_calibration_recal.py
 CALIB_ENV      := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 .PHONY: test-calibration test-calibration-lint bench-calibration harmonics-study-figures
 
-#> test-calibration     engine vs synthetic truths (200 seeded runs), reports, aacmm calibrate, end to end on the simulator, the quality gate (20 random arms), a 5-axis parallel-hinge and a 7-axis arm end to end on the simulation library, encoder angle harmonics (issue 27; 200 one-head truths on the shipped plan), aacmm calibrate and verify on the simulator as gao2013 and commercial7, desk4 and microscribe5 with their compact plans and mpe2018 with its medium ones on the simulator, probe calibration of commercial7 on the simulator, link CTEs calibrated from sessions at 15 and 25 degC (issue 27; 8 aluminium arms verified at 28 degC)
+#> test-calibration     engine vs synthetic truths (200 seeded runs), reports, aacmm calibrate, end to end on the simulator, the quality gate (20 random arms), a 5-axis parallel-hinge and a 7-axis arm end to end on the simulation library, encoder angle harmonics (issue 27; 200 one-head truths on the shipped plan), aacmm calibrate and verify on the simulator as gao2013 and commercial7, desk4 and microscribe5 with their compact plans and mpe2018 with its medium ones on the simulator, probe calibration of commercial7 on the simulator, link CTEs calibrated from sessions at 10 and 30 degC (issue 27; 20 aluminium arms verified at 28 degC), a recalibration starting from the set in force with its error model
 test-calibration: sim
 	$(CALIB_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider -c host/pyproject.toml --rootdir=. \
 	    tests/host/test_calibration.py tests/host/test_calibration_report.py \
@@ -28,7 +28,8 @@ test-calibration: sim
 	    tests/host/test_calibration_gate.py tests/host/test_calibration_arms.py \
 	    tests/host/test_calibration_harmonics.py tests/host/test_calibration_models_e2e.py \
 	    tests/host/test_calibration_compact.py tests/host/test_calibration_harmonics_study.py \
-	    tests/host/test_calibration_probe_e2e.py tests/host/test_calibration_thermal.py
+	    tests/host/test_calibration_probe_e2e.py tests/host/test_calibration_thermal.py \
+	    tests/host/test_calibration_recal.py
 	@$(MAKE) --no-print-directory test-calibration-lint
 
 #> harmonics-study-figures  regenerate the 200 one-head truths figure and JSON of docs/calibration.md

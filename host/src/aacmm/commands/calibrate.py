@@ -231,13 +231,6 @@ def run_calibrate(args: argparse.Namespace) -> int:
             f"--thermal on: {data.unstated_temperature[0]}: a capture run states no link "
             "temperature (aacmm capture --temperature)"
         )
-    if data.param_set.errors is not None:  # not carried into the fit's start yet
-        print_err(
-            "calibrate",
-            f"warning: the sessions were taken with parameter set {data.param_set.crc_hex}, "
-            f"whose {data.param_set.errmodel_text()} the fit does not start from: its "
-            "'before' figures and the quality gate's set in force are its arm alone",
-        )
     held_out = (
         load_sessions(
             args.validate,
@@ -360,6 +353,17 @@ def _gate(args: argparse.Namespace, data: Any, res: Any, val: Any, previous: Any
 _THERMAL: dict[str, bool | str] = {"auto": "auto", "on": True, "off": False}
 
 
+def set_in_force(data: Any) -> Any:
+    """The fit's start: the sessions' parameter set in force, its error model too (the
+    encoder harmonics and link CTEs the device applied: the 'before' figures and the
+    quality gate's set in force are what the device computed, and a term the data do
+    not measure keeps its value), as a CalibParams; the arm alone without one."""
+    from aacmm.calibration.parameters import CalibParams
+
+    errors = data.param_set.errors
+    return data.start if errors is None else CalibParams(data.start, errors)
+
+
 def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any = None) -> int:
     from aacmm.calibration import Problem, analyse, parse_names, report
     from aacmm.calibration.parameters import param_names, tip_columns
@@ -368,15 +372,16 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
 
     obs = data.observations
     print(summary_text(data))
-    all_names = param_names(data.start)  # the arm's own (the paper's 25 for its shape)
+    start = set_in_force(data)
+    all_names = param_names(start)  # the arm's own (the paper's 25 for its shape), its errors'
     free = tip_columns(data.start) if args.probe else (tuple(args.free) if args.free else None)
     fix = tuple(args.fix or ())
-    names = parse_names(free, data.start) if free is not None else all_names
-    held = set(parse_names(fix, data.start))
+    names = parse_names(free, start) if free is not None else all_names
+    held = set(parse_names(fix, start))
     cand = [all_names.index(n) for n in names if n not in held]
     if not cand:
         raise UsageError("no parameter left free to calibrate")
-    ident0 = analyse(Problem(obs).evaluate(data.start), cand)
+    ident0 = analyse(Problem(obs).evaluate(start), cand)
     print()
     print(report.format_identifiability(ident0, "Identifiability at the parameters in force"))
     print()
@@ -386,7 +391,7 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
 
         probe = calibrate_probe(
             obs,
-            data.start,
+            start,
             min_spread_deg=args.min_spread_deg,
             reject=args.reject,
             progress=_progress(args),
@@ -397,7 +402,7 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
 
         res = calibrate(
             obs,
-            data.start,
+            start,
             free=free,
             fix=fix,
             strategy=args.strategy,
@@ -422,7 +427,7 @@ def _calibrate(args: argparse.Namespace, data: Any, held_out: Any, previous: Any
     if args.kfold:
         kf = kfold(
             obs,
-            data.start,
+            start,
             k=args.kfold,
             free=free,
             fix=fix,
