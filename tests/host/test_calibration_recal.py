@@ -65,3 +65,4 @@ def test_recalibration_starts_from_the_set_in_force(
     assert figures["fixed"] < 8.0, figures
     assert figures["fixed"] * 5 < figures["alone"], figures
     assert codes["fixed"] == 9 and not (tmp_path / "fixed.toml").exists()  # the gate refuses
+    assert codes["alone"] == 0 and (tmp_path / "alone.toml").exists()  # and takes this one

@@ -76,6 +76,7 @@ import numpy as np
 
 from aacmm.calibration.parameters import (
     ArmParams,
+    CalibParams,
     n_joints,
     param_names,
     param_units,
@@ -325,6 +326,21 @@ def length_gradients(params: ArmParams, theta_rad: FloatArray) -> tuple[FloatArr
     return length, g
 
 
+def _full_lengths(params: Any, theta_rad: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`length_gradients` of an arm or of a :class:`CalibParams` with its error
+    model (at the reference temperatures): gradients over all P + E columns."""
+    if not isinstance(params, CalibParams):
+        return length_gradients(params, theta_rad)
+    from aacmm.errmodel import points_jacobians
+
+    p, j = points_jacobians(Model(params.arm), params.errors, theta_rad)
+    d = p[0::2] - p[1::2]
+    length = np.linalg.norm(d, axis=1)
+    u = d / np.maximum(length, 1e-300)[:, None]
+    g: FloatArray = np.einsum("na,nak->nk", u, j[0::2] - j[1::2])
+    return length, g
+
+
 def length_uncertainty(
     params: ArmParams, covariance: FloatArray, theta_rad: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
@@ -369,10 +385,11 @@ def predict(
 
     theta = workspace_pairs(pairs, seed, n_joints(res.params))
     cov = res.scaled_covariance
-    l_cal, g = length_gradients(res.params, theta)
+    # the whole model on both sides: a change of the encoder harmonics alone is a
+    # change of the lengths the arm measures as much as one of its DH parameters
+    l_cal, g = _full_lengths(res.params, theta)
     u = np.sqrt(np.clip(np.einsum("nk,kl,nl->n", g, cov, g), 0.0, None))
-    p0 = Model(res.start).points(theta)
-    l_start = np.linalg.norm(p0[0::2] - p0[1::2], axis=1)
+    l_start, _ = _full_lengths(res.start, theta)
     big_u = float(np.sqrt(np.mean(u**2)))
     big_d = float(np.sqrt(np.mean((l_cal - l_start) ** 2)))
     s = math.sqrt(max(0.0, big_d**2 - big_u**2))
@@ -606,9 +623,9 @@ def assess(
     """
     from aacmm.calibration.harmonics import dh_part
 
-    res = dh_part(res)  # encoder harmonics: the arm's part (its marginal covariance)
     lim = limits or GateLimits()
     pred = predict(res, previous, lim.pairs, lim.seed, lim.confidence)
+    res = dh_part(res)  # encoder harmonics: the arm's part (its marginal covariance)
     refusals = [
         *_session_refusals(sessions),
         *_rank_refusals(res),
