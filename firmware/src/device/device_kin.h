@@ -105,6 +105,28 @@ static inline int32_t aacmm_device_temp_q8(int16_t t)
     return t < 0 ? -q : q;
 }
 
+/* The shared first step of aacmm_device_kin_at_temperature: whether the
+ * cache (its valid flag and the temperatures cached[0 .. n-1] it holds) is at
+ * the n link temperatures temp[] (AACMM_TEMP_UNIT_C). Returns 1 (it is), 0
+ * (recompute), or AACMM_ERR_RANGE for a temperature outside
+ * AACMM_REF_TEMP_MIN .. AACMM_REF_TEMP_MAX, and then clears *valid. O(N). */
+static inline int aacmm_device_temps_cached(uint8_t *valid, const int16_t *cached,
+                                            const int16_t *temp, int n)
+{
+    int same = *valid != 0u;
+    int i;
+    for (i = 0; i < n; i++) {
+        if (temp[i] < AACMM_REF_TEMP_MIN || temp[i] > AACMM_REF_TEMP_MAX) {
+            *valid = 0u;
+            return (int)AACMM_ERR_RANGE;
+        }
+        if (temp[i] != cached[i]) {
+            same = 0;
+        }
+    }
+    return same;
+}
+
 /* A computed point in the forms the device sends. */
 typedef struct {
     int32_t point_100nm[3]; /* wire unit 1e-4 mm, rounded half away from zero, clamped */

@@ -79,15 +79,9 @@ aacmm_status_t aacmm_device_kin_at_temperature(const aacmm_device_model_t *model
         return AACMM_ERR_NULL;
     }
     n = (int)model->m.arm.shape.joints;
-    same = at->valid != 0u;
-    for (i = 0; i < n; i++) {
-        if (temp[i] < AACMM_REF_TEMP_MIN || temp[i] > AACMM_REF_TEMP_MAX) {
-            at->valid = 0u;
-            return AACMM_ERR_RANGE;
-        }
-        if (temp[i] != at->temp[i]) {
-            same = 0;
-        }
+    same = aacmm_device_temps_cached(&at->valid, at->temp, temp, n);
+    if (same < 0) {
+        return (aacmm_status_t)same;
     }
     if (same) {
         return AACMM_OK; /* the cache is at these temperatures */
