@@ -49,7 +49,7 @@ from aacmm.core import Model, Params, counts_to_angles
 from aacmm.errmodel import ErrorModel
 from aacmm.errmodel import points as em_points
 from aacmm.plans import Plan, load_plan
-from aacmm.simulation.thermal import ThermalProfile, random_profile
+from aacmm.simulation.thermal import ThermalProfile, params_at, random_profile
 from aacmm.simulation.truth import Truth, random_truth
 from aacmm.verification.report import Report, evaluate
 from calib_synth import random_poses, reach, solve_ik
@@ -74,15 +74,12 @@ def aluminium_truth(seed: int) -> Truth:
 
 def warm_params(params: Params, profile: ThermalProfile, temp_c: float) -> Params:
     """``params`` with every length of link i scaled by ``1 + cte_i (T - tref_i)``
-    (``d_i``, ``a_i``; the tip ``l`` belongs to the last link)."""
-    s = [1.0 + a * (temp_c - t) for a, t in zip(profile.cte_per_k, profile.tref_c, strict=True)]
-    return Params(
-        params.theta_offset_rad,
-        params.alpha_rad,
-        tuple(d * k for d, k in zip(params.d_mm, s, strict=True)),
-        tuple(a * k for a, k in zip(params.a_mm, s, strict=True)),
-        params.l_mm * s[-1],
-    )
+    (``d_i``, ``a_i``; the tip ``l`` belongs to the last link), every link at
+    ``temp_c``: the simulator's :func:`~aacmm.simulation.thermal.params_at`
+    (test_thermal_verify checks it against the C core's thermal model)."""
+    out = params_at(params, profile, (temp_c,) * profile.links)
+    assert isinstance(out, Params)
+    return out
 
 
 @dataclass(frozen=True)
