@@ -3259,6 +3259,42 @@ static void test_temps_content(void **state)
     assert_int_equal(M.u.diag.temp_faults, 3u); /* all good since */
 }
 
+/* A button edge with no stream running: the trigger sample carries the link
+ * temperatures on a device that reads them (a point taken before the stream
+ * starts is still a measurement), none on a device without sensors. */
+static void test_temps_trigger_without_stream(void **state)
+{
+    (void)state;
+    fake_use_temperatures(&F, &PF);
+    F.temp[1] = 2345;
+    aacmm_device_poll(&D);
+    F.button = 1u;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    assert_int_equal(M.u.trigger.sample.seq, 0u);
+    assert_int_equal(M.u.trigger.sample.content, AACMM_CONTENT_TEMPERATURES);
+    assert_int_equal(M.u.trigger.sample.temp[0], 2000);
+    assert_int_equal(M.u.trigger.sample.temp[1], 2345);
+    assert_int_equal(M.u.trigger.sample.status & AACMM_SAMPLE_TEMP_FAULT, 0u);
+    /* the same device without sensors: no temperatures */
+    setup_links(1, 1, 1, 1, 0);
+    boot();
+    aacmm_device_poll(&D);
+    while (next_msg()) {
+    }
+    F.button = 0u;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    F.button = 1u;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    assert_int_equal(M.u.trigger.sample.content, 0u);
+}
+
 /* A CAN stream with temperatures goes as SAMPLE_EVT over ISO-TP (the sample
  * frames carry no temperatures). */
 static void test_temps_can_stream_over_isotp(void **state)
@@ -3510,6 +3546,7 @@ int main(void)
         cmocka_unit_test(test_temps_bytes_unchanged),
         cmocka_unit_test_setup(test_temps_stored_thermal_set, setup_temps),
         cmocka_unit_test_setup(test_temps_content, setup_temps),
+        cmocka_unit_test_setup(test_temps_trigger_without_stream, setup_temps),
         cmocka_unit_test_setup(test_temps_can_stream_over_isotp, setup_temps),
         cmocka_unit_test_setup(test_temps_content_refused, setup_default),
         cmocka_unit_test_setup(test_temps_compute_thermal, setup_temps),

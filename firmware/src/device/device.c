@@ -1021,12 +1021,15 @@ static void stream_service(aacmm_device_t *dev, unsigned link, aacmm_device_stre
 }
 
 /* An edge of button `button`: one trigger event per link, its sample read
- * now, numbered with the link's next stream seq (docs/protocol.md 2.7). */
+ * now, numbered with the link's next stream seq (docs/protocol.md 2.7). With
+ * no stream running it carries the temperatures when the device reads them:
+ * a point taken before the stream starts is no less a measurement. */
 static void button_edge(aacmm_device_t *dev, uint8_t button, uint8_t pressed)
 {
     aacmm_msg_t *m = &dev->msg_out;
     aacmm_device_stream_t *ss = &dev->serial.stream;
-    uint8_t content = (dev->serial.present && ss->active) ? ss->content : 0u;
+    uint8_t idle = dev->pf.read_temperatures != NULL ? AACMM_CONTENT_TEMPERATURES : 0u;
+    uint8_t content = (dev->serial.present && ss->active) ? ss->content : idle;
     dev->counters.button_edges++;
     m->type = (uint8_t)AACMM_MSG_TRIGGER_EVT;
     m->u.trigger.button = button;
