@@ -271,3 +271,68 @@ def test_a_log_written_with_protocol_version_1_still_reads(tmp_path: Path) -> No
     side.write_text(text.replace('"l_mm": 183.5', '"l_mm": 183.6'))
     with pytest.raises(Exception, match="does not match its CRC"):
         read_log(out)
+
+
+def test_summary_gives_the_link_temperature_range(tmp_path: Path) -> None:
+    """Issue 27 left-out: ``aacmm summary`` reports the range of the link temperatures
+    of a log and of a session, overall and per link, counted from the file's own
+    columns here; the logger's own summary (sidecar) says the same; a temperature that
+    is not one (inf) is one line naming the file and line."""
+    import csv
+
+    temps = "20,21.5,22,23,24.25,25"
+    sim_args = ["--serial", "pty", "--quiet", "--temperature", temps, "--button-every", "0.05"]
+    with SimProcess(sim_args) as sim:
+        out = tmp_path / "run.csv"
+        p = run("log", str(out), "-r", "100", "--count", "400", "-p", sim.url)
+        assert p.returncode == 0, p.stderr
+    meta = json.loads((tmp_path / "run.csv.json").read_text())
+    want = [float(t) for t in temps.split(",")]
+    assert meta["temperature_c"]["links"] == [{"min": t, "max": t} for t in want]
+    assert "temperatures 20.00 .. 25.00 C (all links read at 400 of 400 samples;" in p.stdout
+
+    # vary link 2 and leave link 6 unread on one row: the summary follows the file
+    with out.open() as f:
+        rows = list(csv.DictReader(f))
+    rows[10]["temp2_c"], rows[20]["temp2_c"], rows[30]["temp6_c"] = "19.25", "26.75", ""
+    edited = tmp_path / "edited.csv"
+    with edited.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    (tmp_path / "edited.csv.json").write_text(json.dumps({**meta, "csv": "edited.csv"}))
+    cols = [f"temp{j}_c" for j in range(1, 7)]
+    table = np.array([[float(r[c]) if r[c] else np.nan for c in cols] for r in rows])
+    s = run("summary", str(edited), "--json")
+    assert s.returncode == 0, s.stderr
+    got = json.loads(s.stdout)["temperature_c"]
+    assert got["rows_read"] == 399 and (got["min"], got["max"]) == (19.25, 26.75)
+    for j, link in enumerate(got["links"]):
+        col = table[:, j][np.isfinite(table[:, j])]
+        assert (link["min"], link["max"]) == (col.min(), col.max())
+    s = run("summary", str(edited))
+    assert (
+        "temperatures 19.25 .. 26.75 C (all links read at 399 of 400 samples; link 1 20.00; "
+        "link 2 19.25 .. 26.75; link 3 22.00" in s.stdout
+    ), s.stdout
+
+    # a session taken from the log reports the range of its points
+    ses = tmp_path / "s"
+    p = run("capture", "probe-calibration", "-o", str(ses), "--from-log", str(out))
+    assert p.returncode == 0, p.stderr
+    s = run("summary", str(ses))
+    assert s.returncode == 0, s.stderr
+    assert "temperatures 20.00 .. 25.00 C (all links read at 30 of 30 points; link 1 20.00;" in (
+        s.stdout
+    )
+
+    # inf is not a temperature: one line, exit 2
+    rows[5]["temp3_c"] = "inf"
+    bad = tmp_path / "bad.csv"
+    with bad.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    (tmp_path / "bad.csv.json").write_text(json.dumps({**meta, "csv": "bad.csv"}))
+    s = run("summary", str(bad))
+    one_error_line(s, 2, f"{bad}:7: temp3_c: 'inf' is not a temperature in degC")

@@ -3,9 +3,11 @@
 A log: samples, duration, rate while connected, reconnect gaps, lost samples,
 triggers and the extent of the point cloud (the same lines ``aacmm log``
 prints when it ends). A session: plan, status, device, parameter sets and
-points per step. Both work on files cut short by kill -9. The figures come
-from :mod:`aacmm.records.summary`; this module prints them and turns damage
-into exit status 2.
+points per step. Both give the range of the link temperatures the device read
+(overall and per link), a session also the temperatures its capture runs
+state. Both work on files cut short by kill -9. The figures come from
+:mod:`aacmm.records.summary`; this module prints them and turns damage into
+exit status 2.
 """
 
 from __future__ import annotations
@@ -62,9 +64,31 @@ def format_summary(d: dict[str, Any], files: list[Path] | None = None) -> str:
         )
     else:
         lines.append("extent - (no valid points)")
+    temps = temperature_line(d.get("temperature_c"), int(d.get("samples") or 0), "samples")
+    if temps:
+        lines.append(temps)
     if files:
         lines.append("files " + " ".join(str(f) for f in files))
     return "\n".join(lines)
+
+
+def temperature_line(t: dict[str, Any] | None, rows: int, what: str) -> str | None:
+    """``temperatures 20.00 .. 21.40 C (read at 80 of 80 points; link 1 ...)``: the
+    range of the link temperatures the device read, None when it read none."""
+    if not t:
+        return None
+    links = "; ".join(
+        f"link {j} -" if r is None else f"link {j} {_span(r['min'], r['max'])}"
+        for j, r in enumerate(t["links"], 1)
+    )
+    return (
+        f"temperatures {_span(t['min'], t['max'])} C (all links read at {t['rows_read']} "
+        f"of {rows} {what}; {links})"
+    )
+
+
+def _span(lo: float, hi: float) -> str:
+    return f"{lo:.2f}" if lo == hi else f"{lo:.2f} .. {hi:.2f}"
 
 
 def _damaged(path: Path, damage: list[str]) -> int:
@@ -93,6 +117,12 @@ def cmd_summary(args: argparse.Namespace) -> int:
         print(f"runs {', '.join(d['runs']) or '-'}")
         for st in d["steps"]:
             print(f"  {st['id']:16s} {st['procedure']:12s} {st['points']:4d} of {st['of']}")
+        temps = temperature_line(d["temperature_c"], d["points"], "points")
+        if temps:
+            print(temps)
+        if d["stated_temperature_c"]:
+            stated = ", ".join(f"{t:g}" for t in d["stated_temperature_c"])
+            print(f"stated at capture (aacmm capture --temperature): {stated} C")
         sys.stdout.flush()
         return _damaged(path, d["damage"])
     d = summarize_file(path)

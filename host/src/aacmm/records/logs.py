@@ -23,6 +23,7 @@ sidecar holding ``encoders`` and ``params``, for ``aacmm mc --log``.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,6 +44,8 @@ from aacmm.records.schema import (
     LOG_FORMAT,
     LOG_FORMATS_READ,
     POINT_COLUMNS,
+    TEMP_MAX_C,
+    TEMP_MIN_C,
     TEMP_NONE_WIRE,
     THETA_COLUMNS,
     count_aliases,
@@ -62,6 +65,7 @@ __all__ = [
     "log_summary",
     "read_log",
     "read_triggers",
+    "temperature_summary",
 ]
 
 # ---------------------------------------------------------------- reader
@@ -132,9 +136,13 @@ class Log(Recorded):
                 if v == "":
                     continue
                 try:
-                    out[r, j] = float(v)
+                    x = float(v)
                 except ValueError:
-                    raise self.table.fail(line, f"{cols[j]}: {v!r} is not a number") from None
+                    x = math.nan
+                # the device sends i16 hundredths of a degree: NaN, inf or 999 are damage
+                if not (math.isfinite(x) and TEMP_MIN_C <= x <= TEMP_MAX_C):
+                    raise self.table.fail(line, f"{cols[j]}: {v!r} is not a temperature in degC")
+                out[r, j] = x
         return out
 
     @property
@@ -421,8 +429,35 @@ def connected_segments(n: int, gaps: list[dict[str, Any]]) -> list[tuple[int, in
     return [(a, b) for a, b in itertools.pairwise(bounds) if b > a]
 
 
+def temperature_summary(temps: FloatArray | None) -> dict[str, Any] | None:
+    """The range of the device's link temperatures (n, N) in degC (NaN: no reading):
+    overall and per link (``links``, None for a link never read), and how many rows
+    carry every reading; None when the rows carry no temperatures or none was read."""
+    if temps is None or temps.size == 0 or not np.isfinite(temps).any():
+        return None
+    read = np.isfinite(temps)
+    links: list[dict[str, float] | None] = []
+    for j in range(temps.shape[1]):
+        v = temps[read[:, j], j]
+        links.append(
+            {"min": round(float(v.min()), 2), "max": round(float(v.max()), 2)} if v.size else None
+        )
+    known = temps[read]
+    return {
+        "min": round(float(known.min()), 2),
+        "max": round(float(known.max()), 2),
+        "rows_read": int(np.count_nonzero(read.all(axis=1))),
+        "links": links,
+    }
+
+
 def log_summary(log: Log) -> dict[str, Any]:
-    """Samples, duration, rate while connected, gaps, lost samples, parameter sets, extent."""
+    """Samples, duration, rate while connected, gaps, lost samples, parameter sets,
+    extent and the range of the link temperatures (:func:`temperature_summary`).
+
+    Raises:
+        RecordError: a temperature field that is not one (with its line).
+    """
     meta = log.meta
     host = log.column("host_time")
     n = int(host.size)
@@ -461,6 +496,7 @@ def log_summary(log: Log) -> dict[str, Any]:
         "reconnects": meta.get("reconnects", 0),
         "param_sets": [crc_hex(c) for _, c in log.set_changes()] if log.format else [],
         "extent_mm": ext,
+        "temperature_c": temperature_summary(log.temperatures_c()),
         "damage": list(log.damage),
     }
 

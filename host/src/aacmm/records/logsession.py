@@ -1,4 +1,5 @@
-"""Counters of one ``aacmm log`` run: samples, losses, gaps, extent, rate while connected."""
+"""Counters of one ``aacmm log`` run: samples, losses, gaps, extent, link temperatures,
+rate while connected."""
 
 from __future__ import annotations
 
@@ -42,6 +43,46 @@ class Extent:
 
 
 @dataclass
+class TempRange:
+    """Range of the link temperatures the samples carry, in wire units (0.01 degC);
+    :meth:`as_dict` has the shape of :func:`aacmm.records.logs.temperature_summary`."""
+
+    lo: list[int | None] = field(default_factory=list)
+    hi: list[int | None] = field(default_factory=list)
+    rows_read: int = 0
+
+    def add(self, temp: tuple[int, ...] | None, none: int) -> None:
+        """One sample's temperatures (None: it carries none; ``none``: no reading)."""
+        if temp is None:
+            return
+        if not self.lo:
+            self.lo, self.hi = [None] * len(temp), [None] * len(temp)
+        for j, t in enumerate(temp[: len(self.lo)]):
+            if t == none:
+                continue
+            lo, hi = self.lo[j], self.hi[j]
+            self.lo[j] = t if lo is None or t < lo else lo
+            self.hi[j] = t if hi is None or t > hi else hi
+        self.rows_read += all(t != none for t in temp)
+
+    def as_dict(self) -> dict[str, Any] | None:
+        read = [j for j, v in enumerate(self.lo) if v is not None]
+        if not read:
+            return None
+        lo = [v for v in self.lo if v is not None]
+        hi = [v for v in self.hi if v is not None]
+        return {
+            "min": min(lo) / 100.0,
+            "max": max(hi) / 100.0,
+            "rows_read": self.rows_read,
+            "links": [
+                None if a is None or b is None else {"min": a / 100.0, "max": b / 100.0}
+                for a, b in zip(self.lo, self.hi, strict=True)
+            ],
+        }
+
+
+@dataclass
 class Session:
     """Counters of one log run (over all reconnects)."""
 
@@ -57,6 +98,7 @@ class Session:
     last_host: float | None = None
     last_seq: int | None = None
     extent: Extent = field(default_factory=Extent)
+    temps: TempRange = field(default_factory=TempRange)
     gaps: list[dict[str, Any]] = field(default_factory=list)
     # time connected (sum over the stretches between reconnect gaps) and the
     # sample intervals in it: the rate while connected

@@ -22,6 +22,7 @@ from aacmm.records.schema import (
     LOG_COLUMNS,
     LOG_FORMAT,
     LOG_UNITS,
+    TEMP_NONE_WIRE,
     default_triggers_path,
     log_columns,
     log_units,
@@ -195,6 +196,7 @@ class LogWriter:
         m["first_sample_host_time"] = s.first_host
         m["last_sample_host_time"] = s.last_host
         m["extent_mm"] = s.extent.as_dict()
+        m["temperature_c"] = s.temps.as_dict()
         m["rate_hz_connected"] = s.rate_hz()
         if end_reason is not None:
             now = time.time()
@@ -239,6 +241,7 @@ class LogWriter:
         s.last_seq = sample.seq
         if sample.status & POINT_VALID:
             s.extent.add(sample.point_100nm)
+        s.temps.add(sample.temp, TEMP_NONE_WIRE)
 
     def take_triggers(self) -> None:
         while self.trig_queue:
@@ -285,6 +288,7 @@ class LogWriter:
             "presses": s.presses,
             "reconnects": s.reconnects,
             "extent_mm": s.extent.as_dict(),
+            "temperature_c": s.temps.as_dict(),
         }
         files = [self.csv_path, self.sidecar]
         if self.trig_rows is not None:

@@ -91,6 +91,11 @@ def temp_fields(temp: tuple[int, ...] | None, joints: int) -> list[str]:
 TEMP_NONE_WIRE = -32768
 """:data:`aacmm.protocol.TEMP_NONE` (this module imports nothing heavy)."""
 
+TEMP_MIN_C = -327.67
+TEMP_MAX_C = 327.67
+"""The link temperatures a file may hold, degC: what an i16 in 0.01 degC carries
+(-32768 is no reading). Anything else in a log or a session is damage."""
+
 
 def joint_count(header: tuple[str, ...] | list[str], stem: str) -> int:
     """N for a header holding ``<stem>1 .. <stem>N`` (0: no ``<stem>1``): the longest

@@ -19,7 +19,7 @@ from aacmm.plans import Plan, PlanError, loads_plan
 from aacmm.records.files import CsvTable, RecordError, read_json, truncate_partial_line
 from aacmm.records.paramsets import ParamSetRecord
 from aacmm.records.rows import Recorded
-from aacmm.records.schema import joint_count, temp_columns
+from aacmm.records.schema import TEMP_MAX_C, TEMP_MIN_C, joint_count, temp_columns
 from aacmm.records.session_format import (
     JOINTS,
     LABEL_COLUMNS,
@@ -149,7 +149,7 @@ def _temp(t: CsvTable, line: int, name: str, v: str) -> float | None:
         x = float(v)
     except ValueError:
         x = math.nan
-    if not (math.isfinite(x) and -327.68 <= x <= 327.67):
+    if not (math.isfinite(x) and TEMP_MIN_C <= x <= TEMP_MAX_C):
         raise t.fail(line, f"{name}: {v!r} is not a temperature in degC")
     return x
 

@@ -1,10 +1,11 @@
 """What a log or a capture session holds, as the figures ``aacmm summary`` prints.
 
 * :func:`summarize_file` -- a log (``aacmm log``): samples, duration, rate while
-  connected, reconnect gaps, lost samples, triggers, parameter sets and the
-  extent of the point cloud;
+  connected, reconnect gaps, lost samples, triggers, parameter sets, the
+  extent of the point cloud and the range of the link temperatures;
 * :func:`summarize_session` -- a capture session: plan, status, device,
-  parameter sets and points per step.
+  parameter sets, points per step, the range of the link temperatures the
+  device read and the temperatures the capture runs state.
 
 Both read files cut short by kill -9 and return what is damaged in
 ``damage`` (the caller decides what a damaged file means).
@@ -18,7 +19,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from aacmm.records.logs import log_summary, read_log
+from aacmm.records.logs import log_summary, read_log, temperature_summary
+from aacmm.records.measured import stated_temperatures
 from aacmm.records.session_reader import read_session
 
 __all__ = ["summarize_file", "summarize_session"]
@@ -62,6 +64,8 @@ def summarize_session(folder: Path) -> dict[str, Any]:
         "param_sets": [crc for _, crc in s.set_changes()],
         "runs": [r.get("kind") for r in s.meta.get("runs", []) if isinstance(r, dict)],
         "steps": steps,
+        "temperature_c": temperature_summary(s.device_temp_c),
+        "stated_temperature_c": sorted({t for t in stated_temperatures(s) if t is not None}),
         "warnings": list(s.warnings),
         "damage": list(s.damage),
     }
