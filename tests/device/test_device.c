@@ -3259,6 +3259,78 @@ static void test_temps_content(void **state)
     assert_int_equal(M.u.diag.temp_faults, 3u); /* all good since */
 }
 
+/* The paper's arm without its last joint: a valid set of 5 joints. */
+static void five_joint_set(aacmm_param_set_t *s)
+{
+    default_set(s);
+    s->arm.shape.joints = 5u;
+    s->arm.shape.convention[5] = s->arm.shape.beta[5] = 0u;
+    s->arm.theta_offset_rad[5] = s->arm.alpha_rad[5] = s->arm.d_mm[5] = s->arm.a_mm[5] = 0.0;
+    s->arm.beta_rad[5] = 0.0;
+    assert_int_equal(aacmm_arm_encoders_default(&s->enc, 5), AACMM_OK);
+}
+
+/* A port that serves exactly K joints (a simulator replaying a K-joint
+ * file): SET_PARAMS of another joint count and RESTORE_DEFAULTS to such
+ * defaults are refused, the set in force unchanged; K itself is taken. */
+static void test_joints_exact(void **state)
+{
+    aacmm_param_set_t five;
+    aacmm_param_set_t six;
+    aacmm_msg_t m;
+    uint32_t six_crc;
+    (void)state;
+    five_joint_set(&five);
+    default_set(&six);
+    six_crc = set_crc(&six);
+    /* K outside 4 .. 7: a configuration error */
+    setup_links(1, 0, 0, 0, 0);
+    CFG.joints_exact = 3u;
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
+    CFG.joints_exact = (uint8_t)(AACMM_JOINTS_MAX + 1);
+    assert_int_equal(aacmm_device_init(&D, &CFG, &PF), AACMM_ERR_RANGE);
+    /* K = 6 with the paper's six-joint defaults */
+    CFG.joints_exact = 6u;
+    boot();
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = 1;
+    m.u.params = five;
+    send_msg(&m);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SET_PARAMS_REQ, 1);
+    send_simple(AACMM_MSG_INFO_REQ, 2);
+    expect_response(AACMM_MSG_INFO_RSP, 2);
+    assert_int_equal(M.u.info.joints, 6);
+    assert_int_equal(M.u.info.param_crc32, six_crc);
+    other_set(&m.u.params, 101.0); /* six joints: taken */
+    m.seq = 3;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 3);
+    /* K = 5 on a device whose defaults have six: the port started it on a
+     * five-joint set; going back to the defaults is refused */
+    setup_links(1, 0, 0, 0, 0);
+    CFG.joints_exact = 5u;
+    boot();
+    m.u.params = five;
+    m.seq = 4;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 4);
+    assert_int_equal(M.u.param_crc.param_crc32, set_crc(&five));
+    send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 5);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_RESTORE_DEFAULTS_REQ, 5);
+    send_simple(AACMM_MSG_INFO_REQ, 6);
+    expect_response(AACMM_MSG_INFO_RSP, 6);
+    assert_int_equal(M.u.info.joints, 5);
+    /* 0: any joint count, as before */
+    setup_links(1, 0, 0, 0, 0);
+    boot();
+    m.seq = 7;
+    send_msg(&m);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, 7);
+    send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 8);
+    expect_response(AACMM_MSG_RESTORE_DEFAULTS_RSP, 8);
+}
+
 /* A button edge with no stream running: the trigger sample carries the link
  * temperatures on a device that reads them (a point taken before the stream
  * starts is still a measurement), none on a device without sensors. */
@@ -3547,6 +3619,7 @@ int main(void)
         cmocka_unit_test_setup(test_temps_stored_thermal_set, setup_temps),
         cmocka_unit_test_setup(test_temps_content, setup_temps),
         cmocka_unit_test_setup(test_temps_trigger_without_stream, setup_temps),
+        cmocka_unit_test(test_joints_exact),
         cmocka_unit_test_setup(test_temps_can_stream_over_isotp, setup_temps),
         cmocka_unit_test_setup(test_temps_content_refused, setup_default),
         cmocka_unit_test_setup(test_temps_compute_thermal, setup_temps),

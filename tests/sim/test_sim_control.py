@@ -263,6 +263,34 @@ def test_replay_of_a_model_log_streams_its_counts(name: str, joints: int, tmp_pa
     # a stream starts somewhere in the loop: the counts are the log's, in its order, looping
     start = want.index(got[0])
     assert got == [want[(start + i) % len(want)] for i in range(len(got))]
+    # during the replay a set of another joint count is refused (issue 26 left-out): one
+    # line, exit 1, the replay's arm still in force; one of its own count is taken
+    other = tmp_path / "other.toml"
+    r = _aacmm("model", "example", "desk4" if joints == 5 else "microscribe5", "-o", str(other))
+    assert r.returncode == 0, r.stderr
+    own = tmp_path / "own.toml"
+    assert _aacmm("model", "example", name, "-o", str(own)).returncode == 0
+    env = {k: v for k, v in os.environ.items() if k != "AACMM_PORT"}
+    proc = subprocess.Popen(
+        [str(AACMM), "sim", "--quiet", "--model", name, "--motion", f"replay:{log}"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    try:
+        url = _sim_url(proc)
+        r = _aacmm("params", "set", str(other), "--port", url)
+        assert r.returncode == 1, r.stderr
+        assert r.stderr.count("\n") == 1 and r.stderr.endswith(
+            f"the device cannot serve an arm of {4 if joints == 5 else 5} joints (its encoders, "
+            f"or a simulator's replay file, give another joint count); the set in force, "
+            f"{joints} joints, is unchanged\n"
+        ), r.stderr
+        with connect(url) as c:
+            assert c.info().joints == joints
+        r = _aacmm("params", "set", str(own), "--port", url)
+        assert r.returncode == 0, r.stderr
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=30)
     # the same log on an arm of another joint count: refused, one line (the
     # 7-axis log's counts are past microscribe5's 16384 per revolution: that
     # is said first)

@@ -182,6 +182,14 @@ typedef struct {
      * zero (interface COUNTS, bits 0) says the port has six encoders: a
      * 7-joint set is then refused with AACMM_ERR_UNSUPPORTED. */
     aacmm_enc_joint_config_t encoders[AACMM_JOINTS_MAX];
+    /* 0: the port serves any joint count its encoders have (4 .. 6 or 7).
+     * K (AACMM_JOINTS_MIN .. AACMM_JOINTS_MAX): it serves exactly K joints
+     * (a simulator replaying a file of K joints), so SET_PARAMS of a set of
+     * another joint count, and RESTORE_DEFAULTS to such defaults, are
+     * refused with AACMM_ERR_UNSUPPORTED, the active set unchanged. The set
+     * the device starts with is the port's to check (init does not refuse
+     * it: the defaults are the fallback). Other values: AACMM_ERR_RANGE. */
+    uint8_t joints_exact;
 } aacmm_device_config_t;
 
 /* What the two record slots held when last read (aacmm_store_load,
@@ -328,6 +336,7 @@ typedef struct {
     uint8_t event_seq;     /* header seq of device events */
     uint8_t reply_version; /* non-zero: the version byte of the ERROR_RSP being sent */
     uint8_t frame_joints;  /* encoders the port decodes frames of: 6 or 7 */
+    uint8_t joints_exact;  /* aacmm_device_config_t.joints_exact */
     uint8_t have_stored;   /* a valid record exists; stored_crc32 is its set's CRC */
     uint32_t stored_crc32;
     aacmm_store_report_t store; /* the slots as last read or written */

@@ -548,6 +548,9 @@ int main(int argc, char **argv)
     for (i = 0; i < AACMM_JOINTS_MAX; i++) {
         dc.encoders[i] = port.enc.cfg.joint[i];
     }
+    /* a replay gives K joints: a set of another N would read invented or
+     * dropped joints, so the device refuses it (checked at start below) */
+    dc.joints_exact = o.motion == AACMM_SIM_REPLAY ? (uint8_t)replay_joints : 0u;
     port.t0_us = posix_time_us();
     posix_platform(&port, &pf);
     st = aacmm_device_init(&dev, &dc, &pf);

@@ -139,6 +139,16 @@ static aacmm_status_t check_set(const aacmm_device_t *dev, const aacmm_param_set
     return st;
 }
 
+/* AACMM_ERR_UNSUPPORTED for a set the host asks for whose joint count the
+ * port cannot serve (aacmm_device_config_t.joints_exact). */
+static aacmm_status_t check_joints_served(const aacmm_device_t *dev, const aacmm_param_set_t *set)
+{
+    if (dev->joints_exact != 0u && set->arm.shape.joints != dev->joints_exact) {
+        return AACMM_ERR_UNSUPPORTED;
+    }
+    return AACMM_OK;
+}
+
 /* N and P of the active arm model. */
 static uint8_t active_joints(const aacmm_device_t *dev)
 {
@@ -503,6 +513,9 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
         aacmm_device_model_t model;
         uint32_t crc = 0u;
         st = check_set(dev, &req->u.params, &model, &crc);
+        if (st == AACMM_OK) {
+            st = check_joints_served(dev, &req->u.params);
+        }
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
             break;
@@ -537,6 +550,9 @@ static void handle_request(aacmm_device_t *dev, unsigned link, const uint8_t *bo
         aacmm_device_model_t model;
         uint32_t crc = 0u;
         st = check_set(dev, &dev->defaults, &model, &crc); /* checked at init: cannot fail */
+        if (st == AACMM_OK) {
+            st = check_joints_served(dev, &dev->defaults);
+        }
         if (st != AACMM_OK) {
             set_error(rsp, st, req->type);
             break;
@@ -1121,6 +1137,10 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
             }
         }
     }
+    if (config->joints_exact != 0u &&
+        (config->joints_exact < AACMM_JOINTS_MIN || config->joints_exact > AACMM_JOINTS_MAX)) {
+        return AACMM_ERR_RANGE;
+    }
     has_serial = platform->serial_read != NULL && platform->serial_write != NULL;
     has_can = platform->can_send != NULL && platform->can_receive != NULL;
     if (!has_serial && !has_can) {
@@ -1151,6 +1171,7 @@ aacmm_status_t aacmm_device_init(aacmm_device_t *dev, const aacmm_device_config_
     dev->boot_count = config->boot_count;
     dev->watchdog_ms = config->watchdog_ms;
     dev->frame_joints = (uint8_t)AACMM_JOINTS_MAX;
+    dev->joints_exact = config->joints_exact;
     if (platform->read_encoder_frames != NULL) {
         int j;
         if (enc_absent(&config->encoders[AACMM_JOINTS])) {

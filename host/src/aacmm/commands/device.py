@@ -340,7 +340,7 @@ def cmd_params_set(args: argparse.Namespace) -> int:
         note = _check_arm(args.file, arm, dev.info.serial_number, args.override)
         before = c.get_params()
         change = _model_change(before, ps)
-        got = c.set_params(ps)
+        got = _set_params(c, ps, before)
         if got != want:
             raise ReadBackError(
                 f"device reports crc 0x{got:08x} for the set, expected 0x{want:08x}"
@@ -366,6 +366,25 @@ def cmd_params_set(args: argparse.Namespace) -> int:
     if change:
         print_err("params set", change)
     return OK
+
+
+def _set_params(c: Client, ps: ParamSet, before: ParamSet) -> int:
+    """SET_PARAMS; a set the device cannot serve (ERR_UNSUPPORTED: a joint count its
+    encoders, or the simulator's replay, do not have) says so in its one line."""
+    from aacmm.protocol import Status
+
+    try:
+        return c.set_params(ps)
+    except DeviceError as exc:
+        if exc.status != int(Status.ERR_UNSUPPORTED) or ps.joints == before.joints:
+            raise
+        raise DeviceError(
+            f"{exc}: the device cannot serve an arm of {ps.joints} joints (its encoders, or "
+            f"a simulator's replay file, give another joint count); the set in force, "
+            f"{before.joints} joints, is unchanged",
+            exc.status,
+            exc.request_type,
+        ) from None
 
 
 def _shape(ps: ParamSet) -> str:
