@@ -163,7 +163,11 @@ def test_full_plan(sim: SimProcess, tmp_path: Path) -> None:
         f"session {out} (complete): 30 of 30 points",
         "plan probe-calibration: Probe calibration (pivot)",
     ]
-    assert summary.stdout.splitlines()[-1].split() == ["pivot", "cone", "30", "of", "30"]
+    lines = summary.stdout.splitlines()
+    assert lines[-2].split() == ["pivot", "cone", "30", "of", "30"]
+    # the simulator's sensors read 20 degC on every link, at every point
+    links = "; ".join(f"link {j} 20.00" for j in range(1, 7))
+    assert lines[-1] == f"temperatures 20.00 C (all links read at 30 of 30 points; {links})"
 
 
 def test_kill9_then_resume_loses_no_acknowledged_point(sim: SimProcess, tmp_path: Path) -> None:
