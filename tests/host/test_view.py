@@ -74,6 +74,8 @@ points = 8
 """
 SMALL_PLAN_POINTS = 16
 SMALL_PLAN_SEAT = 8
+#: the plan with a stability band (the page shows whether the links are within it)
+BAND_PLAN = SMALL_PLAN + "\n[verification]\ntemperature_c = 20.0\ntemperature_band_c = 3.0\n"
 
 
 class Proc:
@@ -239,7 +241,7 @@ def test_capture_view(tmp_path: Path) -> None:
     browsers, one closed mid-capture; tip within 2 mm of every press, every point on the
     page within 1 s of its press, the session complete with every point."""
     plan = tmp_path / "plan.toml"
-    plan.write_text(SMALL_PLAN)
+    plan.write_text(BAND_PLAN)  # the simulated arm's links read 20 degC: within the band
     link, session = tmp_path / "arm", tmp_path / "s"
     total = SMALL_PLAN_POINTS
     with playwright() as p:
@@ -290,6 +292,7 @@ def test_capture_view(tmp_path: Path) -> None:
             a.page.wait_for_function("window.aacmmView.state.stopped", timeout=15_000)
             time.sleep(0.5)
             st = a.state("{cap: s.capture, seen: s.pointSeen, hist: s.history, ev: s.events}")
+            band = a.page.inner_text("#temps-band")
             a.clean()
             ba.close()
         finally:
@@ -297,6 +300,7 @@ def test_capture_view(tmp_path: Path) -> None:
                 cap.stop()
             op.stop(signal.SIGTERM)
     assert cap.err == [], cap.err  # nothing on stderr: no traceback, no warning
+    assert band == "within the plan's 3 °C band about 20 °C", band
     s = read_session(session)
     assert s.complete and len(s.points) == total and s.status == "complete"
     with (session / "points.csv").open(newline="") as f:
@@ -463,6 +467,60 @@ def test_log_view(sim: Any, tmp_path: Path) -> None:
     np.testing.assert_allclose(
         scene["trail"][0], [float(first[k]) for k in ("x_mm", "y_mm", "z_mm")], atol=2e-3
     )
+
+
+# ---------------------------------------------------------------- temperatures
+
+
+def test_temperature_band_of_a_frame(tmp_path: Path) -> None:
+    """The band the page shows: within it, a span wider than it, a link too far from the
+    plan's temperature, a link without a reading; nothing without a plan or a band."""
+    from aacmm.plans import load_plan
+    from aacmm.view.live import temperature_band
+
+    path = tmp_path / "band.toml"
+    path.write_text(BAND_PLAN)
+    plan = load_plan(path)
+    ok = temperature_band([20.0, 21.5, 22.9, 20.0, 20.5, 21.0], plan)
+    assert ok == {"band_c": 3.0, "ref_c": 20.0, "problem": None}
+    span = temperature_band([18.5, 21.75, 20.0, 20.0, 20.0, 20.0], plan)
+    assert span is not None and "spans 18.5 .. 21.75 C, more than the plan's 3 C" in str(
+        span["problem"]
+    )
+    far = temperature_band([23.5] * 6, plan)
+    assert far is not None and "23.5 C is 3.5 C from the plan's 20 C" in str(far["problem"])
+    gone = temperature_band([20.0, None, 20.0, 20.0, 20.0, 20.0], plan)
+    assert gone is not None and gone["problem"] == "link 2 gives no temperature"
+    path.write_text(SMALL_PLAN)
+    assert temperature_band([30.0] * 6, load_plan(path)) is None
+    assert temperature_band([30.0] * 6, None) is None
+
+
+def test_live_view_shows_the_link_temperatures(tmp_path: Path) -> None:
+    """``aacmm view --port`` on a device that reads its link temperatures: the page's
+    table holds the temperatures the simulator's sensors were given, link by link."""
+    from aacmm.simulation.process import SimProcess
+
+    given = ["20.00", "21.50", "22.00", "23.00", "24.25", "-5.50"]
+    with SimProcess(["--serial", "pty", "--quiet", "--temperature", ",".join(given)]) as dev:
+        view = Proc("view", "--port", dev.url, "--bind", "127.0.0.1:0")
+        try:
+            url = view.wait_line("http://")
+            with playwright() as p:
+                b = launch(p)
+                page = Watched(b, url).open(url)
+                page.page.wait_for_selector("#temps-table", timeout=30_000)
+                rows = page.page.eval_on_selector_all(
+                    "#temps-table tr", "rs => rs.map(r => r.innerText)"
+                )
+                assert page.page.query_selector("#temps-band") is None  # no plan, no band
+                page.clean()
+                b.close()
+        finally:
+            code = view.stop()
+    assert code == 0, view.err
+    want = [f"link {j}\t{t} °C" for j, t in enumerate(given, 1)]
+    assert [r.replace("\n", "\t") for r in rows] == want, rows
 
 
 # ---------------------------------------------------------------- bad input

@@ -17,7 +17,9 @@ capture has not made durable -- refit every step's feature and push a
 point with its residual, the last event (recorded, undone), and for steps
 that ask for a new articulation the previous articulations' joint angles.
 Each frame then says which joints are still close to an articulation
-already taken (:func:`articulation_advice`).
+already taken (:func:`articulation_advice`). A frame of a device that reads
+its link temperatures carries them, and during a capture whose plan states a
+stability band, whether they are within it (:func:`temperature_band`).
 
 The feed never writes to the device or the session: it reads samples it is
 given and files capture wrote.
@@ -29,6 +31,7 @@ import math
 import threading
 import time
 from collections import deque
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aacmm.arm import Arm
+from aacmm.records.schema import temps_c
 from aacmm.view.arm import chain
 from aacmm.view.options import FPS_DEFAULT, FPS_RANGE, TRAIL_DEFAULT
 from aacmm.view.scene import arm_dict, points_scene
@@ -78,6 +82,23 @@ def articulation_advice(theta_rad: npt.ArrayLike, taken_rad: list[list[float]]) 
         "turn": [int(j) + 1 for j in np.flatnonzero(~far[k])],
         "ready": bool(np.all(far.sum(axis=1) >= NEW_JOINTS)),
     }
+
+
+def temperature_band(temps: Sequence[float | None], plan: Any) -> dict[str, Any] | None:
+    """The plan's stability band against one sample's link temperatures (degC, None: no
+    reading): ``band_c``, ``ref_c`` (the plan's test temperature or None), ``problem``
+    (:meth:`aacmm.plans.model.Verification.band_problem` of the readings, or that a link
+    gave none; None: within the band). None without a plan or a band."""
+    verification = getattr(plan, "verification", None)
+    band = getattr(verification, "temperature_band_c", None)
+    if verification is None or band is None:
+        return None
+    read = [t for t in temps if t is not None]
+    missing = [j for j, t in enumerate(temps, 1) if t is None]
+    problem = (
+        f"link {missing[0]} gives no temperature" if missing else verification.band_problem(read)
+    )
+    return {"band_c": band, "ref_c": verification.temperature_c, "problem": problem}
 
 
 def _new_articulation(slot: Any, step: Any) -> bool:
@@ -280,9 +301,12 @@ class LiveFeed:
             "received": self._received,
             "frame": self.frames + 1,  # frames made so far, this one included
         }
-        temp = getattr(sample, "temp", None)
-        if temp is not None:  # the device's link temperatures, degC (None: no reading)
-            frame["temps_c"] = [None if t == -32768 else t / 100.0 for t in temp]
+        temps = temps_c(getattr(sample, "temp", None))
+        if temps is not None:  # the device's link temperatures, degC (None: no reading)
+            frame["temps_c"] = list(temps)
+            band = temperature_band(temps, self._plan)
+            if band is not None:
+                frame["temp_band"] = band
         cap = self._capture
         if (
             cap is not None

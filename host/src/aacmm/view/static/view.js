@@ -240,6 +240,24 @@
   function notesPanel(notes) {
     show("notes", notes && notes.length ? "<h2>Notes</h2><ul>" + notes.map((n) => `<li>${esc(n)}</li>`).join("") + "</ul>" : "");
   }
+  // The device's link temperatures of the newest frame, and the plan's stability band
+  // (the feed judges it: aacmm.view.live.temperature_band); redrawn only on a change.
+  let tempsShown = null;
+  function tempsPanel(temps, band) {
+    const key = JSON.stringify([temps, band]);
+    if (key === tempsShown) return;
+    tempsShown = key;
+    if (!temps) { show("temps", ""); return; }
+    const cells = temps.map((t, j) => `<tr><td>link ${j + 1}</td><td class="num">${t == null ? "no reading" : t.toFixed(2) + " °C"}</td></tr>`);
+    let html = `<h2>Link temperatures</h2><table id="temps-table">${cells.join("")}</table>`;
+    if (band) {
+      const where = band.ref_c == null ? "" : ` about ${band.ref_c} °C`;
+      html += band.problem
+        ? `<div class="advice" id="temps-band">outside the plan's ${band.band_c} °C band${where}: ${esc(band.problem)}</div>`
+        : `<div class="advice ready" id="temps-band">within the plan's ${band.band_c} °C band${where}</div>`;
+    }
+    show("temps", html);
+  }
   function capturePanel(c, advice) {
     if (!c) { show("capture", ""); return; }
     const pct = (100 * c.accepted) / Math.max(1, c.plan.points);
@@ -323,6 +341,7 @@
         state.latencies.push(done - f.host_ms);
         if (state.latencies.length > HISTORY) state.latencies.shift();
         if (state.capture && state.capture.next && state.capture.next.new_articulation && f.advice) capturePanel(state.capture, f.advice);
+        tempsPanel(f.temps_c, f.temp_band);
         status();
       }
     } catch (e) {
