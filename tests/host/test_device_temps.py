@@ -43,7 +43,8 @@ def _e_uni(out: str) -> float:
 def warm(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, float]:
     """Arm 2 of the thermal study at 28 degC, with its 20 degC calibration in force,
     written three ways: read by the device (2800 on every link), read and stated at
-    20 degC (a wrong statement), and read with link 3 missing; the parameter file with
+    20 degC (a wrong statement), read with link 3 missing, and read at 20 .. 30 degC
+    along the arm with link 4 missing; the parameter file with
     the data-sheet CTE; the study's compensated |E_Uni|."""
     from aacmm.plans import load_plan
     from aacmm.records.paramfile import dump_param_set
@@ -67,6 +68,8 @@ def warm(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, float]:
     )
     missing = (2800, 2800, -32768, 2800, 2800, 2800)
     write_session(folder / "missing", Sampled(plan, counts, in_force), serial=7, temp=missing)
+    graded = (2000, 2200, 2400, -32768, 2800, 3000)
+    write_session(folder / "graded", Sampled(plan, counts, in_force), serial=7, temp=graded)
     params = folder / "cal.toml"
     params.write_text(dump_param_set(in_force.to_device(), "toml", errmodel=compensation()))
     return folder, params, run(seed).e_uni[CASES[2]]
@@ -187,7 +190,9 @@ def test_per_point_temperatures() -> None:
     assert quiet is None  # within 1 degC: no warning
 
 
-def test_calibration_temperature_is_the_mean_reading(warm: tuple[Path, Path, float]) -> None:
+def test_calibration_takes_each_links_reading(warm: tuple[Path, Path, float]) -> None:
+    """Each link at the device's reading of it; a link whose sensor did not answer at
+    the mean of the point's other links (nothing stated)."""
     from aacmm.calibration.sessions import (
         link_temperature_warning,
         load_sessions,
@@ -198,7 +203,10 @@ def test_calibration_temperature_is_the_mean_reading(warm: tuple[Path, Path, flo
     folder, _, _ = warm
     s = read_session(folder / "missing")
     t = stated_link_temperatures(s)
-    assert t is not None and np.all(t == 28.0)  # the five links read
+    assert t is not None and t.shape == (len(s), 6) and np.all(t == 28.0)  # five read
+    g = stated_link_temperatures(read_session(folder / "graded"))
+    assert g is not None
+    np.testing.assert_allclose(g, np.broadcast_to([20.0, 22.0, 24.0, 24.8, 28.0, 30.0], g.shape))
     assert link_temperature_warning(s) is None
     assert link_temperature_warning(read_session(folder / "read-stated20")) is not None
     data = load_sessions([folder / "read-stated20"], 0.005, temperatures=True)

@@ -233,9 +233,10 @@ class Observations:
     tip point. ``step`` and ``index`` (n,): where each pose came from (plan
     step number and point index within the step), for reports and outliers.
     ``step_names``: a name per step number (optional).
-    ``temp_c`` (n,): the links' temperature at each pose, degC (issue 27; the
-    operator's stated temperature of the pose's capture run, every link at
-    it), or None (not stated: the error model's reference temperatures).
+    ``temp_c``: the links' temperatures at each pose, degC (issue 27): (n, N), one
+    per link (the device's readings), or (n,) or one value, every link at it (the
+    operator's stated temperature of the pose's capture run); kept as (n, N). None:
+    not stated (the error model's reference temperatures).
     """
 
     theta_rad: FloatArray
@@ -264,8 +265,7 @@ class Observations:
         object.__setattr__(self, "index", index)
         object.__setattr__(self, "constraints", tuple(self.constraints))
         if self.temp_c is not None:
-            t = _per_pose(self.temp_c, n, "temp_c", "link temperature")
-            object.__setattr__(self, "temp_c", t)
+            object.__setattr__(self, "temp_c", _link_temps(self.temp_c, n, th.shape[1]))
 
     @property
     def n_poses(self) -> int:
@@ -324,12 +324,14 @@ class Observations:
             )
         if self.temp_c is not None:
             t = self.temp_c
-            bad = used & ~(np.isfinite(t) & (t >= TEMP_MIN_C) & (t <= TEMP_MAX_C))
+            good = np.isfinite(t) & (t >= TEMP_MIN_C) & (t <= TEMP_MAX_C)
+            bad = used & ~good.all(axis=1)
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
+                j = int(np.flatnonzero(~good[i])[0])
                 raise ObservationError(
                     f"{self.label(i)}: link temperature must be within {TEMP_MIN_C:g} .. "
-                    f"{TEMP_MAX_C:g} degC, got {t[i]}"
+                    f"{TEMP_MAX_C:g} degC, got {t[i, j]} (link {j + 1})"
                 )
 
     def temperature_span(self) -> float | None:
@@ -421,6 +423,21 @@ def _shift(c: Constraint, off: int) -> Constraint:
             ends_b=tuple(e + off for e in c.ends_b),
         )
     return replace(c, poses=c.poses + off)
+
+
+def _link_temps(value: Any, n: int, joints: int) -> FloatArray:
+    """Link temperatures (n, N) from one value, one per pose (n,) or one per link of
+    each pose (n, N) (ObservationError for another shape)."""
+    v = np.array(value, dtype=np.float64)
+    if v.ndim < 2:
+        v = _per_pose(v, n, "temp_c", "link temperature")[:, None].repeat(joints, axis=1)
+    if v.shape != (n, joints):
+        raise ObservationError(
+            f"temp_c needs a link temperature per pose ({n},) or per link of each pose "
+            f"({n}, {joints}), got shape {v.shape}"
+        )
+    out: FloatArray = np.ascontiguousarray(v)
+    return out
 
 
 def _per_pose(value: Any, n: int, name: str, what: str) -> FloatArray:

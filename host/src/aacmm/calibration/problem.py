@@ -418,7 +418,7 @@ class Problem:
         temp_c: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray | None]:
         """Points (and Jacobians) of readings ``th``: the arm's own, or with its error
-        model, at the link temperatures ``temp_c`` (n,) (None: its reference ones)."""
+        model, at the link temperatures ``temp_c`` (n, N) (None: its reference ones)."""
         m, em = model
         if em is None:
             return m.points_jacobians(th) if jacobian else (m.points(th), None)
@@ -435,14 +435,14 @@ class Problem:
     def _core_at(
         m: Model, em: ErrorModel, th: FloatArray, jacobian: bool, temp_c: FloatArray
     ) -> tuple[FloatArray, FloatArray | None]:
-        """As :meth:`_core` with the poses grouped by link temperature: one batch call
-        per temperature (every link at it)."""
+        """As :meth:`_core` with the poses grouped by their link temperatures: one batch
+        call per distinct set of them (sessions at stated temperatures have a few)."""
         n = th.shape[0]
         pts = np.empty((n, 3))
         pj = np.empty((n, 3, m.n_params + em.n_cols)) if jacobian else None
-        for t in np.unique(temp_c):
-            sel = temp_c == t
-            temps = np.full(em.joints, float(t))
+        groups, which = np.unique(temp_c, axis=0, return_inverse=True)
+        for k, temps in enumerate(groups):
+            sel = which.reshape(-1) == k
             if pj is not None:
                 pts[sel], pj[sel] = em_points_jacobians(m, em, th[sel], temps)
             else:

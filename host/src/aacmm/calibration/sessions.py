@@ -241,8 +241,9 @@ def session_observations(
 ) -> tuple[Observations, list[str], list[str]]:
     """The observations of one session, and the step ids used and not used.
 
-    ``temperatures``: the observations carry each point's link temperature,
-    the one its capture run states (:func:`stated_link_temperatures`).
+    ``temperatures``: the observations carry each point's link temperatures,
+    the device's readings else the one its capture run states
+    (:func:`stated_link_temperatures`).
 
     Raises SessionDataError (empty session, too few points in a step, with
     ``temperatures`` a point whose run states none), RecordError (a reading
@@ -270,18 +271,20 @@ def session_observations(
 
 
 def stated_link_temperatures(session: Session) -> FloatArray | None:
-    """Per point the links' temperature (degC): the mean of the device's readings of
-    its links where the point has them, else the one its capture run states
-    (:func:`aacmm.records.measured.stated_temperatures`); None unless every point
-    has one (:func:`link_temperature_warning` says when readings and statements
-    disagree)."""
+    """Per point the temperature of each link (n, N), degC: the device's reading of
+    the link where the point has one, else the one its capture run states
+    (:func:`aacmm.records.measured.stated_temperatures`), else (a sensor that did not
+    answer, nothing stated) the mean of the point's other links; None unless every
+    point has one (:func:`link_temperature_warning` says when readings and
+    statements disagree)."""
     temps, _, _ = per_point_temperatures(
         stated_temperatures(session), session.device_temp_c, session.joints
     )
     if not len(temps) or not np.isfinite(temps).any(axis=1).all():
         return None
     with np.errstate(invalid="ignore"):
-        return np.asarray(np.nanmean(temps, axis=1), dtype=np.float64)
+        mean = np.nanmean(temps, axis=1, keepdims=True)
+    return np.asarray(np.where(np.isfinite(temps), temps, mean), dtype=np.float64)
 
 
 def link_temperature_warning(session: Session) -> str | None:
@@ -393,9 +396,9 @@ def load_sessions(
     validation data taken after a calibration). Every session must come from
     one arm (the device serial number its sidecar records), the arm of the
     sessions ``arm`` too when given (the calibration's, for held-out data).
-    ``temperatures``: the observations carry the stated link temperature of
-    every point (:func:`stated_link_temperatures`) when every session states
-    one for each of its points; otherwise none does, and
+    ``temperatures``: the observations carry the link temperatures of every
+    point (:func:`stated_link_temperatures`) when every session reads or states
+    them for each of its points; otherwise none does, and
     :attr:`SessionData.unstated_temperature` names the sessions that do not.
 
     Raises SessionDataError, RecordError (unreadable or damaged session).
