@@ -293,6 +293,7 @@ def test_capture_view(tmp_path: Path) -> None:
             time.sleep(0.5)
             st = a.state("{cap: s.capture, seen: s.pointSeen, hist: s.history, ev: s.events}")
             band = a.page.inner_text("#temps-band")
+            band_range = a.page.inner_text("#temps-range")
             a.clean()
             ba.close()
         finally:
@@ -301,6 +302,7 @@ def test_capture_view(tmp_path: Path) -> None:
             op.stop(signal.SIGTERM)
     assert cap.err == [], cap.err  # nothing on stderr: no traceback, no warning
     assert band == "within the plan's 3 °C band about 20 °C", band
+    assert band_range == "this capture so far: 20.00 .. 20.00 °C", band_range
     s = read_session(session)
     assert s.complete and len(s.points) == total and s.status == "complete"
     with (session / "points.csv").open(newline="") as f:
@@ -474,7 +476,8 @@ def test_log_view(sim: Any, tmp_path: Path) -> None:
 
 def test_temperature_band_of_a_frame(tmp_path: Path) -> None:
     """The band the page shows: within it, a span wider than it, a link too far from the
-    plan's temperature, a link without a reading; nothing without a plan or a band."""
+    plan's temperature, a link without a reading, readings within it now that drifted
+    out of it since the capture started; nothing without a plan or a band."""
     from aacmm.plans import load_plan
     from aacmm.view.live import temperature_band
 
@@ -482,7 +485,15 @@ def test_temperature_band_of_a_frame(tmp_path: Path) -> None:
     path.write_text(BAND_PLAN)
     plan = load_plan(path)
     ok = temperature_band([20.0, 21.5, 22.9, 20.0, 20.5, 21.0], plan)
-    assert ok == {"band_c": 3.0, "ref_c": 20.0, "problem": None}
+    assert ok == {"band_c": 3.0, "ref_c": 20.0, "range_c": [20.0, 22.9], "problem": None}
+    held = temperature_band([21.0] * 6, plan, (20.0, 22.9))
+    assert held is not None and held["problem"] is None and held["range_c"] == [20.0, 22.9]
+    drift = temperature_band([22.0] * 6, plan, (18.5, 19.0))
+    assert drift is not None and drift["range_c"] == [18.5, 22.0]
+    assert drift["problem"] == (
+        "since the capture started, the links' temperature spans 18.5 .. 22 C, more than "
+        "the plan's 3 C stability band"
+    )
     span = temperature_band([18.5, 21.75, 20.0, 20.0, 20.0, 20.0], plan)
     assert span is not None and "spans 18.5 .. 21.75 C, more than the plan's 3 C" in str(
         span["problem"]
@@ -491,6 +502,9 @@ def test_temperature_band_of_a_frame(tmp_path: Path) -> None:
     assert far is not None and "23.5 C is 3.5 C from the plan's 20 C" in str(far["problem"])
     gone = temperature_band([20.0, None, 20.0, 20.0, 20.0, 20.0], plan)
     assert gone is not None and gone["problem"] == "link 2 gives no temperature"
+    none = temperature_band([None] * 6, plan)
+    assert none is not None and none["range_c"] is None
+    assert none["problem"] == "link 1 gives no temperature"
     path.write_text(SMALL_PLAN)
     assert temperature_band([30.0] * 6, load_plan(path)) is None
     assert temperature_band([30.0] * 6, None) is None

@@ -19,7 +19,8 @@ that ask for a new articulation the previous articulations' joint angles.
 Each frame then says which joints are still close to an articulation
 already taken (:func:`articulation_advice`). A frame of a device that reads
 its link temperatures carries them, and during a capture whose plan states a
-stability band, whether they are within it (:func:`temperature_band`).
+stability band, whether they and the capture's range so far are within it
+(:func:`temperature_band`).
 
 The feed never writes to the device or the session: it reads samples it is
 given and files capture wrote.
@@ -84,21 +85,37 @@ def articulation_advice(theta_rad: npt.ArrayLike, taken_rad: list[list[float]]) 
     }
 
 
-def temperature_band(temps: Sequence[float | None], plan: Any) -> dict[str, Any] | None:
+def temperature_band(
+    temps: Sequence[float | None], plan: Any, seen: tuple[float, float] | None = None
+) -> dict[str, Any] | None:
     """The plan's stability band against one sample's link temperatures (degC, None: no
-    reading): ``band_c``, ``ref_c`` (the plan's test temperature or None), ``problem``
-    (:meth:`aacmm.plans.model.Verification.band_problem` of the readings, or that a link
-    gave none; None: within the band). None without a plan or a band."""
+    reading) and those seen before in the capture (``seen``: their lowest and highest,
+    None: none yet): ``band_c``, ``ref_c`` (the plan's test temperature or None),
+    ``range_c`` ([lowest, highest] reading of the capture so far, these included; None
+    while no link has read), ``problem`` (why these readings break the band,
+    :meth:`aacmm.plans.model.Verification.band_problem`, or that a link gave none;
+    else why the capture's range does, the rule ``aacmm capture`` warns by; None:
+    within the band). None without a plan or a band."""
     verification = getattr(plan, "verification", None)
     band = getattr(verification, "temperature_band_c", None)
     if verification is None or band is None:
         return None
     read = [t for t in temps if t is not None]
     missing = [j for j, t in enumerate(temps, 1) if t is None]
+    lo_hi = [*read, *(seen or ())]
+    span = [min(lo_hi), max(lo_hi)] if lo_hi else None
     problem = (
         f"link {missing[0]} gives no temperature" if missing else verification.band_problem(read)
     )
-    return {"band_c": band, "ref_c": verification.temperature_c, "problem": problem}
+    if problem is None and span is not None:
+        drift = verification.band_problem(span)
+        problem = None if drift is None else f"since the capture started, {drift}"
+    return {
+        "band_c": band,
+        "ref_c": verification.temperature_c,
+        "range_c": span,
+        "problem": problem,
+    }
 
 
 def _new_articulation(slot: Any, step: Any) -> bool:
@@ -222,6 +239,7 @@ class LiveFeed:
         self._capture_dirty = threading.Event()
         self._folder: Path | None = None
         self._plan: Any = None
+        self._temps_seen: tuple[float, float] | None = None  # the capture's range, degC
         self._accepted: int | None = None
         self._expected: int | None = None
         self._retries = 0
@@ -241,6 +259,7 @@ class LiveFeed:
         """Show the capture session in ``folder`` (re-read on :meth:`session_changed`)."""
         self._folder = Path(folder)
         self._plan = plan
+        self._temps_seen = None
         self.session_changed()
 
     def session_changed(self, accepted: int | None = None) -> None:
@@ -304,9 +323,11 @@ class LiveFeed:
         temps = temps_c(getattr(sample, "temp", None))
         if temps is not None:  # the device's link temperatures, degC (None: no reading)
             frame["temps_c"] = list(temps)
-            band = temperature_band(temps, self._plan)
+            band = temperature_band(temps, self._plan, self._temps_seen)
             if band is not None:
                 frame["temp_band"] = band
+                if band["range_c"] is not None:
+                    self._temps_seen = (band["range_c"][0], band["range_c"][1])
         cap = self._capture
         if (
             cap is not None

@@ -252,6 +252,7 @@
     let html = `<h2>Link temperatures</h2><table id="temps-table">${cells.join("")}</table>`;
     if (band) {
       const where = band.ref_c == null ? "" : ` about ${band.ref_c} °C`;
+      if (band.range_c) html += `<div class="small" id="temps-range">this capture so far: ${band.range_c[0].toFixed(2)} .. ${band.range_c[1].toFixed(2)} °C</div>`;
       html += band.problem
         ? `<div class="advice" id="temps-band">outside the plan's ${band.band_c} °C band${where}: ${esc(band.problem)}</div>`
         : `<div class="advice ready" id="temps-band">within the plan's ${band.band_c} °C band${where}</div>`;
