@@ -200,15 +200,20 @@ def test_log_records_the_device_temperatures(tmp_path: Path) -> None:
 def test_a_temperature_profile_reaches_the_session(
     tmp_path: Path, files: tuple[Path, Path, Path]
 ) -> None:
-    """``aacmm sim --temperature 20:30:0.02`` (20 -> 30 degC over 1.2 s): the captured
-    points carry rising device readings, the same on every link, within the profile."""
+    """``aacmm sim --temperature 20,21,22,23,24,25:30:0.02`` (a gradient along the arm
+    warming to 30 degC over 1.2 s): the captured points carry rising device readings,
+    each link's its own, all at one point in the profile (the same fraction of the
+    way from each link's start to 30 degC, to the sensors' 0.01 degC)."""
     from aacmm.records import read_session
 
     truth, _, _ = files
-    ramp = ("--temperature", "20:30:0.02")
+    start = np.array([20.0, 21.0, 22.0, 23.0, 24.0, 25.0])
+    ramp = ("--temperature", "20,21,22,23,24,25:30:0.02")
     session, _, _ = capture_scenario(tmp_path, "probe-calibration", str(truth), sim_extra=ramp)
     t = read_session(session).device_temp_c
-    assert t is not None and np.all(t == t[:, :1])  # every link alike
-    first = t[:, 0]
-    assert np.all(np.diff(first) >= 0) and first[-1] > first[0]
-    assert 20.0 <= first.min() and first.max() <= 30.0
+    assert t is not None and t.shape[1] == 6
+    assert np.all(np.diff(t, axis=0) >= 0) and np.all(t[-1] > t[0])  # every link warms
+    assert np.all((start <= t) & (t <= 30.0))
+    frac = (t - start) / (30.0 - start)
+    assert np.all(np.abs(frac - frac[:, :1]) <= 0.01 / (30.0 - start[-1]) + 1e-12), frac
+    assert np.all(np.diff(t, axis=1) >= 0)  # the gradient holds until every link is at 30

@@ -113,8 +113,9 @@ def test_operator_follows_a_temperature_profile() -> None:
     at that temperature (true_points) within 1e-9 mm."""
     from aacmm.commands.simtruth import temperature_profile
 
-    profile = temperature_profile("20:30:2")
-    assert [profile(s) for s in (-5.0, 0.0, 60.0, 120.0, 600.0)] == [20.0, 20.0, 25.0, 30.0, 30.0]
+    profile = temperature_profile("20:30:2", 6)
+    want = [20.0, 20.0, 25.0, 30.0, 30.0]
+    assert [profile(s) for s in (-5.0, 0.0, 60.0, 120.0, 600.0)] == [[t] * 6 for t in want]
     truth = random_truth(9, thermal=True)
     now = [0.0]
     chan = RecordingChannel()
@@ -124,7 +125,7 @@ def test_operator_follows_a_temperature_profile() -> None:
         np.random.default_rng(4),
         FAST,
         temperatures_c=[20.0] * 6,
-        temperatures_at=lambda s: [profile(s)] * 6,
+        temperatures_at=profile,
         clock=lambda: now[0],
     )
     home = op.arm.tip(op.theta)
@@ -134,9 +135,59 @@ def test_operator_follows_a_temperature_profile() -> None:
         target = home + np.array([40.0 * k, -20.0 * k, 10.0 * k])
         theta, _ = op.reach(target, op.theta)
         op.probe(target, theta, f"p{k}")
-        at.append(profile(t_s))
+        at.append(profile(t_s)[0])
     assert [p.extra["temperatures_c"] for p in op.presses] == [[t] * 6 for t in at]
     assert chan.temperatures == [(t,) * 6 for t in (22.5, 25.0, 27.5, 30.0)]  # changes only
     for p, t in zip(op.presses, at, strict=True):
         hot = true_points(truth, p.theta_rad[None, :], np.full(6, t))[0]
+        assert np.linalg.norm(hot - p.probed_mm) < 1e-9
+
+
+def test_a_temperature_profile_per_link() -> None:
+    """``--temperature 18,19,20,21,22,23:28:2``: each link from its own start to the
+    common end; the operator's probed points are the warm truth's at each link's
+    temperature then. Bad profiles: one line, exit 2 (UsageError)."""
+    from aacmm.commands.exitcodes import UsageError
+    from aacmm.commands.simtruth import temperature_profile
+
+    profile = temperature_profile("18,19,20,21,22,23:28:2", 6)
+    assert profile(0.0) == [18.0, 19.0, 20.0, 21.0, 22.0, 23.0]
+    np.testing.assert_allclose(profile(60.0), [23.0, 23.5, 24.0, 24.5, 25.0, 25.5])
+    assert profile(500.0) == [28.0] * 6
+    down = temperature_profile("30:20,21,22,23,24,25:1", 6)
+    np.testing.assert_allclose(down(30.0), [25.0, 25.5, 26.0, 26.5, 27.0, 27.5])
+    assert temperature_profile("18,28:20:1") is not None  # count checked with the arm
+    for bad, why in (
+        ("18,19:28:2", "give one temperature for every link or 6"),
+        ("18:28,29,30:2", "give one temperature for every link or 6"),
+        ("18,x,20,21,22,23:28:2", "must be a number within -40 .. 85"),
+        ("18:90:2", "must be a number within -40 .. 85"),
+        ("18:28:0", "MINUTES must be in"),
+        ("18:28", "a profile is START:END:MINUTES"),
+    ):
+        with pytest.raises(UsageError, match=why):
+            temperature_profile(bad, 6)
+    with pytest.raises(UsageError, match="START and END give 2 and 3"):
+        temperature_profile("18,19:20,21,22:1")
+    truth = random_truth(9, thermal=True)
+    now = [0.0]
+    op = Operator(
+        RecordingChannel(),
+        truth,
+        np.random.default_rng(4),
+        FAST,
+        temperatures_c=profile(0.0),
+        temperatures_at=profile,
+        clock=lambda: now[0],
+    )
+    home = op.arm.tip(op.theta)
+    for k, t_s in enumerate((0.0, 60.0, 120.0)):
+        now[0] = t_s
+        target = home + np.array([30.0 * k, -10.0 * k, 20.0 * k])
+        theta, _ = op.reach(target, op.theta)
+        op.probe(target, theta, f"p{k}")
+        temps = profile(t_s)
+        p = op.presses[-1]
+        np.testing.assert_allclose(np.asarray(p.extra["temperatures_c"], dtype=float), temps)
+        hot = true_points(truth, p.theta_rad[None, :], np.array(temps))[0]
         assert np.linalg.norm(hot - p.probed_mm) < 1e-9

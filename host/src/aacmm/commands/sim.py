@@ -90,7 +90,8 @@ def register(sub: Any) -> None:
         help="the links' temperatures, degC (-40 .. 85): one for every link or one per link "
         "(default: every link at 20); with --truth the true arm's lengths at them (its "
         "thermal profile) and the device's sensors read them (control channel 'temps'), "
-        "or a profile START:END:MINUTES (every link, linear, followed at every probe)",
+        "or a profile START:END:MINUTES (START and END each C[,C...], linear, followed at "
+        "every probe)",
     )
     p.add_argument(
         "--no-temperature-sensors",

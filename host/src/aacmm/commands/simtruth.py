@@ -241,9 +241,9 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
             "--temperature",  # the control channel's temps, below
         ),
     )
-    profile = temperature_profile(getattr(args, "temperature", None))
+    profile = temperature_profile(getattr(args, "temperature", None), truth.joints)
     temps = (
-        [profile(0.0)] * truth.joints
+        profile(0.0)
         if profile is not None
         else link_temperatures(getattr(args, "temperature", None), truth.joints)
     )
@@ -283,7 +283,7 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
             limits=limits,
             stop=stop,
             temperatures_c=temps,
-            temperatures_at=None if profile is None else (lambda s: [profile(s)] * truth.joints),
+            temperatures_at=profile,
         )
 
         def work() -> None:
@@ -325,35 +325,50 @@ def run(args: argparse.Namespace, sim_args: list[str], model: Any = None) -> int
     return OK
 
 
-def temperature_profile(text: str | None) -> Any:
-    """``--temperature START:END:MINUTES``: every link from START to END degC, linearly
-    over MINUTES from the operator's start, then at END; a function of the seconds
-    since then. None for another form (a constant temperature) or none.
+def temperature_profile(text: str | None, joints: int | None = None) -> Any:
+    """``--temperature START:END:MINUTES``: the links from START to END degC (each one
+    value for every link or one per link, ``C[,C...]``), linearly over MINUTES from the
+    operator's start, then at END; a function of the seconds since then giving the
+    temperature of every link (``joints`` values; None: the count is not checked yet,
+    one list as long as START's or END's). None for another form (a constant
+    temperature) or none.
 
     Raises:
-        UsageError: START or END not a temperature within -40 .. 85, MINUTES not > 0.
+        UsageError: START or END not temperatures within -40 .. 85, or neither one nor
+        ``joints`` of them, MINUTES not > 0.
     """
-    from aacmm.commands.common import link_temperature
-
     if text is None or ":" not in text:
         return None
     parts = text.split(":")
     if len(parts) != 3:
         raise UsageError(f"--temperature {text}: a profile is START:END:MINUTES")
-    start = link_temperature(parts[0], "--temperature START")
-    end = link_temperature(parts[1], "--temperature END")
+    ends = []
+    for part, name in zip(parts[:2], ("START", "END"), strict=True):
+        n = len(part.split(",")) if joints is None else joints
+        values = link_temperatures(part, n, f"--temperature {name}")
+        assert values is not None
+        ends.append(values)
+    start, end = ends
+    if len(start) == 1:  # one for every link against one per link
+        start = start * len(end)
+    elif len(end) == 1:
+        end = end * len(start)
+    if len(start) != len(end):
+        raise UsageError(
+            f"--temperature {text}: START and END give {len(start)} and {len(end)} "
+            "temperatures; give one for every link or one per link"
+        )
     try:
         minutes = float(parts[2])
     except ValueError:
         minutes = math.nan
     if not (math.isfinite(minutes) and 0 < minutes <= 24 * 60):
         raise UsageError(f"--temperature {text}: MINUTES must be in (0, 1440]")
-    assert start is not None and end is not None
     span_s = minutes * 60.0
 
-    def at(seconds: float) -> float:
+    def at(seconds: float) -> list[float]:
         f = min(max(seconds / span_s, 0.0), 1.0)
-        return start + (end - start) * f
+        return [a + (b - a) * f for a, b in zip(start, end, strict=True)]
 
     return at
 
