@@ -100,6 +100,16 @@ static void send_simple(uint8_t type, uint8_t seq)
     send_msg(&m);
 }
 
+static void send_set_params(const aacmm_param_set_t *set, uint8_t seq)
+{
+    aacmm_msg_t m;
+    memset(&m, 0, sizeof m);
+    m.type = AACMM_MSG_SET_PARAMS_REQ;
+    m.seq = seq;
+    m.u.params = *set;
+    send_msg(&m);
+}
+
 /* Next message from the serial output into M: 1, or 0 when none is left. */
 static int next_msg(void)
 {
@@ -129,6 +139,13 @@ static void expect_error(aacmm_status_t st, uint8_t req_type, uint8_t seq)
     expect_response(AACMM_MSG_ERROR_RSP, seq);
     assert_int_equal(M.u.error.status, st);
     assert_int_equal(M.u.error.request_type, req_type);
+}
+
+/* SET_PARAMS of ``s``, taken (the response checked). */
+static void set_params(const aacmm_param_set_t *s, uint8_t seq)
+{
+    send_set_params(s, seq);
+    expect_response(AACMM_MSG_SET_PARAMS_RSP, seq);
 }
 
 static void default_set(aacmm_param_set_t *s)
@@ -242,16 +259,10 @@ static void test_ping_info(void **state)
 
 static void test_params_set_get_restore(void **state)
 {
-    aacmm_msg_t m;
     aacmm_param_set_t s;
     (void)state;
     other_set(&s, 150.0);
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = 1;
-    m.u.params = s;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 1);
+    set_params(&s, 1);
     assert_int_equal(M.u.param_crc.param_crc32, set_crc(&s));
 
     send_simple(AACMM_MSG_GET_PARAMS_REQ, 2);
@@ -359,12 +370,7 @@ static void test_seven_joint_arm_model(void **state)
     assert_int_equal(aacmm_arm_encoders_default(&set.enc, 7), AACMM_OK);
     p_cols = aacmm_shape_params(&set.arm.shape);
     assert_int_equal(p_cols, 28 + 1 + 3);
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = 30;
-    m.u.params = set;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 30);
+    set_params(&set, 30);
     send_simple(AACMM_MSG_INFO_REQ, 31);
     expect_response(AACMM_MSG_INFO_RSP, 31);
     assert_int_equal(M.u.info.joints, 7);
@@ -494,12 +500,7 @@ static double check_corrected(const aacmm_param_set_t *set, const uint32_t *coun
     int i;
     int n = (int)set->arm.shape.joints;
     reference_point(set, counts, want);
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = 50;
-    m.u.params = *set;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 50);
+    set_params(set, 50);
     memset(&m, 0, sizeof m);
     m.type = AACMM_MSG_COMPUTE_REQ;
     m.seq = 51;
@@ -1191,16 +1192,10 @@ static void save_via_request(uint8_t seq)
 
 static void test_save_and_reload(void **state)
 {
-    aacmm_msg_t m;
     aacmm_param_set_t s;
     (void)state;
     other_set(&s, 200.0);
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = 1;
-    m.u.params = s;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 1);
+    set_params(&s, 1);
     save_via_request(2);
     assert_int_equal(M.type, AACMM_MSG_SAVE_PARAMS_RSP);
     assert_int_equal(M.u.param_crc.param_crc32, set_crc(&s));
@@ -1304,24 +1299,15 @@ static void test_power_cut_at_every_byte(void **state)
  * previous set is still there after a reboot. */
 static void test_power_cut_via_request(void **state)
 {
-    aacmm_msg_t m;
     aacmm_param_set_t a;
     aacmm_param_set_t b;
     (void)state;
     other_set(&a, 120.0);
     other_set(&b, 130.0);
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = 1;
-    m.u.params = a;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 1);
+    set_params(&a, 1);
     save_via_request(2);
     assert_int_equal(M.type, AACMM_MSG_SAVE_PARAMS_RSP);
-    m.seq = 3;
-    m.u.params = b;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 3);
+    set_params(&b, 3);
     F.write_budget = 100;
     save_via_request(4);
     assert_int_equal(M.type, AACMM_MSG_ERROR_RSP);
@@ -1392,17 +1378,6 @@ static void test_store_generation_wraps(void **state)
     assert_int_equal(rep.newest, 0u);
 }
 
-static void set_via_request(const aacmm_param_set_t *p, uint8_t seq)
-{
-    aacmm_msg_t m;
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = seq;
-    m.u.params = *p;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, seq);
-}
-
 static uint8_t info_source(uint8_t seq)
 {
     send_simple(AACMM_MSG_INFO_REQ, seq);
@@ -1427,7 +1402,7 @@ static void test_param_source_three_states(void **state)
     setup_links(1, 0, 1, 0, 0);
     boot();
     assert_int_equal(info_source(1), AACMM_PARAM_SOURCE_DEFAULTS);
-    set_via_request(&a, 2);
+    set_params(&a, 2);
     assert_int_equal(info_source(3), AACMM_PARAM_SOURCE_HOST);
     send_simple(AACMM_MSG_MEASURE_REQ, 4); /* not defaults: no PARAMS_DEFAULT */
     expect_response(AACMM_MSG_MEASURE_RSP, 4);
@@ -1435,11 +1410,11 @@ static void test_param_source_three_states(void **state)
     save_via_request(5);
     assert_int_equal(M.type, AACMM_MSG_SAVE_PARAMS_RSP);
     assert_int_equal(info_source(6), AACMM_PARAM_SOURCE_STORAGE);
-    set_via_request(&b, 7);
+    set_params(&b, 7);
     assert_int_equal(info_source(8), AACMM_PARAM_SOURCE_HOST);
-    set_via_request(&a, 9); /* exactly the stored set again */
+    set_params(&a, 9); /* exactly the stored set again */
     assert_int_equal(info_source(10), AACMM_PARAM_SOURCE_STORAGE);
-    set_via_request(&b, 11);
+    set_params(&b, 11);
     send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 12);
     expect_response(AACMM_MSG_RESTORE_DEFAULTS_RSP, 12);
     assert_int_equal(info_source(13), AACMM_PARAM_SOURCE_DEFAULTS);
@@ -1451,7 +1426,7 @@ static void test_param_source_three_states(void **state)
     /* Without storage a set stays "not saved". */
     setup_links(1, 0, 0, 0, 0);
     boot();
-    set_via_request(&a, 15);
+    set_params(&a, 15);
     assert_int_equal(info_source(16), AACMM_PARAM_SOURCE_HOST);
 }
 
@@ -1481,7 +1456,7 @@ static void test_diag_request(void **state)
     assert_int_equal(M.u.diag.watchdog_ms, 1000u);
     assert_int_equal(M.u.diag.uptime_us, 2500u);
     assert_int_equal(M.u.diag.joint[0].interface, AACMM_ENC_COUNTS);
-    set_via_request(&a, 2);
+    set_params(&a, 2);
     save_via_request(3);
     save_via_request(4);
     diag(5);
@@ -1507,7 +1482,7 @@ static void test_diag_request(void **state)
         aacmm_param_set_t small;
         default_set(&small);
         small.enc.counts_per_rev[2] = 1000u;
-        set_via_request(&small, 7);
+        set_params(&small, 7);
     }
     F.counts[2] = 1000u;
     send_simple(AACMM_MSG_MEASURE_REQ, 8);
@@ -2744,17 +2719,6 @@ static void thermal_set(aacmm_param_set_t *s, int16_t ref_temp)
     s->err.harm_sin[4][0] = -900;
 }
 
-static void set_params(const aacmm_param_set_t *s, uint8_t seq)
-{
-    aacmm_msg_t m;
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = seq;
-    m.u.params = *s;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, seq);
-}
-
 /* MEASURE with content into M (a response, checked). */
 static void measure(uint8_t content, uint8_t seq)
 {
@@ -3174,15 +3138,8 @@ static void test_temps_stored_thermal_set(void **state)
     assert_true(diag.slot_state[0] == AACMM_SLOT_BAD_CONTENTS ||
                 diag.slot_state[1] == AACMM_SLOT_BAD_CONTENTS);
     /* and SET_PARAMS of it is refused there */
-    {
-        aacmm_msg_t m;
-        memset(&m, 0, sizeof m);
-        m.type = AACMM_MSG_SET_PARAMS_REQ;
-        m.seq = 5;
-        m.u.params = set;
-        send_msg(&m);
-        expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SET_PARAMS_REQ, 5);
-    }
+    send_set_params(&set, 5);
+    expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SET_PARAMS_REQ, 5);
     setup_links(1, 1, 1, 1, 1);
     fake_use_temperatures(&F, &PF);
     boot();
@@ -3277,7 +3234,7 @@ static void test_joints_exact(void **state)
 {
     aacmm_param_set_t five;
     aacmm_param_set_t six;
-    aacmm_msg_t m;
+    aacmm_param_set_t other;
     uint32_t six_crc;
     (void)state;
     five_joint_set(&five);
@@ -3292,29 +3249,19 @@ static void test_joints_exact(void **state)
     /* K = 6 with the paper's six-joint defaults */
     CFG.joints_exact = 6u;
     boot();
-    memset(&m, 0, sizeof m);
-    m.type = AACMM_MSG_SET_PARAMS_REQ;
-    m.seq = 1;
-    m.u.params = five;
-    send_msg(&m);
+    send_set_params(&five, 1);
     expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_SET_PARAMS_REQ, 1);
     send_simple(AACMM_MSG_INFO_REQ, 2);
     expect_response(AACMM_MSG_INFO_RSP, 2);
-    assert_int_equal(M.u.info.joints, 6);
-    assert_int_equal(M.u.info.param_crc32, six_crc);
-    other_set(&m.u.params, 101.0); /* six joints: taken */
-    m.seq = 3;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 3);
+    assert_int_equal(M.u.info.param_crc32, six_crc); /* six joints, unchanged */
+    other_set(&other, 101.0); /* six joints: taken */
+    set_params(&other, 3);
     /* K = 5 on a device whose defaults have six: the port started it on a
      * five-joint set; going back to the defaults is refused */
     setup_links(1, 0, 0, 0, 0);
     CFG.joints_exact = 5u;
     boot();
-    m.u.params = five;
-    m.seq = 4;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 4);
+    set_params(&five, 4);
     assert_int_equal(M.u.param_crc.param_crc32, set_crc(&five));
     send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 5);
     expect_error(AACMM_ERR_UNSUPPORTED, AACMM_MSG_RESTORE_DEFAULTS_REQ, 5);
@@ -3324,11 +3271,22 @@ static void test_joints_exact(void **state)
     /* 0: any joint count, as before */
     setup_links(1, 0, 0, 0, 0);
     boot();
-    m.seq = 7;
-    send_msg(&m);
-    expect_response(AACMM_MSG_SET_PARAMS_RSP, 7);
+    set_params(&five, 7);
     send_simple(AACMM_MSG_RESTORE_DEFAULTS_REQ, 8);
     expect_response(AACMM_MSG_RESTORE_DEFAULTS_RSP, 8);
+}
+
+/* Press button 1 (from released) and take the TRIGGER_EVT it sends into M. */
+static void press_for_trigger(void)
+{
+    F.button = 0u;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    F.button = 1u;
+    advance(1000u);
+    aacmm_device_poll(&D);
+    assert_true(next_msg());
+    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
 }
 
 /* A button edge with no stream running: the trigger sample carries the link
@@ -3340,11 +3298,7 @@ static void test_temps_trigger_without_stream(void **state)
     fake_use_temperatures(&F, &PF);
     F.temp[1] = 2345;
     aacmm_device_poll(&D);
-    F.button = 1u;
-    advance(1000u);
-    aacmm_device_poll(&D);
-    assert_true(next_msg());
-    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    press_for_trigger();
     assert_int_equal(M.u.trigger.sample.seq, 0u);
     assert_int_equal(M.u.trigger.sample.content, AACMM_CONTENT_TEMPERATURES);
     assert_int_equal(M.u.trigger.sample.temp[0], 2000);
@@ -3356,14 +3310,7 @@ static void test_temps_trigger_without_stream(void **state)
     aacmm_device_poll(&D);
     while (next_msg()) {
     }
-    F.button = 0u;
-    advance(1000u);
-    aacmm_device_poll(&D);
-    F.button = 1u;
-    advance(1000u);
-    aacmm_device_poll(&D);
-    assert_true(next_msg());
-    assert_int_equal(M.type, AACMM_MSG_TRIGGER_EVT);
+    press_for_trigger();
     assert_int_equal(M.u.trigger.sample.content, 0u);
 }
 

@@ -273,6 +273,17 @@ def test_a_log_written_with_protocol_version_1_still_reads(tmp_path: Path) -> No
         read_log(out)
 
 
+def write_log(path: Path, rows: list[dict[str, str]], meta: dict[str, object]) -> None:
+    """A log of ``rows`` (csv.DictReader's) at ``path`` with the sidecar ``meta`` names it in."""
+    import csv
+
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    (path.parent / f"{path.name}.json").write_text(json.dumps({**meta, "csv": path.name}))
+
+
 def test_summary_gives_the_link_temperature_range(tmp_path: Path) -> None:
     """Issue 27 left-out: ``aacmm summary`` reports the range of the link temperatures
     of a log and of a session, overall and per link, counted from the file's own
@@ -296,11 +307,7 @@ def test_summary_gives_the_link_temperature_range(tmp_path: Path) -> None:
         rows = list(csv.DictReader(f))
     rows[10]["temp2_c"], rows[20]["temp2_c"], rows[30]["temp6_c"] = "19.25", "26.75", ""
     edited = tmp_path / "edited.csv"
-    with edited.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    (tmp_path / "edited.csv.json").write_text(json.dumps({**meta, "csv": "edited.csv"}))
+    write_log(edited, rows, meta)
     cols = [f"temp{j}_c" for j in range(1, 7)]
     table = np.array([[float(r[c]) if r[c] else np.nan for c in cols] for r in rows])
     s = run("summary", str(edited), "--json")
@@ -329,10 +336,6 @@ def test_summary_gives_the_link_temperature_range(tmp_path: Path) -> None:
     # inf is not a temperature: one line, exit 2
     rows[5]["temp3_c"] = "inf"
     bad = tmp_path / "bad.csv"
-    with bad.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    (tmp_path / "bad.csv.json").write_text(json.dumps({**meta, "csv": "bad.csv"}))
+    write_log(bad, rows, meta)
     s = run("summary", str(bad))
     one_error_line(s, 2, f"{bad}:7: temp3_c: 'inf' is not a temperature in degC")
