@@ -422,32 +422,12 @@ class Problem:
         m, em = model
         if em is None:
             return m.points_jacobians(th) if jacobian else (m.points(th), None)
-        try:
-            if temp_c is not None:
-                return Problem._core_at(m, em, th, jacobian, temp_c)
+        try:  # temp_c (n, N): the per-pose core in one call, faster than batches by set
             if jacobian:
-                return em_points_jacobians(m, em, th)
-            return em_points(m, em, th), None
+                return em_points_jacobians(m, em, th, temp_c)
+            return em_points(m, em, th, temp_c), None
         except KinematicsError as e:  # the harmonics' sum beyond the core's limit
             raise CalibrationError(f"error model out of range during the fit: {e}") from None
-
-    @staticmethod
-    def _core_at(
-        m: Model, em: ErrorModel, th: FloatArray, jacobian: bool, temp_c: FloatArray
-    ) -> tuple[FloatArray, FloatArray | None]:
-        """As :meth:`_core` with the poses grouped by their link temperatures: one batch
-        call per distinct set of them (sessions at stated temperatures have a few)."""
-        n = th.shape[0]
-        pts = np.empty((n, 3))
-        pj = np.empty((n, 3, m.n_params + em.n_cols)) if jacobian else None
-        groups, which = np.unique(temp_c, axis=0, return_inverse=True)
-        for k, temps in enumerate(groups):
-            sel = which.reshape(-1) == k
-            if pj is not None:
-                pts[sel], pj[sel] = em_points_jacobians(m, em, th[sel], temps)
-            else:
-                pts[sel] = em_points(m, em, th[sel], temps)
-        return pts, pj
 
     def _points(
         self, model: tuple[Model, ErrorModel | None], jacobian: bool
